@@ -1,0 +1,1 @@
+"""The harness: runs methods on scenes, measures, stores history, and the ``harness`` CLI."""

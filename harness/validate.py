@@ -1,0 +1,33 @@
+"""Input checks shared by every command: each raises InvalidInput with a one-line message
+naming the field and what it may be, before anything is stepped or any engine is touched."""
+from __future__ import annotations
+
+import math
+
+from scenarios import InvalidInput
+
+
+def positive_finite(name: str, value) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}={value!r} is not a number (allowed: finite, > 0)") from None
+    if not math.isfinite(x) or x <= 0.0:
+        raise InvalidInput(f"{name}={value} is out of range (allowed: finite, > 0)")
+    return x
+
+
+def count(name: str, value, minimum: int = 0) -> int:
+    try:
+        x = int(value)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name}={value!r} is not an integer (allowed: integer >= {minimum})") from None
+    if x != float(value) or x < minimum:
+        raise InvalidInput(f"{name}={value} is out of range (allowed: integer >= {minimum})")
+    return x
+
+
+def choice(name: str, value: str, choices) -> str:
+    if value not in choices:
+        raise InvalidInput(f"unknown {name} {value!r} (valid: {', '.join(choices)})")
+    return value

@@ -1,0 +1,72 @@
+"""A scheme as data (after scipy's ``_ivp``): its step function and what it declares.
+
+Kernel contract (arrays in the component-major kernel layout, ``(ndof, batch)``):
+
+* ``start(accel, q, v, t, h, p) -> state``: the carried state (a tuple of arrays);
+  the default carries ``(q, v)``. Verlet-type schemes carry more (the previous position,
+  the last acceleration) so that a step costs exactly the declared force evaluations.
+* ``step(accel, state, t, h, p) -> state`` for explicit schemes;
+  ``step(accel, solve, newton_max, state, t, h, p) -> state`` for implicit ones, where
+  ``solve`` is the scene's linear solve and ``newton_max`` is 1 for linear scenes
+  (one Newton iteration from the old velocity is exact) and more otherwise.
+* ``observe(accel, state, t, h, p) -> (q, v)``: the state a user sees; it never calls ``accel``.
+
+The functions are plain numpy, so the same source runs interpreted, with every force
+evaluation counted, and compiled by numba for timing.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+
+def start_qv(accel, q, v, t, h, p):
+    return (q, v)
+
+
+def observe_qv(accel, state, t, h, p):
+    return state[0], state[1]
+
+
+@dataclass(frozen=True)
+class Scheme:
+    """A reference scheme and its declarations.
+
+    ``energy_claim`` and ``homega_max`` are what the textbook says on the unit spring
+    (``homega_max``: ``None`` = unstable for every h, ``math.inf`` = never unstable);
+    the harness measures both and reports them side by side.
+    """
+
+    id: str
+    step: Callable
+    order: int
+    force_evals: int
+    symplectic: bool
+    implicit: bool
+    energy_claim: str
+    homega_max: float | None
+    start: Callable = start_qv
+    observe: Callable = observe_qv
+    doc: str = field(default="", compare=False)
+
+    @property
+    def summary(self) -> str:
+        return self.doc.strip().splitlines()[0] if self.doc else self.id
+
+    def describe(self) -> dict:
+        evals = f"{self.force_evals} + solve" if self.implicit else str(self.force_evals)
+        limit = ("none (unstable for every h)" if self.homega_max is None
+                 else "unbounded" if self.homega_max == math.inf else f"{self.homega_max:.4g}")
+        return {"id": self.id, "order": self.order, "force_evals": evals, "symplectic": self.symplectic,
+                "implicit": self.implicit, "energy": self.energy_claim, "homega_max": limit,
+                "doc": " ".join(self.doc.split())}
+
+
+def scheme(**declared) -> Callable[[Callable], Scheme]:
+    """Decorator: ``@scheme(order=1, force_evals=1, ...)`` over the step function."""
+
+    def wrap(step: Callable) -> Scheme:
+        return Scheme(id=step.__name__, step=step, doc=step.__doc__ or "", **declared)
+
+    return wrap

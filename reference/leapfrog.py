@@ -1,0 +1,18 @@
+from ._scheme import scheme
+
+
+@scheme(order=2, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0)
+def leapfrog(accel, state, t, h, p):
+    """Leapfrog, drift-kick-drift (the form REBOUND's ``leapfrog`` integrates):
+
+        x_{n+1/2} = x_n + (h/2) v_n
+        v_{n+1}   = v_n + h a(x_{n+1/2})
+        x_{n+1}   = x_{n+1/2} + (h/2) v_{n+1}
+
+    Second order, symplectic, stable for h w <= 2.
+    """
+    q, v = state
+    half = 0.5 * h
+    q = q + half * v
+    v = v + h * accel(q, v, t + half, p)
+    return (q + half * v, v)

@@ -1,0 +1,30 @@
+from ._scheme import scheme
+
+
+def start(accel, q, v, t, h, p):
+    # Start-up: a fictitious x_{-1} = x_0 - h v_0 + h^2/2 a_0, so that the first step gives
+    # the Taylor start x_1 = x_0 + h v_0 + h^2/2 a_0 (one evaluation, before step 0).
+    a = accel(q, v, t, p)
+    return (q, q - h * v + (0.5 * h * h) * a, a)
+
+
+def observe(accel, state, t, h, p):
+    # Velocity estimate for reporting energy: v_n = (x_n - x_{n-1})/h + (h/2) a_n. It is
+    # second order and equals velocity Verlet's v_n; it costs no force evaluation (a_n is carried).
+    q, q_prev, a = state
+    return q, (q - q_prev) / h + (0.5 * h) * a
+
+
+@scheme(order=2, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0,
+        start=start, observe=observe)
+def verlet(accel, state, t, h, p):
+    """Position (Stormer) Verlet: the scheme of cloth and ropes.
+
+        x_{n+1} = 2 x_n - x_{n-1} + a(x_n) h^2
+
+    Second order, symplectic, stable for h w <= 2. Carries (x_n, x_{n-1}, a_n). A
+    velocity-dependent force sees the backward difference (x_{n+1} - x_n)/h.
+    """
+    q, q_prev, a = state
+    q_next = 2.0 * q - q_prev + (h * h) * a
+    return (q_next, q, accel(q_next, (q_next - q) / h, t + h, p))

@@ -1,0 +1,1 @@
+"""Reports: stored results -> markdown tables and charts. Never simulates."""

@@ -1,0 +1,34 @@
+"""Scene registry: ``SCENES[id]`` is a Scene class; ``make_scene`` validates parameters."""
+from __future__ import annotations
+
+from ._base import InvalidInput, Param, Scene
+from .damped_spring import DampedSpring
+from .kepler import Kepler
+from .pendulum import Pendulum
+from .projectile import Projectile
+from .spring import Spring
+from .trajectory import Trajectory
+
+SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (Spring, DampedSpring, Pendulum, Kepler, Projectile)}
+
+
+def make_scene(scene_id: str, **overrides) -> Scene:
+    try:
+        cls = SCENES[scene_id]
+    except KeyError:
+        raise InvalidInput(f"unknown scene {scene_id!r} (valid: {', '.join(SCENES)})") from None
+    return cls(**overrides)
+
+
+def parse_overrides(items: list[str] | None) -> dict[str, float]:
+    """``["e=0.9", "k=2"]`` -> ``{"e": 0.9, "k": 2.0}``; values are checked by the scene."""
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            raise InvalidInput(f"--set {item!r} is not of the form key=value")
+        out[name.strip()] = value.strip()
+    return out
+
+
+__all__ = ["SCENES", "Scene", "Param", "InvalidInput", "Trajectory", "make_scene", "parse_overrides"]

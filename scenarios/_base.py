@@ -1,0 +1,169 @@
+"""What a scene is: parameters, initial state, forces, energy, exact solution.
+
+Two array layouts, one rule each:
+
+* **API layout** (everything a user sees: initial states, trajectories, energy):
+  leading batch axis, ``q.shape == (batch, ndof)``; a trajectory is ``(T, batch, ndof)``.
+* **Kernel layout** (the force and solve kernels the integrators call):
+  component-major, ``q.shape == (ndof, batch)``.  The inner loop then runs over the
+  batch and vectorises; with ``(batch, 1)`` numba's loops have an inner extent of 1
+  (measured 4.4 ns against 0.45 ns per spring-step for a batch of 1000).
+
+Kernels are plain numpy functions of ``(q, v, t, p)`` where ``p`` is the scene's packed
+parameter vector (``Scene.pvec``), so the same source runs interpreted (with force
+evaluations counted) and compiled by numba (for timing).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, ClassVar
+
+import numpy as np
+
+
+class InvalidInput(ValueError):
+    """Bad user input, raised before anything is stepped. The message is one line
+    naming the field and what it may be."""
+
+
+@dataclass(frozen=True)
+class Param:
+    """A scene parameter with its allowed range (``lo``/``hi`` inclusive unless ``*_open``)."""
+
+    default: float
+    doc: str = ""
+    lo: float = -math.inf
+    hi: float = math.inf
+    lo_open: bool = False
+    hi_open: bool = False
+    integer: bool = False
+
+    def allowed(self) -> str:
+        left = "(" if self.lo_open or self.lo == -math.inf else "["
+        right = ")" if self.hi_open or self.hi == math.inf else "]"
+        kind = "integer in " if self.integer else ""
+        return f"{kind}{left}{_fmt(self.lo)}, {_fmt(self.hi)}{right}"
+
+    def check(self, name: str, value) -> float:
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            raise InvalidInput(f"parameter {name}={value!r} is not a number (allowed: {self.allowed()})") from None
+        ok = math.isfinite(x) or (x == math.inf and self.hi == math.inf and not self.hi_open)
+        ok = ok and (x > self.lo if self.lo_open else x >= self.lo)
+        ok = ok and (x < self.hi if self.hi_open else x <= self.hi)
+        if self.integer and ok:
+            ok = x == int(x)
+        if not ok:
+            raise InvalidInput(f"parameter {name}={value} is out of range (allowed: {self.allowed()})")
+        return int(x) if self.integer else x
+
+
+def _fmt(x: float) -> str:
+    if x == math.inf:
+        return "inf"
+    if x == -math.inf:
+        return "-inf"
+    return f"{x:g}"
+
+
+def no_solve(q, v, t, p, alpha, beta, r):  # pragma: no cover - only reached by a misuse
+    raise NotImplementedError("this scene provides no implicit solve")
+
+
+class Scene:
+    """Base class. A subclass declares, and only declares, what its physics needs.
+
+    Class attributes
+    ----------------
+    id, title : registry id and a one-line description.
+    params : ordered ``{name: Param}``; their order is the order in ``pvec``.
+    dof_names : names of the generalised coordinates (``q0, q1, ...`` in CSV).
+    linear : the acceleration is affine in (q, v), so an implicit step is one linear solve.
+    accel : kernel ``(q, v, t, p) -> a`` in kernel layout.
+    solve : kernel ``(q, v, t, p, alpha, beta, r) -> x`` solving
+        ``(I - alpha*da/dv - beta*da/dq) x = r`` at (q, v, t); needed by implicit schemes.
+    """
+
+    id: ClassVar[str]
+    title: ClassVar[str]
+    params: ClassVar[dict[str, Param]] = {}
+    dof_names: ClassVar[tuple[str, ...]]
+    linear: ClassVar[bool] = False
+    accel: ClassVar[Callable]
+    solve: ClassVar[Callable] = staticmethod(no_solve)
+
+    def __init__(self, **overrides):
+        unknown = sorted(set(overrides) - set(self.params))
+        if unknown:
+            choices = ", ".join(self.params) or "none"
+            raise InvalidInput(f"unknown parameter {unknown[0]!r} for scene {self.id} (valid: {choices})")
+        self.values = {name: spec.check(name, overrides.get(name, spec.default))
+                       for name, spec in self.params.items()}
+        self._validate()
+
+    # ------------------------------------------------------------------ hooks
+    def _validate(self) -> None:
+        """Cross-parameter checks; raise InvalidInput."""
+
+    def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """(q0, v0), each of shape (ndof,)."""
+        raise NotImplementedError
+
+    def energy(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Total energy of states in API layout (..., ndof) -> (...)."""
+        raise NotImplementedError
+
+    @property
+    def omega(self) -> float:
+        """Characteristic angular frequency, so that h*omega compares timesteps across scenes."""
+        raise NotImplementedError
+
+    def exact(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """Exact (q, v) at times t, shape (len(t), ndof); None where no closed form exists."""
+        return None
+
+    def exact_energy(self, t: np.ndarray) -> np.ndarray:
+        """Exact energy at times t. Conservative scenes keep their initial energy."""
+        q0, v0 = self.initial_state()
+        return np.full(np.shape(t), float(self.energy(q0, v0)))
+
+    @property
+    def period(self) -> float:
+        return 2.0 * math.pi / self.omega
+
+    # ------------------------------------------------------------- derived
+    @property
+    def ndof(self) -> int:
+        return len(self.dof_names)
+
+    @property
+    def pvec(self) -> np.ndarray:
+        return np.array([float(self.values[name]) for name in self.params], dtype=np.float64)
+
+    @property
+    def conservative(self) -> bool:
+        return True
+
+    def batch_state(self, batch: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """The initial state repeated over a batch, API layout (batch, ndof)."""
+        q0, v0 = self.initial_state()
+        return np.tile(q0, (batch, 1)), np.tile(v0, (batch, 1))
+
+    def describe(self) -> dict:
+        return {
+            "id": self.id,
+            "title": self.title,
+            "ndof": self.ndof,
+            "omega": self.omega,
+            "linear": self.linear,
+            "has_exact": self.exact(np.zeros(1)) is not None,
+            "params": {name: {"value": self.values[name], "default": spec.default,
+                              "allowed": spec.allowed(), "doc": spec.doc}
+                       for name, spec in self.params.items()},
+        }
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v:g}" for k, v in self.values.items())
+        return f"{type(self).__name__}({args})"

@@ -1,0 +1,50 @@
+"""The unit spring: a = -(k/m) x. The scene every integrator is first judged on."""
+import math
+
+import numpy as np
+
+from ._base import Param, Scene
+
+
+def accel(q, v, t, p):
+    k, m = p[0], p[1]
+    return (-k * q) / m
+
+
+def solve(q, v, t, p, alpha, beta, r):
+    # (1 + beta k/m) x = r: the spring's Jacobian is the constant -k/m.
+    k, m = p[0], p[1]
+    return r / (1.0 + beta * (k / m))
+
+
+class Spring(Scene):
+    id = "spring"
+    title = "undamped harmonic oscillator, 1 DOF; exact x = x0 cos(wt) + (v0/w) sin(wt)"
+    params = {
+        "k": Param(1.0, "stiffness", lo=0.0, lo_open=True),
+        "m": Param(1.0, "mass", lo=0.0, lo_open=True),
+        "x0": Param(1.0, "initial position"),
+        "v0": Param(0.0, "initial velocity"),
+    }
+    dof_names = ("x",)
+    linear = True
+    accel = staticmethod(accel)
+    solve = staticmethod(solve)
+
+    def initial_state(self):
+        return np.array([self.values["x0"]]), np.array([self.values["v0"]])
+
+    @property
+    def omega(self):
+        return math.sqrt(self.values["k"] / self.values["m"])
+
+    def energy(self, q, v):
+        k, m = self.values["k"], self.values["m"]
+        return 0.5 * m * v[..., 0] ** 2 + 0.5 * k * q[..., 0] ** 2
+
+    def exact(self, t):
+        t = np.asarray(t, dtype=float)
+        w, x0, v0 = self.omega, self.values["x0"], self.values["v0"]
+        x = x0 * np.cos(w * t) + (v0 / w) * np.sin(w * t)
+        v = -x0 * w * np.sin(w * t) + v0 * np.cos(w * t)
+        return x[:, None], v[:, None]

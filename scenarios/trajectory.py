@@ -1,0 +1,83 @@
+"""The one result type every method returns: reference schemes and engine adapters alike.
+
+Energy is never taken from a method: it is computed here by the scene, from the state,
+with the same formula for every method.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+#: Outcomes of a run. A failure is a result, never an exception out of the harness.
+OK, UNSTABLE, CRASHED, TIMED_OUT, UNSUPPORTED = "ok", "unstable", "crashed", "timed_out", "unsupported"
+STATUSES = (OK, UNSTABLE, CRASHED, TIMED_OUT, UNSUPPORTED)
+
+
+@dataclass
+class Trajectory:
+    """States recorded every ``every`` steps, API layout: ``q``/``v`` are (T, batch, ndof).
+
+    ``status`` is ``ok`` or how the run failed; ``failed_step`` is the first step whose
+    state was not finite (or where the engine reset itself), and the arrays stop at the
+    last good recorded state. ``force_evals`` and ``solves`` are counted, not declared
+    (None when the method cannot be counted).
+    """
+
+    scene: str
+    method: str
+    dt: float
+    steps: int
+    every: int
+    step: np.ndarray
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    energy: np.ndarray
+    status: str = OK
+    detail: str = ""
+    failed_step: int | None = None
+    force_evals: int | None = None
+    solves: int | None = None
+    meta: dict = field(default_factory=dict)
+
+    @classmethod
+    def failed(cls, scene: str, method: str, dt: float, steps: int, status: str, detail: str,
+               every: int = 1, ndof: int = 0, meta: dict | None = None) -> "Trajectory":
+        empty = np.zeros((0, 1, ndof))
+        return cls(scene, method, dt, steps, every, np.zeros(0, dtype=int), np.zeros(0), empty, empty.copy(),
+                   np.zeros((0, 1)), status=status, detail=detail, meta=dict(meta or {}))
+
+    @property
+    def ok(self) -> bool:
+        return self.status == OK
+
+    @property
+    def ndof(self) -> int:
+        return self.q.shape[-1]
+
+    def final(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.q[-1], self.v[-1]
+
+    def to_frame(self) -> pd.DataFrame:
+        """Tidy table: one row per recorded state (and batch member, if more than one)."""
+        T, B, n = self.q.shape
+        cols: dict[str, np.ndarray] = {}
+        if B > 1:
+            cols["batch"] = np.tile(np.arange(B), T)
+        cols["step"] = np.repeat(self.step, B)
+        cols["t"] = np.repeat(self.t, B)
+        for i in range(n):
+            cols[f"q{i}"] = self.q[:, :, i].reshape(-1)
+        for i in range(n):
+            cols[f"v{i}"] = self.v[:, :, i].reshape(-1)
+        cols["energy"] = self.energy.reshape(-1)
+        return pd.DataFrame(cols)
+
+    def summary(self) -> dict:
+        return {
+            "scene": self.scene, "method": self.method, "dt": self.dt, "steps": self.steps,
+            "status": self.status, "detail": self.detail, "failed_step": self.failed_step,
+            "force_evals": self.force_evals, "solves": self.solves, "meta": self.meta,
+        }
