@@ -1,0 +1,199 @@
+"""Reference schemes: the seed's worked examples, energy factors, counting, batching, long-run behaviour."""
+import math
+
+import numpy as np
+import pytest
+
+from reference import METHODS, integrate
+from reference._compiled import run_compiled
+from scenarios import SCENES, make_scene
+
+SPRING = make_scene("spring")
+
+
+def run(scheme_id, scene=SPRING, dt=0.5, steps=4, **kw):
+    return integrate(METHODS[scheme_id], scene, dt, steps, **kw)
+
+
+# The seed's worked example, dt = 0.5, steps 0-4, printed to 3 decimals.
+WORKED = {
+    "explicit_euler": {
+        "x": [1, 1, 0.75, 0.25, -0.438],
+        "v": [0, -0.5, -1, -1.375, -1.5],
+        "energy": [0.5, 0.625, 0.781, 0.977, 1.221],
+    },
+    "semi_implicit_euler": {
+        "x": [1, 0.75, 0.313, -0.203, -0.668],
+        "v": [0, -0.5, -0.875, -1.031, -0.930],
+        "energy": [0.5, 0.406, 0.432, 0.552, 0.655],
+    },
+}
+
+
+@pytest.mark.parametrize("scheme_id", WORKED)
+def test_worked_example_to_printed_decimals(scheme_id):
+    tr = run(scheme_id)
+    want = WORKED[scheme_id]
+    # "To the printed 3 decimals": rounding half away from zero, as the seed prints.
+    for got, key in ((tr.q[:, 0, 0], "x"), (tr.v[:, 0, 0], "v"), (tr.energy[:, 0], "energy")):
+        assert np.all(np.abs(got - np.array(want[key])) <= 0.0005 + 1e-12), (key, got)
+
+
+@pytest.mark.parametrize("h", [0.5, 0.1, 0.01])
+def test_explicit_euler_energy_grows_by_one_plus_h2_per_step(h):
+    tr = run("explicit_euler", dt=h, steps=50)
+    ratio = tr.energy[1:, 0] / tr.energy[:-1, 0]
+    # Exact in real arithmetic; 1e-12 leaves room for 50 steps of roundoff.
+    np.testing.assert_allclose(ratio, 1 + h * h, rtol=1e-12)
+
+
+@pytest.mark.parametrize("h", [0.5, 0.1, 0.01])
+def test_implicit_euler_energy_shrinks_by_one_over_one_plus_h2(h):
+    tr = run("implicit_euler", dt=h, steps=50)
+    ratio = tr.energy[1:, 0] / tr.energy[:-1, 0]
+    np.testing.assert_allclose(ratio, 1 / (1 + h * h), rtol=1e-12)
+
+
+@pytest.mark.parametrize("scheme_id", METHODS)
+@pytest.mark.parametrize("scene_id", ["spring", "damped_spring", "projectile"])
+def test_counted_force_evaluations_equal_declared_on_linear_scenes(scheme_id, scene_id):
+    steps = 37
+    tr = run(scheme_id, scene=make_scene(scene_id), dt=0.01, steps=steps)
+    scheme = METHODS[scheme_id]
+    assert tr.force_evals == scheme.force_evals * steps
+    # Implicit schemes: one solve per step (one Newton iteration is exact for linear forces).
+    assert tr.solves == (steps if scheme.implicit else 0)
+
+
+@pytest.mark.parametrize("scheme_id", [s for s, m in METHODS.items() if m.implicit])
+@pytest.mark.parametrize("scene_id", ["pendulum", "kepler"])
+def test_implicit_schemes_on_nonlinear_scenes_count_one_evaluation_per_newton_iteration(scheme_id, scene_id):
+    steps = 50
+    tr = run(scheme_id, scene=make_scene(scene_id), dt=0.01, steps=steps)
+    # Each Newton iteration is one evaluation and one solve; Newton needs more than one here.
+    assert tr.force_evals == tr.solves
+    assert steps < tr.force_evals <= 50 * steps
+
+
+def test_every_scheme_declares_its_metadata_and_formulas():
+    for sid, s in METHODS.items():
+        assert s.id == sid
+        assert s.order in (1, 2, 4)
+        assert s.force_evals >= 1
+        assert s.energy_claim in ("grows", "bounded", "decays")
+        assert "=" in s.doc and "order" in s.doc.lower(), f"{sid}: docstring carries the update formulas and order"
+
+
+LONG_STEPS = 100_000
+
+
+@pytest.fixture(scope="module")
+def long_runs():
+    """10^5 steps at h = 0.1 on the unit spring, energy recorded every 100 steps."""
+    return {sid: run(sid, dt=0.1, steps=LONG_STEPS, every=100) for sid in METHODS}
+
+
+def tenth_envelopes(energy):
+    e = energy[:, 0]
+    n = len(e) // 10
+    return np.ptp(e[:n]), np.ptp(e[-n:]), e[:n].mean(), e[-n:].mean()
+
+
+@pytest.mark.parametrize("scheme_id", [s for s, m in METHODS.items() if m.symplectic])
+def test_symplectic_energy_stays_in_a_band(long_runs, scheme_id):
+    tr = long_runs[scheme_id]
+    assert tr.ok
+    w_first, w_last, m_first, m_last = tenth_envelopes(tr.energy)
+    e0 = tr.energy[0, 0]
+    # The band of the first tenth and the last tenth agree: width and centre within 1% of E0.
+    assert abs(w_last - w_first) <= 0.01 * e0
+    assert abs(m_last - m_first) <= 0.01 * e0
+
+
+def test_explicit_euler_energy_grows_without_bound(long_runs):
+    tr = long_runs["explicit_euler"]
+    # (1 + h^2)^(n/2) passes the divergence threshold (1e100) near step 46,000: a recorded
+    # blow-up, not a calm run; before that the energy has grown by more than 1e100.
+    assert tr.status == "unstable" and tr.failed_step is not None
+    assert tr.failed_step == pytest.approx(2 * np.log(1e100) / np.log(1.01), rel=1e-3)
+    assert tr.energy[-1, 0] > 1e100 * tr.energy[0, 0]
+
+
+@pytest.mark.parametrize("scheme_id", ["implicit_euler", "rk4"])
+def test_implicit_euler_and_rk4_lose_energy(long_runs, scheme_id):
+    tr = long_runs[scheme_id]
+    e = tr.energy[:, 0]
+    assert tr.ok
+    assert e[-1] < e[0]
+    assert np.all(np.diff(e) <= 1e-15 * e[0]), "monotone loss"
+    if scheme_id == "rk4":
+        # |R|^2 = 1 - h^6/72 + h^8/576 per step at h = 0.1: the predicted loss over 10^5 steps.
+        factor = (1 - 0.1 ** 6 / 72 + 0.1 ** 8 / 576) ** LONG_STEPS
+        assert e[-1] / e[0] == pytest.approx(factor, rel=1e-6)
+
+
+@pytest.mark.parametrize("scheme_id", METHODS)
+def test_a_batch_of_initial_states_runs_as_one_array(scheme_id):
+    scene = make_scene("pendulum")
+    q0 = np.array([[0.5], [1.0], [2.0], [3.0]])
+    v0 = np.array([[0.0], [0.3], [-0.2], [0.0]])
+    batched = integrate(METHODS[scheme_id], scene, 0.01, 20, q0=q0, v0=v0)
+    assert batched.q.shape == (21, 4, 1)
+    for b in range(4):
+        single = integrate(METHODS[scheme_id], scene, 0.01, 20, q0=q0[b:b + 1], v0=v0[b:b + 1])
+        # Newton's stopping test looks at the whole batch, so members may take one more
+        # iteration than alone: agreement to roundoff, not bitwise.
+        np.testing.assert_allclose(batched.q[:, b], single.q[:, 0], rtol=0, atol=1e-12)
+
+
+# Each pair compiles for ~2 s, so not the full matrix: every scheme on kepler (2 DOF, nonlinear,
+# a 2x2 solve), and implicit midpoint (which calls both the force and the solve kernel) on every scene.
+COMPILED_CASES = [(s, "kepler") for s in METHODS] + [("implicit_midpoint", s) for s in sorted(SCENES) if s != "kepler"]
+
+
+@pytest.mark.parametrize("scheme_id,scene_id", COMPILED_CASES)
+def test_compiled_path_matches_interpreted_path(scheme_id, scene_id):
+    scene = make_scene(scene_id)
+    scheme = METHODS[scheme_id]
+    ref = integrate(scheme, scene, 0.01, 200, every=200)
+    q, v = run_compiled(scheme, scene, 0.01, 200)
+    # Same operations; numba may use libm's sin/sqrt where numpy uses its own: ulp-level differences.
+    np.testing.assert_allclose(q, ref.q[-1], rtol=1e-11, atol=1e-12)
+    np.testing.assert_allclose(v, ref.v[-1], rtol=1e-11, atol=1e-12)
+
+
+def test_blow_up_is_recorded_as_unstable_with_the_step():
+    tr = run("explicit_euler", scene=make_scene("spring", k=1e6), dt=0.5, steps=10_000)
+    assert tr.status == "unstable"
+    assert 1 < tr.failed_step < 10_000
+    assert np.isfinite(tr.q).all() and tr.step[-1] < tr.failed_step
+
+
+def test_velocity_verlet_and_position_verlet_agree():
+    # Stormer-Verlet with the documented start-up and velocity estimate is velocity Verlet
+    # in exact arithmetic; in floating point they agree to roundoff.
+    scene = make_scene("kepler")
+    a = run("verlet", scene=scene, dt=0.01, steps=2000, every=100)
+    b = run("velocity_verlet", scene=scene, dt=0.01, steps=2000, every=100)
+    np.testing.assert_allclose(a.q, b.q, atol=1e-10)
+    np.testing.assert_allclose(a.v, b.v, atol=1e-9)
+
+
+def test_leapfrog_is_drift_kick_drift():
+    # One step on the unit spring, by hand: x_half = 1 + h/2 * 0, v1 = -h * x_half, x1 = x_half + h/2 v1.
+    h = 0.5
+    tr = run("leapfrog", dt=h, steps=1)
+    assert tr.q[1, 0, 0] == 1 + h / 2 * (-h * 1.0)
+    assert tr.v[1, 0, 0] == -h
+
+
+def test_implicit_midpoint_conserves_spring_energy():
+    tr = run("implicit_midpoint", dt=0.5, steps=1000, every=10)
+    np.testing.assert_allclose(tr.energy[:, 0], 0.5, rtol=1e-12)
+
+
+def test_forest_ruth_coefficient():
+    from reference.forest_ruth import THETA
+
+    assert THETA == pytest.approx(1.3512071919596578, rel=1e-15)
+    assert math.isclose(2 * THETA + (1 - 2 * THETA), 1.0)
