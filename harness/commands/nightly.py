@@ -1,0 +1,53 @@
+"""``harness nightly``: run the matrix, store it, compare with the last run, write the report.
+Exit 1 when anything regressed (the list also heads the report)."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from .. import validate
+from ..nightly import DEFAULT_DB, DEFAULT_OUT, run_nightly
+from ..suites import SUITES
+
+
+def add_parser(sub):
+    p = sub.add_parser("nightly", help="run the comparison matrix, store it, report, flag regressions")
+    p.add_argument("--suite", default="standard", help=f"one of: {', '.join(SUITES)}")
+    p.add_argument("--out", default=str(DEFAULT_OUT), help="report directory (report.md + charts/)")
+    p.add_argument("--db", default=str(DEFAULT_DB), help="SQLite history")
+    p.add_argument("--jobs", default=None, help="worker processes (default: all cores)")
+    p.add_argument("--scheduler", default=None,
+                   help="Dask scheduler address, or local:N for a LocalCluster of N workers "
+                        "(default: $HARNESS_SCHEDULER, else local worker processes)")
+    p.add_argument("--bounds", default=None, help="energy bounds file (default: the reviewed harness/energy_bounds.csv)")
+    p.add_argument("--json", action="store_true", help="print the run summary as JSON")
+    return p
+
+
+def run(args) -> int:
+    from .. import bounds as bounds_mod
+
+    suite = validate.choice("--suite", args.suite, list(SUITES))
+    jobs = validate.count("--jobs", args.jobs, 1) if args.jobs is not None else None
+    bounds_path = Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH
+    bounds_mod.load(bounds_path)  # a broken bounds file fails before anything runs
+    if args.scheduler:
+        from ..distributed import parse_scheduler
+
+        parse_scheduler(args.scheduler)
+    result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path)
+    regs = result["regressions"]
+    if args.json:
+        print(json.dumps({"run_id": result["run_id"], "previous": result["previous"], "report": str(result["report"]),
+                          "regressions": [r.as_dict() for r in regs], "timing": result["timing"]}, indent=1,
+                         default=str))
+    else:
+        print(f"run {result['run_id']}: report {result['report']} ({result['timing']['total_s']:.1f}s)")
+        for r in regs:
+            print(f"REGRESSION {r.line()}")
+        if not regs:
+            print("no regressions")
+    if regs:
+        print(f"harness: {len(regs)} regression(s)", file=sys.stderr)
+    return 1 if regs else 0

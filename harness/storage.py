@@ -1,0 +1,165 @@
+"""History of nightly runs in an embedded SQLite database.
+
+One ``runs`` row per run (metadata: date, git commit, package and engine versions, machine,
+suite, settings, the measurement version) and one ``cells`` row per measured cell: a tidy
+table with the scene, method, measure, timestep, status and the measure's headline value,
+the rest of the measurement in a JSON column.
+
+A run is inserted with ``complete = 0`` and marked complete only after its last cell and its
+report are written; every cell is committed in its own transaction. A run killed half-way
+therefore leaves every earlier run intact and is itself never read as complete.
+Runs are only compared with runs of the same ``MEASUREMENT_VERSION`` (as asv does with
+its benchmark versions).
+"""
+from __future__ import annotations
+
+import json
+import math
+import sqlite3
+from contextlib import closing
+from pathlib import Path
+
+import pandas as pd
+
+#: Bump when a measure's definition changes: results across versions are not comparable.
+MEASUREMENT_VERSION = 1
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS runs (
+    run_id INTEGER PRIMARY KEY AUTOINCREMENT,
+    started TEXT NOT NULL,
+    finished TEXT,
+    complete INTEGER NOT NULL DEFAULT 0,
+    suite TEXT NOT NULL,
+    measurement_version INTEGER NOT NULL,
+    git_commit TEXT,
+    versions TEXT NOT NULL,
+    machine TEXT NOT NULL,
+    settings TEXT NOT NULL,
+    wall_s REAL,
+    timing TEXT,
+    regressions INTEGER
+);
+CREATE TABLE IF NOT EXISTS cells (
+    run_id INTEGER NOT NULL REFERENCES runs(run_id),
+    scene TEXT NOT NULL,
+    method TEXT NOT NULL,
+    family TEXT NOT NULL,
+    measure TEXT NOT NULL,
+    dt REAL,
+    steps INTEGER,
+    status TEXT NOT NULL,
+    detail TEXT,
+    value REAL,
+    wall_s REAL,
+    data TEXT NOT NULL,
+    UNIQUE (run_id, scene, method, measure, dt)
+);
+CREATE INDEX IF NOT EXISTS cells_run ON cells(run_id);
+"""
+
+CELL_COLUMNS = ["scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value", "wall_s", "data"]
+
+
+def _json(obj) -> str:
+    return json.dumps(obj, default=_default, allow_nan=True)
+
+
+def _default(x):
+    import numpy as np
+
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.floating):
+        return float(x)
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return str(x)
+
+
+def _num(x):
+    if x is None:
+        return None
+    x = float(x)
+    return x if not math.isnan(x) else None
+
+
+class History:
+    """The run history at ``path`` (created on first use)."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with closing(self._connect()) as con, con:
+            con.executescript(SCHEMA)
+
+    def _connect(self) -> sqlite3.Connection:
+        con = sqlite3.connect(self.path, timeout=30)
+        con.row_factory = sqlite3.Row
+        return con
+
+    # ---------------------------------------------------------------- writing
+    def start_run(self, *, started: str, suite: str, git_commit: str | None, versions: dict, machine: dict,
+                  settings: dict) -> int:
+        with closing(self._connect()) as con, con:
+            cur = con.execute(
+                "INSERT INTO runs (started, suite, measurement_version, git_commit, versions, machine, settings) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (started, suite, MEASUREMENT_VERSION, git_commit, _json(versions), _json(machine), _json(settings)))
+            return int(cur.lastrowid)
+
+    def add_cell(self, run_id: int, cell: dict) -> None:
+        """Store one measured cell; a cell already stored for this run is replaced, never duplicated."""
+        row = {c: cell.get(c) for c in CELL_COLUMNS}
+        row["data"] = _json(cell.get("data", {}))
+        row["value"] = _num(row["value"])
+        with closing(self._connect()) as con, con:
+            con.execute(
+                f"INSERT OR REPLACE INTO cells (run_id, {', '.join(CELL_COLUMNS)}) "
+                f"VALUES (?, {', '.join('?' for _ in CELL_COLUMNS)})",
+                (run_id, *[row[c] for c in CELL_COLUMNS]))
+
+    def finish_run(self, run_id: int, *, finished: str, wall_s: float, timing: dict, regressions: int) -> None:
+        with closing(self._connect()) as con, con:
+            con.execute("UPDATE runs SET finished = ?, wall_s = ?, timing = ?, regressions = ?, complete = 1 "
+                        "WHERE run_id = ?", (finished, wall_s, _json(timing), regressions, run_id))
+
+    # ---------------------------------------------------------------- reading
+    def runs(self, complete_only: bool = True) -> pd.DataFrame:
+        q = "SELECT * FROM runs" + (" WHERE complete = 1" if complete_only else "") + " ORDER BY run_id"
+        with closing(self._connect()) as con:
+            df = pd.read_sql_query(q, con)
+        for col in ("versions", "machine", "settings", "timing"):
+            df[col] = df[col].map(lambda s: json.loads(s) if s else {})
+        return df
+
+    def run(self, run_id: int) -> dict:
+        df = self.runs(complete_only=False)
+        match = df[df.run_id == run_id]
+        if match.empty:
+            from scenarios import InvalidInput
+
+            valid = ", ".join(str(r) for r in df.run_id) or "none stored"
+            raise InvalidInput(f"unknown run {run_id} in {self.path} (valid: {valid})")
+        return match.iloc[0].to_dict()
+
+    def cells(self, run_id: int) -> pd.DataFrame:
+        """The run's cells as a tidy DataFrame; ``data`` decoded to dicts."""
+        with closing(self._connect()) as con:
+            df = pd.read_sql_query("SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt",
+                                   con, params=(run_id,))
+        df["data"] = df["data"].map(json.loads)
+        return df
+
+    def previous_complete(self, run_id: int) -> int | None:
+        """The latest complete run before ``run_id`` with the same measurement version."""
+        runs = self.runs()
+        mine = self.run(run_id)
+        older = runs[(runs.run_id < run_id) & (runs.measurement_version == mine["measurement_version"])]
+        return int(older.run_id.iloc[-1]) if not older.empty else None
+
+    def integrity_ok(self) -> bool:
+        with closing(self._connect()) as con:
+            return con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"

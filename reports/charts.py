@@ -1,0 +1,109 @@
+"""Charts (matplotlib, Agg backend, PNG) drawn from stored cells. Each returns True when it drew."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+
+def _style(method: str) -> dict:
+    return {"linestyle": "-" if method.startswith("ref:") else "--", "linewidth": 1.2}
+
+
+def _save(fig, path: Path) -> bool:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.stem + ".tmp.png")
+    fig.savefig(tmp, dpi=90, bbox_inches="tight")
+    plt.close(fig)
+    tmp.replace(path)
+    return path.stat().st_size > 0
+
+
+def energy_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
+    """E(t)/E_exact(0) per method at the nominal timestep, log scale; the exact curve faint.
+    Explicit Euler's energy runs away, symplectic schemes stay in a band, RK4 and implicit Euler sink."""
+    rows = cells[(cells.measure == "energy") & cells.status.isin(["ok", "unstable"])]
+    rows = [r for _, r in rows.iterrows() if r.data.get("series")]
+    if not rows:
+        return False
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    exact_drawn = False
+    for r in sorted(rows, key=lambda r: r.method):
+        s = r.data["series"]
+        t, e, ex = np.asarray(s["t"]), np.asarray(s["energy"], dtype=float), np.asarray(s["exact"], dtype=float)
+        e0 = abs(ex[0]) if len(ex) and ex[0] != 0 else 1.0
+        if not exact_drawn:
+            ax.plot(t, np.abs(ex) / e0, color="0.7", linewidth=4, alpha=0.5, label="exact", zorder=0)
+            exact_drawn = True
+        ax.plot(t, np.clip(np.abs(e) / e0, 1e-6, 1e6), label=r.method, **_style(r.method))
+    ax.set_yscale("log")
+    ax.set_xlabel("t")
+    ax.set_ylabel("|E(t)| / |E_exact(0)|  (clipped to 1e±6)")
+    ax.set_title(f"{scene}: energy at the nominal timestep")
+    ax.legend(fontsize=7, ncol=2, loc="best")
+    return _save(fig, path)
+
+
+def workprecision_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
+    """Max global error against measured cost (seconds per unit of simulated time), log-log,
+    one line per method over its timestep sweep: reference schemes solid, engines dashed."""
+    order = {r.method: r for _, r in cells[(cells.measure == "order") & (cells.status == "ok")].iterrows()}
+    cost = {r.method: r for _, r in cells[(cells.measure == "cost") & (cells.status == "ok")].iterrows()}
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    drawn = 0
+    for method in sorted(order):
+        if method not in cost:
+            continue
+        sps = cost[method].value
+        pts = [p for p in order[method].data.get("points", []) if p.get("error") and p["error"] > 0]
+        if not pts or not sps:
+            continue
+        work = [sps / p["dt"] for p in pts]
+        err = [p["error"] for p in pts]
+        ax.plot(work, err, marker="o", markersize=3, label=method, **_style(method))
+        drawn += 1
+    if not drawn:
+        plt.close(fig)
+        return False
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("cost: wall seconds per unit of simulated time (measured)")
+    ax.set_ylabel("max global error")
+    ax.set_title(f"{scene}: work-precision")
+    ax.legend(fontsize=7, ncol=2, loc="best")
+    return _save(fig, path)
+
+
+def stability_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
+    """Largest stable h*omega per method: bars; unbounded methods drawn to the searched bound
+    and hatched; methods unstable for every h drawn at zero and labelled."""
+    rows = cells[(cells.measure == "stability") & (cells.status == "ok")]
+    if rows.empty:
+        return False
+    rows = rows.sort_values("method")
+    fig, ax = plt.subplots(figsize=(8, 0.35 * len(rows) + 1.2))
+    for i, (_, r) in enumerate(rows.iterrows()):
+        d = r.data
+        if d.get("unstable_everywhere"):
+            ax.barh(i, 0.0)
+            ax.text(0.02, i, "unstable for every h", va="center", fontsize=7)
+        elif d.get("unbounded"):
+            bound = d.get("homega_searched") or 100.0
+            ax.barh(i, bound, hatch="//", color="0.85", edgecolor="0.4")
+            ax.text(bound, i, f" unbounded (searched to {bound:.3g})", va="center", fontsize=7)
+        else:
+            v = r.value if r.value is not None and not math.isnan(r.value) else 0.0
+            ax.barh(i, v, color="tab:blue" if r.method.startswith("ref:") else "tab:orange")
+            ax.text(v, i, f" {v:.4g}", va="center", fontsize=7)
+    ax.set_yticks(range(len(rows)))
+    ax.set_yticklabels(list(rows.method), fontsize=7)
+    ax.set_xscale("symlog", linthresh=10)
+    ax.set_xlabel("largest stable h·ω")
+    ax.set_title(f"{scene}: stability limit (blue: reference, orange: engine)")
+    return _save(fig, path)

@@ -1,0 +1,316 @@
+"""The nightly report: stored cells -> ``report.md`` and PNG charts. It never simulates.
+
+Written atomically: charts carry the run id in their names (new files, the previous report's
+charts untouched), the markdown goes to a temporary file that ``os.replace`` moves over
+``report.md`` in one step, and only then are charts no longer referenced removed. A run
+killed half-way leaves the previous report whole.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import pandas as pd
+
+from . import charts
+
+CHECK, CROSS = "✓", "✗"
+
+#: A measured order within this of the declared order gets a check mark (the order tests' tolerance).
+ORDER_TOL = 0.15
+#: A measured stability limit within this fraction of the textbook's gets a check mark.
+STABILITY_TOL = 0.005
+
+
+def _fmt(x, spec=".3g", none="–"):
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return none
+    if isinstance(x, float) and math.isinf(x):
+        return "unbounded"
+    return format(x, spec)
+
+
+def _pivot(cells: pd.DataFrame) -> dict:
+    """{(scene, method): {measure: row}} for the scene x method cells (bounds excluded)."""
+    out: dict = {}
+    for _, r in cells[cells.measure != "bound"].iterrows():
+        out.setdefault((r.scene, r.method), {})[r.measure] = r
+    return out
+
+
+def homega_text(row) -> str:
+    if row is None:
+        return "–"
+    if row.status != "ok":
+        return row.status
+    d = row.data
+    if d.get("unstable_everywhere"):
+        return "none (ρ > 1 for every h)"
+    if d.get("unbounded"):
+        return f"unbounded (searched to {d.get('homega_searched', float('nan')):.3g})"
+    return _fmt(row.value, ".4g")
+
+
+def claim_homega_text(c) -> str:
+    if c is None:
+        return "none"
+    if c == math.inf or c == "inf":
+        return "unbounded"
+    return f"{float(c):.4g}"
+
+
+def homega_ok(row, claim) -> bool | None:
+    if row is None or row.status != "ok":
+        return None
+    d = row.data
+    if claim is None:
+        return bool(d.get("unstable_everywhere"))
+    if claim == math.inf or claim == "inf":
+        return bool(d.get("unbounded"))
+    return row.value is not None and not d.get("unbounded") and abs(row.value / float(claim) - 1) <= STABILITY_TOL
+
+
+def mark(ok) -> str:
+    return "" if ok is None else (CHECK if ok else CROSS)
+
+
+# ----------------------------------------------------------------------------- sections
+def verdict(regressions, previous) -> list[str]:
+    lines = ["## Verdict", ""]
+    against = f"run {previous}" if previous is not None else "no earlier run (bounds checked only)"
+    if not regressions:
+        lines.append(f"**No regressions** against {against}.")
+    else:
+        lines.append(f"**{len(regressions)} regression(s)** against {against}:")
+        lines.append("")
+        lines += [f"- {r.line()}" for r in regressions]
+    return lines + [""]
+
+
+def tradeoff_table(piv: dict, scene: str = "spring") -> list[str]:
+    lines = [f"## The trade-off, measured (reference schemes on `{scene}`)", "",
+             "Each cell: measured value, the textbook's claim in brackets, and whether they agree. "
+             "Cost: counted force evaluations per step and wall time per step as a ratio to explicit Euler, "
+             "measured side by side in this run.", "",
+             "| scheme | evals/step | time ratio | observed order | energy | largest stable h·ω |",
+             "|---|---|---|---|---|---|"]
+    rows = [(m, ms) for (s, m), ms in piv.items() if s == scene and m.startswith("ref:")]
+    if not rows:
+        return lines + ["", f"_no reference cells on {scene} in this run_", ""]
+    for method, ms in sorted(rows):
+        claims = next((r.data.get("claims") for r in ms.values() if r.data.get("claims")), {}) or {}
+        cost, order, energy, stab = ms.get("cost"), ms.get("order"), ms.get("energy"), ms.get("stability")
+        if cost is not None and cost.status == "ok":
+            evals = cost.data.get("force_evals_per_step")
+            ev_ok = evals is not None and claims.get("force_evals") is not None and abs(evals - claims["force_evals"]) < 1e-9
+            evals_txt = f"{_fmt(evals, '.3g')} [{claims.get('force_evals_text', claims.get('force_evals', '?'))}] {mark(ev_ok)}"
+            ratio = cost.data.get("ratio_to_explicit_euler")
+            ratio_txt = _fmt(ratio, ".2f")
+        else:
+            evals_txt = ratio_txt = cost.status if cost is not None else "–"
+        if order is not None and order.status == "ok":
+            o_ok = claims.get("order") is not None and abs(order.value - claims["order"]) <= ORDER_TOL
+            order_txt = f"{order.value:.2f} [{claims.get('order', '?')}] {mark(o_ok)}"
+        else:
+            order_txt = order.status if order is not None else "–"
+        if energy is not None:
+            cls = energy.data.get("class", energy.status)
+            e_ok = claims.get("energy") == cls if energy.status in ("ok", "unstable") else None
+            energy_txt = f"{cls} [{claims.get('energy', '?')}] {mark(e_ok)}"
+        else:
+            energy_txt = "–"
+        claim_h = claims.get("homega_max", "?")
+        stab_txt = f"{homega_text(stab)} [{claim_homega_text(claim_h)}] {mark(homega_ok(stab, claim_h))}"
+        lines.append(f"| `{method}` | {evals_txt} | {ratio_txt} | {order_txt} | {energy_txt} | {stab_txt} |")
+    return lines + [""]
+
+
+def identity_table(piv: dict) -> list[str]:
+    lines = ["## Which scheme each engine mode is", "",
+             "Each engine mode stepped beside every reference scheme on the same scene; the match is the scheme "
+             "with the smallest max |difference| in the state.", "",
+             "| engine mode | scene | matches | max deviation | runner-up (deviation) |", "|---|---|---|---|---|"]
+    n = 0
+    for (scene, method), ms in sorted(piv.items()):
+        row = ms.get("identity")
+        if row is None:
+            continue
+        n += 1
+        if row.status != "ok":
+            lines.append(f"| `{method}` | {scene} | {row.status}: {row.detail} | | |")
+            continue
+        d = row.data
+        runner = f"`{d.get('runner_up')}` ({_fmt(d.get('runner_up_deviation'), '.2e')})" if d.get("runner_up") else "–"
+        lines.append(f"| `{method}` | {scene} | `{d.get('match')}` | {_fmt(row.value, '.2e')} | {runner} |")
+    if not n:
+        lines.append("| _no engine modes in this run_ | | | | |")
+    return lines + [""]
+
+
+def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
+    lines = [f"### `{scene}`", "",
+             "| method | status | max \\|ΔE/E\\| | energy | max global error | order | largest stable h·ω | "
+             "evals/step | µs/step | time ratio |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for (s, method), ms in sorted(piv.items()):
+        if s != scene:
+            continue
+        energy, error, order = ms.get("energy"), ms.get("error"), ms.get("order")
+        stab, cost = ms.get("stability"), ms.get("cost")
+        statuses = sorted({r.status for r in ms.values() if r.status != "ok"})
+        status = ", ".join(statuses) if statuses else "ok"
+        if energy is not None and energy.status == "unstable" and energy.data.get("failed_step"):
+            status += f" (energy run: step {energy.data['failed_step']})"
+        cells = [
+            f"`{method}`", status,
+            _fmt(energy.value, ".2e") if energy is not None and energy.status == "ok" else (energy.status if energy is not None else "–"),
+            energy.data.get("class", "–") if energy is not None else "–",
+            _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
+            _fmt(order.value, ".2f") if order is not None and order.status == "ok" else (order.status if order is not None else "–"),
+            homega_text(stab),
+            _fmt(cost.data.get("force_evals_per_step"), ".3g") if cost is not None and cost.status == "ok" else "–",
+            _fmt(cost.value * 1e6, ".3g") if cost is not None and cost.status == "ok" else (cost.status if cost is not None else "–"),
+            _fmt(cost.data.get("ratio_to_explicit_euler"), ".2f") if cost is not None and cost.status == "ok" else "–",
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines.append("")
+    for kind, title in (("energy", "Energy against time"), ("workprecision", "Work-precision: error against cost"),
+                        ("stability", "Largest stable h·ω")):
+        name = chart_names.get((scene, kind))
+        if name:
+            lines += [f"![{title} on {scene}]({name})", ""]
+    return lines
+
+
+def findings(piv: dict, cells: pd.DataFrame) -> list[str]:
+    """Engine behaviour a user would not expect, derived from this run's measurements."""
+    out = []
+    for (scene, method), ms in sorted(piv.items()):
+        if method.startswith("ref:"):
+            continue
+        ident, energy = ms.get("identity"), ms.get("energy")
+        if ident is not None and ident.status == "ok":
+            d = ident.data
+            match, dev = d.get("match"), ident.value
+            mode = method.split(":", 1)[1]
+            expected = d.get("name_suggests")
+            if expected and match and expected not in match:
+                out.append(f"`{method}` on `{scene}` integrates as **`{match}`** (max deviation {dev:.1e}), "
+                           f"not the {expected.replace('_', ' ')} its name suggests"
+                           + (f": {d['why']}" if d.get("why") else "."))
+            elif match == "ref:explicit_euler":
+                out.append(f"`{method}` on `{scene}` is **explicit Euler** (max deviation {dev:.1e}): "
+                           "its energy grows every step" + (f" ({d['why']})" if d.get("why") else "") + ".")
+            elif match is None and d.get("note"):
+                out.append(f"`{method}` on `{scene}`: {d['note']}")
+            del mode
+        if energy is not None and energy.status == "unstable" and energy.data.get("failed_step"):
+            out.append(f"`{method}` blows up on `{scene}` at the nominal timestep (step {energy.data['failed_step']}).")
+        elif energy is not None and energy.status == "ok" and energy.data.get("class") == "grows":
+            out.append(f"`{method}` gains energy on `{scene}` at the nominal timestep "
+                       f"(max |ΔE/E| {energy.value:.2e}).")
+    for _, r in cells[cells.status.isin(["crashed", "timed_out"])].iterrows():
+        out.append(f"`{r.method}` on `{r.scene}` ({r.measure}): **{r.status}**: {r.detail}")
+    lines = ["## Findings", ""]
+    lines += [f"- {f}" for f in dict.fromkeys(out)] or ["- nothing unexpected in this run"]
+    return lines + [""]
+
+
+def bounds_section(cells: pd.DataFrame) -> list[str]:
+    b = cells[cells.measure == "bound"]
+    if b.empty:
+        return []
+    lines = ["## Energy bounds (reviewed file)", "", "| method | scene | dt | steps | max \\|ΔE/E\\| | bound | |",
+             "|---|---|---|---|---|---|---|"]
+    for _, r in b.sort_values(["scene", "method", "dt"]).iterrows():
+        bound = r.data.get("bound")
+        ok = r.status == "ok" and bound is not None and r.value <= bound
+        val = _fmt(r.value, ".2e") if r.status == "ok" else r.status
+        lines.append(f"| `{r.method}` | {r.scene} | {r.dt:g} | {int(r.steps)} | {val} | {_fmt(bound, '.2g')} | {mark(ok)} |")
+    return lines + [""]
+
+
+def appendix(run: dict, cells: pd.DataFrame) -> list[str]:
+    lines = ["## Appendix: versions and settings", "", "| package | version |", "|---|---|"]
+    for pkg, ver in sorted((run.get("versions") or {}).items()):
+        lines.append(f"| {pkg} | {ver or 'not installed'} |")
+    lines += ["", "Settings each engine adapter used (as the adapter recorded them):", ""]
+    seen = set()
+    for _, r in cells[(cells.family != "ref") & (cells.measure == "energy")].sort_values(["method", "scene"]).iterrows():
+        settings = r.data.get("settings")
+        key = (r.method, r.scene)
+        if settings is None or key in seen:
+            continue
+        seen.add(key)
+        items = "; ".join(f"{k}={v}" for k, v in settings.items()) if isinstance(settings, dict) else str(settings)
+        lines.append(f"- `{r.method}` on `{r.scene}` ({r.data.get('engine_version', '?')}): {items}")
+    skipped = (run.get("settings") or {}).get("skipped") or []
+    if skipped:
+        lines += ["", "Left out of the matrix:", ""]
+        lines += [f"- `{s['method']}` on `{s['scene']}`: {s['reason']}" for s in skipped]
+    return lines + [""]
+
+
+def footer(run: dict, timing: dict | None) -> list[str]:
+    timing = timing or {}
+    lines = ["---", ""]
+    total = timing.get("total_s")
+    lines.append(f"Run {run['run_id']} ({run['suite']} suite), started {run['started']}, commit "
+                 f"`{run.get('git_commit') or 'unknown'}`, measurement version {run['measurement_version']}. "
+                 f"Cells ran on: {timing.get('executor', (run.get('settings') or {}).get('executor', '?'))}.")
+    if total is not None:
+        by = timing.get("worker_seconds_by_measure", {})
+        spent = ", ".join(f"{k} {v:.1f}s" for k, v in sorted(by.items(), key=lambda kv: -kv[1])[:8])
+        lines.append("")
+        lines.append(f"Wall time {total:.1f}s for {timing.get('tasks', '?')} tasks: cells {timing.get('cells_s', 0):.1f}s "
+                     f"(worker seconds by engine:measure: {spent}).")
+    return lines + [""]
+
+
+# ----------------------------------------------------------------------------- the report
+def render(history, run_id: int, out_dir: Path, regressions, previous, timing) -> tuple[str, list[str]]:
+    run = history.run(run_id)
+    cells = history.cells(run_id)
+    piv = _pivot(cells)
+    scenes = list(dict.fromkeys(cells[cells.measure != "bound"].scene))
+    chart_dir = out_dir / "charts"
+    chart_dir.mkdir(parents=True, exist_ok=True)
+    chart_names, written = {}, []
+    for scene in scenes:
+        for kind, fn in (("energy", charts.energy_chart), ("workprecision", charts.workprecision_chart),
+                         ("stability", charts.stability_chart)):
+            name = f"charts/run{run_id}-{scene}-{kind}.png"
+            if fn(cells[cells.scene == scene], scene, out_dir / name):
+                chart_names[(scene, kind)] = name
+                written.append(name)
+    lines = [f"# Integrator comparison: run {run_id} ({run['suite']})", ""]
+    lines += verdict(regressions, previous)
+    lines += tradeoff_table(piv)
+    lines += identity_table(piv)
+    lines += ["## Per scene", ""]
+    for scene in scenes:
+        lines += scene_section(scene, piv, chart_names)
+    lines += findings(piv, cells)
+    lines += bounds_section(cells)
+    lines += appendix(run, cells)
+    lines += footer(run, timing)
+    return "\n".join(lines), written
+
+
+def write_report(history, run_id: int, out_dir, regressions=(), previous=None, timing=None) -> Path:
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    text, charts_written = render(history, run_id, out_dir, list(regressions), previous, timing)
+    target = out_dir / "report.md"
+    tmp = out_dir / f".report.md.{os.getpid()}.tmp"
+    with open(tmp, "w") as fh:
+        fh.write(text)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, target)  # the one step where the old report becomes the new one
+    keep = {Path(c).name for c in charts_written}
+    for old in (out_dir / "charts").glob("run*.png"):
+        if old.name not in keep:
+            old.unlink(missing_ok=True)
+    return target
