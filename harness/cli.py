@@ -11,7 +11,7 @@ import sys
 
 from scenarios import InvalidInput
 
-COMMANDS = ["run", "list", "bench"]
+COMMANDS = ["run", "list", "bench", "identify"]
 
 
 class _Parser(argparse.ArgumentParser):
