@@ -80,7 +80,12 @@ class _Model:
 
 
 def _plain(value):
-    return value if isinstance(value, (int, float, str)) else str(value)
+    """REBOUND hands integrator fields back as ctypes-backed subclasses of int/float (which do
+    not pickle) or as enum names: record plain values."""
+    for kind in (float, int):
+        if isinstance(value, kind):
+            return kind(value)
+    return str(value)
 
 
 def build(rebound, mode: str, scene: Scene, dt: float) -> _Model:
