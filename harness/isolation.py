@@ -21,9 +21,11 @@ from __future__ import annotations
 import faulthandler
 import math
 import multiprocessing
+import multiprocessing.forkserver
 import os
 import signal
 import tempfile
+import threading
 import time
 import traceback
 from dataclasses import asdict, dataclass
@@ -58,14 +60,34 @@ class WorkerFailure:
 
 
 _CONTEXT = None
+_LOCK = threading.Lock()
+
+#: The directory holding this copy of the project's packages (the checkout, or site-packages).
+_PROJECT_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _context():
+    """The forkserver context, with the server running and importing *this* copy of the project.
+
+    Python 3.11's forkserver is handed the caller's sys.path and drops it, so the server would
+    preload whatever ``harness`` its default path finds (an installed copy instead of this
+    checkout) and the workers forked from it would run that. The server is therefore started
+    (and restarted, should it have died) with this copy's root first on PYTHONPATH.
+    """
     global _CONTEXT
-    if _CONTEXT is None:
-        ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(PRELOAD)
-        _CONTEXT = ctx
+    with _LOCK:
+        if _CONTEXT is None:
+            _CONTEXT = multiprocessing.get_context("forkserver")
+            _CONTEXT.set_forkserver_preload(PRELOAD)
+        saved = os.environ.get("PYTHONPATH")
+        os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (_PROJECT_ROOT, saved) if p)
+        try:
+            multiprocessing.forkserver.ensure_running()
+        finally:
+            if saved is None:
+                del os.environ["PYTHONPATH"]
+            else:
+                os.environ["PYTHONPATH"] = saved
     return _CONTEXT
 
 
