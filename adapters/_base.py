@@ -48,11 +48,16 @@ class Model(Protocol):
 def quiet_fds():
     """Send file descriptors 1 and 2 to /dev/null for the duration (C-level output included:
     pybullet prints its build banner with printf on import). C stdio buffers are flushed
-    before the descriptors are put back, so buffered engine output cannot surface later."""
+    before the descriptors are put back, so buffered engine output cannot surface later.
+    Where 1 or 2 is not open there is nothing to protect, and nothing is redirected."""
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(Exception):
             stream.flush()
-    saved = [os.dup(1), os.dup(2)]
+    try:
+        saved = [os.dup(1), os.dup(2)]
+    except OSError:
+        yield
+        return
     devnull = os.open(os.devnull, os.O_WRONLY)
     try:
         os.dup2(devnull, 1)
@@ -77,7 +82,7 @@ def _flush_c_stdio() -> None:
 
 def import_engine(name: str):
     """Import an engine module with its import-time output silenced."""
-    if name in sys.modules and sys.modules[name] is not None:
+    if sys.modules.get(name) is not None:  # already imported: skip the descriptor juggling
         return sys.modules[name]
     with quiet_fds():
         return importlib.import_module(name)

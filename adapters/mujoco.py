@@ -23,8 +23,7 @@ INTEGRATORS = {"euler": "Euler", "rk4": "RK4", "implicit": "implicit", "implicit
 
 SCENES = ("spring", "damped_spring", "pendulum", "projectile")
 UNSUPPORTED = {
-    "kepler": "MuJoCo has no central inverse-square force; posing one would take a Python "
-              "callback (mjcb_passive), which is our force, not the engine's dynamics",
+    "kepler": "MuJoCo has no central 1/r^2 force (an mjcb_passive callback would be our force, not MuJoCo's)",
 }
 
 #: Divergence warnings. MuJoCo raises them when a qpos/qvel/qacc entry is NaN, inf or
@@ -77,9 +76,6 @@ class _Model:
         q0, v0 = scene.initial_state()
         d.qpos[:] = q0
         d.qvel[:] = v0
-        self.warnings: list[str] = []
-        self._previous_handler = mujoco.get_mju_user_warning()
-        mujoco.set_mju_user_warning(self.warnings.append)
         self._bad = [int(getattr(mujoco.mjtWarning, w)) for w in _BAD_STATE]
         self._counts = self._bad_counts()
         mujoco.mj_forward(m, d)
@@ -102,6 +98,10 @@ class _Model:
             "armature": [float(x) for x in m.dof_armature],
             "ngeom": int(m.ngeom),
         }
+        # Last, so that nothing can fail between installing the handler and close() restoring it.
+        self.warnings: list[str] = []
+        self._previous_handler = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(self.warnings.append)
 
     def _bad_counts(self) -> list[int]:
         return [int(self.d.warning[i].number) for i in self._bad]

@@ -20,8 +20,8 @@ from ._base import EngineMode
 
 SCENES = ("spring", "damped_spring", "pendulum", "projectile")
 UNSUPPORTED = {
-    "kepler": "Bullet has no central inverse-square force; an applied 1/r^2 force on a free "
-              "body would be our force stepped by the same semi-implicit Euler the spring identifies",
+    "kepler": "not posed: Bullet has no 1/r^2 force, and one applied from Python would only repeat what "
+              "the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
 }
 
 

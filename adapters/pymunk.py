@@ -25,8 +25,8 @@ from ._base import EngineMode, unwrap
 _FORCE_SCENES = ("spring", "damped_spring", "projectile")
 _FORCE_UNSUPPORTED = {
     "pendulum": "a pendulum in Chipmunk is a joint, not a force: see pymunk:pin_joint",
-    "kepler": "Chipmunk has no gravity between bodies; a 1/r^2 force from Python would be our "
-              "force stepped by the same scheme the spring identifies",
+    "kepler": "not posed: Chipmunk has no gravity between bodies, and a 1/r^2 force from Python would only "
+              "repeat what the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
 }
 _JOINT_UNSUPPORTED = {
     "spring": "a pin joint poses only the pendulum; see pymunk:spring_force",

@@ -17,9 +17,8 @@ from scenarios import Scene
 from ._base import EngineMode
 
 SCENES = ("kepler",)
-_NOT_GRAVITY = "REBOUND integrates gravitational N-body problems; {} is not one (a Python " \
-               "additional_forces callback would be our force, not the engine's dynamics)"
-UNSUPPORTED = {s: _NOT_GRAVITY.format(s) for s in ("spring", "damped_spring", "pendulum", "projectile")}
+_NOT_GRAVITY = "not a gravitational N-body problem (an additional_forces callback would be our force, not REBOUND's)"
+UNSUPPORTED = {s: _NOT_GRAVITY for s in ("spring", "damped_spring", "pendulum", "projectile")}
 
 #: Integrator settings set explicitly, so that a new REBOUND default cannot change what runs.
 #: Each is REBOUND 5.2.2's default except where noted.

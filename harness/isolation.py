@@ -194,6 +194,11 @@ def simulate_isolated(method_id: str, scene: Scene, dt: float, steps: int, every
     limit = DEFAULT_TIMEOUT_S if timeout is None else timeout
     out = run_in_worker(_simulate, (method_id, scene, dt, steps, every), timeout=limit)
     if isinstance(out, WorkerFailure):
+        from .methods import get_method
+
+        info = get_method(method_id).describe()  # a failed run, too, says which engine and settings
+        meta = {"backend": "engine", "engine": info.get("engine"), "engine_version": info.get("engine_version"),
+                "settings": info.get("settings"), "worker": out.as_dict(), "params": dict(scene.values)}
         return Trajectory.failed(scene.id, method_id, dt, steps, out.status, out.detail, every=every,
-                                 ndof=scene.ndof, meta={"worker": out.as_dict(), "params": dict(scene.values)})
+                                 ndof=scene.ndof, meta=meta)
     return out

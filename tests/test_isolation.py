@@ -114,7 +114,7 @@ def test_real_engine_abort_pymunk_negative_mass_is_a_crashed_trajectory():
     run = simulate_isolated("pymunk:applied_force", spring, 0.1, 10, timeout=60)
     assert run.status == "crashed" and run.failed_step is None
     assert "SIGABRT" in run.detail and "Mass must be positive" in run.detail
-    assert run.meta["worker"]["signal"] == "SIGABRT"
+    assert run.meta["worker"]["signal"] == "SIGABRT" and run.meta["engine_version"] == "7.3.1"
     assert run.q.shape == (0, 1, 1)
     after = simulate_isolated("pymunk:applied_force", make_scene("spring"), 0.1, 10, timeout=60)
     assert after.ok and len(after.step) == 11
