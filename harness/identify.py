@@ -72,8 +72,10 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
                            "matches": dev <= tolerance})
     candidates.sort(key=lambda c: c["max_deviation"])
     matches = [c["method"] for c in candidates if c["matches"]]
-    others = [c for c in candidates if not c["matches"]]
     best = candidates[0] if candidates else None
+    # The runner-up is the closest scheme that is not the answer: the first non-match after
+    # a match, the second-closest when nothing matches.
+    others = [c for c in candidates[0 if matches else 1:] if not c["matches"]]
     return {**out, "tolerance": tolerance, "matches": matches,
             "match": matches[0] if matches else None,
             "max_deviation": best["max_deviation"] if best else None,
