@@ -99,8 +99,9 @@ def engine_version(dist: str) -> str | None:
 class EngineMode:
     """One integrator mode of one engine, usable wherever a ``ref:`` method is.
 
-    ``scenes`` maps each supported scene id to nothing more than that it is supported;
-    ``unsupported`` gives the reason for every scene this mode cannot pose minimally.
+    ``scenes`` lists the scene ids the mode poses; ``unsupported`` gives the reason for every
+    scene it cannot pose minimally. ``settings`` describe the mode (each result records the
+    settings read back from the engine that ran).
     ``doc`` says, measured, which scheme the mode is; its first line is the summary.
     """
 

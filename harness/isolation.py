@@ -139,6 +139,9 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
     exception in the worker is a ``crashed`` failure with the exception in ``detail`` and the
     traceback in ``output``. ``timeout`` (seconds, None or inf for no limit) counts from the
     worker's start; past it the worker is killed and the failure is ``timed_out``.
+
+    As with any start method but ``fork``, a script that calls this at import time needs the
+    ``if __name__ == "__main__":`` guard (the worker imports the caller's main module).
     """
     ctx = _context()
     limit = None if timeout is None or math.isinf(timeout) else float(timeout)
@@ -149,17 +152,15 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
         proc.start()
         sender.close()  # only the worker holds the sending end: its death reads as EOF here
         try:
-            message = None
-            if receiver.poll(limit):
-                try:
-                    message = receiver.recv()
-                except EOFError:
-                    message = None
-            else:
+            if not receiver.poll(limit):  # neither a result nor EOF in time
                 proc.kill()
                 proc.join()
                 return WorkerFailure(TIMED_OUT, f"no result within {limit:g} s; worker killed",
                                      output=_tail(workdir), seconds=time.monotonic() - started)
+            try:
+                message = receiver.recv()
+            except EOFError:  # the worker died without sending anything
+                message = None
             proc.join(timeout=10.0)
             if proc.exitcode is None:  # sent its result but will not exit
                 proc.kill()
