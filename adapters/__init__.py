@@ -1,4 +1,13 @@
-"""Engine adapters: one module per engine; ``ENGINE_METHODS[id]`` is an engine mode."""
+"""Engine adapters: one module per engine; ``ENGINE_METHODS[id]`` is an engine mode.
+
+Importing this package imports no engine: each engine is imported when a mode is asked
+whether it is available or is stepped (and then with its import-time output silenced).
+"""
 from __future__ import annotations
 
-ENGINE_METHODS: dict[str, object] = {}
+from . import mujoco, pybullet, pymunk, rebound
+from ._base import EngineMode
+
+ENGINE_METHODS: dict[str, EngineMode] = {**mujoco.METHODS, **pybullet.METHODS, **pymunk.METHODS, **rebound.METHODS}
+
+__all__ = ["ENGINE_METHODS", "EngineMode"]

@@ -11,7 +11,7 @@ import sys
 
 from scenarios import InvalidInput
 
-COMMANDS = ["run", "list", "bench", "nightly", "compare", "bounds"]
+COMMANDS = ["run", "list", "bench", "identify", "nightly", "compare", "bounds"]
 
 
 class _Parser(argparse.ArgumentParser):

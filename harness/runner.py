@@ -4,8 +4,17 @@ from __future__ import annotations
 
 from scenarios import Scene, Trajectory
 
+from . import validate
+
 
 def simulate(method, scene: Scene, dt: float, steps: int, every: int = 1, timeout: float | None = None) -> Trajectory:
+    """Validate the inputs (InvalidInput, one line), then step ``method`` on ``scene``.
+    Nothing reaches an engine that validation would refuse: some engines abort the whole
+    process on bad input (pymunk on a negative mass) or never return (REBOUND with dt = 0)."""
+    dt = validate.positive_finite("dt", dt)
+    steps = validate.count("steps", steps, 0)
+    every = validate.count("every", every, 1)
+    validate.scene_values(scene)
     if getattr(method, "isolated", False):
         from .isolation import simulate_isolated
 

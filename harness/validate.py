@@ -31,3 +31,9 @@ def choice(name: str, value: str, choices) -> str:
     if value not in choices:
         raise InvalidInput(f"unknown {name} {value!r} (valid: {', '.join(choices)})")
     return value
+
+
+def scene_values(scene) -> None:
+    """Check a scene's current parameter values against its declared ranges once more: a
+    scene's ``values`` is a plain dict, and an engine must never see what the scene refuses."""
+    type(scene)(**scene.values)

@@ -1,0 +1,209 @@
+"""What every engine adapter shares: the engine mode as a method, quiet engine imports,
+and the stepping loop that turns an engine model into a :class:`Trajectory`.
+
+An engine module (``adapters/mujoco.py``, ...) provides ``build(engine_module, mode, scene, dt)``
+returning a :class:`Model`: the minimal engine model of the scene, set to the scene's initial
+state, that advances one step of ``dt`` at a time and reports its state in the scene's own
+coordinates. :func:`drive` steps it exactly as ``reference/_integrate.py`` steps a scheme
+(step 0 recorded, then every ``every`` steps, always the last), so the two are compared like
+with like; the energy is the scene's, from the state.
+"""
+from __future__ import annotations
+
+import contextlib
+import importlib
+import importlib.metadata
+import math
+import os
+import sys
+from dataclasses import dataclass, field
+from typing import Callable, Mapping, Protocol
+
+import numpy as np
+
+from scenarios import Scene, Trajectory
+from scenarios.trajectory import OK, UNSTABLE
+
+
+class Model(Protocol):
+    """A built engine model of one scene. ``settings`` are read back from the engine after
+    building (what actually ran, not what was asked for) and must be plain JSON values."""
+
+    settings: dict
+
+    def advance(self) -> None:
+        """One engine step of dt."""
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) in the scene's coordinates, each (ndof,), copies."""
+
+    def trouble(self) -> str | None:
+        """A divergence the engine itself reported during the last step (None if none)."""
+
+    def close(self) -> None:
+        """Release the engine's resources."""
+
+
+@contextlib.contextmanager
+def quiet_fds():
+    """Send file descriptors 1 and 2 to /dev/null for the duration (C-level output included:
+    pybullet prints its build banner with printf on import). C stdio buffers are flushed
+    before the descriptors are put back, so buffered engine output cannot surface later.
+    Where 1 or 2 is not open there is nothing to protect, and nothing is redirected."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    try:
+        saved = [os.dup(1), os.dup(2)]
+    except OSError:
+        yield
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        _flush_c_stdio()
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, devnull):
+            os.close(fd)
+
+
+def _flush_c_stdio() -> None:
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).fflush(None)
+    except Exception:  # pragma: no cover - no C library to flush (not on Linux/macOS)
+        pass
+
+
+def import_engine(name: str):
+    """Import an engine module with its import-time output silenced."""
+    if sys.modules.get(name) is not None:  # already imported: skip the descriptor juggling
+        return sys.modules[name]
+    with quiet_fds():
+        return importlib.import_module(name)
+
+
+def engine_version(dist: str) -> str | None:
+    try:
+        return importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+@dataclass(frozen=True)
+class EngineMode:
+    """One integrator mode of one engine, usable wherever a ``ref:`` method is.
+
+    ``scenes`` lists the scene ids the mode poses; ``unsupported`` gives the reason for every
+    scene it cannot pose minimally. ``settings`` describe the mode (each result records the
+    settings read back from the engine that ran).
+    ``doc`` says, measured, which scheme the mode is; its first line is the summary.
+    """
+
+    engine: str
+    mode: str
+    module: str
+    dist: str
+    build: Callable
+    scenes: tuple[str, ...]
+    unsupported: Mapping[str, str]
+    settings: Mapping[str, object]
+    doc: str = field(default="", compare=False)
+
+    isolated = True
+
+    @property
+    def id(self) -> str:
+        return f"{self.engine}:{self.mode}"
+
+    @property
+    def family(self) -> str:
+        return self.engine
+
+    @property
+    def summary(self) -> str:
+        return self.doc.strip().splitlines()[0] if self.doc else self.id
+
+    def available(self) -> tuple[bool, str]:
+        try:
+            import_engine(self.module)
+        except Exception as exc:  # ImportError, or a broken install (OSError from a shared library)
+            return False, (f"{self.module} cannot be imported ({type(exc).__name__}: {exc}); "
+                           f"install it with: pip install 'integrator-harness[{self.engine}]'")
+        return True, ""
+
+    def supports(self, scene: Scene) -> tuple[bool, str]:
+        if scene.id in self.scenes:
+            return True, ""
+        return False, self.unsupported.get(scene.id, f"{self.id} has no model of scene {scene.id}")
+
+    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
+        """Step the engine in this process (the harness calls this inside a worker process)."""
+        ok, why = self.supports(scene)
+        if not ok:
+            raise ValueError(f"{self.id} does not support scene {scene.id}: {why}")
+        engine = import_engine(self.module)
+        model = self.build(engine, self.mode, scene, dt)
+        try:
+            traj = drive(model, scene, self.id, dt, steps, every)
+        finally:
+            model.close()
+        traj.meta.update({
+            "backend": "engine", "engine": self.engine, "engine_version": engine_version(self.dist),
+            "settings": dict(model.settings),
+        })
+        return traj
+
+    def describe(self) -> dict:
+        return {"id": self.id, "family": self.engine, "engine": self.engine, "mode": self.mode,
+                "summary": self.summary, "engine_version": engine_version(self.dist),
+                "settings": dict(self.settings), "supported_scenes": list(self.scenes),
+                "doc": " ".join(self.doc.split())}
+
+
+def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every: int = 1) -> Trajectory:
+    """Step ``model`` ``steps`` times, recording as the reference driver records.
+
+    A step whose state is not finite, or where the engine reported a divergence, stops the
+    run: status ``unstable`` with that step, the arrays ending at the last good recorded state.
+    """
+    q, v = model.state()
+    rec_step, rec_q, rec_v = [0], [q], [v]
+    status, failed, detail = OK, None, ""
+    for n in range(1, steps + 1):
+        model.advance()
+        q, v = model.state()
+        trouble = model.trouble()
+        if trouble is None and not (np.isfinite(q).all() and np.isfinite(v).all()):
+            trouble = "state not finite"
+        if trouble is not None:
+            status, failed = UNSTABLE, n
+            detail = f"{trouble} at step {n} (t = {n * dt:g})"
+            break
+        if n % every == 0 or n == steps:
+            rec_step.append(n)
+            rec_q.append(q)
+            rec_v.append(v)
+    q_arr = np.array(rec_q)[:, None, :]
+    v_arr = np.array(rec_v)[:, None, :]
+    step_arr = np.array(rec_step, dtype=np.int64)
+    with np.errstate(all="ignore"):
+        energy = scene.energy(q_arr, v_arr)
+    return Trajectory(
+        scene=scene.id, method=method, dt=dt, steps=steps, every=every,
+        step=step_arr, t=step_arr * dt, q=q_arr, v=v_arr, energy=energy,
+        status=status, detail=detail, failed_step=failed,
+        meta={"steps_run": (failed - 1) if failed else steps, "params": dict(scene.values)},
+    )
+
+
+def unwrap(previous: float, angle: float) -> float:
+    """``angle`` plus the whole turns that bring it nearest ``previous``: a continuous angle from
+    an engine that reports it modulo 2 pi. An angle already continuous is returned untouched."""
+    turns = round((previous - angle) / (2.0 * math.pi))
+    return angle + turns * (2.0 * math.pi) if turns else angle

@@ -1,0 +1,205 @@
+"""Engine runs in worker processes: an abort, a segfault or a hang becomes a recorded result.
+
+:func:`run_in_worker` is the general tool (the nightly runner uses it for whole measurement
+cells): it calls a module-level function in a fresh worker process and returns its result, or
+a :class:`WorkerFailure` saying how the worker died (``crashed`` with the signal, ``timed_out``
+after the limit, the worker then killed). :func:`simulate_isolated` uses it to step one engine
+mode and always returns a :class:`Trajectory`.
+
+Workers come from a ``forkserver``: safe when the parent has threads (a plain ``fork`` is
+not), and cheaper than ``spawn`` because the server has already imported numpy, the scenes
+and the adapters (and the engines, silently) when it forks a worker. Each worker runs in its
+own temporary directory, with its file descriptors 1 and 2 sent to files there, so engine
+banners, warnings and MUJOCO_LOG.TXT never reach the caller's output or working directory;
+the tail of what the engine said is kept for the failure's detail.
+
+The isolation layer does not validate inputs (``runner.simulate`` does, before calling it),
+so tests can hand an engine through it what validation would refuse.
+"""
+from __future__ import annotations
+
+import faulthandler
+import math
+import multiprocessing
+import multiprocessing.forkserver
+import os
+import signal
+import tempfile
+import threading
+import time
+import traceback
+from dataclasses import asdict, dataclass
+
+from scenarios import Scene, Trajectory
+from scenarios.trajectory import CRASHED, TIMED_OUT
+
+#: Seconds an engine run may take when the caller gives no limit.
+DEFAULT_TIMEOUT_S = 60.0
+
+#: Modules the forkserver imports once, so that a worker starts without importing them.
+PRELOAD = ["numpy", "scenarios", "reference", "adapters", "harness.methods", "harness.isolation",
+           "harness._preload_engines"]
+
+#: How much of the worker's captured output a failure keeps.
+OUTPUT_TAIL_CHARS = 2000
+
+
+@dataclass
+class WorkerFailure:
+    """How a worker failed to return a result: ``status`` is ``crashed`` or ``timed_out``."""
+
+    status: str
+    detail: str
+    signal: str | None = None
+    exitcode: int | None = None
+    output: str = ""
+    seconds: float = 0.0
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+_CONTEXT = None
+_LOCK = threading.Lock()
+
+#: The directory holding this copy of the project's packages (the checkout, or site-packages).
+_PROJECT_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _context():
+    """The forkserver context, with the server running and importing *this* copy of the project.
+
+    Python 3.11's forkserver is handed the caller's sys.path and drops it, so the server would
+    preload whatever ``harness`` its default path finds (an installed copy instead of this
+    checkout) and the workers forked from it would run that. The server is therefore started
+    (and restarted, should it have died) with this copy's root first on PYTHONPATH.
+    """
+    global _CONTEXT
+    with _LOCK:
+        if _CONTEXT is None:
+            _CONTEXT = multiprocessing.get_context("forkserver")
+            _CONTEXT.set_forkserver_preload(PRELOAD)
+        saved = os.environ.get("PYTHONPATH")
+        os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (_PROJECT_ROOT, saved) if p)
+        try:
+            multiprocessing.forkserver.ensure_running()
+        finally:
+            if saved is None:
+                del os.environ["PYTHONPATH"]
+            else:
+                os.environ["PYTHONPATH"] = saved
+    return _CONTEXT
+
+
+def _worker(conn, workdir: str, fn, args, kwargs) -> None:
+    os.chdir(workdir)
+    for fd, name in ((1, "stdout.txt"), (2, "stderr.txt")):
+        out = os.open(os.path.join(workdir, name), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        os.dup2(out, fd)
+        os.close(out)
+    faulthandler.enable()  # a segfault leaves its Python traceback in stderr.txt
+    try:
+        message = ("ok", fn(*args, **kwargs))
+    except BaseException as exc:  # noqa: BLE001 - every failure must come back as a result
+        message = ("error", f"{type(exc).__name__}: {exc}", traceback.format_exc())
+    try:
+        conn.send(message)
+    except Exception as exc:  # an unpicklable result
+        conn.send(("error", f"result could not be sent back: {type(exc).__name__}: {exc}", ""))
+    conn.close()
+
+
+def _read(workdir: str, name: str) -> str:
+    try:
+        with open(os.path.join(workdir, name), errors="replace") as f:
+            return f.read()
+    except OSError:
+        return ""
+
+
+def _tail(workdir: str) -> str:
+    parts = [text.strip() for text in (_read(workdir, "stderr.txt"), _read(workdir, "stdout.txt")) if text.strip()]
+    return "\n".join(parts)[-OUTPUT_TAIL_CHARS:]
+
+
+def _complaint(workdir: str) -> str:
+    """What the worker said on stderr before it died, on one line: the engine's message
+    (pymunk: "Aborting due to Chipmunk error: Mass must be positive ..."), else the first
+    line of faulthandler's dump ("Fatal Python error: Segmentation fault")."""
+    text = _read(workdir, "stderr.txt")
+    before, sep, after = text.partition("Fatal Python error")
+    said = " ".join(before.split()) or (sep + after.splitlines()[0] if sep else "")
+    return said[:200]
+
+
+def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: float | None = None):
+    """``fn(*args, **kwargs)`` in a worker process; its result, or a :class:`WorkerFailure`.
+
+    ``fn`` must be a module-level function and its arguments and result picklable. A Python
+    exception in the worker is a ``crashed`` failure with the exception in ``detail`` and the
+    traceback in ``output``. ``timeout`` (seconds, None or inf for no limit) counts from the
+    worker's start; past it the worker is killed and the failure is ``timed_out``.
+
+    As with any start method but ``fork``, a script that calls this at import time needs the
+    ``if __name__ == "__main__":`` guard (the worker imports the caller's main module).
+    """
+    ctx = _context()
+    limit = None if timeout is None or math.isinf(timeout) else float(timeout)
+    started = time.monotonic()
+    with tempfile.TemporaryDirectory(prefix="harness-worker-") as workdir:
+        receiver, sender = ctx.Pipe(duplex=False)
+        proc = ctx.Process(target=_worker, args=(sender, workdir, fn, args, kwargs or {}), daemon=True)
+        proc.start()
+        sender.close()  # only the worker holds the sending end: its death reads as EOF here
+        try:
+            if not receiver.poll(limit):  # neither a result nor EOF in time
+                proc.kill()
+                proc.join()
+                return WorkerFailure(TIMED_OUT, f"no result within {limit:g} s; worker killed",
+                                     output=_tail(workdir), seconds=time.monotonic() - started)
+            try:
+                message = receiver.recv()
+            except EOFError:  # the worker died without sending anything
+                message = None
+            proc.join(timeout=10.0)
+            if proc.exitcode is None:  # sent its result but will not exit
+                proc.kill()
+                proc.join()
+        finally:
+            receiver.close()
+        seconds = time.monotonic() - started
+        if message is not None and message[0] == "ok":
+            return message[1]
+        output = _tail(workdir)
+        if message is not None:
+            return WorkerFailure(CRASHED, f"raised {message[1]}", output=message[2] or output, seconds=seconds)
+        code = proc.exitcode
+        if code is not None and code < 0:
+            name = signal.Signals(-code).name
+            said = _complaint(workdir)
+            detail = f"worker killed by {name}" + (f" ({said})" if said else "")
+            return WorkerFailure(CRASHED, detail, signal=name, exitcode=code, output=output, seconds=seconds)
+        return WorkerFailure(CRASHED, f"worker exited with code {code} without a result",
+                             exitcode=code, output=output, seconds=seconds)
+
+
+def _simulate(method_id: str, scene: Scene, dt: float, steps: int, every: int) -> Trajectory:
+    from .methods import get_method
+
+    return get_method(method_id).simulate(scene, dt, steps, every)
+
+
+def simulate_isolated(method_id: str, scene: Scene, dt: float, steps: int, every: int = 1,
+                      timeout: float | None = None) -> Trajectory:
+    """Step an engine mode in a worker; a crash or a hang comes back as a failed Trajectory."""
+    limit = DEFAULT_TIMEOUT_S if timeout is None else timeout
+    out = run_in_worker(_simulate, (method_id, scene, dt, steps, every), timeout=limit)
+    if isinstance(out, WorkerFailure):
+        from .methods import get_method
+
+        info = get_method(method_id).describe()  # a failed run, too, says which engine and settings
+        meta = {"backend": "engine", "engine": info.get("engine"), "engine_version": info.get("engine_version"),
+                "settings": info.get("settings"), "worker": out.as_dict(), "params": dict(scene.values)}
+        return Trajectory.failed(scene.id, method_id, dt, steps, out.status, out.detail, every=every,
+                                 ndof=scene.ndof, meta=meta)
+    return out

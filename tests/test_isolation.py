@@ -1,0 +1,128 @@
+"""Worker-process isolation: an abort, a segfault, a hang or an exception in an engine run
+becomes a recorded result, and the harness goes on (issue 3, "Isolation and failure").
+
+The probe functions below run inside the worker; they must be module-level so that the
+worker can import them by name.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import time
+
+import pytest
+
+from harness.isolation import WorkerFailure, run_in_worker, simulate_isolated
+from scenarios import make_scene
+
+#: Slack on a timeout: killing and reaping a worker takes milliseconds; a loaded 2-core
+#: machine can delay it by a second or two.
+KILL_SLACK_S = 5.0
+
+
+def double_and_chatter(x):
+    print("python stdout noise")
+    os.write(1, b"fd-1 noise\n")
+    os.write(2, b"fd-2 noise\n")
+    ctypes.CDLL(None).printf(b"C stdio noise\n")
+    with open("MUJOCO_LOG.TXT", "w") as f:
+        f.write("a file an engine leaves in its working directory\n")
+    return {"value": 2 * x, "cwd": os.getcwd()}
+
+
+def abort_probe():
+    os.abort()
+
+
+def segfault_probe():
+    ctypes.string_at(0)
+
+
+def hang_probe(pid_file):
+    with open(pid_file, "w") as f:
+        f.write(str(os.getpid()))
+    time.sleep(600)
+
+
+def raise_probe():
+    raise ValueError("the engine refused")
+
+
+def rebound_dt_zero_hang():
+    # REBOUND's integrate(t) never returns with dt = 0 (sim.steps(n) does; the adapter uses that).
+    import rebound
+
+    sim = rebound.Simulation()
+    sim.integrator = "leapfrog"
+    sim.dt = 0.0
+    sim.add(m=1.0)
+    sim.add(m=0.0, x=0.5, vy=1.7)
+    sim.integrate(1.0)
+
+
+def test_result_comes_back_and_noise_and_files_stay_in_the_worker(tmp_path, monkeypatch, capfd):
+    monkeypatch.chdir(tmp_path)
+    out = run_in_worker(double_and_chatter, (21,), timeout=60)
+    assert out["value"] == 42
+    assert os.path.realpath(out["cwd"]) != os.path.realpath(tmp_path)
+    assert not os.path.exists(out["cwd"])  # the worker's temporary directory is removed
+    assert os.listdir(tmp_path) == []
+    captured = capfd.readouterr()
+    assert "noise" not in captured.out + captured.err
+
+
+def test_abort_is_crashed_with_the_signal_and_the_harness_goes_on():
+    failure = run_in_worker(abort_probe, timeout=60)
+    assert isinstance(failure, WorkerFailure)
+    assert (failure.status, failure.signal) == ("crashed", "SIGABRT")
+    assert "SIGABRT" in failure.detail
+    assert run_in_worker(divmod, (7, 2), timeout=60) == (3, 1)
+
+
+def test_segfault_is_crashed_with_the_signal():
+    failure = run_in_worker(segfault_probe, timeout=60)
+    assert (failure.status, failure.signal) == ("crashed", "SIGSEGV")
+    assert "Segmentation fault" in failure.detail  # faulthandler's first line, from the worker
+
+
+def test_hang_is_timed_out_and_the_worker_is_killed(tmp_path):
+    pid_file = tmp_path / "pid"
+    started = time.monotonic()
+    failure = run_in_worker(hang_probe, (str(pid_file),), timeout=1.0)
+    assert failure.status == "timed_out" and "1 s" in failure.detail
+    assert time.monotonic() - started < 1.0 + KILL_SLACK_S
+    with pytest.raises(ProcessLookupError):
+        os.kill(int(pid_file.read_text()), 0)
+
+
+def test_exception_is_crashed_with_the_exception():
+    failure = run_in_worker(raise_probe, timeout=60)
+    assert failure.status == "crashed" and failure.detail == "raised ValueError: the engine refused"
+    assert "Traceback" in failure.output
+
+
+def test_real_engine_hang_rebound_dt_zero_is_timed_out():
+    failure = run_in_worker(rebound_dt_zero_hang, timeout=2.0)
+    assert failure.status == "timed_out"
+
+
+def test_real_engine_abort_pymunk_negative_mass_is_a_crashed_trajectory():
+    # Scene validation refuses m <= 0; mutating the values hands the engine what the harness
+    # never would (runner.simulate re-validates; simulate_isolated deliberately does not).
+    spring = make_scene("spring")
+    spring.values["m"] = -1.0
+    run = simulate_isolated("pymunk:applied_force", spring, 0.1, 10, timeout=60)
+    assert run.status == "crashed" and run.failed_step is None
+    assert "SIGABRT" in run.detail and "Mass must be positive" in run.detail
+    assert run.meta["worker"]["signal"] == "SIGABRT" and run.meta["engine_version"] == "7.3.1"
+    assert run.q.shape == (0, 1, 1)
+    after = simulate_isolated("pymunk:applied_force", make_scene("spring"), 0.1, 10, timeout=60)
+    assert after.ok and len(after.step) == 11
+
+
+def test_slow_engine_run_is_a_timed_out_trajectory_then_the_harness_goes_on():
+    kepler = make_scene("kepler")
+    run = simulate_isolated("rebound:ias15", kepler, 0.01, 10**8, timeout=1.0)
+    assert run.status == "timed_out" and "worker killed" in run.detail
+    after = simulate_isolated("rebound:whfast", kepler, 0.01, 100, timeout=60)
+    assert after.ok and after.meta["engine_version"]
