@@ -22,7 +22,7 @@ from typing import Callable, Mapping, Protocol
 import numpy as np
 
 from scenarios import Scene, Trajectory
-from scenarios.trajectory import OK, UNSTABLE
+from scenarios.trajectory import OK, UNSTABLE, divergence_detail, diverged
 
 
 class Model(Protocol):
@@ -169,7 +169,8 @@ class EngineMode:
 def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every: int = 1) -> Trajectory:
     """Step ``model`` ``steps`` times, recording as the reference driver records.
 
-    A step whose state is not finite, or where the engine reported a divergence, stops the
+    A step whose state diverged (the reference driver's criterion, ``scenarios.trajectory.diverged``)
+    or where the engine reported a divergence, stops the
     run: status ``unstable`` with that step, the arrays ending at the last good recorded state.
     """
     q, v = model.state()
@@ -179,8 +180,9 @@ def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every:
         model.advance()
         q, v = model.state()
         trouble = model.trouble()
-        if trouble is None and not (np.isfinite(q).all() and np.isfinite(v).all()):
-            trouble = "state not finite"
+        if trouble is None and diverged(q, v):
+            status, failed, detail = UNSTABLE, n, divergence_detail(n, n * dt)
+            break
         if trouble is not None:
             status, failed = UNSTABLE, n
             detail = f"{trouble} at step {n} (t = {n * dt:g})"

@@ -14,6 +14,20 @@ import pandas as pd
 OK, UNSTABLE, CRASHED, TIMED_OUT, UNSUPPORTED = "ok", "unstable", "crashed", "timed_out", "unsupported"
 STATUSES = (OK, UNSTABLE, CRASHED, TIMED_OUT, UNSUPPORTED)
 
+#: A state component beyond this magnitude is a blow-up even while still finite: its energy
+#: overflows double precision (explicit Euler reaches 1e216 on a spring at h = 0.1). One
+#: criterion for every method, reference or engine, so their failure steps compare.
+DIVERGED = 1e100
+
+
+def diverged(q, v) -> bool:
+    """True when the state is not finite or beyond ``DIVERGED`` (NaN compares false)."""
+    return not max(np.abs(q).max(initial=0.0), np.abs(v).max(initial=0.0)) <= DIVERGED
+
+
+def divergence_detail(n: int, t: float) -> str:
+    return f"state diverged (not finite or |state| > {DIVERGED:g}) at step {n} (t = {t:g})"
+
 
 @dataclass
 class Trajectory:

@@ -16,6 +16,7 @@ Tolerances, and where each comes from:
 """
 from __future__ import annotations
 
+import math
 import json
 import os
 import subprocess
@@ -87,11 +88,19 @@ def test_spring_engine_mode_is_the_reference_scheme(method_id, scheme_id, tol, d
 
 @pytest.mark.filterwarnings("ignore:overflow encountered")  # the scheme's energy of a blown-up state
 def test_explicit_euler_blows_up_in_pymunk_exactly_where_the_scheme_does():
-    # Energy grows by (1 + h^2) = 1.25 per step at h = 0.5: inf after 6362 steps, in both.
+    # Energy grows by (1 + h^2) = 1.25 per step at h = 0.5, so the amplitude passes the
+    # divergence threshold (scenarios.trajectory.DIVERGED = 1e100) at step ~2064; the larger of
+    # |x| and |v| lags the amplitude by a few steps (measured: 2066). The same step in both.
+    from scenarios.trajectory import DIVERGED
+
     spring = make_scene("spring")
     run = engine("pymunk:applied_force", spring, 0.5, 10_000)
-    assert (run.status, run.failed_step) == ("unstable", 6362)
-    assert deviation(run, ref("explicit_euler", spring, 0.5, 10_000)) == 0.0
+    reference = ref("explicit_euler", spring, 0.5, 10_000)
+    estimate = 2 * math.log(DIVERGED) / math.log(1.25)
+    assert run.status == reference.status == "unstable"
+    assert run.failed_step == reference.failed_step
+    assert estimate <= run.failed_step <= estimate + 4
+    assert deviation(run, reference) == 0.0
 
 
 def implicit_damping_euler(scene, dt, steps):
@@ -383,7 +392,7 @@ def test_in_process_mujoco_warning_writes_no_log_file(tmp_path, monkeypatch, cap
 def test_unstable_run_then_the_harness_goes_on():
     spring = make_scene("spring")
     bad = runner.simulate(get_method("pymunk:applied_force"), spring, 0.5, 10_000)
-    assert (bad.status, bad.failed_step) == ("unstable", 6362)
+    assert bad.status == "unstable" and 2000 < bad.failed_step < 2100
     good = runner.simulate(get_method("pymunk:applied_force"), spring, 0.01, 100)
     assert good.ok and len(good.step) == 101
 
