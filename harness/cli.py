@@ -11,7 +11,7 @@ import sys
 
 from scenarios import InvalidInput
 
-COMMANDS = ["run", "list", "bench"]
+COMMANDS = ["run", "list", "bench", "energy", "order", "stability", "cost", "workprecision"]
 
 
 class _Parser(argparse.ArgumentParser):
