@@ -11,7 +11,8 @@ import sys
 
 from scenarios import InvalidInput
 
-COMMANDS = ["run", "list", "bench", "identify", "nightly", "compare", "bounds"]
+COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision",
+            "nightly", "compare", "bounds"]
 
 
 class _Parser(argparse.ArgumentParser):

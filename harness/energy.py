@@ -1,0 +1,129 @@
+"""Energy behaviour: the relative energy error series and its classification.
+
+The series, for every recorded step n (energy always from the state, by the scene):
+
+    dE/E (t_n) = (E_n - E_exact(t_n)) / |E_exact(t_n)|
+
+against the exact energy at that time (``scene.exact_energy``): for a damped scene the
+exact *decaying* energy, not E_0. ``max_rel_error`` and ``final_rel_error`` are max |dE/E|
+and |dE/E| at the last step.
+
+The classification, one rule for every method. Growth and decay are multiplicative
+(explicit Euler gains a factor 1 + h^2 w^2 a step), so the rule reads the signed log-ratio
+``g_n = sign(E_exact) ln(E_n / E_exact(t_n))`` (about dE/E while small; positive when energy
+was gained, also for a negative energy such as a bound orbit's), where both make straight lines:
+
+0. The exact energy is zero or changes sign during the run (its zero is a convention,
+   and a falling projectile's crosses it): dE/E is undefined there; not classified.
+1. The run went unstable, or an energy is not finite                  -> ``grows``.
+2. E_n reached or crossed zero while the exact energy did not (its sign flipped):
+   ``grows`` if E_n - E_exact > 0 there, else ``decays``.
+3. Split the run into tenths by step. A = max |g| over the first tenth, B = max |g| over
+   the last. If ``B <= ENVELOPE_RATIO * A + FLOOR``, the error did not outgrow its start:
+   ``bounded``.
+4. Otherwise look at the mean of g over each tenth: increasing from every tenth to the
+   next -> ``grows``; decreasing -> ``decays``; neither (a random walk, or a trend smaller
+   than the oscillation around it) -> ``drifts``.
+
+ENVELOPE_RATIO = 2 leaves room for a symplectic method's band to be met a little later
+than the first tenth; FLOOR = 1e-10 is roundoff: at the horizons used (<= 1e6 steps),
+rounding accumulates at most ~1e-16 a step, so a smaller error says nothing. The rule
+needs the first tenth to hold a few oscillations of the energy error (a few periods
+of the scene), so classify over at least ten periods (``short_horizon`` says when not),
+and at least MIN_RECORDED recorded states. The numbers behind the verdict come with it,
+with ``secular_rate``, the least-squares slope of g against t (per unit time).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import linregress
+
+from scenarios import Scene, Trajectory
+
+from ._measure import resolve, step
+
+ENVELOPE_RATIO = 2.0
+FLOOR = 1e-10
+#: Fewest recorded states that leave ten tenths of ten points each.
+MIN_RECORDED = 100
+#: The rule wants this many periods of the scene in the run.
+MIN_PERIODS = 10.0
+CLASSES = ("grows", "bounded", "decays", "drifts")
+
+
+def relative_error_series(traj: Trajectory, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """(E_exact(t_n), dE/E(t_n)) for batch member 0 of a trajectory."""
+    e_exact = np.asarray(scene.exact_energy(traj.t), dtype=float)
+    with np.errstate(all="ignore"):
+        rel = (traj.energy[:, 0] - e_exact) / np.abs(e_exact)
+    return e_exact, rel
+
+
+def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: bool = False) -> dict:
+    """The classification of an energy series by the rule in the module docstring, with
+    the numbers behind it."""
+    energy, e_exact, t = (np.asarray(a, dtype=float) for a in (energy, e_exact, t))
+    out: dict = {"classification": None, "rule": None}
+    if np.any(e_exact == 0.0) or np.any(np.sign(e_exact) != np.sign(e_exact[0])):
+        # An energy's zero is a convention (a falling projectile's exact energy crosses it):
+        # relative to it, dE/E means nothing there.
+        out["rule"] = "exact energy is zero or changes sign over the run: dE/E undefined, not classified"
+        return out
+    if unstable or not np.all(np.isfinite(energy)):
+        out.update(classification="grows", rule="run unstable or energy not finite")
+        return out
+    ratio = energy / e_exact
+    if np.any(ratio <= 0.0):
+        i = int(np.argmax(ratio <= 0.0))
+        up = energy[i] - e_exact[i] > 0.0
+        out.update(classification="grows" if up else "decays",
+                   rule=f"energy crossed zero at step index {i} (exact energy did not)")
+        return out
+    if len(energy) < MIN_RECORDED:
+        out["rule"] = f"too few recorded states ({len(energy)} < {MIN_RECORDED}) to classify"
+        return out
+    g = np.sign(e_exact) * np.log(ratio)
+    tenths = np.array_split(np.arange(len(g)), 10)
+    first = float(np.max(np.abs(g[tenths[0]])))
+    last = float(np.max(np.abs(g[tenths[-1]])))
+    means = np.array([float(np.mean(g[idx])) for idx in tenths])
+    slope = float(linregress(t, g).slope) if np.ptp(t) > 0 else 0.0
+    out.update(first_tenth_envelope=first, last_tenth_envelope=last,
+               envelope_ratio=last / first if first > 0 else None,
+               tenth_means=means.tolist(), secular_rate=slope)
+    if last <= ENVELOPE_RATIO * first + FLOOR:
+        out.update(classification="bounded",
+                   rule=f"last-tenth envelope {last:.3g} <= {ENVELOPE_RATIO:g} x first {first:.3g} + {FLOOR:g}")
+    elif np.all(np.diff(means) > 0):
+        out.update(classification="grows", rule="envelope grew; tenth means of g increase")
+    elif np.all(np.diff(means) < 0):
+        out.update(classification="decays", rule="envelope grew; tenth means of g decrease")
+    else:
+        out.update(classification="drifts", rule="envelope grew; tenth means of g not monotone")
+    return out
+
+
+def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int = 1,
+                     timeout: float | None = None, series: bool = False) -> dict:
+    """Step ``method`` and measure its energy behaviour against the exact energy.
+
+    Returns the run's status, ``max_rel_error``, ``final_rel_error`` (both |dE/E|), the
+    classification and the numbers behind it; ``series`` adds ``t`` and ``rel_error``."""
+    method = resolve(method, scene)
+    traj = step(method, scene, dt, steps, every, timeout)
+    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
+           "steps": int(steps), "every": int(every), "omega_dt": float(dt) * scene.omega,
+           "periods": float(dt) * steps / scene.period, "status": traj.status, "detail": traj.detail,
+           "failed_step": traj.failed_step}
+    if traj.q.shape[0] == 0:
+        out.update(classification=None, rule=f"no states recorded ({traj.status})")
+        return out
+    e_exact, rel = relative_error_series(traj, scene)
+    with np.errstate(invalid="ignore"):
+        out.update(max_rel_error=float(np.max(np.abs(rel))), final_rel_error=float(abs(rel[-1])))
+    out.update(classify(traj.energy[:, 0], e_exact, traj.t, unstable=not traj.ok))
+    out["short_horizon"] = out["periods"] < MIN_PERIODS
+    if series:
+        out["t"] = traj.t
+        out["rel_error"] = rel
+    return out
