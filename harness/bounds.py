@@ -6,7 +6,7 @@ The nightly measures every row exactly as written (measure ``bound``); a value a
 bound is a regression. The project's tests run the same rows through the pytest plugin.
 
 ``propose`` turns a run's measurements into new bounds: the measured value times ``MARGIN``,
-rounded up to two significant digits. It tightens bounds and adds new ones, and never
+rounded up to two significant digits (never below ``FLOOR``). It tightens bounds and adds new ones, and never
 loosens one silently: a proposal above the current bound is listed as ``loosen`` and only
 written with ``allow_loosen``.
 """
@@ -25,6 +25,8 @@ FIELDS = ["scene", "method", "dt", "steps", "bound", "note"]
 #: Headroom over the measured value: bounded schemes' max |dE/E| is deterministic for the
 #: reference schemes and engines, so a factor 1.5 catches a real change and not noise.
 MARGIN = 1.5
+#: No bound below this: roundoff-level energy errors differ across platforms' libm and CPUs.
+FLOOR = 1e-12
 
 
 @dataclass(frozen=True)
@@ -99,7 +101,7 @@ def propose(current: list[Bound], measured: dict[tuple, float]) -> list[Proposal
     for key, value in sorted(measured.items()):
         if not math.isfinite(value):
             continue
-        new = round_up_2sig(value * MARGIN)
+        new = max(round_up_2sig(value * MARGIN), FLOOR)
         old = by_key.get(key)
         note = old.note if old else ""
         if old is None:

@@ -118,10 +118,10 @@ def compare_runs(history: History, run_a: int | None = None, run_b: int | None =
     """Regressions of ``run_b`` (default: the latest complete run) against ``run_a`` (default: the
     complete run before it with the same measurement version). With no earlier run, only the
     bounds are checked."""
-    runs = history.runs()
-    if runs.empty:
-        raise InvalidInput(f"no complete run stored in {history.path}")
     if run_b is None:
+        runs = history.runs()
+        if runs.empty:
+            raise InvalidInput(f"no complete run stored in {history.path}")
         run_b = int(runs.run_id.iloc[-1])
     info_b = history.run(run_b)
     if run_a is None:

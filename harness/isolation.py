@@ -91,7 +91,14 @@ def _context():
     return _CONTEXT
 
 
+#: True inside a worker: the process is already the isolation, so engines run in it directly
+#: (a worker may not start children of its own, and needs none).
+IN_WORKER = False
+
+
 def _worker(conn, workdir: str, fn, args, kwargs) -> None:
+    global IN_WORKER
+    IN_WORKER = True
     os.chdir(workdir)
     for fd, name in ((1, "stdout.txt"), (2, "stderr.txt")):
         out = os.open(os.path.join(workdir, name), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)

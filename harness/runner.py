@@ -16,7 +16,8 @@ def simulate(method, scene: Scene, dt: float, steps: int, every: int = 1, timeou
     every = validate.count("every", every, 1)
     validate.scene_values(scene)
     if getattr(method, "isolated", False):
-        from .isolation import simulate_isolated
+        from . import isolation
 
-        return simulate_isolated(method.id, scene, dt, steps, every, timeout=timeout)
+        if not isolation.IN_WORKER:
+            return isolation.simulate_isolated(method.id, scene, dt, steps, every, timeout=timeout)
     return method.simulate(scene, dt, steps, every)

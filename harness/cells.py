@@ -1,0 +1,255 @@
+"""One nightly task -> its measured cells (plain dicts, one per measure; see ``storage``).
+
+A scene x method task measures, at the suite's nominal timestep h = homega / omega:
+``energy`` (max |dE/E| against the exact energy, its classification, a downsampled series
+for the chart), ``error`` (max global error over the same run), ``order`` (the dt sweep,
+whose points also give the work-precision chart), ``stability`` (largest stable h*omega),
+``cost`` (counted evaluations and wall time per step; the ratio to explicit Euler is filled
+in by ``finalize_cells`` from the same run's explicit-Euler cell) and, for engine modes,
+``identity`` (which reference scheme it integrates). A bound task measures one reviewed
+energy bound exactly as the file states it.
+
+Every cell records the textbook claims it is judged against (from the scheme's
+declarations, or for an engine mode from the scheme it was identified as), so the report
+never needs to import the schemes or the engines.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from scenarios import make_scene
+
+from .suites import SUITES
+
+MEASURES = ("energy", "error", "order", "stability", "cost")
+
+#: The scheme an engine mode's name suggests, for the findings ("implicit" that is not).
+NAME_SUGGESTS = {"implicit": "implicit_euler", "implicitfast": "implicit_euler", "euler": "euler",
+                 "rk4": "rk4", "discrete": "implicit_euler", "semi_implicit": "semi_implicit_euler",
+                 "leapfrog": "leapfrog"}
+
+
+def measures_for(task) -> list[str]:
+    suite = SUITES[task.suite]
+    out = list(MEASURES)
+    if not suite.scenes[task.scene].stability:
+        out.remove("stability")
+    if task.family != "ref" and suite.identify:
+        out.append("identity")
+    return out
+
+
+def _claims(method) -> dict:
+    scheme = getattr(method, "scheme", None)
+    if scheme is None:
+        return {}
+    return {"order": scheme.order, "force_evals": scheme.force_evals,
+            "force_evals_text": f"{scheme.force_evals} + solve" if scheme.implicit else str(scheme.force_evals),
+            "energy": scheme.energy_claim, "homega_max": scheme.homega_max, "scheme": f"ref:{scheme.id}"}
+
+
+def _cell(task, measure, status="ok", value=None, dt=None, steps=None, detail="", data=None, wall=0.0) -> dict:
+    return {"scene": task.scene, "method": task.method, "family": task.family, "measure": measure,
+            "dt": dt, "steps": steps, "status": status, "detail": detail or "", "value": value,
+            "wall_s": wall, "data": data or {}}
+
+
+def _finite(x):
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def _downsample(n: int, points: int) -> np.ndarray:
+    return np.unique(np.linspace(0, n - 1, min(n, points)).astype(int))
+
+
+def run_task(task) -> list[dict]:
+    """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message."""
+    if task.kind == "bound":
+        return [_guard(task, "bound", lambda: _bound(task))]
+    from .methods import get_method
+
+    suite = SUITES[task.suite]
+    spec = suite.scenes[task.scene]
+    scene = make_scene(task.scene, **task.params)
+    method = get_method(task.method)
+    dt = spec.homega / scene.omega
+    claims = _claims(method)
+    cells = []
+    identity = None
+    if "identity" in measures_for(task):
+        identity = _guard(task, "identity", lambda: _identity(task, method, scene))
+        if identity["status"] == "ok" and identity["data"].get("match_claims"):
+            claims = identity["data"]["match_claims"]
+        cells.append(identity)
+    energy_cells = _guard_many(task, ("energy", "error"), lambda: _energy_and_error(task, method, scene, dt, spec, suite))
+    cells += energy_cells
+    cells.append(_guard(task, "order", lambda: _order(task, method, scene, spec)))
+    if spec.stability:
+        cells.append(_guard(task, "stability", lambda: _stability(task, method, scene, suite)))
+    cells.append(_guard(task, "cost", lambda: _cost(task, method, scene, dt, suite)))
+    for c in cells:
+        c["data"].setdefault("claims", claims)
+    return cells
+
+
+def _guard(task, measure, fn) -> dict:
+    t0 = time.perf_counter()
+    try:
+        cell = fn()
+    except Exception as exc:  # a measurement error is a recorded result, not a dead run
+        cell = _cell(task, measure, "crashed", detail=f"{type(exc).__name__}: {exc}"[:500])
+    cell["wall_s"] = time.perf_counter() - t0
+    return cell
+
+
+def _guard_many(task, measures, fn) -> list[dict]:
+    t0 = time.perf_counter()
+    try:
+        cells = fn()
+    except Exception as exc:
+        cells = [_cell(task, m, "crashed", detail=f"{type(exc).__name__}: {exc}"[:500]) for m in measures]
+    for c in cells:
+        c["wall_s"] = (time.perf_counter() - t0) / len(cells)
+    return cells
+
+
+def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
+    from .energy import classify, relative_error_series
+    from .error import trajectory_error
+    from .runner import simulate
+
+    steps = max(10, int(round(spec.periods * scene.period / dt)))
+    every = max(1, steps // (4 * suite.series_points))
+    traj = simulate(method, scene, dt, steps, every, timeout=suite.cell_timeout)
+    settings = {"settings": traj.meta.get("settings"), "engine_version": traj.meta.get("engine_version")}
+    if traj.status not in ("ok", "unstable") or traj.q.shape[0] == 0:
+        return [_cell(task, m, traj.status, dt=dt, steps=steps, detail=traj.detail, data=dict(settings))
+                for m in ("energy", "error")]
+    e_exact, rel = relative_error_series(traj, scene)
+    cls = classify(traj.energy[:, 0], e_exact, traj.t, unstable=traj.status == "unstable")
+    idx = _downsample(len(traj.t), suite.series_points)
+    series = {"t": traj.t[idx], "energy": traj.energy[idx, 0], "exact": e_exact[idx]}
+    with np.errstate(all="ignore"):
+        max_rel = _finite(np.nanmax(np.abs(rel))) if traj.ok else None
+    energy = _cell(task, "energy", traj.status, max_rel, dt, steps, traj.detail,
+                   {"class": cls.get("classification"), "rule": cls.get("rule"),
+                    "final_rel_error": _finite(abs(rel[-1])) if traj.ok else None,
+                    "failed_step": traj.failed_step, "series": series, "numbers": _plain(cls), **settings})
+    err = trajectory_error(traj, scene) if traj.ok else {}
+    error = _cell(task, "error", traj.status, _finite(err.get("error_max")), dt, steps, traj.detail,
+                  {"error_final": err.get("error_final"), "source": err.get("source")})
+    return [energy, error]
+
+
+def _order(task, method, scene, spec) -> dict:
+    from .order import observed_order
+
+    res = observed_order(method, scene, points=spec.order_points, span=spec.order_span, periods=spec.order_periods)
+    order = res.get("order")
+    status = "ok" if order is not None and np.isfinite(order) else "unstable"
+    return _cell(task, "order", status, _finite(order), detail="" if status == "ok" else "too few usable points",
+                 data={"points": _plain(res.get("points", [])), "excluded": _plain(res.get("excluded", [])),
+                       "rvalue": res.get("rvalue"), "range": _plain(res.get("range"))})
+
+
+def _stability(task, method, scene, suite) -> dict:
+    from .stability import largest_stable_dt
+
+    res = largest_stable_dt(method, scene, steps=suite.stability_steps)
+    verdict = res.get("verdict")
+    data = {"criterion": res.get("criterion"), "criterion_rule": res.get("criterion_rule"), "verdict": verdict,
+            "dt_max": res.get("dt_max"), "unbounded": verdict == "unbounded",
+            "unstable_everywhere": verdict == "unstable",
+            "homega_searched": (res.get("dt_searched_max") or 0) * scene.omega,
+            "rho_above_dt_max": res.get("rho_above_dt_max")}
+    value = res.get("omega_dt_max")
+    if verdict == "unbounded":
+        value = math.inf
+    return _cell(task, "stability", "ok", value, detail=res.get("detail", ""), data=_plain(data))
+
+
+def _cost(task, method, scene, dt, suite) -> dict:
+    from .cost import counted_evaluations, wall_time_per_step
+
+    counted = counted_evaluations(method, scene, dt)
+    timed = wall_time_per_step(method, scene, dt, steps=suite.cost_steps, repeats=suite.cost_repeats)
+    return _cell(task, "cost", "ok", timed.get("s_per_step"), dt, suite.cost_steps,
+                 data={"force_evals_per_step": counted.get("force_evals_per_step"),
+                       "solves_per_step": counted.get("solves_per_step"), "timing": timed.get("timing"),
+                       "repeats_s_per_step": timed.get("repeats_s_per_step"),
+                       "spread": timed.get("rel_spread") or 0.0})
+
+
+def _identity(task, method, scene) -> dict:
+    from reference import METHODS
+
+    from .identify import identify
+
+    res = identify(method, scene)
+    match = res.get("match")
+    mode = task.method.split(":", 1)[1]
+    match_claims = {}
+    if match and match.startswith("ref:"):
+        from .methods import RefMethod
+
+        match_claims = _claims(RefMethod(METHODS[match[4:]]))
+    if res.get("status") not in ("ok", "unstable"):
+        return _cell(task, "identity", res.get("status"), detail=res.get("detail"))
+    runner = res.get("runner_up") or {}
+    closest = (res.get("candidates") or [{}])[0]
+    note = None
+    if match is None and closest:
+        note = (f"matches no reference scheme; closest `{closest.get('method')}` "
+                f"(max deviation {closest.get('max_deviation', float('nan')):.2e})")
+    return _cell(task, "identity", "ok", _finite(res.get("max_deviation") if match else closest.get("max_deviation")),
+                 res.get("dt"), res.get("steps"),
+                 data={"match": match, "runner_up": runner.get("method"),
+                       "runner_up_deviation": _finite(runner.get("max_deviation")),
+                       "name_suggests": NAME_SUGGESTS.get(mode), "match_claims": match_claims, "note": note})
+
+
+def _bound(task) -> dict:
+    from .pytest_plugin import measure_max_rel_energy_error
+
+    value, status, detail = measure_max_rel_energy_error(task.method, task.scene, task.dt, task.steps, **task.params)
+    return _cell(task, "bound", status, _finite(value), task.dt, task.steps, detail, {"bound": task.bound})
+
+
+def failed_cells(task, failure) -> list[dict]:
+    """The worker died or hung: every measure of the task is recorded with that outcome."""
+    detail = getattr(failure, "detail", str(failure))
+    status = getattr(failure, "status", "crashed")
+    measures = task.measures()
+    return [_cell(task, m, status, detail=detail, dt=task.dt if task.kind == "bound" else None,
+                  steps=task.steps if task.kind == "bound" else None,
+                  data={"bound": task.bound} if task.kind == "bound" else {},
+                  wall=getattr(failure, "seconds", 0.0) / max(len(measures), 1))
+            for m in measures]
+
+
+def finalize_cells(history, run_id: int) -> None:
+    """Fill each cost cell's ratio to explicit Euler on the same scene, measured in this run."""
+    cells = history.cells(run_id)
+    cost = cells[(cells.measure == "cost") & (cells.status == "ok")]
+    base = {r.scene: r.value for _, r in cost[cost.method == "ref:explicit_euler"].iterrows()}
+    for _, r in cost.iterrows():
+        if r.scene in base and base[r.scene]:
+            row = r.to_dict()
+            row["data"] = {**row["data"], "ratio_to_explicit_euler": r.value / base[r.scene]}
+            history.add_cell(run_id, row)
+
+
+def _plain(x):
+    """numpy values -> JSON-able Python."""
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items() if not isinstance(v, np.ndarray) or v.size <= 4096}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    return x
