@@ -24,3 +24,6 @@ bench: $(STAMP)
 
 clean:
 	rm -rf $(VENV) results
+
+nightly: $(STAMP)
+	$(BIN)/harness nightly --suite standard

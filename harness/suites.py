@@ -42,7 +42,6 @@ SUITES: dict[str, Suite] = {
         methods=("ref:explicit_euler", "ref:semi_implicit_euler", "ref:leapfrog", "ref:rk4", "ref:implicit_euler",
                  "mujoco:euler", "pymunk:applied_force"),
         cost_repeats=3, cost_steps=2_000, series_points=200, stability_steps=500, cell_timeout=60.0,
-        bounds=False,
     ),
     "standard": Suite(
         "standard",
