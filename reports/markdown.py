@@ -227,7 +227,7 @@ def bounds_section(cells: pd.DataFrame) -> list[str]:
         bound = r.data.get("bound")
         ok = r.status == "ok" and bound is not None and r.value <= bound
         val = _fmt(r.value, ".2e") if r.status == "ok" else r.status
-        lines.append(f"| `{r.method}` | {r.scene} | {r.dt:g} | {int(r.steps)} | {val} | {_fmt(bound, '.2g')} | {mark(ok)} |")
+        lines.append(f"| `{r.method}` | {r.scene} | {r['dt']:g} | {int(r.steps)} | {val} | {_fmt(bound, '.2g')} | {mark(ok)} |")
     return lines + [""]
 
 
