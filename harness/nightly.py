@@ -119,7 +119,9 @@ def make_executor(jobs: int | None, scheduler: str | None):
 class Progress:
     """A bar on a terminal, plain lines otherwise (logs, CI)."""
 
-    def __init__(self, total: int, stream=sys.stderr):
+    def __init__(self, total: int, stream=None):
+        # Looked up at call time: a stream bound at import can be closed by then (pytest capture).
+        stream = stream or sys.stderr
         self.total, self.done, self.stream = total, 0, stream
         self.tty = hasattr(stream, "isatty") and stream.isatty()
         self.t0 = time.perf_counter()
@@ -169,7 +171,7 @@ def now() -> str:
 
 # ----------------------------------------------------------------------------- the run
 def run_nightly(suite_name: str = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB, jobs: int | None = None,
-                scheduler: str | None = None, bounds_path=bounds_mod.DEFAULT_PATH, progress_stream=sys.stderr) -> dict:
+                scheduler: str | None = None, bounds_path=bounds_mod.DEFAULT_PATH, progress_stream=None) -> dict:
     from .cells import failed_cells, finalize_cells
     from reports.markdown import write_report
 
