@@ -135,3 +135,8 @@ def compare_runs(history: History, run_a: int | None = None, run_b: int | None =
     if run_a is None:
         return None, run_b, bound_violations(cells_b, bounds)
     return run_a, run_b, compare_cells(history.cells(run_a), cells_b, bounds)
+
+
+def regression_lines(regressions: list[Regression]) -> list[str]:
+    """The lines the CLI prints: one per regression, or that there were none."""
+    return [f"REGRESSION {r.line()}" for r in regressions] or ["no regressions"]

@@ -193,7 +193,6 @@ def findings(piv: dict, cells: pd.DataFrame) -> list[str]:
         if ident is not None and ident.status == "ok":
             d = ident.data
             match, dev = d.get("match"), ident.value
-            mode = method.split(":", 1)[1]
             expected = d.get("name_suggests")
             if expected and match and expected not in match:
                 out.append(f"`{method}` on `{scene}` integrates as **`{match}`** (max deviation {dev:.1e}), "
@@ -204,7 +203,6 @@ def findings(piv: dict, cells: pd.DataFrame) -> list[str]:
                            "its energy grows every step" + (f" ({d['why']})" if d.get("why") else "") + ".")
             elif match is None and d.get("note"):
                 out.append(f"`{method}` on `{scene}`: {d['note']}")
-            del mode
         if energy is not None and energy.status == "unstable" and energy.data.get("failed_step"):
             out.append(f"`{method}` blows up on `{scene}` at the nominal timestep (step {energy.data['failed_step']}).")
         elif energy is not None and energy.status == "ok" and energy.data.get("class") == "grows":

@@ -8,7 +8,7 @@ from pathlib import Path
 from scenarios import InvalidInput
 
 from .. import validate
-from ..compare import compare_runs
+from ..compare import compare_runs, regression_lines
 from ..nightly import DEFAULT_DB
 from ..storage import History
 
@@ -37,8 +37,6 @@ def run(args) -> int:
         print(json.dumps({"run_a": a, "run_b": b, "regressions": [r.as_dict() for r in regs]}, indent=1, default=str))
     else:
         print(f"run {b} against {'run ' + str(a) if a is not None else 'bounds only (no earlier run)'}:")
-        for r in regs:
-            print(f"  REGRESSION {r.line()}")
-        if not regs:
-            print("  no regressions")
+        for line in regression_lines(regs):
+            print(f"  {line}")
     return 1 if regs else 0

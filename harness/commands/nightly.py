@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from .. import validate
+from ..compare import regression_lines
 from ..nightly import DEFAULT_DB, DEFAULT_OUT, run_nightly
 from ..suites import SUITES
 
@@ -44,10 +45,8 @@ def run(args) -> int:
                          default=str))
     else:
         print(f"run {result['run_id']}: report {result['report']} ({result['timing']['total_s']:.1f}s)")
-        for r in regs:
-            print(f"REGRESSION {r.line()}")
-        if not regs:
-            print("no regressions")
+        for line in regression_lines(regs):
+            print(line)
     if regs:
         print(f"harness: {len(regs)} regression(s)", file=sys.stderr)
     return 1 if regs else 0
