@@ -75,7 +75,8 @@ def choose_timesteps(method, scene: Scene, *, points: int = 8, span: float = 8.0
             break
         dt /= 4.0
     else:
-        raise RuntimeError(f"{method.id} on {scene.id}: no stable pilot run down to dt={dt:g}")
+        return {"dts": None, "order_used": p, "order_source": source, "top_error": top_error(p), "pilots": pilots,
+                "reason": f"no pilot run with error below {EXCLUDE_ERROR:g} down to dt={pilots[-1]['dt']:g}"}
     if err > 0.0:
         dt_max = min(dt * (top_error(p) / err) ** (1.0 / p), 4.0 * dt)
     else:
@@ -101,7 +102,7 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
     if dts is None:
         choice = choose_timesteps(method, scene, points=points, span=span, periods=periods, order=order,
                                   timeout=timeout)
-        dts = choice["dts"]
+        dts = choice["dts"] or []
     used, excluded = [], []
     for dt in sorted(float(x) for x in dts):
         dt, steps = _horizon_steps(scene, dt, horizon)
@@ -129,5 +130,5 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
         out.update(order=float(fit.slope), stderr=float(fit.stderr), rvalue=float(fit.rvalue),
                    intercept=float(fit.intercept))
     else:
-        out["reason"] = f"only {len(used)} usable points (need {MIN_USED})"
+        out["reason"] = choice.get("reason") or f"only {len(used)} usable points (need {MIN_USED})"
     return out

@@ -213,12 +213,14 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
 
 def _with_map(out: dict, method, scene: Scene, dt: float, timeout) -> dict:
     """Attach the one-step map at the dt the verdict rests on (dt_max; the smallest dt
-    searched when unstable; the largest when unbounded)."""
-    if out["criterion"] == "spectral_radius":
+    searched when unstable; the largest when unbounded). On a linear scene judged by the
+    finite horizon it is attached too, where measurable: it shows what the horizon missed."""
+    if scene.linear:
         res = one_step_map(method, scene, dt, timeout=timeout)
         if res["rho"] is None:
             out["spectral"] = {"dt": dt, "rho": None, "reason": res["reason"]}
-            out["note"] = f"at the reported dt: {res['reason']}; the spectral verdict is doubtful"
+            if out["criterion"] == "spectral_radius":
+                out["note"] = f"at the reported dt: {res['reason']}; the spectral verdict is doubtful"
         else:
             out["spectral"] = {k: res[k] for k in ("dt", "omega_dt", "rho", "eigenvalues", "matrix", "offset",
                                                    "linearity_residual")}

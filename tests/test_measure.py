@@ -15,7 +15,8 @@ import pytest
 
 import reference
 from harness import cost, energy, error, order, stability, workprecision
-from harness._measure import frame, started_at
+from harness._measure import started_at
+from harness.tidy import frame, order_points_frame
 from harness.cli import main
 from harness.methods import RefMethod
 from scenarios import InvalidInput, Trajectory, make_scene
@@ -123,6 +124,8 @@ def test_finite_horizon_understates_explicit_euler(spring):
     res = stability.largest_stable_dt("ref:explicit_euler", spring, criterion="finite_horizon", steps=n, lo=1e-2)
     assert res["verdict"] == "limited" and res["criterion"] == "finite_horizon"
     assert res["omega_dt_max"] == pytest.approx(math.sqrt(stability.GROWTH ** (2.0 / n) - 1.0), rel=1e-5)
+    # The map at that dt, attached for a linear scene, shows what the horizon missed.
+    assert res["spectral"]["rho"] > 1.0 + stability.RHO_TOL
 
 
 def test_nonlinear_scene_uses_the_finite_horizon():
@@ -177,6 +180,8 @@ def test_order_leaves_out_points_by_rule(spring):
     reasons = {round(p["steps"]): p["reason"] for p in res["excluded"]}
     assert reasons[1].startswith("past stability") and reasons[40_000].startswith("roundoff floor")
     assert res["order"] == pytest.approx(4, abs=ORDER_TOL)
+    table = order_points_frame(res)
+    assert len(table) == len(dts) and table["used"].sum() == len(good) and table["dt"].is_monotonic_increasing
     res = order.observed_order(Delegate("rk4", fail_above=2.5), spring, dts=[3.0] + good)
     assert [p["reason"] for p in res["excluded"]] == ["unstable (unstable)"]
     assert len(res["points"]) == len(good)
