@@ -9,7 +9,8 @@ Two boundedness criteria, one rule each:
   states checks that the map really is affine (``linearity_residual``, the misfit relative
   to the unit inputs, <= LINEARITY_RTOL, else this criterion does not apply); the check
   runs at the smallest dt searched and at the dt the verdict rests on, not at every
-  bisection step (an engine's step costs a worker process each). Stable iff rho(M) <= 1 + RHO_TOL. RHO_TOL = 1e-12
+  bisection step (an engine's step costs a worker process each).
+  Stable iff rho(M) <= 1 + RHO_TOL. RHO_TOL = 1e-12
   is roundoff in M's entries (a few eps) with room; it is far below explicit Euler's
   rho - 1 = (h w)^2 / 2 = 5e-9 at the smallest h*omega searched, which a finite horizon
   never sees: 10,000 steps flag explicit Euler only above h*omega of a few hundredths.
@@ -25,10 +26,10 @@ The search: h*omega from ``lo`` (1e-4) up by factors of SCAN_RATIO (2) to ``hi``
 (1e4); the first unstable grid point and the stable one before it are then bisected
 (geometric midpoint) until they differ by BISECT_RTOL (1e-6) relative. Scanning up from
 ``lo`` finds the *first* loss of stability, not an island above it (a stretch of
-instability narrower than a factor 2 can be stepped over). Verdicts: ``limited`` (``dt_max`` is the last stable dt
-found), ``unbounded`` (stable at every dt searched; ``dt_max`` is None and
-``dt_searched_max`` says how far) or ``unstable`` (unstable already at ``lo``:
-explicit Euler's verdict on a spring, "unstable for every dt").
+instability narrower than a factor 2 can be stepped over). Verdicts: ``limited``
+(``dt_max`` is the last stable dt found), ``unbounded`` (stable at every dt searched;
+``dt_max`` is None and ``dt_searched_max`` says how far) or ``unstable`` (unstable
+already at ``lo``: explicit Euler's verdict on a spring, "unstable for every dt").
 """
 from __future__ import annotations
 

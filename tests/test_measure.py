@@ -7,8 +7,10 @@ says otherwise. Engine modes are checked in test_measure_engines.py.
 """
 from __future__ import annotations
 
+import io
 import json
 import math
+from contextlib import redirect_stderr, redirect_stdout
 
 import numpy as np
 import pytest
@@ -342,21 +344,24 @@ def test_work_precision_rows(spring):
 
 
 # -------------------------------------------------------------------------------- CLI
-def run_cli(capsys, *argv):
-    rc = main(list(argv))
-    out, err = capsys.readouterr()
-    return rc, out, err
+def run_cli(*argv):
+    # Plain StringIO redirection, not capsys's streams: a module imported during the call
+    # may keep a reference to sys.stderr, and capsys closes its stream after the test.
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        rc = main(list(argv))
+    return rc, out.getvalue(), err.getvalue()
 
 
-def test_cli_order_json(capsys):
-    rc, out, _ = run_cli(capsys, "order", "spring", "--method", "ref:leapfrog", "--json")
+def test_cli_order_json():
+    rc, out, _ = run_cli("order", "spring", "--method", "ref:leapfrog", "--json")
     res = json.loads(out)
     assert rc == 0 and res["order"] == pytest.approx(2, abs=ORDER_TOL)
     assert all({"dt", "error"} <= set(p) for p in res["points"]) and isinstance(res["excluded"], list)
 
 
-def test_cli_stability_json(capsys):
-    rc, out, _ = run_cli(capsys, "stability", "spring", "--method", "ref:rk4", "--set", "k=4", "--json")
+def test_cli_stability_json():
+    rc, out, _ = run_cli("stability", "spring", "--method", "ref:rk4", "--set", "k=4", "--json")
     res = json.loads(out)
     assert rc == 0 and res["criterion"] == "spectral_radius" and res["verdict"] == "limited"
     # k = 4 doubles omega: the same h*omega limit at half the dt.
@@ -366,8 +371,8 @@ def test_cli_stability_json(capsys):
     assert len(eig) == 2 and set(eig[0]) == {"re", "im"} and res["spectral"]["rho"] <= 1 + stability.RHO_TOL
 
 
-def test_cli_energy_json(capsys):
-    rc, out, _ = run_cli(capsys, "energy", "spring", "--method", "ref:leapfrog", "--dt", "0.1", "--steps", "2000",
+def test_cli_energy_json():
+    rc, out, _ = run_cli("energy", "spring", "--method", "ref:leapfrog", "--dt", "0.1", "--steps", "2000",
                          "--series", "--json")
     res = json.loads(out)
     assert rc == 0 and res["classification"] == "bounded"
@@ -375,20 +380,20 @@ def test_cli_energy_json(capsys):
     assert res["max_rel_error"] == pytest.approx(max(abs(x) for x in res["rel_error"]))
 
 
-def test_cli_cost_and_workprecision_json(capsys):
-    rc, out, _ = run_cli(capsys, "cost", "spring", "--method", "ref:explicit_euler", "--dt", "0.01",
+def test_cli_cost_and_workprecision_json():
+    rc, out, _ = run_cli("cost", "spring", "--method", "ref:explicit_euler", "--dt", "0.01",
                          "--time-steps", "1000", "--repeats", "2", "--json")
     res = json.loads(out)
     assert rc == 0 and res["force_evals_per_step"] == 1.0 and len(res["repeats_s_per_step"]) == 2
     assert res["ratio_to_explicit_euler"] > 0
-    rc, out, _ = run_cli(capsys, "workprecision", "spring", "--method", "ref:explicit_euler", "--points", "2",
+    rc, out, _ = run_cli("workprecision", "spring", "--method", "ref:explicit_euler", "--points", "2",
                          "--periods", "1", "--repeats", "1", "--json")
     res = json.loads(out)
     assert rc == 0 and len(res["rows"]) == 2 and set(res["chart"]) == {"ref:explicit_euler"}
 
 
-def test_cli_text_output(capsys):
-    rc, out, _ = run_cli(capsys, "stability", "spring", "--method", "ref:explicit_euler")
+def test_cli_text_output():
+    rc, out, _ = run_cli("stability", "spring", "--method", "ref:explicit_euler")
     assert rc == 0 and "unstable for every dt" in out
 
 
@@ -419,15 +424,15 @@ def test_cli_text_output(capsys):
     (["workprecision", "spring", "--homega-max", "inf"], "--homega-max"),
     (["workprecision", "spring", "--method", "ref:nope"], "method"),
 ])
-def test_cli_bad_input_exits_2_with_one_line(capsys, argv, field):
-    rc, out, err = run_cli(capsys, *argv)
+def test_cli_bad_input_exits_2_with_one_line(argv, field):
+    rc, out, err = run_cli(*argv)
     assert rc == 2 and out == ""
     assert err.count("\n") == 1 and err.startswith("harness: error:") and field in err
 
 
-def test_cli_missing_argument_exits_2(capsys):
-    with pytest.raises(SystemExit) as exc:
+def test_cli_missing_argument_exits_2():
+    err = io.StringIO()
+    with redirect_stderr(err), pytest.raises(SystemExit) as exc:
         main(["cost", "spring", "--method", "ref:rk4"])
     assert exc.value.code == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--dt" in err
+    assert err.getvalue().count("\n") == 1 and "--dt" in err.getvalue()
