@@ -6,14 +6,13 @@ method is an id (``ref:rk4``, ``mujoco:euler``) or a method object (anything wit
 ``id``, ``available()``, ``supports(scene)`` and ``simulate(scene, dt, steps, every)``),
 the scene is a :class:`scenarios.Scene`. Methods are always stepped through
 :func:`harness.runner.simulate`, so engine modes run isolated exactly as in ``harness run``.
+Results are plain dicts; :mod:`harness.tidy` turns them into JSON and DataFrames.
 """
 from __future__ import annotations
 
 import copy
-import math
 
 import numpy as np
-import pandas as pd
 
 from scenarios import InvalidInput, Scene, Trajectory, make_scene
 
@@ -72,45 +71,3 @@ def started_at(scene: Scene, q0, v0) -> Scene:
     moved.initial_state = lambda: (q0.copy(), v0.copy())
     moved.state_in_params = False
     return moved
-
-
-# ----------------------------------------------------------------------------- output
-def jsonable(x):
-    """Plain Python for ``json.dumps``: numpy scalars and arrays become numbers and lists,
-    non-finite floats become None (JSON has no inf/nan)."""
-    if isinstance(x, dict):
-        return {str(k): jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return jsonable(x.tolist())
-    if isinstance(x, (np.bool_, bool)):
-        return bool(x)
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (float, np.floating)):
-        x = float(x)
-        return x if math.isfinite(x) else None
-    if isinstance(x, complex):
-        return {"re": x.real, "im": x.imag}
-    return x
-
-
-def frame(results: list[dict]) -> pd.DataFrame:
-    """Tidy table, one row per measured cell: the scalar fields of each result (nested
-    dicts flattened to ``outer.inner``); lists and series are left to the JSON form."""
-    rows = []
-    for res in results:
-        row: dict = {}
-        _flatten(res, "", row)
-        rows.append(row)
-    return pd.DataFrame(rows)
-
-
-def _flatten(d: dict, prefix: str, out: dict) -> None:
-    for k, v in d.items():
-        name = f"{prefix}{k}"
-        if isinstance(v, dict):
-            _flatten(v, name + ".", out)
-        elif v is None or isinstance(v, (str, bool, int, float, np.bool_, np.integer, np.floating)):
-            out[name] = v

@@ -15,7 +15,8 @@ was gained, also for a negative energy such as a bound orbit's), where both make
 
 0. The exact energy is zero or changes sign during the run (its zero is a convention,
    and a falling projectile's crosses it): dE/E is undefined there; not classified.
-1. The run went unstable, or an energy is not finite                  -> ``grows``.
+1. The run went unstable, or an energy is not finite                  -> ``grows``
+   (a run that crashed or timed out is not classified).
 2. E_n reached or crossed zero while the exact energy did not (its sign flipped):
    ``grows`` if E_n - E_exact > 0 there, else ``decays``.
 3. Split the run into tenths by step. A = max |g| over the first tenth, B = max |g| over
@@ -39,6 +40,7 @@ import numpy as np
 from scipy.stats import linregress
 
 from scenarios import Scene, Trajectory
+from scenarios.trajectory import UNSTABLE
 
 from ._measure import resolve, step
 
@@ -121,7 +123,10 @@ def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int 
     e_exact, rel = relative_error_series(traj, scene)
     with np.errstate(invalid="ignore"):
         out.update(max_rel_error=float(np.max(np.abs(rel))), final_rel_error=float(abs(rel[-1])))
-    out.update(classify(traj.energy[:, 0], e_exact, traj.t, unstable=not traj.ok))
+    if traj.ok or traj.status == UNSTABLE:
+        out.update(classify(traj.energy[:, 0], e_exact, traj.t, unstable=not traj.ok))
+    else:  # a crash or a timeout says nothing about the energy
+        out.update(classification=None, rule=f"run {traj.status}: not classified")
     out["short_horizon"] = out["periods"] < MIN_PERIODS
     if series:
         out["t"] = traj.t

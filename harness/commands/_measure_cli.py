@@ -8,7 +8,7 @@ import sys
 from scenarios import make_scene, parse_overrides
 
 from .. import validate
-from .._measure import jsonable
+from ..tidy import jsonable
 from ..methods import check_supported, get_method
 
 

@@ -24,8 +24,8 @@ def run(args) -> int:
     steps = validate.count("--steps", args.steps, 1)
     lo = validate.positive_finite("--lo", args.lo)
     hi = validate.positive_finite("--hi", args.hi)
-    if hi <= lo * 1.25:
-        raise InvalidInput(f"--hi={args.hi} is out of range (allowed: > 1.25 x --lo = {lo * 1.25:g})")
+    if hi <= lo:
+        raise InvalidInput(f"--hi={args.hi} is out of range (allowed: > --lo = {lo:g})")
     timeout = timeout_of(args)
     scene = scene_of(args)
     method = method_for(args.method, scene)

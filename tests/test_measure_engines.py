@@ -1,0 +1,58 @@
+"""The measurements on engine modes: the same measures, through the same generic method
+interface (``harness.runner.simulate``, isolated workers) as the reference schemes.
+
+Expected values and tolerances: tests/theory.py (issue 4; ENGINES.md for what each mode
+integrates). These need the engine adapters; an unknown method id is a failure here,
+never a skip, so a missing adapter cannot pass unnoticed.
+"""
+from __future__ import annotations
+
+import pytest
+
+from harness import cost, energy, order, stability
+from harness.methods import get_method
+from scenarios import make_scene
+from theory import ENGINE_ORDER, ENGINE_STABILITY, ORDER_TOL, STABILITY_RTOL, UNBOUNDED
+
+
+@pytest.mark.parametrize("method_id", list(ENGINE_STABILITY))
+def test_engine_largest_stable_dt_on_spring(method_id):
+    spring = make_scene("spring")
+    res = stability.largest_stable_dt(get_method(method_id), spring)
+    # The spring's initial state is two parameters, so the one-step map is measurable
+    # through a worker: the spectral criterion must be the one used.
+    assert res["criterion"] == "spectral_radius", res.get("note")
+    expected = ENGINE_STABILITY[method_id]
+    if expected == UNBOUNDED:
+        assert res["verdict"] == "unbounded"
+    else:
+        assert res["verdict"] == "limited"
+        assert res["omega_dt_max"] == pytest.approx(expected, rel=STABILITY_RTOL)
+
+
+@pytest.mark.parametrize("method_id, scene_id", list(ENGINE_ORDER))
+def test_engine_observed_order(method_id, scene_id):
+    # The theory order steers only the dt range (what a declared order would do); the
+    # slope is measured.
+    theory = ENGINE_ORDER[(method_id, scene_id)]
+    res = order.observed_order(get_method(method_id), make_scene(scene_id), order=theory)
+    assert len(res["points"]) >= order.MIN_POINTS
+    assert res["order"] == pytest.approx(theory, abs=ORDER_TOL)
+
+
+@pytest.mark.parametrize("method_id, expected", [
+    ("mujoco:euler", "bounded"),      # semi-implicit Euler, bitwise (ENGINES.md)
+    ("mujoco:rk4", "decays"),         # classical RK4
+    ("mujoco:discrete", "decays"),    # backward Euler
+])
+def test_engine_energy_classification_on_spring(method_id, expected):
+    res = energy.energy_behaviour(get_method(method_id), make_scene("spring"), 0.1, 10_000)
+    assert res["classification"] == expected, res["rule"]
+
+
+def test_engine_cost_is_measured_the_same_way():
+    spring = make_scene("spring")
+    res = cost.cost_per_step(get_method("mujoco:euler"), spring, 0.01, time_steps=500, repeats=2)
+    assert res["timing"].startswith("in-process") and res["s_per_step"] > 0
+    assert res["force_evals_per_step"] is not None or res["force_evals_reason"]
+    assert res["ratio_to_explicit_euler"] > 0

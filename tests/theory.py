@@ -1,0 +1,84 @@
+"""What the measurements must reproduce, and the tolerance each is held to, with where each
+number comes from: one table for tests/test_measure.py and tests/test_measure_engines.py.
+
+Sources: issue 4 ("Tests that must hold") and the theory section of ENGINES.md (unit
+spring, omega = 1).
+"""
+import math
+
+SQRT8 = 2.0 * math.sqrt(2.0)
+UNBOUNDED, UNSTABLE = "unbounded", "unstable"
+
+#: Largest stable h*omega on `spring`, "within 0.5%" (issue 4). Theory: the stability
+#: polynomials on the imaginary axis (ENGINES.md): 2 for the one-evaluation symplectic
+#: schemes, 2 sqrt(2) for RK4, 1.5734 for Forest-Ruth.
+STABILITY_RTOL = 0.005
+REF_STABILITY = {
+    "explicit_euler": UNSTABLE,
+    "semi_implicit_euler": 2.0,
+    "semi_implicit_euler_position_first": 2.0,
+    "verlet": 2.0,
+    "velocity_verlet": 2.0,
+    "leapfrog": 2.0,
+    "rk4": SQRT8,
+    "forest_ruth": 1.5734,
+    "implicit_euler": UNBOUNDED,
+    "implicit_midpoint": UNBOUNDED,
+}
+ENGINE_STABILITY = {
+    "mujoco:euler": 2.0,
+    "mujoco:implicit": 2.0,
+    "mujoco:implicitfast": 2.0,
+    "pybullet:semi_implicit": 2.0,
+    "mujoco:rk4": SQRT8,
+    "mujoco:discrete": UNBOUNDED,
+}
+
+#: Observed order "within +-0.15 of theory" (issue 4), on spring, pendulum and kepler.
+ORDER_TOL = 0.15
+ORDER_SCENES = ("spring", "pendulum", "kepler")
+REF_ORDER = {
+    "explicit_euler": 1,
+    "semi_implicit_euler": 1,
+    "semi_implicit_euler_position_first": 1,
+    "verlet": 2,  # the reported velocity (x_n - x_{n-1})/h + h a_n/2 is second order too
+    "velocity_verlet": 2,
+    "leapfrog": 2,
+    "rk4": 4,
+    "implicit_euler": 1,
+    "implicit_midpoint": 2,
+    "forest_ruth": 4,
+}
+#: (method, scene) -> order. The engines' scenes: the spring for MuJoCo and pybullet,
+#: the Kepler orbit for REBOUND's leapfrog (ENGINES.md: 2nd order on it).
+ENGINE_ORDER = {
+    ("mujoco:euler", "spring"): 1,
+    ("mujoco:rk4", "spring"): 4,
+    ("pybullet:semi_implicit", "spring"): 1,
+    ("rebound:leapfrog", "kepler"): 2,
+}
+
+#: Energy classification on `spring` at h = 0.1 (issue 4, the seed's table), over 10^4
+#: steps (159 periods: every tenth holds 16 periods, as the rule wants).
+ENERGY_DT = 0.1
+ENERGY_STEPS = 10_000
+REF_ENERGY = {
+    "explicit_euler": "grows",
+    "semi_implicit_euler": "bounded",
+    "semi_implicit_euler_position_first": "bounded",
+    "verlet": "bounded",
+    "velocity_verlet": "bounded",
+    "leapfrog": "bounded",
+    "rk4": "decays",
+    "implicit_euler": "decays",
+}
+
+#: Counted (force evaluations, solves) per step on the spring (issue 4: "1, 1, 1, 4,
+#: 1 (+ solve)"); a linear scene needs one Newton iteration, so one solve.
+REF_EVALS = {
+    "explicit_euler": (1, 0),
+    "semi_implicit_euler": (1, 0),
+    "verlet": (1, 0),
+    "rk4": (4, 0),
+    "implicit_euler": (1, 1),
+}
