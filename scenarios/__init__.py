@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from ._base import InvalidInput, Param, Scene
+from .chain import Chain
 from .damped_spring import DampedSpring
 from .kepler import Kepler
 from .pendulum import Pendulum
@@ -9,7 +10,9 @@ from .projectile import Projectile
 from .spring import Spring
 from .trajectory import Trajectory
 
-SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (Spring, DampedSpring, Pendulum, Kepler, Projectile)}
+SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
+    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain,
+)}
 
 
 def make_scene(scene_id: str, **overrides) -> Scene:
