@@ -7,11 +7,12 @@ from .damped_spring import DampedSpring
 from .kepler import Kepler
 from .pendulum import Pendulum
 from .projectile import Projectile
+from .rope import Rope
 from .spring import Spring
 from .trajectory import Trajectory
 
 SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
-    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain,
+    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope,
 )}
 
 
