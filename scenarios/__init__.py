@@ -8,11 +8,12 @@ from .kepler import Kepler
 from .pendulum import Pendulum
 from .projectile import Projectile
 from .rope import Rope
+from .solar_system import SolarSystem
 from .spring import Spring
 from .trajectory import Trajectory
 
 SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
-    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope,
+    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope, SolarSystem,
 )}
 
 
