@@ -48,27 +48,35 @@ def solve(q, v, t, p, alpha, beta, r):
 
 def project(q, p, iterations):
     """Jakobsen projection of the link lengths, Gauss-Seidel from the pin (fixed at the origin)
-    outwards, ``iterations`` passes; whole-batch rows, O(N) per pass."""
+    outwards, ``iterations`` passes, O(N) per pass and batch member.
+
+    The batch loop is written out (innermost, over the contiguous axis) rather than as
+    whole-batch row expressions: a link update is ten scalar operations, and row expressions
+    allocate a temporary for each, which at batch 1 made a compiled pass 7x slower (2.5 us
+    against 0.35 us per pass of 10 links) and the interpreted one 3x slower."""
     l = p[1]
     n = q.shape[0] // 2
+    nb = q.shape[1]
     q = q.copy()
     for _ in range(iterations):
-        # The pinned link: only its outer end moves.
-        dx = q[0].copy()
-        dy = q[1].copy()
-        d = np.sqrt(dx * dx + dy * dy)
-        s = (d - l) / d
-        q[0] = q[0] - s * dx
-        q[1] = q[1] - s * dy
-        for i in range(1, n):
-            dx = q[2 * i] - q[2 * i - 2]
-            dy = q[2 * i + 1] - q[2 * i - 1]
+        for b in range(nb):
+            # The pinned link: only its outer end moves.
+            dx = q[0, b]
+            dy = q[1, b]
             d = np.sqrt(dx * dx + dy * dy)
-            s = 0.5 * (d - l) / d
-            q[2 * i - 2] = q[2 * i - 2] + s * dx
-            q[2 * i - 1] = q[2 * i - 1] + s * dy
-            q[2 * i] = q[2 * i] - s * dx
-            q[2 * i + 1] = q[2 * i + 1] - s * dy
+            s = (d - l) / d
+            q[0, b] = dx - s * dx
+            q[1, b] = dy - s * dy
+        for i in range(1, n):
+            for b in range(nb):
+                dx = q[2 * i, b] - q[2 * i - 2, b]
+                dy = q[2 * i + 1, b] - q[2 * i - 1, b]
+                d = np.sqrt(dx * dx + dy * dy)
+                s = 0.5 * (d - l) / d
+                q[2 * i - 2, b] += s * dx
+                q[2 * i - 1, b] += s * dy
+                q[2 * i, b] -= s * dx
+                q[2 * i + 1, b] -= s * dy
     return q
 
 
