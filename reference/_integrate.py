@@ -92,9 +92,11 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     steps_run = (failed - 1) if failed else steps
     q_arr, v_arr = np.array(rec_q), np.array(rec_v)
     step_arr = np.array(rec_step, dtype=np.int64)
+    with np.errstate(over="ignore", invalid="ignore"):  # the last states of a blow-up are finite but huge
+        energy = scene.energy(q_arr, v_arr)
     return Trajectory(
         scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
-        step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=scene.energy(q_arr, v_arr),
+        step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=energy,
         status=status, detail=detail, failed_step=failed,
         force_evals=accel.calls, solves=solve.calls,
         meta={"backend": "interpreted", "start_force_evals": start_evals, "steps_run": steps_run,
