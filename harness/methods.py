@@ -6,7 +6,7 @@ available, does it support a scene (and if not, why), and ``simulate(scene, dt, 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import adapters
 import reference
@@ -16,7 +16,12 @@ from scenarios._base import no_solve
 
 @dataclass(frozen=True)
 class RefMethod:
+    """A reference scheme as a method. ``options`` are the run-time options the scheme declares
+    (``Scheme.options``: a constrained scheme's projection ``iterations``); unset ones keep the
+    scheme's defaults."""
+
     scheme: reference.Scheme
+    options: dict = field(default_factory=dict, compare=False)
 
     @property
     def id(self) -> str:
@@ -30,15 +35,50 @@ class RefMethod:
         return True, ""
 
     def supports(self, scene: Scene) -> tuple[bool, str]:
+        if self.scheme.constrained and not scene.constrained:
+            return False, (f"scene {scene.id} has no constraints to project "
+                           f"(without them {self.id} is plain ref:verlet)")
+        if scene.constrained and not self.scheme.constrained:
+            return False, (f"scene {scene.id} is held together by constraints that only a constrained "
+                           f"scheme enforces (ref:verlet_constrained); here its particles would fall freely")
         if self.scheme.implicit and type(scene).solve is no_solve:
             return False, f"scene {scene.id} provides no implicit solve"
         return True, ""
 
     def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
-        return reference.integrate(self.scheme, scene, dt, steps, every)
+        return reference.integrate(self.scheme, scene, dt, steps, every, **self.options)
 
     def describe(self) -> dict:
         return {"id": self.id, "family": "ref", **{k: v for k, v in self.scheme.describe().items() if k != "id"}}
+
+
+def parse_options(items: list[str] | None) -> dict[str, str]:
+    """``["iterations=5"]`` -> ``{"iterations": "5"}``; values are checked by ``get_method``."""
+    out: dict[str, str] = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise InvalidInput(f"--opt {item!r} is not of the form key=value")
+        out[name.strip()] = value.strip()
+    return out
+
+
+def _with_options(method, options: dict) -> object:
+    valid = method.scheme.options if isinstance(method, RefMethod) else {}
+    checked = {}
+    for name, value in options.items():
+        if name not in valid:
+            raise InvalidInput(f"unknown option {name!r} for method {method.id} "
+                               f"(valid: {', '.join(valid) or 'none'})")
+        try:
+            x = int(value)
+            ok = x == float(value) and x >= 1
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise InvalidInput(f"option {name}={value} is out of range (allowed: integer >= 1)")
+        checked[name] = x
+    return RefMethod(method.scheme, checked) if checked else method
 
 
 def all_methods() -> dict[str, object]:
@@ -48,11 +88,12 @@ def all_methods() -> dict[str, object]:
     return out
 
 
-def get_method(method_id: str):
+def get_method(method_id: str, options: dict | None = None):
+    """The method with that id; ``options`` (``{"iterations": 5}``) set a scheme's run-time options."""
     methods = all_methods()
     if method_id not in methods:
         raise InvalidInput(f"unknown method {method_id!r} (valid: {', '.join(methods)})")
-    return methods[method_id]
+    return _with_options(methods[method_id], options or {})
 
 
 def check_supported(method, scene: Scene) -> None:

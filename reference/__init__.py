@@ -13,10 +13,11 @@ from .semi_implicit_euler import semi_implicit_euler
 from .semi_implicit_euler_position_first import semi_implicit_euler_position_first
 from .velocity_verlet import velocity_verlet
 from .verlet import verlet
+from .verlet_constrained import verlet_constrained
 
 METHODS: dict[str, Scheme] = {s.id: s for s in (
     explicit_euler, semi_implicit_euler, semi_implicit_euler_position_first, verlet, velocity_verlet,
-    leapfrog, rk4, implicit_euler, implicit_midpoint, forest_ruth,
+    leapfrog, rk4, implicit_euler, implicit_midpoint, forest_ruth, verlet_constrained,
 )}
 
 __all__ = ["METHODS", "Scheme", "integrate"]

@@ -12,69 +12,117 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._integrate import newton_max
+from ._integrate import iterations_for, newton_max
 
-_DRIVERS: dict[tuple[str, str], object] = {}
+_DRIVERS: dict[tuple[str, str, bool], object] = {}
 
 
-def _build(scheme, scene_cls):
+def _build(scheme, scene_cls, record=False):
     import numba
 
     jit = numba.njit
     step, start, observe = jit(scheme.step), jit(scheme.start), jit(scheme.observe)
-    accel, solve = jit(scene_cls.accel), jit(scene_cls.solve)
+    accel, solve, project = jit(scene_cls.accel), jit(scene_cls.solve), jit(scene_cls.project)
 
-    if scheme.implicit:
+    # ``k`` is the one integer a scheme takes besides the state: Newton iterations allowed
+    # (implicit) or projection passes (constrained); explicit schemes ignore it.
+    if scheme.constrained:
         @jit
-        def advance(state, t, h, p, nmax):
-            return step(accel, solve, nmax, state, t, h, p)
+        def advance(state, t, h, p, k):
+            return step(accel, project, k, state, t, h, p)
+    elif scheme.implicit:
+        @jit
+        def advance(state, t, h, p, k):
+            return step(accel, solve, k, state, t, h, p)
     else:
         @jit
-        def advance(state, t, h, p, nmax):
+        def advance(state, t, h, p, k):
             return step(accel, state, t, h, p)
 
     @jit
-    def drive(q, v, t0, h, n, p, nmax):
+    def drive(q, v, t0, h, n, p, k):
         state = start(accel, q, v, t0, h, p)
         for i in range(n):
-            state = advance(state, t0 + i * h, h, p, nmax)
+            state = advance(state, t0 + i * h, h, p, k)
         return observe(accel, state, t0 + n * h, h, p)
 
-    return drive
+    if not record:
+        return drive
+
+    @jit
+    def drive_recording(q, v, t0, h, n, every, p, k):
+        # Observed states at step 0, every ``every`` steps and step n, kernel layout (T, ndof, batch).
+        nrec = n // every + 1 + (1 if n % every else 0)
+        qs = np.empty((nrec, q.shape[0], q.shape[1]))
+        vs = np.empty((nrec, q.shape[0], q.shape[1]))
+        state = start(accel, q, v, t0, h, p)
+        qs[0], vs[0] = observe(accel, state, t0, h, p)
+        r = 1
+        for i in range(n):
+            state = advance(state, t0 + i * h, h, p, k)
+            if (i + 1) % every == 0 or i + 1 == n:
+                qs[r], vs[r] = observe(accel, state, t0 + (i + 1) * h, h, p)
+                r += 1
+        return qs, vs
+
+    return drive_recording
 
 
-def driver(scheme, scene: Scene):
-    key = (scheme.id, scene.id)
+def driver(scheme, scene: Scene, record: bool = False):
+    """The compiled loop: ``drive(q, v, t0, h, n, p, k) -> (q, v)`` at step n, or with ``record``
+    ``drive(q, v, t0, h, n, every, p, k) -> (qs, vs)`` (a separate compile, only when asked for)."""
+    key = (scheme.id, scene.id, record)
     if key not in _DRIVERS:
-        _DRIVERS[key] = _build(scheme, type(scene))
+        _DRIVERS[key] = _build(scheme, type(scene), record)
     return _DRIVERS[key]
 
 
-def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None):
+def _k(scheme, scene: Scene, iterations: int | None) -> int:
+    return iterations_for(scheme, iterations) if scheme.constrained else newton_max(scene)
+
+
+def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, q0=None, v0=None,
+                       iterations: int | None = None):
+    """(steps recorded, q, v) of a compiled run, recorded as ``integrate`` records (step 0, every
+    ``every`` steps and the last); q, v in API layout (T, batch, ndof). No instability check:
+    for stable runs where the interpreted path would be too slow."""
+    if q0 is None or v0 is None:
+        q0, v0 = scene.batch_state(1)
+    q = np.ascontiguousarray(np.atleast_2d(q0).T, dtype=np.float64)
+    v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
+    steps, every = int(steps), int(every)
+    qs, vs = driver(scheme, scene, record=True)(q, v, 0.0, float(dt), steps, every, scene.pvec,
+                                                _k(scheme, scene, iterations))
+    recorded = np.unique(np.append(np.arange(0, steps + 1, every), steps))
+    return recorded, qs.transpose(0, 2, 1).copy(), vs.transpose(0, 2, 1).copy()
+
+
+def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None, iterations: int | None = None):
     """Final (q, v) after ``steps`` compiled steps, API layout (batch, ndof)."""
     if q0 is None or v0 is None:
         q0, v0 = scene.batch_state(1)
     q = np.ascontiguousarray(np.atleast_2d(q0).T, dtype=np.float64)
     v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
-    qf, vf = driver(scheme, scene)(q, v, 0.0, float(dt), int(steps), scene.pvec, newton_max(scene))
+    qf, vf = driver(scheme, scene)(q, v, 0.0, float(dt), int(steps), scene.pvec, _k(scheme, scene, iterations))
     return qf.T.copy(), vf.T.copy()
 
 
-def time_per_step(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, repeats: int = 5) -> dict:
+def time_per_step(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, repeats: int = 5,
+                  iterations: int | None = None) -> dict:
     """Wall time per step of the compiled loop: one warm-up call (compiles), then the
     minimum over ``repeats`` timed calls (the least-disturbed run; asv and timeit do the same)."""
     q0, v0 = scene.batch_state(batch)
     q = np.ascontiguousarray(q0.T)
     v = np.ascontiguousarray(v0.T)
     fn = driver(scheme, scene)
-    p, nmax = scene.pvec, newton_max(scene)
+    p, k = scene.pvec, _k(scheme, scene, iterations)
     t_compile = time.perf_counter()
-    fn(q, v, 0.0, float(dt), 2, p, nmax)
+    fn(q, v, 0.0, float(dt), 2, p, k)
     t_compile = time.perf_counter() - t_compile
     times = []
     for _ in range(repeats):
         t = time.perf_counter()
-        fn(q, v, 0.0, float(dt), int(steps), p, nmax)
+        fn(q, v, 0.0, float(dt), int(steps), p, k)
         times.append((time.perf_counter() - t) / steps)
     return {"s_per_step": min(times), "median_s_per_step": float(np.median(times)),
             "repeats": times, "warmup_s": t_compile, "batch": batch, "steps": steps}

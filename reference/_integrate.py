@@ -30,10 +30,17 @@ def newton_max(scene: Scene) -> int:
     return 1 if scene.linear else NEWTON_MAX
 
 
+def iterations_for(scheme, iterations: int | None) -> int:
+    """The projection passes a constrained scheme runs with: the caller's, else its default."""
+    return int(scheme.iterations if iterations is None else iterations)
+
+
 def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
-              q0: np.ndarray | None = None, v0: np.ndarray | None = None, t0: float = 0.0) -> Trajectory:
+              q0: np.ndarray | None = None, v0: np.ndarray | None = None, t0: float = 0.0,
+              iterations: int | None = None) -> Trajectory:
     """Step ``scheme`` on ``scene`` for ``steps`` steps of ``dt``, recording every ``every`` steps
     (and always the last). ``q0``/``v0`` may be batched (API layout, (batch, ndof)).
+    ``iterations``: projection passes per step of a constrained scheme (default: the scheme's).
 
     A step whose state is not finite, or exceeds ``DIVERGED`` in magnitude, stops the run:
     status ``unstable`` with that step, the arrays ending at the last good recorded state.
@@ -43,8 +50,15 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     q = np.ascontiguousarray(np.atleast_2d(q0).T, dtype=np.float64)
     v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
     p = scene.pvec
-    accel, solve = Counted(scene.accel), Counted(scene.solve)
-    if scheme.implicit:
+    accel, solve, project = Counted(scene.accel), Counted(scene.solve), Counted(scene.project)
+    meta = {}
+    if scheme.constrained:
+        iters = iterations_for(scheme, iterations)
+        meta["iterations"] = iters
+
+        def advance(state, t):
+            return scheme.step(accel, project, iters, state, t, dt, p)
+    elif scheme.implicit:
         nmax = newton_max(scene)
 
         def advance(state, t):
@@ -78,11 +92,14 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     steps_run = (failed - 1) if failed else steps
     q_arr, v_arr = np.array(rec_q), np.array(rec_v)
     step_arr = np.array(rec_step, dtype=np.int64)
+    with np.errstate(over="ignore", invalid="ignore"):  # the last states of a blow-up are finite but huge
+        energy = scene.energy(q_arr, v_arr)
     return Trajectory(
         scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
-        step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=scene.energy(q_arr, v_arr),
+        step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=energy,
         status=status, detail=detail, failed_step=failed,
         force_evals=accel.calls, solves=solve.calls,
         meta={"backend": "interpreted", "start_force_evals": start_evals, "steps_run": steps_run,
-              "params": dict(scene.values)},
+              "params": dict(scene.values), **meta,
+              **({"projections": project.calls} if scheme.constrained else {})},
     )

@@ -9,6 +9,12 @@ Kernel contract (arrays in the component-major kernel layout, ``(ndof, batch)``)
   ``step(accel, solve, newton_max, state, t, h, p) -> state`` for implicit ones, where
   ``solve`` is the scene's linear solve and ``newton_max`` is 1 for linear scenes
   (one Newton iteration from the old velocity is exact) and more otherwise.
+* ``step(accel, project, iterations, state, t, h, p) -> state`` for constrained schemes
+  (``constrained=True``), where ``project(q, p, iterations) -> q`` is the scene's constraint
+  projection and ``iterations`` its number of relaxation passes: the scheme's default
+  (``Scheme.iterations``) unless the caller asks for another (``integrate(..., iterations=K)``,
+  ``harness run --opt iterations=K``). A constrained scheme runs only on scenes with a
+  ``project`` kernel, and those scenes only with constrained schemes.
 * ``observe(accel, state, t, h, p) -> (q, v)``: the state a user sees; it never calls ``accel``.
 
 The functions are plain numpy, so the same source runs interpreted, with every force
@@ -48,7 +54,14 @@ class Scheme:
     homega_max: float | None
     start: Callable = start_qv
     observe: Callable = observe_qv
+    constrained: bool = False
+    iterations: int | None = None
     doc: str = field(default="", compare=False)
+
+    @property
+    def options(self) -> dict[str, int]:
+        """Run-time options a caller may set, with their defaults."""
+        return {"iterations": self.iterations} if self.constrained else {}
 
     @property
     def summary(self) -> str:
@@ -58,9 +71,12 @@ class Scheme:
         evals = f"{self.force_evals} + solve" if self.implicit else str(self.force_evals)
         limit = ("none (unstable for every h)" if self.homega_max is None
                  else "unbounded" if self.homega_max == math.inf else f"{self.homega_max:.4g}")
-        return {"id": self.id, "order": self.order, "force_evals": evals, "symplectic": self.symplectic,
-                "implicit": self.implicit, "energy": self.energy_claim, "homega_max": limit,
-                "doc": " ".join(self.doc.split())}
+        out = {"id": self.id, "order": self.order, "force_evals": evals, "symplectic": self.symplectic,
+               "implicit": self.implicit, "constrained": self.constrained, "energy": self.energy_claim,
+               "homega_max": limit, "doc": " ".join(self.doc.split())}
+        if self.constrained:
+            out["iterations"] = self.iterations
+        return out
 
 
 def scheme(**declared) -> Callable[[Callable], Scheme]:

@@ -2,14 +2,19 @@
 from __future__ import annotations
 
 from ._base import InvalidInput, Param, Scene
+from .chain import Chain
 from .damped_spring import DampedSpring
 from .kepler import Kepler
 from .pendulum import Pendulum
 from .projectile import Projectile
+from .rope import Rope
+from .solar_system import SolarSystem
 from .spring import Spring
 from .trajectory import Trajectory
 
-SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (Spring, DampedSpring, Pendulum, Kepler, Projectile)}
+SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
+    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope, SolarSystem,
+)}
 
 
 def make_scene(scene_id: str, **overrides) -> Scene:

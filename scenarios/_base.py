@@ -72,6 +72,10 @@ def no_solve(q, v, t, p, alpha, beta, r):  # pragma: no cover - only reached by 
     raise NotImplementedError("this scene provides no implicit solve")
 
 
+def no_project(q, p, iterations):  # pragma: no cover - only reached by a misuse
+    raise NotImplementedError("this scene has no constraints to project")
+
+
 class Scene:
     """Base class. A subclass declares, and only declares, what its physics needs.
 
@@ -84,6 +88,10 @@ class Scene:
     accel : kernel ``(q, v, t, p) -> a`` in kernel layout.
     solve : kernel ``(q, v, t, p, alpha, beta, r) -> x`` solving
         ``(I - alpha*da/dv - beta*da/dq) x = r`` at (q, v, t); needed by implicit schemes.
+    project : kernel ``(q, p, iterations) -> q`` moving positions back onto the scene's
+        constraints (``iterations`` relaxation passes); only constrained scenes have one, and
+        only constrained schemes call it. ``accel`` of a constrained scene is the
+        unconstrained acceleration.
     """
 
     id: ClassVar[str]
@@ -93,6 +101,7 @@ class Scene:
     linear: ClassVar[bool] = False
     accel: ClassVar[Callable]
     solve: ClassVar[Callable] = staticmethod(no_solve)
+    project: ClassVar[Callable] = staticmethod(no_project)
 
     def __init__(self, **overrides):
         unknown = sorted(set(overrides) - set(self.params))
@@ -124,6 +133,18 @@ class Scene:
         """Exact (q, v) at times t, shape (len(t), ndof); None where no closed form exists."""
         return None
 
+    def reference_solution(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(q, v) to measure errors against: the exact solution, or for a scene without one a
+        high-accuracy numerical solution, trustworthy for t <= ``reference_horizon``."""
+        return self.exact(t)
+
+    #: How far ``reference_solution`` is accurate well below any scheme's error (inf: exact).
+    reference_horizon: ClassVar[float] = float("inf")
+
+    def constraint_error(self, q: np.ndarray) -> np.ndarray | None:
+        """How far states (API layout) are off the constraints; None for unconstrained scenes."""
+        return None
+
     def exact_energy(self, t: np.ndarray) -> np.ndarray:
         """Exact energy at times t. Conservative scenes keep their initial energy."""
         q0, v0 = self.initial_state()
@@ -146,19 +167,27 @@ class Scene:
     def conservative(self) -> bool:
         return True
 
+    @property
+    def constrained(self) -> bool:
+        return type(self).project is not no_project
+
     def batch_state(self, batch: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """The initial state repeated over a batch, API layout (batch, ndof)."""
         q0, v0 = self.initial_state()
         return np.tile(q0, (batch, 1)), np.tile(v0, (batch, 1))
 
     def describe(self) -> dict:
+        has_exact = self.exact(np.zeros(1)) is not None
         return {
             "id": self.id,
             "title": self.title,
             "ndof": self.ndof,
             "omega": self.omega,
             "linear": self.linear,
-            "has_exact": self.exact(np.zeros(1)) is not None,
+            "constrained": self.constrained,
+            "has_exact": has_exact,
+            "has_reference": has_exact or type(self).reference_solution is not Scene.reference_solution,
+            "reference_horizon": None if self.reference_horizon == math.inf else self.reference_horizon,
             "params": {name: {"value": self.values[name], "default": spec.default,
                               "allowed": spec.allowed(), "doc": spec.doc}
                        for name, spec in self.params.items()},

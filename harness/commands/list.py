@@ -39,7 +39,7 @@ def run(args) -> int:
         return 0
     print("Scenes")
     for sid, s in cat["scenes"].items():
-        params = ", ".join(f"{k}={v['value']:g} {v['allowed']}" for k, v in s["params"].items())
+        params = ", ".join(f"{k}={v['value']:g} {v['allowed']}" for k, v in s["params"].items()) or "none"
         print(f"  {sid:16s} {s['title']}")
         print(f"  {'':16s} omega={s['omega']:.4g}  params: {params}")
     print("\nMethods")

@@ -9,7 +9,7 @@ import numpy as np
 from scenarios import make_scene, parse_overrides
 
 from .. import validate
-from ..methods import check_supported, get_method
+from ..methods import check_supported, get_method, parse_options
 from ..runner import simulate
 
 FORMATS = ("table", "csv", "json")
@@ -22,6 +22,8 @@ def add_parser(sub):
     p.add_argument("--dt", required=True)
     p.add_argument("--steps", required=True)
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene parameter")
+    p.add_argument("--opt", action="append", metavar="KEY=VALUE",
+                   help="set a method option (ref:verlet_constrained: iterations=K projection passes per step)")
     p.add_argument("--every", default="1", help="print every K-th step (the last is always printed)")
     p.add_argument("--format", default="table", help="table, csv or json")
     p.add_argument("--timeout", default="60", help="seconds an engine run may take")
@@ -36,7 +38,7 @@ def run(args) -> int:
     every = validate.count("--every", args.every, 1)
     timeout = validate.positive_finite("--timeout", args.timeout)
     scene = make_scene(args.scene, **parse_overrides(args.set))
-    method = get_method(args.method)
+    method = get_method(args.method, parse_options(args.opt))
     check_supported(method, scene)
     traj = simulate(method, scene, dt, steps, every, timeout=timeout)
     frame = traj.to_frame()

@@ -1,0 +1,115 @@
+"""A stiff spring chain, the 1-D analogue of taut cloth: N masses m in a line, springs k between
+neighbours and from each end mass to a fixed wall (N + 1 springs). q_i is the displacement of
+mass i from its rest position:
+
+    a_i = (k/m) (q_{i-1} - 2 q_i + q_{i+1}),   q_{-1} = q_N = 0 (the walls).
+
+Normal modes (j = 1..N): shape sin(i j pi/(N+1)) (i = 1..N), frequency
+w_j = 2 sqrt(k/m) sin(j pi/(2(N+1))). omega is the highest, w_N, which sets every explicit
+scheme's stability limit (h w_N <= 2 for Verlet-type, 2 sqrt(2) for RK4).
+
+Initial state: the middle mass (index (N-1)//2, 0-based) displaced by x0, everything at rest.
+A single displaced mass excites every mode it does not sit on a node of; in the middle it
+excites the highest mode with nearly the largest possible amplitude (its modal weight
+|sin(i N pi/(N+1))| >= cos(pi/(2(N+1))), 0.9989 at N = 32), so stiffness matters from step one.
+
+Exact solution: the modal (DST-I) transform of the initial state, each mode a cosine at w_j.
+"""
+import math
+
+import numpy as np
+from scipy.fft import dst, idst
+
+from ._base import Param, Scene
+
+
+def accel(q, v, t, p):
+    # O(N), whole-batch rows: the wall springs are the missing neighbours of the end masses.
+    c = p[1] / p[2]
+    a = (-2.0 * c) * q
+    a[1:] = a[1:] + c * q[:-1]
+    a[:-1] = a[:-1] + c * q[1:]
+    return a
+
+
+def solve(q, v, t, p, alpha, beta, r):
+    """(I - beta da/dq) x = r: da/dv = 0 and da/dq = (k/m) tridiag(1, -2, 1), so the matrix is
+    tridiagonal with diagonal 1 + 2 beta k/m and off-diagonals -beta k/m, the same for every batch
+    member. Thomas algorithm, O(N) per member; the matrix is strictly diagonally dominant, so no
+    pivoting is needed."""
+    c = beta * (p[1] / p[2])
+    d = 1.0 + 2.0 * c
+    e = -c
+    n = r.shape[0]
+    cp = np.empty(n)
+    x = np.empty_like(r)
+    cp[0] = e / d
+    x[0] = r[0] / d
+    for i in range(1, n):
+        denom = d - e * cp[i - 1]
+        cp[i] = e / denom
+        x[i] = (r[i] - e * x[i - 1]) / denom
+    for i in range(n - 2, -1, -1):
+        x[i] = x[i] - cp[i] * x[i + 1]
+    return x
+
+
+class Chain(Scene):
+    id = "chain"
+    title = "stiff spring chain between two walls, N DOF, linear; exact solution from the normal modes"
+    params = {
+        "N": Param(32, "number of masses", lo=1.0, integer=True),
+        "k": Param(1.0e4, "stiffness of every spring (neighbours and walls)", lo=0.0, lo_open=True),
+        "m": Param(1.0, "mass of each body", lo=0.0, lo_open=True),
+        "x0": Param(1.0, "initial displacement of the middle mass (index (N-1)//2), all at rest"),
+    }
+    linear = True
+    accel = staticmethod(accel)
+    solve = staticmethod(solve)
+
+    @property
+    def dof_names(self):
+        return tuple(f"x{i}" for i in range(self.values["N"]))
+
+    @property
+    def middle(self) -> int:
+        return (self.values["N"] - 1) // 2
+
+    def initial_state(self):
+        n = self.values["N"]
+        q = np.zeros(n)
+        q[self.middle] = self.values["x0"]
+        return q, np.zeros(n)
+
+    def mode_frequencies(self) -> np.ndarray:
+        """w_j, j = 1..N."""
+        n = self.values["N"]
+        j = np.arange(1, n + 1)
+        return 2.0 * math.sqrt(self.values["k"] / self.values["m"]) * np.sin(j * math.pi / (2.0 * (n + 1)))
+
+    @property
+    def omega(self):
+        n = self.values["N"]
+        return 2.0 * math.sqrt(self.values["k"] / self.values["m"]) * math.sin(n * math.pi / (2.0 * (n + 1)))
+
+    def energy(self, q, v):
+        k, m = self.values["k"], self.values["m"]
+        kinetic = 0.5 * m * np.sum(v * v, axis=-1)
+        stretch = np.diff(q, axis=-1)
+        springs = np.sum(stretch * stretch, axis=-1) + q[..., 0] ** 2 + q[..., -1] ** 2
+        return kinetic + 0.5 * k * springs
+
+    def modal(self, q: np.ndarray) -> np.ndarray:
+        """Modal coordinates: the orthonormal DST-I (its matrix is symmetric and its own inverse)."""
+        return dst(q, type=1, norm="ortho", axis=-1)
+
+    def exact(self, t):
+        t = np.asarray(t, dtype=float)
+        q0, v0 = self.initial_state()
+        w = self.mode_frequencies()
+        a, b = self.modal(q0), self.modal(v0)
+        wt = t[:, None] * w
+        cos, sin = np.cos(wt), np.sin(wt)
+        q = idst(a * cos + (b / w) * sin, type=1, norm="ortho", axis=-1)
+        v = idst(-a * w * sin + b * cos, type=1, norm="ortho", axis=-1)
+        return q, v
