@@ -50,3 +50,12 @@ def dask_setup(worker):
     run_cell_task.kills_worker = True
     # The client pickles harness.distributed.run_cell_task by name, so the worker runs this one.
     distributed.run_cell_task = run_cell_task
+
+
+def hang(pid_file: str) -> None:
+    """Stands for an engine that never returns: records its pid, then sleeps for good."""
+    import time
+
+    Path(pid_file).write_text(str(os.getpid()))
+    while True:
+        time.sleep(60)

@@ -9,7 +9,9 @@ worker costs its cell one retry", in one Dask run.
 import json
 import os
 import re
+import signal
 import socket
+import time
 from collections import Counter
 from pathlib import Path
 
@@ -20,7 +22,7 @@ from dask.distributed import LocalCluster
 import dask_faults
 from harness import distributed
 from harness.cli import main
-from harness.isolation import WorkerFailure
+from harness.isolation import ORPHAN_GRACE_S, WorkerFailure, run_in_worker
 from harness.nightly import Task, build_tasks
 from harness.storage import History
 from harness.suites import SUITES
@@ -228,9 +230,28 @@ def test_a_cluster_lost_mid_run_stops_the_run_incomplete_exit_3(tmp_path, monkey
     assert not (tmp_path / "out" / "report.md").exists()
 
 
-def test_a_cell_past_its_timeout_in_a_dask_worker_is_timed_out_and_the_worker_goes_on():
-    """The cell's child process is killed at the timeout; the Dask worker survives (same pid)
-    and runs the next task. A 1 ms limit stands for a hang: no child answers within it."""
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return Path(f"/proc/{pid}").exists() and "Z" not in Path(f"/proc/{pid}/stat").read_text().split()[2]
+
+
+def wait_for(predicate, seconds: float) -> bool:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.05)
+    return predicate()
+
+
+def test_a_hung_cell_in_a_dask_worker_is_timed_out_and_never_outlives_its_worker(tmp_path):
+    """The cell's child process is killed at the timeout; the Dask worker survives (same pid) and
+    runs the next task. A 1 ms limit stands for a hang: no child answers within it. And a child
+    whose Dask worker is killed first (nobody left to enforce its limit) ends itself
+    ORPHAN_GRACE_S after its limit instead of hanging on for good."""
     bound = Task("bound", "spring", "ref:semi_implicit_euler", "ref", {}, "smoke", 0.1, 1000, 1.0)
     with dask.config.set({"distributed.worker.daemon": dask.config.get("distributed.worker.daemon")}):
         executor = distributed.DaskExecutor("local:1")
@@ -241,6 +262,14 @@ def test_a_cell_past_its_timeout_in_a_dask_worker_is_timed_out_and_the_worker_go
             [(_, hung)] = list(executor.run([bound], timeout=0.001))
             [(_, cells)] = list(executor.run([bound], timeout=60.0))
             assert executor.client.run(os.getpid) == pid
+
+            pid_file, limit = tmp_path / "child.pid", 2.0
+            executor.client.submit(run_in_worker, dask_faults.hang, (str(pid_file),), timeout=limit, pure=False)
+            assert wait_for(pid_file.exists, 10.0)
+            os.kill(next(iter(pid.values())), signal.SIGKILL)
+            child = int(pid_file.read_text())
+            assert alive(child)  # orphaned, and hung
+            assert wait_for(lambda: not alive(child), limit + ORPHAN_GRACE_S + 3.0)
         finally:
             executor.close()
     assert isinstance(hung, WorkerFailure) and hung.status == "timed_out"
