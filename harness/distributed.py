@@ -9,9 +9,10 @@ inside the Dask worker, through ``isolation.run_in_worker``: in a fresh child pr
 worker, exactly as a local run does. So an engine that aborts, segfaults or hangs costs that
 child only: the cell comes back ``crashed`` (with the signal) or ``timed_out`` (the child
 killed at the suite's cell timeout), the same records a local run stores, and the Dask worker
-goes on. The Dask task is *not* the isolation: a worker cannot kill a hung thread of its own,
-and a segfault there would cost the worker, a restart and every retry. This is why the
-workers must be non-daemonic (a daemonic process may not start children); a cluster we start
+goes on; should the Dask worker itself die first, the child ends itself just past its limit
+(``isolation.ORPHAN_GRACE_S``) rather than outlive it. The Dask task is *not* the isolation:
+a worker cannot kill a hung thread of its own, and a segfault there would cost the worker, a
+restart and every retry. This is why the workers must be non-daemonic (a daemonic process may not start children); a cluster we start
 is, and a cluster we join is checked before anything runs.
 
 Lost workers. The Dask task dies only if its worker process does (killed, out of memory, the
