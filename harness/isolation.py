@@ -91,14 +91,22 @@ def _context():
     return _CONTEXT
 
 
+#: Seconds past its limit after which a worker ends itself (SIGALRM). Its parent kills it at the
+#: limit; this backstop is for a parent that died first (a Dask worker killed mid-cell), whose
+#: hung worker would otherwise outlive it for good.
+ORPHAN_GRACE_S = 2.0
+
 #: True inside a worker: the process is already the isolation, so engines run in it directly
 #: (a worker may not start children of its own, and needs none).
 IN_WORKER = False
 
 
-def _worker(conn, workdir: str, fn, args, kwargs) -> None:
+def _worker(conn, workdir: str, fn, args, kwargs, limit: float | None = None) -> None:
     global IN_WORKER
     IN_WORKER = True
+    if limit is not None:  # SIGALRM's default action ends the process, even inside an engine's C loop
+        signal.signal(signal.SIGALRM, signal.SIG_DFL)
+        signal.setitimer(signal.ITIMER_REAL, limit + ORPHAN_GRACE_S)
     os.chdir(workdir)
     for fd, name in ((1, "stdout.txt"), (2, "stderr.txt")):
         out = os.open(os.path.join(workdir, name), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
@@ -155,7 +163,8 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="harness-worker-") as workdir:
         receiver, sender = ctx.Pipe(duplex=False)
-        proc = ctx.Process(target=_worker, args=(sender, workdir, fn, args, kwargs or {}), daemon=True)
+        proc = ctx.Process(target=_worker, args=(sender, workdir, fn, args, kwargs or {}, limit),
+                           daemon=True)
         proc.start()
         sender.close()  # only the worker holds the sending end: its death reads as EOF here
         try:
@@ -181,6 +190,9 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
         if message is not None:
             return WorkerFailure(CRASHED, f"raised {message[1]}", output=message[2] or output, seconds=seconds)
         code = proc.exitcode
+        if code == -signal.SIGALRM:  # the backstop fired before this thread got to kill it
+            return WorkerFailure(TIMED_OUT, f"no result within {limit:g} s; worker stopped itself",
+                                 output=output, seconds=seconds)
         if code is not None and code < 0:
             name = signal.Signals(-code).name
             said = _complaint(workdir)

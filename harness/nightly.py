@@ -107,11 +107,13 @@ class LocalExecutor:
 
 
 def make_executor(jobs: int | None, scheduler: str | None):
-    scheduler = scheduler or os.environ.get("HARNESS_SCHEDULER") or None
-    if scheduler:
-        from .distributed import DaskExecutor
+    """A Dask cluster for ``--scheduler`` (else ``$HARNESS_SCHEDULER``, unless ``--jobs`` was given),
+    local worker processes otherwise; see ``harness.distributed``."""
+    from .distributed import DaskExecutor, resolve_scheduler
 
-        return DaskExecutor(scheduler)
+    chosen = resolve_scheduler(scheduler, jobs is not None)
+    if chosen:
+        return DaskExecutor(*chosen)
     return LocalExecutor(jobs or os.cpu_count() or 1)
 
 

@@ -132,7 +132,8 @@ class History:
         with closing(self._connect()) as con:
             df = pd.read_sql_query(q, con)
         for col in ("versions", "machine", "settings", "timing"):
-            df[col] = df[col].map(lambda s: json.loads(s) if s else {})
+            # An incomplete run's NULL timing reads as NaN (not None) when complete runs sit beside it.
+            df[col] = df[col].map(lambda s: json.loads(s) if isinstance(s, str) and s else {})
         return df
 
     def run(self, run_id: int) -> dict:

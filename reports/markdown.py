@@ -55,6 +55,8 @@ def homega_text(row) -> str:
 def claim_homega_text(c) -> str:
     if c is None:
         return "none"
+    if c == "?":  # no claims known: every cell of the scheme failed before measuring
+        return c
     if c == math.inf or c == "inf":
         return "unbounded"
     return f"{float(c):.4g}"

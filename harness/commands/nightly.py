@@ -1,5 +1,6 @@
 """``harness nightly``: run the matrix, store it, compare with the last run, write the report.
-Exit 1 when anything regressed (the list also heads the report)."""
+Exit 1 when anything regressed (the list also heads the report), 2 on bad input (an unreachable
+scheduler included), 3 when the Dask cluster was lost mid-run."""
 from __future__ import annotations
 
 import json
@@ -19,8 +20,8 @@ def add_parser(sub):
     p.add_argument("--db", default=str(DEFAULT_DB), help="SQLite history")
     p.add_argument("--jobs", default=None, help="worker processes (default: all cores)")
     p.add_argument("--scheduler", default=None,
-                   help="Dask scheduler address, or local:N for a LocalCluster of N workers "
-                        "(default: $HARNESS_SCHEDULER, else local worker processes)")
+                   help="Dask scheduler address [tcp://]HOST:PORT, or local:N for a LocalCluster of N worker "
+                        "processes (default: $HARNESS_SCHEDULER unless --jobs is given, else local worker processes)")
     p.add_argument("--bounds", default=None, help="energy bounds file (default: the reviewed harness/energy_bounds.csv)")
     p.add_argument("--json", action="store_true", help="print the run summary as JSON")
     return p
@@ -33,11 +34,15 @@ def run(args) -> int:
     jobs = validate.count("--jobs", args.jobs, 1) if args.jobs is not None else None
     bounds_path = Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH
     bounds_mod.load(bounds_path)  # a broken bounds file fails before anything runs
-    if args.scheduler:
-        from ..distributed import parse_scheduler
+    from ..distributed import ClusterLost, resolve_scheduler
 
-        parse_scheduler(args.scheduler)
-    result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path)
+    resolve_scheduler(args.scheduler, jobs is not None)  # a bad address fails before anything runs
+    try:
+        result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path)
+    except ClusterLost as exc:
+        print(f"harness: error: {exc}; the run is left incomplete (never compared, the previous report kept)",
+              file=sys.stderr)
+        return 3
     regs = result["regressions"]
     if args.json:
         print(json.dumps({"run_id": result["run_id"], "previous": result["previous"], "report": str(result["report"]),
