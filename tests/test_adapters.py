@@ -261,10 +261,12 @@ def test_issue_scene_coverage():
     supported = {mid: {s for s in SCENES if m.supports(make_scene(s))[0]} for mid, m in adapters.ENGINE_METHODS.items()}
     four = {"spring", "damped_spring", "pendulum", "projectile"}
     for mode in ("euler", "rk4", "implicit", "implicitfast", "discrete"):
-        assert supported[f"mujoco:{mode}"] == four
-    assert supported["pybullet:semi_implicit"] == four
-    assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring", "projectile"}
-    assert supported["pymunk:pin_joint"] == {"pendulum"}
+        assert supported[f"mujoco:{mode}"] == four | {"chain", "rope"}  # issue 6: slide joints + tendons, hinges
+    assert supported["pybullet:semi_implicit"] == four | {"chain"}
+    assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring",
+                                                                                     "projectile", "chain"}
+    assert supported["pymunk:damped_spring"] == {"chain"}
+    assert supported["pymunk:pin_joint"] == {"pendulum", "rope"}
     for mode in ("leapfrog", "whfast", "ias15", "saba"):
         assert supported[f"rebound:{mode}"] == {"kepler"}
 
@@ -303,7 +305,7 @@ def test_list_shows_why_a_scene_is_unsupported(capsys):
     assert main(["list", "--json"]) == 0
     methods = json.loads(capsys.readouterr().out)["methods"]
     assert methods["pymunk:pin_joint"]["scenes"]["pendulum"] is True
-    assert "pin joint poses only the pendulum" in methods["pymunk:pin_joint"]["scenes"]["spring"]
+    assert "pin joints pose only the pendulum and the rope" in methods["pymunk:pin_joint"]["scenes"]["spring"]
     assert methods["rebound:ias15"]["engine_version"] == "5.2.2"
 
 
@@ -400,4 +402,4 @@ def test_unstable_run_then_the_harness_goes_on():
 def test_all_methods_include_the_engine_modes():
     ids = all_methods()
     assert set(adapters.ENGINE_METHODS) <= set(ids)
-    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 3 + 4  # MuJoCo, pybullet, pymunk, REBOUND modes
+    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 4 + 4  # MuJoCo, pybullet, pymunk, REBOUND modes
