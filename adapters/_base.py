@@ -43,6 +43,10 @@ class Model(Protocol):
     def close(self) -> None:
         """Release the engine's resources."""
 
+    # Optional: ``set_state(q, v)`` puts the model in a state (scene coordinates) as if it
+    # had been built there, so that one model can take one step from many states
+    # (``EngineMode.one_steps``).
+
 
 @contextlib.contextmanager
 def quiet_fds():
@@ -158,6 +162,35 @@ class EngineMode:
             "settings": dict(model.settings),
         })
         return traj
+
+    def one_steps(self, scene: Scene, dt: float, states) -> list[tuple[np.ndarray | None, str]] | None:
+        """One step of ``dt`` from each state y = (q, v) (rows of ``states``, scene coordinates),
+        all on one model built once: ``(y_1, "")``, or ``(None, why)`` where the step diverged
+        or the engine complained. None if the model cannot be set to a state (``set_state``):
+        then each state needs a model built from it. Runs in this process, unvalidated."""
+        ok, why = self.supports(scene)
+        if not ok:
+            raise ValueError(f"{self.id} does not support scene {scene.id}: {why}")
+        engine = import_engine(self.module)
+        model = self.build(engine, self.mode, scene, dt)
+        try:
+            if not hasattr(model, "set_state"):
+                return None
+            n = scene.ndof
+            out = []
+            for y in np.atleast_2d(np.asarray(states, dtype=float)):
+                model.set_state(y[:n].copy(), y[n:].copy())
+                model.advance()
+                q, v = model.state()
+                trouble = model.trouble()
+                if trouble is not None or diverged(q, v):
+                    out.append((None, f"one step from {y.tolist()} ended unstable: "
+                                      f"{trouble or divergence_detail(1, dt)}"))
+                else:
+                    out.append((np.concatenate([q, v]), ""))
+            return out
+        finally:
+            model.close()
 
     def describe(self) -> dict:
         return {"id": self.id, "family": self.engine, "engine": self.engine, "mode": self.mode,

@@ -1,10 +1,13 @@
 """pybullet (Bullet, double precision): ``pybullet:semi_implicit`` on the spring, the damped
-spring, the projectile (a free multibody with a force applied each step, as users write it)
-and the pendulum (a revolute joint, the reduced-coordinate way).
+spring, the projectile (a free multibody with a force applied each step, as users write it),
+the pendulum (a revolute joint, the reduced-coordinate way) and the spring chain (a fixed base
+with one prismatic link per mass, every link a child of the base, the spring forces applied
+as joint forces each step: Bullet has no spring between bodies).
 
 Defaults that silently change the physics are switched off and recorded (ENGINES.md):
 linear/angular damping 0.04 -> 0, the velocity clamp (100, and any finite clamp would hide a
-blow-up) -> inf, sleeping -> disabled, the joint's velocity motor -> zero force, sub-steps -> 0.
+blow-up) -> inf, sleeping -> disabled, the joints' velocity motors -> zero force, sub-steps -> 0,
+joint damping -> 0.
 The bodies have no collision shape, so there is nothing to collide with and no shape inertia:
 the pendulum bob is a point mass.
 """
@@ -18,10 +21,12 @@ from scenarios import Scene
 
 from ._base import EngineMode
 
-SCENES = ("spring", "damped_spring", "pendulum", "projectile")
+SCENES = ("spring", "damped_spring", "pendulum", "projectile", "chain")
 UNSUPPORTED = {
     "kepler": "not posed: Bullet has no 1/r^2 force, and one applied from Python would only repeat what "
               "the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
+    "rope": "not posed: the rope's engine models are MuJoCo's hinge chain and pymunk's pin joints; a Bullet "
+            "revolute chain is the reduced-coordinate model MuJoCo already poses",
 }
 
 
@@ -51,6 +56,25 @@ class _Model:
             p.setJointMotorControl2(b, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
             p.resetJointState(b, 0, float(q0[0]), float(v0[0]), physicsClientId=cid)
             link = 0
+        elif scene.id == "chain":
+            # Fixed base; link i slides along x from the base's origin (its joint coordinate is the
+            # scene's q_i), its mass a point at the joint.
+            n = scene.ndof
+            self.joints = list(range(n))
+            self.body = b = p.createMultiBody(
+                baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 0, 0],
+                linkMasses=[values["m"]] * n, linkCollisionShapeIndices=[-1] * n, linkVisualShapeIndices=[-1] * n,
+                linkPositions=[[0, 0, 0]] * n, linkOrientations=[[0, 0, 0, 1]] * n,
+                linkInertialFramePositions=[[0, 0, 0]] * n, linkInertialFrameOrientations=[[0, 0, 0, 1]] * n,
+                linkParentIndices=[0] * n, linkJointTypes=[p.JOINT_PRISMATIC] * n, linkJointAxis=[[1, 0, 0]] * n,
+                physicsClientId=cid)
+            p.changeDynamics(b, -1, physicsClientId=cid, **free)
+            for j in self.joints:
+                p.changeDynamics(b, j, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0],
+                                 physicsClientId=cid, **free)
+                p.resetJointState(b, j, float(q0[j]), float(v0[j]), physicsClientId=cid)
+            p.setJointMotorControlArray(b, self.joints, p.VELOCITY_CONTROL, forces=[0.0] * n, physicsClientId=cid)
+            link = 0
         else:
             # Scene x (and y, up, for the projectile) are Bullet's x and z; gravity along -z.
             pos = [q0[0], 0.0, q0[1] if scene.ndof == 2 else 0.0]
@@ -74,16 +98,33 @@ class _Model:
             "sleeping": "disabled",
             "collision_shape": "none",
             "force": ("none: gravity and the revolute joint" if scene.id == "pendulum"
+                      else "joint forces set each step (TORQUE_CONTROL), from the state before the step"
+                      if scene.id == "chain"
                       else "applied each step at the centre of mass, from the state before the step"),
         }
         if scene.id == "pendulum":
             joint = p.getJointInfo(b, 0, physicsClientId=cid)
             self.settings.update({"joint": "revolute about y", "jointDamping": float(joint[6]),
                                   "jointFriction": float(joint[7]), "velocity_motor_force": 0.0})
+        if scene.id == "chain":
+            infos = [p.getJointInfo(b, j, physicsClientId=cid) for j in self.joints]
+            self.settings.update({
+                "joint": "prismatic along x, one per mass, each a child of the fixed base",
+                "jointDamping": sorted({float(i[6]) for i in infos}),
+                "jointFriction": sorted({float(i[7]) for i in infos}),
+                "joint_limits": "none" if all(i[8] > i[9] for i in infos) else [[i[8], i[9]] for i in infos],
+                "velocity_motor_force": 0.0})
 
     def advance(self) -> None:
         p, cid, b = self.p, self.cid, self.body
-        if self.scene_id != "pendulum":
+        if self.scene_id == "chain":
+            # The scene's force, k (q_{i-1} - 2 q_i + q_{i+1}) with the walls at 0, from the joint positions.
+            q = self._joint_state()[0]
+            f = (-2.0 * self.k) * q
+            f[1:] += self.k * q[:-1]
+            f[:-1] += self.k * q[1:]
+            p.setJointMotorControlArray(b, self.joints, p.TORQUE_CONTROL, forces=f.tolist(), physicsClientId=cid)
+        elif self.scene_id != "pendulum":
             pos = p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]
             vel = p.getBaseVelocity(b, physicsClientId=cid)[0]
             # The scene's force: spring -k x - c v along x; drag -c v on both axes (gravity is Bullet's).
@@ -94,8 +135,28 @@ class _Model:
             p.applyExternalForce(b, -1, force, pos, p.WORLD_FRAME, physicsClientId=cid)
         p.stepSimulation(physicsClientId=cid)
 
+    def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
+        """As if built at (q, v)."""
+        p, cid, b = self.p, self.cid, self.body
+        if self.scene_id == "chain":
+            for j in self.joints:
+                p.resetJointState(b, j, float(q[j]), float(v[j]), physicsClientId=cid)
+        elif self.scene_id == "pendulum":
+            p.resetJointState(b, 0, float(q[0]), float(v[0]), physicsClientId=cid)
+        else:
+            two = len(q) == 2
+            p.resetBasePositionAndOrientation(b, [float(q[0]), 0.0, float(q[1]) if two else 0.0], [0, 0, 0, 1],
+                                              physicsClientId=cid)
+            p.resetBaseVelocity(b, [float(v[0]), 0.0, float(v[1]) if two else 0.0], [0, 0, 0], physicsClientId=cid)
+
+    def _joint_state(self):
+        states = self.p.getJointStates(self.body, self.joints, physicsClientId=self.cid)
+        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
+
     def state(self):
         p, cid, b = self.p, self.cid, self.body
+        if self.scene_id == "chain":
+            return self._joint_state()
         if self.scene_id == "pendulum":
             theta, omega = p.getJointState(b, 0, physicsClientId=cid)[:2]
             return np.array([theta]), np.array([omega])
@@ -121,8 +182,8 @@ METHODS = {
         engine="pybullet", mode="semi_implicit", module="pybullet", dist="pybullet", build=build,
         scenes=SCENES, unsupported=UNSUPPORTED,
         doc="""semi-implicit Euler (velocity first), forces applied before each step
-            Measured: equals ref:semi_implicit_euler bitwise on the spring, the damped spring and
-            the projectile; the revolute pendulum to ~1e-12 over 10^4 steps.""",
+            Measured: equals ref:semi_implicit_euler bitwise on the spring, the damped spring, the
+            projectile and the prismatic spring chain; the revolute pendulum to ~1e-12 over 10^4 steps.""",
         settings={"numSubSteps": 0, "linearDamping": 0, "angularDamping": 0, "maxJointVelocity": "inf",
                   "sleeping": "disabled", "collision_shape": "none", "joint_motor": "zero force",
                   "gravity": "scene's g along -z, else 0"},

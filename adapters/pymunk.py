@@ -1,14 +1,18 @@
-"""pymunk (Chipmunk2D): three ways users write a scene, three methods.
+"""pymunk (Chipmunk2D): the ways users write a scene, one method each.
 
 * ``pymunk:spring_force`` - the force computed inside ``body.velocity_func``, the way Chipmunk
   means forces to be applied: Chipmunk moves positions first, then velocities, so the force
-  sees the new position (position-first semi-implicit Euler).
+  sees the new position (position-first semi-implicit Euler). On the chain each body's
+  function reads its neighbours' positions, all already moved.
 * ``pymunk:applied_force`` - the force set on ``body.force`` before each ``space.step``, the way
   many users write it: the force sees the old position, so this is explicit Euler.
-* ``pymunk:pin_joint`` - the pendulum as users build it: a ``PinJoint`` from a static pivot to
-  the bob, with the joint's default error correction (which bleeds energy) and gravity.
+* ``pymunk:damped_spring`` - the chain with Chipmunk's own spring constraint: a ``DampedSpring``
+  (damping 0) between neighbours and from each end body to a static wall.
+* ``pymunk:pin_joint`` - the pendulum and the rope as users build them: ``PinJoint``s (from a
+  static pivot to the first body, then between neighbours) with the joints' default error
+  correction (which bleeds energy) and gravity.
 
-Minimal models: a body with the scene's exact mass and infinite moment (no rotation to couple),
+Minimal models: bodies with the scene's exact mass and infinite moment (no rotation to couple),
 no shapes, ``space.damping`` 1, sleeping off; gravity only where the scene has it, along -y.
 Every setting is read back into the result.
 """
@@ -22,18 +26,36 @@ from scenarios import Scene
 
 from ._base import EngineMode, unwrap
 
-_FORCE_SCENES = ("spring", "damped_spring", "projectile")
+_FORCE_SCENES = ("spring", "damped_spring", "projectile", "chain")
 _FORCE_UNSUPPORTED = {
     "pendulum": "a pendulum in Chipmunk is a joint, not a force: see pymunk:pin_joint",
+    "rope": "a rope in Chipmunk is pin joints, not forces: see pymunk:pin_joint",
     "kepler": "not posed: Chipmunk has no gravity between bodies, and a 1/r^2 force from Python would only "
               "repeat what the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
 }
 _JOINT_UNSUPPORTED = {
-    "spring": "a pin joint poses only the pendulum; see pymunk:spring_force",
-    "damped_spring": "a pin joint poses only the pendulum; see pymunk:spring_force",
-    "projectile": "a pin joint poses only the pendulum; see pymunk:applied_force",
-    "kepler": "a pin joint poses only the pendulum",
+    "spring": "pin joints pose only the pendulum and the rope; see pymunk:spring_force",
+    "damped_spring": "pin joints pose only the pendulum and the rope; see pymunk:spring_force",
+    "projectile": "pin joints pose only the pendulum and the rope; see pymunk:applied_force",
+    "kepler": "pin joints pose only the pendulum and the rope",
+    "chain": "pin joints pose only the pendulum and the rope; see pymunk:damped_spring",
 }
+_SPRING_UNSUPPORTED = {
+    "spring": "not posed: a DampedSpring to a static body integrates the 1-DOF spring as pymunk:spring_force "
+              "does (position-first semi-implicit Euler, 5e-14 in ENGINES.md); Chipmunk's springs link bodies "
+              "on the chain",
+    "damped_spring": "not posed: as on the spring, see pymunk:spring_force",
+    "pendulum": "a pendulum in Chipmunk is a joint: see pymunk:pin_joint",
+    "rope": "a rope in Chipmunk is pin joints: see pymunk:pin_joint",
+    "projectile": "no spring in the projectile: see pymunk:applied_force",
+    "kepler": "no spring in the Kepler problem",
+}
+
+#: Spacing of the damped_spring chain's bodies (and every spring's rest length), in units of
+#: max(|x0|, 1): a Chipmunk spring acts along the line between its bodies, so neighbours must
+#: never pass each other; in the chain's exact motion no spring stretches by more than
+#: sqrt(2) |x0| (its energy, k x0^2, bounds each spring's k d^2/2).
+SPRING_SPACING = 10.0
 
 
 class _Model:
@@ -45,9 +67,15 @@ class _Model:
         space.gravity = (0.0, -values.get("g", 0.0))
         space.damping = 1.0
         space.sleep_time_threshold = math.inf
-        self.body = body = pymunk.Body(values["m"], math.inf)
-        q0, v0 = scene.initial_state()
         self.joint = None
+        self.constraints, self.bodies = [], []
+        self.apply_before_step = None
+        if scene.id in ("chain", "rope"):
+            self._build_many(pymunk, mode, scene)
+            return
+        self.body = body = pymunk.Body(values["m"], math.inf)
+        self.bodies = [body]
+        q0, v0 = scene.initial_state()
         if scene.id == "pendulum":
             L, theta = values["L"], float(q0[0])
             body.position = (L * math.sin(theta), -L * math.cos(theta))
@@ -55,13 +83,13 @@ class _Model:
             space.add(body)
             self.joint = pymunk.PinJoint(space.static_body, body, (0.0, 0.0), (0.0, 0.0))
             space.add(self.joint)
+            self.constraints = [self.joint]
             self.theta = theta
         else:
             body.position = (float(q0[0]), float(q0[1]) if scene.ndof == 2 else 0.0)
             body.velocity = (float(v0[0]), float(v0[1]) if scene.ndof == 2 else 0.0)
             space.add(body)
         k, c = values.get("k", 0.0), values.get("c", 0.0)
-        self.apply_before_step = None
         if mode == "spring_force":
             update_velocity = pymunk.Body.update_velocity
 
@@ -77,21 +105,122 @@ class _Model:
                 body.force = (-k * x - c * vx, -k * y - c * vy)
 
             self.apply_before_step = apply_before_step
+        self._record_settings(mode)
+        if self.joint is not None:
+            self.settings["joint"] = "PinJoint, static pivot at the origin to the bob's centre"
+            self.settings.update(_joint_settings([self.joint]))
+
+    def _record_settings(self, mode: str) -> None:
+        space, body = self.space, self.bodies[0]
         self.settings = {
             "gravity": list(space.gravity), "damping": space.damping,
             "sleep_time_threshold": "inf" if math.isinf(space.sleep_time_threshold) else space.sleep_time_threshold,
-            "iterations": space.iterations, "mass": body.mass,
-            "moment": "inf" if math.isinf(body.moment) else body.moment, "shapes": 0,
-            "force": {"spring_force": "set in body.velocity_func (sees the new position)",
-                      "applied_force": "set on body.force before each space.step (sees the old position)",
-                      "pin_joint": "none: gravity and the pin joint"}[mode],
+            "iterations": space.iterations, "mass": sorted({b.mass for b in self.bodies}),
+            "moment": "inf" if all(math.isinf(b.moment) for b in self.bodies) else [b.moment for b in self.bodies],
+            "bodies": len(self.bodies), "shapes": 0,
+            "force": {"spring_force": "set in body.velocity_func (sees the new positions)",
+                      "applied_force": "set on body.force before each space.step (sees the old positions)",
+                      "damped_spring": "none: DampedSpring constraints",
+                      "pin_joint": "none: gravity and the pin joints"}[mode],
         }
-        if self.joint is not None:
-            j = self.joint
-            self.settings.update({"joint": "PinJoint, static pivot at the origin to the bob's centre",
-                                  "distance": j.distance, "error_bias": j.error_bias,
-                                  "max_bias": "inf" if math.isinf(j.max_bias) else j.max_bias,
-                                  "max_force": "inf" if math.isinf(j.max_force) else j.max_force})
+        if len(self.bodies) == 1:
+            self.settings["mass"] = body.mass
+
+    def _build_many(self, pymunk, mode: str, scene: Scene) -> None:
+        """The chain (bodies on the x axis, displacements q_i) or the rope (bodies at the scene's
+        (x_i, y_i), pinned to the origin and to each other)."""
+        values, space = scene.values, self.space
+        q0, v0 = scene.initial_state()
+        n = values["N"]
+        self.bodies = bodies = [pymunk.Body(values["m"], math.inf) for _ in range(n)]
+        self.offset = np.zeros(n)
+        if mode == "damped_spring":
+            self.offset = SPRING_SPACING * max(abs(values["x0"]), 1.0) * np.arange(1, n + 1)
+        for i, b in enumerate(bodies):
+            if scene.id == "rope":
+                b.position = (float(q0[2 * i]), float(q0[2 * i + 1]))
+                b.velocity = (float(v0[2 * i]), float(v0[2 * i + 1]))
+            else:
+                b.position = (float(self.offset[i] + q0[i]), 0.0)
+                b.velocity = (float(v0[i]), 0.0)
+        space.add(*bodies)
+        k = values.get("k", 0.0)
+        if mode == "pin_joint":
+            anchors = [space.static_body] + bodies
+            self.constraints = [pymunk.PinJoint(a, b, (0.0, 0.0), (0.0, 0.0)) for a, b in zip(anchors, bodies)]
+        elif mode == "damped_spring":
+            rest = SPRING_SPACING * max(abs(values["x0"]), 1.0)
+            wall = space.static_body
+            self.constraints = [pymunk.DampedSpring(wall, bodies[0], (0.0, 0.0), (0.0, 0.0), rest, k, 0.0)]
+            self.constraints += [pymunk.DampedSpring(a, b, (0.0, 0.0), (0.0, 0.0), rest, k, 0.0)
+                                 for a, b in zip(bodies[:-1], bodies[1:])]
+            self.constraints.append(pymunk.DampedSpring(bodies[-1], wall, (0.0, 0.0), ((n + 1) * rest, 0.0),
+                                                        rest, k, 0.0))
+        elif mode == "spring_force":
+            update_velocity = pymunk.Body.update_velocity
+
+            def velocity_func_for(i):
+                left = bodies[i - 1] if i > 0 else None
+                right = bodies[i + 1] if i < n - 1 else None
+
+                def velocity_func(b, gravity, damping, h):
+                    # Called after every body has moved: the neighbours' new positions.
+                    f = (-2.0 * k) * b.position.x
+                    if left is not None:
+                        f += k * left.position.x
+                    if right is not None:
+                        f += k * right.position.x
+                    b.force = (f, 0.0)
+                    update_velocity(b, gravity, damping, h)
+
+                return velocity_func
+
+            for i, b in enumerate(bodies):
+                b.velocity_func = velocity_func_for(i)
+        elif mode == "applied_force":
+            def apply_before_step():
+                x = np.array([b.position.x for b in bodies])
+                f = (-2.0 * k) * x
+                f[1:] += k * x[:-1]
+                f[:-1] += k * x[1:]
+                for b, fi in zip(bodies, f):
+                    b.force = (float(fi), 0.0)
+
+            self.apply_before_step = apply_before_step
+        if self.constraints:
+            space.add(*self.constraints)
+        self._record_settings(mode)
+        if mode == "pin_joint":
+            self.settings["joint"] = "PinJoint: static pivot at the origin to body 1, then body i to body i+1, centres"
+            self.settings.update(_joint_settings(self.constraints))
+        if mode == "damped_spring":
+            c = self.constraints
+            self.settings.update({"spring": "DampedSpring between neighbours and from the end bodies to static walls",
+                                  "rest_length": sorted({s.rest_length for s in c}),
+                                  "stiffness": sorted({s.stiffness for s in c}),
+                                  "spring_damping": sorted({s.damping for s in c}), "springs": len(c),
+                                  "spacing": float(c[0].rest_length)})
+
+    def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
+        """As if built at (q, v) (scene coordinates)."""
+        if self.scene_id == "chain":
+            for b, x, u, off in zip(self.bodies, q, v, self.offset):
+                b.position, b.velocity = (float(off + x), 0.0), (float(u), 0.0)
+        elif self.scene_id == "rope":
+            for i, b in enumerate(self.bodies):
+                b.position = (float(q[2 * i]), float(q[2 * i + 1]))
+                b.velocity = (float(v[2 * i]), float(v[2 * i + 1]))
+        elif self.scene_id == "pendulum":
+            L, theta, omega = self.joint.distance, float(q[0]), float(v[0])
+            self.body.position = (L * math.sin(theta), -L * math.cos(theta))
+            self.body.velocity = (L * omega * math.cos(theta), L * omega * math.sin(theta))
+            self.theta = theta
+        else:
+            two = len(q) == 2
+            self.body.position = (float(q[0]), float(q[1]) if two else 0.0)
+            self.body.velocity = (float(v[0]), float(v[1]) if two else 0.0)
+        for b in self.bodies:
+            b.force = (0.0, 0.0)
 
     def advance(self) -> None:
         if self.apply_before_step is not None:
@@ -99,6 +228,12 @@ class _Model:
         self.space.step(self.dt)
 
     def state(self):
+        if self.scene_id == "chain":
+            q = np.array([b.position.x for b in self.bodies]) - self.offset
+            return q, np.array([b.velocity.x for b in self.bodies])
+        if self.scene_id == "rope":
+            return (np.array([c for b in self.bodies for c in b.position]),
+                    np.array([c for b in self.bodies for c in b.velocity]))
         (x, y), (vx, vy) = self.body.position, self.body.velocity
         if self.scene_id == "pendulum":
             # The bob's angle from the downward vertical and its angular rate about the pivot.
@@ -115,9 +250,21 @@ class _Model:
     def close(self) -> None:
         # A sleeping body attached to a constraint can segfault at interpreter exit: take
         # everything out of the space first.
-        if self.joint is not None:
-            self.space.remove(self.joint)
-        self.space.remove(self.body)
+        if self.constraints:
+            self.space.remove(*self.constraints)
+        self.space.remove(*self.bodies)
+
+
+def _joint_settings(joints) -> dict:
+    """A pin joint's settings, the same for every joint of a model (one value each, else a list)."""
+    def one(values):
+        values = sorted(set(values))
+        values = ["inf" if math.isinf(v) else v for v in values]
+        return values[0] if len(values) == 1 else values
+
+    return {"joints": len(joints), "distance": one(j.distance for j in joints),
+            "error_bias": one(j.error_bias for j in joints), "max_bias": one(j.max_bias for j in joints),
+            "max_force": one(j.max_force for j in joints)}
 
 
 def build(pymunk, mode: str, scene: Scene, dt: float) -> _Model:
@@ -133,14 +280,21 @@ def _mode(mode: str, scenes, unsupported, doc: str, settings: dict) -> EngineMod
 METHODS = {m.id: m for m in (
     _mode("spring_force", _FORCE_SCENES, _FORCE_UNSUPPORTED,
           """position-first semi-implicit Euler (force in velocity_func, as Chipmunk intends)
-          Measured: equals ref:semi_implicit_euler_position_first bitwise on the spring.""",
+          Measured: equals ref:semi_implicit_euler_position_first bitwise on the spring and the chain.""",
           {"force": "body.velocity_func"}),
     _mode("applied_force", _FORCE_SCENES, _FORCE_UNSUPPORTED,
           """explicit Euler (force set on body.force before each step, as many users write it)
-          Measured: equals ref:explicit_euler bitwise on the spring: energy x(1 + h^2) per step.""",
+          Measured: equals ref:explicit_euler bitwise on the spring and the chain: energy x(1 + h^2) per
+          step on the spring, unstable at every dt on the chain.""",
           {"force": "body.force before each step"}),
-    _mode("pin_joint", ("pendulum",), _JOINT_UNSUPPORTED,
-          """pendulum on a PinJoint with Chipmunk's default error correction (loses energy)
-          Measured: no reference scheme; the joint's bias correction bleeds energy.""",
+    _mode("damped_spring", ("chain",), _SPRING_UNSUPPORTED,
+          """position-first semi-implicit Euler (Chipmunk's DampedSpring constraints, damping 0)
+          Measured: equals ref:semi_implicit_euler_position_first on the chain to roundoff of the
+          bodies' spaced positions (9e-11 absolute on velocities of ~120 over 1000 steps).""",
+          {"spring": "DampedSpring, damping 0, between neighbours and to static walls",
+           "spacing": f"{SPRING_SPACING:g} max(|x0|, 1)"}),
+    _mode("pin_joint", ("pendulum", "rope"), _JOINT_UNSUPPORTED,
+          """pendulum and rope on PinJoints with Chipmunk's default error correction (loses energy)
+          Measured: no reference scheme; the joints' bias correction bleeds energy.""",
           {"joint": "PinJoint, default error_bias and max_bias"}),
 )}

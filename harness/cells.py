@@ -6,8 +6,9 @@ for the chart), ``error`` (max global error over the same run), ``order`` (the d
 whose points also give the work-precision chart), ``stability`` (largest stable h*omega),
 ``cost`` (counted evaluations and wall time per step; the ratio to explicit Euler is filled
 in by ``finalize_cells`` from the same run's explicit-Euler cell) and, for engine modes,
-``identity`` (which reference scheme it integrates). A bound task measures one reviewed
-energy bound exactly as the file states it.
+``identity`` (which reference scheme it integrates). Some scenes add cells of their own
+(``harness.scene_cells``: constraint drift, damping far beyond the explicit limit, cost
+against size). A bound task measures one reviewed energy bound exactly as the file states it.
 
 Every cell records the textbook claims it is judged against (from the scheme's
 declarations, or for an engine mode from the scheme it was identified as), so the report
@@ -37,9 +38,13 @@ def measures_for(task) -> list[str]:
     out = list(MEASURES)
     if not suite.scenes[task.scene].stability:
         out.remove("stability")
-    if task.family != "ref" and suite.identify:
+    if task.family != "ref" and suite.identify and not make_scene(task.scene, **task.params).constrained:
+        # A constrained scene's only reference scheme projects positions; no engine integrates
+        # that (MuJoCo's rope is reduced coordinates, pymunk's impulses): nothing to identify.
         out.append("identity")
-    return out
+    from .scene_cells import measures_for as scene_measures
+
+    return out + scene_measures(task, suite.scenes[task.scene])
 
 
 def _claims(method) -> dict:
@@ -90,6 +95,9 @@ def run_task(task) -> list[dict]:
     if spec.stability:
         cells.append(_guard(task, "stability", lambda: _stability(task, method, scene, suite)))
     cells.append(_guard(task, "cost", lambda: _cost(task, method, scene, dt, suite)))
+    from .scene_cells import scene_cells
+
+    cells += scene_cells(task, method, scene, dt, spec, suite)
     for c in cells:
         c["data"].setdefault("claims", claims)
     return cells
@@ -116,13 +124,18 @@ def _guard_many(task, measures, fn) -> list[dict]:
     return cells
 
 
+def energy_run(scene, dt, spec, suite) -> tuple[int, int]:
+    """(steps, every) of the energy run: ``spec.periods`` periods, about 4 x series_points recorded."""
+    steps = max(10, int(round(spec.periods * scene.period / dt)))
+    return steps, max(1, steps // (4 * suite.series_points))
+
+
 def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
     from .energy import classify, relative_error_series
     from .error import trajectory_error
     from .runner import simulate
 
-    steps = max(10, int(round(spec.periods * scene.period / dt)))
-    every = max(1, steps // (4 * suite.series_points))
+    steps, every = energy_run(scene, dt, spec, suite)
     traj = simulate(method, scene, dt, steps, every, timeout=suite.cell_timeout)
     settings = {"settings": traj.meta.get("settings"), "engine_version": traj.meta.get("engine_version")}
     if traj.status not in ("ok", "unstable") or traj.q.shape[0] == 0:
@@ -140,7 +153,8 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
                     "failed_step": traj.failed_step, "series": series, "numbers": _plain(cls), **settings})
     err = trajectory_error(traj, scene) if traj.ok else {}
     error = _cell(task, "error", traj.status, _finite(err.get("error_max")), dt, steps, traj.detail,
-                  {"error_final": err.get("error_final"), "source": err.get("source")})
+                  {"error_final": err.get("error_final"), "source": err.get("source"),
+                   "t_compared": err.get("t_compared")})
     return [energy, error]
 
 

@@ -14,10 +14,14 @@ The rule, one way for each kind of method:
   (100,000) steps; the figure is the **minimum** over repeats (the least-disturbed run, as
   timeit and asv take it).
 * **Wall time per step**, engine modes: ``method.simulate`` timed in this process (no
-  worker), one warm-up call, then ``repeats`` timed runs of ``time_steps`` (2,000) steps
-  and of 0 steps; the figure is ``(min t(N) - min t(0)) / N``, so building the engine
-  model is not counted. It includes the adapter's Python loop (reading state, applying
-  forces): that is what an engine step costs a Python user.
+  worker), one warm-up call of up to ENGINE_PILOT_STEPS (500) steps, then ``repeats`` timed
+  runs of ``time_steps`` (2,000) steps and of 0 steps; the figure is
+  ``(min t(N) - min t(0)) / N``, so building the engine model is not counted. It includes
+  the adapter's Python loop (reading state, applying forces): that is what an engine step
+  costs a Python user. A model so slow that N steps would take longer than
+  ENGINE_RUN_BUDGET_S (0.25 s, judged from the warm-up) is timed over fewer steps, at least
+  ENGINE_MIN_STEPS (200): a 32-body chain stepped from Python costs ~100 us a step, and
+  20,000 steps x 6 runs would take a minute to say what 0.25 s says.
 * **Spread**: every repeat is kept, with the median and ``rel_spread = (max - min)/min``,
   so a later slowdown can be judged against this run's noise.
 * **Ratio to explicit Euler**: ``ref:explicit_euler`` timed by the compiled rule above
@@ -39,6 +43,9 @@ from ._measure import resolve, step
 COUNT_STEPS = 100
 REF_TIME_STEPS = 100_000
 ENGINE_TIME_STEPS = 2_000
+ENGINE_PILOT_STEPS = 500
+ENGINE_RUN_BUDGET_S = 0.25
+ENGINE_MIN_STEPS = 200
 REPEATS = 5
 BASELINE = "ref:explicit_euler"
 
@@ -81,8 +88,13 @@ def wall_time_per_step(method, scene: Scene, dt: float, *, steps: int | None = N
         res = time_per_step(scheme, scene, dt, n, repeats=repeats)
         return {"timing": "compiled (numba), min of repeats after warm-up", "time_steps": n,
                 "warmup_s": res["warmup_s"], **_spread(res["repeats"])}
-    n = int(steps or ENGINE_TIME_STEPS)
-    method.simulate(scene, dt, n, n)  # warm-up
+    asked = int(steps or ENGINE_TIME_STEPS)
+    pilot = min(asked, ENGINE_PILOT_STEPS)
+    t0 = time.perf_counter()
+    method.simulate(scene, dt, pilot, pilot)  # warm-up, and the pilot for the step count
+    pilot_s = (time.perf_counter() - t0) / pilot
+    n = asked if pilot_s * asked <= ENGINE_RUN_BUDGET_S else max(ENGINE_MIN_STEPS, int(ENGINE_RUN_BUDGET_S / pilot_s))
+    n = min(n, asked)
     full, empty = [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -95,7 +107,8 @@ def wall_time_per_step(method, scene: Scene, dt: float, *, steps: int | None = N
     setup = min(empty)
     per_step = [(t - setup) / n for t in full]
     return {"timing": "in-process simulate, (min t(N) - min t(0))/N after warm-up; includes the adapter's "
-                      "Python loop", "time_steps": n, "setup_s": setup, **_spread(per_step)}
+                      "Python loop", "time_steps": n, "time_steps_asked": asked, "setup_s": setup,
+            **_spread(per_step)}
 
 
 def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = None, repeats: int = REPEATS,

@@ -66,6 +66,10 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH) -> tuple[list
         scene = make_scene(scene_id, **spec.params)
         for mid in chosen:
             m = methods[mid]
+            if mid in spec.skip:
+                skipped.append({"scene": scene_id, "method": mid, "reason": f"left out on {scene_id} in the "
+                                f"{suite.name} suite (harness/suites.py)"})
+                continue
             ok, why = m.available()
             if ok:
                 ok, why = m.supports(scene)

@@ -9,7 +9,7 @@ Two boundedness criteria, one rule each:
   states checks that the map really is affine (``linearity_residual``, the misfit relative
   to the unit inputs, <= LINEARITY_RTOL, else this criterion does not apply); the check
   runs at the smallest dt searched and at the dt the verdict rests on, not at every
-  bisection step (an engine's step costs a worker process each).
+  bisection step. An engine mode's 2*ndof + 2 one-step runs share one worker process.
   Stable iff rho(M) <= 1 + RHO_TOL. RHO_TOL = 1e-12
   is roundoff in M's entries (a few eps) with room; it is far below explicit Euler's
   rho - 1 = (h w)^2 / 2 = 5e-9 at the smallest h*omega searched, which a finite horizon
@@ -20,7 +20,9 @@ Two boundedness criteria, one rule each:
   10,000) and call the run stable iff it finishes (status ok, every state finite) and its
   size stays within GROWTH (10) times the true solution's:
   ``max_n ||y_n|| <= GROWTH * max_n ||y_true(t_n)||`` with y = (q, v/omega) and
-  y_true the exact solution (or the reference solve) at the same times.
+  y_true the exact solution (or the reference solve) at the same times. A scene whose
+  reference is trusted only up to ``reference_horizon`` (a chaotic rope) gives the true size
+  from the recorded times within it: its size stays bounded by its energy after that.
 
 The search: h*omega from ``lo`` (1e-4) up by factors of SCAN_RATIO (2) to ``hi``
 (1e4); the first unstable grid point and the stable one before it are then bisected
@@ -53,47 +55,101 @@ BISECT_RTOL = 1e-6
 CRITERIA = ("auto", "spectral_radius", "finite_horizon")
 
 
+def _one_step_here(method, scene: Scene, y0: np.ndarray, dt: float, timeout) -> tuple[np.ndarray | None, str]:
+    n = scene.ndof
+    traj = step(method, started_at(scene, y0[:n], y0[n:]), dt, 1, 1, timeout)
+    if not traj.ok or traj.q.shape[0] < 2:
+        return None, f"one step from {y0.tolist()} ended {traj.status}: {traj.detail}"
+    return np.concatenate([traj.q[-1, 0], traj.v[-1, 0]]), ""
+
+
+def _one_steps_here(method, scene: Scene, states: np.ndarray, dt: float, timeout) -> list:
+    """In this process. A method that can step many states on one model (an engine mode's
+    ``one_steps``) builds it once, after the runner's checks."""
+    many = getattr(method, "one_steps", None)
+    if many is not None:
+        from . import validate
+
+        validate.scene_values(scene)
+        stepped = many(scene, validate.positive_finite("dt", dt), states)
+        if stepped is not None:
+            return stepped
+    return [_one_step_here(method, scene, y, dt, timeout) for y in states]
+
+
+def _one_steps_in_worker(method_id: str, scene: Scene, states: np.ndarray, dt: float):
+    """Runs in a worker process: the engine is stepped in it directly."""
+    from .methods import get_method
+
+    return _one_steps_here(get_method(method_id), scene, states, dt, None)
+
+
+def one_steps(method, scene: Scene, states: np.ndarray, dt: float, timeout: float | None = None):
+    """``(y_1, why)`` after one step of ``dt`` from each state ``y_0 = (q, v)`` (rows of
+    ``states``); ``y_1`` is None, with the reason, where the step did not finish.
+
+    An isolated (engine) method steps every state in one worker process: a state need not
+    travel through the scene's parameters there, and one worker is far cheaper than one per
+    state (a chain of N masses needs 2N + 2), as is one engine model set to each state in
+    turn (``EngineMode.one_steps``) rather than one built per state. Inside a worker (the
+    nightly's cells) the method is stepped in-process. A method the registry does not know
+    cannot be re-created in a worker: it is stepped through the runner one state at a time,
+    which only works for states the scene's parameters can carry (``started_at``)."""
+    from . import isolation
+    from .methods import all_methods
+
+    states = np.atleast_2d(np.asarray(states, dtype=float))
+    isolated = bool(getattr(method, "isolated", False)) and not isolation.IN_WORKER
+    if not isolated:
+        return _one_steps_here(method, scene, states, dt, timeout)
+    if all_methods().get(method.id) is not None:
+        limit = isolation.DEFAULT_TIMEOUT_S if timeout is None else timeout
+        out = isolation.run_in_worker(_one_steps_in_worker, (method.id, scene, states, float(dt)), timeout=limit)
+        if isinstance(out, isolation.WorkerFailure):
+            return [(None, f"the one-step runs ended {out.status}: {out.detail}")] * len(states)
+        return out
+    n = scene.ndof
+    results = []
+    for y in states:
+        if not started_at(scene, y[:n], y[n:]).state_in_params:
+            results.append((None, f"scene {scene.id} cannot start from an arbitrary state through its parameters, "
+                                  f"and {method.id} runs in a worker process"))
+        else:
+            results.append(_one_step_here(method, scene, y, dt, timeout))
+    return results
+
+
 def one_step_map(method, scene: Scene, dt: float, *, timeout: float | None = None,
-                 check_affine: bool = True) -> dict:
+                 check_affine: bool = True, base: np.ndarray | None = None) -> dict:
     """The one-step map y_1 = M y_0 + c of ``method`` on a linear ``scene`` at ``dt``,
     measured by stepping unit states (module docstring). Returns ``matrix``, ``offset``,
     ``eigenvalues``, ``rho`` and ``linearity_residual`` (None if ``check_affine`` is off),
-    or ``rho`` None and ``reason``."""
+    or ``rho`` None and ``reason``.
+
+    ``base`` (default: the zero state) is the state the unit steps are taken from: the map
+    is then measured from ``base`` and ``base + e_i`` (and probed at ``base + 1``). An affine
+    map is the same from any base; an engine that branches on exact equalities is not
+    (MuJoCo's discrete integrator leaves a tendon exactly at its rest length out of its
+    implicit step), and a generic base shows the map it follows everywhere else."""
     method = resolve(method, scene)
     n = scene.ndof
-    isolated = bool(getattr(method, "isolated", False))
-
-    def one_step(y0: np.ndarray):
-        moved = started_at(scene, y0[:n], y0[n:])
-        if isolated and not moved.state_in_params:
-            return None, (f"scene {scene.id} cannot start from an arbitrary state through its parameters, "
-                          f"and {method.id} runs in a worker process")
-        traj = step(method, moved, dt, 1, 1, timeout)
-        if not traj.ok or traj.q.shape[0] < 2:
-            return None, f"one step from {y0.tolist()} ended {traj.status}: {traj.detail}"
-        return np.concatenate([traj.q[-1, 0], traj.v[-1, 0]]), ""
-
-    zero = np.zeros(2 * n)
-    c, why = one_step(zero)
-    if c is None:
-        return {"rho": None, "reason": why}
-    cols = []
-    for i in range(2 * n):
-        y, why = one_step(np.eye(2 * n)[i])
+    y_base = np.zeros(2 * n) if base is None else np.asarray(base, dtype=float).reshape(2 * n)
+    eye = np.eye(2 * n)
+    states = y_base + np.vstack([np.zeros(2 * n), eye] + ([np.ones(2 * n)] if check_affine else []))
+    stepped = one_steps(method, scene, states, dt, timeout)
+    for y, why in stepped:
         if y is None:
             return {"rho": None, "reason": why}
-        cols.append(y - c)
-    M = np.array(cols).T
+    M = np.array([y - stepped[0][0] for y, _ in stepped[1:2 * n + 1]]).T
+    c = stepped[0][0] - M @ y_base
     with np.errstate(all="ignore"):
         eig = np.linalg.eigvals(M) if np.all(np.isfinite(M)) else np.full(2 * n, np.nan)
     out = {"dt": float(dt), "omega_dt": float(dt) * scene.omega, "matrix": M, "offset": c,
            "eigenvalues": eig, "rho": float(np.max(np.abs(eig))), "linearity_residual": None}
     if not check_affine:
         return out
-    probe = np.ones(2 * n)
-    y, why = one_step(probe)
-    if y is None:
-        return {"rho": None, "reason": why}
+    probe = y_base + 1.0
+    y = stepped[-1][0]
     predicted = M @ probe + c
     # Absolute against the unit-sized inputs: a scheme's own cancellations (implicit Euler
     # at h*omega = 1e4 forms 1/(1 + h^2) as 1 - h^2/(1 + h^2)) leave errors of eps there.
@@ -118,7 +174,7 @@ def finite_horizon_test(method, scene: Scene, dt: float, *, steps: int = HORIZON
     traj = step(method, scene, dt, steps, 1, timeout)
     if not traj.ok:
         return False, {"status": traj.status, "failed_step": traj.failed_step}
-    q_true, v_true, _ = true_state(scene, traj.t)
+    q_true, v_true, _ = true_state(scene, traj.t[traj.t <= max(scene.reference_horizon, traj.t[0])])
     size = float(np.max(np.linalg.norm(scaled_state(scene, traj.q[:, 0], traj.v[:, 0]), axis=-1)))
     true_size = float(np.max(np.linalg.norm(scaled_state(scene, q_true, v_true), axis=-1)))
     growth = size / true_size if true_size > 0 else math.inf

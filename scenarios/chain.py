@@ -24,11 +24,25 @@ from ._base import Param, Scene
 
 
 def accel(q, v, t, p):
-    # O(N), whole-batch rows: the wall springs are the missing neighbours of the end masses.
+    """O(N) per batch member; the wall springs are the missing neighbours of the end masses.
+
+    The loops are written out (batch innermost, over the contiguous axis) rather than as
+    whole-batch row expressions on slices (``a[1:] += c * q[:-1]``): numba compiled those in
+    8.2 s against 0.6 s for the loops, measured, and every (scheme, scene) pair compiles its
+    own copy. The additions keep the row version's order, ((-2c q_i) + c q_{i-1}) + c q_{i+1},
+    so results are bitwise the same."""
     c = p[1] / p[2]
-    a = (-2.0 * c) * q
-    a[1:] = a[1:] + c * q[:-1]
-    a[:-1] = a[:-1] + c * q[1:]
+    n = q.shape[0]
+    nb = q.shape[1]
+    a = np.empty_like(q)
+    for i in range(n):
+        for b in range(nb):
+            x = (-2.0 * c) * q[i, b]
+            if i > 0:
+                x = x + c * q[i - 1, b]
+            if i < n - 1:
+                x = x + c * q[i + 1, b]
+            a[i, b] = x
     return a
 
 
@@ -36,21 +50,25 @@ def solve(q, v, t, p, alpha, beta, r):
     """(I - beta da/dq) x = r: da/dv = 0 and da/dq = (k/m) tridiag(1, -2, 1), so the matrix is
     tridiagonal with diagonal 1 + 2 beta k/m and off-diagonals -beta k/m, the same for every batch
     member. Thomas algorithm, O(N) per member; the matrix is strictly diagonally dominant, so no
-    pivoting is needed."""
+    pivoting is needed. Loops written out, as in ``accel`` (compile 1.8 s -> 0.4 s)."""
     c = beta * (p[1] / p[2])
     d = 1.0 + 2.0 * c
     e = -c
     n = r.shape[0]
+    nb = r.shape[1]
     cp = np.empty(n)
     x = np.empty_like(r)
     cp[0] = e / d
-    x[0] = r[0] / d
+    for b in range(nb):
+        x[0, b] = r[0, b] / d
     for i in range(1, n):
         denom = d - e * cp[i - 1]
         cp[i] = e / denom
-        x[i] = (r[i] - e * x[i - 1]) / denom
+        for b in range(nb):
+            x[i, b] = (r[i, b] - e * x[i - 1, b]) / denom
     for i in range(n - 2, -1, -1):
-        x[i] = x[i] - cp[i] * x[i + 1]
+        for b in range(nb):
+            x[i, b] = x[i, b] - cp[i] * x[i + 1, b]
     return x
 
 

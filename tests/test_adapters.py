@@ -257,14 +257,40 @@ def test_every_engine_mode_declares_itself_and_records_version_and_settings(meth
     assert run.meta["settings"] and json.dumps(run.meta["settings"])
 
 
+@pytest.mark.parametrize("method_id", [m for m in adapters.ENGINE_METHODS if not m.startswith("rebound:")])
+def test_one_model_set_to_each_state_steps_as_a_fresh_one(method_id):
+    """``EngineMode.one_steps`` (one model, ``set_state`` before each step; what the one-step
+    map uses) against a model built at each state: bitwise the same, on every linear scene the
+    mode poses, from zero, unit and random states."""
+    from harness._measure import started_at
+
+    method = adapters.ENGINE_METHODS[method_id]
+    rng = np.random.default_rng(0)
+    for sid in method.scenes:
+        scene = make_scene(sid, **({"N": 4} if sid in ("chain", "rope") else {}))
+        n = scene.ndof
+        if scene.linear:
+            states = np.vstack([np.zeros(2 * n), np.eye(2 * n), rng.standard_normal((2, 2 * n))])
+        else:
+            states = np.atleast_2d(np.concatenate(scene.initial_state()))
+        dt = 0.3 / scene.omega
+        stepped = method.one_steps(scene, dt, states)
+        for y, (y1, why) in zip(states, stepped):
+            fresh = method.simulate(started_at(scene, y[:n], y[n:]), dt, 1)
+            np.testing.assert_array_equal(y1, np.concatenate([fresh.q[-1, 0], fresh.v[-1, 0]]), err_msg=f"{sid}: {why}")
+    assert adapters.ENGINE_METHODS["rebound:whfast"].one_steps(make_scene("kepler"), 0.01, np.zeros((1, 6))) is None
+
+
 def test_issue_scene_coverage():
     supported = {mid: {s for s in SCENES if m.supports(make_scene(s))[0]} for mid, m in adapters.ENGINE_METHODS.items()}
     four = {"spring", "damped_spring", "pendulum", "projectile"}
     for mode in ("euler", "rk4", "implicit", "implicitfast", "discrete"):
-        assert supported[f"mujoco:{mode}"] == four
-    assert supported["pybullet:semi_implicit"] == four
-    assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring", "projectile"}
-    assert supported["pymunk:pin_joint"] == {"pendulum"}
+        assert supported[f"mujoco:{mode}"] == four | {"chain", "rope"}  # issue 6: slide joints + tendons, hinges
+    assert supported["pybullet:semi_implicit"] == four | {"chain"}
+    assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring",
+                                                                                     "projectile", "chain"}
+    assert supported["pymunk:damped_spring"] == {"chain"}
+    assert supported["pymunk:pin_joint"] == {"pendulum", "rope"}
     for mode in ("leapfrog", "whfast", "ias15", "saba"):
         assert supported[f"rebound:{mode}"] == {"kepler"}
 
@@ -303,7 +329,7 @@ def test_list_shows_why_a_scene_is_unsupported(capsys):
     assert main(["list", "--json"]) == 0
     methods = json.loads(capsys.readouterr().out)["methods"]
     assert methods["pymunk:pin_joint"]["scenes"]["pendulum"] is True
-    assert "pin joint poses only the pendulum" in methods["pymunk:pin_joint"]["scenes"]["spring"]
+    assert "pin joints pose only the pendulum and the rope" in methods["pymunk:pin_joint"]["scenes"]["spring"]
     assert methods["rebound:ias15"]["engine_version"] == "5.2.2"
 
 
@@ -400,4 +426,4 @@ def test_unstable_run_then_the_harness_goes_on():
 def test_all_methods_include_the_engine_modes():
     ids = all_methods()
     assert set(adapters.ENGINE_METHODS) <= set(ids)
-    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 3 + 4  # MuJoCo, pybullet, pymunk, REBOUND modes
+    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 4 + 4  # MuJoCo, pybullet, pymunk, REBOUND modes
