@@ -266,7 +266,7 @@ def test_issue_scene_coverage():
     assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring", "projectile"}
     assert supported["pymunk:pin_joint"] == {"pendulum"}
     for mode in ("leapfrog", "whfast", "ias15", "saba"):
-        assert supported[f"rebound:{mode}"] == {"kepler"}
+        assert supported[f"rebound:{mode}"] == {"kepler", "solar_system"}
 
 
 def test_isolated_run_is_the_in_process_run():
