@@ -16,61 +16,60 @@ from scenarios.trajectory import OK, UNSTABLE, divergence_detail, diverged
 
 from ._integrate import iterations_for, newton_max
 
-_DRIVERS: dict[tuple[str, str], tuple] = {}
+_DRIVERS: dict[tuple[str, str], "_Compiled"] = {}
 
 
-def _build(scheme, scene_cls):
-    """Both compiled loops of one (scheme, scene) pair, built on the same compiled kernels:
-    numba compiles lazily per dispatcher, so whichever loop runs second reuses the step
-    functions and force kernels the first one compiled, and costs only its own loop."""
+def _build(scheme, scene_cls) -> "_Compiled":
+    """The compiled pieces of one (scheme, scene) pair: ``start``, ``observe`` and the loop
+    ``advance_n``, called from Python. Each level of jitted function calling jitted function
+    costs numba a compile of its own (~2 s apiece on the solar system's pair sum), so the loop
+    calls the scheme's step directly and nothing wraps the three."""
     import numba
 
     jit = numba.njit
     step, start, observe = jit(scheme.step), jit(scheme.start), jit(scheme.observe)
     accel, solve, project = jit(scene_cls.accel), jit(scene_cls.solve), jit(scene_cls.project)
 
-    # ``k`` is the one integer a scheme takes besides the state: Newton iterations allowed
-    # (implicit) or projection passes (constrained); explicit schemes ignore it.
+    # Steps i0 .. i0 + n - 1 of a run started at t0: step i starts at t0 + i h, as in the
+    # interpreted driver, so a run cut into pieces is the same run. ``k`` is the one integer a
+    # scheme takes besides the state: Newton iterations allowed (implicit) or projection passes
+    # (constrained); explicit schemes ignore it.
     if scheme.constrained:
         @jit
-        def advance(state, t, h, p, k):
-            return step(accel, project, k, state, t, h, p)
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, project, k, state, t0 + i * h, h, p)
+            return state
     elif scheme.implicit:
         @jit
-        def advance(state, t, h, p, k):
-            return step(accel, solve, k, state, t, h, p)
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, solve, k, state, t0 + i * h, h, p)
+            return state
     else:
         @jit
-        def advance(state, t, h, p, k):
-            return step(accel, state, t, h, p)
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, state, t0 + i * h, h, p)
+            return state
 
-    @jit
-    def advance_n(state, t0, h, i0, n, p, k):
-        # Steps i0 .. i0 + n - 1 of a run started at t0: step i starts at t0 + i h, as in the
-        # interpreted driver, so a run cut into pieces is the same run.
-        for i in range(i0, i0 + n):
-            state = advance(state, t0 + i * h, h, p, k)
-        return state
-
-    @jit
-    def drive(q, v, t0, h, n, p, k):
-        state = start(accel, q, v, t0, h, p)
-        # np.int64(0), not 0: a literal would compile a second advance_n for calls from Python.
-        state = advance_n(state, t0, h, np.int64(0), n, p, k)
-        return observe(accel, state, t0 + n * h, h, p)
-
-    return drive, _Pieces(start, advance_n, observe, accel)
+    return _Compiled(start, advance_n, observe, accel)
 
 
-class _Pieces:
-    """The compiled parts of ``drive``, callable from Python: a recorded run calls them piece by
-    piece and reuses what ``drive`` compiled (a second compiled loop would cost a second compile)."""
-
+class _Compiled:
     def __init__(self, start, advance_n, observe, accel):
         self.start, self.advance_n, self.observe, self.accel = start, advance_n, observe, accel
 
+    def first_state(self, q, v, t0, h, p):
+        return self.start(self.accel, q, v, t0, h, p)
 
-def _parts(scheme, scene: Scene):
+    def drive(self, q, v, t0, h, n, p, k):
+        """Observed (q, v) at step n, kernel layout."""
+        state = self.advance_n(self.first_state(q, v, t0, h, p), t0, h, 0, int(n), p, int(k))
+        return self.observe(self.accel, state, t0 + n * h, h, p)
+
+
+def _parts(scheme, scene: Scene) -> _Compiled:
     key = (scheme.id, scene.id)
     if key not in _DRIVERS:
         _DRIVERS[key] = _build(scheme, type(scene))
@@ -78,8 +77,8 @@ def _parts(scheme, scene: Scene):
 
 
 def driver(scheme, scene: Scene):
-    """The compiled loop ``drive(q, v, t0, h, n, p, k) -> (q, v)``: observed state at step n."""
-    return _parts(scheme, scene)[0]
+    """``drive(q, v, t0, h, n, p, k) -> (q, v)``: the observed state at step n, kernel layout."""
+    return _parts(scheme, scene).drive
 
 
 def _k(scheme, scene: Scene, iterations: int | None) -> int:
@@ -109,10 +108,9 @@ def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, 
     passes ``DIVERGED`` and comes back within one piece would be missed: blow-ups do not)."""
     q, v = _kernel_layout(scene, q0, v0)
     steps, every = int(steps), int(every)
-    drive, parts = _parts(scheme, scene)
-    drive(q, v, 0.0, float(dt), 0, scene.pvec, _k(scheme, scene, iterations))  # compiles, or is compiled
+    parts = _parts(scheme, scene)
     p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
-    state = parts.start(parts.accel, q, v, 0.0, h, p)
+    state = parts.first_state(q, v, 0.0, h, p)
     marks = np.unique(np.append(np.arange(0, steps + 1, every), steps))
     recorded, qs, vs = [0], [], []
 
@@ -168,20 +166,22 @@ def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None, 
 
 def time_per_step(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, repeats: int = 5,
                   iterations: int | None = None) -> dict:
-    """Wall time per step of the compiled loop: one warm-up call (compiles), then the
-    minimum over ``repeats`` timed calls (the least-disturbed run; asv and timeit do the same)."""
+    """Wall time per step of the compiled loop (``advance_n`` from the first state): one warm-up
+    call (it compiles), then the minimum over ``repeats`` timed calls (the least-disturbed run;
+    asv and timeit do the same)."""
     q0, v0 = scene.batch_state(batch)
     q = np.ascontiguousarray(q0.T)
     v = np.ascontiguousarray(v0.T)
-    fn = driver(scheme, scene)
-    p, k = scene.pvec, _k(scheme, scene, iterations)
+    parts = _parts(scheme, scene)
+    p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
     t_compile = time.perf_counter()
-    fn(q, v, 0.0, float(dt), 2, p, k)
+    state = parts.first_state(q, v, 0.0, h, p)
+    parts.observe(parts.accel, parts.advance_n(state, 0.0, h, 0, 2, p, k), 2 * h, h, p)
     t_compile = time.perf_counter() - t_compile
     times = []
     for _ in range(repeats):
         t = time.perf_counter()
-        fn(q, v, 0.0, float(dt), int(steps), p, k)
+        parts.advance_n(state, 0.0, h, 0, int(steps), p, k)
         times.append((time.perf_counter() - t) / steps)
     return {"s_per_step": min(times), "median_s_per_step": float(np.median(times)),
             "repeats": times, "warmup_s": t_compile, "batch": batch, "steps": steps}
