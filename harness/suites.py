@@ -19,6 +19,12 @@ class SceneSpec:
     order_span: float = 8.0        # ratio of the largest to the smallest timestep in that sweep
     order_periods: float = 1.0     # horizon of each order run, in periods
     stability: bool = True         # bisect the largest stable timestep
+    # Where the issue fixes the study in the scene's own units, they override homega/periods:
+    dt: float | None = None        # nominal timestep
+    horizon: float | None = None   # energy horizon
+    methods: tuple[str, ...] | None = None   # this scene's methods (None: the suite's)
+    compiled: bool = False         # reference schemes step compiled (runs too long to interpret)
+    stability_hi: float | None = None   # largest h*omega the stability search tries (None: its default)
 
 
 @dataclass(frozen=True)
@@ -34,6 +40,19 @@ class Suite:
     bounds: bool = True                      # measure the reviewed energy bounds
     identify: bool = True                    # identity table for engine modes
 
+
+#: The outer solar system in the standard suite: the schemes issue 6 names against REBOUND's
+#: modes (the full suite runs every method). Its largest stable dt is left to the full suite:
+#: the boundedness runs need a reference solve out to ~2e6 days in every worker.
+SOLAR_METHODS = ("ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocity_verlet", "ref:leapfrog",
+                 "ref:forest_ruth", "ref:rk4", "rebound:leapfrog", "rebound:whfast", "rebound:ias15",
+                 "rebound:saba")
+
+#: The solar system's stability search stops at h*omega = 4 (dt = 2760 days, 1.6 steps per
+#: Jupiter orbit): WHFast and SABA, exact on each Kepler orbit, stay bounded far beyond (WHFast
+#: to h*omega = 132 over 100 steps), and each boundedness run needs the reference solve over
+#: its whole span, 5000 steps x dt: 1.4e7 days at this bound, 4.5e8 days at WHFast's limit.
+SOLAR_STABILITY_HI = 4.0
 
 SUITES: dict[str, Suite] = {
     "smoke": Suite(
@@ -51,6 +70,8 @@ SUITES: dict[str, Suite] = {
             "pendulum": SceneSpec(periods=50),
             "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0),
             "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True),
+            "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
+                                      methods=SOLAR_METHODS, compiled=True),
         },
     ),
     "full": Suite(
@@ -61,6 +82,8 @@ SUITES: dict[str, Suite] = {
             "pendulum": SceneSpec(periods=500, order_points=8, order_span=16.0),
             "kepler": SceneSpec(homega=0.02, periods=1000, order_points=8, order_span=16.0),
             "projectile": SceneSpec(homega=0.01, periods=0.2, order_points=8, order_span=16.0),
+            "solar_system": SceneSpec(dt=10.0, horizon=1.0e7, order_points=8, order_span=16.0, compiled=True,
+                                      stability_hi=SOLAR_STABILITY_HI),
         },
         cost_repeats=9, cost_steps=100_000, series_points=1000, stability_steps=5000, cell_timeout=900.0,
     ),
