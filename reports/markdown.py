@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from . import charts
+from . import charts, scene_findings
 
 CHECK, CROSS = "✓", "✗"
 
@@ -208,6 +208,7 @@ def findings(piv: dict, cells: pd.DataFrame) -> list[str]:
         elif energy is not None and energy.status == "ok" and energy.data.get("class") == "grows":
             out.append(f"`{method}` gains energy on `{scene}` at the nominal timestep "
                        f"(max |ΔE/E| {energy.value:.2e}).")
+    out += scene_findings.solar_system(piv, cells)
     for _, r in cells[cells.status.isin(["crashed", "timed_out"])].iterrows():
         out.append(f"`{r.method}` on `{r.scene}` ({r.measure}): **{r.status}**: {r.detail}")
     lines = ["## Findings", ""]
