@@ -127,11 +127,18 @@ def build(rebound, mode: str, scene: Scene, dt: float) -> _Model:
 
 _DOCS = {
     "leapfrog": """leapfrog, drift-kick-drift (order 2)
-        Measured: equals ref:leapfrog bitwise on Kepler and on the solar system with sim.steps().""",
-    "whfast": """Wisdom-Holman symplectic map: exact Kepler drift (two-body: exact to roundoff)""",
+        Measured: equals ref:leapfrog bitwise with sim.steps(): Kepler, and the solar system over
+        2e5 days at dt = 10 days (|dE/E| bounded, 4.1e-6).""",
+    "whfast": """Wisdom-Holman symplectic map: exact Kepler drift (two-body: exact to roundoff)
+        Measured on the solar system at dt = 10 days: |dE/E| bounded, 5.3e-9 over 2e5 days; at equal
+        cost per simulated day its global error is 2.4e-5 of leapfrog's.""",
     "ias15": """IAS15, adaptive 15th-order Gauss-Radau; dt is the output interval
-        Measured: |dE/E| ~ 1e-14 over 1000 Kepler orbits.""",
-    "saba": """SABA(10,6,4) symplectic splitting (Blanes et al. 2013); two-body: exact to roundoff""",
+        Measured: |dE/E| ~ 1e-14 over 1000 Kepler orbits; 2.1e-15 over 2e5 days of the solar system
+        (outputs every 10 days).""",
+    "saba": """SABA(10,6,4) symplectic splitting (Blanes et al. 2013); two-body: exact to roundoff
+        Measured on the solar system: |dE/E| 5e-14 over 2e5 days at dt = 10 days; its global error over
+        one Jupiter orbit stays at the reference solve's floor (1e-11) up to dt = 540 days, an eighth
+        of the orbit, so no order is measurable there.""",
 }
 
 METHODS = {
