@@ -107,6 +107,8 @@ class EngineMode:
     scene it cannot pose minimally. ``settings`` describe the mode (each result records the
     settings read back from the engine that ran).
     ``doc`` says, measured, which scheme the mode is; its first line is the summary.
+    ``adaptive``: the engine chooses its own steps and ``dt`` is only the output interval, so
+    nothing is measured against dt (observed order, largest stable dt).
     """
 
     engine: str
@@ -118,6 +120,7 @@ class EngineMode:
     unsupported: Mapping[str, str]
     settings: Mapping[str, object]
     doc: str = field(default="", compare=False)
+    adaptive: bool = False
 
     isolated = True
 
@@ -195,7 +198,7 @@ class EngineMode:
     def describe(self) -> dict:
         return {"id": self.id, "family": self.engine, "engine": self.engine, "mode": self.mode,
                 "summary": self.summary, "engine_version": engine_version(self.dist),
-                "settings": dict(self.settings), "supported_scenes": list(self.scenes),
+                "settings": dict(self.settings), "supported_scenes": list(self.scenes), "adaptive": self.adaptive,
                 "doc": " ".join(self.doc.split())}
 
 

@@ -28,6 +28,14 @@ def resolve(method, scene: Scene):
     return method
 
 
+def require_fixed_step(method, measure: str) -> None:
+    """An adaptive method (IAS15) picks its own steps and takes dt as its output interval, so
+    a measure of behaviour against dt does not apply: say so before stepping anything."""
+    if getattr(method, "adaptive", False):
+        raise InvalidInput(f"method {method.id} chooses its own steps (dt is only its output interval): "
+                           f"{measure} against dt does not apply")
+
+
 def step(method, scene: Scene, dt: float, steps: int, every: int = 1, timeout: float | None = None) -> Trajectory:
     return simulate(method, scene, float(dt), int(steps), int(every), timeout=timeout)
 

@@ -18,10 +18,13 @@ from scenarios._base import no_solve
 class RefMethod:
     """A reference scheme as a method. ``options`` are the run-time options the scheme declares
     (``Scheme.options``: a constrained scheme's projection ``iterations``); unset ones keep the
-    scheme's defaults."""
+    scheme's defaults. ``compiled`` picks the compiled driver (same states, not counted)."""
 
     scheme: reference.Scheme
     options: dict = field(default_factory=dict, compare=False)
+    #: Step on the compiled path (``reference.integrate_compiled``): the same states, for runs
+    #: too long to interpret; force evaluations are then not counted.
+    compiled: bool = field(default=False, compare=False)
 
     @property
     def id(self) -> str:
@@ -45,7 +48,12 @@ class RefMethod:
             return False, f"scene {scene.id} provides no implicit solve"
         return True, ""
 
+    def compiled_twin(self) -> "RefMethod":
+        return RefMethod(self.scheme, self.options, compiled=True)
+
     def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
+        if self.compiled:
+            return reference.integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
         return reference.integrate(self.scheme, scene, dt, steps, every, **self.options)
 
     def describe(self) -> dict:

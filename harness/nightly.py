@@ -73,6 +73,8 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH) -> tuple[list
             ok, why = m.available()
             if ok:
                 ok, why = m.supports(scene)
+            if ok and spec.methods is not None and mid not in spec.methods:
+                ok, why = False, f"not in the {suite.name} suite's selection for {scene_id}"
             if not ok:
                 skipped.append({"scene": scene_id, "method": mid, "reason": why})
                 continue

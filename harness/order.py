@@ -35,7 +35,7 @@ from scipy.stats import linregress
 
 from scenarios import InvalidInput, Scene
 
-from ._measure import declared_order, resolve
+from ._measure import declared_order, require_fixed_step, resolve
 from .error import REFERENCE_FLOOR, global_error
 
 #: Target error at the largest dt, by the method's order.
@@ -95,6 +95,7 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
     ``order`` only steers the dt range (default: the declared order); ``dts`` fixes the
     timesteps instead (each still adjusted to fit the horizon)."""
     method = resolve(method, scene)
+    require_fixed_step(method, "the observed order")
     if points < MIN_POINTS:
         raise InvalidInput(f"points={points} is out of range (allowed: integer >= {MIN_POINTS})")
     if span <= 1.0 or not math.isfinite(span):

@@ -41,7 +41,7 @@ import numpy as np
 
 from scenarios import InvalidInput, Scene
 
-from ._measure import resolve, scaled_state, started_at, step
+from ._measure import require_fixed_step, resolve, scaled_state, started_at, step
 from .error import true_state
 
 RHO_TOL = 1e-12
@@ -191,6 +191,7 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
     ``hi`` are h*omega bounds of the search. For linear scenes the result also carries
     the one-step map at ``dt_max``."""
     method = resolve(method, scene)
+    require_fixed_step(method, "the largest stable timestep")
     if criterion not in CRITERIA:
         raise InvalidInput(f"unknown criterion {criterion!r} (valid: {', '.join(CRITERIA)})")
     if not (0.0 < lo < hi and math.isfinite(hi)):

@@ -24,6 +24,12 @@ class SceneSpec:
     stability: bool = True         # bisect the largest stable timestep
     extras: dict = field(default_factory=dict)  # scene-specific cells and their settings (harness.scene_cells)
     skip: tuple[str, ...] = ()     # methods left out on this scene in this suite (listed with the reason)
+    # Where the issue fixes the study in the scene's own units, they override homega/periods:
+    dt: float | None = None        # nominal timestep
+    horizon: float | None = None   # energy horizon
+    methods: tuple[str, ...] | None = None   # this scene's methods (None: the suite's)
+    compiled: bool = False         # reference schemes step compiled (runs too long to interpret)
+    stability_hi: float | None = None   # largest h*omega the stability search tries (None: its default)
 
 
 @dataclass(frozen=True)
@@ -55,6 +61,18 @@ CHAIN_STANDARD_SKIP = ("ref:semi_implicit_euler_position_first", "ref:verlet", "
 ROPE_STANDARD_SKIP = ("mujoco:implicitfast", "mujoco:discrete")
 #: The rope's constraint cell also runs ref:verlet_constrained at these projection passes.
 ROPE_EXTRAS = {"constraint": {"iterations": (1, 4, 16)}}
+#: The outer solar system in the standard suite: the schemes issue 6 names against REBOUND's
+#: modes (the full suite runs every method). Its largest stable dt is left to the full suite:
+#: the boundedness runs need a reference solve out to ~2e6 days in every worker.
+SOLAR_METHODS = ("ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocity_verlet", "ref:leapfrog",
+                 "ref:forest_ruth", "ref:rk4", "rebound:leapfrog", "rebound:whfast", "rebound:ias15",
+                 "rebound:saba")
+
+#: The solar system's stability search stops at h*omega = 4 (dt = 2760 days, 1.6 steps per
+#: Jupiter orbit): WHFast and SABA, exact on each Kepler orbit, stay bounded far beyond (WHFast
+#: to h*omega = 132 over 100 steps), and each boundedness run needs the reference solve over
+#: its whole span, 5000 steps x dt: 1.4e7 days at this bound, 4.5e8 days at WHFast's limit.
+SOLAR_STABILITY_HI = 4.0
 
 SUITES: dict[str, Suite] = {
     "smoke": Suite(
@@ -75,6 +93,8 @@ SUITES: dict[str, Suite] = {
             "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS, skip=CHAIN_STANDARD_SKIP),
             "rope": SceneSpec(params={"N": 5}, periods=20, stability=False, extras=ROPE_EXTRAS,
                               skip=ROPE_STANDARD_SKIP),
+            "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
+                                      methods=SOLAR_METHODS, compiled=True),
         },
     ),
     "full": Suite(
@@ -88,6 +108,8 @@ SUITES: dict[str, Suite] = {
             "chain": SceneSpec(periods=500, order_points=8, order_span=16.0,
                                extras={**CHAIN_EXTRAS, "scaling": {"ns": (10, 100, 1000, 10000)}}),
             "rope": SceneSpec(periods=200, order_points=8, order_span=16.0, stability=False, extras=ROPE_EXTRAS),
+            "solar_system": SceneSpec(dt=10.0, horizon=1.0e7, order_points=8, order_span=16.0, compiled=True,
+                                      stability_hi=SOLAR_STABILITY_HI),
         },
         cost_repeats=9, cost_steps=100_000, series_points=1000, stability_steps=5000, cell_timeout=900.0,
     ),

@@ -86,3 +86,27 @@ def chart_ready(rows: list[dict]) -> dict[str, dict[str, list]]:
         for k in d:
             d[k] = [d[k][i] for i in order]
     return out
+
+
+def error_at_equal_cost(curve: dict, at: dict) -> list[dict]:
+    """How one method's error compares with another's at the same cost.
+
+    ``curve`` and ``at`` are ``{"cost": [...], "error": [...]}`` (a method's sweep, any cost
+    measure, e.g. :func:`chart_ready`'s ``s_per_unit_time``). For every point of ``at`` whose
+    cost lies within ``curve``'s range, ``curve``'s error at that cost is interpolated linearly
+    in log(cost)-log(error) between its neighbouring points; the rows give both errors and
+    ``ratio`` = curve's error / at's error (below 1: ``curve`` is ahead there). Points outside
+    the range are left out, never extrapolated."""
+    pts = sorted((c, e) for c, e in zip(curve["cost"], curve["error"])
+                 if c is not None and e is not None and c > 0 and e > 0 and math.isfinite(c) and math.isfinite(e))
+    if len(pts) < 2:
+        return []
+    log_c = np.log([c for c, _ in pts])
+    log_e = np.log([e for _, e in pts])
+    out = []
+    for c, e in zip(at["cost"], at["error"]):
+        if c is None or e is None or not (c > 0 and e > 0) or not (log_c[0] <= math.log(c) <= log_c[-1]):
+            continue
+        interpolated = float(np.exp(np.interp(math.log(c), log_c, log_e)))
+        out.append({"cost": float(c), "error": float(e), "curve_error": interpolated, "ratio": interpolated / e})
+    return out

@@ -1,6 +1,7 @@
 """Reference integrators: ``METHODS[id]`` is a :class:`Scheme`; ``integrate`` steps one on a scene."""
 from __future__ import annotations
 
+from ._compiled import integrate_compiled
 from ._integrate import integrate
 from ._scheme import Scheme
 from .explicit_euler import explicit_euler
@@ -20,4 +21,4 @@ METHODS: dict[str, Scheme] = {s.id: s for s in (
     leapfrog, rk4, implicit_euler, implicit_midpoint, forest_ruth, verlet_constrained,
 )}
 
-__all__ = ["METHODS", "Scheme", "integrate"]
+__all__ = ["METHODS", "Scheme", "integrate", "integrate_compiled"]

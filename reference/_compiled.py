@@ -1,8 +1,9 @@
 """Compiled driver: the same step functions and force kernels, compiled by numba.
 
 Used for timing (``harness bench``, the cost measurement), so that the measured cost is
-the scheme's and not the interpreter's. Each (scheme, scene) pair compiles once per
-process (about 2 s): numba cannot cache functions passed as arguments to disk.
+the scheme's and not the interpreter's, and for runs too long to interpret
+(:func:`integrate_compiled`). Each (scheme, scene) pair compiles once per process (2-15 s):
+numba cannot cache functions passed as arguments to disk.
 """
 from __future__ import annotations
 
@@ -10,14 +11,19 @@ import time
 
 import numpy as np
 
-from scenarios import Scene
+from scenarios import Scene, Trajectory
+from scenarios.trajectory import OK, UNSTABLE, divergence_detail, diverged
 
 from ._integrate import iterations_for, newton_max
 
-_DRIVERS: dict[tuple[str, str, bool], object] = {}
+_DRIVERS: dict[tuple[str, str], "_Compiled"] = {}
 
 
-def _build(scheme, scene_cls, record=False):
+def _build(scheme, scene_cls) -> "_Compiled":
+    """The compiled pieces of one (scheme, scene) pair: ``start``, ``observe`` and the loop
+    ``advance_n``, called from Python. Each level of jitted function calling jitted function
+    costs numba a compile of its own (~2 s apiece on the solar system's pair sum), so the loop
+    calls the scheme's step directly and nothing wraps the three."""
     import numba
 
     # error_model="numpy": a division by zero gives inf/nan as it does on the interpreted
@@ -27,105 +33,158 @@ def _build(scheme, scene_cls, record=False):
     step, start, observe = jit(scheme.step), jit(scheme.start), jit(scheme.observe)
     accel, solve, project = jit(scene_cls.accel), jit(scene_cls.solve), jit(scene_cls.project)
 
-    # ``k`` is the one integer a scheme takes besides the state: Newton iterations allowed
-    # (implicit) or projection passes (constrained); explicit schemes ignore it.
+    # Steps i0 .. i0 + n - 1 of a run started at t0: step i starts at t0 + i h, as in the
+    # interpreted driver, so a run cut into pieces is the same run. ``k`` is the one integer a
+    # scheme takes besides the state: Newton iterations allowed (implicit) or projection passes
+    # (constrained); explicit schemes ignore it.
     if scheme.constrained:
         @jit
-        def advance(state, t, h, p, k):
-            return step(accel, project, k, state, t, h, p)
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, project, k, state, t0 + i * h, h, p)
+            return state
     elif scheme.implicit:
         @jit
-        def advance(state, t, h, p, k):
-            return step(accel, solve, k, state, t, h, p)
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, solve, k, state, t0 + i * h, h, p)
+            return state
     else:
         @jit
-        def advance(state, t, h, p, k):
-            return step(accel, state, t, h, p)
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, state, t0 + i * h, h, p)
+            return state
 
-    @jit
-    def drive(q, v, t0, h, n, p, k):
-        state = start(accel, q, v, t0, h, p)
-        for i in range(n):
-            state = advance(state, t0 + i * h, h, p, k)
-        return observe(accel, state, t0 + n * h, h, p)
-
-    if not record:
-        return drive
-
-    @jit
-    def drive_recording(q, v, t0, h, n, every, p, k):
-        # Observed states at step 0, every ``every`` steps and step n, kernel layout (T, ndof, batch).
-        nrec = n // every + 1 + (1 if n % every else 0)
-        qs = np.empty((nrec, q.shape[0], q.shape[1]))
-        vs = np.empty((nrec, q.shape[0], q.shape[1]))
-        state = start(accel, q, v, t0, h, p)
-        qs[0], vs[0] = observe(accel, state, t0, h, p)
-        r = 1
-        for i in range(n):
-            state = advance(state, t0 + i * h, h, p, k)
-            if (i + 1) % every == 0 or i + 1 == n:
-                qs[r], vs[r] = observe(accel, state, t0 + (i + 1) * h, h, p)
-                r += 1
-        return qs, vs
-
-    return drive_recording
+    return _Compiled(start, advance_n, observe, accel)
 
 
-def driver(scheme, scene: Scene, record: bool = False):
-    """The compiled loop: ``drive(q, v, t0, h, n, p, k) -> (q, v)`` at step n, or with ``record``
-    ``drive(q, v, t0, h, n, every, p, k) -> (qs, vs)`` (a separate compile, only when asked for)."""
-    key = (scheme.id, scene.id, record)
+class _Compiled:
+    def __init__(self, start, advance_n, observe, accel):
+        self.start, self.advance_n, self.observe, self.accel = start, advance_n, observe, accel
+
+    def first_state(self, q, v, t0, h, p):
+        return self.start(self.accel, q, v, t0, h, p)
+
+    def drive(self, q, v, t0, h, n, p, k):
+        """Observed (q, v) at step n, kernel layout."""
+        state = self.advance_n(self.first_state(q, v, t0, h, p), t0, h, 0, int(n), p, int(k))
+        return self.observe(self.accel, state, t0 + n * h, h, p)
+
+
+def _parts(scheme, scene: Scene) -> _Compiled:
+    key = (scheme.id, scene.id)
     if key not in _DRIVERS:
-        _DRIVERS[key] = _build(scheme, type(scene), record)
+        _DRIVERS[key] = _build(scheme, type(scene))
     return _DRIVERS[key]
+
+
+def driver(scheme, scene: Scene):
+    """``drive(q, v, t0, h, n, p, k) -> (q, v)``: the observed state at step n, kernel layout."""
+    return _parts(scheme, scene).drive
 
 
 def _k(scheme, scene: Scene, iterations: int | None) -> int:
     return iterations_for(scheme, iterations) if scheme.constrained else newton_max(scene)
 
 
-def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, q0=None, v0=None,
-                       iterations: int | None = None):
-    """(steps recorded, q, v) of a compiled run, recorded as ``integrate`` records (step 0, every
-    ``every`` steps and the last); q, v in API layout (T, batch, ndof). No instability check:
-    for stable runs where the interpreted path would be too slow."""
+def _kernel_layout(scene: Scene, q0, v0):
     if q0 is None or v0 is None:
         q0, v0 = scene.batch_state(1)
     q = np.ascontiguousarray(np.atleast_2d(q0).T, dtype=np.float64)
     v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
+    return q, v
+
+
+def _within(state) -> bool:
+    return not diverged(state[0], state[1])
+
+
+def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, q0=None, v0=None,
+                       iterations: int | None = None):
+    """(steps recorded, q, v, failed step or None) of a compiled run, recorded as ``integrate``
+    records (step 0, every ``every`` steps and the last) and stopped as it stops, at the first
+    step whose state diverged; q, v in API layout (T, batch, ndof).
+
+    The compiled loop runs from one recorded step to the next; only where a piece ends
+    diverged is it replayed one step at a time from its start, to find the step (a state that
+    passes ``DIVERGED`` and comes back within one piece would be missed: blow-ups do not)."""
+    q, v = _kernel_layout(scene, q0, v0)
     steps, every = int(steps), int(every)
-    qs, vs = driver(scheme, scene, record=True)(q, v, 0.0, float(dt), steps, every, scene.pvec,
-                                                _k(scheme, scene, iterations))
-    recorded = np.unique(np.append(np.arange(0, steps + 1, every), steps))
-    return recorded, qs.transpose(0, 2, 1).copy(), vs.transpose(0, 2, 1).copy()
+    parts = _parts(scheme, scene)
+    p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
+    state = parts.first_state(q, v, 0.0, h, p)
+    marks = np.unique(np.append(np.arange(0, steps + 1, every), steps))
+    recorded, qs, vs = [0], [], []
+
+    def record(n):
+        qo, vo = parts.observe(parts.accel, state, n * h, h, p)
+        qs.append(qo.T.copy())
+        vs.append(vo.T.copy())
+
+    record(0)
+    failed = None
+    with np.errstate(all="ignore"):
+        for a, b in zip(marks[:-1], marks[1:]):
+            a, b = int(a), int(b)
+            nxt = parts.advance_n(state, 0.0, h, a, b - a, p, k)
+            if not _within(nxt):
+                for i in range(a, b):
+                    state = parts.advance_n(state, 0.0, h, i, 1, p, k)
+                    if not _within(state):
+                        failed = i + 1
+                        break
+                break
+            state = nxt
+            recorded.append(b)
+            record(b)
+    return np.array(recorded, dtype=np.int64), np.array(qs), np.array(vs), failed
+
+
+def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
+                       iterations: int | None = None) -> Trajectory:
+    """``integrate`` on the compiled path: the same step functions and kernels, so the same
+    states (bitwise, or within FMA contraction), the same recording and the same divergence
+    stop, for runs too long to interpret (1e6 steps of a 6-body force). Force evaluations are
+    not counted here (``force_evals`` None): the interpreted driver counts them."""
+    recorded, q, v, failed = run_compiled_every(scheme, scene, dt, steps, every, iterations=iterations)
+    status, detail = (UNSTABLE, divergence_detail(failed, failed * dt)) if failed else (OK, "")
+    with np.errstate(over="ignore", invalid="ignore"):
+        energy = scene.energy(q, v)
+    meta = {"backend": "compiled", "steps_run": (failed - 1) if failed else steps, "params": dict(scene.values),
+            "force_evals_reason": "compiled run: not counted (the interpreted driver counts them)"}
+    if scheme.constrained:
+        meta["iterations"] = iterations_for(scheme, iterations)
+    return Trajectory(scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
+                      step=recorded.astype(np.int64), t=recorded * dt, q=q, v=v, energy=energy,
+                      status=status, detail=detail, failed_step=failed, meta=meta)
 
 
 def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None, iterations: int | None = None):
     """Final (q, v) after ``steps`` compiled steps, API layout (batch, ndof)."""
-    if q0 is None or v0 is None:
-        q0, v0 = scene.batch_state(1)
-    q = np.ascontiguousarray(np.atleast_2d(q0).T, dtype=np.float64)
-    v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
+    q, v = _kernel_layout(scene, q0, v0)
     qf, vf = driver(scheme, scene)(q, v, 0.0, float(dt), int(steps), scene.pvec, _k(scheme, scene, iterations))
     return qf.T.copy(), vf.T.copy()
 
 
 def time_per_step(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, repeats: int = 5,
                   iterations: int | None = None) -> dict:
-    """Wall time per step of the compiled loop: one warm-up call (compiles), then the
-    minimum over ``repeats`` timed calls (the least-disturbed run; asv and timeit do the same)."""
+    """Wall time per step of the compiled loop (``advance_n`` from the first state): one warm-up
+    call (it compiles), then the minimum over ``repeats`` timed calls (the least-disturbed run;
+    asv and timeit do the same)."""
     q0, v0 = scene.batch_state(batch)
     q = np.ascontiguousarray(q0.T)
     v = np.ascontiguousarray(v0.T)
-    fn = driver(scheme, scene)
-    p, k = scene.pvec, _k(scheme, scene, iterations)
+    parts = _parts(scheme, scene)
+    p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
     t_compile = time.perf_counter()
-    fn(q, v, 0.0, float(dt), 2, p, k)
+    state = parts.first_state(q, v, 0.0, h, p)
+    parts.observe(parts.accel, parts.advance_n(state, 0.0, h, 0, 2, p, k), 2 * h, h, p)
     t_compile = time.perf_counter() - t_compile
     times = []
     for _ in range(repeats):
         t = time.perf_counter()
-        fn(q, v, 0.0, float(dt), int(steps), p, k)
+        parts.advance_n(state, 0.0, h, 0, int(steps), p, k)
         times.append((time.perf_counter() - t) / steps)
     return {"s_per_step": min(times), "median_s_per_step": float(np.median(times)),
             "repeats": times, "warmup_s": t_compile, "batch": batch, "steps": steps}

@@ -292,7 +292,7 @@ def test_issue_scene_coverage():
     assert supported["pymunk:damped_spring"] == {"chain"}
     assert supported["pymunk:pin_joint"] == {"pendulum", "rope"}
     for mode in ("leapfrog", "whfast", "ias15", "saba"):
-        assert supported[f"rebound:{mode}"] == {"kepler"}
+        assert supported[f"rebound:{mode}"] == {"kepler", "solar_system"}
 
 
 def test_isolated_run_is_the_in_process_run():

@@ -431,6 +431,10 @@ def test_cli_text_output():
     (["workprecision", "spring", "--points", "0"], "--points"),
     (["workprecision", "spring", "--homega-max", "inf"], "--homega-max"),
     (["workprecision", "spring", "--method", "ref:nope"], "method"),
+    # IAS15 takes dt as its output interval: refused before it is stepped (its stability scan on
+    # kepler ran for over 5 minutes before this check).
+    (["order", "kepler", "--method", "rebound:ias15"], "rebound:ias15 chooses its own steps"),
+    (["stability", "kepler", "--method", "rebound:ias15"], "rebound:ias15 chooses its own steps"),
 ])
 def test_cli_bad_input_exits_2_with_one_line(argv, field):
     rc, out, err = run_cli(*argv)

@@ -171,6 +171,25 @@ def test_compiled_path_matches_interpreted_path(scheme_id, scene_id):
     np.testing.assert_allclose(v, ref.v[-1], rtol=1e-11, atol=1e-12)
 
 
+@pytest.mark.parametrize("scheme_id, dt, steps, every", [
+    ("explicit_euler", 1.0, 1000, 10),  # blows up at step 666
+    ("rk4", 3.0, 1000, 1),              # h w = 3 > 2 sqrt(2): blows up at step 564
+    ("rk4", 0.1, 1000, 7),              # stable, the last step off the recording grid
+])
+def test_compiled_run_is_the_interpreted_run(scheme_id, dt, steps, every):
+    """integrate_compiled records and stops exactly as integrate does: same steps, same states
+    (bitwise, measured), the same failing step. Pairs the cost tests compile anyway."""
+    from reference import integrate_compiled
+
+    a = integrate(METHODS[scheme_id], SPRING, dt, steps, every)
+    b = integrate_compiled(METHODS[scheme_id], SPRING, dt, steps, every)
+    assert (b.status, b.failed_step, b.detail) == (a.status, a.failed_step, a.detail)
+    np.testing.assert_array_equal(b.step, a.step)
+    np.testing.assert_array_equal(b.q, a.q)
+    np.testing.assert_array_equal(b.v, a.v)
+    assert b.force_evals is None and b.meta["backend"] == "compiled"
+
+
 def test_blow_up_is_recorded_as_unstable_with_the_step():
     tr = run("explicit_euler", scene=make_scene("spring", k=1e6), dt=0.5, steps=10_000)
     assert tr.status == "unstable"

@@ -305,7 +305,7 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     assert "identity" not in measures_for(Task("cell", "rope", "pymunk:pin_joint", "pymunk", {"N": 3}, "tiny"))
     assert by[("mujoco:discrete", "damping")].data["stable"] and by[("ref:implicit_euler", "scaling")].value > 0
     # The rope's error is measured against its reduced-coordinate reference, within its horizon.
-    assert by[("pymunk:pin_joint", "error")].data["source"] == "scene rope's reference solution"
+    assert by[("pymunk:pin_joint", "error")].data["source"] == "rope reference_solution"
     assert [b["iterations"] for b in by[("ref:verlet_constrained", "constraint")].data["by_iterations"]] == [1, 4]
     assert by[("mujoco:discrete", "stability")].data["unbounded"]
 
