@@ -79,11 +79,18 @@ def save(bounds: list[Bound], path: str | Path = DEFAULT_PATH) -> None:
     tmp.replace(path)
 
 
+#: Relative excess over a two-digit value that is floating-point noise, not measurement:
+#: 1e-5 * MARGIN is 1.5000000000000002e-05 in binary, which must round up to 1.5e-5, not 1.6e-5.
+ROUND_NOISE = 1e-9
+
+
 def round_up_2sig(x: float) -> float:
+    """``x`` rounded up to two significant digits (1.23e-5 -> 1.3e-5; 1.5e-5 stays 1.5e-5)."""
     if x <= 0 or not math.isfinite(x):
         return x
     e = math.floor(math.log10(x)) - 1
-    return math.ceil(x / 10 ** e) * 10 ** e
+    digits = math.ceil(x / 10 ** e * (1 - ROUND_NOISE))
+    return float(f"{digits}e{e}")  # the decimal literal: 15e-6 is 1.5e-05 exactly as written
 
 
 @dataclass(frozen=True)

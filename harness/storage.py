@@ -131,9 +131,12 @@ class History:
         q = "SELECT * FROM runs" + (" WHERE complete = 1" if complete_only else "") + " ORDER BY run_id"
         with closing(self._connect()) as con:
             df = pd.read_sql_query(q, con)
+        # pandas >= 3 reads a text column as its string dtype, where SQL NULL (an unfinished
+        # run's finish time and timing, an unknown commit) becomes NaN: back to None.
+        for col in ("started", "finished", "suite", "git_commit"):
+            df[col] = df[col].astype(object).map(lambda s: s if isinstance(s, str) else None)
         for col in ("versions", "machine", "settings", "timing"):
-            # An incomplete run's NULL timing reads as NaN (not None) when complete runs sit beside it.
-            df[col] = df[col].map(lambda s: json.loads(s) if isinstance(s, str) and s else {})
+            df[col] = df[col].astype(object).map(lambda s: json.loads(s) if isinstance(s, str) and s else {})
         return df
 
     def run(self, run_id: int) -> dict:
@@ -151,7 +154,8 @@ class History:
         with closing(self._connect()) as con:
             df = pd.read_sql_query("SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt",
                                    con, params=(run_id,))
-        df["data"] = df["data"].map(json.loads)
+        df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
+        df["data"] = df["data"].astype(object).map(json.loads)
         return df
 
     def previous_complete(self, run_id: int) -> int | None:

@@ -3,7 +3,8 @@
 Used for timing (``harness bench``, the cost measurement), so that the measured cost is
 the scheme's and not the interpreter's, and for runs too long to interpret
 (:func:`integrate_compiled`). Each (scheme, scene) pair compiles once per process (2-15 s):
-numba cannot cache functions passed as arguments to disk.
+numba cannot cache functions passed as arguments to disk, and its cache would not notice a
+change to a scheme's file (a callee in another file), so a stale kernel could be timed.
 """
 from __future__ import annotations
 
@@ -17,6 +18,22 @@ from scenarios.trajectory import OK, UNSTABLE, divergence_detail, diverged
 from ._integrate import iterations_for, newton_max
 
 _DRIVERS: dict[tuple[str, str], "_Compiled"] = {}
+_JITTED: dict[object, object] = {}
+
+
+def _jit(fn):
+    """One numba dispatcher per Python function, shared by every driver of this process: a
+    scene's ``accel`` compiled for one scheme serves the next, and the ``start``/``observe``
+    most schemes share compile once per scene.
+
+    error_model="numpy": a division by zero gives inf/nan as it does on the interpreted (numpy)
+    path instead of raising, and the compiled loop skips the zero checks (~15% of a one-spring
+    step)."""
+    if fn not in _JITTED:
+        import numba
+
+        _JITTED[fn] = numba.njit(error_model="numpy")(fn)
+    return _JITTED[fn]
 
 
 def _build(scheme, scene_cls) -> "_Compiled":
@@ -26,12 +43,9 @@ def _build(scheme, scene_cls) -> "_Compiled":
     calls the scheme's step directly and nothing wraps the three."""
     import numba
 
-    # error_model="numpy": a division by zero gives inf/nan as it does on the interpreted
-    # (numpy) path instead of raising, and the compiled loop skips the zero checks (~15%
-    # of a one-spring step).
     jit = numba.njit(error_model="numpy")
-    step, start, observe = jit(scheme.step), jit(scheme.start), jit(scheme.observe)
-    accel, solve, project = jit(scene_cls.accel), jit(scene_cls.solve), jit(scene_cls.project)
+    step, start, observe = _jit(scheme.step), _jit(scheme.start), _jit(scheme.observe)
+    accel, solve, project = _jit(scene_cls.accel), _jit(scene_cls.solve), _jit(scene_cls.project)
 
     # Steps i0 .. i0 + n - 1 of a run started at t0: step i starts at t0 + i h, as in the
     # interpreted driver, so a run cut into pieces is the same run. ``k`` is the one integer a
