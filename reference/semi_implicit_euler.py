@@ -11,5 +11,6 @@ def semi_implicit_euler(accel, state, t, h, p):
     First order, symplectic: the energy error stays in an O(h) band. Stable for h w <= 2.
     """
     q, v = state
-    v = v + h * accel(q, v, t, p)
+    a = accel(q, v, t, p)
+    v = v + h * a
     return (q + h * v, v)
