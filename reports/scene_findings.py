@@ -208,9 +208,12 @@ def solar_system(piv: dict, cells: pd.DataFrame) -> list[str]:
             out.append(f"`solar_system`: `rebound:whfast` and `{other}` share no cost range in this run's sweeps.")
             continue
         ratios = [r["ratio"] for r in rows]
+        span = f"{min(ratios):.1e}" if f"{min(ratios):.1e}" == f"{max(ratios):.1e}" else \
+            f"{min(ratios):.1e} to {max(ratios):.1e}"
+        points = f"{len(rows)} point{'s' if len(rows) > 1 else ''}"
         out.append(f"`solar_system`, work-precision: at equal cost per simulated day, `rebound:whfast`'s max "
-                   f"global error is {min(ratios):.1e} to {max(ratios):.1e} times `{other}`'s ({len(rows)} "
-                   f"points of the order sweep) {_mark(max(ratios) < 1)}.")
+                   f"global error is {span} times `{other}`'s ({points} of the order sweep) "
+                   f"{_mark(max(ratios) < 1)}.")
 
     lf, rk = ms.get("ref:leapfrog", {}).get("cost"), ms.get("ref:rk4", {}).get("cost")
     if _value(lf) and _value(rk):
