@@ -168,7 +168,7 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
         cells = [
             f"`{method}`", status,
             _fmt(energy.value, ".2e") if energy is not None and energy.status == "ok" else (energy.status if energy is not None else "–"),
-            energy.data.get("class", "–") if energy is not None else "–",
+            (energy.data.get("class") or "–") if energy is not None else "–",
             _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
             _fmt(order.value, ".2f") if order is not None and order.status == "ok" else (order.status if order is not None else "–"),
             homega_text(stab),

@@ -158,9 +158,9 @@ def solar_system(piv: dict, cells: pd.DataFrame) -> list[str]:
     out = []
 
     energy = {m: v["energy"] for m, v in ms.items() if v.get("energy") is not None}
-    if energy:
-        any_row = next(iter(energy.values()))
-        dt, steps = any_row["dt"], any_row["steps"]
+    ran = [r for r in energy.values() if r.status in ("ok", "unstable")]
+    if ran:
+        dt, steps = ran[0]["dt"], ran[0]["steps"]
         span = f"{dt * steps:.3g} days at dt = {dt:g}"
 
         def text(m):
