@@ -22,6 +22,9 @@ def add_parser(sub):
                    help="Dask scheduler address, or local:N for a LocalCluster of N workers "
                         "(default: $HARNESS_SCHEDULER, else local worker processes)")
     p.add_argument("--bounds", default=None, help="energy bounds file (default: the reviewed harness/energy_bounds.csv)")
+    p.add_argument("--cell-timeout", default=None,
+                   help="seconds one task (a scene x method, all its measures) may take before its worker is "
+                        "killed and the rest of it recorded timed_out (default: the suite's)")
     p.add_argument("--json", action="store_true", help="print the run summary as JSON")
     return p
 
@@ -31,13 +34,15 @@ def run(args) -> int:
 
     suite = validate.choice("--suite", args.suite, list(SUITES))
     jobs = validate.count("--jobs", args.jobs, 1) if args.jobs is not None else None
+    cell_timeout = validate.positive_finite("--cell-timeout", args.cell_timeout) if args.cell_timeout is not None else None
     bounds_path = Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH
     bounds_mod.load(bounds_path)  # a broken bounds file fails before anything runs
     if args.scheduler:
         from ..distributed import parse_scheduler
 
         parse_scheduler(args.scheduler)
-    result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path)
+    result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path,
+                         cell_timeout=cell_timeout)
     regs = result["regressions"]
     if args.json:
         print(json.dumps({"run_id": result["run_id"], "previous": result["previous"], "report": str(result["report"]),
