@@ -5,11 +5,20 @@ scene spec's ``dt`` where the study is fixed in the scene's units):
 ``energy`` (max |dE/E| against the exact energy, its classification, a downsampled series
 for the chart), ``error`` (max global error over the same run), ``order`` (the dt sweep,
 whose points also give the work-precision chart), ``stability`` (largest stable h*omega),
-``cost`` (counted evaluations and wall time per step; the ratio to explicit Euler is filled
-in by ``finalize_cells`` from the same run's explicit-Euler cell) and, for engine modes,
-``identity`` (which reference scheme it integrates). Some scenes add cells of their own
-(``harness.scene_cells``: constraint drift, damping far beyond the explicit limit, cost
-against size). A bound task measures one reviewed energy bound exactly as the file states it.
+``cost`` (counted evaluations, and CPU time per step with its ratio to explicit Euler timed
+side by side in the same worker; see below) and, for engine modes, ``identity`` (which
+reference scheme it integrates). Some scenes add cells of their own (``harness.scene_cells``:
+constraint drift, damping far beyond the explicit limit, cost against size). A bound task
+measures one reviewed energy bound exactly as the file states it.
+
+Cost is timed on the worker's CPU clock, not the wall clock: the nightly runs its cells in
+parallel on shared cores, where a repeat's wall time includes waiting for a core. Measured
+on this project's 2-core machine under a load of 7, pymunk's step read 30-73 us of wall
+time and 9.2-13 us of CPU time; the compiled explicit-Euler step 93-990 ns wall, 93-108 ns
+CPU. On an idle core the two clocks agree (the steps run in one thread).
+
+A task's cells are sent back one by one as they are measured
+(``isolation.report_partial``), so a task that later crashes or hangs keeps them.
 
 Every cell records the textbook claims it is judged against (from the scheme's
 declarations, or for an engine mode from the scheme it was identified as), so the report
@@ -24,20 +33,31 @@ import numpy as np
 
 from scenarios import make_scene
 
-from .suites import SUITES
+from .suites import SUITES, Suite
 
-MEASURES = ("energy", "error", "order", "stability", "cost")
+#: The measures of a scene x method task, in the order they run (identity first for an engine
+#: mode: the scheme it is identified as gives the claims its other cells are judged by). The
+#: stability search runs last: its cost is the least bounded (a finite-horizon test against a
+#: reference solve took 24 s at h*omega = 1 on the solar system), and a task that times out
+#: in it keeps every cell before it.
+MEASURES = ("energy", "error", "order", "cost", "stability")
 
 #: The scheme an engine mode's name suggests, for the findings ("implicit" that is not).
-NAME_SUGGESTS = {"implicit": "implicit_euler", "implicitfast": "implicit_euler", "euler": "euler",
-                 "rk4": "rk4", "discrete": "implicit_euler", "semi_implicit": "semi_implicit_euler",
-                 "leapfrog": "leapfrog"}
+#: A bare "euler" suggests no one scheme (MuJoCo documents its Euler as semi-implicit).
+NAME_SUGGESTS = {"implicit": "implicit_euler", "implicitfast": "implicit_euler", "rk4": "rk4",
+                 "discrete": "implicit_euler", "semi_implicit": "semi_implicit_euler", "leapfrog": "leapfrog"}
+
+
+def suite_of(task) -> Suite:
+    """The task's suite: carried by the task (a worker needs nothing else), or named."""
+    return task.suite if isinstance(task.suite, Suite) else SUITES[task.suite]
 
 
 def measures_for(task) -> list[str]:
+    """The task's measures, in the order ``run_task`` measures them."""
     from .methods import get_method
 
-    suite = SUITES[task.suite]
+    suite = suite_of(task)
     out = list(MEASURES)
     if not suite.scenes[task.scene].stability:
         out.remove("stability")
@@ -47,7 +67,7 @@ def measures_for(task) -> list[str]:
     if task.family != "ref" and suite.identify and not make_scene(task.scene, **task.params).constrained:
         # A constrained scene's only reference scheme projects positions; no engine integrates
         # that (MuJoCo's rope is reduced coordinates, pymunk's impulses): nothing to identify.
-        out.append("identity")
+        out.insert(0, "identity")
     from .scene_cells import measures_for as scene_measures
 
     return out + scene_measures(task, suite.scenes[task.scene])
@@ -78,11 +98,13 @@ def _downsample(n: int, points: int) -> np.ndarray:
 
 def run_task(task) -> list[dict]:
     """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message."""
+    from .isolation import report_partial
+    from .methods import get_method, use_plugins
+
+    use_plugins(task.plugins)
     if task.kind == "bound":
         return [_guard(task, "bound", lambda: _bound(task))]
-    from .methods import get_method
-
-    suite = SUITES[task.suite]
+    suite = suite_of(task)
     spec = suite.scenes[task.scene]
     scene = make_scene(task.scene, **task.params)
     method = get_method(task.method)
@@ -91,26 +113,28 @@ def run_task(task) -> list[dict]:
     run_method = method.compiled_twin() if spec.compiled and hasattr(method, "compiled_twin") else method
     claims = _claims(method)
     cells = []
-    identity = None
+
+    def keep(*new):
+        for c in new:
+            c["data"].setdefault("claims", claims)
+            cells.append(c)
+            report_partial(c)
+
     measures = measures_for(task)
     if "identity" in measures:
         identity = _guard(task, "identity", lambda: _identity(task, method, scene))
         if identity["status"] == "ok" and identity["data"].get("match_claims"):
             claims = identity["data"]["match_claims"]
-        cells.append(identity)
-    energy_cells = _guard_many(task, ("energy", "error"),
-                               lambda: _energy_and_error(task, run_method, scene, dt, spec, suite))
-    cells += energy_cells
+        keep(identity)
+    keep(*_guard_many(task, ("energy", "error"), lambda: _energy_and_error(task, run_method, scene, dt, spec, suite)))
     if "order" in measures:
-        cells.append(_guard(task, "order", lambda: _order(task, run_method, scene, spec)))
+        keep(_guard(task, "order", lambda: _order(task, run_method, scene, spec)))
+    keep(_guard(task, "cost", lambda: _cost(task, method, scene, dt, suite)))
     if "stability" in measures:
-        cells.append(_guard(task, "stability", lambda: _stability(task, run_method, scene, suite, spec)))
-    cells.append(_guard(task, "cost", lambda: _cost(task, method, scene, dt, suite)))
+        keep(_guard(task, "stability", lambda: _stability(task, run_method, scene, suite, spec)))
     from .scene_cells import scene_cells
 
-    cells += scene_cells(task, method, scene, dt, spec, suite)
-    for c in cells:
-        c["data"].setdefault("claims", claims)
+    keep(*scene_cells(task, method, scene, dt, spec, suite))
     return cells
 
 
@@ -152,7 +176,7 @@ def energy_run(scene, dt, spec, suite) -> tuple[int, int]:
 
 
 def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
-    from .energy import classify, relative_error_series
+    from .energy import classify, relative_error_defined, relative_error_series
     from .error import trajectory_error
     from .runner import simulate
 
@@ -167,11 +191,14 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
     cls = classify(traj.energy[:, 0], e_exact, traj.t, unstable=traj.status == "unstable")
     idx = _downsample(len(traj.t), suite.series_points)
     series = {"t": traj.t[idx], "energy": traj.energy[idx, 0], "exact": e_exact[idx]}
+    # A falling projectile's exact energy crosses zero: there max |dE/E| is a number without
+    # a meaning (it read 273 for explicit Euler), so none is stored.
+    defined = relative_error_defined(e_exact)
     with np.errstate(all="ignore"):
-        max_rel = _finite(np.nanmax(np.abs(rel))) if traj.ok else None
+        max_rel = _finite(np.nanmax(np.abs(rel))) if traj.ok and defined else None
     energy = _cell(task, "energy", traj.status, max_rel, dt, steps, traj.detail,
-                   {"class": cls.get("classification"), "rule": cls.get("rule"),
-                    "final_rel_error": _finite(abs(rel[-1])) if traj.ok else None,
+                   {"class": cls.get("classification"), "rule": cls.get("rule"), "rel_error_defined": defined,
+                    "final_rel_error": _finite(abs(rel[-1])) if traj.ok and defined else None,
                     "failed_step": traj.failed_step, "series": series, "numbers": _plain(cls), **settings})
     err = trajectory_error(traj, scene) if traj.ok else {}
     error = _cell(task, "error", traj.status, _finite(err.get("error_max")), dt, steps, traj.detail,
@@ -200,9 +227,9 @@ def _order(task, method, scene, spec) -> dict:
 
 
 def _stability(task, method, scene, suite, spec) -> dict:
-    from .stability import HOMEGA_HI, largest_stable_dt
+    from .stability import largest_stable_dt
 
-    hi = spec.stability_hi if spec.stability_hi is not None else HOMEGA_HI
+    hi = spec.stability_hi if spec.stability_hi is not None else suite.stability_homega_max
     res = largest_stable_dt(method, scene, steps=suite.stability_steps, hi=hi)
     verdict = res.get("verdict")
     data = {"criterion": res.get("criterion"), "criterion_rule": res.get("criterion_rule"), "verdict": verdict,
@@ -217,15 +244,26 @@ def _stability(task, method, scene, suite, spec) -> dict:
 
 
 def _cost(task, method, scene, dt, suite) -> dict:
-    from .cost import counted_evaluations, wall_time_per_step
+    """Counted evaluations; CPU seconds per step and, timed in this worker on the same clock in
+    repeats interleaved with the method's, explicit Euler's (the ratio's baseline)."""
+    from .cost import cost_per_step
 
-    counted = counted_evaluations(method, scene, dt)
-    timed = wall_time_per_step(method, scene, dt, steps=suite.cost_steps, repeats=suite.cost_repeats)
-    return _cell(task, "cost", "ok", timed.get("s_per_step"), dt, suite.cost_steps,
-                 data={"force_evals_per_step": counted.get("force_evals_per_step"),
-                       "solves_per_step": counted.get("solves_per_step"), "timing": timed.get("timing"),
-                       "repeats_s_per_step": timed.get("repeats_s_per_step"),
-                       "spread": timed.get("rel_spread") or 0.0})
+    res = cost_per_step(method, scene, dt, time_steps=suite.cost_steps, repeats=suite.cost_repeats, clock="cpu")
+    base = res["baseline"]
+    # What numba compiled in this cell (the method's kernels; the baseline's the first time
+    # this worker meets the scene): a warm-up only compiles for a reference scheme.
+    compile_s = (res.get("warmup_s") or 0.0) if task.family == "ref" else 0.0
+    compile_s += base.get("warmup_s") or 0.0
+    return _cell(task, "cost", "ok", res.get("s_per_step"), dt, res.get("time_steps"),
+                 data={"force_evals_per_step": res.get("force_evals_per_step"),
+                       "solves_per_step": res.get("solves_per_step"), "timing": res.get("timing"),
+                       "clock": res.get("clock"), "repeats_s_per_step": res.get("repeats_s_per_step"),
+                       "spread": res.get("rel_spread") or 0.0,
+                       "ratio_to_explicit_euler": res.get("ratio_to_explicit_euler"),
+                       "ratio_spread": res.get("ratio_spread") or 0.0, "ratio_repeats": res.get("ratio_repeats"),
+                       "baseline_s_per_step": base.get("s_per_step"),
+                       "baseline_repeats_s_per_step": base.get("repeats_s_per_step"),
+                       "compile_s": compile_s})
 
 
 def _identity(task, method, scene) -> dict:
@@ -251,7 +289,8 @@ def _identity(task, method, scene) -> dict:
                 f"(max deviation {closest.get('max_deviation', float('nan')):.2e})")
     return _cell(task, "identity", "ok", _finite(res.get("max_deviation") if match else closest.get("max_deviation")),
                  res.get("dt"), res.get("steps"),
-                 data={"match": match, "runner_up": runner.get("method"),
+                 data={"match": match, "matches": list(res.get("matches") or []), "closest": closest.get("method"),
+                       "runner_up": runner.get("method"),
                        "runner_up_deviation": _finite(runner.get("max_deviation")),
                        "name_suggests": NAME_SUGGESTS.get(mode), "match_claims": match_claims, "note": note})
 
@@ -264,27 +303,23 @@ def _bound(task) -> dict:
 
 
 def failed_cells(task, failure) -> list[dict]:
-    """The worker died or hung: every measure of the task is recorded with that outcome."""
+    """The worker died or hung: the cells it sent before (``failure.partial``) are kept, and
+    every measure it did not finish is recorded with that outcome, the first of them (where
+    the worker was lost) with why, the rest as not reached."""
     detail = getattr(failure, "detail", str(failure))
     status = getattr(failure, "status", "crashed")
-    measures = task.measures()
-    return [_cell(task, m, status, detail=detail, dt=task.dt if task.kind == "bound" else None,
-                  steps=task.steps if task.kind == "bound" else None,
-                  data={"bound": task.bound} if task.kind == "bound" else {},
-                  wall=getattr(failure, "seconds", 0.0) / max(len(measures), 1))
-            for m in measures]
-
-
-def finalize_cells(history, run_id: int) -> None:
-    """Fill each cost cell's ratio to explicit Euler on the same scene, measured in this run."""
-    cells = history.cells(run_id)
-    cost = cells[(cells.measure == "cost") & (cells.status == "ok")]
-    base = {r.scene: r.value for _, r in cost[cost.method == "ref:explicit_euler"].iterrows()}
-    for _, r in cost.iterrows():
-        if r.scene in base and base[r.scene]:
-            row = r.to_dict()
-            row["data"] = {**row["data"], "ratio_to_explicit_euler": r.value / base[r.scene]}
-            history.add_cell(run_id, row)
+    done = [c for c in getattr(failure, "partial", None) or [] if isinstance(c, dict)]
+    measured = {c["measure"] for c in done}
+    missing = [m for m in task.measures() if m not in measured]
+    wall = getattr(failure, "seconds", 0.0) - sum(c.get("wall_s") or 0.0 for c in done)
+    out = list(done)
+    for i, m in enumerate(missing):
+        why = detail if i == 0 else f"not reached: the worker was lost in {missing[0]} ({detail})"
+        out.append(_cell(task, m, status, detail=why, dt=task.dt if task.kind == "bound" else None,
+                         steps=task.steps if task.kind == "bound" else None,
+                         data={"bound": task.bound} if task.kind == "bound" else {},
+                         wall=max(wall, 0.0) if i == 0 else 0.0))
+    return out
 
 
 def _plain(x):

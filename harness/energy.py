@@ -61,12 +61,18 @@ def relative_error_series(traj: Trajectory, scene: Scene) -> tuple[np.ndarray, n
     return e_exact, rel
 
 
+def relative_error_defined(e_exact: np.ndarray) -> bool:
+    """Rule 0: dE/E means something only while the exact energy keeps one sign, never zero."""
+    e_exact = np.asarray(e_exact, dtype=float)
+    return not (np.any(e_exact == 0.0) or np.any(np.sign(e_exact) != np.sign(e_exact[0])))
+
+
 def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: bool = False) -> dict:
     """The classification of an energy series by the rule in the module docstring, with
     the numbers behind it."""
     energy, e_exact, t = (np.asarray(a, dtype=float) for a in (energy, e_exact, t))
     out: dict = {"classification": None, "rule": None}
-    if np.any(e_exact == 0.0) or np.any(np.sign(e_exact) != np.sign(e_exact[0])):
+    if not relative_error_defined(e_exact):
         # An energy's zero is a convention (a falling projectile's exact energy crosses it):
         # relative to it, dE/E means nothing there.
         out["rule"] = "exact energy is zero or changes sign over the run: dE/E undefined, not classified"

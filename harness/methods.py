@@ -1,11 +1,14 @@
 """Method ids, one namespace for reference schemes and engine modes.
 
 ``ref:NAME`` is a reference scheme; ``ENGINE:MODE`` (``mujoco:euler``, ``rebound:whfast``, ...)
-is an engine mode from ``adapters``. Every method answers the same questions: is it
+is an engine mode from ``adapters``; modules named in ``$HARNESS_PLUGINS`` may add more
+(``load_plugins``). Every method answers the same questions: is it
 available, does it support a scene (and if not, why), and ``simulate(scene, dt, steps, every)``.
 """
 from __future__ import annotations
 
+import importlib
+import os
 from dataclasses import dataclass, field
 
 import adapters
@@ -89,10 +92,69 @@ def _with_options(method, options: dict) -> object:
     return RefMethod(method.scheme, checked) if checked else method
 
 
+#: Environment variable naming plugin modules (``module[,module]``) that add methods.
+PLUGINS_ENV = "HARNESS_PLUGINS"
+
+_PLUGIN_METHODS: dict[str, dict] = {}   # module name -> the methods it registered
+_TASK_PLUGINS: tuple[str, ...] = ()     # in a worker: the plugins its current task names
+
+
+def plugin_names(value: str | None = None) -> tuple[str, ...]:
+    """The plugin modules named in ``value`` (default: ``$HARNESS_PLUGINS``), in order."""
+    value = os.environ.get(PLUGINS_ENV, "") if value is None else value
+    return tuple(dict.fromkeys(name.strip() for name in value.split(",") if name.strip()))
+
+
+def load_plugins(names) -> dict[str, object]:
+    """Import each plugin module once and return the methods they register, by id.
+
+    A plugin module defines ``METHODS``, a dict from method id (``family:mode``) to a method
+    object: anything with ``id``, ``family``, ``isolated``, ``available()``, ``supports(scene)``,
+    ``simulate(scene, dt, steps, every)`` and ``describe()``, as an engine mode has
+    (``adapters._base.EngineMode``). ``isolated = True`` steps it in a worker process, so an
+    abort or a hang in it becomes a recorded result."""
+    out: dict[str, object] = {}
+    for name in names:
+        if name not in _PLUGIN_METHODS:
+            try:
+                module = importlib.import_module(name)
+            except ImportError as exc:
+                raise InvalidInput(f"{PLUGINS_ENV}: plugin module {name!r} cannot be imported ({exc})") from None
+            methods = getattr(module, "METHODS", None)
+            if not isinstance(methods, dict):
+                raise InvalidInput(f"{PLUGINS_ENV}: plugin module {name!r} defines no METHODS dict "
+                                   "(method id -> method object)")
+            for mid, m in methods.items():
+                if getattr(m, "id", None) != mid or ":" not in mid or mid.startswith("ref:"):
+                    raise InvalidInput(f"{PLUGINS_ENV}: plugin {name!r} registers {mid!r} for a method whose id is "
+                                       f"{getattr(m, 'id', None)!r} (ids are family:mode, the family not 'ref')")
+            _PLUGIN_METHODS[name] = dict(methods)
+        out.update(_PLUGIN_METHODS[name])
+    return out
+
+
+def use_plugins(names) -> None:
+    """In a worker: the plugins the task at hand names (a worker's environment is its
+    forkserver's, which may predate ``$HARNESS_PLUGINS``); they replace the previous task's."""
+    global _TASK_PLUGINS
+    load_plugins(names)
+    _TASK_PLUGINS = tuple(names)
+
+
+def active_plugins() -> tuple[str, ...]:
+    """Plugin modules in effect: ``$HARNESS_PLUGINS``, and in a worker those its task names."""
+    return tuple(dict.fromkeys((*plugin_names(), *_TASK_PLUGINS)))
+
+
 def all_methods() -> dict[str, object]:
-    """Every method id, reference schemes first, then engine modes (available or not)."""
+    """Every method id, reference schemes first, then engine modes (available or not), then
+    the methods of the plugin modules in ``$HARNESS_PLUGINS``."""
     out: dict[str, object] = {f"ref:{sid}": RefMethod(s) for sid, s in reference.METHODS.items()}
     out.update(adapters.ENGINE_METHODS)
+    for mid, m in load_plugins(active_plugins()).items():
+        if mid in out and out[mid] is not m:
+            raise InvalidInput(f"{PLUGINS_ENV}: a plugin registers {mid!r}, which is already a method")
+        out[mid] = m
     return out
 
 

@@ -1,9 +1,11 @@
 """The nightly comparison run: the matrix of scenes x methods, measured, stored, reported.
 
 Flow: build the tasks (one per scene x method that supports it, plus one per reviewed
-energy bound), run each task in an isolated worker (a crash, hang or blow-up becomes a
-recorded cell), store every cell as it arrives, compare with the previous complete run,
-write the report atomically, and only then mark the run complete.
+energy bound), longest first by the previous run's timings; run each in a reused, isolated
+worker process (a crash, hang or blow-up becomes a recorded cell, and the cells measured
+before a crash or hang are kept); store every cell as it arrives; compare with the previous
+complete run of the suite; write the report atomically, with where the time went in its
+footer; and only then mark the run complete.
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ from scenarios import SCENES, make_scene
 
 from . import bounds as bounds_mod
 from .compare import compare_runs
-from .methods import all_methods
+from .methods import active_plugins, all_methods, load_plugins
 from .storage import MEASUREMENT_VERSION, History
 from .suites import SUITES, Suite
 
@@ -39,10 +41,11 @@ class Task:
     method: str
     family: str
     params: dict = field(default_factory=dict)
-    suite: str = "standard"
+    suite: Suite | str = "standard"  # the Suite itself in the tasks a run builds (a name is looked up)
     dt: float | None = None
     steps: int | None = None
     bound: float | None = None
+    plugins: tuple[str, ...] = ()  # plugin modules the worker loads before it looks the method up
 
     @property
     def label(self) -> str:
@@ -58,9 +61,12 @@ class Task:
 
 
 def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH) -> tuple[list[Task], list[dict]]:
-    """The matrix, and the (scene, method) pairs left out with why (unavailable / unsupported)."""
+    """The matrix, and the (scene, method) pairs left out with why (unavailable / unsupported).
+    Methods registered by ``$HARNESS_PLUGINS`` modules join every suite's matrix."""
     methods = all_methods()
-    chosen = suite.methods or tuple(methods)
+    plugins = active_plugins()
+    listed = methods if suite.methods is None else suite.methods
+    chosen = tuple(dict.fromkeys((*listed, *load_plugins(plugins))))
     tasks, skipped = [], []
     for scene_id, spec in suite.scenes.items():
         scene = make_scene(scene_id, **spec.params)
@@ -78,35 +84,55 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH) -> tuple[list
             if not ok:
                 skipped.append({"scene": scene_id, "method": mid, "reason": why})
                 continue
-            tasks.append(Task("cell", scene_id, mid, m.family, dict(spec.params), suite.name))
+            tasks.append(Task("cell", scene_id, mid, m.family, dict(spec.params), suite, plugins=plugins))
     if suite.bounds:
         for b in bounds_mod.load(bounds_path):
             m = methods.get(b.method)
             if b.scene not in SCENES or m is None or not m.available()[0]:
                 skipped.append({"scene": b.scene, "method": b.method, "reason": "bound's method unavailable"})
                 continue
-            tasks.append(Task("bound", b.scene, b.method, m.family, {}, suite.name, b.dt, b.steps, b.bound))
+            tasks.append(Task("bound", b.scene, b.method, m.family, {}, suite, b.dt, b.steps, b.bound, plugins))
     return tasks, skipped
+
+
+def schedule(tasks: list[Task], expected_s: dict[str, float]) -> list[Task]:
+    """Longest first, so that no long cell starts last and runs alone at the end: by the
+    seconds each task took in the previous complete run of the suite (``expected_s``, by
+    label); a task it did not have (a new scene or method) first of all, as it may be long."""
+    unknown = max(expected_s.values(), default=0.0) + 1.0
+    return sorted(tasks, key=lambda t: -expected_s.get(t.label, unknown))
 
 
 # ----------------------------------------------------------------------------- executors
 class LocalExecutor:
-    """Runs each task in its own worker process (``harness.isolation``), ``jobs`` at a time."""
+    """Runs the tasks in ``jobs`` reused worker processes (``harness.isolation.WorkerPool``):
+    a worker that crashes or hangs costs its task, recorded as such, and is replaced; numba
+    kernels a worker compiled for one task serve its later tasks (the explicit-Euler baseline
+    every cost cell times beside its method, a scene's kernels shared by its tasks)."""
 
     def __init__(self, jobs: int):
         self.jobs = max(1, jobs)
+        self.task_stats: dict[str, object] = {}  # label -> isolation.CallStats
+        self.workers_started = 0
 
     def describe(self) -> str:
         return f"local worker processes ({self.jobs} at a time) on {platform.node()}"
 
     def run(self, tasks: list[Task], timeout: float):
         from .cells import run_task
-        from .isolation import run_in_worker
+        from .isolation import WorkerPool
 
-        with ThreadPoolExecutor(self.jobs) as pool:
-            futures = {pool.submit(run_in_worker, run_task, (t,), timeout=timeout): t for t in tasks}
-            for fut in as_completed(futures):
-                yield futures[fut], fut.result()
+        with WorkerPool(self.jobs) as pool, ThreadPoolExecutor(self.jobs) as threads:
+            futures = {threads.submit(pool.call_with_stats, run_task, (t,), timeout=timeout): t for t in tasks}
+            try:
+                for fut in as_completed(futures):
+                    result, stats = fut.result()
+                    self.task_stats[futures[fut].label] = stats
+                    yield futures[fut], result
+            finally:
+                for fut in futures:
+                    fut.cancel()
+                self.workers_started = pool.started
 
     def close(self):
         pass
@@ -178,43 +204,86 @@ def now() -> str:
 
 
 # ----------------------------------------------------------------------------- the run
-def run_nightly(suite_name: str = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB, jobs: int | None = None,
-                scheduler: str | None = None, bounds_path=bounds_mod.DEFAULT_PATH, progress_stream=None) -> dict:
-    from .cells import failed_cells, finalize_cells
+def previous_task_seconds(history: History, suite_name: str) -> dict[str, float]:
+    """Seconds each task took in the latest complete run of the suite (for ``schedule``)."""
+    runs = history.runs()
+    runs = runs[runs.suite == suite_name]
+    return dict(runs.timing.iloc[-1].get("task_s", {})) if not runs.empty else {}
+
+
+def timing_summary(cells_by_task: dict[str, list[dict]], stats: dict, wall_cells: float) -> dict:
+    """Where the cells' time went: worker seconds by measure, by family, numba compilation,
+    per task (wall in the parent, CPU in the worker) and the slowest tasks."""
+    by_measure, by_family = defaultdict(float), defaultdict(float)
+    task_s, task_cpu = {}, {}
+    compile_s = 0.0
+    for label, cells in cells_by_task.items():
+        for c in cells:
+            w = c.get("wall_s") or 0.0
+            by_measure[c["measure"]] += w
+            by_family[c["family"]] += w
+            if c["measure"] == "cost" and c.get("status") == "ok":
+                compile_s += (c.get("data") or {}).get("compile_s") or 0.0
+        st = stats.get(label)
+        task_s[label] = st.wall_s if st is not None else sum(c.get("wall_s") or 0.0 for c in cells)
+        task_cpu[label] = st.cpu_s if st is not None else None
+    known = [v for v in task_cpu.values() if v is not None]
+    slowest = sorted(task_s.items(), key=lambda kv: -kv[1])[:5]
+    return {"cells_s": wall_cells, "worker_seconds_by_measure": dict(by_measure),
+            "worker_seconds_by_family": dict(by_family), "numba_compile_s": compile_s,
+            "task_s": task_s, "task_cpu_s": task_cpu, "slowest_tasks": slowest,
+            "worker_cpu_s": sum(known) if known else None,
+            "tasks_without_cpu": len(task_cpu) - len(known)}
+
+
+def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB,
+                jobs: int | None = None, scheduler: str | None = None, bounds_path=bounds_mod.DEFAULT_PATH,
+                progress_stream=None, cell_timeout: float | None = None) -> dict:
+    """Run the suite (a name in ``SUITES``, or a ``Suite``), store every cell, compare with the
+    previous complete run of the same suite, write the report, mark the run complete.
+    ``cell_timeout`` (seconds per task) overrides the suite's."""
+    from .cells import failed_cells
     from reports.markdown import write_report
 
-    suite = SUITES[suite_name]
+    suite = SUITES[suite] if isinstance(suite, str) else suite
+    suite_name = suite.name
+    timeout = suite.cell_timeout if cell_timeout is None else float(cell_timeout)
     t_start = time.perf_counter()
+    cpu_start = time.process_time()
     tasks, skipped = build_tasks(suite, bounds_path)
     history = History(db)
+    tasks = schedule(tasks, previous_task_seconds(history, suite_name))
     commit, versions, machine = run_metadata()
     executor = make_executor(jobs, scheduler)
     settings = {"suite": asdict(suite), "jobs": jobs, "executor": executor.describe(), "skipped": skipped,
+                "cell_timeout": timeout, "plugins": list(active_plugins()),
                 "bounds_file": str(bounds_path), "measurement_version": MEASUREMENT_VERSION}
     run_id = history.start_run(started=now(), suite=suite_name, git_commit=commit, versions=versions,
                                machine=machine, settings=settings)
     progress = Progress(len(tasks), progress_stream)
-    time_by = defaultdict(float)
+    cells_by_task: dict[str, list[dict]] = {}
     t_cells = time.perf_counter()
     try:
-        for task, result in executor.run(tasks, suite.cell_timeout):
+        for task, result in executor.run(tasks, timeout):
             cells = result if isinstance(result, list) else failed_cells(task, result)
             for cell in cells:
                 history.add_cell(run_id, cell)
-                time_by[f"{cell['family']}:{cell['measure']}"] += cell.get("wall_s") or 0.0
+            cells_by_task[task.label] = cells
             worst = next((c["status"] for c in cells if c["status"] != "ok"), "ok")
             progress.update(task, worst, sum(c.get("wall_s") or 0.0 for c in cells))
     finally:
         executor.close()
     t_cells = time.perf_counter() - t_cells
-    finalize_cells(history, run_id)
     run_a, _, regressions = compare_runs(history, None, run_id, bounds_path)
-    wall = time.perf_counter() - t_start
-    timing = {"total_s": wall, "cells_s": t_cells, "worker_seconds_by_measure": dict(time_by),
-              "tasks": len(tasks), "executor": executor.describe()}
+    timing = {"tasks": len(tasks), "executor": executor.describe(), "jobs": getattr(executor, "jobs", None),
+              "cpus": os.cpu_count(), "workers_started": getattr(executor, "workers_started", None),
+              **timing_summary(cells_by_task, getattr(executor, "task_stats", {}), t_cells)}
+    timing["total_s"] = time.perf_counter() - t_start  # up to the report: what its footer can say
+    timing["main_cpu_s"] = time.process_time() - cpu_start
     t_report = time.perf_counter()
     report = write_report(history, run_id, out, regressions=regressions, previous=run_a, timing=timing)
     timing["report_s"] = time.perf_counter() - t_report
-    timing["total_s"] = time.perf_counter() - t_start
-    history.finish_run(run_id, finished=now(), wall_s=timing["total_s"], timing=timing, regressions=len(regressions))
+    timing["finished_s"] = time.perf_counter() - t_start
+    history.finish_run(run_id, finished=now(), wall_s=timing["finished_s"], timing=timing,
+                       regressions=len(regressions))
     return {"run_id": run_id, "previous": run_a, "regressions": regressions, "report": report, "timing": timing}

@@ -22,7 +22,9 @@ from pathlib import Path
 import pandas as pd
 
 #: Bump when a measure's definition changes: results across versions are not comparable.
-MEASUREMENT_VERSION = 1
+#: 2: cost on the worker's CPU clock with explicit Euler timed beside it in the same cell;
+#: order over half a period; stability searched up to the suite's h*omega maximum.
+MEASUREMENT_VERSION = 2
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (
@@ -159,10 +161,12 @@ class History:
         return df
 
     def previous_complete(self, run_id: int) -> int | None:
-        """The latest complete run before ``run_id`` with the same measurement version."""
+        """The latest complete run before ``run_id`` of the same suite and measurement version
+        (another suite measures other horizons and sweeps: its cells are not comparable)."""
         runs = self.runs()
         mine = self.run(run_id)
-        older = runs[(runs.run_id < run_id) & (runs.measurement_version == mine["measurement_version"])]
+        older = runs[(runs.run_id < run_id) & (runs.measurement_version == mine["measurement_version"])
+                     & (runs.suite == mine["suite"])]
         return int(older.run_id.iloc[-1]) if not older.empty else None
 
     def integrity_ok(self) -> bool:

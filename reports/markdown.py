@@ -79,7 +79,7 @@ def mark(ok) -> str:
 
 
 # ----------------------------------------------------------------------------- sections
-def verdict(regressions, previous) -> list[str]:
+def verdict(regressions, previous, cells: pd.DataFrame | None = None) -> list[str]:
     lines = ["## Verdict", ""]
     against = f"run {previous}" if previous is not None else "no earlier run (bounds checked only)"
     if not regressions:
@@ -88,14 +88,41 @@ def verdict(regressions, previous) -> list[str]:
         lines.append(f"**{len(regressions)} regression(s)** against {against}:")
         lines.append("")
         lines += [f"- {r.line()}" for r in regressions]
+    failed = _failed(cells) if cells is not None else []
+    if failed:
+        lines += ["", f"{len(failed)} method(s) could not be measured in full in this run (crashed or timed out): "
+                      + ", ".join(f"`{m}` on `{sc}`" for (sc, m), _ in failed) + "; see [Failures](#failures)."]
+    return lines + [""]
+
+
+def _failed(cells: pd.DataFrame) -> list[tuple[tuple[str, str], pd.DataFrame]]:
+    """((scene, method), its crashed / timed-out cells), for every method with any."""
+    bad = cells[cells.status.isin(["crashed", "timed_out"])]
+    return [(key, grp) for key, grp in bad.groupby(["scene", "method"], sort=True)]
+
+
+def failures(cells: pd.DataFrame) -> list[str]:
+    """Where and why: every crashed or timed-out cell, grouped by scene x method and outcome."""
+    lines = ["## Failures", ""]
+    groups = _failed(cells)
+    if not groups:
+        return lines + ["No cell crashed or timed out.", ""]
+    lines += ["A crash (the engine aborted or raised) or a hang (the worker was killed at the task's time "
+              "limit) is recorded and the run goes on; the cells measured before it are kept.", "",
+              "| method | scene | outcome | measures | why |", "|---|---|---|---|---|"]
+    for (scene, method), grp in groups:
+        subs = sorted(grp.groupby(["status", "detail"], sort=False), key=lambda kv: kv[0][1].startswith("not reached"))
+        for (status, detail), sub in subs:
+            why = " ".join(str(detail).split()).replace("|", "\\|") or "–"
+            lines.append(f"| `{method}` | {scene} | **{status}** | {', '.join(sub.measure)} | {why} |")
     return lines + [""]
 
 
 def tradeoff_table(piv: dict, scene: str = "spring") -> list[str]:
     lines = [f"## The trade-off, measured (reference schemes on `{scene}`)", "",
              "Each cell: measured value, the textbook's claim in brackets, and whether they agree. "
-             "Cost: counted force evaluations per step and wall time per step as a ratio to explicit Euler, "
-             "measured side by side in this run.", "",
+             "Cost: counted force evaluations per step, and CPU time per step as a ratio to explicit Euler's, "
+             "timed beside it in the same worker.", "",
              "| scheme | evals/step | time ratio | observed order | energy | largest stable h·ω |",
              "|---|---|---|---|---|---|"]
     rows = [(m, ms) for (s, m), ms in piv.items() if s == scene and m.startswith("ref:")]
@@ -118,8 +145,8 @@ def tradeoff_table(piv: dict, scene: str = "spring") -> list[str]:
         else:
             order_txt = order.status if order is not None else "–"
         if energy is not None:
-            cls = energy.data.get("class", energy.status)
-            e_ok = claims.get("energy") == cls if energy.status in ("ok", "unstable") else None
+            cls = energy.data.get("class") or energy.status
+            e_ok = claims.get("energy") == cls if energy.data.get("class") else None
             energy_txt = f"{cls} [{claims.get('energy', '?')}] {mark(e_ok)}"
         else:
             energy_txt = "–"
@@ -145,16 +172,28 @@ def identity_table(piv: dict) -> list[str]:
             continue
         d = row.data
         runner = f"`{d.get('runner_up')}` ({_fmt(d.get('runner_up_deviation'), '.2e')})" if d.get("runner_up") else "–"
-        lines.append(f"| `{method}` | {scene} | `{d.get('match')}` | {_fmt(row.value, '.2e')} | {runner} |")
+        matches = _matches(d)
+        said = " = ".join(f"`{m}`" for m in matches) if matches else f"none (closest `{d.get('closest')}`)"
+        lines.append(f"| `{method}` | {scene} | {said} | {_fmt(row.value, '.2e')} | {runner} |")
     if not n:
         lines.append("| _no engine modes in this run_ | | | | |")
     return lines + [""]
 
 
+def _energy_text(energy) -> str:
+    if energy is None:
+        return "–"
+    if energy.status != "ok":
+        return energy.status
+    if energy.data.get("rel_error_defined") is False:
+        return "undefined (exact E crosses 0)"
+    return _fmt(energy.value, ".2e")
+
+
 def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
     lines = [f"### `{scene}`", "",
              "| method | status | max \\|ΔE/E\\| | energy | max global error | order | largest stable h·ω | "
-             "evals/step | µs/step | time ratio |",
+             "evals/step | CPU µs/step | time ratio |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for (s, method), ms in sorted(piv.items()):
         if s != scene:
@@ -167,7 +206,7 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
             status += f" (energy run: step {energy.data['failed_step']})"
         cells = [
             f"`{method}`", status,
-            _fmt(energy.value, ".2e") if energy is not None and energy.status == "ok" else (energy.status if energy is not None else "–"),
+            _energy_text(energy),
             (energy.data.get("class") or "–") if energy is not None else "–",
             _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
             _fmt(order.value, ".2f") if order is not None and order.status == "ok" else (order.status if order is not None else "–"),
@@ -186,6 +225,12 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
     return lines
 
 
+def _matches(d: dict) -> list[str]:
+    """Every scheme an identity cell matched (several where the scene cannot tell them apart:
+    under a constant force, explicit and position-first Euler are one update)."""
+    return list(d.get("matches") or ([d["match"]] if d.get("match") else []))
+
+
 def findings(piv: dict, cells: pd.DataFrame) -> list[str]:
     """Engine behaviour a user would not expect, derived from this run's measurements."""
     out = []
@@ -195,16 +240,15 @@ def findings(piv: dict, cells: pd.DataFrame) -> list[str]:
         ident, energy = ms.get("identity"), ms.get("energy")
         if ident is not None and ident.status == "ok":
             d = ident.data
-            match, dev = d.get("match"), ident.value
+            matches, dev = _matches(d), ident.value
             expected = d.get("name_suggests")
-            if expected and match and expected not in match:
-                out.append(f"`{method}` on `{scene}` integrates as **`{match}`** (max deviation {dev:.1e}), "
-                           f"not the {expected.replace('_', ' ')} its name suggests"
-                           + (f": {d['why']}" if d.get("why") else "."))
-            elif match == "ref:explicit_euler":
-                out.append(f"`{method}` on `{scene}` is **explicit Euler** (max deviation {dev:.1e}): "
-                           "its energy grows every step" + (f" ({d['why']})" if d.get("why") else "") + ".")
-            elif match is None and d.get("note"):
+            if expected and matches and f"ref:{expected}" not in matches:
+                said = " = ".join(f"`{m}`" for m in matches)
+                out.append(f"`{method}` on `{scene}` integrates as **{said}** (max deviation {dev:.1e}), "
+                           f"not the {expected.replace('_', ' ')} its name suggests.")
+            elif matches == ["ref:explicit_euler"]:
+                out.append(f"`{method}` on `{scene}` is **explicit Euler** (max deviation {dev:.1e}).")
+            elif not matches and d.get("note"):
                 out.append(f"`{method}` on `{scene}`: {d['note']}")
         if energy is not None and energy.status == "unstable" and energy.data.get("failed_step"):
             out.append(f"`{method}` blows up on `{scene}` at the nominal timestep (step {energy.data['failed_step']}).")
@@ -212,8 +256,6 @@ def findings(piv: dict, cells: pd.DataFrame) -> list[str]:
             out.append(f"`{method}` gains energy on `{scene}` at the nominal timestep "
                        f"(max |ΔE/E| {energy.value:.2e}).")
     out += scene_findings(piv, cells)
-    for _, r in cells[cells.status.isin(["crashed", "timed_out"])].iterrows():
-        out.append(f"`{r.method}` on `{r.scene}` ({r.measure}): **{r.status}**: {r.detail}")
     lines = ["## Findings", ""]
     lines += [f"- {f}" for f in dict.fromkeys(out)] or ["- nothing unexpected in this run"]
     return lines + [""]
@@ -247,7 +289,20 @@ def appendix(run: dict, cells: pd.DataFrame) -> list[str]:
         seen.add(key)
         items = "; ".join(f"{k}={v}" for k, v in settings.items()) if isinstance(settings, dict) else str(settings)
         lines.append(f"- `{r.method}` on `{r.scene}` ({r.data.get('engine_version', '?')}): {items}")
-    skipped = (run.get("settings") or {}).get("skipped") or []
+    if not seen:
+        lines.append("- none recorded: no engine run finished in this run")
+    settings = run.get("settings") or {}
+    suite = settings.get("suite") or {}
+    if suite:
+        lines += ["", "The suite's settings:", ""]
+        for scene, spec in (suite.get("scenes") or {}).items():
+            lines.append(f"- `{scene}`: " + "; ".join(f"{k}={v}" for k, v in spec.items()))
+        rest = {k: v for k, v in suite.items() if k not in ("name", "scenes")}
+        rest["cell_timeout"] = settings.get("cell_timeout", rest.get("cell_timeout"))
+        if settings.get("plugins"):
+            rest["plugins"] = ",".join(settings["plugins"])
+        lines.append("- " + "; ".join(f"{k}={v}" for k, v in rest.items()))
+    skipped = settings.get("skipped") or []
     if skipped:
         lines += ["", "Left out of the matrix:", ""]
         lines += [f"- `{s['method']}` on `{s['scene']}`: {s['reason']}" for s in skipped]
@@ -262,12 +317,36 @@ def footer(run: dict, timing: dict | None) -> list[str]:
                  f"`{run.get('git_commit') or 'unknown'}`, measurement version {run['measurement_version']}. "
                  f"Cells ran on: {timing.get('executor', (run.get('settings') or {}).get('executor', '?'))}.")
     if total is not None:
-        by = timing.get("worker_seconds_by_measure", {})
-        spent = ", ".join(f"{k} {v:.1f}s" for k, v in sorted(by.items(), key=lambda kv: -kv[1])[:8])
-        lines.append("")
-        lines.append(f"Wall time {total:.1f}s for {timing.get('tasks', '?')} tasks: cells {timing.get('cells_s', 0):.1f}s "
-                     f"(worker seconds by engine:measure: {spent}).")
+        lines += [""] + where_the_time_went(timing)
     return lines + [""]
+
+
+def _by(d: dict, n: int = 8) -> str:
+    return ", ".join(f"{k} {v:.1f}s" for k, v in sorted(d.items(), key=lambda kv: -kv[1])[:n]) or "–"
+
+
+def where_the_time_went(timing: dict) -> list[str]:
+    """The footer's account of the run's time: wall against the CPU the workers spent, and
+    where the worker seconds went (by measure, by family, numba compilation, slowest tasks)."""
+    total, cells_s = timing.get("total_s", 0.0), timing.get("cells_s", 0.0)
+    jobs = timing.get("jobs")
+    lines = [f"Wall time {total:.1f}s to this report, {cells_s:.1f}s of it running {timing.get('tasks', '?')} tasks"
+             + (f" in {jobs} worker processes on {timing.get('cpus', '?')} cores" if jobs else "") + "."]
+    cpu = timing.get("worker_cpu_s")
+    if cpu is not None:
+        busy = f" (on average {cpu / cells_s:.2f} workers busy)" if cells_s > 0 else ""
+        lost = timing.get("tasks_without_cpu") or 0
+        lines[-1] += (f" CPU time in the workers {cpu:.1f}s{busy}"
+                      + (f", not counting {lost} task(s) whose worker was lost" if lost else "")
+                      + f"; in the main process {timing.get('main_cpu_s', 0.0):.1f}s.")
+    lines += ["", f"Worker seconds by measure: {_by(timing.get('worker_seconds_by_measure', {}))}"
+              + (f"; numba compilation (in cost) {timing['numba_compile_s']:.1f}s" if timing.get("numba_compile_s")
+                 else "") + ".",
+              "", f"By family: {_by(timing.get('worker_seconds_by_family', {}))}."]
+    slowest = timing.get("slowest_tasks") or []
+    if slowest:
+        lines += ["", "Slowest tasks: " + ", ".join(f"{label} {sec:.1f}s" for label, sec in slowest) + "."]
+    return lines
 
 
 # ----------------------------------------------------------------------------- the report
@@ -287,13 +366,14 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing) -
                 chart_names[(scene, kind)] = name
                 written.append(name)
     lines = [f"# Integrator comparison: run {run_id} ({run['suite']})", ""]
-    lines += verdict(regressions, previous)
+    lines += verdict(regressions, previous, cells)
     lines += tradeoff_table(piv)
     lines += identity_table(piv)
     lines += ["## Per scene", ""]
     for scene in scenes:
         lines += scene_section(scene, piv, chart_names)
     lines += findings(piv, cells)
+    lines += failures(cells)
     lines += bounds_section(cells)
     lines += appendix(run, cells)
     lines += footer(run, timing)

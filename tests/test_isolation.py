@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from harness.isolation import WorkerFailure, run_in_worker, simulate_isolated
+from harness.isolation import WorkerFailure, WorkerPool, report_partial, run_in_worker, simulate_isolated
 from scenarios import make_scene
 
 #: Slack on a timeout: killing and reaping a worker takes milliseconds; a loaded 2-core
@@ -46,6 +46,20 @@ def hang_probe(pid_file):
 
 def raise_probe():
     raise ValueError("the engine refused")
+
+
+def remember_probe(value=None):
+    """A pool worker keeps module state between calls: what a call left, the next one sees."""
+    global _REMEMBERED
+    before = globals().get("_REMEMBERED")
+    _REMEMBERED = value
+    return os.getpid(), before
+
+
+def partial_then_abort_probe():
+    report_partial({"measure": "energy"})
+    report_partial({"measure": "error"})
+    os.abort()
 
 
 def rebound_dt_zero_hang():
@@ -126,3 +140,27 @@ def test_slow_engine_run_is_a_timed_out_trajectory_then_the_harness_goes_on():
     assert run.status == "timed_out" and "worker killed" in run.detail
     after = simulate_isolated("rebound:whfast", kepler, 0.01, 100, timeout=60)
     assert after.ok and after.meta["engine_version"]
+
+
+def test_pool_reuses_its_worker_and_replaces_one_that_dies_or_hangs(tmp_path):
+    with WorkerPool(1) as pool:
+        pid, before = pool.call(remember_probe, ("kernels",), timeout=60)
+        assert before is None
+        assert pool.call(remember_probe, timeout=60) == (pid, "kernels")  # same process, state kept
+        failure = pool.call(raise_probe, timeout=60)  # an exception costs the call, not the worker
+        assert failure.status == "crashed" and failure.detail == "raised ValueError: the engine refused"
+        assert pool.call(remember_probe, timeout=60)[0] == pid
+        failure, stats = pool.call_with_stats(partial_then_abort_probe, timeout=60)
+        assert (failure.status, failure.signal) == ("crashed", "SIGABRT")
+        assert failure.partial == [{"measure": "energy"}, {"measure": "error"}]  # sent before it died
+        assert stats.cpu_s is None and stats.worker_pid == pid
+        pid2, before = pool.call(remember_probe, timeout=60)
+        assert pid2 != pid and before is None  # a fresh worker took over
+        started = time.monotonic()
+        failure = pool.call(hang_probe, (str(tmp_path / "pid"),), timeout=1.0)
+        assert failure.status == "timed_out" and time.monotonic() - started < 1.0 + KILL_SLACK_S
+        with pytest.raises(ProcessLookupError):
+            os.kill(int((tmp_path / "pid").read_text()), 0)
+        result, stats = pool.call_with_stats(divmod, (7, 2), timeout=60)
+        assert result == (3, 1) and stats.cpu_s is not None and stats.worker_pid not in (pid, pid2)
+        assert pool.started == 3

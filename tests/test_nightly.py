@@ -1,5 +1,15 @@
-"""The nightly run: smoke suite end to end, regressions, a killed run, failing cells."""
+"""The nightly run: smoke suite end to end, regressions, a killed run, failing cells.
+
+The smoke nightly costs 10-15 s on an idle 2-core machine (most of it numba compiling the
+reference schemes' timing kernels), so the module runs it three times in all: ``first_run``,
+the rerun after a killed run (``killed_then_rerun``, which is also the unchanged rerun) and
+the rerun with a tightened bound. Each test that needs a history of its own works on a copy.
+"""
+import contextlib
+import io
+import json
 import os
+import shutil
 import signal
 import sqlite3
 import subprocess
@@ -7,59 +17,218 @@ import sys
 import time
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from harness import bounds as bounds_mod
 from harness.cli import main
+from harness.compare import compare_cells
+from harness.nightly import Task, run_nightly, schedule
 from harness.storage import History
+from harness.suites import SceneSpec, Suite
 
 SECTIONS = ["## Verdict", "## The trade-off, measured", "## Which scheme each engine mode is", "## Per scene",
-            "## Findings", "## Appendix: versions and settings"]
+            "## Findings", "## Failures", "## Appendix: versions and settings"]
+ROOT = Path(__file__).resolve().parents[1]
+#: The one reviewed bound the module's runs measure: semi-implicit Euler's band on the unit
+#: spring, max |dE/E| = h/2 = 0.05 at h = 0.1 (tests/theory.py), with the file's 1.5x margin.
+BOUND = bounds_mod.Bound("spring", "ref:semi_implicit_euler", 0.1, 2000, 0.079)
 
 
-def nightly(tmp, *extra, bounds=None):
-    argv = ["nightly", "--suite", "smoke", "--out", str(tmp / "out"), "--db", str(tmp / "h.sqlite"), "--jobs", "2"]
-    if bounds:
-        argv += ["--bounds", str(bounds)]
+def nightly(tmp, *extra, bounds):
+    argv = ["nightly", "--suite", "smoke", "--out", str(tmp / "out"), "--db", str(tmp / "h.sqlite"), "--jobs", "2",
+            "--bounds", str(bounds)]
     return main(argv + list(extra))
+
+
+def compare(tmp, bounds):
+    return main(["compare", "--db", str(tmp / "h.sqlite"), "--bounds", str(bounds)])
 
 
 @pytest.fixture(scope="module")
 def first_run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("nightly")
     bounds = tmp / "bounds.csv"
-    bounds_mod.save([bounds_mod.Bound("spring", "ref:semi_implicit_euler", 0.1, 2000, 0.079)], bounds)
+    bounds_mod.save([BOUND], bounds)
     code = nightly(tmp, bounds=bounds)
     return tmp, bounds, code
+
+
+@pytest.fixture(scope="module")
+def killed_then_rerun(first_run):
+    """A nightly started in its own session, SIGKILLed with its process group once it has stored
+    cells, then the next nightly on the same history and report directory."""
+    tmp, bounds, _ = first_run
+    report = tmp / "out" / "report.md"
+    before = report.read_text()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
+    proc = subprocess.Popen([sys.executable, "-m", "harness", "nightly", "--suite", "smoke", "--out", str(tmp / "out"),
+                             "--db", str(tmp / "h.sqlite"), "--bounds", str(bounds), "--jobs", "2"],
+                            cwd=ROOT, env=env, start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    stored = 0
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:  # kill once its cells are being stored
+        with sqlite3.connect(tmp / "h.sqlite") as con:
+            stored = con.execute("SELECT COUNT(*) FROM cells WHERE run_id IN "
+                                 "(SELECT run_id FROM runs WHERE complete = 0)").fetchone()[0]
+        if stored:
+            break
+        time.sleep(0.1)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    seen = {"stored_before_kill": stored, "returncode": proc.returncode,
+            "report_unchanged": report.read_text() == before,
+            "charts_present": all((tmp / "out" / name).stat().st_size > 0
+                                  for name in _chart_links(before)),
+            "integrity": History(tmp / "h.sqlite").integrity_ok(),
+            "complete": list(History(tmp / "h.sqlite").runs().run_id),
+            "all": list(History(tmp / "h.sqlite").runs(complete_only=False).run_id)}
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        code = main(["nightly", "--suite", "smoke", "--out", str(tmp / "out"), "--db", str(tmp / "h.sqlite"),
+                     "--jobs", "2", "--bounds", str(bounds), "--json"])
+    seen["summary"] = json.loads(out.getvalue())
+    return seen, code
+
+
+def _chart_links(report: str) -> list[str]:
+    return [line.split("](", 1)[1].rstrip(")") for line in report.splitlines() if line.startswith("![")]
 
 
 def test_smoke_nightly_writes_every_section_and_charts(first_run):
     tmp, _, code = first_run
     assert code == 0
     report = (tmp / "out" / "report.md").read_text()
-    for section in SECTIONS:
-        assert section in report
+    positions = [report.index(section) for section in SECTIONS]
+    assert positions == sorted(positions)  # the verdict first, the appendix last
     charts = list((tmp / "out" / "charts").glob("*.png"))
     assert {c.name.split("-")[-1] for c in charts} == {"energy.png", "workprecision.png", "stability.png"}
     assert all(c.stat().st_size > 1000 for c in charts)
-    for c in charts:
-        assert f"charts/{c.name}" in report
+    assert sorted(_chart_links(report)) == sorted(f"charts/{c.name}" for c in charts)
     # The trade-off table shows explicit Euler as `grows`, with the textbook agreeing.
     row = next(line for line in report.splitlines() if line.startswith("| `ref:explicit_euler`"))
     assert "grows [grows] ✓" in row
+    assert "| `mujoco:euler` | spring | `ref:semi_implicit_euler` | 0.00e+00 |" in report  # bitwise
+    findings = report.split("## Findings")[1].split("## Failures")[0]
+    assert "`pymunk:applied_force` on `spring` is **explicit Euler**" in findings
+    appendix = report.split("## Appendix")[1]
+    assert "| mujoco | " in appendix and "- `mujoco:euler` on `spring` (" in appendix and "timestep=" in appendix
+    footer = report.split("\n---\n")[1]
+    for part in ("Wall time", "CPU time in the workers", "Worker seconds by measure: ", "numba compilation",
+                 "By family: ref ", "Slowest tasks: cell spring "):
+        assert part in footer
 
 
 def test_smoke_nightly_stores_a_valid_complete_run(first_run):
     tmp, _, _ = first_run
     h = History(tmp / "h.sqlite")
     assert h.integrity_ok()
-    runs = h.runs()
-    assert len(runs) == 1 and runs.complete.iloc[0] == 1
-    run = runs.iloc[0]
+    run = h.runs().iloc[0]
+    assert run.run_id == 1 and run.complete == 1
     assert run.suite == "smoke" and run.versions["numpy"] and run.machine["cpus"]
-    cells = h.cells(int(run.run_id))
-    assert set(cells.measure) >= {"energy", "error", "order", "stability", "cost", "identity", "bound"}
+    cells = h.cells(1)
+    assert set(cells.measure) == {"energy", "error", "order", "stability", "cost", "identity", "bound"}
     assert not cells.duplicated(["scene", "method", "measure", "dt"]).any()
+    assert set(cells.status) == {"ok"}
+    timing = run.timing
+    # Where the time went adds up: worker seconds by measure and by family are two splits of one sum.
+    assert sum(timing["worker_seconds_by_measure"].values()) == pytest.approx(
+        sum(timing["worker_seconds_by_family"].values()), rel=1e-9)
+    assert len(timing["task_s"]) == timing["tasks"] == 8  # 7 methods on the spring, 1 bound
+    assert 0 < timing["worker_cpu_s"] and timing["tasks_without_cpu"] == 0
+
+
+def test_a_killed_nightly_leaves_report_and_history_whole_and_the_next_run_succeeds(killed_then_rerun, first_run):
+    seen, code = killed_then_rerun
+    assert seen["stored_before_kill"] > 0 and seen["returncode"] == -signal.SIGKILL
+    assert seen["report_unchanged"] and seen["charts_present"] and seen["integrity"]
+    assert seen["complete"] == [1] and seen["all"] == [1, 2]  # the killed run is stored, not complete
+    assert code == 0
+    summary = seen["summary"]
+    assert summary["run_id"] == 3 and summary["previous"] == 1  # compared with the complete run only
+    tmp, _, _ = first_run
+    assert list(History(tmp / "h.sqlite").runs().run_id)[:2] == [1, 3]
+
+
+def test_unchanged_rerun_exits_0_and_a_tightened_bound_exits_1(killed_then_rerun, first_run, capsys):
+    _, code = killed_then_rerun
+    assert code == 0  # the rerun after the kill changed nothing: no regression, slowdowns included
+    tmp, bounds, _ = first_run
+    capsys.readouterr()
+    assert compare(tmp, bounds) == 0
+    assert "no regressions" in capsys.readouterr().out
+    tight = tmp / "tight.csv"
+    bounds_mod.save([bounds_mod.Bound(BOUND.scene, BOUND.method, BOUND.dt, BOUND.steps, 1e-6)], tight)
+    assert compare(tmp, tight) == 1
+    named = "energy bound: ref:semi_implicit_euler on spring at dt=0.1"
+    assert named in capsys.readouterr().out
+    assert nightly(tmp, bounds=tight) == 1
+    assert f"REGRESSION {named}" in capsys.readouterr().out
+    verdict = (tmp / "out" / "report.md").read_text().split("## The trade-off")[0]
+    assert named in verdict
+
+
+def test_a_perturbed_method_is_named_by_compare(killed_then_rerun, first_run, tmp_path, capsys):
+    tmp, bounds, _ = first_run
+    shutil.copy(tmp / "h.sqlite", tmp_path / "h.sqlite")
+    h = History(tmp_path / "h.sqlite")
+    last = int(h.runs().run_id.iloc[-1])
+    cells = h.cells(last)
+
+    def perturb(method, measure, **change):
+        row = cells[(cells.method == method) & (cells.measure == measure)].iloc[0].to_dict()
+        h.add_cell(last, {**row, **change})
+
+    value = lambda method, measure: float(cells[(cells.method == method) & (cells.measure == measure)].value.iloc[0])
+    perturb("ref:rk4", "order", value=value("ref:rk4", "order") - 1.0)  # its observed order drops by one
+    perturb("ref:leapfrog", "stability", value=value("ref:leapfrog", "stability") * 0.95)
+    perturb("mujoco:euler", "energy", status="crashed", detail="worker killed by SIGSEGV")
+    capsys.readouterr()
+    assert compare(tmp_path, bounds) == 1
+    out = capsys.readouterr().out
+    assert "order: ref:rk4 on spring" in out
+    assert "stability: ref:leapfrog on spring" in out
+    assert "new failure: mujoco:euler on spring" in out and "SIGSEGV" in out
+    assert len([line for line in out.splitlines() if "REGRESSION" in line]) == 3
+
+
+def test_bounds_update_proposes_from_a_run_and_never_loosens_silently(first_run, tmp_path, capsys):
+    tmp, _, _ = first_run
+    measured = History(tmp / "h.sqlite").cells(1)
+    measured = float(measured[measured.measure == "bound"].value.iloc[0])
+    proposed = bounds_mod.round_up_2sig(measured * bounds_mod.MARGIN)
+    assert measured < proposed <= measured * bounds_mod.MARGIN * 1.1  # two digits round up by < 10%
+    loose, tight = tmp_path / "loose.csv", tmp_path / "tight.csv"
+    bounds_mod.save([bounds_mod.Bound(BOUND.scene, BOUND.method, BOUND.dt, BOUND.steps, 0.5)], loose)
+    bounds_mod.save([bounds_mod.Bound(BOUND.scene, BOUND.method, BOUND.dt, BOUND.steps, 1e-6)], tight)
+    db = ["--db", str(tmp / "h.sqlite"), "--run", "1"]
+    capsys.readouterr()
+    assert main(["bounds", "--update", "--write", "--file", str(loose), *db]) == 0
+    assert capsys.readouterr().out.startswith("tighten ")
+    assert bounds_mod.load(loose)[0].bound == proposed
+    assert main(["bounds", "--update", "--write", "--file", str(tight), *db]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("loosen ") and "1 bound(s) would loosen: not written without --allow-loosen" in out
+    assert bounds_mod.load(tight)[0].bound == 1e-6  # flagged, not applied
+    assert main(["bounds", "--update", "--write", "--allow-loosen", "--file", str(tight), *db]) == 0
+    assert bounds_mod.load(tight)[0].bound == proposed
+
+
+def test_bounds_proposal_rule():
+    current = [bounds_mod.Bound("spring", "m", 0.1, 10, 1e-3), bounds_mod.Bound("spring", "n", 0.1, 10, 1e-3),
+               bounds_mod.Bound("spring", "k", 0.1, 10, 1e-3)]
+    props = {p.bound.method: p for p in bounds_mod.propose(current, {("spring", "m", 0.1, 10): 1e-5,
+                                                                    ("spring", "n", 0.1, 10): 5e-3,
+                                                                    ("spring", "k", 0.1, 10): 9e-4,
+                                                                    ("spring", "z", 0.1, 10): 1e-20})}
+    assert props["m"].action == "tighten" and props["m"].bound.bound == 1.5e-5  # 1e-5 * 1.5, not 1.6e-5
+    assert props["n"].action == "loosen" and props["n"].bound.bound == 7.5e-3
+    assert props["k"].action == "keep" and props["k"].bound.bound == 1e-3  # 1.35e-3 > 1e-3 but 9e-4 holds
+    assert props["z"].action == "add" and props["z"].bound.bound == bounds_mod.FLOOR
+    kept = {b.method: b.bound for b in bounds_mod.apply(current, list(props.values()))}
+    assert kept == {"m": 1.5e-5, "n": 1e-3, "k": 1e-3, "z": bounds_mod.FLOOR}
+    assert [bounds_mod.round_up_2sig(x) for x in (1.23e-5, 0.079, 9.99e-3, 1.5e-5)] == [1.3e-5, 0.079, 0.01, 1.5e-5]
 
 
 def test_committed_bounds_hold(energy_bound):
@@ -69,6 +238,82 @@ def test_committed_bounds_hold(energy_bound):
             energy_bound(b.method, b.scene, dt=b.dt, steps=b.steps, bound=b.bound)
 
 
-def test_bad_suite_is_one_line_exit_2(capsys):
+def test_a_crashing_and_a_hanging_engine_are_recorded_and_reported(tmp_path, monkeypatch):
+    """Engine modes from a HARNESS_PLUGINS module (tests/faulty_plugin.py) that abort and hang in
+    their first step: the run completes, the cells say crashed / timed_out, the report says where
+    and why."""
+    monkeypatch.setenv("HARNESS_PLUGINS", "tests.faulty_plugin")
+    suite = Suite("faults", scenes={"spring": SceneSpec(periods=1)}, methods=(), bounds=False, cell_timeout=3.0)
+    started = time.monotonic()
+    result = run_nightly(suite, tmp_path / "out", tmp_path / "h.sqlite", jobs=2)
+    assert time.monotonic() - started < 60  # the hang cost its 3 s limit, not the run
+    h = History(tmp_path / "h.sqlite")
+    assert list(h.runs().run_id) == [result["run_id"]]  # complete
+    cells = h.cells(result["run_id"])
+    measures = {"identity", "energy", "error", "order", "stability", "cost"}
+    abort, hang = cells[cells.method == "faulty:abort"], cells[cells.method == "faulty:hang"]
+    assert set(abort.measure) == set(hang.measure) == measures
+    assert set(abort.status) == {"crashed"} and set(hang.status) == {"timed_out"}
+    first = lambda df: df[df.measure == "identity"].detail.iloc[0]  # identity runs first
+    assert first(abort).startswith("worker killed by SIGABRT")
+    assert first(hang) == "no result within 3 s; worker killed"
+    assert set(hang[hang.measure != "identity"].detail) == {
+        "not reached: the worker was lost in identity (no result within 3 s; worker killed)"}
+    report = (tmp_path / "out" / "report.md").read_text()
+    verdict = report.split("## The trade-off")[0]
+    assert "`faulty:abort` on `spring`" in verdict and "`faulty:hang` on `spring`" in verdict
+    table = report.split("### `spring`")[1].split("## Findings")[0]
+    assert "| `faulty:abort` | crashed |" in table and "| `faulty:hang` | timed_out |" in table
+    failures = report.split("## Failures")[1].split("## ")[0]
+    assert "| `faulty:abort` | spring | **crashed** | identity | worker killed by SIGABRT" in failures
+    assert "| `faulty:hang` | spring | **timed_out** | identity | no result within 3 s; worker killed |" in failures
+
+
+def test_a_bad_plugin_is_one_line_exit_2(monkeypatch, capsys):
+    monkeypatch.setenv("HARNESS_PLUGINS", "no_such_plugin_module")
+    assert main(["nightly", "--suite", "smoke"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "HARNESS_PLUGINS: plugin module 'no_such_plugin_module' cannot be imported" in err
+
+
+def test_long_tasks_are_scheduled_first_and_new_ones_before_all():
+    tasks = [Task("cell", "spring", m, "ref") for m in ("a", "b", "c")]
+    expected = {"cell spring a": 1.0, "cell spring b": 9.0}
+    assert [t.method for t in schedule(tasks, expected)] == ["c", "b", "a"]
+
+
+def test_new_cells_that_crash_are_new_failures_and_new_unstable_ones_are_not():
+    def frame(*rows):
+        return pd.DataFrame([{"scene": "s", "method": m, "measure": "energy", "dt": 0.1, "status": st,
+                              "detail": "", "value": 1.0, "data": {}} for m, st in rows])
+
+    regs = compare_cells(frame(("a", "ok")), frame(("a", "ok"), ("b", "crashed"), ("c", "unstable")), [])
+    assert [(r.kind, r.method) for r in regs] == [("new failure", "b")]
+
+
+def test_a_slowdown_is_flagged_beyond_repeat_and_process_spread_only():
+    def frame(ratio, spread):
+        return pd.DataFrame([{"scene": "s", "method": "m", "measure": "cost", "dt": 0.1, "status": "ok", "detail": "",
+                              "value": 1.0, "data": {"ratio_to_explicit_euler": ratio, "ratio_spread": spread}}])
+
+    # Unchanged code moved a ratio by up to 1.34x between processes (compare.PROCESS_SPREAD).
+    assert compare_cells(frame(4.0, 0.05), frame(5.6, 0.05), []) == []  # 1.40x < 1 + 0.05 + 0.05 + 0.5
+    regs = compare_cells(frame(4.0, 0.05), frame(6.5, 0.05), [])  # 1.63x
+    assert [(r.kind, r.method) for r in regs] == [("slowdown", "m")]
+
+
+def test_runs_of_different_suites_are_not_compared(tmp_path, capsys):
+    h = History(tmp_path / "h.sqlite")
+    for suite in ("smoke", "standard"):
+        run = h.start_run(started="t", suite=suite, git_commit=None, versions={}, machine={}, settings={})
+        h.finish_run(run, finished="t", wall_s=0.0, timing={}, regressions=0)
+    assert h.previous_complete(2) is None
+    assert main(["compare", "1", "2", "--db", str(tmp_path / "h.sqlite")]) == 2
+    assert "ran different suites (smoke vs standard): not comparable" in capsys.readouterr().err
+
+
+def test_bad_suite_and_bad_timeout_are_one_line_exit_2(capsys):
     assert main(["nightly", "--suite", "huge"]) == 2
     assert "valid: smoke, standard, full" in capsys.readouterr().err
+    assert main(["nightly", "--suite", "smoke", "--cell-timeout", "0"]) == 2
+    assert "--cell-timeout=0 is out of range" in capsys.readouterr().err

@@ -45,7 +45,7 @@ def run(args) -> int:
         raise InvalidInput(f"no complete run stored in {args.db}")
     run_id = validate.count("--run", args.run, 1) if args.run is not None else int(runs.run_id.iloc[-1])
     cells = history.cells(run_id)
-    measured = {(r.scene, r.method, float(r.dt), int(r.steps)): float(r.value)
+    measured = {(r["scene"], r["method"], float(r["dt"]), int(r["steps"])): float(r["value"])
                 for _, r in cells[(cells.measure == "bound") & (cells.status == "ok")].iterrows()}
     proposals = bounds_mod.propose(current, measured)
     if args.json:

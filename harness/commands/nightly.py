@@ -23,6 +23,9 @@ def add_parser(sub):
                    help="Dask scheduler address [tcp://]HOST:PORT, or local:N for a LocalCluster of N worker "
                         "processes (default: $HARNESS_SCHEDULER unless --jobs is given, else local worker processes)")
     p.add_argument("--bounds", default=None, help="energy bounds file (default: the reviewed harness/energy_bounds.csv)")
+    p.add_argument("--cell-timeout", default=None,
+                   help="seconds one task (a scene x method, all its measures) may take before its worker is "
+                        "killed and the rest of it recorded timed_out (default: the suite's)")
     p.add_argument("--json", action="store_true", help="print the run summary as JSON")
     return p
 
@@ -32,13 +35,15 @@ def run(args) -> int:
 
     suite = validate.choice("--suite", args.suite, list(SUITES))
     jobs = validate.count("--jobs", args.jobs, 1) if args.jobs is not None else None
+    cell_timeout = validate.positive_finite("--cell-timeout", args.cell_timeout) if args.cell_timeout is not None else None
     bounds_path = Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH
     bounds_mod.load(bounds_path)  # a broken bounds file fails before anything runs
     from ..distributed import ClusterLost, resolve_scheduler
 
     resolve_scheduler(args.scheduler, jobs is not None)  # a bad address fails before anything runs
     try:
-        result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path)
+        result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path,
+                             cell_timeout=cell_timeout)
     except ClusterLost as exc:
         print(f"harness: error: {exc}; the run is left incomplete (never compared, the previous report kept)",
               file=sys.stderr)
