@@ -255,4 +255,5 @@ def test_nightly_report_states_the_solar_findings(nightly_cells):
     # across runs on this shared 2-core machine.
     assert cost["ref:rk4"] > 1.5 * cost["ref:leapfrog"]
     assert any("`ref:rk4` takes" in ln for ln in lines)
-    assert "`rebound:saba` timed_out" in with_failure and "**timed_out**: worker killed after 120 s" in with_failure
+    assert "`rebound:saba` timed_out" in with_failure
+    assert "| `rebound:saba` | solar_system | **timed_out** |" in with_failure and "worker killed after 120 s" in with_failure
