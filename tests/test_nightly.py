@@ -25,7 +25,7 @@ from harness.cli import main
 from harness.compare import compare_cells
 from harness.nightly import Task, run_nightly, schedule
 from harness.storage import History
-from harness.suites import SceneSpec, Suite
+from harness.suites import SUITES, SceneSpec, Suite
 
 SECTIONS = ["## Verdict", "## The trade-off, measured", "## Which scheme each engine mode is", "## Per scene",
             "## Findings", "## Failures", "## Appendix: versions and settings"]
@@ -110,6 +110,9 @@ def test_smoke_nightly_writes_every_section_and_charts(first_run):
     row = next(line for line in report.splitlines() if line.startswith("| `ref:explicit_euler`"))
     assert "grows [grows] ✓" in row
     assert "| `mujoco:euler` | spring | `ref:semi_implicit_euler` | 0.00e+00 |" in report  # bitwise
+    scene_table = report.split("### `spring`")[1].split("![")[0]
+    for method in SUITES["smoke"].methods:  # every method has its row, measured in full
+        assert f"| `{method}` | ok |" in scene_table
     findings = report.split("## Findings")[1].split("## Failures")[0]
     assert "`pymunk:applied_force` on `spring` is **explicit Euler**" in findings
     appendix = report.split("## Appendix")[1]
