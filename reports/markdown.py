@@ -338,10 +338,10 @@ def where_the_time_went(timing: dict) -> list[str]:
         lost = timing.get("tasks_without_cpu") or 0
         lines[-1] += (f" CPU time in the workers {cpu:.1f}s{busy}"
                       + (f", not counting {lost} task(s) whose worker was lost" if lost else "")
+                      + (f", {timing['numba_compile_s']:.1f}s of it numba compiling the timing kernels"
+                         if timing.get("numba_compile_s") else "")
                       + f"; in the main process {timing.get('main_cpu_s', 0.0):.1f}s.")
-    lines += ["", f"Worker seconds by measure: {_by(timing.get('worker_seconds_by_measure', {}))}"
-              + (f"; numba compilation (in cost) {timing['numba_compile_s']:.1f}s" if timing.get("numba_compile_s")
-                 else "") + ".",
+    lines += ["", f"Worker seconds by measure: {_by(timing.get('worker_seconds_by_measure', {}))}.",
               "", f"By family: {_by(timing.get('worker_seconds_by_family', {}))}."]
     slowest = timing.get("slowest_tasks") or []
     if slowest:

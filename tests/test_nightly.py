@@ -25,7 +25,7 @@ from harness.cli import main
 from harness.compare import compare_cells
 from harness.nightly import Task, run_nightly, schedule
 from harness.storage import History
-from harness.suites import SceneSpec, Suite
+from harness.suites import SUITES, SceneSpec, Suite
 
 SECTIONS = ["## Verdict", "## The trade-off, measured", "## Which scheme each engine mode is", "## Per scene",
             "## Findings", "## Failures", "## Appendix: versions and settings"]
@@ -110,12 +110,15 @@ def test_smoke_nightly_writes_every_section_and_charts(first_run):
     row = next(line for line in report.splitlines() if line.startswith("| `ref:explicit_euler`"))
     assert "grows [grows] ✓" in row
     assert "| `mujoco:euler` | spring | `ref:semi_implicit_euler` | 0.00e+00 |" in report  # bitwise
+    scene_table = report.split("### `spring`")[1].split("![")[0]
+    for method in SUITES["smoke"].methods:  # every method has its row, measured in full
+        assert f"| `{method}` | ok |" in scene_table
     findings = report.split("## Findings")[1].split("## Failures")[0]
     assert "`pymunk:applied_force` on `spring` is **explicit Euler**" in findings
     appendix = report.split("## Appendix")[1]
     assert "| mujoco | " in appendix and "- `mujoco:euler` on `spring` (" in appendix and "timestep=" in appendix
     footer = report.split("\n---\n")[1]
-    for part in ("Wall time", "CPU time in the workers", "Worker seconds by measure: ", "numba compilation",
+    for part in ("Wall time", "CPU time in the workers", "of it numba compiling", "Worker seconds by measure: ",
                  "By family: ref ", "Slowest tasks: cell spring "):
         assert part in footer
 
@@ -136,7 +139,11 @@ def test_smoke_nightly_stores_a_valid_complete_run(first_run):
     assert sum(timing["worker_seconds_by_measure"].values()) == pytest.approx(
         sum(timing["worker_seconds_by_family"].values()), rel=1e-9)
     assert len(timing["task_s"]) == timing["tasks"] == 8  # 7 methods on the spring, 1 bound
-    assert 0 < timing["worker_cpu_s"] and timing["tasks_without_cpu"] == 0
+    assert timing["tasks_without_cpu"] == 0
+    # Two single-threaded workers cannot spend more CPU than twice the wall time they ran in
+    # (5% for the clocks' granularity), and compiling is part of that CPU time.
+    assert 0 < timing["numba_compile_s"] < timing["worker_cpu_s"] <= 2 * timing["cells_s"] * 1.05
+    assert timing["cells_s"] < timing["total_s"] < timing["finished_s"]
 
 
 def test_a_killed_nightly_leaves_report_and_history_whole_and_the_next_run_succeeds(killed_then_rerun, first_run):
