@@ -149,13 +149,17 @@ class EngineMode:
             return True, ""
         return False, self.unsupported.get(scene.id, f"{self.id} has no model of scene {scene.id}")
 
-    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
-        """Step the engine in this process (the harness calls this inside a worker process)."""
+    def _model(self, scene: Scene, dt: float):
+        """(engine module, model of ``scene`` at ``dt``); a scene it does not pose is a ValueError."""
         ok, why = self.supports(scene)
         if not ok:
             raise ValueError(f"{self.id} does not support scene {scene.id}: {why}")
         engine = import_engine(self.module)
-        model = self.build(engine, self.mode, scene, dt)
+        return engine, self.build(engine, self.mode, scene, dt)
+
+    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
+        """Step the engine in this process (the harness calls this inside a worker process)."""
+        engine, model = self._model(scene, dt)
         try:
             traj = drive(model, scene, self.id, dt, steps, every)
         finally:
@@ -171,11 +175,7 @@ class EngineMode:
         all on one model built once: ``(y_1, "")``, or ``(None, why)`` where the step diverged
         or the engine complained. None if the model cannot be set to a state (``set_state``):
         then each state needs a model built from it. Runs in this process, unvalidated."""
-        ok, why = self.supports(scene)
-        if not ok:
-            raise ValueError(f"{self.id} does not support scene {scene.id}: {why}")
-        engine = import_engine(self.module)
-        model = self.build(engine, self.mode, scene, dt)
+        engine, model = self._model(scene, dt)
         try:
             if not hasattr(model, "set_state"):
                 return None
