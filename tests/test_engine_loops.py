@@ -1,0 +1,122 @@
+"""Engine modes run through the engines' own loops (issue 11): the same trajectories, bitwise,
+as the per-step path the harness always took, and force evaluations counted by the engines.
+
+Tolerances: ``0`` everywhere. The two loops make the same engine calls in the same order on
+the same model (MuJoCo: ``mujoco.rollout`` steps with ``mj_step`` from the full physics state
+and warm start; REBOUND: ``sim.steps(n)`` is n calls of its step; pybullet and pymunk: the
+same calls, only the reads between output points left out), so any difference is a bug.
+Counted evaluations are integers and compared exactly.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import adapters
+from adapters._base import output_marks
+from scenarios import make_scene
+
+#: (h * omega, steps, every): a stable run, and one past every explicit scheme's stability
+#: limit (h omega = 3 > 2 sqrt 2), which ends ``unstable`` for the modes that integrate one.
+RUNS = {"stable": (0.2, 240, 7), "unstable": (3.0, 240, 7)}
+
+CASES = [(mid, sid) for mid, mode in sorted(adapters.ENGINE_METHODS.items()) for sid in mode.scenes]
+
+
+def _both(method_id: str, scene_id: str, homega: float, steps: int, every: int):
+    mode = adapters.ENGINE_METHODS[method_id]
+    scene = make_scene(scene_id)
+    dt = homega / scene.omega
+    return (mode.simulate(scene, dt, steps, every, loop="engine"),
+            mode.simulate(scene, dt, steps, every, loop="harness"))
+
+
+def _assert_bitwise(a, b) -> None:
+    assert (a.status, a.failed_step, a.detail) == (b.status, b.failed_step, b.detail)
+    for name in ("step", "q", "v", "energy"):
+        assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
+
+
+@pytest.mark.parametrize("run", sorted(RUNS))
+@pytest.mark.parametrize("method_id,scene_id", CASES, ids=[f"{m}-{s}" for m, s in CASES])
+def test_engine_loop_is_the_per_step_path_bitwise(method_id, scene_id, run):
+    homega, steps, every = RUNS[run]
+    engine_loop, per_step = _both(method_id, scene_id, homega, steps, every)
+    _assert_bitwise(engine_loop, per_step)
+    assert engine_loop.meta["loop"].startswith("engine")
+    assert per_step.meta["loop"].startswith("harness")
+
+
+def test_the_runs_cover_unstable_runs_of_every_engine_that_has_one():
+    """The unstable runs above are unstable (else the bitwise test would not test the replay):
+    an explicit scheme at h omega = 3 on the spring, and the stiff chain."""
+    for method_id, scene_id in [("mujoco:euler", "spring"), ("mujoco:rk4", "spring"),
+                                ("pybullet:semi_implicit", "spring"), ("pymunk:spring_force", "spring"),
+                                ("pymunk:applied_force", "chain"), ("pymunk:damped_spring", "chain")]:
+        a, b = _both(method_id, scene_id, *RUNS["unstable"])
+        assert a.status == "unstable" and a.failed_step is not None, (method_id, scene_id)
+        assert "replayed" in a.meta["loop"]
+
+
+def test_a_run_whose_output_interval_is_longer_than_one_rollout_span(monkeypatch):
+    """MuJoCo's rollout spans: an output interval longer than a span is rolled out in several
+    calls, marks falling inside a span are rows of its state array; still bitwise."""
+    from adapters import mujoco as mujoco_adapter
+
+    monkeypatch.setattr(mujoco_adapter, "ROLLOUT_SPAN_VALUES", 3 * 5)  # nstate 3 (time, x, v): 5 steps
+    for every in (1, 3, 12):
+        a, b = _both("mujoco:rk4", "spring", 0.2, 61, every)
+        _assert_bitwise(a, b)
+
+
+def test_output_marks_are_the_reference_drivers():
+    assert output_marks(10, 3).tolist() == [0, 3, 6, 9, 10]
+    assert output_marks(0, 1).tolist() == [0]
+    assert output_marks(5, 7).tolist() == [0, 5]
+
+
+def test_an_unknown_loop_is_a_one_line_error():
+    with pytest.raises(ValueError, match="loop: 'python' is not one of engine, harness"):
+        adapters.ENGINE_METHODS["mujoco:euler"].simulate(make_scene("spring"), 0.1, 10, loop="python")
+
+
+# ---------------------------------------------------------------- counted evaluations
+
+#: Force evaluations per step each engine's own counter should show, from what the engines
+#: document: MuJoCo runs one forward pass a step, RK4 four (its stages); REBOUND's leapfrog
+#: and WHFast evaluate gravity once a step; pymunk calls a body's velocity_func once a step.
+EXPECTED = [("mujoco:euler", "spring", 1), ("mujoco:implicit", "spring", 1), ("mujoco:implicitfast", "spring", 1),
+            ("mujoco:discrete", "spring", 1), ("mujoco:rk4", "spring", 4), ("mujoco:rk4", "chain", 4),
+            ("rebound:leapfrog", "kepler", 1), ("rebound:whfast", "kepler", 1),
+            ("rebound:leapfrog", "solar_system", 1),
+            ("pymunk:spring_force", "spring", 1), ("pymunk:spring_force", "chain", 1),
+            ("pymunk:applied_force", "spring", 1)]
+
+
+@pytest.mark.parametrize("method_id,scene_id,per_step", EXPECTED)
+def test_counted_force_evaluations_are_the_documented_ones(method_id, scene_id, per_step):
+    mode = adapters.ENGINE_METHODS[method_id]
+    scene = make_scene(scene_id)
+    dt, steps = 0.1 / scene.omega, 50
+    for loop in mode.LOOPS:
+        counted = mode.simulate(scene, dt, steps, 10, loop=loop, count=True)
+        assert counted.ok
+        assert counted.force_evals == per_step * steps, (loop, counted.meta.get("force_evals_counted"))
+        # The counter changes nothing that is integrated.
+        plain = mode.simulate(scene, dt, steps, 10, loop=loop)
+        _assert_bitwise(counted, plain)
+
+
+def test_modes_that_cannot_count_say_why():
+    spring, kepler = make_scene("spring"), make_scene("kepler")
+    bullet = adapters.ENGINE_METHODS["pybullet:semi_implicit"].simulate(spring, 0.1, 10, count=True)
+    assert bullet.force_evals is None and "stepSimulation" in bullet.meta["force_evals_reason"]
+    chipmunk = adapters.ENGINE_METHODS["pymunk:pin_joint"].simulate(make_scene("pendulum"), 0.01, 10, count=True)
+    assert chipmunk.force_evals is None and "constraints" in chipmunk.meta["force_evals_reason"]
+    uncounted = adapters.ENGINE_METHODS["rebound:leapfrog"].simulate(kepler, 0.01, 10)
+    assert uncounted.force_evals is None and "counting run" in uncounted.meta["force_evals_reason"]
+    # MuJoCo's timers count in every run, the timed ones included.
+    assert adapters.ENGINE_METHODS["mujoco:rk4"].simulate(spring, 0.1, 10).force_evals == 40
+    assert math.isfinite(bullet.q[-1, 0, 0])
