@@ -273,9 +273,14 @@ class _Model:
                 apply()
                 step(dt)
         elif self.scene_id == "pendulum":
+            # state()'s angle update, without building its arrays: the angle's whole turns need every step.
+            body, theta, atan2, isfinite = self.body, self.theta, math.atan2, math.isfinite
             for _ in range(n):
                 step(dt)
-                self.state()  # follows the angle's whole turns
+                x, y = body.position
+                angle = atan2(x, -y)
+                theta = unwrap(theta, angle) if isfinite(angle) else angle
+            self.theta = theta
         else:
             for _ in range(n):
                 step(dt)
