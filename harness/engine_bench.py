@@ -21,6 +21,8 @@ The rule:
   that and steps (``bare loop + force``): the least Python can do for that mode.
 * **Steps**: N such that the bare loop runs about ``RUN_S`` (20 ms), at least ``MIN_STEPS``;
   ``repeats`` (7) interleaved repeats (harness, bare, harness, bare, ...), minimum of each.
+* **Clock**: the CPU time of this process (``time.process_time``), which other processes on a
+  shared core do not inflate (everything here runs in one thread).
 * **Target**: the engine figure within ``TARGET`` (1.3x) of the bare step loop (MuJoCo: of
   ``mujoco.rollout``).
 """
@@ -32,7 +34,9 @@ import numpy as np
 
 from scenarios import Scene, make_scene
 
-from .cost import _Timing
+from reference._compiled import CLOCKS
+
+from .cost import HARNESS_TIME_STEPS, _Timing
 
 TARGET = 1.3
 DT = 0.01
@@ -48,6 +52,9 @@ def bench_scene(mode) -> Scene:
     return make_scene(next(s for s in FALLBACK_SCENES if s in mode.scenes))
 
 
+CLOCK = "cpu"
+
+
 class _Bare:
     """One bare loop on a model the adapter built: ``once(n)`` runs n steps."""
 
@@ -55,9 +62,10 @@ class _Bare:
         self.name, self.once, self.close, self.times = name, once, close, []
 
     def repeat(self, n: int) -> None:
-        t = time.perf_counter()
+        now = CLOCKS[CLOCK]
+        t = now()
         self.once(n)
-        self.times.append((time.perf_counter() - t) / n)
+        self.times.append((now() - t) / n)
 
 
 def _bare_loops(mode, scene: Scene) -> tuple[list[_Bare], str]:
@@ -155,10 +163,10 @@ def bench_mode(mode, *, repeats: int = REPEATS) -> dict:
             b.once(pilot)  # warm-up
         t = time.perf_counter()
         bare[0].once(pilot)
-        per = (time.perf_counter() - t) / pilot
+        per = (time.perf_counter() - t) / pilot  # only sizes N
         n = int(min(MAX_STEPS, max(MIN_STEPS, RUN_S / max(per, 1e-12))))
-        engine = _Timing(mode, scene, DT, n, "wall", "engine")
-        stepped = _Timing(mode, scene, DT, min(n, 2_000), "wall", "harness")
+        engine = _Timing(mode, scene, DT, n, CLOCK, "engine")
+        stepped = _Timing(mode, scene, DT, min(n, HARNESS_TIME_STEPS), CLOCK, "harness")
         for _ in range(repeats):
             engine.repeat()
             for b in bare:
@@ -167,11 +175,11 @@ def bench_mode(mode, *, repeats: int = REPEATS) -> dict:
     finally:
         for b in bare:
             b.close()
-    eng, st = engine.result("wall"), stepped.result("wall")
+    eng, st = engine.result(CLOCK), stepped.result(CLOCK)
     bare_ns = {b.name: min(b.times) * 1e9 for b in bare}
     target_loop = bare[0].name
     ratio = eng["s_per_step"] * 1e9 / bare_ns[target_loop]
-    row = {"method": mode.id, "scene": scene.id, "dt": DT, "steps": engine.n, "repeats": repeats, "clock": "wall",
+    row = {"method": mode.id, "scene": scene.id, "dt": DT, "steps": engine.n, "repeats": repeats, "clock": CLOCK,
            "engine_ns_per_step": eng["s_per_step"] * 1e9, "engine_spread": eng["rel_spread"],
            "as_stepped_ns_per_step": st["s_per_step"] * 1e9, "as_stepped_steps": stepped.n,
            "bare_ns_per_step": bare_ns, "bare_loops": bare_doc, "engine_loop": eng.get("engine_loop"),
