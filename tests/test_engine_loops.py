@@ -147,3 +147,59 @@ def test_a_force_applied_from_python_every_step_is_said_in_the_cost():
     assert res["loop"] == "engine" and "from Python every step" in res["engine_loop"]
     chipmunk = cost.wall_time_per_step("pymunk:spring_force", make_scene("spring"), 0.01, steps=300, repeats=1)
     assert chipmunk["engine_loop"].startswith("space.step only")
+
+
+# ---------------------------------------------------------------- the engine bench and the chart
+
+def test_bench_engines_json_puts_each_mode_beside_its_bare_loops(capsys):
+    import json
+
+    from harness.cli import main
+
+    assert main(["bench", "--engines", "--json", "--methods", "mujoco:rk4", "rebound:leapfrog",
+                 "pymunk:applied_force"]) == 0
+    rows = {r["method"]: r for r in json.loads(capsys.readouterr().out)}
+    assert list(rows) == ["mujoco:rk4", "rebound:leapfrog", "pymunk:applied_force"]
+    mj, rb, pm = rows["mujoco:rk4"], rows["rebound:leapfrog"], rows["pymunk:applied_force"]
+    assert (mj["scene"], rb["scene"], pm["scene"]) == ("spring", "kepler", "spring")
+    assert list(mj["bare_ns_per_step"]) == ["mujoco.rollout", "mj_step loop"] and mj["target_loop"] == "mujoco.rollout"
+    assert list(rb["bare_ns_per_step"]) == ["sim.steps(N)"]
+    assert list(pm["bare_ns_per_step"]) == ["space.step loop", "bare loop + force"]
+    for r in rows.values():
+        assert r["ratio_to_bare"] == pytest.approx(r["engine_ns_per_step"] / r["bare_ns_per_step"][r["target_loop"]])
+        assert r["meets_target"] == (r["ratio_to_bare"] <= r["target_ratio"] == 1.3)
+        assert r["as_stepped_ns_per_step"] > 0 and r["clock"] == "cpu"
+    assert "from Python every step" in pm["engine_loop"]
+
+
+def test_bench_engines_refuses_an_unknown_mode_in_one_line(capsys):
+    from harness.cli import main
+
+    assert main(["bench", "--engines", "--methods", "mujoco:verlet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "mujoco:verlet" in err and "mujoco:euler" in err
+
+
+def test_the_work_precision_chart_says_which_loop_and_clock(tmp_path, monkeypatch):
+    import pandas as pd
+
+    from reports import charts
+
+    said = {}
+    real = charts._save
+
+    def keep(fig, path):
+        ax = fig.axes[0]
+        said["xlabel"] = ax.get_xlabel()
+        said["legend"] = [t.get_text() for t in ax.get_legend().get_texts()]
+        return real(fig, path)
+
+    monkeypatch.setattr(charts, "_save", keep)
+    points = {"points": [{"dt": 0.1, "error": 1e-3}, {"dt": 0.05, "error": 2.5e-4}]}
+    cells = pd.DataFrame([
+        {"measure": "order", "status": "ok", "method": m, "value": 2.0, "data": points} for m in ("ref:leapfrog", "mujoco:euler")
+    ] + [{"measure": "cost", "status": "ok", "method": m, "value": 1e-6, "data": {"clock": "cpu"}}
+         for m in ("ref:leapfrog", "mujoco:euler")])
+    assert charts.workprecision_chart(cells, "spring", tmp_path / "wp.png")
+    assert said["legend"] == ["mujoco:euler (engine's own loop)", "ref:leapfrog (compiled)"]
+    assert said["xlabel"].startswith("cost: CPU seconds") and "engines: their own loop" in said["xlabel"]
