@@ -23,7 +23,7 @@ The rule, one way for each kind of method:
 
   - ``s_per_step``, **engine s/step**: the engine's own loop (``loop="engine"``:
     ``mujoco.rollout``, REBOUND's ``sim.steps(n)``, a Python loop calling only the step
-    function for pybullet and pymunk), N = ENGINE_TIME_STEPS (20,000), one output point. Where
+    function for pybullet and pymunk), N = ENGINE_TIME_STEPS (10,000), one output point. Where
     the scene's force has no native element in the engine and is applied from Python every
     step (pybullet's springs, pymunk's ``applied_force``), the loop says so
     (``engine_loop``, from the adapter's settings). Every ratio and chart uses this figure.
@@ -33,8 +33,8 @@ The rule, one way for each kind of method:
 
   A model so slow that N steps would take longer than ENGINE_RUN_BUDGET_S (0.25 s, judged
   from the warm-up) is timed over fewer steps, at least ENGINE_MIN_STEPS (200): a 32-body
-  chain stepped from Python costs ~100 us a step, and 20,000 steps x 6 runs would take a
-  minute to say what 0.25 s says.
+  chain stepped from Python costs ~100 us a step, and 10,000 steps x 6 runs would take
+  half a minute to say what 0.25 s says.
 * **Clock**: wall time (``time.perf_counter``) by default; ``clock="cpu"`` reads the CPU
   time of the process (``time.process_time``) instead, which other processes sharing the
   core do not inflate (the nightly runs its cells side by side on shared cores). The
@@ -62,7 +62,7 @@ from ._measure import resolve, step
 
 COUNT_STEPS = 100
 REF_TIME_STEPS = 100_000
-ENGINE_TIME_STEPS = 20_000
+ENGINE_TIME_STEPS = 10_000
 HARNESS_TIME_STEPS = 2_000
 ENGINE_PILOT_STEPS = 500
 ENGINE_RUN_BUDGET_S = 0.25
