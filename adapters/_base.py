@@ -202,7 +202,8 @@ class EngineMode:
             if loop == "engine" and hasattr(model, "run"):
                 traj = run_engine_loop(model, scene, self.id, dt, steps, every)
                 if traj is None:  # diverged or the engine warned: find the step as the harness always has
-                    model.close()
+                    spent, model = model, None
+                    spent.close()
                     model = self._build(engine, scene, dt, count)
                     traj = drive(model, scene, self.id, dt, steps, every)
                     traj.meta["loop"] = "engine, replayed step by step from the start (diverged or warned)"
@@ -211,7 +212,8 @@ class EngineMode:
             evals, what = (model.evaluations() if hasattr(model, "evaluations")
                            else (None, "the engine mode does not count them"))
         finally:
-            model.close()
+            if model is not None:
+                model.close()
         traj.force_evals = evals
         traj.meta["force_evals_counted" if evals is not None else "force_evals_reason"] = what
         traj.meta.update({
@@ -219,6 +221,30 @@ class EngineMode:
             "settings": dict(model.settings),
         })
         return traj
+
+    def timed_run(self, scene: Scene, dt: float, steps: int, now: Callable[[], float], loop: str = "engine") -> float:
+        """Seconds on the clock ``now`` that one run of ``steps`` steps with a single output point
+        takes through ``loop`` (as ``simulate`` runs it), the model built and closed outside the
+        clock: what ``harness.cost`` times, free of the jitter of building an engine model. A run
+        that needs its step-by-step replay (it diverged) is timed with the replay."""
+        if loop not in self.LOOPS:
+            raise ValueError(f"loop: {loop!r} is not one of {', '.join(self.LOOPS)}")
+        engine, model = self._model(scene, dt)
+        try:
+            every = max(int(steps), 1)
+            t = now()
+            if loop == "engine" and hasattr(model, "run"):
+                if run_engine_loop(model, scene, self.id, dt, steps, every) is None:
+                    spent, model = model, None
+                    spent.close()
+                    model = self._build(engine, scene, dt, False)
+                    drive(model, scene, self.id, dt, steps, every)
+            else:
+                drive(model, scene, self.id, dt, steps, every)
+            return now() - t
+        finally:
+            if model is not None:
+                model.close()
 
     def one_steps(self, scene: Scene, dt: float, states) -> list[tuple[np.ndarray | None, str]] | None:
         """One step of ``dt`` from each state y = (q, v) (rows of ``states``, scene coordinates),

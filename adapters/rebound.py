@@ -54,6 +54,10 @@ ADAPTIVE = ("ias15",)
 SIM = {"gravity": "basic", "collision": "none", "boundary": "none", "softening": 0.0,
        "exit_max_distance": 0.0, "exit_min_distance": 0.0, "exact_finish_time": 1}
 
+#: How each kind of mode advances (recorded with every run).
+ADVANCE = {"adaptive": "integrate(n dt) at every multiple n of dt, adaptive steps between them",
+           "fixed": "steps(n) between output points (steps(1) per step as stepped by the harness)"}
+
 MODELS = {
     "kepler": "central mass 1, G = GM, massless test particle",
     "solar_system": "the scene's 6 bodies, masses and G; heliocentric initial state as the scene's, "
@@ -93,8 +97,7 @@ class _Model:
             **{name: _plain(getattr(sim, name)) for name in SIM},
             "N": int(sim.N), "N_active": "all" if sim.N_active in (-1, 2 ** 64 - 1) else int(sim.N_active),
             "masses": masses, "additional_forces": "none", "move_to_com": False, "model": MODELS[scene.id],
-            "advance": ("integrate(n dt) at every multiple n of dt, adaptive steps between them" if self.adaptive
-                        else "steps(n) between output points (steps(1) per step as stepped by the harness)"),
+            "advance": ADVANCE["adaptive" if self.adaptive else "fixed"],
             **{name: _plain(getattr(sim.integrator, name)) for name in CONFIG[mode]},
         }
         if scene.id == "kepler":  # the keys kepler's stored runs were recorded with
