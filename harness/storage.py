@@ -60,6 +60,14 @@ CREATE TABLE IF NOT EXISTS cells (
 CREATE INDEX IF NOT EXISTS cells_run ON cells(run_id);
 """
 
+#: The columns this code reads: a database whose tables lack any (an older schema) is refused.
+REQUIRED_COLUMNS = {
+    "runs": ("run_id", "started", "finished", "complete", "suite", "measurement_version", "git_commit", "versions",
+             "machine", "settings", "wall_s", "timing", "regressions"),
+    "cells": ("run_id", "scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value",
+              "wall_s", "data"),
+}
+
 CELL_COLUMNS = ["scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value", "wall_s", "data"]
 
 
@@ -96,6 +104,15 @@ class History:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         with closing(self._connect()) as con, con:
             con.executescript(SCHEMA)
+            missing = {table: sorted(set(cols) - {r[1] for r in con.execute(f"PRAGMA table_info({table})")})
+                       for table, cols in REQUIRED_COLUMNS.items()}
+        missing = {t: cols for t, cols in missing.items() if cols}
+        if missing:
+            from scenarios import InvalidInput
+
+            lacks = "; ".join(f"{t} lacks {', '.join(cols)}" for t, cols in missing.items())
+            raise InvalidInput(f"{self.path} was written by an older harness ({lacks}): not read, never mixed "
+                               f"with new runs; start a new history with --db")
 
     def _connect(self) -> sqlite3.Connection:
         con = sqlite3.connect(self.path, timeout=30)
@@ -156,6 +173,19 @@ class History:
         with closing(self._connect()) as con:
             df = pd.read_sql_query("SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt",
                                    con, params=(run_id,))
+        df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
+        df["data"] = df["data"].astype(object).map(json.loads)
+        return df
+
+    def cells_of_runs(self, run_ids, measures) -> pd.DataFrame:
+        """The cells of several runs at once, of the given measures only (``data`` decoded)."""
+        run_ids, measures = [int(r) for r in run_ids], list(measures)
+        if not run_ids or not measures:
+            return pd.DataFrame(columns=["run_id", *CELL_COLUMNS])
+        q = (f"SELECT * FROM cells WHERE run_id IN ({', '.join('?' for _ in run_ids)}) "
+             f"AND measure IN ({', '.join('?' for _ in measures)}) ORDER BY run_id, scene, method, measure, dt")
+        with closing(self._connect()) as con:
+            df = pd.read_sql_query(q, con, params=(*run_ids, *measures))
         df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
         df["data"] = df["data"].astype(object).map(json.loads)
         return df
