@@ -271,7 +271,7 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
     same = same.tail(last or WINDOW)
     run_rows = [r.to_dict() for _, r in same.iterrows()]
     by_id = {int(r["run_id"]): r for r in run_rows}
-    cells = history.cells_of_runs(list(by_id), [measure] if measure else MEASURES)
+    cells = history.cells_of_runs(list(by_id), [measure] if measure else MEASURES, data_of=("cost",))
     for name, value in (("--scene", scene), ("--method", method)):
         column = name[2:]
         if value is not None:

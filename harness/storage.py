@@ -177,15 +177,19 @@ class History:
         df["data"] = df["data"].astype(object).map(json.loads)
         return df
 
-    def cells_of_runs(self, run_ids, measures) -> pd.DataFrame:
-        """The cells of several runs at once, of the given measures only (``data`` decoded)."""
-        run_ids, measures = [int(r) for r in run_ids], list(measures)
+    def cells_of_runs(self, run_ids, measures, data_of=()) -> pd.DataFrame:
+        """The cells of several runs at once, of the given measures only; ``data`` decoded for the
+        measures in ``data_of``, empty for the rest (an energy cell's series is most of its bytes)."""
+        run_ids, measures, data_of = [int(r) for r in run_ids], list(measures), list(data_of) or [""]
         if not run_ids or not measures:
             return pd.DataFrame(columns=["run_id", *CELL_COLUMNS])
-        q = (f"SELECT * FROM cells WHERE run_id IN ({', '.join('?' for _ in run_ids)}) "
-             f"AND measure IN ({', '.join('?' for _ in measures)}) ORDER BY run_id, scene, method, measure, dt")
+        marks = lambda xs: ", ".join("?" for _ in xs)  # noqa: E731
+        columns = ", ".join(c for c in ("run_id", *CELL_COLUMNS) if c != "data")
+        q = (f"SELECT {columns}, CASE WHEN measure IN ({marks(data_of)}) THEN data ELSE '{{}}' END AS data "
+             f"FROM cells WHERE run_id IN ({marks(run_ids)}) AND measure IN ({marks(measures)}) "
+             f"ORDER BY run_id, scene, method, measure, dt")
         with closing(self._connect()) as con:
-            df = pd.read_sql_query(q, con, params=(*run_ids, *measures))
+            df = pd.read_sql_query(q, con, params=(*data_of, *run_ids, *measures))
         df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
         df["data"] = df["data"].astype(object).map(json.loads)
         return df

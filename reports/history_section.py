@@ -63,10 +63,10 @@ def trend_chart(cell, run_ids: list[int], path: Path) -> bool:
 
 
 def history_section(trend, run_id: int, out_dir: Path) -> tuple[list[str], list[str]]:
-    """(markdown lines, chart files written, relative to ``out_dir``)."""
-    lines = ["## History", ""]
+    """(markdown lines, chart files written, relative to ``out_dir``); no section without a history."""
     if trend is None or not trend.runs:
-        return lines + ["No history: no complete run of this suite before this one.", ""], []
+        return [], []
+    lines = ["## History", ""]
     ids = trend.run_ids
     how = (f"cost judged by step detection over them (from {trend.min_runs} runs on)" if trend.judged
            else f"cost judged by the last two runs until {trend.min_runs} runs exist")
