@@ -283,19 +283,24 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
     trend = Trend(str(history.path), suite, measurement_version, run_rows, [], left_out)
     if cells.empty:
         return trend
-    cells = cells.assign(dt_key=cells.dt.map(lambda d: None if d is None or pd.isna(d) else round(float(d), 15)))
-    for (sc, me, ms, _), grp in cells.groupby(["scene", "method", "measure", "dt_key"], dropna=False, sort=True):
-        trend.cells.append(_cell_history(grp.sort_values("run_id"), by_id, judged=trend.judged))
+    groups: dict[tuple, list[dict]] = {}
+    for row in cells.to_dict("records"):  # ordered by run
+        dt = row["dt"]
+        key = (row["scene"], row["method"], row["measure"], None if dt is None or pd.isna(dt) else round(float(dt), 15))
+        groups.setdefault(key, []).append(row)
+    for rows in groups.values():
+        trend.cells.append(_cell_history(rows, by_id, judged=trend.judged))
     trend.cells.sort(key=lambda c: (c.scene, c.method, MEASURES.index(c.measure)))
     return trend
 
 
-def _cell_history(grp: pd.DataFrame, runs: dict[int, dict], judged: bool) -> CellHistory:
-    first = grp.iloc[0]
+def _cell_history(rows: list[dict], runs: dict[int, dict], judged: bool) -> CellHistory:
+    """One cell's history from its stored rows, oldest run first."""
+    first = rows[0]
     measure = first["measure"]
     dt = None if first["dt"] is None or pd.isna(first["dt"]) else float(first["dt"])
     points, unit = [], ""
-    for _, row in grp.iterrows():
+    for row in rows:
         run = runs[int(row["run_id"])]
         if measure == "cost":
             value, spread, unit_row = _cost_point(row)

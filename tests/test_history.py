@@ -289,7 +289,8 @@ def test_runs_of_an_older_measurement_version_are_refused_or_read_never_mixed(ni
     code, out, _ = run_cli("history", "--db", str(db), "--json")
     trend = json.loads(out)
     assert [r["run"] for r in trend["runs"]] == [3, 4] and not trend["judged_by_history"]
-    assert trend["left_out"] == "2 history-smoke run(s) of measurement version 1 left out: not comparable with version 2"
+    assert trend["left_out"] == ("2 history-smoke run(s) of measurement version 1 left out: "
+                                 "not comparable with version 2")
     assert all([p["run"] for p in c["points"]] == [3, 4] for c in trend["cells"])
 
 
@@ -303,3 +304,17 @@ def test_a_database_of_an_older_schema_is_refused_in_one_line(tmp_path):
         assert code == 2 and err.count("\n") == 1
         assert "was written by an older harness (runs lacks complete, finished, machine," in err
         assert "not read, never mixed with new runs" in err
+
+
+def test_segment_medians_are_numpys_weighted_medians():
+    from harness.step_detect import _segment_costs
+
+    rng = np.random.default_rng(7)
+    x, w = rng.normal(size=40), rng.uniform(0.1, 2.0, 40)
+    x[5] = x[9]  # ties
+    for start in (0, 13, 39):
+        medians, costs = _segment_costs(x, w, start)
+        for r in range(len(x) - start):
+            seg, sw = x[start:start + r + 1], w[start:start + r + 1]
+            assert medians[r] == np.quantile(seg, 0.5, weights=sw, method="inverted_cdf")
+            assert costs[r] == pytest.approx(np.sum(sw * np.abs(seg - medians[r])), rel=1e-12)
