@@ -70,8 +70,9 @@ def history_section(trend, run_id: int, out_dir: Path) -> tuple[list[str], list[
     ids = trend.run_ids
     how = (f"cost judged by step detection over them (from {trend.min_runs} runs on)" if trend.judged
            else f"cost judged by the last two runs until {trend.min_runs} runs exist")
+    which = ", ".join(map(str, ids)) if len(ids) <= 6 else f"{ids[0]}–{ids[-1]}"
     intro = (f"{len(ids)} run(s) of the `{trend.suite}` suite, measurement version {trend.measurement_version} "
-             f"(runs {ids[0]}–{ids[-1]}); accuracy figures compared run to run, {how}.")
+             f"(runs {which}); accuracy figures compared run to run, {how}.")
     if trend.left_out:
         intro += f" {trend.left_out}."
     changed = trend.changed()

@@ -52,6 +52,8 @@ def run(args) -> int:
           f"{ids[0]}..{ids[-1]}; cost judged {'over the history' if trend.judged else 'by the last two runs'}")
     if trend.left_out:
         print(trend.left_out)
+    if not trend.cells:
+        print("no stored cell matches")
     for cell in trend.cells:
         dt = f" dt={cell.dt:g}" if cell.dt is not None else ""
         noise = f", noise {cell.fit.noise:.1%}" if cell.fit is not None else ""
