@@ -2,8 +2,9 @@
 
 ``slowtest:semi_implicit`` steps the spring by semi-implicit Euler in Python (as a user's
 ``velocity_func`` would), through the adapters' own loop (``adapters._base.drive``). With
-``HARNESS_TEST_SLOWDOWN=N`` in the environment (or the name of a file holding N) each step
-computes its update N times on the CPU (the clock the nightly times cost on) and keeps the last:
+``HARNESS_TEST_SLOWDOWN=N`` in the environment of the nightly (read where the model is built,
+in a worker: workers fork from a server that keeps the environment the first run started it
+with, so a later value needs a new process, as a new nightly is) each step computes its update N times on the CPU (the clock the nightly times cost on) and keeps the last:
 its states, and so every accuracy figure, stay bitwise the same while its cost grows. Measured here: the loop's own ~8 us a step
 dominate a single update; N = 300 adds ~30 us (cost ratio to explicit Euler 48 -> 211)::
 
@@ -20,24 +21,13 @@ from adapters._base import EngineMode
 SLOWDOWN_VAR = "HARNESS_TEST_SLOWDOWN"
 
 
-def slowdown() -> int:
-    """Updates computed per step: ``$HARNESS_TEST_SLOWDOWN``, a number or the name of a file that
-    holds one (read at every build: the nightly's workers fork from a server started with the
-    environment of the first run, so a file is how one test process slows a later run)."""
-    said = os.environ.get(SLOWDOWN_VAR, "1").strip()
-    if not said.isdigit():
-        with open(said) as fh:
-            said = fh.read().strip()
-    return max(1, int(said))
-
-
 class _SpringModel:
     def __init__(self, scene, dt):
         q, v = scene.initial_state()
         self.x, self.v = float(q[0]), float(v[0])
         self.k_over_m = scene.values["k"] / scene.values["m"]
         self.dt = dt
-        self.repeat = slowdown()
+        self.repeat = max(1, int(os.environ.get(SLOWDOWN_VAR, "1")))
         self.settings = {"update": "v += -k/m x dt; x += v dt", "repeat": self.repeat}
 
     def advance(self) -> None:

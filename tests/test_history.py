@@ -3,13 +3,17 @@
 
 The end-to-end runs use the smallest matrix that shows it: the spring with one engine mode from
 ``tests/slow_plugin.py`` (about 5 s a nightly here), three nights as they are, then one with its
-step slowed.
+step slowed; each nightly in a process of its own, as ``harness nightly`` runs.
 """
 import contextlib
 import io
 import json
+import os
 import shutil
 import sqlite3
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,11 +22,11 @@ from harness import step_detect
 from harness.cli import main
 from harness.compare import compare_cells
 from harness.history import what_differs
-from harness.nightly import run_nightly
 from harness.storage import History
 from harness.suites import SceneSpec, Suite
 from tests.slow_plugin import SLOWDOWN_VAR
 
+ROOT = Path(__file__).resolve().parents[1]
 SLOW = "slowtest:semi_implicit"
 SUITE = Suite("history-smoke", scenes={"spring": SceneSpec(periods=2, order_span=2.0, stability=False)},
               methods=(), cost_repeats=3, bounds=False, identify=False, cell_timeout=60.0)
@@ -185,26 +189,32 @@ def test_what_differs_between_two_runs():
 
 
 # ----------------------------------------------------------------------------- end to end
+#: One nightly of ``SUITE`` in a process of its own, as ``harness nightly`` runs: the environment
+#: it is given (``HARNESS_TEST_SLOWDOWN``) reaches its workers. Prints its run id and regressions.
+NIGHTLY = ("import json, sys; from pathlib import Path; from harness.nightly import run_nightly; "
+           "from tests.test_history import SUITE; "
+           "r = run_nightly(SUITE, Path(sys.argv[1]), Path(sys.argv[2]), jobs=1); "
+           "print(json.dumps({'run_id': r['run_id'], 'regressions': [g.as_dict() for g in r['regressions']]}))")
+
+
+def nightly_process(tmp, slowdown: int) -> dict:
+    env = {**os.environ, "HARNESS_PLUGINS": "tests.slow_plugin", SLOWDOWN_VAR: str(slowdown),
+           "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
+    done = subprocess.run([sys.executable, "-c", NIGHTLY, str(tmp / "out"), str(tmp / "h.sqlite")], cwd=ROOT,
+                          env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
 @pytest.fixture(scope="module")
 def nights(tmp_path_factory):
     """Three nightlies of the small suite as they are, then one with the plugin's step slowed."""
     tmp = tmp_path_factory.mktemp("history")
-    db, out = tmp / "h.sqlite", tmp / "out"
-    slowdown = tmp / "slowdown"
-    slowdown.write_text("1")
-    patch = pytest.MonkeyPatch()
-    patch.setenv("HARNESS_PLUGINS", "tests.slow_plugin")
-    patch.setenv(SLOWDOWN_VAR, str(slowdown))  # a file: the workers may outlive a change of the environment
-    seen = {}
-    try:
-        seen["results"] = [run_nightly(SUITE, out, db, jobs=1) for _ in range(3)]
-        seen["report3"] = (out / "report.md").read_text()
-        seen["history3"] = run_cli("history", "--db", str(db), "--json")
-        slowdown.write_text("300")
-        seen["results"].append(run_nightly(SUITE, out, db, jobs=1))
-        seen["report4"] = (out / "report.md").read_text()
-    finally:
-        patch.undo()
+    seen = {"results": [nightly_process(tmp, 1) for _ in range(3)]}
+    seen["report3"] = (tmp / "out" / "report.md").read_text()
+    seen["history3"] = run_cli("history", "--db", str(tmp / "h.sqlite"), "--json")
+    seen["results"].append(nightly_process(tmp, 300))
+    seen["report4"] = (tmp / "out" / "report.md").read_text()
     return tmp, seen
 
 
@@ -230,8 +240,8 @@ def test_three_nightlies_give_three_points_per_cell_and_an_unchanged_history(nig
 def test_a_slowed_method_is_flagged_as_a_step_on_the_run_after_it_slows(nights):
     tmp, seen = nights
     (reg,) = seen["results"][3]["regressions"]
-    assert (reg.kind, reg.method, reg.measure) == ("slowdown", SLOW, "cost")
-    assert "since run 4" in reg.detail and reg.after / reg.before > 2  # 300 updates a step: about 4x
+    assert (reg["kind"], reg["method"], reg["measure"]) == ("slowdown", SLOW, "cost")
+    assert "since run 4" in reg["detail"] and reg["after"] / reg["before"] > 2  # 300 updates a step: about 4x
     code, out, _ = run_cli("history", "--db", str(tmp / "h.sqlite"), "--method", SLOW, "--measure", "cost",
                            "--json")
     (cell,) = json.loads(out)["cells"]
