@@ -2,11 +2,13 @@
 
 ``slowtest:semi_implicit`` steps the spring by semi-implicit Euler in Python (as a user's
 ``velocity_func`` would), through the adapters' own loop (``adapters._base.drive``). With
-``HARNESS_TEST_SLOWDOWN=N`` in the environment of the nightly (read where the model is built,
-in a worker: workers fork from a server that keeps the environment the first run started it
-with, so a later value needs a new process, as a new nightly is) each step computes its update N times on the CPU (the clock the nightly times cost on) and keeps the last:
-its states, and so every accuracy figure, stay bitwise the same while its cost grows. Measured here: the loop's own ~8 us a step
-dominate a single update; N = 300 adds ~30 us (cost ratio to explicit Euler 48 -> 211)::
+``HARNESS_TEST_SLOWDOWN=N`` in the nightly's environment, each step computes its update N times
+on the CPU (the clock the nightly times cost on) and keeps the last: its states, and so every
+accuracy figure, stay bitwise the same while its cost grows. Measured here: the loop's own ~8 us
+a step dominate a single update; N = 300 adds ~30 us (cost ratio to explicit Euler 48 -> 211).
+The variable is read where the model is built, in a worker; workers fork from a server that
+keeps the environment of the process that started it, so a new value needs a new nightly
+process::
 
     HARNESS_PLUGINS=tests.slow_plugin HARNESS_TEST_SLOWDOWN=300 harness nightly --suite smoke
 """
