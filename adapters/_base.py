@@ -143,6 +143,9 @@ class EngineMode:
     settings: Mapping[str, object]
     doc: str = field(default="", compare=False)
     adaptive: bool = False
+    #: Its force evaluations are counted only in a counting run (``simulate(..., count=True)``:
+    #: the counter is a Python callback that would slow the timed loop; REBOUND, pymunk).
+    counting_run: bool = False
 
     isolated = True
 

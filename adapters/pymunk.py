@@ -345,6 +345,7 @@ def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _M
 def _mode(mode: str, scenes, unsupported, doc: str, settings: dict) -> EngineMode:
     return EngineMode(engine="pymunk", mode=mode, module="pymunk", dist="pymunk", build=build,
                       scenes=scenes, unsupported=unsupported, doc=doc,
+                      counting_run=mode in ("spring_force", "applied_force"),
                       settings={"damping": 1, "sleeping": "disabled", "moment": "inf", "shapes": 0, **settings})
 
 

@@ -183,7 +183,7 @@ _DOCS = {
 METHODS = {
     f"rebound:{mode}": EngineMode(
         engine="rebound", mode=mode, module="rebound", dist="rebound", build=build,
-        scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], adaptive=mode in ADAPTIVE,
+        scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], adaptive=mode in ADAPTIVE, counting_run=True,
         settings={"integrator": mode, **CONFIG[mode], **SIM, "models": MODELS},
     )
     for mode in CONFIG

@@ -87,7 +87,8 @@ def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_S
     method = resolve(method, scene)
     traj = step(method, scene, dt, steps, steps, timeout)
     ran = traj.meta.get("steps_run", steps if traj.ok else (traj.failed_step or 1) - 1)
-    if traj.force_evals is None and ran > 0 and traj.status in ("ok", "unstable") and _steppable_per_step(method):
+    if traj.force_evals is None and ran > 0 and traj.status in ("ok", "unstable") and \
+            getattr(method, "counting_run", False):
         counted = method.simulate(scene, dt, ran, ran, count=True)
         if counted.force_evals is not None:
             traj = counted
