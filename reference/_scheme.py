@@ -15,6 +15,9 @@ Kernel contract (arrays in the component-major kernel layout, ``(ndof, batch)``)
   (``Scheme.iterations``) unless the caller asks for another (``integrate(..., iterations=K)``,
   ``harness run --opt iterations=K``). A constrained scheme runs only on scenes with a
   ``project`` kernel, and those scenes only with constrained schemes.
+* ``step(accel, rate, state, t, h, p) -> state`` for decay schemes (``decay=True``), which
+  integrate a linear damping exactly: ``rate(p)`` is the scene's damping rate gamma in
+  a(x, v) = a(x, 0) - gamma v (``Scene.damping_rate``); they run only on scenes that have one.
 * ``observe(accel, state, t, h, p) -> (q, v)``: the state a user sees; it never calls ``accel``.
 
 The functions are plain numpy, so the same source runs interpreted, with every force
@@ -56,6 +59,7 @@ class Scheme:
     observe: Callable = observe_qv
     constrained: bool = False
     iterations: int | None = None
+    decay: bool = False
     doc: str = field(default="", compare=False)
 
     @property
@@ -73,7 +77,7 @@ class Scheme:
                  else "unbounded" if self.homega_max == math.inf else f"{self.homega_max:.4g}")
         out = {"id": self.id, "order": self.order, "force_evals": evals, "symplectic": self.symplectic,
                "implicit": self.implicit, "constrained": self.constrained, "energy": self.energy_claim,
-               "homega_max": limit, "doc": " ".join(self.doc.split())}
+               "decay": self.decay, "homega_max": limit, "doc": " ".join(self.doc.split())}
         if self.constrained:
             out["iterations"] = self.iterations
         return out
