@@ -118,11 +118,17 @@ class _Model:
     def advance(self) -> None:
         p, cid, b = self.p, self.cid, self.body
         if self.scene_id == "chain":
-            # The scene's force, k (q_{i-1} - 2 q_i + q_{i+1}) with the walls at 0, from the joint positions.
-            q = self._joint_state()[0]
+            # The scene's force, k (q_{i-1} - 2 q_i + q_{i+1}) with the walls at 0, from the joint
+            # positions, and the dashpots' c (v_{i-1} - 2 v_i + v_{i+1}) from the joint velocities.
+            q, v = self._joint_state()
             f = (-2.0 * self.k) * q
             f[1:] += self.k * q[:-1]
             f[:-1] += self.k * q[1:]
+            if self.c != 0.0:
+                g = (-2.0 * self.c) * v
+                g[1:] += self.c * v[:-1]
+                g[:-1] += self.c * v[1:]
+                f = f + g
             p.setJointMotorControlArray(b, self.joints, p.TORQUE_CONTROL, forces=f.tolist(), physicsClientId=cid)
         elif self.scene_id != "pendulum":
             pos = p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]

@@ -181,20 +181,29 @@ class _Model:
                 b.position = (float(self.offset[i] + q0[i]), 0.0)
                 b.velocity = (float(v0[i]), 0.0)
         space.add(*bodies)
-        k = values.get("k", 0.0)
+        k, c = values.get("k", 0.0), values.get("c", 0.0)
         if mode == "pin_joint":
             anchors = [space.static_body] + bodies
             self.constraints = [pymunk.PinJoint(a, b, (0.0, 0.0), (0.0, 0.0)) for a, b in zip(anchors, bodies)]
         elif mode == "damped_spring":
             rest = SPRING_SPACING * max(abs(values["x0"]), 1.0)
             wall = space.static_body
-            self.constraints = [pymunk.DampedSpring(wall, bodies[0], (0.0, 0.0), (0.0, 0.0), rest, k, 0.0)]
-            self.constraints += [pymunk.DampedSpring(a, b, (0.0, 0.0), (0.0, 0.0), rest, k, 0.0)
+            self.constraints = [pymunk.DampedSpring(wall, bodies[0], (0.0, 0.0), (0.0, 0.0), rest, k, c)]
+            self.constraints += [pymunk.DampedSpring(a, b, (0.0, 0.0), (0.0, 0.0), rest, k, c)
                                  for a, b in zip(bodies[:-1], bodies[1:])]
             self.constraints.append(pymunk.DampedSpring(bodies[-1], wall, (0.0, 0.0), ((n + 1) * rest, 0.0),
-                                                        rest, k, 0.0))
+                                                        rest, k, c))
         elif mode == "spring_force":
             update_velocity = pymunk.Body.update_velocity
+            # The dashpots read the velocities from before the step: the bodies' velocity_funcs run
+            # one after another, and a neighbour's would otherwise already be updated.
+            old_v = np.zeros(n)
+
+            def snapshot_velocities():
+                old_v[:] = [b.velocity.x for b in bodies]
+
+            if c != 0.0:
+                self.apply_before_step = snapshot_velocities
 
             def velocity_func_for(i):
                 left = bodies[i - 1] if i > 0 else None
@@ -207,6 +216,13 @@ class _Model:
                         f += k * left.position.x
                     if right is not None:
                         f += k * right.position.x
+                    if c != 0.0:
+                        d = (-2.0 * c) * old_v[i]
+                        if i > 0:
+                            d += c * old_v[i - 1]
+                        if i < n - 1:
+                            d += c * old_v[i + 1]
+                        f += d
                     b.force = (f, 0.0)
                     update_velocity(b, gravity, damping, h)
 
@@ -220,6 +236,12 @@ class _Model:
                 f = (-2.0 * k) * x
                 f[1:] += k * x[:-1]
                 f[:-1] += k * x[1:]
+                if c != 0.0:
+                    v = np.array([b.velocity.x for b in bodies])
+                    g = (-2.0 * c) * v
+                    g[1:] += c * v[:-1]
+                    g[:-1] += c * v[1:]
+                    f = f + g
                 for b, fi in zip(bodies, f):
                     b.force = (float(fi), 0.0)
 
@@ -308,9 +330,9 @@ def build(pymunk, mode: str, scene: Scene, dt: float) -> _Model:
     return _Model(pymunk, mode, scene, dt)
 
 
-def _mode(mode: str, scenes, unsupported, doc: str, settings: dict) -> EngineMode:
+def _mode(mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None) -> EngineMode:
     return EngineMode(engine="pymunk", mode=mode, module="pymunk", dist="pymunk", build=build,
-                      scenes=scenes, unsupported=unsupported, doc=doc,
+                      scenes=scenes, unsupported=unsupported, doc=doc, no_match=no_match or {},
                       settings={"damping": 1, "sleeping": "disabled", "moment": "inf", "shapes": 0, **settings})
 
 
@@ -330,7 +352,9 @@ METHODS = {m.id: m for m in (
           bodies' spaced positions (9e-11 absolute on velocities of ~120 over 1000 steps), and
           ref:position_first_euler_decay_after_kick on the damped spring (1e-14).""",
           {"spring": "DampedSpring, damping 0, between neighbours and to static walls",
-           "spacing": f"{SPRING_SPACING:g} max(|x0|, 1)"}),
+           "spacing": f"{SPRING_SPACING:g} max(|x0|, 1)"},
+          {"chain": "with damping, Chipmunk's impulse solver decays each spring's relative velocity in turn, "
+                    "one spring after another: no one-step formula of the whole chain's damping"}),
     _mode("space_damping", _SPACE_DAMPING_SCENES, _SPACE_DAMPING_UNSUPPORTED,
           """position-first semi-implicit Euler, damping as an exact decay before the kick (Chipmunk's space.damping)
           Measured: equals ref:position_first_euler_decay_before_kick on the damped spring and the
@@ -339,5 +363,6 @@ METHODS = {m.id: m for m in (
     _mode("pin_joint", ("pendulum", "rope"), _JOINT_UNSUPPORTED,
           """pendulum and rope on PinJoints with Chipmunk's default error correction (loses energy)
           Measured: no reference scheme; the joints' bias correction bleeds energy.""",
-          {"joint": "PinJoint, default error_bias and max_bias"}),
+          {"joint": "PinJoint, default error_bias and max_bias"},
+          {"pendulum": "the pin joint's error correction (error_bias, max_bias) moves the bob between steps"}),
 )}

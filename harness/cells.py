@@ -287,6 +287,8 @@ def _identity(task, method, scene) -> dict:
     if match is None and closest:
         note = (f"matches no reference scheme; closest `{closest.get('method')}` "
                 f"(max deviation {closest.get('max_deviation', float('nan')):.2e})")
+        if res.get("why_no_match"):
+            note += f": {res['why_no_match']}"
     return _cell(task, "identity", "ok", _finite(res.get("max_deviation") if match else closest.get("max_deviation")),
                  res.get("dt"), res.get("steps"),
                  data={"match": match, "matches": list(res.get("matches") or []), "closest": closest.get("method"),

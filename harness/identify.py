@@ -72,6 +72,9 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
                            "matches": dev <= tolerance})
     candidates.sort(key=lambda c: c["max_deviation"])
     matches = [c["method"] for c in candidates if c["matches"]]
+    if not matches:
+        # What the engine mode itself records, measured, about why nothing can match here.
+        out["why_no_match"] = dict(getattr(method, "no_match", None) or {}).get(scene.id)
     best = candidates[0] if candidates else None
     # The runner-up is the closest scheme that is not the answer: the first non-match after
     # a match, the second-closest when nothing matches.
@@ -99,6 +102,8 @@ def format_report(result: dict) -> str:
         best = result["candidates"][0] if result["candidates"] else None
         closest = f"; closest {best['method']} at max |diff| = {best['max_deviation']:.3g}" if best else ""
         lines.append(f"  matches no reference scheme within {result['tolerance']:.3g}{closest}")
+        if result.get("why_no_match"):
+            lines.append(f"  why: {result['why_no_match']}")
     if result["runner_up"] is not None:
         lines.append(f"  runner-up {result['runner_up']['method']}: max |diff| = "
                      f"{result['runner_up']['max_deviation']:.3g}")

@@ -49,7 +49,7 @@ class RefMethod:
                            f"scheme enforces (ref:verlet_constrained); here its particles would fall freely")
         if self.scheme.decay and not scene.has_damping_rate:
             return False, (f"scene {scene.id} has no single linear damping rate for {self.id} to decay "
-                           "(it needs a(x, v) = a(x, 0) - gamma v: damped_spring, projectile)")
+                           "(it needs a(x, v) = a(x, 0) - gamma v with one rate gamma)")
         if self.scheme.implicit and type(scene).solve is no_solve:
             return False, f"scene {scene.id} provides no implicit solve"
         return True, ""

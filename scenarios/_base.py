@@ -76,6 +76,11 @@ def no_damping_rate(p):  # pragma: no cover - only reached by a misuse
     raise NotImplementedError("this scene declares no single linear damping rate")
 
 
+def no_velocity_dependence(p):
+    """The damping rate of a scene whose force does not depend on the velocity: 0."""
+    return 0.0
+
+
 def no_project(q, p, iterations):  # pragma: no cover - only reached by a misuse
     raise NotImplementedError("this scene has no constraints to project")
 
