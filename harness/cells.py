@@ -134,7 +134,7 @@ def run_task(task) -> list[dict]:
         keep(_guard(task, "stability", lambda: _stability(task, run_method, scene, suite, spec)))
     from .scene_cells import scene_cells
 
-    keep(*scene_cells(task, method, scene, dt, spec, suite))
+    keep(*scene_cells(task, method, scene, dt, spec, suite, claims))
     return cells
 
 

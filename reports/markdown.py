@@ -14,6 +14,7 @@ from pathlib import Path
 import pandas as pd
 
 from . import charts
+from .damping_section import damping_stability_section
 from .scene_findings import scene_findings
 
 CHECK, CROSS = "✓", "✗"
@@ -365,10 +366,16 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing) -
             if fn(cells[cells.scene == scene], scene, out_dir / name):
                 chart_names[(scene, kind)] = name
                 written.append(name)
+    damping_chart = f"charts/run{run_id}-damping-stability.png"
+    if charts.damping_stability_chart(cells, out_dir / damping_chart):
+        written.append(damping_chart)
+    else:
+        damping_chart = None
     lines = [f"# Integrator comparison: run {run_id} ({run['suite']})", ""]
     lines += verdict(regressions, previous, cells)
     lines += tradeoff_table(piv)
     lines += identity_table(piv)
+    lines += damping_stability_section(cells, damping_chart)
     lines += ["## Per scene", ""]
     for scene in scenes:
         lines += scene_section(scene, piv, chart_names)
