@@ -42,6 +42,10 @@ def observe_qv(accel, state, t, h, p):
 class Scheme:
     """A reference scheme and its declarations.
 
+    ``order_velocity_dependent``: the order where the force depends on the velocity, if lower
+    than ``order`` (a kick that takes a(x, v) at a velocity of the wrong time, without a solve,
+    loses the symmetry that made the scheme second order or higher); None: ``order`` holds.
+
     ``energy_claim`` and ``homega_max`` are what the textbook says on the unit spring
     (``homega_max``: ``None`` = unstable for every h, ``math.inf`` = never unstable);
     the harness measures both and reports them side by side.
@@ -60,12 +64,19 @@ class Scheme:
     constrained: bool = False
     iterations: int | None = None
     decay: bool = False
+    order_velocity_dependent: int | None = None
     doc: str = field(default="", compare=False)
 
     @property
     def options(self) -> dict[str, int]:
         """Run-time options a caller may set, with their defaults."""
         return {"iterations": self.iterations} if self.constrained else {}
+
+    def order_for(self, velocity_dependent: bool) -> int:
+        """The declared order on a scene whose force does (True) or does not depend on the velocity."""
+        if velocity_dependent and self.order_velocity_dependent is not None:
+            return self.order_velocity_dependent
+        return self.order
 
     @property
     def summary(self) -> str:
@@ -75,7 +86,8 @@ class Scheme:
         evals = f"{self.force_evals} + solve" if self.implicit else str(self.force_evals)
         limit = ("none (unstable for every h)" if self.homega_max is None
                  else "unbounded" if self.homega_max == math.inf else f"{self.homega_max:.4g}")
-        out = {"id": self.id, "order": self.order, "force_evals": evals, "symplectic": self.symplectic,
+        out = {"id": self.id, "order": self.order, "order_velocity_dependent": self.order_for(True),
+               "force_evals": evals, "symplectic": self.symplectic,
                "implicit": self.implicit, "constrained": self.constrained, "energy": self.energy_claim,
                "decay": self.decay, "homega_max": limit, "doc": " ".join(self.doc.split())}
         if self.constrained:

@@ -125,7 +125,7 @@ def damping_stability_chart(cells: pd.DataFrame, path: Path) -> bool:
     def y(v):
         return DAMPING_CHART_TOP if v is not None and math.isinf(v) else v
 
-    fig, ax = plt.subplots(figsize=(8, 5))
+    fig, ax = plt.subplots(figsize=(11, 5))
     colors = {}
     refs = [r for _, r in rows.sort_values("method").iterrows() if r.method.startswith("ref:")]
     for i, r in enumerate(refs):
@@ -154,5 +154,5 @@ def damping_stability_chart(cells: pd.DataFrame, path: Path) -> bool:
     ax.set_xlabel("damping ratio ζ")
     ax.set_ylabel("largest stable h·ω")
     ax.set_title("damped_spring: stability limit against damping (lines: theory; points: measured)")
-    ax.legend(fontsize=6, ncol=2, loc="lower left")
+    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return _save(fig, path)

@@ -35,7 +35,10 @@ def damping_stability_section(cells: pd.DataFrame, chart_name: str | None) -> li
              "radius of the measured one-step map) / theory (spectral radius of the scheme's own recurrence on the "
              "damped oscillator, closed form or computed), judged against the method's own scheme or, for an "
              f"engine mode, the scheme it was identified as; {CHECK} within {tol:.1%} (none: unstable at every h; "
-             "∞: stable at every h searched)." if tol is not None else "", "",
+             "∞: stable at every h searched). The Verlet forms carry an acceleration evaluated at another "
+             "velocity than the one they report, and the measure restarts each one-step run from (q, v): with "
+             "damping it measures another map than the scheme's recurrence, and says so with ✗."
+             if tol is not None else "", "",
              "| method | theory of | " + " | ".join(f"ζ = {z:g}" for z in zetas) + " |",
              "|---|---|" + "---|" * len(zetas)]
     for _, r in rows.sort_values("method").iterrows():

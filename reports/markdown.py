@@ -210,7 +210,7 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
             _energy_text(energy),
             (energy.data.get("class") or "–") if energy is not None else "–",
             _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
-            _fmt(order.value, ".2f") if order is not None and order.status == "ok" else (order.status if order is not None else "–"),
+            _order_text(order),
             homega_text(stab),
             _fmt(cost.data.get("force_evals_per_step"), ".3g") if cost is not None and cost.status == "ok" else "–",
             _fmt(cost.value * 1e6, ".3g") if cost is not None and cost.status == "ok" else (cost.status if cost is not None else "–"),
@@ -224,6 +224,18 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
         if name:
             lines += [f"![{title} on {scene}]({name})", ""]
     return lines
+
+
+def _order_text(order) -> str:
+    """The measured order; where the scheme declares a lower order for this scene's
+    velocity-dependent force, that declaration beside it, so a first-order result reads as
+    the scheme's and not as a failure."""
+    if order is None:
+        return "–"
+    if order.status != "ok":
+        return order.status
+    note = (order.data.get("claims") or {}).get("order_note")
+    return _fmt(order.value, ".2f") + (f" [{note}]" if note else "")
 
 
 def _matches(d: dict) -> list[str]:

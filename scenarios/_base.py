@@ -181,6 +181,12 @@ class Scene:
         return True
 
     @property
+    def velocity_dependent(self) -> bool:
+        """Whether the force depends on the velocity (with these parameters): where it does, a
+        scheme may keep a lower order (``Scheme.order_velocity_dependent``)."""
+        return False
+
+    @property
     def has_damping_rate(self) -> bool:
         return type(self).damping_rate is not no_damping_rate
 

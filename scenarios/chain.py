@@ -109,6 +109,10 @@ class Chain(Scene):
     solve = staticmethod(solve)
 
     @property
+    def velocity_dependent(self):
+        return self.values["c"] != 0.0
+
+    @property
     def conservative(self):
         return self.values["c"] == 0.0
 

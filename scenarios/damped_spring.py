@@ -49,6 +49,10 @@ class DampedSpring(Scene):
         return 2.0 * zeta * math.sqrt(k * m)
 
     @property
+    def velocity_dependent(self):
+        return self.values["c"] != 0.0
+
+    @property
     def conservative(self):
         return self.values["c"] == 0.0
 

@@ -44,6 +44,10 @@ class Projectile(Scene):
         return p[2] / p[1]
 
     @property
+    def velocity_dependent(self):
+        return self.values["c"] != 0.0
+
+    @property
     def conservative(self):
         return self.values["c"] == 0.0
 

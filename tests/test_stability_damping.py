@@ -102,3 +102,29 @@ def test_each_engine_mode_measures_the_theory_of_its_scheme_within_half_a_percen
         assert row["agrees"], row
         if row["theory"] is not None and math.isfinite(row["theory"]):
             assert abs(row["measured"] / row["theory"] - 1.0) <= THEORY_RTOL
+
+
+def test_the_nightly_report_charts_stability_against_damping(tmp_path):
+    """A small suite on the damped spring: the section's table has every zeta with the measured
+    limit, the theory and the mark, and the chart is written and linked."""
+    from harness.nightly import run_nightly
+    from harness.storage import History
+    from harness.suites import DAMPED_SPRING_EXTRAS, SceneSpec, Suite
+
+    methods = ("ref:semi_implicit_euler", "ref:semi_implicit_euler_velocity_implicit", "mujoco:euler")
+    suite = Suite("damping", scenes={"damped_spring": SceneSpec(periods=5, extras=DAMPED_SPRING_EXTRAS)},
+                  methods=methods, bounds=False, cost_repeats=1, cost_steps=2000, stability_steps=200)
+    result = run_nightly(suite, tmp_path / "out", tmp_path / "h.sqlite", jobs=2)
+    cells = History(tmp_path / "h.sqlite").cells(result["run_id"])
+    sweep = cells[cells.measure == "stability_vs_damping"].set_index("method")
+    assert set(sweep.index) == set(methods) and set(sweep.status) == {"ok"}
+    # mujoco:euler is judged by the scheme it was identified as, and agrees at all six ratios.
+    assert sweep.loc["mujoco:euler"].data["scheme"] == "ref:semi_implicit_euler_velocity_implicit"
+    assert sweep.loc["mujoco:euler"].value == 6.0
+    assert sweep.loc["ref:semi_implicit_euler"].data["theory_curve"]["homega_max"][0] == 2.0
+    report = (tmp_path / "out" / "report.md").read_text()
+    section = report.split("## Stability against damping")[1].split("\n## ")[0]
+    row = next(line for line in section.splitlines() if line.startswith("| `mujoco:euler`"))
+    assert row.count("✓") == 6 and "4.828 / 4.828" in row
+    chart = next(line for line in section.splitlines() if line.startswith("!["))
+    assert (tmp_path / "out" / chart.split("(")[1].rstrip(")")).stat().st_size > 0
