@@ -7,7 +7,9 @@ state component seen. Different schemes of the same order differ by a power of d
 state (1e-4 and up at the default ~100 steps per period), roundoff by 1e-16 per operation,
 so the gap between a match and the runner-up is many orders of magnitude; both are reported.
 Several schemes can match when a scene cannot tell them apart (on a force that depends on
-the velocity only, position-first Euler and explicit Euler are the same update).
+the velocity only, position-first Euler and explicit Euler are the same update). A scheme that
+differs from another only in how it treats velocity-dependent forces
+(``Scheme.same_without_velocity``) is not a candidate on a scene without them.
 """
 from __future__ import annotations
 
@@ -66,6 +68,8 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     for mid, ref in all_methods().items():
         if getattr(ref, "family", None) != "ref" or mid == method.id or not ref.supports(scene)[0]:
             continue
+        if not scene.velocity_dependent and getattr(ref.scheme, "same_without_velocity", None):
+            continue  # here it is another scheme, update for update: that one is the candidate
         traj = ref.simulate(scene, dt, steps, 1)
         dev = max_deviation(run, traj)
         candidates.append({"method": mid, "max_deviation": dev, "status": traj.status,

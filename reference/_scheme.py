@@ -46,6 +46,10 @@ class Scheme:
     than ``order`` (a kick that takes a(x, v) at a velocity of the wrong time, without a solve,
     loses the symmetry that made the scheme second order or higher); None: ``order`` holds.
 
+    ``same_without_velocity``: the id of the scheme this one is, update for update, where the
+    force does not depend on the velocity (its damping treatment is all that sets it apart);
+    ``harness identify`` does not offer it as a second match there.
+
     ``energy_claim`` and ``homega_max`` are what the textbook says on the unit spring
     (``homega_max``: ``None`` = unstable for every h, ``math.inf`` = never unstable);
     the harness measures both and reports them side by side.
@@ -65,6 +69,7 @@ class Scheme:
     iterations: int | None = None
     decay: bool = False
     order_velocity_dependent: int | None = None
+    same_without_velocity: str | None = None
     doc: str = field(default="", compare=False)
 
     @property
@@ -89,7 +94,8 @@ class Scheme:
         out = {"id": self.id, "order": self.order, "order_velocity_dependent": self.order_for(True),
                "force_evals": evals, "symplectic": self.symplectic,
                "implicit": self.implicit, "constrained": self.constrained, "energy": self.energy_claim,
-               "decay": self.decay, "homega_max": limit, "doc": " ".join(self.doc.split())}
+               "decay": self.decay, "same_without_velocity": self.same_without_velocity, "homega_max": limit,
+               "doc": " ".join(self.doc.split())}
         if self.constrained:
             out["iterations"] = self.iterations
         return out

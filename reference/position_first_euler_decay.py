@@ -7,7 +7,7 @@ from ._scheme import scheme
 
 
 @scheme(order=1, force_evals=1, symplectic=False, implicit=False, energy_claim="bounded", homega_max=2.0,
-        decay=True)
+        decay=True, same_without_velocity="semi_implicit_euler_position_first")
 def position_first_euler_decay_after_kick(accel, rate, state, t, h, p):
     """Position-first Euler, then the whole new velocity decays (Chipmunk's DampedSpring):
 
@@ -22,7 +22,7 @@ def position_first_euler_decay_after_kick(accel, rate, state, t, h, p):
 
 
 @scheme(order=1, force_evals=1, symplectic=False, implicit=False, energy_claim="bounded", homega_max=2.0,
-        decay=True)
+        decay=True, same_without_velocity="semi_implicit_euler_position_first")
 def position_first_euler_decay_before_kick(accel, rate, state, t, h, p):
     """Position-first Euler whose old velocity decays before the kick (Chipmunk's space.damping,
     v = v damping^h + h a):

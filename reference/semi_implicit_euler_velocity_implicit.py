@@ -6,7 +6,8 @@ from ._scheme import scheme
 NEWTON_RTOL = 1e-13
 
 
-@scheme(order=1, force_evals=1, symplectic=True, implicit=True, energy_claim="bounded", homega_max=2.0)
+@scheme(order=1, force_evals=1, symplectic=True, implicit=True, energy_claim="bounded", homega_max=2.0,
+        same_without_velocity="semi_implicit_euler")
 def semi_implicit_euler_velocity_implicit(accel, solve, newton_max, state, t, h, p):
     """Semi-implicit Euler, implicit in the velocity only: MuJoCo's Euler (eulerdamp), implicit
     and implicitfast with joint damping.

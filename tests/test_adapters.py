@@ -291,7 +291,8 @@ def test_issue_scene_coverage():
     assert supported["pybullet:semi_implicit"] == four | {"chain"}
     assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring",
                                                                                      "projectile", "chain"}
-    assert supported["pymunk:damped_spring"] == {"chain"}
+    assert supported["pymunk:damped_spring"] == {"damped_spring", "chain"}  # issue 12: Chipmunk's own damping
+    assert supported["pymunk:space_damping"] == {"damped_spring", "projectile"}
     assert supported["pymunk:pin_joint"] == {"pendulum", "rope"}
     for mode in ("leapfrog", "whfast", "ias15", "saba"):
         assert supported[f"rebound:{mode}"] == {"kepler", "solar_system"}
@@ -431,4 +432,4 @@ def test_unstable_run_then_the_harness_goes_on():
 def test_all_methods_include_the_engine_modes():
     ids = all_methods()
     assert set(adapters.ENGINE_METHODS) <= set(ids)
-    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 4 + 4  # MuJoCo, pybullet, pymunk, REBOUND modes
+    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 5 + 4  # MuJoCo, pybullet, pymunk, REBOUND modes
