@@ -140,7 +140,8 @@ class _Model:
         self._record_settings(mode)
         if mode == "damped_spring":
             spring = self.constraints[0]
-            self.settings.update({"spring": "DampedSpring from a static wall to the body", "rest_length": spring.rest_length,
+            self.settings.update({"spring": "DampedSpring from a static wall to the body",
+                                  "rest_length": spring.rest_length,
                                   "stiffness": spring.stiffness, "spring_damping": spring.damping})
         if self.joint is not None:
             self.settings["joint"] = "PinJoint, static pivot at the origin to the bob's centre"

@@ -52,7 +52,8 @@ def test_damped_energy_decays():
 @pytest.mark.parametrize("scene_id,params,field", [
     ("spring", {"m": -1}, "m"), ("spring", {"k": 0}, "k"), ("kepler", {"e": 1.0}, "e"),
     ("kepler", {"e": -0.1}, "e"), ("pendulum", {"L": 0}, "L"), ("pendulum", {"theta0": 4}, "theta0"),
-    ("damped_spring", {"c": -1}, "c"), ("chain", {"c": -0.5}, "c"), ("projectile", {"m": 0}, "m"), ("spring", {"k": "nan"}, "k"),
+    ("damped_spring", {"c": -1}, "c"), ("chain", {"c": -0.5}, "c"), ("projectile", {"m": 0}, "m"),
+    ("spring", {"k": "nan"}, "k"),
 ])
 def test_out_of_range_parameters_name_the_field_and_range(scene_id, params, field):
     with pytest.raises(InvalidInput) as err:
