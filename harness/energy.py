@@ -40,7 +40,8 @@ sinusoid over N periods 12/(2 pi N) = 1.9/N of its amplitude (0.19 at the rule's
 ten periods), and the bands measured here far less (0.026 of the envelope at most:
 semi-implicit Euler on the outer solar system; 0.02 on the chain, 0.014 on the pendulum and
 Kepler); a drift of a quarter of the envelope over the run is a drift; FLOOR = 1e-10 is
-roundoff: at the horizons used (<= 1e6 steps), rounding accumulates at most ~1e-16 a step, so a smaller error says nothing. The rule
+roundoff: at the horizons used (<= 1e6 steps), rounding accumulates at most ~1e-16 a step, so a smaller error
+says nothing. The rule
 needs the first tenth to hold a few oscillations of the energy error (a few periods
 of the scene), so classify over at least ten periods (``short_horizon`` says when not),
 and at least MIN_RECORDED recorded states. The numbers behind the verdict come with it,

@@ -69,7 +69,8 @@ def solve(q, v, t, p, alpha, beta, r):
     """(I - alpha da/dv - beta da/dq) x = r: da/dq = (k/m) tridiag(1, -2, 1) and da/dv = (c/m) times
     the same, so with s = beta k/m + alpha c/m the matrix is tridiagonal with diagonal 1 + 2 s and
     off-diagonals -s, the same for every batch member. Thomas algorithm, O(N) per member; the matrix
-    is strictly diagonally dominant, so no pivoting is needed. Loops written out, as in ``accel`` (compile 1.8 s -> 0.4 s)."""
+    is strictly diagonally dominant, so no pivoting is needed. Loops written out, as in ``accel`` (compile
+    1.8 s -> 0.4 s)."""
     c = beta * (p[1] / p[2])
     if p[4] != 0.0:
         c = c + alpha * (p[4] / p[2])
