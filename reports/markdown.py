@@ -14,6 +14,7 @@ from pathlib import Path
 import pandas as pd
 
 from . import charts
+from .damping_section import damping_stability_section
 from .history_section import history_section
 from .scene_findings import scene_findings
 
@@ -229,7 +230,7 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
             _energy_text(energy),
             (energy.data.get("class") or "–") if energy is not None else "–",
             _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
-            _fmt(order.value, ".2f") if order is not None and order.status == "ok" else (order.status if order is not None else "–"),
+            _order_text(order),
             homega_text(stab),
             _fmt(cost.data.get("force_evals_per_step"), ".3g") if cost is not None and cost.status == "ok" else "–",
             _fmt(cost.value * 1e6, ".3g") if cost is not None and cost.status == "ok" else (cost.status if cost is not None else "–"),
@@ -244,6 +245,18 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
         if name:
             lines += [f"![{title} on {scene}]({name})", ""]
     return lines
+
+
+def _order_text(order) -> str:
+    """The measured order; where the scheme declares a lower order for this scene's
+    velocity-dependent force, that declaration beside it, so a first-order result reads as
+    the scheme's and not as a failure."""
+    if order is None:
+        return "–"
+    if order.status != "ok":
+        return order.status
+    note = (order.data.get("claims") or {}).get("order_note")
+    return _fmt(order.value, ".2f") + (f" [{note}]" if note else "")
 
 
 def _matches(d: dict) -> list[str]:
@@ -386,6 +399,11 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing, t
             if fn(cells[cells.scene == scene], scene, out_dir / name):
                 chart_names[(scene, kind)] = name
                 written.append(name)
+    damping_chart = f"charts/run{run_id}-damping-stability.png"
+    if charts.damping_stability_chart(cells, out_dir / damping_chart):
+        written.append(damping_chart)
+    else:
+        damping_chart = None
     lines = [f"# Integrator comparison: run {run_id} ({run['suite']})", ""]
     lines += verdict(regressions, previous, cells, trend)
     section, trend_charts = history_section(trend, run_id, out_dir)
@@ -393,6 +411,7 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing, t
     written += trend_charts
     lines += tradeoff_table(piv)
     lines += identity_table(piv)
+    lines += damping_stability_section(cells, damping_chart)
     lines += ["## Per scene", "", COST_COLUMNS, ""]
     for scene in scenes:
         lines += scene_section(scene, piv, chart_names)
