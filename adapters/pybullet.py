@@ -10,16 +10,33 @@ blow-up) -> inf, sleeping -> disabled, the joints' velocity motors -> zero force
 joint damping -> 0.
 The bodies have no collision shape, so there is nothing to collide with and no shape inertia:
 the pendulum bob is a point mass.
+
+Bullet has no loop of its own to call and no spring element: the engine's loop (``steps(n)``)
+is a Python loop that calls ``stepSimulation`` alone on the pendulum, and on the other scenes
+reads the position (and the velocity, where the scene has drag) and applies the scene's force
+before each ``stepSimulation``, the least a Python user can do; the state is read only at
+output points. Bullet evaluates its forces inside ``stepSimulation`` and has no counter or
+callback for them, so force evaluations are not counted.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode
+from ._base import EngineMode, run_by_steps
+
+#: How the engine's own loop steps each scene (recorded with every run).
+ENGINE_LOOP = {
+    "pendulum": "stepSimulation only, between output points",
+    "chain": "from Python every step (Bullet has no spring between bodies): joint positions read, "
+             "joint forces set, stepSimulation",
+    "other": "from Python every step (Bullet has no spring or drag element): position (and velocity where "
+             "the scene has drag) read, applyExternalForce, stepSimulation",
+}
 
 SCENES = ("spring", "damped_spring", "pendulum", "projectile", "chain")
 UNSUPPORTED = {
@@ -28,6 +45,56 @@ UNSUPPORTED = {
     "rope": "not posed: the rope's engine models are MuJoCo's hinge chain and pymunk's pin joints; a Bullet "
             "revolute chain is the reduced-coordinate model MuJoCo already poses",
 }
+
+
+#: Free steps of the damping probe, and its speeds (linear, angular, joint).
+PROBE_STEPS = 100
+PROBE_DT = 0.01
+
+
+@functools.lru_cache(maxsize=None)
+def applied_damping(p, linear_damping: float = 0.0, angular_damping: float = 0.0) -> dict:
+    """The damping the engine really applies to a multibody set up as the adapter sets its bodies
+    up (``changeDynamics`` linear/angular damping 0): getDynamicsInfo reports -1.0 for both on a
+    multibody, which says nothing. Measured instead, once per process, on a probe in its own
+    client: a free base moving and spinning, and a fixed base with one prismatic link sliding,
+    stepped PROBE_STEPS times with no force and no gravity. Returns, for each, the relative
+    change of the speed per step, (|v_N| / |v_0|)^(1/N) - 1 (0: nothing applied; Bullet's
+    default 0.04 reads -7.8e-4 on the free base and the sliding link at this dt), and the free base's kinetic energy
+    change over the steps. ``linear_damping``/``angular_damping``: what the probe asks for (the
+    adapter's 0 by default)."""
+    cid = p.connect(p.DIRECT)
+    try:
+        p.setPhysicsEngineParameter(fixedTimeStep=PROBE_DT, numSubSteps=0, physicsClientId=cid)
+        p.setGravity(0.0, 0.0, 0.0, physicsClientId=cid)
+        free = dict(linearDamping=linear_damping, angularDamping=angular_damping, maxJointVelocity=math.inf,
+                    activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+        base = p.createMultiBody(1.0, -1, basePosition=[0, 0, 0], physicsClientId=cid)
+        p.changeDynamics(base, -1, physicsClientId=cid, **free)
+        p.resetBaseVelocity(base, [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], physicsClientId=cid)
+        slider = p.createMultiBody(
+            baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 5, 0], linkMasses=[1.0],
+            linkCollisionShapeIndices=[-1], linkVisualShapeIndices=[-1], linkPositions=[[0, 0, 0]],
+            linkOrientations=[[0, 0, 0, 1]], linkInertialFramePositions=[[0, 0, 0]],
+            linkInertialFrameOrientations=[[0, 0, 0, 1]], linkParentIndices=[0], linkJointTypes=[p.JOINT_PRISMATIC],
+            linkJointAxis=[[1, 0, 0]], physicsClientId=cid)
+        p.changeDynamics(slider, 0, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0], physicsClientId=cid,
+                         **free)
+        p.setJointMotorControl2(slider, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
+        p.resetJointState(slider, 0, 0.0, 1.0, physicsClientId=cid)
+        for _ in range(PROBE_STEPS):
+            p.stepSimulation(physicsClientId=cid)
+        lin, ang = p.getBaseVelocity(base, physicsClientId=cid)
+        joint = p.getJointState(slider, 0, physicsClientId=cid)[1]
+
+        def per_step(speed):
+            return float(abs(speed) ** (1.0 / PROBE_STEPS) - 1.0)
+
+        return {"linear": per_step(float(np.linalg.norm(lin))), "angular": per_step(float(np.linalg.norm(ang))),
+                "joint": per_step(joint), "steps": PROBE_STEPS, "dt": PROBE_DT,
+                "kinetic_energy_change": float(np.linalg.norm(lin)) ** 2 / 2 - 0.5}
+    finally:
+        p.disconnect(physicsClientId=cid)
 
 
 class _Model:
@@ -92,8 +159,11 @@ class _Model:
                         float(engine["gravityAccelerationZ"])],
             "mass": float(info[0]),
             "local_inertia_diagonal": [float(x) for x in info[2]],
-            "linearDamping": float(info[8]),
-            "angularDamping": float(info[9]),
+            # getDynamicsInfo reads -1.0 for a multibody's damping: what was asked for is 0; what
+            # the engine applies is measured (applied_damping).
+            "linearDamping_reported": float(info[8]),
+            "angularDamping_reported": float(info[9]),
+            "damping_measured_per_step": applied_damping(p),
             "maxJointVelocity": "inf",
             "sleeping": "disabled",
             "collision_shape": "none",
@@ -102,6 +172,7 @@ class _Model:
                       if scene.id == "chain"
                       else "applied each step at the centre of mass, from the state before the step"),
         }
+        self.settings["engine_loop"] = ENGINE_LOOP.get(scene.id, ENGINE_LOOP["other"])
         if scene.id == "pendulum":
             joint = p.getJointInfo(b, 0, physicsClientId=cid)
             self.settings.update({"joint": "revolute about y", "jointDamping": float(joint[6]),
@@ -118,11 +189,17 @@ class _Model:
     def advance(self) -> None:
         p, cid, b = self.p, self.cid, self.body
         if self.scene_id == "chain":
-            # The scene's force, k (q_{i-1} - 2 q_i + q_{i+1}) with the walls at 0, from the joint positions.
-            q = self._joint_state()[0]
+            # The scene's force, k (q_{i-1} - 2 q_i + q_{i+1}) with the walls at 0, from the joint
+            # positions, and the dashpots' c (v_{i-1} - 2 v_i + v_{i+1}) from the joint velocities.
+            q, v = self._joint_state()
             f = (-2.0 * self.k) * q
             f[1:] += self.k * q[:-1]
             f[:-1] += self.k * q[1:]
+            if self.c != 0.0:
+                g = (-2.0 * self.c) * v
+                g[1:] += self.c * v[:-1]
+                g[:-1] += self.c * v[1:]
+                f = f + g
             p.setJointMotorControlArray(b, self.joints, p.TORQUE_CONTROL, forces=f.tolist(), physicsClientId=cid)
         elif self.scene_id != "pendulum":
             pos = p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]
@@ -134,6 +211,30 @@ class _Model:
                 force = [-self.k * pos[0] - self.c * vel[0], 0.0, 0.0]
             p.applyExternalForce(b, -1, force, pos, p.WORLD_FRAME, physicsClientId=cid)
         p.stepSimulation(physicsClientId=cid)
+
+    def steps(self, n: int) -> None:
+        """n steps, nothing read but what the scene's force needs (module docstring)."""
+        p, cid, b, step = self.p, self.cid, self.body, self.p.stepSimulation
+        if self.scene_id == "pendulum":
+            for _ in range(n):
+                step(physicsClientId=cid)
+        elif self.scene_id in ("spring", "damped_spring") and self.c == 0.0:
+            # advance()'s force with c = 0 (the spring has no drag): -k x - 0 v is -k x.
+            k, base_position, apply, frame = self.k, p.getBasePositionAndOrientation, p.applyExternalForce, p.WORLD_FRAME
+            for _ in range(n):
+                pos = base_position(b, physicsClientId=cid)[0]
+                apply(b, -1, [-k * pos[0], 0.0, 0.0], pos, frame, physicsClientId=cid)
+                step(physicsClientId=cid)
+        else:
+            advance = self.advance
+            for _ in range(n):
+                advance()
+
+    def run(self, marks):
+        return run_by_steps(self, marks)
+
+    def evaluations(self):
+        return None, "Bullet evaluates its forces inside stepSimulation and has no counter or callback for them"
 
     def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
         """As if built at (q, v)."""
@@ -173,7 +274,8 @@ class _Model:
         self.p.disconnect(physicsClientId=self.cid)
 
 
-def build(pybullet, mode: str, scene: Scene, dt: float) -> _Model:
+def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
+    """``count`` changes nothing: Bullet's force evaluations cannot be counted."""
     return _Model(pybullet, scene, dt)
 
 

@@ -46,6 +46,7 @@ def _build(scheme, scene_cls) -> "_Compiled":
     jit = numba.njit(error_model="numpy")
     step, start, observe = _jit(scheme.step), _jit(scheme.start), _jit(scheme.observe)
     accel, solve, project = _jit(scene_cls.accel), _jit(scene_cls.solve), _jit(scene_cls.project)
+    rate = _jit(scene_cls.damping_rate)
 
     # Steps i0 .. i0 + n - 1 of a run started at t0: step i starts at t0 + i h, as in the
     # interpreted driver, so a run cut into pieces is the same run. ``k`` is the one integer a
@@ -62,6 +63,12 @@ def _build(scheme, scene_cls) -> "_Compiled":
         def advance_n(state, t0, h, i0, n, p, k):
             for i in range(i0, i0 + n):
                 state = step(accel, solve, k, state, t0 + i * h, h, p)
+            return state
+    elif scheme.decay:
+        @jit
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, rate, state, t0 + i * h, h, p)
             return state
     else:
         @jit

@@ -1,5 +1,7 @@
 """``harness bench``: ns per step of each reference scheme, compiled, on the single unit
-spring and on a batch of 1000 springs. Targets live here, not in timed unit tests."""
+spring and on a batch of 1000 springs. Targets live here, not in timed unit tests.
+``harness bench --engines``: each engine mode beside a bare loop of its step call
+(:mod:`harness.engine_bench`)."""
 from __future__ import annotations
 
 import json
@@ -23,7 +25,9 @@ UNCONSTRAINED = [sid for sid, s in METHODS.items() if not s.constrained]
 def add_parser(sub):
     p = sub.add_parser("bench", help="ns per step of each reference scheme (compiled)")
     p.add_argument("--json", action="store_true")
-    p.add_argument("--methods", nargs="*", help="scheme ids (default: all)")
+    p.add_argument("--methods", nargs="*", help="scheme ids, or engine mode ids with --engines (default: all)")
+    p.add_argument("--engines", action="store_true",
+                   help="engine modes: the engine's own loop beside a bare loop of its step call")
     return p
 
 
@@ -51,6 +55,8 @@ def measure(scheme_ids=None) -> list[dict]:
 def run(args) -> int:
     from .. import validate
 
+    if args.engines:
+        return _run_engines(args)
     for sid in args.methods or ():
         validate.choice("method", sid, UNCONSTRAINED)
     rows = measure(args.methods)
@@ -65,4 +71,20 @@ def run(args) -> int:
         if "batch_meets_target" in r:
             target += f"; batch <= {BATCH_TARGET_NS:g} ns: {'met' if r['batch_meets_target'] else 'MISSED'}"
         print(f"{r['method']:42s} {r['single_ns_per_step']:17.1f} {r['batch1000_ns_per_spring_step']:28.3f}  {target}")
+    return 0
+
+
+def _run_engines(args) -> int:
+    import adapters
+
+    from .. import engine_bench, validate
+
+    for mid in args.methods or ():
+        validate.choice("method", mid, list(adapters.ENGINE_METHODS))
+    rows = engine_bench.measure(args.methods)
+    if args.json:
+        print(json.dumps(rows, indent=1))
+        return 0
+    for line in engine_bench.lines(rows):
+        print(line)
     return 0
