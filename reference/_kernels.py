@@ -285,7 +285,9 @@ def _key(text: str) -> str:
 
 def _write_once(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` unless a file is already there: to a temporary name in the
-    same directory, then renamed, so a reader never sees half a file."""
+    same directory, then linked to its name, which fails if another process got there first
+    (its file is the same text). A reader never sees half a file, and a file once there is
+    never replaced: numba's cache of it is stamped with its modification time."""
     if path.exists():
         return
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -293,11 +295,15 @@ def _write_once(path: Path, text: str) -> None:
     try:
         with os.fdopen(fd, "w") as f:
             f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            pass
+        except OSError:  # a file system without hard links: rename (the same text if raced)
+            os.replace(tmp, path)
+    finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
-        raise
 
 
 def _import_file(name: str, path: Path):
