@@ -22,6 +22,9 @@ Two loops, both running the unchanged step function:
   in registers (the entry outermost); on a batch the entries run innermost, over contiguous
   memory, so the loop vectorises. The entries are independent, so either order computes
   every entry's float operations in the step's order: the same states as the array path.
+  An implicit step on a linear scene takes one Newton iteration; the file then also holds the
+  step copied for exactly one (``scheme_step_once``: the iteration loop's convergence exit
+  dropped, which a single pass never takes), straight-line code that vectorises.
 * **array** (every other pair): the step on the state's arrays, as the interpreted driver
   runs it; each operation allocates its result.
 
@@ -43,7 +46,7 @@ import tempfile
 import textwrap
 import time
 import types
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -81,7 +84,6 @@ class Stats:
     compile_s: float = 0.0
     loaded: int = 0
     load_s: float = 0.0
-    pairs: list = field(default_factory=list)
 
     def snapshot(self) -> dict:
         return {"kernels_compiled": self.compiled, "compile_s": self.compile_s,
@@ -145,6 +147,7 @@ class _Source:
         self.functions: dict[str, str] = {}
         self.origins: dict[str, str] = {}
         self._copied: dict[str, object] = {}
+        self._trees: dict[str, ast.FunctionDef] = {}
 
     def add(self, fn, name: str, bind: tuple[str, ...] = ()) -> None:
         """Copy ``fn`` as ``name``, with the globals it reads. ``bind`` names the kernels its
@@ -177,6 +180,29 @@ class _Source:
                 raise SourceUnavailable(f"{fn.__qualname__} reads an undefined global {gname}")
             self._global(gname, fn.__globals__[gname], module)
         self.functions[name] = ast.unparse(tree)
+        self._trees[name] = tree
+
+    def add_one_iteration(self, name: str, new_name: str, iterations: str) -> bool:
+        """Copy the already copied ``name`` as ``new_name`` for exactly one iteration: each loop
+        ``for _ in range(<iterations>)`` whose body ends ``if ...: break`` becomes one pass
+        without that exit (a break that ends the last pass changes nothing). Unlike a loop with
+        an exit, straight-line code vectorises over a batch. False if there is no such loop."""
+        tree = ast.parse(self.functions[name]).body[0]
+        found = False
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.For) and isinstance(node.iter, ast.Call)
+                    and getattr(node.iter.func, "id", None) == "range" and len(node.iter.args) == 1
+                    and getattr(node.iter.args[0], "id", None) == iterations and node.body
+                    and isinstance(node.body[-1], ast.If) and not node.body[-1].orelse
+                    and [type(b) for b in node.body[-1].body] == [ast.Break]):
+                node.body = node.body[:-1] or [ast.Pass()]
+                node.iter.args = [ast.Constant(1)]
+                found = True
+        if found:
+            tree.name = new_name
+            self.origins[new_name] = self.origins[name] + ", one iteration"
+            self.functions[new_name] = ast.unparse(ast.fix_missing_locations(tree))
+        return found
 
     def _global(self, name: str, value, module) -> None:
         if isinstance(value, types.ModuleType):
@@ -210,12 +236,12 @@ class _Source:
         return "\n".join(parts + [loop])
 
 
-def _loop_source(kind: str, nstate: int, pointwise: bool) -> str:
+def _loop_source(kind: str, nstate: int, pointwise: bool, once: bool = False) -> str:
     """``advance_n(state, t0, h, i0, n, p, k) -> state``: steps i0 .. i0 + n - 1 of a run
     started at t0 (step i starts at t0 + i h, as in the interpreted driver, so a run cut into
     pieces is the same run). ``k`` is the one integer a scheme takes besides the state: Newton
     iterations allowed (implicit) or projection passes (constrained). The state passed in is
-    not modified."""
+    not modified. ``once``: the file has ``scheme_step_once``, the step for one Newton iteration."""
     extra = "" if kind == "explicit" else "k, "
     call = f"scheme_step({extra}{{x}}, {{t}}, h, p)"
     if not pointwise:
@@ -249,7 +275,13 @@ def _loop_source(kind: str, nstate: int, pointwise: bool) -> str:
     lines = ["@_jit", "def advance_n(state, t0, h, i0, n, p, k):"]
     lines += [f"    {x} = state[{j}].copy()" for j, x in enumerate(s)]
     lines += ["    ndof, nb = s0.shape"]
-    lines += loops(call, "    ")
+    if once:
+        # One Newton iteration (every linear scene: exact) runs the step copied without the
+        # iteration loop's exit, which leaves the batch loop straight-line code that vectorises.
+        lines += ["    if k == 1:", *loops(call.replace("scheme_step(k, ", "scheme_step_once(1, "), "        "),
+                  "    else:", *loops(call, "        ")]
+    else:
+        lines += loops(call, "    ")
     lines += ["    return (" + ", ".join(s) + ",)", ""]
     return "\n".join(lines)
 
@@ -269,9 +301,14 @@ def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
         src.add(scene_cls.solve, "scene_solve")
     if kind == "constrained":
         src.add(scene_cls.project, "scene_project")
+    once = False
+    if kind == "implicit" and pointwise:
+        # The Newton parameter is the step's first after the two kernels.
+        params = src._trees["scheme_step"].args.args
+        once = bool(params) and src.add_one_iteration("scheme_step", "scheme_step_once", params[0].arg)
     header = (f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind}, '
               f'{"pointwise" if pointwise else "array"} loop), generated by reference._kernels."""')
-    return src.text(header, _loop_source(kind, nstate, pointwise)), pointwise
+    return src.text(header, _loop_source(kind, nstate, pointwise, once)), pointwise
 
 
 # ------------------------------------------------------------------ files
@@ -394,10 +431,11 @@ def _in_memory(scheme, scene_cls, why: str) -> Kernels:
 
 def warm(kernels: Kernels, call) -> float:
     """Run ``call()`` (the first call of the pair's kernels, which compiles them or loads them
-    from the cache), account it in ``STATS`` and return its seconds."""
-    t = time.perf_counter()
+    from the cache), account it in ``STATS`` and return its seconds, CPU seconds of this
+    process (numba compiles in this thread; a core shared with other work does not inflate them)."""
+    t = time.process_time()
     call()
-    seconds = time.perf_counter() - t
+    seconds = time.process_time() - t
     misses = sum(sum(d.stats.cache_misses.values()) for d in kernels.dispatchers())
     if kernels.cached and misses == 0:
         STATS.loaded += 1
