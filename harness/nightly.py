@@ -213,7 +213,8 @@ def previous_task_seconds(history: History, suite_name: str) -> dict[str, float]
 
 def timing_summary(cells_by_task: dict[str, list[dict]], stats: dict, wall_cells: float) -> dict:
     """Where the cells' time went: worker seconds by measure, by family, numba compilation
-    (kernels compiled, and kernels loaded from the disk cache instead), per task (wall in the parent, CPU in the worker) and the slowest tasks."""
+    (kernels compiled, and kernels loaded from the disk cache instead), per task (wall in the
+    parent, CPU in the worker) and the slowest tasks."""
     by_measure, by_family = defaultdict(float), defaultdict(float)
     task_s, task_cpu = {}, {}
     kernels = defaultdict(float)  # compiled / loaded from the disk cache, and their seconds

@@ -26,17 +26,15 @@ _DRIVERS: dict[tuple, "_Compiled"] = {}
 
 class _Compiled:
     """The compiled pieces of one pair: ``start``, ``advance_n`` (the loop, called from Python)
-    and ``observe``; ``warmup_s`` is what their first call took (compiling them, or loading
-    them from the disk cache: ``kernels.cached``, ``from_cache``)."""
+    and ``observe``; ``warmup_s`` is the CPU time their first call took (compiling them, or
+    loading them from the disk cache; ``reference._kernels.STATS`` says which)."""
 
     def __init__(self, kernels: _kernels.Kernels, scheme, scene: Scene):
         self.kernels = kernels
         self.advance_n = kernels.advance_n
         q, v = _kernel_layout(scene, None, None)
         h, p, k = 0.01 / scene.omega, scene.pvec, _k(scheme, scene, None)
-        before = _kernels.STATS.loaded
         self.warmup_s = _kernels.warm(kernels, lambda: self.drive(q, v, 0.0, h, 2, p, k))
-        self.from_cache = _kernels.STATS.loaded > before
 
     def first_state(self, q, v, t0, h, p):
         return self.kernels.start(q, v, t0, h, p)

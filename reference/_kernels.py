@@ -4,14 +4,15 @@ For each pair this module writes one Python file: the scheme's ``step``/``start`
 and the scene's ``accel``/``solve``/``project``, copied verbatim from their source files
 (decorators dropped, renamed ``scheme_step``, ``scene_accel``, ...), the module-level
 constants and helper functions they read, and the loop ``advance_n``, every function
-``numba.njit(cache=True)``. The file's name carries a hash of its own text (and of numba's
-and Python's versions), so an edited scheme or scene yields a new file that compiles afresh,
-and a kernel compiled from old source is never loaded: numba's own cache checks only the
-file a function is defined in, never its callees in other files, and refuses functions
-passed as arguments at all. Files live under ``$HARNESS_CACHE`` (default
-``~/.cache/integrator-harness``) in ``kernels/``, numba's cache beside them in
-``__pycache__``; both are written to a temporary name and renamed, so worker processes
-compiling the same pair at once each write a whole file.
+``numba.njit(cache=True)``. The file's name carries a hash of its own text (and of this
+module, numba's and Python's versions), so an edited scheme or scene yields a new file that
+compiles afresh, and a kernel compiled from old source is never loaded: numba's own cache
+checks only the file a function is defined in, never its callees in other files, and caches
+no function that takes or passes a function as an argument (the scheme's kernels become
+globals of the file instead). Files live under ``$HARNESS_CACHE`` (default ``~/.cache/integrator-harness``)
+in ``kernels/``, numba's cache beside them in ``__pycache__``; both are written under a
+temporary name and then put in place, so worker processes compiling the same pair at once
+each see a whole file.
 
 Two loops, both running the unchanged step function:
 
@@ -22,8 +23,8 @@ Two loops, both running the unchanged step function:
   in registers (the entry outermost); on a batch the entries run innermost, over contiguous
   memory, so the loop vectorises. The entries are independent, so either order computes
   every entry's float operations in the step's order: the same states as the array path.
-  An implicit step on a linear scene takes one Newton iteration; the file then also holds the
-  step copied for exactly one (``scheme_step_once``: the iteration loop's convergence exit
+  An implicit step on a linear scene takes one Newton iteration (exact); the file then also
+  holds the step copied for exactly one (``scheme_step_once``: the iteration loop's convergence exit
   dropped, which a single pass never takes), straight-line code that vectorises.
 * **array** (every other pair): the step on the state's arrays, as the interpreted driver
   runs it; each operation allocates its result.
@@ -93,9 +94,15 @@ class Stats:
 STATS = Stats()
 
 
+_OVERLOADS: list = []
+
+
 def _register_overloads() -> None:
     """``largest_magnitude`` inside compiled code: ``abs`` of a float (the pointwise loop),
-    ``max(abs)`` of an array (the array loop), as the interpreted function computes it."""
+    ``max(abs)`` of an array (the array loop), as the interpreted function computes it.
+    Registered before the first kernel compiles, not on import (numba takes ~0.5 s to import)."""
+    if _OVERLOADS:
+        return
     from numba.core import types as nbtypes
     from numba.extending import overload
 
@@ -107,8 +114,7 @@ def _register_overloads() -> None:
             return lambda x: np.max(np.abs(x))
         return None
 
-
-_register_overloads()
+    _OVERLOADS.append(_largest_magnitude)
 
 
 # ------------------------------------------------------------------ source
@@ -228,6 +234,8 @@ class _Source:
         table[name] = line
 
     def text(self, header: str, loop: str) -> str:
+        # error_model="numpy": a division by zero gives inf/nan, as on the interpreted (numpy)
+        # path, instead of raising, and the loops skip the zero checks (~15% of a spring step).
         parts = [header, "import numba", *sorted(set(self.imports.values())), "",
                  '_jit = numba.njit(cache=True, error_model="numpy")', ""]
         parts += sorted(self.constants.values()) + [""]
@@ -313,9 +321,12 @@ def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
 
 # ------------------------------------------------------------------ files
 def _key(text: str) -> str:
+    """Hash of the kernel file's text, of this module (the overloads the text compiles
+    through) and of numba's and Python's versions."""
     import numba
 
     h = hashlib.sha256(text.encode())
+    h.update(Path(__file__).read_bytes())
     h.update(f"numba {numba.__version__} python {sys.version}".encode())
     return h.hexdigest()[:16]
 
@@ -380,6 +391,7 @@ class Kernels:
 def load(scheme, scene_cls, nstate: int) -> Kernels:
     """The kernels of a pair from its kernel file (written first if missing). Not yet
     compiled: the first call compiles, or loads numba's cache of the file."""
+    _register_overloads()
     try:
         text, pointwise = kernel_source(scheme, scene_cls, nstate)
     except SourceUnavailable as exc:
