@@ -109,6 +109,8 @@ class EngineMode:
     ``doc`` says, measured, which scheme the mode is; its first line is the summary.
     ``adaptive``: the engine chooses its own steps and ``dt`` is only the output interval, so
     nothing is measured against dt (observed order, largest stable dt).
+    ``no_match``: for a scene where the mode, measured, integrates no reference scheme, why
+    (one line); ``harness identify`` prints it when nothing matches.
     """
 
     engine: str
@@ -121,6 +123,7 @@ class EngineMode:
     settings: Mapping[str, object]
     doc: str = field(default="", compare=False)
     adaptive: bool = False
+    no_match: Mapping[str, str] = field(default_factory=dict, compare=False)
 
     isolated = True
 

@@ -13,6 +13,7 @@ the pendulum bob is a point mass.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -28,6 +29,56 @@ UNSUPPORTED = {
     "rope": "not posed: the rope's engine models are MuJoCo's hinge chain and pymunk's pin joints; a Bullet "
             "revolute chain is the reduced-coordinate model MuJoCo already poses",
 }
+
+
+#: Free steps of the damping probe, and its speeds (linear, angular, joint).
+PROBE_STEPS = 100
+PROBE_DT = 0.01
+
+
+@functools.lru_cache(maxsize=None)
+def applied_damping(p, linear_damping: float = 0.0, angular_damping: float = 0.0) -> dict:
+    """The damping the engine really applies to a multibody set up as the adapter sets its bodies
+    up (``changeDynamics`` linear/angular damping 0): getDynamicsInfo reports -1.0 for both on a
+    multibody, which says nothing. Measured instead, once per process, on a probe in its own
+    client: a free base moving and spinning, and a fixed base with one prismatic link sliding,
+    stepped PROBE_STEPS times with no force and no gravity. Returns, for each, the relative
+    change of the speed per step, (|v_N| / |v_0|)^(1/N) - 1 (0: nothing applied; Bullet's
+    default 0.04 reads -7.8e-4 on the free base and the sliding link at this dt), and the free base's kinetic energy
+    change over the steps. ``linear_damping``/``angular_damping``: what the probe asks for (the
+    adapter's 0 by default)."""
+    cid = p.connect(p.DIRECT)
+    try:
+        p.setPhysicsEngineParameter(fixedTimeStep=PROBE_DT, numSubSteps=0, physicsClientId=cid)
+        p.setGravity(0.0, 0.0, 0.0, physicsClientId=cid)
+        free = dict(linearDamping=linear_damping, angularDamping=angular_damping, maxJointVelocity=math.inf,
+                    activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+        base = p.createMultiBody(1.0, -1, basePosition=[0, 0, 0], physicsClientId=cid)
+        p.changeDynamics(base, -1, physicsClientId=cid, **free)
+        p.resetBaseVelocity(base, [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], physicsClientId=cid)
+        slider = p.createMultiBody(
+            baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 5, 0], linkMasses=[1.0],
+            linkCollisionShapeIndices=[-1], linkVisualShapeIndices=[-1], linkPositions=[[0, 0, 0]],
+            linkOrientations=[[0, 0, 0, 1]], linkInertialFramePositions=[[0, 0, 0]],
+            linkInertialFrameOrientations=[[0, 0, 0, 1]], linkParentIndices=[0], linkJointTypes=[p.JOINT_PRISMATIC],
+            linkJointAxis=[[1, 0, 0]], physicsClientId=cid)
+        p.changeDynamics(slider, 0, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0], physicsClientId=cid,
+                         **free)
+        p.setJointMotorControl2(slider, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
+        p.resetJointState(slider, 0, 0.0, 1.0, physicsClientId=cid)
+        for _ in range(PROBE_STEPS):
+            p.stepSimulation(physicsClientId=cid)
+        lin, ang = p.getBaseVelocity(base, physicsClientId=cid)
+        joint = p.getJointState(slider, 0, physicsClientId=cid)[1]
+
+        def per_step(speed):
+            return float(abs(speed) ** (1.0 / PROBE_STEPS) - 1.0)
+
+        return {"linear": per_step(float(np.linalg.norm(lin))), "angular": per_step(float(np.linalg.norm(ang))),
+                "joint": per_step(joint), "steps": PROBE_STEPS, "dt": PROBE_DT,
+                "kinetic_energy_change": float(np.linalg.norm(lin)) ** 2 / 2 - 0.5}
+    finally:
+        p.disconnect(physicsClientId=cid)
 
 
 class _Model:
@@ -92,8 +143,11 @@ class _Model:
                         float(engine["gravityAccelerationZ"])],
             "mass": float(info[0]),
             "local_inertia_diagonal": [float(x) for x in info[2]],
-            "linearDamping": float(info[8]),
-            "angularDamping": float(info[9]),
+            # getDynamicsInfo reads -1.0 for a multibody's damping: what was asked for is 0; what
+            # the engine applies is measured (applied_damping).
+            "linearDamping_reported": float(info[8]),
+            "angularDamping_reported": float(info[9]),
+            "damping_measured_per_step": applied_damping(p),
             "maxJointVelocity": "inf",
             "sleeping": "disabled",
             "collision_shape": "none",
@@ -118,11 +172,17 @@ class _Model:
     def advance(self) -> None:
         p, cid, b = self.p, self.cid, self.body
         if self.scene_id == "chain":
-            # The scene's force, k (q_{i-1} - 2 q_i + q_{i+1}) with the walls at 0, from the joint positions.
-            q = self._joint_state()[0]
+            # The scene's force, k (q_{i-1} - 2 q_i + q_{i+1}) with the walls at 0, from the joint
+            # positions, and the dashpots' c (v_{i-1} - 2 v_i + v_{i+1}) from the joint velocities.
+            q, v = self._joint_state()
             f = (-2.0 * self.k) * q
             f[1:] += self.k * q[:-1]
             f[:-1] += self.k * q[1:]
+            if self.c != 0.0:
+                g = (-2.0 * self.c) * v
+                g[1:] += self.c * v[:-1]
+                g[:-1] += self.c * v[1:]
+                f = f + g
             p.setJointMotorControlArray(b, self.joints, p.TORQUE_CONTROL, forces=f.tolist(), physicsClientId=cid)
         elif self.scene_id != "pendulum":
             pos = p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]

@@ -6,8 +6,14 @@
   function reads its neighbours' positions, all already moved.
 * ``pymunk:applied_force`` - the force set on ``body.force`` before each ``space.step``, the way
   many users write it: the force sees the old position, so this is explicit Euler.
-* ``pymunk:damped_spring`` - the chain with Chipmunk's own spring constraint: a ``DampedSpring``
-  (damping 0) between neighbours and from each end body to a static wall.
+* ``pymunk:damped_spring`` - Chipmunk's own spring constraint, ``DampedSpring``: on the chain
+  between neighbours and from each end body to a static wall (damping 0), on the damped spring
+  from a static wall to the body with the scene's damping c, which Chipmunk applies as an exact
+  decay e^{-c h/m} of the velocity after the spring's kick.
+* ``pymunk:space_damping`` - the damping (the damped spring's dashpot, the projectile's drag)
+  as Chipmunk's global ``space.damping`` = e^{-c/m} (the velocity fraction kept per second),
+  the rest of the force in ``body.velocity_func``: Chipmunk decays the old velocity by
+  ``damping^h`` and then adds the kick, an exact decay before a position-first kick.
 * ``pymunk:pin_joint`` - the pendulum and the rope as users build them: ``PinJoint``s (from a
   static pivot to the first body, then between neighbours) with the joints' default error
   correction (which bleeds energy) and gravity.
@@ -43,12 +49,20 @@ _JOINT_UNSUPPORTED = {
 _SPRING_UNSUPPORTED = {
     "spring": "not posed: a DampedSpring to a static body integrates the 1-DOF spring as pymunk:spring_force "
               "does (position-first semi-implicit Euler, 5e-14 in ENGINES.md); Chipmunk's springs link bodies "
-              "on the chain",
-    "damped_spring": "not posed: as on the spring, see pymunk:spring_force",
+              "on the chain, and damp on the damped spring",
     "pendulum": "a pendulum in Chipmunk is a joint: see pymunk:pin_joint",
     "rope": "a rope in Chipmunk is pin joints: see pymunk:pin_joint",
     "projectile": "no spring in the projectile: see pymunk:applied_force",
     "kepler": "no spring in the Kepler problem",
+}
+
+_SPACE_DAMPING_SCENES = ("damped_spring", "projectile")
+_SPACE_DAMPING_UNSUPPORTED = {
+    "spring": "no damping to give space.damping: see pymunk:spring_force",
+    "chain": "the chain's damping acts between neighbours; space.damping damps each body against the world",
+    "pendulum": "no damping in the pendulum",
+    "rope": "no damping in the rope",
+    "kepler": "no damping in the Kepler problem",
 }
 
 #: Spacing of the damped_spring chain's bodies (and every spring's rest length), in units of
@@ -86,11 +100,29 @@ class _Model:
             self.constraints = [self.joint]
             self.theta = theta
         else:
-            body.position = (float(q0[0]), float(q0[1]) if scene.ndof == 2 else 0.0)
+            # The DampedSpring acts along the line from its wall: the body sits SPRING_SPACING
+            # from the wall, its displacement measured from there (as on the chain).
+            self.offset = np.array([SPRING_SPACING * max(abs(values["x0"]), 1.0)]) if mode == "damped_spring" \
+                else np.zeros(1)
+            body.position = (float(self.offset[0] + q0[0]), float(q0[1]) if scene.ndof == 2 else 0.0)
             body.velocity = (float(v0[0]), float(v0[1]) if scene.ndof == 2 else 0.0)
             space.add(body)
         k, c = values.get("k", 0.0), values.get("c", 0.0)
-        if mode == "spring_force":
+        if mode == "damped_spring":
+            rest = float(self.offset[0])
+            self.constraints = [pymunk.DampedSpring(space.static_body, body, (0.0, 0.0), (0.0, 0.0), rest, k, c)]
+            space.add(*self.constraints)
+        elif mode == "space_damping":
+            # Chipmunk keeps space.damping^h of the velocity each step: e^{-(c/m) h}.
+            space.damping = math.exp(-c / values["m"])
+            update_velocity = pymunk.Body.update_velocity
+
+            def velocity_func(b, gravity, damping, h):
+                b.force = (-k * b.position.x, -k * b.position.y)
+                update_velocity(b, gravity, damping, h)
+
+            body.velocity_func = velocity_func
+        elif mode == "spring_force":
             update_velocity = pymunk.Body.update_velocity
 
             def velocity_func(b, gravity, damping, h):
@@ -106,6 +138,11 @@ class _Model:
 
             self.apply_before_step = apply_before_step
         self._record_settings(mode)
+        if mode == "damped_spring":
+            spring = self.constraints[0]
+            self.settings.update({"spring": "DampedSpring from a static wall to the body",
+                                  "rest_length": spring.rest_length,
+                                  "stiffness": spring.stiffness, "spring_damping": spring.damping})
         if self.joint is not None:
             self.settings["joint"] = "PinJoint, static pivot at the origin to the bob's centre"
             self.settings.update(_joint_settings([self.joint]))
@@ -121,6 +158,7 @@ class _Model:
             "force": {"spring_force": "set in body.velocity_func (sees the new positions)",
                       "applied_force": "set on body.force before each space.step (sees the old positions)",
                       "damped_spring": "none: DampedSpring constraints",
+                      "space_damping": "spring in body.velocity_func; damping as space.damping",
                       "pin_joint": "none: gravity and the pin joints"}[mode],
         }
         if len(self.bodies) == 1:
@@ -144,20 +182,29 @@ class _Model:
                 b.position = (float(self.offset[i] + q0[i]), 0.0)
                 b.velocity = (float(v0[i]), 0.0)
         space.add(*bodies)
-        k = values.get("k", 0.0)
+        k, c = values.get("k", 0.0), values.get("c", 0.0)
         if mode == "pin_joint":
             anchors = [space.static_body] + bodies
             self.constraints = [pymunk.PinJoint(a, b, (0.0, 0.0), (0.0, 0.0)) for a, b in zip(anchors, bodies)]
         elif mode == "damped_spring":
             rest = SPRING_SPACING * max(abs(values["x0"]), 1.0)
             wall = space.static_body
-            self.constraints = [pymunk.DampedSpring(wall, bodies[0], (0.0, 0.0), (0.0, 0.0), rest, k, 0.0)]
-            self.constraints += [pymunk.DampedSpring(a, b, (0.0, 0.0), (0.0, 0.0), rest, k, 0.0)
+            self.constraints = [pymunk.DampedSpring(wall, bodies[0], (0.0, 0.0), (0.0, 0.0), rest, k, c)]
+            self.constraints += [pymunk.DampedSpring(a, b, (0.0, 0.0), (0.0, 0.0), rest, k, c)
                                  for a, b in zip(bodies[:-1], bodies[1:])]
             self.constraints.append(pymunk.DampedSpring(bodies[-1], wall, (0.0, 0.0), ((n + 1) * rest, 0.0),
-                                                        rest, k, 0.0))
+                                                        rest, k, c))
         elif mode == "spring_force":
             update_velocity = pymunk.Body.update_velocity
+            # The dashpots read the velocities from before the step: the bodies' velocity_funcs run
+            # one after another, and a neighbour's would otherwise already be updated.
+            old_v = np.zeros(n)
+
+            def snapshot_velocities():
+                old_v[:] = [b.velocity.x for b in bodies]
+
+            if c != 0.0:
+                self.apply_before_step = snapshot_velocities
 
             def velocity_func_for(i):
                 left = bodies[i - 1] if i > 0 else None
@@ -170,6 +217,13 @@ class _Model:
                         f += k * left.position.x
                     if right is not None:
                         f += k * right.position.x
+                    if c != 0.0:
+                        d = (-2.0 * c) * old_v[i]
+                        if i > 0:
+                            d += c * old_v[i - 1]
+                        if i < n - 1:
+                            d += c * old_v[i + 1]
+                        f += d
                     b.force = (f, 0.0)
                     update_velocity(b, gravity, damping, h)
 
@@ -183,6 +237,12 @@ class _Model:
                 f = (-2.0 * k) * x
                 f[1:] += k * x[:-1]
                 f[:-1] += k * x[1:]
+                if c != 0.0:
+                    v = np.array([b.velocity.x for b in bodies])
+                    g = (-2.0 * c) * v
+                    g[1:] += c * v[:-1]
+                    g[:-1] += c * v[1:]
+                    f = f + g
                 for b, fi in zip(bodies, f):
                     b.force = (float(fi), 0.0)
 
@@ -217,7 +277,7 @@ class _Model:
             self.theta = theta
         else:
             two = len(q) == 2
-            self.body.position = (float(q[0]), float(q[1]) if two else 0.0)
+            self.body.position = (float(self.offset[0] + q[0]), float(q[1]) if two else 0.0)
             self.body.velocity = (float(v[0]), float(v[1]) if two else 0.0)
         for b in self.bodies:
             b.force = (0.0, 0.0)
@@ -242,7 +302,7 @@ class _Model:
             return np.array([self.theta]), np.array([(x * vy - y * vx) / (x * x + y * y)])
         if self.scene_id == "projectile":
             return np.array([x, y]), np.array([vx, vy])
-        return np.array([x]), np.array([vx])
+        return np.array([x - self.offset[0]]), np.array([vx])
 
     def trouble(self) -> str | None:
         return None
@@ -271,9 +331,9 @@ def build(pymunk, mode: str, scene: Scene, dt: float) -> _Model:
     return _Model(pymunk, mode, scene, dt)
 
 
-def _mode(mode: str, scenes, unsupported, doc: str, settings: dict) -> EngineMode:
+def _mode(mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None) -> EngineMode:
     return EngineMode(engine="pymunk", mode=mode, module="pymunk", dist="pymunk", build=build,
-                      scenes=scenes, unsupported=unsupported, doc=doc,
+                      scenes=scenes, unsupported=unsupported, doc=doc, no_match=no_match or {},
                       settings={"damping": 1, "sleeping": "disabled", "moment": "inf", "shapes": 0, **settings})
 
 
@@ -287,14 +347,23 @@ METHODS = {m.id: m for m in (
           Measured: equals ref:explicit_euler bitwise on the spring and the chain: energy x(1 + h^2) per
           step on the spring, unstable at every dt on the chain.""",
           {"force": "body.force before each step"}),
-    _mode("damped_spring", ("chain",), _SPRING_UNSUPPORTED,
-          """position-first semi-implicit Euler (Chipmunk's DampedSpring constraints, damping 0)
+    _mode("damped_spring", ("damped_spring", "chain"), _SPRING_UNSUPPORTED,
+          """position-first semi-implicit Euler, damping as an exact decay after the kick (Chipmunk's DampedSpring)
           Measured: equals ref:semi_implicit_euler_position_first on the chain to roundoff of the
-          bodies' spaced positions (9e-11 absolute on velocities of ~120 over 1000 steps).""",
+          bodies' spaced positions (9e-11 absolute on velocities of ~120 over 1000 steps), and
+          ref:position_first_euler_decay_after_kick on the damped spring (1e-14).""",
           {"spring": "DampedSpring, damping 0, between neighbours and to static walls",
-           "spacing": f"{SPRING_SPACING:g} max(|x0|, 1)"}),
+           "spacing": f"{SPRING_SPACING:g} max(|x0|, 1)"},
+          {"chain": "with damping, Chipmunk's impulse solver decays each spring's relative velocity in turn, "
+                    "one spring after another: no one-step formula of the whole chain's damping"}),
+    _mode("space_damping", _SPACE_DAMPING_SCENES, _SPACE_DAMPING_UNSUPPORTED,
+          """position-first semi-implicit Euler, damping as an exact decay before the kick (Chipmunk's space.damping)
+          Measured: equals ref:position_first_euler_decay_before_kick on the damped spring and the
+          projectile to roundoff (space.damping^h is e^{-c h/m} to a few ulps).""",
+          {"damping": "e^(-c/m) (space.damping)", "force": "body.velocity_func (spring); gravity"}),
     _mode("pin_joint", ("pendulum", "rope"), _JOINT_UNSUPPORTED,
           """pendulum and rope on PinJoints with Chipmunk's default error correction (loses energy)
           Measured: no reference scheme; the joints' bias correction bleeds energy.""",
-          {"joint": "PinJoint, default error_bias and max_bias"}),
+          {"joint": "PinJoint, default error_bias and max_bias"},
+          {"pendulum": "the pin joint's error correction (error_bias, max_bias) moves the bob between steps"}),
 )}

@@ -40,12 +40,13 @@ def step(method, scene: Scene, dt: float, steps: int, every: int = 1, timeout: f
     return simulate(method, scene, float(dt), int(steps), int(every), timeout=timeout)
 
 
-def declared_order(method) -> int | None:
-    """The order a method declares (a reference scheme's ``order``, or ``order`` in an engine
-    mode's ``describe()``), or None."""
+def declared_order(method, scene: Scene | None = None) -> int | None:
+    """The order a method declares (a reference scheme's ``order``, or on a ``scene`` whose force
+    depends on the velocity its ``order_velocity_dependent``; ``order`` in an engine mode's
+    ``describe()``), or None."""
     scheme = getattr(method, "scheme", None)
     if scheme is not None:
-        return int(scheme.order)
+        return int(scheme.order_for(scene is not None and scene.velocity_dependent))
     order = method.describe().get("order")
     return int(order) if isinstance(order, (int, float)) and not isinstance(order, bool) else None
 

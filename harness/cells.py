@@ -73,11 +73,17 @@ def measures_for(task) -> list[str]:
     return out + scene_measures(task, suite.scenes[task.scene])
 
 
-def _claims(method) -> dict:
+def _claims(method, scene=None) -> dict:
+    """The textbook claims a method's cells are judged by; the order is the one declared for
+    the scene (a lower one where its force depends on the velocity, with a note saying so)."""
     scheme = getattr(method, "scheme", None)
     if scheme is None:
         return {}
-    return {"order": scheme.order, "force_evals": scheme.force_evals,
+    velocity = scene is not None and scene.velocity_dependent
+    order = scheme.order_for(velocity)
+    note = {"order_note": f"{order} with a velocity-dependent force ({scheme.order} otherwise)"} \
+        if order != scheme.order else {}
+    return {"order": order, **note, "force_evals": scheme.force_evals,
             "force_evals_text": f"{scheme.force_evals} + solve" if scheme.implicit else str(scheme.force_evals),
             "energy": scheme.energy_claim, "homega_max": scheme.homega_max, "scheme": f"ref:{scheme.id}"}
 
@@ -111,7 +117,7 @@ def run_task(task) -> list[dict]:
     dt = nominal_dt(spec, scene)
     # Long runs of reference schemes on the compiled path (same states); counting stays interpreted.
     run_method = method.compiled_twin() if spec.compiled and hasattr(method, "compiled_twin") else method
-    claims = _claims(method)
+    claims = _claims(method, scene)
     cells = []
 
     def keep(*new):
@@ -134,7 +140,7 @@ def run_task(task) -> list[dict]:
         keep(_guard(task, "stability", lambda: _stability(task, run_method, scene, suite, spec)))
     from .scene_cells import scene_cells
 
-    keep(*scene_cells(task, method, scene, dt, spec, suite))
+    keep(*scene_cells(task, method, scene, dt, spec, suite, claims))
     return cells
 
 
@@ -195,7 +201,7 @@ def energy_run(scene, dt, spec, suite) -> tuple[int, int]:
 
 
 def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
-    from .energy import classify, relative_error_defined, relative_error_series
+    from .energy import classify, escaped_states, relative_error_defined, relative_error_series
     from .error import trajectory_error
     from .runner import simulate
 
@@ -207,7 +213,8 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
         return [_cell(task, m, traj.status, dt=dt, steps=steps, detail=traj.detail, data=dict(settings))
                 for m in ("energy", "error")]
     e_exact, rel = relative_error_series(traj, scene)
-    cls = classify(traj.energy[:, 0], e_exact, traj.t, unstable=traj.status == "unstable")
+    cls = classify(traj.energy[:, 0], e_exact, traj.t, unstable=traj.status == "unstable",
+                   escaped=escaped_states(scene, traj))
     idx = _downsample(len(traj.t), suite.series_points)
     series = {"t": traj.t[idx], "energy": traj.energy[idx, 0], "exact": e_exact[idx]}
     # A falling projectile's exact energy crosses zero: there max |dE/E| is a number without
@@ -292,7 +299,7 @@ def _identity(task, method, scene) -> dict:
     if match and match.startswith("ref:"):
         from .methods import RefMethod
 
-        match_claims = _claims(RefMethod(METHODS[match[4:]]))
+        match_claims = _claims(RefMethod(METHODS[match[4:]]), scene)
     if res.get("status") not in ("ok", "unstable"):
         return _cell(task, "identity", res.get("status"), detail=res.get("detail"))
     runner = res.get("runner_up") or {}
@@ -301,6 +308,8 @@ def _identity(task, method, scene) -> dict:
     if match is None and closest:
         note = (f"matches no reference scheme; closest `{closest.get('method')}` "
                 f"(max deviation {closest.get('max_deviation', float('nan')):.2e})")
+        if res.get("why_no_match"):
+            note += f": {res['why_no_match']}"
     return _cell(task, "identity", "ok", _finite(res.get("max_deviation") if match else closest.get("max_deviation")),
                  res.get("dt"), res.get("steps"),
                  data={"match": match, "matches": list(res.get("matches") or []), "closest": closest.get("method"),

@@ -12,7 +12,7 @@ import sys
 from scenarios import InvalidInput
 
 COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision",
-            "nightly", "compare", "bounds"]
+            "nightly", "compare", "history", "bounds"]
 
 
 class _Parser(argparse.ArgumentParser):

@@ -22,7 +22,10 @@ Cells are matched on (scene, method, measure, dt). A regression is, in run B aga
   a slowdown is flagged from 1.5x on, gross changes (a kernel no longer compiled, a step
   doing twice the work), not noise.
 
-Only runs of the same suite and measurement version are compared.
+Only runs of the same suite and measurement version are compared. Once three complete runs of
+the suite exist, the default comparison judges cost over the whole history instead of the last
+two runs (``harness.history``): a drift of a few percent a night adds up past the noise there,
+and one noisy night is not a step.
 """
 from __future__ import annotations
 
@@ -135,16 +138,20 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
 
 
 def compare_runs(history: History, run_a: int | None = None, run_b: int | None = None,
-                 bounds_path=bounds_mod.DEFAULT_PATH) -> tuple[int | None, int, list[Regression]]:
+                 bounds_path=bounds_mod.DEFAULT_PATH, trend=None) -> tuple[int | None, int, list[Regression]]:
     """Regressions of ``run_b`` (default: the latest complete run) against ``run_a`` (default: the
     complete run before it of the same suite and measurement version). With no earlier run, only the
-    bounds are checked."""
+    bounds are checked. Against the default run, once ``history.MIN_RUNS`` runs of the suite exist,
+    cost is judged over the history (``harness.history``, its step detection; ``trend`` is that
+    history if already loaded) instead of by the slowdown rule above, for every cost cell with
+    that many measured points."""
     if run_b is None:
         runs = history.runs()
         if runs.empty:
             raise InvalidInput(f"no complete run stored in {history.path}")
         run_b = int(runs.run_id.iloc[-1])
     info_b = history.run(run_b)
+    explicit_pair = run_a is not None
     if run_a is None:
         run_a = history.previous_complete(run_b)
     else:
@@ -159,7 +166,19 @@ def compare_runs(history: History, run_a: int | None = None, run_b: int | None =
     cells_b = history.cells(run_b)
     if run_a is None:
         return None, run_b, bound_violations(cells_b, bounds)
-    return run_a, run_b, compare_cells(history.cells(run_a), cells_b, bounds)
+    regressions = compare_cells(history.cells(run_a), cells_b, bounds)
+    if explicit_pair:
+        return run_a, run_b, regressions
+    if trend is None:
+        from . import history as history_mod
+
+        trend = history_mod.load(history, run_id=run_b,
+                                 measurement_version=int(info_b["measurement_version"]))
+    if trend.judged:
+        regressions = [r for r in regressions if not (r.kind == "slowdown" and trend.judges(
+            _key({"scene": r.scene, "method": r.method, "measure": r.measure, "dt": r.dt})))]
+        regressions += trend.regressions()
+    return run_a, run_b, regressions
 
 
 def regression_lines(regressions: list[Regression]) -> list[str]:

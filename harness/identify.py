@@ -7,7 +7,9 @@ state component seen. Different schemes of the same order differ by a power of d
 state (1e-4 and up at the default ~100 steps per period), roundoff by 1e-16 per operation,
 so the gap between a match and the runner-up is many orders of magnitude; both are reported.
 Several schemes can match when a scene cannot tell them apart (on a force that depends on
-the velocity only, position-first Euler and explicit Euler are the same update).
+the velocity only, position-first Euler and explicit Euler are the same update). A scheme that
+differs from another only in how it treats velocity-dependent forces
+(``Scheme.same_without_velocity``) is not a candidate on a scene without them.
 """
 from __future__ import annotations
 
@@ -66,12 +68,17 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     for mid, ref in all_methods().items():
         if getattr(ref, "family", None) != "ref" or mid == method.id or not ref.supports(scene)[0]:
             continue
+        if not scene.velocity_dependent and getattr(ref.scheme, "same_without_velocity", None):
+            continue  # here it is another scheme, update for update: that one is the candidate
         traj = ref.simulate(scene, dt, steps, 1)
         dev = max_deviation(run, traj)
         candidates.append({"method": mid, "max_deviation": dev, "status": traj.status,
                            "matches": dev <= tolerance})
     candidates.sort(key=lambda c: c["max_deviation"])
     matches = [c["method"] for c in candidates if c["matches"]]
+    if not matches:
+        # What the engine mode itself records, measured, about why nothing can match here.
+        out["why_no_match"] = dict(getattr(method, "no_match", None) or {}).get(scene.id)
     best = candidates[0] if candidates else None
     # The runner-up is the closest scheme that is not the answer: the first non-match after
     # a match, the second-closest when nothing matches.
@@ -99,6 +106,8 @@ def format_report(result: dict) -> str:
         best = result["candidates"][0] if result["candidates"] else None
         closest = f"; closest {best['method']} at max |diff| = {best['max_deviation']:.3g}" if best else ""
         lines.append(f"  matches no reference scheme within {result['tolerance']:.3g}{closest}")
+        if result.get("why_no_match"):
+            lines.append(f"  why: {result['why_no_match']}")
     if result["runner_up"] is not None:
         lines.append(f"  runner-up {result['runner_up']['method']}: max |diff| = "
                      f"{result['runner_up']['max_deviation']:.3g}")

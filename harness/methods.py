@@ -47,6 +47,9 @@ class RefMethod:
         if scene.constrained and not self.scheme.constrained:
             return False, (f"scene {scene.id} is held together by constraints that only a constrained "
                            f"scheme enforces (ref:verlet_constrained); here its particles would fall freely")
+        if self.scheme.decay and not scene.has_damping_rate:
+            return False, (f"scene {scene.id} has no single linear damping rate for {self.id} to decay "
+                           "(it needs a(x, v) = a(x, 0) - gamma v with one rate gamma)")
         if self.scheme.implicit and type(scene).solve is no_solve:
             return False, f"scene {scene.id} provides no implicit solve"
         return True, ""

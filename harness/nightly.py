@@ -4,8 +4,9 @@ Flow: build the tasks (one per scene x method that supports it, plus one per rev
 energy bound), longest first by the previous run's timings; run each in a reused, isolated
 worker process (a crash, hang or blow-up becomes a recorded cell, and the cells measured
 before a crash or hang are kept); store every cell as it arrives; compare with the previous
-complete run of the suite; write the report atomically, with where the time went in its
-footer; and only then mark the run complete.
+complete run of the suite, judging cost over the suite's history (``harness.history``); write
+the report atomically, with the history and where the time went; and only then mark the run
+complete.
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ from scenarios import SCENES, make_scene
 
 from . import bounds as bounds_mod
 from .compare import compare_runs
+from .history import load as load_trend
 from .methods import active_plugins, all_methods, load_plugins
 from .storage import MEASUREMENT_VERSION, History
 from .suites import SUITES, Suite
@@ -277,14 +279,15 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     finally:
         executor.close()
     t_cells = time.perf_counter() - t_cells
-    run_a, _, regressions = compare_runs(history, None, run_id, bounds_path)
+    trend = load_trend(history, run_id=run_id)  # the suite's history, judged at this run
+    run_a, _, regressions = compare_runs(history, None, run_id, bounds_path, trend=trend)
     timing = {"tasks": len(tasks), "executor": executor.describe(), "jobs": getattr(executor, "jobs", None),
               "cpus": os.cpu_count(), "workers_started": getattr(executor, "workers_started", None),
               **timing_summary(cells_by_task, getattr(executor, "task_stats", {}), t_cells)}
     timing["total_s"] = time.perf_counter() - t_start  # up to the report: what its footer can say
     timing["main_cpu_s"] = time.process_time() - cpu_start
     t_report = time.perf_counter()
-    report = write_report(history, run_id, out, regressions=regressions, previous=run_a, timing=timing)
+    report = write_report(history, run_id, out, regressions=regressions, previous=run_a, timing=timing, trend=trend)
     timing["report_s"] = time.perf_counter() - t_report
     timing["finished_s"] = time.perf_counter() - t_start
     history.finish_run(run_id, finished=now(), wall_s=timing["finished_s"], timing=timing,

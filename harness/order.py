@@ -62,6 +62,9 @@ def choose_timesteps(method, scene: Scene, *, points: int = 8, span: float = 8.0
                      order: int | None = None, timeout: float | None = None) -> dict:
     """The dt sweep by the rule in the module docstring, with the pilot runs that chose it."""
     method = resolve(method, scene)
+    # The sweep is chosen by the scheme's order for position-only forces (a lower order declared
+    # for velocity-dependent ones only judges the result): the timesteps stay those of every
+    # stored run.
     declared = declared_order(method)
     p = order or declared or 2
     source = "given" if order else "declared" if declared else "none declared: assumed 2"
@@ -124,7 +127,7 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
             point["reason"] = f"roundoff floor: error {err:.3g} <= {floor:.3g}"
         (excluded if "reason" in point else used).append(point)
     out = {"scene": scene.id, "params": dict(scene.values), "method": method.id,
-           "order_declared": declared_order(method), "horizon": horizon, "periods": periods,
+           "order_declared": declared_order(method, scene), "horizon": horizon, "periods": periods,
            "points": used, "excluded": excluded, "order": None, "stderr": None, "rvalue": None}
     if choice:
         out["range"] = {k: v for k, v in choice.items() if k != "dts"}

@@ -10,6 +10,11 @@
   grow there is a measured result (``data["stable"]`` False, the run's own status in
   ``data["run_status"]``), not a failed cell; the status is ``crashed`` / ``timed_out`` only
   when the measurement itself did not finish.
+* ``stability_vs_damping`` (scenes whose suite entry lists it: the damped spring; every
+  method): ``harness.stability_damping`` over ``extras["stability_vs_damping"]["zetas"]``, each
+  limit beside the theory of the method's own scheme, or for an engine mode of the scheme it
+  was identified as (the task's claims). Value: the number of damping ratios whose measured
+  limit agrees with that theory; a reference scheme's cell also carries its theory curve.
 * ``scaling`` (the chain, ``ref:implicit_euler``; ``extras["scaling"]``): compiled cost per
   step at each N of ``ns`` (``harness.scaling``). Value: the log-log slope.
 """
@@ -27,17 +32,20 @@ def measures_for(task, spec) -> list[str]:
         out.append("constraint")
     if "damping" in spec.extras:
         out.append("damping")
+    if "stability_vs_damping" in spec.extras:
+        out.append("stability_vs_damping")
     scaling = spec.extras.get("scaling")
     if scaling is not None and task.method in scaling.get("methods", SCALING_METHODS):
         out.append("scaling")
     return out
 
 
-def scene_cells(task, method, scene, dt, spec, suite) -> list[dict]:
+def scene_cells(task, method, scene, dt, spec, suite, claims=None) -> list[dict]:
     from .cells import _guard
 
     builders = {"constraint": lambda: _constraint(task, method, scene, dt, spec, suite),
                 "damping": lambda: _damping(task, method, scene, spec, suite),
+                "stability_vs_damping": lambda: _stability_vs_damping(task, method, spec, claims or {}),
                 "scaling": lambda: _scaling(task, spec)}
     return [_guard(task, m, builders[m]) for m in measures_for(task, spec)]
 
@@ -79,6 +87,23 @@ def _damping(task, method, scene, spec, suite) -> dict:
     data["run_status"] = res["status"]
     return _cell(task, "damping", status, _finite(res.get("energy_kept_one_step")), res["dt"], res["steps"], detail,
                  _plain(data))
+
+
+def _stability_vs_damping(task, method, spec, claims) -> dict:
+    from .cells import _cell, _plain
+    from .stability_damping import ZETAS, CURVE_ZETAS, limit_vs_damping, theory_curve
+
+    zetas = tuple(spec.extras["stability_vs_damping"].get("zetas", ZETAS))
+    scheme = claims.get("scheme")
+    res = limit_vs_damping(method, zetas, scheme=scheme)
+    data = {"scheme": res["scheme"], "rows": res["rows"], "tolerance": res["tolerance"],
+            "judged_by": "own scheme" if task.family == "ref" else "identified scheme"}
+    if task.family == "ref" and res["scheme"]:
+        data["theory_curve"] = {"zeta": list(CURVE_ZETAS), "homega_max": theory_curve(res["scheme"][4:])}
+    agreeing = sum(1 for r in res["rows"] if r["agrees"])
+    detail = "" if res["scheme"] else "no scheme identified: measured only"
+    return _cell(task, "stability_vs_damping", "ok", float(agreeing) if res["scheme"] else None, detail=detail,
+                 data=_plain(data))
 
 
 def _scaling(task, spec) -> dict:

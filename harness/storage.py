@@ -62,6 +62,14 @@ CREATE TABLE IF NOT EXISTS cells (
 CREATE INDEX IF NOT EXISTS cells_run ON cells(run_id);
 """
 
+#: The columns this code reads: a database whose tables lack any (an older schema) is refused.
+REQUIRED_COLUMNS = {
+    "runs": ("run_id", "started", "finished", "complete", "suite", "measurement_version", "git_commit", "versions",
+             "machine", "settings", "wall_s", "timing", "regressions"),
+    "cells": ("run_id", "scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value",
+              "wall_s", "data"),
+}
+
 CELL_COLUMNS = ["scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value", "wall_s", "data"]
 
 
@@ -98,6 +106,15 @@ class History:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         with closing(self._connect()) as con, con:
             con.executescript(SCHEMA)
+            missing = {table: sorted(set(cols) - {r[1] for r in con.execute(f"PRAGMA table_info({table})")})
+                       for table, cols in REQUIRED_COLUMNS.items()}
+        missing = {t: cols for t, cols in missing.items() if cols}
+        if missing:
+            from scenarios import InvalidInput
+
+            lacks = "; ".join(f"{t} lacks {', '.join(cols)}" for t, cols in missing.items())
+            raise InvalidInput(f"{self.path} was written by an older harness ({lacks}): not read, never mixed "
+                               f"with new runs; start a new history with --db")
 
     def _connect(self) -> sqlite3.Connection:
         con = sqlite3.connect(self.path, timeout=30)
@@ -158,6 +175,23 @@ class History:
         with closing(self._connect()) as con:
             df = pd.read_sql_query("SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt",
                                    con, params=(run_id,))
+        df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
+        df["data"] = df["data"].astype(object).map(json.loads)
+        return df
+
+    def cells_of_runs(self, run_ids, measures, data_of=()) -> pd.DataFrame:
+        """The cells of several runs at once, of the given measures only; ``data`` decoded for the
+        measures in ``data_of``, empty for the rest (an energy cell's series is most of its bytes)."""
+        run_ids, measures, data_of = [int(r) for r in run_ids], list(measures), list(data_of) or [""]
+        if not run_ids or not measures:
+            return pd.DataFrame(columns=["run_id", *CELL_COLUMNS])
+        marks = lambda xs: ", ".join("?" for _ in xs)  # noqa: E731
+        columns = ", ".join(c for c in ("run_id", *CELL_COLUMNS) if c != "data")
+        q = (f"SELECT {columns}, CASE WHEN measure IN ({marks(data_of)}) THEN data ELSE '{{}}' END AS data "
+             f"FROM cells WHERE run_id IN ({marks(run_ids)}) AND measure IN ({marks(measures)}) "
+             f"ORDER BY run_id, scene, method, measure, dt")
+        with closing(self._connect()) as con:
+            df = pd.read_sql_query(q, con, params=(*data_of, *run_ids, *measures))
         df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
         df["data"] = df["data"].astype(object).map(json.loads)
         return df

@@ -15,6 +15,7 @@ k, m) -> state`` and ``observe(state, h, k, m) -> (x, v)`` where the scheme carr
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numba
@@ -116,6 +117,30 @@ def implicit_midpoint(s, h, k, m):
     return (x + h * (0.5 * (v + w)), w)
 
 
+@_jit
+def semi_implicit_euler_velocity_implicit(s, h, k, m):
+    # The spring's force does not depend on v: the implicit velocity solve divides by 1, and
+    # the step is semi-implicit Euler's.
+    x, v = s
+    v = v + h * (-k * x / m)
+    return (x + h * v, v)
+
+
+@_jit
+def position_first_euler_decay_after_kick(s, h, k, m):
+    # The spring's damping rate is 0: the decay factor e^{-0 h} is 1.
+    x, v = s
+    x = x + h * v
+    return (x, math.exp(-0.0 * h) * (v + h * (-k * x / m)))
+
+
+@_jit
+def position_first_euler_decay_before_kick(s, h, k, m):
+    x, v = s
+    x = x + h * v
+    return (x, math.exp(-0.0 * h) * v + h * (-k * x / m))
+
+
 def _start_qv(x, v, h, k, m):
     return (x, v)
 
@@ -150,6 +175,9 @@ FLOORS = {
     "forest_ruth": (forest_ruth, _start_qv, _observe_qv),
     "implicit_euler": (implicit_euler, _start_qv, _observe_qv),
     "implicit_midpoint": (implicit_midpoint, _start_qv, _observe_qv),
+    "semi_implicit_euler_velocity_implicit": (semi_implicit_euler_velocity_implicit, _start_qv, _observe_qv),
+    "position_first_euler_decay_after_kick": (position_first_euler_decay_after_kick, _start_qv, _observe_qv),
+    "position_first_euler_decay_before_kick": (position_first_euler_decay_before_kick, _start_qv, _observe_qv),
 }
 
 _LOOPS: dict = {}

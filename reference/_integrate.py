@@ -51,6 +51,7 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
     p = scene.pvec
     accel, solve, project = Counted(scene.accel), Counted(scene.solve), Counted(scene.project)
+    rate = scene.damping_rate
     meta = {}
     if scheme.constrained:
         iters = iterations_for(scheme, iterations)
@@ -63,6 +64,9 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
 
         def advance(state, t):
             return scheme.step(accel, solve, nmax, state, t, dt, p)
+    elif scheme.decay:
+        def advance(state, t):
+            return scheme.step(accel, rate, state, t, dt, p)
     else:
         def advance(state, t):
             return scheme.step(accel, state, t, dt, p)

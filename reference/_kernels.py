@@ -250,7 +250,7 @@ def _loop_source(kind: str, nstate: int, pointwise: bool, once: bool = False) ->
     pieces is the same run). ``k`` is the one integer a scheme takes besides the state: Newton
     iterations allowed (implicit) or projection passes (constrained). The state passed in is
     not modified. ``once``: the file has ``scheme_step_once``, the step for one Newton iteration."""
-    extra = "" if kind == "explicit" else "k, "
+    extra = "k, " if kind in ("implicit", "constrained") else ""
     call = f"scheme_step({extra}{{x}}, {{t}}, h, p)"
     if not pointwise:
         return "\n".join([
@@ -296,11 +296,13 @@ def _loop_source(kind: str, nstate: int, pointwise: bool, once: bool = False) ->
 
 def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
     """(text of the kernel file, pointwise?) for a pair. Raises SourceUnavailable."""
-    kind = "constrained" if scheme.constrained else "implicit" if scheme.implicit else "explicit"
+    kind = ("constrained" if scheme.constrained else "implicit" if scheme.implicit
+            else "decay" if getattr(scheme, "decay", False) else "explicit")
     pointwise = bool(getattr(scene_cls, "pointwise", False)) and not scheme.constrained
     src = _Source()
     kernels = {"explicit": ("scene_accel",), "implicit": ("scene_accel", "scene_solve"),
-               "constrained": ("scene_accel", "scene_project")}[kind]
+               "constrained": ("scene_accel", "scene_project"),
+               "decay": ("scene_accel", "scene_damping_rate")}[kind]
     src.add(scheme.step, "scheme_step", kernels)
     src.add(scheme.start, "start", ("scene_accel",))
     src.add(scheme.observe, "observe", ("scene_accel",))
@@ -309,6 +311,8 @@ def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
         src.add(scene_cls.solve, "scene_solve")
     if kind == "constrained":
         src.add(scene_cls.project, "scene_project")
+    if kind == "decay":
+        src.add(scene_cls.damping_rate, "scene_damping_rate")
     once = False
     if kind == "implicit" and pointwise:
         # The Newton parameter is the step's first after the two kernels.
@@ -431,6 +435,14 @@ def _in_memory(scheme, scene_cls, why: str) -> Kernels:
         def advance_n(state, t0, h, i0, n, p, k):
             for i in range(i0, i0 + n):
                 state = step(accel, solve, k, state, t0 + i * h, h, p)
+            return state
+    elif getattr(scheme, "decay", False):
+        rate = jit(scene_cls.damping_rate)
+
+        @jit
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, rate, state, t0 + i * h, h, p)
             return state
     else:
         @jit

@@ -15,6 +15,9 @@ Kernel contract (arrays in the component-major kernel layout, ``(ndof, batch)``)
   (``Scheme.iterations``) unless the caller asks for another (``integrate(..., iterations=K)``,
   ``harness run --opt iterations=K``). A constrained scheme runs only on scenes with a
   ``project`` kernel, and those scenes only with constrained schemes.
+* ``step(accel, rate, state, t, h, p) -> state`` for decay schemes (``decay=True``), which
+  integrate a linear damping exactly: ``rate(p)`` is the scene's damping rate gamma in
+  a(x, v) = a(x, 0) - gamma v (``Scene.damping_rate``); they run only on scenes that have one.
 * ``observe(accel, state, t, h, p) -> (q, v)``: the state a user sees; it never calls ``accel``.
 
 The functions are plain numpy, so the same source runs interpreted, with every force
@@ -47,6 +50,14 @@ def largest_magnitude(x):
 class Scheme:
     """A reference scheme and its declarations.
 
+    ``order_velocity_dependent``: the order where the force depends on the velocity, if lower
+    than ``order`` (a kick that takes a(x, v) at a velocity of the wrong time, without a solve,
+    loses the symmetry that made the scheme second order or higher); None: ``order`` holds.
+
+    ``same_without_velocity``: the id of the scheme this one is, update for update, where the
+    force does not depend on the velocity (its damping treatment is all that sets it apart);
+    ``harness identify`` does not offer it as a second match there.
+
     ``energy_claim`` and ``homega_max`` are what the textbook says on the unit spring
     (``homega_max``: ``None`` = unstable for every h, ``math.inf`` = never unstable);
     the harness measures both and reports them side by side.
@@ -64,12 +75,21 @@ class Scheme:
     observe: Callable = observe_qv
     constrained: bool = False
     iterations: int | None = None
+    decay: bool = False
+    order_velocity_dependent: int | None = None
+    same_without_velocity: str | None = None
     doc: str = field(default="", compare=False)
 
     @property
     def options(self) -> dict[str, int]:
         """Run-time options a caller may set, with their defaults."""
         return {"iterations": self.iterations} if self.constrained else {}
+
+    def order_for(self, velocity_dependent: bool) -> int:
+        """The declared order on a scene whose force does (True) or does not depend on the velocity."""
+        if velocity_dependent and self.order_velocity_dependent is not None:
+            return self.order_velocity_dependent
+        return self.order
 
     @property
     def summary(self) -> str:
@@ -79,9 +99,11 @@ class Scheme:
         evals = f"{self.force_evals} + solve" if self.implicit else str(self.force_evals)
         limit = ("none (unstable for every h)" if self.homega_max is None
                  else "unbounded" if self.homega_max == math.inf else f"{self.homega_max:.4g}")
-        out = {"id": self.id, "order": self.order, "force_evals": evals, "symplectic": self.symplectic,
+        out = {"id": self.id, "order": self.order, "order_velocity_dependent": self.order_for(True),
+               "force_evals": evals, "symplectic": self.symplectic,
                "implicit": self.implicit, "constrained": self.constrained, "energy": self.energy_claim,
-               "homega_max": limit, "doc": " ".join(self.doc.split())}
+               "decay": self.decay, "same_without_velocity": self.same_without_velocity, "homega_max": limit,
+               "doc": " ".join(self.doc.split())}
         if self.constrained:
             out["iterations"] = self.iterations
         return out

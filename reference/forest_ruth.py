@@ -4,7 +4,8 @@ from ._scheme import scheme
 THETA = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 
 
-@scheme(order=4, force_evals=3, symplectic=True, implicit=False, energy_claim="bounded", homega_max=1.5734)
+@scheme(order=4, force_evals=3, symplectic=True, implicit=False, energy_claim="bounded", homega_max=1.5734,
+        order_velocity_dependent=1)
 def forest_ruth(accel, state, t, h, p):
     """Forest-Ruth: three leapfrogs of lengths theta h, (1 - 2 theta) h, theta h composed,
     theta = 1/(2 - 2^(1/3)):
@@ -12,7 +13,8 @@ def forest_ruth(accel, state, t, h, p):
         x += theta h/2 v;      v += theta h a(x);  x += (1 - theta) h/2 v;  v += (1 - 2 theta) h a(x)
         x += (1 - theta) h/2 v; v += theta h a(x); x += theta h/2 v
 
-    Fourth order, symplectic, three evaluations; stable for h w <= 1.5734.
+    Fourth order, symplectic, three evaluations; stable for h w <= 1.5734. Its kicks take a
+    velocity-dependent force at the velocity before each kick, without a solve: first order there.
     """
     q, v = state
     c1 = 0.5 * THETA * h

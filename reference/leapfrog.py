@@ -1,7 +1,8 @@
 from ._scheme import scheme
 
 
-@scheme(order=2, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0)
+@scheme(order=2, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0,
+        order_velocity_dependent=1)
 def leapfrog(accel, state, t, h, p):
     """Leapfrog, drift-kick-drift (the form REBOUND's ``leapfrog`` integrates):
 
@@ -9,7 +10,8 @@ def leapfrog(accel, state, t, h, p):
         v_{n+1}   = v_n + h a(x_{n+1/2})
         x_{n+1}   = x_{n+1/2} + (h/2) v_{n+1}
 
-    Second order, symplectic, stable for h w <= 2.
+    Second order, symplectic, stable for h w <= 2. A velocity-dependent force is kicked with
+    a(x_{n+1/2}, v_n), not the midpoint velocity, and nothing solves for it: first order there.
     """
     q, v = state
     half = 0.5 * h

@@ -10,6 +10,7 @@ def observe(accel, state, t, h, p):
 
 
 @scheme(order=2, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0,
+        order_velocity_dependent=1,
         start=start, observe=observe)
 def velocity_verlet(accel, state, t, h, p):
     """Velocity Verlet, kick-drift-kick:
@@ -19,6 +20,7 @@ def velocity_verlet(accel, state, t, h, p):
         v_{n+1}   = v_{n+1/2} + (h/2) a(x_{n+1})
 
     Second order, symplectic, stable for h w <= 2. Carries a_n, so one evaluation a step.
+    A velocity-dependent force is taken at v_{n+1/2}, not v_{n+1}, without a solve: first order there.
     """
     q, v, a = state
     v_half = v + (0.5 * h) * a

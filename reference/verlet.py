@@ -16,6 +16,7 @@ def observe(accel, state, t, h, p):
 
 
 @scheme(order=2, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0,
+        order_velocity_dependent=1,
         start=start, observe=observe)
 def verlet(accel, state, t, h, p):
     """Position (Stormer) Verlet: the scheme of cloth and ropes.
@@ -23,7 +24,8 @@ def verlet(accel, state, t, h, p):
         x_{n+1} = 2 x_n - x_{n-1} + a(x_n) h^2
 
     Second order, symplectic, stable for h w <= 2. Carries (x_n, x_{n-1}, a_n). A
-    velocity-dependent force sees the backward difference (x_{n+1} - x_n)/h.
+    velocity-dependent force sees the backward difference (x_{n+1} - x_n)/h, a first-order
+    velocity: first order there.
     """
     q, q_prev, a = state
     q_next = 2.0 * q - q_prev + (h * h) * a

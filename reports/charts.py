@@ -107,3 +107,52 @@ def stability_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
     ax.set_xlabel("largest stable h·ω")
     ax.set_title(f"{scene}: stability limit (blue: reference, orange: engine)")
     return _save(fig, path)
+
+
+#: Where an unbounded limit is drawn on the stability-against-damping chart (above every finite one).
+DAMPING_CHART_TOP = 20.0
+
+
+def damping_stability_chart(cells: pd.DataFrame, path: Path) -> bool:
+    """Largest stable h*omega against the damping ratio: one theory line per reference scheme
+    (from its cell's ``theory_curve``), the measured limits as points: small dots for the
+    reference schemes, larger markers for the engine modes. Unbounded limits are drawn at
+    DAMPING_CHART_TOP; a scheme unstable at every h is left out at that zeta."""
+    rows = cells[(cells.measure == "stability_vs_damping") & (cells.status == "ok")]
+    if rows.empty:
+        return False
+
+    def y(v):
+        return DAMPING_CHART_TOP if v is not None and math.isinf(v) else v
+
+    fig, ax = plt.subplots(figsize=(11, 5))
+    colors = {}
+    refs = [r for _, r in rows.sort_values("method").iterrows() if r.method.startswith("ref:")]
+    for i, r in enumerate(refs):
+        curve = r.data.get("theory_curve")
+        color = plt.cm.tab20(i % 20)
+        colors[r.method] = color
+        if curve:
+            zs = [z for z, v in zip(curve["zeta"], curve["homega_max"]) if v is not None]
+            vs = [y(v) for v in curve["homega_max"] if v is not None]
+            ax.plot(zs, vs, color=color, linewidth=1.2, label=f"{r.method[4:]} (theory)")
+        pts = [(row["zeta"], y(row["measured"])) for row in r.data.get("rows", []) if row["measured"] is not None]
+        if pts:
+            ax.plot(*zip(*pts), linestyle="none", marker=".", color=color, markersize=5)
+    markers = "osD^v<>ph*"
+    engines = [r for _, r in rows.sort_values("method").iterrows() if not r.method.startswith("ref:")]
+    for i, r in enumerate(engines):
+        pts = [(row["zeta"], y(row["measured"])) for row in r.data.get("rows", []) if row["measured"] is not None]
+        if not pts:
+            continue
+        scheme = r.data.get("scheme")
+        ax.plot(*zip(*pts), linestyle="none", marker=markers[i % len(markers)], markersize=7, fillstyle="none",
+                color=colors.get(scheme, "k"), label=f"{r.method} (as {scheme[4:] if scheme else '?'})")
+    ax.set_yscale("log")
+    ax.axhline(DAMPING_CHART_TOP, color="0.8", linewidth=0.8)
+    ax.text(0.0, DAMPING_CHART_TOP * 1.05, "unbounded", fontsize=7, color="0.4")
+    ax.set_xlabel("damping ratio ζ")
+    ax.set_ylabel("largest stable h·ω")
+    ax.set_title("damped_spring: stability limit against damping (lines: theory; points: measured)")
+    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    return _save(fig, path)

@@ -14,6 +14,8 @@ from pathlib import Path
 import pandas as pd
 
 from . import charts
+from .damping_section import damping_stability_section
+from .history_section import history_section
 from .scene_findings import scene_findings
 
 CHECK, CROSS = "✓", "✗"
@@ -79,15 +81,22 @@ def mark(ok) -> str:
 
 
 # ----------------------------------------------------------------------------- sections
-def verdict(regressions, previous, cells: pd.DataFrame | None = None) -> list[str]:
+def verdict(regressions, previous, cells: pd.DataFrame | None = None, trend=None) -> list[str]:
     lines = ["## Verdict", ""]
     against = f"run {previous}" if previous is not None else "no earlier run (bounds checked only)"
+    if previous is not None and trend is not None and trend.judged:
+        against += f" (cost judged over the last {len(trend.runs)} runs: see [History](#history))"
     if not regressions:
         lines.append(f"**No regressions** against {against}.")
     else:
         lines.append(f"**{len(regressions)} regression(s)** against {against}:")
         lines.append("")
         lines += [f"- {r.line()}" for r in regressions]
+    changed = trend.latest_changes() if trend is not None else []
+    if changed:
+        lines += ["", f"{len(changed)} accuracy figure(s) changed in this run (deterministic: reported at once): "
+                      + ", ".join(f"{c.measure} of `{c.method}` on `{c.scene}` {ch.before:.4g} -> {ch.after:.4g}"
+                                  for c, ch in changed) + "; see [History](#history)."]
     failed = _failed(cells) if cells is not None else []
     if failed:
         lines += ["", f"{len(failed)} method(s) could not be measured in full in this run (crashed or timed out): "
@@ -209,7 +218,7 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
             _energy_text(energy),
             (energy.data.get("class") or "–") if energy is not None else "–",
             _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
-            _fmt(order.value, ".2f") if order is not None and order.status == "ok" else (order.status if order is not None else "–"),
+            _order_text(order),
             homega_text(stab),
             _fmt(cost.data.get("force_evals_per_step"), ".3g") if cost is not None and cost.status == "ok" else "–",
             _fmt(cost.value * 1e6, ".3g") if cost is not None and cost.status == "ok" else (cost.status if cost is not None else "–"),
@@ -223,6 +232,18 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
         if name:
             lines += [f"![{title} on {scene}]({name})", ""]
     return lines
+
+
+def _order_text(order) -> str:
+    """The measured order; where the scheme declares a lower order for this scene's
+    velocity-dependent force, that declaration beside it, so a first-order result reads as
+    the scheme's and not as a failure."""
+    if order is None:
+        return "–"
+    if order.status != "ok":
+        return order.status
+    note = (order.data.get("claims") or {}).get("order_note")
+    return _fmt(order.value, ".2f") + (f" [{note}]" if note else "")
 
 
 def _matches(d: dict) -> list[str]:
@@ -361,7 +382,7 @@ def where_the_time_went(timing: dict) -> list[str]:
 
 
 # ----------------------------------------------------------------------------- the report
-def render(history, run_id: int, out_dir: Path, regressions, previous, timing) -> tuple[str, list[str]]:
+def render(history, run_id: int, out_dir: Path, regressions, previous, timing, trend=None) -> tuple[str, list[str]]:
     run = history.run(run_id)
     cells = history.cells(run_id)
     piv = _pivot(cells)
@@ -376,10 +397,19 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing) -
             if fn(cells[cells.scene == scene], scene, out_dir / name):
                 chart_names[(scene, kind)] = name
                 written.append(name)
+    damping_chart = f"charts/run{run_id}-damping-stability.png"
+    if charts.damping_stability_chart(cells, out_dir / damping_chart):
+        written.append(damping_chart)
+    else:
+        damping_chart = None
     lines = [f"# Integrator comparison: run {run_id} ({run['suite']})", ""]
-    lines += verdict(regressions, previous, cells)
+    lines += verdict(regressions, previous, cells, trend)
+    section, trend_charts = history_section(trend, run_id, out_dir)
+    lines += section
+    written += trend_charts
     lines += tradeoff_table(piv)
     lines += identity_table(piv)
+    lines += damping_stability_section(cells, damping_chart)
     lines += ["## Per scene", ""]
     for scene in scenes:
         lines += scene_section(scene, piv, chart_names)
@@ -391,10 +421,11 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing) -
     return "\n".join(lines), written
 
 
-def write_report(history, run_id: int, out_dir, regressions=(), previous=None, timing=None) -> Path:
+def write_report(history, run_id: int, out_dir, regressions=(), previous=None, timing=None, trend=None) -> Path:
+    """``trend``: the suite's judged history (``harness.history.Trend``) for the History section."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    text, charts_written = render(history, run_id, out_dir, list(regressions), previous, timing)
+    text, charts_written = render(history, run_id, out_dir, list(regressions), previous, timing, trend)
     target = out_dir / "report.md"
     tmp = out_dir / f".report.md.{os.getpid()}.tmp"
     with open(tmp, "w") as fh:

@@ -72,6 +72,15 @@ def no_solve(q, v, t, p, alpha, beta, r):  # pragma: no cover - only reached by 
     raise NotImplementedError("this scene provides no implicit solve")
 
 
+def no_damping_rate(p):  # pragma: no cover - only reached by a misuse
+    raise NotImplementedError("this scene declares no single linear damping rate")
+
+
+def no_velocity_dependence(p):
+    """The damping rate of a scene whose force does not depend on the velocity: 0."""
+    return 0.0
+
+
 def no_project(q, p, iterations):  # pragma: no cover - only reached by a misuse
     raise NotImplementedError("this scene has no constraints to project")
 
@@ -95,6 +104,9 @@ class Scene:
     pointwise : entry (i, b) of ``accel`` and ``solve`` depends on entry (i, b) of q, v and r
         alone (and on t, p, alpha, beta), and the kernels run unchanged on floats: every entry
         is a system of its own, which the compiled loop steps as scalars (``reference._kernels``).
+    damping_rate : kernel ``(p) -> gamma`` for scenes whose velocity dependence is one linear
+        damping rate, a(x, v) = a(x, 0) - gamma v; the schemes that integrate the damping as an
+        exact decay (``Scheme.decay``) run only on those.
     """
 
     id: ClassVar[str]
@@ -106,6 +118,7 @@ class Scene:
     accel: ClassVar[Callable]
     solve: ClassVar[Callable] = staticmethod(no_solve)
     project: ClassVar[Callable] = staticmethod(no_project)
+    damping_rate: ClassVar[Callable] = staticmethod(no_damping_rate)
 
     def __init__(self, **overrides):
         unknown = sorted(set(overrides) - set(self.params))
@@ -170,6 +183,16 @@ class Scene:
     @property
     def conservative(self) -> bool:
         return True
+
+    @property
+    def velocity_dependent(self) -> bool:
+        """Whether the force depends on the velocity (with these parameters): where it does, a
+        scheme may keep a lower order (``Scheme.order_velocity_dependent``)."""
+        return False
+
+    @property
+    def has_damping_rate(self) -> bool:
+        return type(self).damping_rate is not no_damping_rate
 
     @property
     def constrained(self) -> bool:

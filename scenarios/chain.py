@@ -14,6 +14,15 @@ excites the highest mode with nearly the largest possible amplitude (its modal w
 |sin(i N pi/(N+1))| >= cos(pi/(2(N+1))), 0.9989 at N = 32), so stiffness matters from step one.
 
 Exact solution: the modal (DST-I) transform of the initial state, each mode a cosine at w_j.
+
+Damping (``c``, default 0: undamped): a dashpot c beside every spring, acting on the relative
+velocity of its ends as the spring acts on their relative position (a cloth's spring damping):
+
+    a_i += (c/m) (v_{i-1} - 2 v_i + v_{i+1}),   v_{-1} = v_N = 0.
+
+The damping matrix is c/k times the stiffness matrix, so the normal modes stay uncoupled: mode j
+is a damped oscillator at w_j with damping ratio zeta_j = c w_j / (2 k) (the highest mode the
+most damped: zeta_N = c omega / (2 k)), each in closed form (``scenarios._oscillator``).
 """
 import math
 
@@ -21,6 +30,7 @@ import numpy as np
 from scipy.fft import dst, idst
 
 from ._base import Param, Scene
+from ._oscillator import damped_oscillator
 
 
 def accel(q, v, t, p):
@@ -30,8 +40,10 @@ def accel(q, v, t, p):
     whole-batch row expressions on slices (``a[1:] += c * q[:-1]``): numba compiled those in
     8.2 s against 0.6 s for the loops, measured, and every (scheme, scene) pair compiles its
     own copy. The additions keep the row version's order, ((-2c q_i) + c q_{i-1}) + c q_{i+1},
-    so results are bitwise the same."""
+    so results are bitwise the same. The dashpots add the same stencil on v, only where c > 0
+    (an undamped chain's accelerations stay bitwise those before damping existed)."""
     c = p[1] / p[2]
+    d = p[4] / p[2]
     n = q.shape[0]
     nb = q.shape[1]
     a = np.empty_like(q)
@@ -42,16 +54,26 @@ def accel(q, v, t, p):
                 x = x + c * q[i - 1, b]
             if i < n - 1:
                 x = x + c * q[i + 1, b]
+            if d != 0.0:
+                y = (-2.0 * d) * v[i, b]
+                if i > 0:
+                    y = y + d * v[i - 1, b]
+                if i < n - 1:
+                    y = y + d * v[i + 1, b]
+                x = x + y
             a[i, b] = x
     return a
 
 
 def solve(q, v, t, p, alpha, beta, r):
-    """(I - beta da/dq) x = r: da/dv = 0 and da/dq = (k/m) tridiag(1, -2, 1), so the matrix is
-    tridiagonal with diagonal 1 + 2 beta k/m and off-diagonals -beta k/m, the same for every batch
-    member. Thomas algorithm, O(N) per member; the matrix is strictly diagonally dominant, so no
-    pivoting is needed. Loops written out, as in ``accel`` (compile 1.8 s -> 0.4 s)."""
+    """(I - alpha da/dv - beta da/dq) x = r: da/dq = (k/m) tridiag(1, -2, 1) and da/dv = (c/m) times
+    the same, so with s = beta k/m + alpha c/m the matrix is tridiagonal with diagonal 1 + 2 s and
+    off-diagonals -s, the same for every batch member. Thomas algorithm, O(N) per member; the matrix
+    is strictly diagonally dominant, so no pivoting is needed. Loops written out, as in ``accel`` (compile
+    1.8 s -> 0.4 s)."""
     c = beta * (p[1] / p[2])
+    if p[4] != 0.0:
+        c = c + alpha * (p[4] / p[2])
     d = 1.0 + 2.0 * c
     e = -c
     n = r.shape[0]
@@ -80,10 +102,24 @@ class Chain(Scene):
         "k": Param(1.0e4, "stiffness of every spring (neighbours and walls)", lo=0.0, lo_open=True),
         "m": Param(1.0, "mass of each body", lo=0.0, lo_open=True),
         "x0": Param(1.0, "initial displacement of the middle mass (index (N-1)//2), all at rest"),
+        "c": Param(0.0, "dashpot beside every spring, on the relative velocity (mode j's damping ratio "
+                        "c w_j / (2 k))", lo=0.0),
     }
     linear = True
     accel = staticmethod(accel)
     solve = staticmethod(solve)
+
+    @property
+    def velocity_dependent(self):
+        return self.values["c"] != 0.0
+
+    @property
+    def conservative(self):
+        return self.values["c"] == 0.0
+
+    def mode_damping_ratios(self) -> np.ndarray:
+        """zeta_j = c w_j / (2 k), j = 1..N."""
+        return self.values["c"] * self.mode_frequencies() / (2.0 * self.values["k"])
 
     @property
     def dof_names(self):
@@ -126,8 +162,20 @@ class Chain(Scene):
         q0, v0 = self.initial_state()
         w = self.mode_frequencies()
         a, b = self.modal(q0), self.modal(v0)
-        wt = t[:, None] * w
-        cos, sin = np.cos(wt), np.sin(wt)
-        q = idst(a * cos + (b / w) * sin, type=1, norm="ortho", axis=-1)
-        v = idst(-a * w * sin + b * cos, type=1, norm="ortho", axis=-1)
-        return q, v
+        if self.values["c"] == 0.0:
+            wt = t[:, None] * w
+            cos, sin = np.cos(wt), np.sin(wt)
+            q = idst(a * cos + (b / w) * sin, type=1, norm="ortho", axis=-1)
+            v = idst(-a * w * sin + b * cos, type=1, norm="ortho", axis=-1)
+            return q, v
+        modes = [damped_oscillator(t, wj, zj, aj, bj)
+                 for wj, zj, aj, bj in zip(w, self.mode_damping_ratios(), a, b)]
+        qm = np.stack([m[0] for m in modes], axis=-1)
+        vm = np.stack([m[1] for m in modes], axis=-1)
+        return idst(qm, type=1, norm="ortho", axis=-1), idst(vm, type=1, norm="ortho", axis=-1)
+
+    def exact_energy(self, t):
+        if self.values["c"] == 0.0:
+            return super().exact_energy(t)
+        q, v = self.exact(t)
+        return self.energy(q, v)

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ._base import Param, Scene
+from ._base import Param, Scene, no_velocity_dependence
 
 
 def accel(q, v, t, p):
@@ -50,6 +50,7 @@ class Kepler(Scene):
     dof_names = ("x", "y")
     accel = staticmethod(accel)
     solve = staticmethod(solve)
+    damping_rate = staticmethod(no_velocity_dependence)
 
     def initial_state(self):
         gm, e = self.values["GM"], self.values["e"]

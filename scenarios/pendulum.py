@@ -9,7 +9,7 @@ import math
 import numpy as np
 from scipy.special import ellipj, ellipk
 
-from ._base import Param, Scene
+from ._base import Param, Scene, no_velocity_dependence
 
 
 def accel(q, v, t, p):
@@ -36,6 +36,7 @@ class Pendulum(Scene):
     pointwise = True
     accel = staticmethod(accel)
     solve = staticmethod(solve)
+    damping_rate = staticmethod(no_velocity_dependence)
 
     def initial_state(self):
         return np.array([self.values["theta0"]]), np.array([0.0])

@@ -38,6 +38,15 @@ class Projectile(Scene):
     accel = staticmethod(accel)
     solve = staticmethod(solve)
 
+    @staticmethod
+    def damping_rate(p):
+        """gamma = c/m: a(x, v) = a(x, 0) - gamma v (what exponential-damping schemes read)."""
+        return p[2] / p[1]
+
+    @property
+    def velocity_dependent(self):
+        return self.values["c"] != 0.0
+
     @property
     def conservative(self):
         return self.values["c"] == 0.0

@@ -161,6 +161,17 @@ class SolarSystem(Scene):
                 e = e - G * m[i] * m[j] / np.sqrt(np.sum(d * d, axis=-1))
         return e
 
+    def escaped(self, q, v):
+        """Per state (API layout (..., 18)), whether a planet is on an unbound orbit about the
+        Sun: its heliocentric two-body energy v^2/2 - G (M_sun + m)/r >= 0 (it leaves the system)."""
+        n = self.masses.size
+        qq = q.reshape(q.shape[:-1] + (n, 3))
+        vv = v.reshape(v.shape[:-1] + (n, 3))
+        dq, dv = qq[..., 1:, :] - qq[..., :1, :], vv[..., 1:, :] - vv[..., :1, :]
+        mu = G * (self.masses[0] + self.masses[1:])
+        e = 0.5 * np.sum(dv * dv, axis=-1) - mu / np.sqrt(np.sum(dq * dq, axis=-1))
+        return np.any(e >= 0.0, axis=-1)
+
     # ------------------------------------------------------------ reference
     def _reference(self, rtol) -> SegmentedSolution:
         q0, v0 = self.initial_state()

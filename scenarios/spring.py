@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 
-from ._base import Param, Scene
+from ._base import Param, Scene, no_velocity_dependence
 
 
 def accel(q, v, t, p):
@@ -31,6 +31,7 @@ class Spring(Scene):
     pointwise = True
     accel = staticmethod(accel)
     solve = staticmethod(solve)
+    damping_rate = staticmethod(no_velocity_dependence)
 
     def initial_state(self):
         return np.array([self.values["x0"]]), np.array([self.values["v0"]])

@@ -109,9 +109,10 @@ def implicit_damping_euler(scene, dt, steps):
 
         v_{n+1} = v_n + h (-k x_n - c v_n) / (m + h c),    x_{n+1} = x_n + h v_{n+1},
 
-    i.e. (m + h c)(v_{n+1} - v_n) = h (-k x_n - c v_n), so m (v_{n+1} - v_n)/h = -k x_n - c v_{n+1}.
-    No reference scheme is this: ref:semi_implicit_euler takes the damping at v_n,
-    ref:implicit_euler also the spring at x_{n+1}.
+    i.e. (m + h c)(v_{n+1} - v_n) = h (-k x_n - c v_n), so m (v_{n+1} - v_n)/h = -k x_n - c v_{n+1}:
+    ref:semi_implicit_euler_velocity_implicit, written out by hand here so that the scheme is
+    checked too (ref:semi_implicit_euler takes the damping at v_n, ref:implicit_euler also the
+    spring at x_{n+1}).
     """
     k, m, c = scene.values["k"], scene.values["m"], scene.values["c"]
     (x,), (v,) = scene.initial_state()
@@ -136,6 +137,7 @@ def test_mujoco_treats_damping_implicitly(method_id, dt, params):
     assert np.max(np.abs(run.v[:, 0, 0] - v)) <= ROUNDOFF
     # ... and it is not the explicit-damping scheme: the difference is far above roundoff.
     assert deviation(run, ref("semi_implicit_euler", scene, dt, 10_000)) > 1e-6
+    assert deviation(run, ref("semi_implicit_euler_velocity_implicit", scene, dt, 10_000)) <= ROUNDOFF
 
 
 @pytest.mark.parametrize("method_id, scheme_id", [
@@ -289,7 +291,8 @@ def test_issue_scene_coverage():
     assert supported["pybullet:semi_implicit"] == four | {"chain"}
     assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring",
                                                                                      "projectile", "chain"}
-    assert supported["pymunk:damped_spring"] == {"chain"}
+    assert supported["pymunk:damped_spring"] == {"damped_spring", "chain"}  # issue 12: Chipmunk's own damping
+    assert supported["pymunk:space_damping"] == {"damped_spring", "projectile"}
     assert supported["pymunk:pin_joint"] == {"pendulum", "rope"}
     for mode in ("leapfrog", "whfast", "ias15", "saba"):
         assert supported[f"rebound:{mode}"] == {"kepler", "solar_system"}
@@ -346,11 +349,14 @@ def test_identify_names_the_scheme_and_the_runner_up(capsys):
     assert result["engine_version"] == "5.2.2" and result["settings"]["integrator"] == "leapfrog"
 
 
-def test_identify_says_when_no_scheme_matches(capsys):
-    # MuJoCo's implicit damping is none of the reference schemes (see implicit_damping_euler).
-    assert main(["identify", "damped_spring", "--method", "mujoco:euler", "--dt", "0.1", "--steps", "500"]) == 1
+def test_identify_says_when_no_scheme_matches_and_why(capsys):
+    # MuJoCo's Euler on the damped chain: joint damping implicit, tendon damping explicit.
+    assert main(["identify", "chain", "--method", "mujoco:euler", "--set", "N=4", "--set", "c=20",
+                 "--steps", "200"]) == 1
     out = capsys.readouterr().out
     assert "matches no reference scheme within" in out and "closest ref:" in out
+    why = [line for line in out.splitlines() if line.strip().startswith("why:")]
+    assert len(why) == 1 and "eulerdamp" in why[0]
 
 
 @pytest.mark.parametrize("argv, field", [
@@ -426,4 +432,4 @@ def test_unstable_run_then_the_harness_goes_on():
 def test_all_methods_include_the_engine_modes():
     ids = all_methods()
     assert set(adapters.ENGINE_METHODS) <= set(ids)
-    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 4 + 4  # MuJoCo, pybullet, pymunk, REBOUND modes
+    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 5 + 4  # MuJoCo, pybullet, pymunk, REBOUND modes

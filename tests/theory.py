@@ -24,6 +24,10 @@ REF_STABILITY = {
     "forest_ruth": 1.5734,
     "implicit_euler": UNBOUNDED,
     "implicit_midpoint": UNBOUNDED,
+    # Without damping (the spring) the damping schemes are semi-implicit Euler's two forms.
+    "semi_implicit_euler_velocity_implicit": 2.0,
+    "position_first_euler_decay_after_kick": 2.0,
+    "position_first_euler_decay_before_kick": 2.0,
 }
 ENGINE_STABILITY = {
     "mujoco:euler": 2.0,
@@ -48,6 +52,9 @@ REF_ORDER = {
     "implicit_euler": 1,
     "implicit_midpoint": 2,
     "forest_ruth": 4,
+    "semi_implicit_euler_velocity_implicit": 1,
+    "position_first_euler_decay_after_kick": 1,
+    "position_first_euler_decay_before_kick": 1,
 }
 #: (method, scene) -> order. The engines' scenes: the spring for MuJoCo and pybullet,
 #: the Kepler orbit for REBOUND's leapfrog (ENGINES.md: 2nd order on it).

@@ -33,6 +33,10 @@ def _lines(r):
            f"({r['periods']:.3g} periods): {r['status']}")
     yield f"  max |dE/E| {fmt(r.get('max_rel_error'), '.3e')}   final |dE/E| {fmt(r.get('final_rel_error'), '.3e')}"
     yield f"  classification: {r.get('classification') or 'none'} ({r.get('rule')})"
+    if r.get("state_error_max") is not None:
+        yield (f"  state error (phase and amplitude, against the {r['state_error_source']} solution): max "
+               f"{fmt(r['state_error_max'], '.3e')}   final {fmt(r['state_error_final'], '.3e')}"
+               f" (compared to t = {r['state_error_t_compared']:g})")
     if "first_tenth_envelope" in r:
         yield (f"  envelope first tenth {r['first_tenth_envelope']:.3e}, last tenth {r['last_tenth_envelope']:.3e}, "
                f"secular rate {r['secular_rate']:.3e} per unit time")

@@ -1,0 +1,63 @@
+"""The report's section on stability against damping: a table of the largest stable h*omega at
+each damping ratio, measured beside the theory of the scheme each method is (its own, or the one
+an engine mode was identified as), and the chart. The agreement marks come with the cells
+(``harness.stability_damping`` judges them); this only prints."""
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+CHECK, CROSS = "✓", "✗"
+
+
+def _limit(v) -> str:
+    if v is None:
+        return "none"
+    if isinstance(v, float) and math.isinf(v):
+        return "∞"
+    return f"{v:.4g}"
+
+
+def damping_stability_section(cells: pd.DataFrame, chart_name: str | None) -> list[str]:
+    rows = cells[(cells.measure == "stability_vs_damping")]
+    if rows.empty:
+        return []
+    ok = rows[rows.status == "ok"]
+    zetas = []
+    for _, r in ok.iterrows():
+        for row in r.data.get("rows", []):
+            if row["zeta"] not in zetas:
+                zetas.append(row["zeta"])
+    tol = next((r.data.get("tolerance") for _, r in ok.iterrows()), None)
+    lines = ["## Stability against damping", "",
+             "Largest stable h·ω on `damped_spring` (ω = 1, c = 2ζ) at each damping ratio ζ: measured (spectral "
+             "radius of the measured one-step map) / theory (spectral radius of the scheme's own recurrence on the "
+             "damped oscillator, closed form or computed), judged against the method's own scheme or, for an "
+             f"engine mode, the scheme it was identified as; {CHECK} within {tol:.1%} (none: unstable at every h; "
+             "∞: stable at every h searched). The Verlet forms carry an acceleration evaluated at another "
+             "velocity than the one they report, and the measure restarts each one-step run from (q, v): with "
+             "damping it measures another map than the scheme's recurrence, and says so with ✗."
+             if tol is not None else "", "",
+             "| method | theory of | " + " | ".join(f"ζ = {z:g}" for z in zetas) + " |",
+             "|---|---|" + "---|" * len(zetas)]
+    for _, r in rows.sort_values("method").iterrows():
+        if r.status != "ok":
+            lines.append(f"| `{r.method}` | {r.status}: {r.detail} |" + " |" * len(zetas))
+            continue
+        by = {row["zeta"]: row for row in r.data.get("rows", [])}
+        scheme = r.data.get("scheme")
+        out = []
+        for z in zetas:
+            row = by.get(z)
+            if row is None:
+                out.append("–")
+                continue
+            mark = "" if row.get("agrees") is None else (f" {CHECK}" if row["agrees"] else f" {CROSS}")
+            theory = f" / {_limit(row['theory'])}" if scheme else ""
+            out.append(f"{_limit(row['measured'])}{theory}{mark}")
+        lines.append(f"| `{r.method}` | {f'`{scheme}`' if scheme else '–'} | " + " | ".join(out) + " |")
+    lines.append("")
+    if chart_name:
+        lines += [f"![Largest stable h·ω against the damping ratio]({chart_name})", ""]
+    return lines
