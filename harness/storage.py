@@ -24,9 +24,7 @@ import pandas as pd
 #: Bump when a measure's definition changes: results across versions are not comparable.
 #: 2: cost on the worker's CPU clock with explicit Euler timed beside it in the same cell;
 #: order over half a period; stability searched up to the suite's h*omega maximum.
-#: 3: a reference scheme's cost from the generated kernels (on a pointwise scene a loop of
-#: scalars, no array temporary per operation), 5-20x below version 2's figures on the spring.
-MEASUREMENT_VERSION = 3
+MEASUREMENT_VERSION = 2
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (
