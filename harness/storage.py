@@ -24,7 +24,8 @@ import pandas as pd
 #: Bump when a measure's definition changes: results across versions are not comparable.
 #: 2: cost on the worker's CPU clock with explicit Euler timed beside it in the same cell;
 #: order over half a period; stability searched up to the suite's h*omega maximum.
-MEASUREMENT_VERSION = 2
+#: 3: an engine mode's cost is its own loop's (``engine s/step``), no longer the per-step path.
+MEASUREMENT_VERSION = 3
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (
