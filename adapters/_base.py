@@ -1,12 +1,25 @@
 """What every engine adapter shares: the engine mode as a method, quiet engine imports,
-and the stepping loop that turns an engine model into a :class:`Trajectory`.
+and the two loops that turn an engine model into a :class:`Trajectory`.
 
-An engine module (``adapters/mujoco.py``, ...) provides ``build(engine_module, mode, scene, dt)``
-returning a :class:`Model`: the minimal engine model of the scene, set to the scene's initial
-state, that advances one step of ``dt`` at a time and reports its state in the scene's own
-coordinates. :func:`drive` steps it exactly as ``reference/_integrate.py`` steps a scheme
-(step 0 recorded, then every ``every`` steps, always the last), so the two are compared like
-with like; the energy is the scene's, from the state.
+An engine module (``adapters/mujoco.py``, ...) provides ``build(engine_module, mode, scene, dt,
+count=False)`` returning a :class:`Model`: the minimal engine model of the scene, set to the
+scene's initial state, that advances one step of ``dt`` at a time (or many, through the
+engine's own loop) and reports its state in the scene's own coordinates. Both loops record
+exactly as ``reference/_integrate.py`` records a scheme (step 0, then every ``every`` steps,
+always the last), so the two are compared like with like; the energy is the scene's, from
+the state.
+
+* ``loop="engine"`` (the default, :func:`run_engine_loop`): the engine advances from one output
+  point to the next through its own loop (``mujoco.rollout``, REBOUND's ``sim.steps(n)``, a
+  Python loop that calls only the step function for pybullet and pymunk) and the state is read
+  at output points only. This is what ``engine s/step`` times.
+* ``loop="harness"`` (:func:`drive`): one ``advance()`` per step, the state read and checked
+  after every step: the path the harness always took, kept as the trajectories' witness and
+  timed as ``as stepped by the harness``.
+
+Both give the same trajectory bitwise (``tests/test_engine_loops.py``). A run whose engine
+loop meets a diverged output state or an engine warning is run again from its start on the
+per-step path, which stops it at the exact step.
 """
 from __future__ import annotations
 
@@ -42,6 +55,15 @@ class Model(Protocol):
 
     def close(self) -> None:
         """Release the engine's resources."""
+
+    def run(self, marks: np.ndarray) -> tuple[list[tuple[np.ndarray, np.ndarray]], bool]:
+        """Advance through the engine's own loop from step ``marks[0]`` (the current step) to
+        each later mark in turn, reading the state (scene coordinates) only there: ``(states at
+        marks[1:], clean)``. ``clean`` is False, and the list may stop early, where the engine
+        reported trouble or a state diverged; the caller then replays the run step by step."""
+
+    def evaluations(self) -> tuple[int | None, str]:
+        """(force evaluations since the model was built, what was counted), or (None, why not)."""
 
     # Optional: ``set_state(q, v)`` puts the model in a state (scene coordinates) as if it
     # had been built there, so that one model can take one step from many states
@@ -124,8 +146,14 @@ class EngineMode:
     doc: str = field(default="", compare=False)
     adaptive: bool = False
     no_match: Mapping[str, str] = field(default_factory=dict, compare=False)
+    #: Its force evaluations are counted only in a counting run (``simulate(..., count=True)``:
+    #: the counter is a Python callback that would slow the timed loop; REBOUND, pymunk).
+    counting_run: bool = False
 
     isolated = True
+
+    #: The loops ``simulate`` can step a model with (module docstring).
+    LOOPS = ("engine", "harness")
 
     @property
     def id(self) -> str:
@@ -152,26 +180,77 @@ class EngineMode:
             return True, ""
         return False, self.unsupported.get(scene.id, f"{self.id} has no model of scene {scene.id}")
 
-    def _model(self, scene: Scene, dt: float):
+    def _model(self, scene: Scene, dt: float, count: bool = False):
         """(engine module, model of ``scene`` at ``dt``); a scene it does not pose is a ValueError."""
         ok, why = self.supports(scene)
         if not ok:
             raise ValueError(f"{self.id} does not support scene {scene.id}: {why}")
         engine = import_engine(self.module)
-        return engine, self.build(engine, self.mode, scene, dt)
+        return engine, self._build(engine, scene, dt, count)
 
-    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
-        """Step the engine in this process (the harness calls this inside a worker process)."""
-        engine, model = self._model(scene, dt)
+    def _build(self, engine, scene: Scene, dt: float, count: bool):
+        # ``count`` is passed only when asked for, so that a plugin's build(engine, mode, scene, dt) still fits.
+        return self.build(engine, self.mode, scene, dt, **({"count": True} if count else {}))
+
+    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1, *, loop: str = "engine",
+                 count: bool = False) -> Trajectory:
+        """Step the engine in this process (the harness calls this inside a worker process).
+
+        ``loop`` is ``"engine"`` (the engine's own loop between output points) or ``"harness"``
+        (one step at a time, state read after each): the same trajectory, bitwise (module
+        docstring). ``count=True`` builds the model with its force-evaluation counter installed
+        where counting needs a callback (REBOUND, pymunk), which slows the engine's loop."""
+        if loop not in self.LOOPS:
+            raise ValueError(f"loop: {loop!r} is not one of {', '.join(self.LOOPS)}")
+        engine, model = self._model(scene, dt, count)
         try:
-            traj = drive(model, scene, self.id, dt, steps, every)
+            # A plugin's model may offer only advance(): its own loop is then the per-step one.
+            if loop == "engine" and hasattr(model, "run"):
+                traj = run_engine_loop(model, scene, self.id, dt, steps, every)
+                if traj is None:  # diverged or the engine warned: find the step as the harness always has
+                    spent, model = model, None
+                    spent.close()
+                    model = self._build(engine, scene, dt, count)
+                    traj = drive(model, scene, self.id, dt, steps, every)
+                    traj.meta["loop"] = "engine, replayed step by step from the start (diverged or warned)"
+            else:
+                traj = drive(model, scene, self.id, dt, steps, every)
+            evals, what = (model.evaluations() if hasattr(model, "evaluations")
+                           else (None, "the engine mode does not count them"))
         finally:
-            model.close()
+            if model is not None:
+                model.close()
+        traj.force_evals = evals
+        traj.meta["force_evals_counted" if evals is not None else "force_evals_reason"] = what
         traj.meta.update({
             "backend": "engine", "engine": self.engine, "engine_version": engine_version(self.dist),
             "settings": dict(model.settings),
         })
         return traj
+
+    def timed_run(self, scene: Scene, dt: float, steps: int, now: Callable[[], float], loop: str = "engine") -> float:
+        """Seconds on the clock ``now`` that one run of ``steps`` steps with a single output point
+        takes through ``loop`` (as ``simulate`` runs it), the model built and closed outside the
+        clock: what ``harness.cost`` times, free of the jitter of building an engine model. A run
+        that needs its step-by-step replay (it diverged) is timed with the replay."""
+        if loop not in self.LOOPS:
+            raise ValueError(f"loop: {loop!r} is not one of {', '.join(self.LOOPS)}")
+        engine, model = self._model(scene, dt)
+        try:
+            every = max(int(steps), 1)
+            t = now()
+            if loop == "engine" and hasattr(model, "run"):
+                if run_engine_loop(model, scene, self.id, dt, steps, every) is None:
+                    spent, model = model, None
+                    spent.close()
+                    model = self._build(engine, scene, dt, False)
+                    drive(model, scene, self.id, dt, steps, every)
+            else:
+                drive(model, scene, self.id, dt, steps, every)
+            return now() - t
+        finally:
+            if model is not None:
+                model.close()
 
     def one_steps(self, scene: Scene, dt: float, states) -> list[tuple[np.ndarray | None, str]] | None:
         """One step of ``dt`` from each state y = (q, v) (rows of ``states``, scene coordinates),
@@ -230,6 +309,13 @@ def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every:
             rec_step.append(n)
             rec_q.append(q)
             rec_v.append(v)
+    traj = _trajectory(scene, method, dt, steps, every, rec_step, rec_q, rec_v, status, detail, failed)
+    traj.meta["loop"] = "harness: one advance() per step, state read after each"
+    return traj
+
+
+def _trajectory(scene: Scene, method: str, dt: float, steps: int, every: int, rec_step, rec_q, rec_v,
+                status: str = OK, detail: str = "", failed: int | None = None) -> Trajectory:
     q_arr = np.array(rec_q)[:, None, :]
     v_arr = np.array(rec_v)[:, None, :]
     step_arr = np.array(rec_step, dtype=np.int64)
@@ -241,6 +327,44 @@ def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every:
         status=status, detail=detail, failed_step=failed,
         meta={"steps_run": (failed - 1) if failed else steps, "params": dict(scene.values)},
     )
+
+
+def output_marks(steps: int, every: int) -> np.ndarray:
+    """The recorded steps: 0, every ``every`` steps, and always the last."""
+    return np.unique(np.append(np.arange(0, int(steps) + 1, int(every)), int(steps))).astype(np.int64)
+
+
+def run_engine_loop(model: Model, scene: Scene, method: str, dt: float, steps: int,
+                    every: int = 1) -> Trajectory | None:
+    """The run through the engine's own loop (``model.run``), recorded as :func:`drive` records;
+    None where the engine reported trouble or an output state diverged (the caller replays the
+    run with :func:`drive`, which finds the step). A state that diverges and comes back within
+    one output interval would be missed: blow-ups do not come back, and MuJoCo warns at the step
+    after any state beyond 1e10."""
+    marks = output_marks(steps, every)
+    q, v = model.state()
+    if diverged(q, v):
+        return None
+    states, clean = model.run(marks)
+    if not clean or len(states) != len(marks) - 1 or any(diverged(q, v) for q, v in states):
+        return None
+    traj = _trajectory(scene, method, dt, steps, every, marks.tolist(), [q] + [s[0] for s in states],
+                       [v] + [s[1] for s in states])
+    traj.meta["loop"] = "engine: the engine's own loop between output points, state read at output points only"
+    return traj
+
+
+def run_by_steps(model, marks: np.ndarray) -> tuple[list[tuple[np.ndarray, np.ndarray]], bool]:
+    """``Model.run`` for an engine stepped by ``model.steps(n)`` (n steps through the engine's own
+    loop, nothing read in between): the state at each mark, stopping at the first diverged one."""
+    out = []
+    for a, b in zip(marks[:-1], marks[1:]):
+        model.steps(int(b - a))
+        q, v = model.state()
+        out.append((q, v))
+        if model.trouble() is not None or diverged(q, v):
+            return out, False
+    return out, True
 
 
 def unwrap(previous: float, angle: float) -> float:

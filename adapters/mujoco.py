@@ -12,6 +12,13 @@ gravity only where the scene has it, armature 0. Autoreset is disabled and every
 ``unstable`` at that step: MuJoCo otherwise silently resets a diverged state to the initial
 one, and a blow-up would look like a calm spring. Warnings go to a handler, not to stdout or
 MUJOCO_LOG.TXT.
+
+The engine's own loop is ``mujoco.rollout`` (``Model.run``): one C call steps a span of up to
+ROLLOUT_SPAN_VALUES / nstate steps, MuJoCo recording every state, and the output points are
+read from its state array. A rollout stops stepping at the first warning; any warning in a
+span sends the run back to the per-step path, which stops it at that step as before.
+Force evaluations are MuJoCo's forward passes, counted by ``d.timer[mjTIMER_FORWARD]``
+(RK4: 4 a step; every other integrator: 1).
 """
 from __future__ import annotations
 
@@ -19,7 +26,7 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode
+from ._base import EngineMode, import_engine
 
 #: Our mode name -> MuJoCo's integrator name in MJCF.
 INTEGRATORS = {"euler": "Euler", "rk4": "RK4", "implicit": "implicit", "implicitfast": "implicitfast",
@@ -33,6 +40,10 @@ UNSUPPORTED = {
 #: Divergence warnings. MuJoCo raises them when a qpos/qvel/qacc entry is NaN, inf or
 #: larger than 1e10 (mjMAXVAL), so an engine run may stop earlier than a reference one.
 _BAD_STATE = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
+
+#: Most state values one rollout call records (steps x nstate): 8 MiB of float64, so that a
+#: long run of a large model is rolled out in spans instead of one array of every state.
+ROLLOUT_SPAN_VALUES = 1 << 20
 
 #: ``opt.tolerance`` on the chain (see ``_Model``); other scenes keep MuJoCo's default.
 CHAIN_TOLERANCE = 1e-14
@@ -153,6 +164,12 @@ class _Model:
             self.settings.update({"body_mass": [float(x) for x in m.body_mass[1:]],
                                   "body_inertia": [float(x) for x in m.body_inertia[1:].ravel()],
                                   "link_lengths": [float(-z) for z in m.body_ipos[1:, 2]]})
+        self._forward = int(mujoco.mjtTimer.mjTIMER_FORWARD)
+        self._forward_at_build = int(d.timer[self._forward].number)
+        self._full = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        self._nstate = mujoco.mj_stateSize(m, self._full)
+        self._span = max(1, ROLLOUT_SPAN_VALUES // self._nstate)
+        self._rollout = None
         # Last, so that nothing can fail between installing the handler and close() restoring it.
         self.warnings: list[str] = []
         self._previous_handler = mujoco.get_mju_user_warning()
@@ -175,11 +192,57 @@ class _Model:
         self.mj.mj_step(self.m, self.d)
 
     def state(self):
+        return self._scene_state(self.d.qpos, self.d.qvel)
+
+    def _scene_state(self, qpos: np.ndarray, qvel: np.ndarray):
         if self.scene.id == "rope":
             # Relative joint angles -> absolute link angles -> the scene's Cartesian state.
-            theta, omega = np.cumsum(self.d.qpos), np.cumsum(self.d.qvel)
+            theta, omega = np.cumsum(qpos), np.cumsum(qvel)
             return self.scene.angles_to_state(np.concatenate([theta, omega]))
-        return self.d.qpos.copy(), self.d.qvel.copy()
+        return qpos.copy(), qvel.copy()
+
+    def run(self, marks: np.ndarray):
+        """``Model.run`` through ``mujoco.rollout``: spans of whole output intervals (at most
+        ``self._span`` steps each, an interval longer than that in several calls), each one C
+        call from the data's current full physics state and warm start; the output states are
+        rows of the state array MuJoCo records (time, qpos, qvel, ...)."""
+        if self._rollout is None:
+            self._rollout = import_engine("mujoco.rollout").Rollout(nthread=0)
+        nq, nv = self.m.nq, self.m.nv
+        out = []
+        at, i = int(marks[0]), 1
+        while i < len(marks):
+            j = i
+            while j < len(marks) and marks[j] - at <= self._span:
+                j += 1
+            n = int(marks[j - 1] - at) if j > i else self._span
+            rows = self._roll(n)
+            if rows is None:
+                return out, False
+            for mark in marks[i:j]:
+                row = rows[int(mark - at) - 1]
+                out.append(self._scene_state(row[1:1 + nq], row[1 + nq:1 + nq + nv]))
+            at += n
+            i = j
+        return out, True
+
+    def _roll(self, n: int) -> np.ndarray | None:
+        """n steps in one ``rollout`` call from the data's state; the (n, nstate) states, or None
+        if MuJoCo warned (a rollout clears the warning counters first and stops at a warning)."""
+        mj, m, d = self.mj, self.m, self.d
+        state0 = np.empty((1, self._nstate))
+        mj.mj_getState(m, d, state0[0], self._full)
+        warmstart = d.qacc_warmstart.copy()[None, :]
+        states = np.empty((1, n, self._nstate))
+        self._rollout.rollout([m], [d], state0, nstep=n, initial_warmstart=warmstart, state=states,
+                              control_spec=int(mj.mjtState.mjSTATE_CTRL), skip_checks=True)
+        if any(w.number for w in d.warning):
+            return None
+        return states[0]
+
+    def evaluations(self):
+        return (int(self.d.timer[self._forward].number) - self._forward_at_build,
+                "MuJoCo forward passes (d.timer[mjTIMER_FORWARD])")
 
     def trouble(self) -> str | None:
         counts = self._bad_counts()
@@ -208,7 +271,8 @@ def _rope_joint_state(scene: Scene, q: np.ndarray, v: np.ndarray) -> tuple[np.nd
     return np.diff(theta, prepend=0.0), np.diff(omega, prepend=0.0)
 
 
-def build(mujoco, mode: str, scene: Scene, dt: float) -> _Model:
+def build(mujoco, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
+    """``count`` changes nothing: MuJoCo's timers count forward passes in every run."""
     return _Model(mujoco, mode, scene, dt)
 
 

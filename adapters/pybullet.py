@@ -10,6 +10,13 @@ blow-up) -> inf, sleeping -> disabled, the joints' velocity motors -> zero force
 joint damping -> 0.
 The bodies have no collision shape, so there is nothing to collide with and no shape inertia:
 the pendulum bob is a point mass.
+
+Bullet has no loop of its own to call and no spring element: the engine's loop (``steps(n)``)
+is a Python loop that calls ``stepSimulation`` alone on the pendulum, and on the other scenes
+reads the position (and the velocity, where the scene has drag) and applies the scene's force
+before each ``stepSimulation``, the least a Python user can do; the state is read only at
+output points. Bullet evaluates its forces inside ``stepSimulation`` and has no counter or
+callback for them, so force evaluations are not counted.
 """
 from __future__ import annotations
 
@@ -20,7 +27,16 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode
+from ._base import EngineMode, run_by_steps
+
+#: How the engine's own loop steps each scene (recorded with every run).
+ENGINE_LOOP = {
+    "pendulum": "stepSimulation only, between output points",
+    "chain": "from Python every step (Bullet has no spring between bodies): joint positions read, "
+             "joint forces set, stepSimulation",
+    "other": "from Python every step (Bullet has no spring or drag element): position (and velocity where "
+             "the scene has drag) read, applyExternalForce, stepSimulation",
+}
 
 SCENES = ("spring", "damped_spring", "pendulum", "projectile", "chain")
 UNSUPPORTED = {
@@ -156,6 +172,7 @@ class _Model:
                       if scene.id == "chain"
                       else "applied each step at the centre of mass, from the state before the step"),
         }
+        self.settings["engine_loop"] = ENGINE_LOOP.get(scene.id, ENGINE_LOOP["other"])
         if scene.id == "pendulum":
             joint = p.getJointInfo(b, 0, physicsClientId=cid)
             self.settings.update({"joint": "revolute about y", "jointDamping": float(joint[6]),
@@ -195,6 +212,30 @@ class _Model:
             p.applyExternalForce(b, -1, force, pos, p.WORLD_FRAME, physicsClientId=cid)
         p.stepSimulation(physicsClientId=cid)
 
+    def steps(self, n: int) -> None:
+        """n steps, nothing read but what the scene's force needs (module docstring)."""
+        p, cid, b, step = self.p, self.cid, self.body, self.p.stepSimulation
+        if self.scene_id == "pendulum":
+            for _ in range(n):
+                step(physicsClientId=cid)
+        elif self.scene_id in ("spring", "damped_spring") and self.c == 0.0:
+            # advance()'s force with c = 0 (the spring has no drag): -k x - 0 v is -k x.
+            k, base_position, apply, frame = self.k, p.getBasePositionAndOrientation, p.applyExternalForce, p.WORLD_FRAME
+            for _ in range(n):
+                pos = base_position(b, physicsClientId=cid)[0]
+                apply(b, -1, [-k * pos[0], 0.0, 0.0], pos, frame, physicsClientId=cid)
+                step(physicsClientId=cid)
+        else:
+            advance = self.advance
+            for _ in range(n):
+                advance()
+
+    def run(self, marks):
+        return run_by_steps(self, marks)
+
+    def evaluations(self):
+        return None, "Bullet evaluates its forces inside stepSimulation and has no counter or callback for them"
+
     def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
         """As if built at (q, v)."""
         p, cid, b = self.p, self.cid, self.body
@@ -233,7 +274,8 @@ class _Model:
         self.p.disconnect(physicsClientId=self.cid)
 
 
-def build(pybullet, mode: str, scene: Scene, dt: float) -> _Model:
+def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
+    """``count`` changes nothing: Bullet's force evaluations cannot be counted."""
     return _Model(pybullet, scene, dt)
 
 

@@ -21,6 +21,16 @@
 Minimal models: bodies with the scene's exact mass and infinite moment (no rotation to couple),
 no shapes, ``space.damping`` 1, sleeping off; gravity only where the scene has it, along -y.
 Every setting is read back into the result.
+
+Chipmunk has no loop of its own to call: the engine's loop (``steps(n)``) is a Python loop of
+``space.step`` alone (the force, where the mode computes it, is a Python ``velocity_func``
+that Chipmunk calls inside the step), except ``applied_force``, whose force is set from Python
+before each step (that is the mode), and the pin-jointed pendulum, whose angle is followed
+every step (Chipmunk reports the bob's position; the angle's whole turns need every step).
+The state is read only at output points. Force evaluations are counted, in a counting run, by
+wrapping the Python force functions (``velocity_func`` calls per step divided by the bodies, or
+the force set before each step); Chipmunk's own constraints (DampedSpring, PinJoint) compute
+their impulses inside the step with no counter or callback, so they are not counted.
 """
 from __future__ import annotations
 
@@ -30,7 +40,7 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, unwrap
+from ._base import EngineMode, run_by_steps, unwrap
 
 _FORCE_SCENES = ("spring", "damped_spring", "projectile", "chain")
 _FORCE_UNSUPPORTED = {
@@ -73,8 +83,10 @@ SPRING_SPACING = 10.0
 
 
 class _Model:
-    def __init__(self, pymunk, mode: str, scene: Scene, dt: float):
+    def __init__(self, pymunk, mode: str, scene: Scene, dt: float, count: bool = False):
         self.dt = dt
+        self.mode = mode
+        self.force_calls = 0 if count and mode in ("spring_force", "applied_force") else None
         self.scene_id = scene.id
         values = scene.values
         self.space = space = pymunk.Space()
@@ -86,6 +98,7 @@ class _Model:
         self.apply_before_step = None
         if scene.id in ("chain", "rope"):
             self._build_many(pymunk, mode, scene)
+            self._install_counter()
             return
         self.body = body = pymunk.Body(values["m"], math.inf)
         self.bodies = [body]
@@ -146,6 +159,30 @@ class _Model:
         if self.joint is not None:
             self.settings["joint"] = "PinJoint, static pivot at the origin to the bob's centre"
             self.settings.update(_joint_settings([self.joint]))
+        self._install_counter()
+
+    def _install_counter(self) -> None:
+        """In a counting run, wrap the mode's Python force functions to count their calls."""
+        self.settings["engine_loop"] = (
+            "from Python every step: the force set on body.force, then space.step (the mode)"
+            if self.mode == "applied_force" else
+            "space.step only, the bob's angle followed every step" if self.scene_id == "pendulum" else
+            "space.step only (the force is Chipmunk's velocity_func call)" if self.mode == "spring_force" else
+            "space.step only")
+        if self.force_calls is None:
+            return
+
+        def counting(function):
+            def counted(*args):
+                self.force_calls += 1
+                return function(*args)
+            return counted
+
+        if self.mode == "spring_force":
+            for b in self.bodies:
+                b.velocity_func = counting(b.velocity_func)
+        else:
+            self.apply_before_step = counting(self.apply_before_step)
 
     def _record_settings(self, mode: str) -> None:
         space, body = self.space, self.bodies[0]
@@ -287,6 +324,40 @@ class _Model:
             self.apply_before_step()
         self.space.step(self.dt)
 
+    def steps(self, n: int) -> None:
+        """n steps, nothing read between them but what the mode needs (module docstring)."""
+        step, dt = self.space.step, self.dt
+        if self.apply_before_step is not None:
+            apply = self.apply_before_step
+            for _ in range(n):
+                apply()
+                step(dt)
+        elif self.scene_id == "pendulum":
+            # state()'s angle update, without building its arrays: the angle's whole turns need every step.
+            body, theta, atan2, isfinite = self.body, self.theta, math.atan2, math.isfinite
+            for _ in range(n):
+                step(dt)
+                x, y = body.position
+                angle = atan2(x, -y)
+                theta = unwrap(theta, angle) if isfinite(angle) else angle
+            self.theta = theta
+        else:
+            for _ in range(n):
+                step(dt)
+
+    def run(self, marks):
+        return run_by_steps(self, marks)
+
+    def evaluations(self):
+        if self.force_calls is not None:
+            per = len(self.bodies) if self.mode == "spring_force" else 1
+            what = ("velocity_func calls / bodies" if self.mode == "spring_force"
+                    else "calls of the force set before each step")
+            return self.force_calls // per, f"force evaluations counted from Python ({what})"
+        if self.mode in ("spring_force", "applied_force"):
+            return None, "counted only in a counting run (the counter wraps the Python force function)"
+        return None, "Chipmunk's constraints compute their impulses inside space.step, with no counter or callback"
+
     def state(self):
         if self.scene_id == "chain":
             q = np.array([b.position.x for b in self.bodies]) - self.offset
@@ -327,13 +398,14 @@ def _joint_settings(joints) -> dict:
             "max_force": one(j.max_force for j in joints)}
 
 
-def build(pymunk, mode: str, scene: Scene, dt: float) -> _Model:
-    return _Model(pymunk, mode, scene, dt)
+def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
+    return _Model(pymunk, mode, scene, dt, count)
 
 
 def _mode(mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None) -> EngineMode:
     return EngineMode(engine="pymunk", mode=mode, module="pymunk", dist="pymunk", build=build,
                       scenes=scenes, unsupported=unsupported, doc=doc, no_match=no_match or {},
+                      counting_run=mode in ("spring_force", "applied_force"),
                       settings={"damping": 1, "sleeping": "disabled", "moment": "inf", "shapes": 0, **settings})
 
 

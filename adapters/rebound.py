@@ -14,10 +14,17 @@ distances 0), no additional forces, every particle active.
   (no ``sim.move_to_com()``): the state read back is the scene's 18 coordinates in the same
   inertial frame. WHFast's Jacobi coordinates are internal; they do not change that frame.
 
-The fixed-step integrators advance with ``sim.steps(1)``: ``integrate(t)`` inserts extra steps
-to finish exactly on t, and never returns when dt = 0. IAS15 is adaptive by design: there
-``dt`` is the output interval, the integrator chooses its own steps between outputs
-(``integrate(n dt)`` with ``exact_finish_time`` = 1), and their count is recorded.
+The fixed-step integrators advance with ``sim.steps(n)``, n steps in one C call between
+output points (the engine's own loop; ``sim.steps(1)`` per step on the per-step path, the same
+states bitwise): ``integrate(t)`` inserts extra steps to finish exactly on t, and never returns
+when dt = 0. The state is read in bulk, one ``serialize_particle_data`` call into one buffer.
+IAS15 is adaptive by design: there ``dt`` is the output interval, the integrator chooses its
+own steps between outputs (``integrate(n dt)`` with ``exact_finish_time`` = 1, called at every
+multiple of dt on both paths), and their count is recorded.
+
+Force evaluations are counted in a counting run (``count=True``) by a no-op
+``sim.additional_forces`` callback, which REBOUND calls once per force evaluation; it is a
+Python function, so runs that are timed leave it out.
 """
 from __future__ import annotations
 
@@ -25,7 +32,7 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode
+from ._base import EngineMode, run_by_steps
 
 SCENES = ("kepler", "solar_system")
 _NOT_GRAVITY = "not a gravitational N-body problem (an additional_forces callback would be our force, not REBOUND's)"
@@ -47,6 +54,10 @@ ADAPTIVE = ("ias15",)
 SIM = {"gravity": "basic", "collision": "none", "boundary": "none", "softening": 0.0,
        "exit_max_distance": 0.0, "exit_min_distance": 0.0, "exact_finish_time": 1}
 
+#: How each kind of mode advances (recorded with every run).
+ADVANCE = {"adaptive": "integrate(n dt) at every multiple n of dt, adaptive steps between them",
+           "fixed": "steps(n) between output points (steps(1) per step as stepped by the harness)"}
+
 MODELS = {
     "kepler": "central mass 1, G = GM, massless test particle",
     "solar_system": "the scene's 6 bodies, masses and G; heliocentric initial state as the scene's, "
@@ -55,7 +66,7 @@ MODELS = {
 
 
 class _Model:
-    def __init__(self, rebound, mode: str, scene: Scene, dt: float):
+    def __init__(self, rebound, mode: str, scene: Scene, dt: float, count: bool = False):
         self.sim = sim = rebound.Simulation()
         self.adaptive = mode in ADAPTIVE
         self.dt, self.n = dt, 0
@@ -78,19 +89,29 @@ class _Model:
             for i, m in enumerate(masses):
                 sim.add(m=m, x=float(q0[3 * i]), y=float(q0[3 * i + 1]), z=float(q0[3 * i + 2]),
                         vx=float(v0[3 * i]), vy=float(v0[3 * i + 1]), vz=float(v0[3 * i + 2]))
-        # One (N, 6) buffer, filled in one call: the state is read after every step, and each
-        # array handed to serialize_particle_data costs ~5 us of ctypes conversion.
+        # One (N, 6) buffer, filled in one call: each array handed to serialize_particle_data
+        # costs ~5 us of ctypes conversion.
         self._data = np.zeros((sim.N, 6))
         self.settings = {
             "integrator": str(sim.integrator), "dt": float(sim.dt), "G": float(sim.G),
             **{name: _plain(getattr(sim, name)) for name in SIM},
             "N": int(sim.N), "N_active": "all" if sim.N_active in (-1, 2 ** 64 - 1) else int(sim.N_active),
             "masses": masses, "additional_forces": "none", "move_to_com": False, "model": MODELS[scene.id],
-            "advance": "integrate(n dt), adaptive steps between outputs" if self.adaptive else "steps(1)",
+            "advance": ADVANCE["adaptive" if self.adaptive else "fixed"],
             **{name: _plain(getattr(sim.integrator, name)) for name in CONFIG[mode]},
         }
         if scene.id == "kepler":  # the keys kepler's stored runs were recorded with
             self.settings.update(central_mass=1.0, particle_mass=0.0)
+        self.force_passes = None
+        if count:
+            self.force_passes = 0
+
+            def count_force_pass(_simulation_pointer):
+                self.force_passes += 1
+
+            sim.additional_forces = count_force_pass  # adds nothing: only counts
+            sim.force_is_velocity_dependent = 0
+            self.settings["additional_forces"] = "a no-op callback counting force evaluations"
 
     def advance(self) -> None:
         self.n += 1
@@ -98,6 +119,24 @@ class _Model:
             self.sim.integrate(self.n * self.dt)
         else:
             self.sim.steps(1)
+
+    def steps(self, n: int) -> None:
+        if self.adaptive:
+            for _ in range(n):
+                self.n += 1
+                self.sim.integrate(self.n * self.dt)
+        else:
+            self.n += n
+            self.sim.steps(n)
+
+    def run(self, marks):
+        return run_by_steps(self, marks)
+
+    def evaluations(self):
+        if self.force_passes is None:
+            return None, ("counted only in a counting run: REBOUND calls a no-op additional_forces callback "
+                          "once per force evaluation, a Python call that would slow the timed loop")
+        return self.force_passes, "REBOUND force evaluations (calls of a no-op sim.additional_forces callback)"
 
     def state(self):
         self.sim.serialize_particle_data(xyzvxvyvz=self._data)
@@ -121,8 +160,8 @@ def _plain(value):
     return str(value)
 
 
-def build(rebound, mode: str, scene: Scene, dt: float) -> _Model:
-    return _Model(rebound, mode, scene, dt)
+def build(rebound, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
+    return _Model(rebound, mode, scene, dt, count)
 
 
 _DOCS = {
@@ -144,7 +183,7 @@ _DOCS = {
 METHODS = {
     f"rebound:{mode}": EngineMode(
         engine="rebound", mode=mode, module="rebound", dist="rebound", build=build,
-        scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], adaptive=mode in ADAPTIVE,
+        scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], adaptive=mode in ADAPTIVE, counting_run=True,
         settings={"integrator": mode, **CONFIG[mode], **SIM, "models": MODELS},
     )
     for mode in CONFIG

@@ -284,7 +284,12 @@ def _cost(task, method, scene, dt, suite) -> dict:
                        "ratio_to_explicit_euler": res.get("ratio_to_explicit_euler"),
                        "ratio_spread": res.get("ratio_spread") or 0.0, "ratio_repeats": res.get("ratio_repeats"),
                        "baseline_s_per_step": base.get("s_per_step"),
-                       "baseline_repeats_s_per_step": base.get("repeats_s_per_step")})
+                       "baseline_repeats_s_per_step": base.get("repeats_s_per_step"),
+                       "loop": res.get("loop"), "engine_loop": res.get("engine_loop"),
+                       # An engine mode's second figure: stepped one call at a time from Python.
+                       "as_stepped_s_per_step": res.get("as_stepped_s_per_step"),
+                       "as_stepped_repeats_s_per_step": (res.get("as_stepped") or {}).get("repeats_s_per_step"),
+                       "as_stepped_timing": (res.get("as_stepped") or {}).get("timing")})
 
 
 def _identity(task, method, scene) -> dict:

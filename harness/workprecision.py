@@ -7,7 +7,8 @@ periods, each dt adjusted to divide that horizon into whole steps. At each dt:
 * ``error``: ``error_max`` of :mod:`harness.error` (sup over the run of the relative
   global error); None where the run failed (the row stays, with its status);
 * ``s_per_unit_time``: measured wall seconds per step (:mod:`harness.cost` rules, at this
-  dt, ``time_steps`` steps, ``repeats`` repeats) divided by dt;
+  dt, ``time_steps`` steps, ``repeats`` repeats) divided by dt: a reference scheme's compiled
+  loop, an engine mode's own loop (``engine s/step``, never the harness's per-step path);
 * ``evals_per_unit_time``: counted force evaluations per step (from the error run) / dt.
 
 One row per (method, dt): the chart is error against either cost, one line per method.
@@ -28,7 +29,7 @@ HOMEGA_MAX = 0.5
 POINTS = 8
 PERIODS = 5.0
 TIME_STEPS_REF = 20_000
-TIME_STEPS_ENGINE = 1_000
+TIME_STEPS_ENGINE = 5_000
 REPEATS = 3
 
 
@@ -64,9 +65,9 @@ def work_precision(methods, scene: Scene, *, points: int = POINTS, homega_max: f
             if res["status"] == "ok":
                 timing = wall_time_per_step(method, scene, dt, steps=n, repeats=repeats)
                 row.update(s_per_step=timing["s_per_step"], s_per_unit_time=timing["s_per_step"] / dt,
-                           rel_spread=timing["rel_spread"], timing=timing["timing"])
+                           rel_spread=timing["rel_spread"], timing=timing["timing"], clock=timing["clock"])
             else:
-                row.update(s_per_step=None, s_per_unit_time=None, rel_spread=None, timing=None)
+                row.update(s_per_step=None, s_per_unit_time=None, rel_spread=None, timing=None, clock=None)
             rows.append(row)
     return rows
 

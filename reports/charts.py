@@ -50,13 +50,21 @@ def energy_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
     return _save(fig, path)
 
 
+def cost_source(method: str) -> str:
+    """Which loop a cost cell timed, as the chart's legend says it: a reference scheme's compiled
+    loop, an engine mode's own loop (never the harness's per-step path)."""
+    return "compiled" if method.startswith("ref:") else "engine's own loop"
+
+
 def workprecision_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
-    """Max global error against measured cost (seconds per unit of simulated time), log-log,
-    one line per method over its timestep sweep: reference schemes solid, engines dashed."""
+    """Max global error against measured cost (seconds per unit of simulated time, on the
+    clock the cost cells used), log-log, one line per method over its timestep sweep:
+    reference schemes solid (compiled loop), engines dashed (the engine's own loop)."""
     order = {r.method: r for _, r in cells[(cells.measure == "order") & (cells.status == "ok")].iterrows()}
     cost = {r.method: r for _, r in cells[(cells.measure == "cost") & (cells.status == "ok")].iterrows()}
     fig, ax = plt.subplots(figsize=(8, 4.5))
     drawn = 0
+    clocks = set()
     for method in sorted(order):
         if method not in cost:
             continue
@@ -66,14 +74,17 @@ def workprecision_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
             continue
         work = [sps / p["dt"] for p in pts]
         err = [p["error"] for p in pts]
-        ax.plot(work, err, marker="o", markersize=3, label=method, **_style(method))
+        ax.plot(work, err, marker="o", markersize=3, label=f"{method} ({cost_source(method)})", **_style(method))
+        clocks.add(cost[method].data.get("clock") or "wall")
         drawn += 1
     if not drawn:
         plt.close(fig)
         return False
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("cost: wall seconds per unit of simulated time (measured)")
+    clock = {"cpu": "CPU", "wall": "wall"}.get(clocks.pop(), "wall") if len(clocks) == 1 else "mixed-clock"
+    ax.set_xlabel(f"cost: {clock} seconds per unit of simulated time (measured; engines: their own loop, "
+                  "not the harness's per-step path)")
     ax.set_ylabel("max global error")
     ax.set_title(f"{scene}: work-precision")
     ax.legend(fontsize=7, ncol=2, loc="best")

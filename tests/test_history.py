@@ -22,7 +22,7 @@ from harness import step_detect
 from harness.cli import main
 from harness.compare import compare_cells
 from harness.history import what_differs
-from harness.storage import History
+from harness.storage import MEASUREMENT_VERSION, History
 from harness.suites import SceneSpec, Suite
 from tests.slow_plugin import SLOWDOWN_VAR
 
@@ -295,12 +295,12 @@ def test_runs_of_an_older_measurement_version_are_refused_or_read_never_mixed(ni
     code, out, _ = run_cli("history", "--db", str(db), "--measurement-version", "1", "--json")
     assert [r["run"] for r in json.loads(out)["runs"]] == [1, 2, 3, 4]
     with sqlite3.connect(db) as con:  # two old runs and two new ones: the new ones only
-        con.execute("UPDATE runs SET measurement_version = 2 WHERE run_id > 2")
+        con.execute("UPDATE runs SET measurement_version = ? WHERE run_id > 2", (MEASUREMENT_VERSION,))
     code, out, _ = run_cli("history", "--db", str(db), "--json")
     trend = json.loads(out)
     assert [r["run"] for r in trend["runs"]] == [3, 4] and not trend["judged_by_history"]
     assert trend["left_out"] == ("2 history-smoke run(s) of measurement version 1 left out: "
-                                 "not comparable with version 2")
+                                 f"not comparable with version {MEASUREMENT_VERSION}")
     assert all([p["run"] for p in c["points"]] == [3, 4] for c in trend["cells"])
 
 

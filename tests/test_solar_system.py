@@ -63,7 +63,7 @@ def test_rebound_poses_the_scene_itself(solar, mode):
     assert (s["gravity"], s["collision"], s["boundary"], s["softening"]) == ("basic", "none", "none", 0.0)
     assert s["exit_max_distance"] == s["exit_min_distance"] == 0.0
     assert s["integrator"] == mode
-    assert s["advance"] == ("integrate(n dt), adaptive steps between outputs" if mode == "ias15" else "steps(1)")
+    assert s["advance"] == adapters.rebound.ADVANCE["adaptive" if mode == "ias15" else "fixed"]
     for name, value in adapters.rebound.CONFIG[mode].items():
         assert s[name] == value, name
     assert adapters.ENGINE_METHODS[f"rebound:{mode}"].describe()["adaptive"] is (mode == "ias15")
@@ -121,13 +121,14 @@ def test_reference_energy_classes_over_the_whole_study(solar):
 
 # ------------------------------------------------------------------------ work-precision
 def test_whfast_is_ahead_of_leapfrog_at_equal_cost(solar):
-    """harness.workprecision over one Jupiter orbit at h*omega = 0.2 .. 0.025 (dt 138 .. 17 days),
-    both modes through the same adapter loop. At equal cost per simulated day WHFast's max global
-    error is measured 1.4e-5 to 5.5e-5 of leapfrog's (whfast 2.4e-7 at dt = 140 d, leapfrog 1.2e-2;
-    the costs per step differ by the timing noise only, 12-21 us each). Bound 1e-3: a factor 18
-    of room over the worst point, more than timing noise moves it (a 2x error in a cost moves a
-    second-order method's interpolated error by 4x)."""
-    rows = work_precision(["rebound:whfast", "rebound:leapfrog"], solar, points=4, homega_max=0.2,
+    """harness.workprecision over one Jupiter orbit at h*omega = 0.2 .. 0.00625 (dt 140 .. 4.3
+    days), each mode timed on REBOUND's own loop (sim.steps(n)): a WHFast step costs ~4.3x a
+    leapfrog step (measured 1.4 us and 0.33 us), so the two sweeps overlap in cost only where
+    leapfrog's dt is a few times smaller than WHFast's; six points give three overlapping ones.
+    At equal cost per simulated day WHFast's max global error is measured 3.2e-4 to 4.0e-4 of
+    leapfrog's. Bound 1e-2: a factor 25 of room over the worst point, more than timing noise
+    moves it (a 2x error in a cost moves a second-order method's interpolated error by 4x)."""
+    rows = work_precision(["rebound:whfast", "rebound:leapfrog"], solar, points=6, homega_max=0.2,
                           periods=1.0, repeats=3, time_steps=1000)
     assert all(r["status"] == "ok" for r in rows)
     chart = chart_ready(rows)
@@ -135,7 +136,7 @@ def test_whfast_is_ahead_of_leapfrog_at_equal_cost(solar):
     leapfrog = {"cost": chart["rebound:leapfrog"]["s_per_unit_time"], "error": chart["rebound:leapfrog"]["error"]}
     compared = error_at_equal_cost(whfast, leapfrog)
     assert len(compared) >= 2, (whfast, leapfrog)  # the two sweeps overlap in cost
-    assert max(r["ratio"] for r in compared) < 1e-3, compared
+    assert max(r["ratio"] for r in compared) < 1e-2, compared
 
 
 def test_error_at_equal_cost_interpolates_and_never_extrapolates():

@@ -38,6 +38,7 @@ def run(args) -> int:
 
 def _lines(r):
     yield f"work-precision on {r['scene']}"
+    yield "  s/unit t: wall seconds per unit of simulated time; reference schemes compiled, engines their own loop"
     yield f"  {'method':40s} {'h*omega':>9s} {'error':>10s} {'s/unit t':>10s} {'evals/unit t':>12s}"
     for row in r["rows"]:
         yield (f"  {row['method']:40s} {row['omega_dt']:9.4g} {fmt(row['error'], '10.3e')} "
