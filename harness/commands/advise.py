@@ -58,14 +58,15 @@ def _lines(a):
     yield a.verdict()
     yield ""
     yield "meets the tolerances (cheapest frame first; the fewest substeps that meet them):"
-    head = (f"  {'method':30s} {'substeps':>8s} {'h*omega':>8s} {'limit':>8s} {'energy err':>10s} {'class':>8s} "
+    w = max([len(m.method) for m in a.meeting + a.failing] + [len(x["method"]) for x in a.left_out] + [6])
+    head = (f"  {'method':{w}s} {'substeps':>8s} {'h*omega':>8s} {'limit':>8s} {'energy err':>10s} {'class':>8s} "
             f"{'pos err':>9s} {'us/frame':>9s} {'evals/frame':>11s}")
     meeting = a.meeting
     if meeting:
         yield head
         for m in meeting:
             b = m.best_row
-            yield (f"  {m.method:30s} {b.substeps:8d} {b.homega:8.3g} {_limit(m):>8s} {_g(b.energy_error):>10s} "
+            yield (f"  {m.method:{w}s} {b.substeps:8d} {b.homega:8.3g} {_limit(m):>8s} {_g(b.energy_error):>10s} "
                    f"{b.energy_class or '-':>8s} {_g(b.position_error):>9s} {_us(b.cost_per_frame_s):>9s} "
                    f"{_g(b.evals_per_frame, '.4g'):>11s}")
     else:
@@ -75,12 +76,12 @@ def _lines(a):
         yield ""
         yield "cannot meet them (at every substep count tried):"
         for m in failing:
-            yield f"  {m.method:30s} {m.reason}"
+            yield f"  {m.method:{w}s} {m.reason}"
     if a.left_out:
         yield ""
         yield "left out:"
         for x in a.left_out:
-            yield f"  {x['method']:30s} {x['reason']}"
+            yield f"  {x['method']:{w}s} {x['reason']}"
 
 
 def _limit(m) -> str:
