@@ -153,24 +153,43 @@ def energy_steps(spec, scene, dt: float) -> int:
     return max(10, int(round(horizon / dt)))
 
 
+def _kernels_since(before: dict, cell: dict) -> None:
+    """Record in ``cell`` the compiled kernels its measure compiled or loaded from the disk
+    cache (``reference._kernels.STATS`` counts both in this process), if any."""
+    from reference._kernels import STATS
+
+    now = STATS.snapshot()
+    delta = {k: now[k] - before[k] for k in now}
+    if delta["kernels_compiled"] or delta["kernels_loaded"]:
+        cell["data"]["kernels"] = delta
+
+
 def _guard(task, measure, fn) -> dict:
+    from reference._kernels import STATS
+
     t0 = time.perf_counter()
+    before = STATS.snapshot()
     try:
         cell = fn()
     except Exception as exc:  # a measurement error is a recorded result, not a dead run
         cell = _cell(task, measure, "crashed", detail=f"{type(exc).__name__}: {exc}"[:500])
     cell["wall_s"] = time.perf_counter() - t0
+    _kernels_since(before, cell)
     return cell
 
 
 def _guard_many(task, measures, fn) -> list[dict]:
+    from reference._kernels import STATS
+
     t0 = time.perf_counter()
+    before = STATS.snapshot()
     try:
         cells = fn()
     except Exception as exc:
         cells = [_cell(task, m, "crashed", detail=f"{type(exc).__name__}: {exc}"[:500]) for m in measures]
     for c in cells:
         c["wall_s"] = (time.perf_counter() - t0) / len(cells)
+    _kernels_since(before, cells[0])
     return cells
 
 
@@ -257,10 +276,6 @@ def _cost(task, method, scene, dt, suite) -> dict:
 
     res = cost_per_step(method, scene, dt, time_steps=suite.cost_steps, repeats=suite.cost_repeats, clock="cpu")
     base = res["baseline"]
-    # What numba compiled in this cell (the method's kernels; the baseline's the first time
-    # this worker meets the scene): a warm-up only compiles for a reference scheme.
-    compile_s = (res.get("warmup_s") or 0.0) if task.family == "ref" else 0.0
-    compile_s += base.get("warmup_s") or 0.0
     return _cell(task, "cost", "ok", res.get("s_per_step"), dt, res.get("time_steps"),
                  data={"force_evals_per_step": res.get("force_evals_per_step"),
                        "solves_per_step": res.get("solves_per_step"), "timing": res.get("timing"),
@@ -270,7 +285,7 @@ def _cost(task, method, scene, dt, suite) -> dict:
                        "ratio_spread": res.get("ratio_spread") or 0.0, "ratio_repeats": res.get("ratio_repeats"),
                        "baseline_s_per_step": base.get("s_per_step"),
                        "baseline_repeats_s_per_step": base.get("repeats_s_per_step"),
-                       "compile_s": compile_s, "loop": res.get("loop"), "engine_loop": res.get("engine_loop"),
+                       "loop": res.get("loop"), "engine_loop": res.get("engine_loop"),
                        # An engine mode's second figure: stepped one call at a time from Python.
                        "as_stepped_s_per_step": res.get("as_stepped_s_per_step"),
                        "as_stepped_repeats_s_per_step": (res.get("as_stepped") or {}).get("repeats_s_per_step"),

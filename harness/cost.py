@@ -13,7 +13,7 @@ The rule, one way for each kind of method:
   adapter's reason (pybullet, Chipmunk's constraints).
 * **Wall time per step**, reference schemes: the compiled path
   (:func:`reference._compiled.time_per_step`, the same step functions compiled by numba),
-  one warm-up call (it compiles), then ``repeats`` (5) timed runs of ``time_steps``
+  one warm-up call (it compiles, or loads the pair's kernels from the disk cache), then ``repeats`` (5) timed runs of ``time_steps``
   (100,000) steps; the figure is the **minimum** over repeats (the least-disturbed run, as
   timeit and asv take it).
 * **Wall time per step**, engine modes, two figures, each ``method.simulate`` timed in this

@@ -214,25 +214,28 @@ def previous_task_seconds(history: History, suite_name: str) -> dict[str, float]
 
 
 def timing_summary(cells_by_task: dict[str, list[dict]], stats: dict, wall_cells: float) -> dict:
-    """Where the cells' time went: worker seconds by measure, by family, numba compilation,
-    per task (wall in the parent, CPU in the worker) and the slowest tasks."""
+    """Where the cells' time went: worker seconds by measure, by family, numba compilation
+    (kernels compiled, and kernels loaded from the disk cache instead), per task (wall in the
+    parent, CPU in the worker) and the slowest tasks."""
     by_measure, by_family = defaultdict(float), defaultdict(float)
     task_s, task_cpu = {}, {}
-    compile_s = 0.0
+    kernels = defaultdict(float)  # compiled / loaded from the disk cache, and their seconds
     for label, cells in cells_by_task.items():
         for c in cells:
             w = c.get("wall_s") or 0.0
             by_measure[c["measure"]] += w
             by_family[c["family"]] += w
-            if c["measure"] == "cost" and c.get("status") == "ok":
-                compile_s += (c.get("data") or {}).get("compile_s") or 0.0
+            for k, v in ((c.get("data") or {}).get("kernels") or {}).items():
+                kernels[k] += v
         st = stats.get(label)
         task_s[label] = st.wall_s if st is not None else sum(c.get("wall_s") or 0.0 for c in cells)
         task_cpu[label] = st.cpu_s if st is not None else None
     known = [v for v in task_cpu.values() if v is not None]
     slowest = sorted(task_s.items(), key=lambda kv: -kv[1])[:5]
     return {"cells_s": wall_cells, "worker_seconds_by_measure": dict(by_measure),
-            "worker_seconds_by_family": dict(by_family), "numba_compile_s": compile_s,
+            "worker_seconds_by_family": dict(by_family), "numba_compile_s": kernels["compile_s"],
+            "kernels_compiled": int(kernels["kernels_compiled"]), "kernels_loaded": int(kernels["kernels_loaded"]),
+            "kernel_load_s": kernels["load_s"],
             "task_s": task_s, "task_cpu_s": task_cpu, "slowest_tasks": slowest,
             "worker_cpu_s": sum(known) if known else None,
             "tasks_without_cpu": len(task_cpu) - len(known)}

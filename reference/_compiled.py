@@ -2,9 +2,10 @@
 
 Used for timing (``harness bench``, the cost measurement), so that the measured cost is
 the scheme's and not the interpreter's, and for runs too long to interpret
-(:func:`integrate_compiled`). Each (scheme, scene) pair compiles once per process (2-15 s):
-numba cannot cache functions passed as arguments to disk, and its cache would not notice a
-change to a scheme's file (a callee in another file), so a stale kernel could be timed.
+(:func:`integrate_compiled`). The kernels of a (scheme, scene) pair come from
+``reference._kernels``: generated from the scheme's and scene's source, cached on disk (a
+pair compiles once per machine and source, 1-15 s, then loads in milliseconds) and, on a
+pointwise scene, run as a loop of scalars without array temporaries.
 """
 from __future__ import annotations
 
@@ -15,88 +16,46 @@ import numpy as np
 from scenarios import Scene, Trajectory
 from scenarios.trajectory import OK, UNSTABLE, divergence_detail, diverged
 
+from . import _kernels
 from ._integrate import iterations_for, newton_max
 
-_DRIVERS: dict[tuple[str, str], "_Compiled"] = {}
-_JITTED: dict[object, object] = {}
-
-
-def _jit(fn):
-    """One numba dispatcher per Python function, shared by every driver of this process: a
-    scene's ``accel`` compiled for one scheme serves the next, and the ``start``/``observe``
-    most schemes share compile once per scene.
-
-    error_model="numpy": a division by zero gives inf/nan as it does on the interpreted (numpy)
-    path instead of raising, and the compiled loop skips the zero checks (~15% of a one-spring
-    step)."""
-    if fn not in _JITTED:
-        import numba
-
-        _JITTED[fn] = numba.njit(error_model="numpy")(fn)
-    return _JITTED[fn]
-
-
-def _build(scheme, scene_cls) -> "_Compiled":
-    """The compiled pieces of one (scheme, scene) pair: ``start``, ``observe`` and the loop
-    ``advance_n``, called from Python. Each level of jitted function calling jitted function
-    costs numba a compile of its own (~2 s apiece on the solar system's pair sum), so the loop
-    calls the scheme's step directly and nothing wraps the three."""
-    import numba
-
-    jit = numba.njit(error_model="numpy")
-    step, start, observe = _jit(scheme.step), _jit(scheme.start), _jit(scheme.observe)
-    accel, solve, project = _jit(scene_cls.accel), _jit(scene_cls.solve), _jit(scene_cls.project)
-    rate = _jit(scene_cls.damping_rate)
-
-    # Steps i0 .. i0 + n - 1 of a run started at t0: step i starts at t0 + i h, as in the
-    # interpreted driver, so a run cut into pieces is the same run. ``k`` is the one integer a
-    # scheme takes besides the state: Newton iterations allowed (implicit) or projection passes
-    # (constrained); explicit schemes ignore it.
-    if scheme.constrained:
-        @jit
-        def advance_n(state, t0, h, i0, n, p, k):
-            for i in range(i0, i0 + n):
-                state = step(accel, project, k, state, t0 + i * h, h, p)
-            return state
-    elif scheme.implicit:
-        @jit
-        def advance_n(state, t0, h, i0, n, p, k):
-            for i in range(i0, i0 + n):
-                state = step(accel, solve, k, state, t0 + i * h, h, p)
-            return state
-    elif scheme.decay:
-        @jit
-        def advance_n(state, t0, h, i0, n, p, k):
-            for i in range(i0, i0 + n):
-                state = step(accel, rate, state, t0 + i * h, h, p)
-            return state
-    else:
-        @jit
-        def advance_n(state, t0, h, i0, n, p, k):
-            for i in range(i0, i0 + n):
-                state = step(accel, state, t0 + i * h, h, p)
-            return state
-
-    return _Compiled(start, advance_n, observe, accel)
+#: One driver per (scheme, scene class) in this process: the Scheme object (a frozen dataclass
+#: holding its functions), so a scheme re-imported from an edited file is a new key.
+_DRIVERS: dict[tuple, "_Compiled"] = {}
 
 
 class _Compiled:
-    def __init__(self, start, advance_n, observe, accel):
-        self.start, self.advance_n, self.observe, self.accel = start, advance_n, observe, accel
+    """The compiled pieces of one pair: ``start``, ``advance_n`` (the loop, called from Python)
+    and ``observe``; ``warmup_s`` is the CPU time their first call took (compiling them, or
+    loading them from the disk cache; ``reference._kernels.STATS`` says which)."""
+
+    def __init__(self, kernels: _kernels.Kernels, scheme, scene: Scene):
+        self.kernels = kernels
+        self.advance_n = kernels.advance_n
+        q, v = _kernel_layout(scene, None, None)
+        h, p, k = 0.01 / scene.omega, scene.pvec, _k(scheme, scene, None)
+        self.warmup_s = _kernels.warm(kernels, lambda: self.drive(q, v, 0.0, h, 2, p, k))
 
     def first_state(self, q, v, t0, h, p):
-        return self.start(self.accel, q, v, t0, h, p)
+        return self.kernels.start(q, v, t0, h, p)
+
+    def observe(self, state, t, h, p):
+        """(q, v) a user sees of ``state`` at time t, kernel layout."""
+        return self.kernels.observe(state, t, h, p)
 
     def drive(self, q, v, t0, h, n, p, k):
         """Observed (q, v) at step n, kernel layout."""
         state = self.advance_n(self.first_state(q, v, t0, h, p), t0, h, 0, int(n), p, int(k))
-        return self.observe(self.accel, state, t0 + n * h, h, p)
+        return self.observe(state, t0 + n * h, h, p)
 
 
 def _parts(scheme, scene: Scene) -> _Compiled:
-    key = (scheme.id, scene.id)
+    key = (scheme, type(scene))
     if key not in _DRIVERS:
-        _DRIVERS[key] = _build(scheme, type(scene))
+        q, v = _kernel_layout(scene, None, None)
+        with np.errstate(all="ignore"):
+            nstate = len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))
+        _DRIVERS[key] = _Compiled(_kernels.load(scheme, type(scene), nstate), scheme, scene)
     return _DRIVERS[key]
 
 
@@ -139,7 +98,7 @@ def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, 
     recorded, qs, vs = [0], [], []
 
     def record(n):
-        qo, vo = parts.observe(parts.accel, state, n * h, h, p)
+        qo, vo = parts.observe(state, n * h, h, p)
         qs.append(qo.T.copy())
         vs.append(vo.T.copy())
 
@@ -202,11 +161,11 @@ def step_timer(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, iter
     q0, v0 = scene.batch_state(batch)
     q = np.ascontiguousarray(q0.T)
     v = np.ascontiguousarray(v0.T)
+    t_compile = now()
     parts = _parts(scheme, scene)
     p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
-    t_compile = now()
     state = parts.first_state(q, v, 0.0, h, p)
-    parts.observe(parts.accel, parts.advance_n(state, 0.0, h, 0, 2, p, k), 2 * h, h, p)
+    parts.observe(parts.advance_n(state, 0.0, h, 0, 2, p, k), 2 * h, h, p)
     t_compile = now() - t_compile
 
     def once() -> float:

@@ -1,6 +1,4 @@
-import numpy as np
-
-from ._scheme import scheme
+from ._scheme import largest_magnitude, scheme
 
 #: Newton stops when the update is below this, relative to the iterate.
 NEWTON_RTOL = 1e-13
@@ -25,6 +23,6 @@ def implicit_euler(accel, solve, newton_max, state, t, h, p):
         r = v + h * accel(q_new, w, t + h, p) - w
         dw = solve(q_new, w, t + h, p, h, h * h, r)
         w = w + dw
-        if np.max(np.abs(dw)) <= NEWTON_RTOL * (1.0 + np.max(np.abs(w))):
+        if largest_magnitude(dw) <= NEWTON_RTOL * (1.0 + largest_magnitude(w)):
             break
     return (q + h * w, w)

@@ -1,6 +1,4 @@
-import numpy as np
-
-from ._scheme import scheme
+from ._scheme import largest_magnitude, scheme
 from .implicit_euler import NEWTON_RTOL
 
 
@@ -24,6 +22,6 @@ def implicit_midpoint(accel, solve, newton_max, state, t, h, p):
         r = v + h * accel(q_mid, v_mid, t + half, p) - w
         dw = solve(q_mid, v_mid, t + half, p, half, 0.25 * h * h, r)
         w = w + dw
-        if np.max(np.abs(dw)) <= NEWTON_RTOL * (1.0 + np.max(np.abs(w))):
+        if largest_magnitude(dw) <= NEWTON_RTOL * (1.0 + largest_magnitude(w)):
             break
     return (q + h * (0.5 * (v + w)), w)

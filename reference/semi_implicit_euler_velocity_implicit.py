@@ -1,6 +1,4 @@
-import numpy as np
-
-from ._scheme import scheme
+from ._scheme import largest_magnitude, scheme
 
 #: Newton stops when the update is below this, relative to the iterate (as implicit Euler's).
 NEWTON_RTOL = 1e-13
@@ -28,6 +26,6 @@ def semi_implicit_euler_velocity_implicit(accel, solve, newton_max, state, t, h,
             r = v + h * accel(q, w, t, p) - w
         dw = solve(q, w, t, p, h, 0.0, r)
         w = w + dw
-        if np.max(np.abs(dw)) <= NEWTON_RTOL * (1.0 + np.max(np.abs(w))):
+        if largest_magnitude(dw) <= NEWTON_RTOL * (1.0 + largest_magnitude(w)):
             break
     return (q + h * w, w)

@@ -359,6 +359,18 @@ def _by(d: dict, n: int = 8) -> str:
     return ", ".join(f"{k} {v:.1f}s" for k, v in sorted(d.items(), key=lambda kv: -kv[1])[:n]) or "–"
 
 
+def _kernels_phrase(timing: dict) -> str:
+    """How much of the workers' CPU compiled kernels, and how many came from the disk cache."""
+    compiled, loaded = timing.get("kernels_compiled"), timing.get("kernels_loaded")
+    if compiled is None:  # a run stored before kernels were cached
+        return (f", {timing['numba_compile_s']:.1f}s of it numba compiling the timing kernels"
+                if timing.get("numba_compile_s") else "")
+    if not compiled and not loaded:
+        return ""
+    return (f", {timing.get('numba_compile_s', 0.0):.1f}s of it numba compiling {compiled} (scheme, scene) "
+            f"kernels, {loaded} more loaded from the disk cache in {timing.get('kernel_load_s', 0.0):.1f}s")
+
+
 def where_the_time_went(timing: dict) -> list[str]:
     """The footer's account of the run's time: wall against the CPU the workers spent, and
     where the worker seconds went (by measure, by family, numba compilation, slowest tasks)."""
@@ -372,8 +384,7 @@ def where_the_time_went(timing: dict) -> list[str]:
         lost = timing.get("tasks_without_cpu") or 0
         lines[-1] += (f" CPU time in the workers {cpu:.1f}s{busy}"
                       + (f", not counting {lost} task(s) whose worker was lost" if lost else "")
-                      + (f", {timing['numba_compile_s']:.1f}s of it numba compiling the timing kernels"
-                         if timing.get("numba_compile_s") else "")
+                      + _kernels_phrase(timing)
                       + f"; in the main process {timing.get('main_cpu_s', 0.0):.1f}s.")
     lines += ["", f"Worker seconds by measure: {_by(timing.get('worker_seconds_by_measure', {}))}.",
               "", f"By family: {_by(timing.get('worker_seconds_by_family', {}))}."]

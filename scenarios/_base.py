@@ -101,6 +101,9 @@ class Scene:
         constraints (``iterations`` relaxation passes); only constrained scenes have one, and
         only constrained schemes call it. ``accel`` of a constrained scene is the
         unconstrained acceleration.
+    pointwise : entry (i, b) of ``accel`` and ``solve`` depends on entry (i, b) of q, v and r
+        alone (and on t, p, alpha, beta), and the kernels run unchanged on floats: every entry
+        is a system of its own, which the compiled loop steps as scalars (``reference._kernels``).
     damping_rate : kernel ``(p) -> gamma`` for scenes whose velocity dependence is one linear
         damping rate, a(x, v) = a(x, 0) - gamma v; the schemes that integrate the damping as an
         exact decay (``Scheme.decay``) run only on those.
@@ -111,6 +114,7 @@ class Scene:
     params: ClassVar[dict[str, Param]] = {}
     dof_names: ClassVar[tuple[str, ...]]
     linear: ClassVar[bool] = False
+    pointwise: ClassVar[bool] = False
     accel: ClassVar[Callable]
     solve: ClassVar[Callable] = staticmethod(no_solve)
     project: ClassVar[Callable] = staticmethod(no_project)

@@ -30,6 +30,7 @@ class DampedSpring(Scene):
     }
     dof_names = ("x",)
     linear = True
+    pointwise = True
     accel = staticmethod(accel)
     solve = staticmethod(solve)
 

@@ -33,6 +33,7 @@ class Pendulum(Scene):
                         lo=-math.pi, hi=math.pi, lo_open=True, hi_open=True),
     }
     dof_names = ("theta",)
+    pointwise = True
     accel = staticmethod(accel)
     solve = staticmethod(solve)
     damping_rate = staticmethod(no_velocity_dependence)

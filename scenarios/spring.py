@@ -28,6 +28,7 @@ class Spring(Scene):
     }
     dof_names = ("x",)
     linear = True
+    pointwise = True
     accel = staticmethod(accel)
     solve = staticmethod(solve)
     damping_rate = staticmethod(no_velocity_dependence)

@@ -91,13 +91,20 @@ def test_list_shows_scenes_and_method_metadata():
     assert code == 0 and "ref:forest_ruth" in out and "kepler" in out
 
 
-def test_bench_json_reports_ns_per_step():
+def test_bench_json_reports_ns_per_step_beside_the_floor():
     code, out, _ = cli("bench", "--json", "--methods", "semi_implicit_euler")
     assert code == 0
-    (row,) = json.loads(out)
+    result = json.loads(out)
+    (row,) = result["rows"]
     assert row["method"] == "ref:semi_implicit_euler"
-    assert row["single_ns_per_step"] > 0 and row["batch1000_ns_per_spring_step"] > 0
-    assert "batch_meets_target" in row and "single_meets_target" in row
+    for figure in ("single", "batch1000"):
+        kernel = row[f"{figure}_ns_per_step" if figure == "single" else f"{figure}_ns_per_spring_step"]
+        floor = row[f"{figure}_floor_ns_per_step" if figure == "single" else f"{figure}_floor_ns_per_spring_step"]
+        assert kernel > 0 and floor > 0
+        assert row[f"{figure}_ratio_to_floor"] == pytest.approx(kernel / floor, rel=1e-12)
+    judged = {t["target"]: t for t in result["targets"]}
+    # The floor ratios on one spring and the batch, and semi-implicit Euler's two absolute targets.
+    assert len(judged) == 4 and all(t["met"] == (t["value"] <= t["bound"]) for t in judged.values())
 
 
 def test_console_script_entry_point_runs():

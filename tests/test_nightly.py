@@ -141,8 +141,12 @@ def test_smoke_nightly_stores_a_valid_complete_run(first_run):
     assert len(timing["task_s"]) == timing["tasks"] == 8  # 7 methods on the spring, 1 bound
     assert timing["tasks_without_cpu"] == 0
     # Two single-threaded workers cannot spend more CPU than twice the wall time they ran in
-    # (5% for the clocks' granularity), and compiling is part of that CPU time.
-    assert 0 < timing["numba_compile_s"] < timing["worker_cpu_s"] <= 2 * timing["cells_s"] * 1.05
+    # (5% for the clocks' granularity), and compiling is part of that CPU time. Each worker
+    # compiles a (scheme, scene) pair's kernels or loads them from the disk cache (which of the
+    # two depends on what ran on this machine before), at least once per scheme on the spring.
+    assert 0 <= timing["numba_compile_s"] < timing["worker_cpu_s"] <= 2 * timing["cells_s"] * 1.05
+    assert timing["kernels_compiled"] + timing["kernels_loaded"] >= 5
+    assert (timing["numba_compile_s"] > 0) == (timing["kernels_compiled"] > 0)
     assert timing["cells_s"] < timing["total_s"] < timing["finished_s"]
 
 

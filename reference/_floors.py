@@ -1,0 +1,252 @@
+"""The floor: each unconstrained scheme on the unit spring as a hand-written loop of scalars.
+
+What a compiled step can cost at best on this machine: the scheme's updates written out by
+hand for the spring, a = (-k x)/m as the scene spells it, every value a float (no array, no
+temporary, no call the compiler does not inline), the state carried in registers on one
+spring and stepped over contiguous arrays, innermost, on a batch. ``harness bench`` times
+each scheme's compiled kernel beside its floor in the same run; the ratio is what the
+generated kernels still pay over a loop written by hand. Written independently of the
+schemes' and the scene's source, the floors also check them: the states agree to roundoff
+(tests/test_reference.py).
+
+A floor is ``step(state, h, k, m) -> state`` over a tuple of floats, with ``start(x, v, h,
+k, m) -> state`` and ``observe(state, h, k, m) -> (x, v)`` where the scheme carries more than
+(x, v); ``single`` and ``batch`` below drive one (``FLOORS[scheme id]``).
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numba
+import numpy as np
+
+_jit = numba.njit(error_model="numpy")
+
+#: Forest-Ruth's theta = 1/(2 - 2^(1/3)), written out again here on purpose.
+_THETA = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
+
+
+@_jit
+def explicit_euler(s, h, k, m):
+    x, v = s
+    return (x + h * v, v + h * (-k * x / m))
+
+
+@_jit
+def semi_implicit_euler(s, h, k, m):
+    x, v = s
+    v = v + h * (-k * x / m)
+    return (x + h * v, v)
+
+
+@_jit
+def semi_implicit_euler_position_first(s, h, k, m):
+    x, v = s
+    x = x + h * v
+    return (x, v + h * (-k * x / m))
+
+
+@_jit
+def leapfrog(s, h, k, m):
+    x, v = s
+    x = x + 0.5 * h * v
+    v = v + h * (-k * x / m)
+    return (x + 0.5 * h * v, v)
+
+
+@_jit
+def velocity_verlet(s, h, k, m):
+    x, v, a = s
+    v = v + 0.5 * h * a
+    x = x + h * v
+    a = -k * x / m
+    return (x, v + 0.5 * h * a, a)
+
+
+@_jit
+def verlet(s, h, k, m):
+    x, x_prev, a = s
+    x_next = 2.0 * x - x_prev + h * h * a
+    return (x_next, x, -k * x_next / m)
+
+
+@_jit
+def rk4(s, h, k, m):
+    x, v = s
+    a1 = -k * x / m
+    x2 = x + 0.5 * h * v
+    v2 = v + 0.5 * h * a1
+    a2 = -k * x2 / m
+    x3 = x + 0.5 * h * v2
+    v3 = v + 0.5 * h * a2
+    a3 = -k * x3 / m
+    x4 = x + h * v3
+    v4 = v + h * a3
+    a4 = -k * x4 / m
+    return (x + h / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4), v + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4))
+
+
+@_jit
+def forest_ruth(s, h, k, m):
+    x, v = s
+    x = x + 0.5 * _THETA * h * v
+    v = v + _THETA * h * (-k * x / m)
+    x = x + 0.5 * (1.0 - _THETA) * h * v
+    v = v + (1.0 - 2.0 * _THETA) * h * (-k * x / m)
+    x = x + 0.5 * (1.0 - _THETA) * h * v
+    v = v + _THETA * h * (-k * x / m)
+    return (x + 0.5 * _THETA * h * v, v)
+
+
+@_jit
+def implicit_euler(s, h, k, m):
+    # The spring is linear: one Newton iteration from w = v_n solves for v_{n+1} exactly, and
+    # the harness takes one (newton_max = 1 on a linear scene).
+    x, v = s
+    dw = (h * (-k * (x + h * v) / m)) / (1.0 + h * h * (k / m))
+    w = v + dw
+    return (x + h * w, w)
+
+
+@_jit
+def implicit_midpoint(s, h, k, m):
+    x, v = s
+    dw = (h * (-k * (x + 0.5 * h * v) / m)) / (1.0 + 0.25 * h * h * (k / m))
+    w = v + dw
+    return (x + h * (0.5 * (v + w)), w)
+
+
+@_jit
+def semi_implicit_euler_velocity_implicit(s, h, k, m):
+    # The spring's force does not depend on v: the implicit velocity solve divides by 1, and
+    # the step is semi-implicit Euler's.
+    x, v = s
+    v = v + h * (-k * x / m)
+    return (x + h * v, v)
+
+
+@_jit
+def position_first_euler_decay_after_kick(s, h, k, m):
+    # The spring's damping rate is 0: the decay factor e^{-0 h} is 1.
+    x, v = s
+    x = x + h * v
+    return (x, math.exp(-0.0 * h) * (v + h * (-k * x / m)))
+
+
+@_jit
+def position_first_euler_decay_before_kick(s, h, k, m):
+    x, v = s
+    x = x + h * v
+    return (x, math.exp(-0.0 * h) * v + h * (-k * x / m))
+
+
+def _start_qv(x, v, h, k, m):
+    return (x, v)
+
+
+def _observe_qv(s, h, k, m):
+    return s[0], s[1]
+
+
+def _start_velocity_verlet(x, v, h, k, m):
+    return (x, v, -k * x / m)
+
+
+def _start_verlet(x, v, h, k, m):
+    a = -k * x / m
+    return (x, x - h * v + 0.5 * h * h * a, a)
+
+
+def _observe_verlet(s, h, k, m):
+    x, x_prev, a = s
+    return x, (x - x_prev) / h + 0.5 * h * a
+
+
+#: scheme id -> (step, start, observe), every unconstrained scheme.
+FLOORS = {
+    "explicit_euler": (explicit_euler, _start_qv, _observe_qv),
+    "semi_implicit_euler": (semi_implicit_euler, _start_qv, _observe_qv),
+    "semi_implicit_euler_position_first": (semi_implicit_euler_position_first, _start_qv, _observe_qv),
+    "leapfrog": (leapfrog, _start_qv, _observe_qv),
+    "velocity_verlet": (velocity_verlet, _start_velocity_verlet, _observe_qv),
+    "verlet": (verlet, _start_verlet, _observe_verlet),
+    "rk4": (rk4, _start_qv, _observe_qv),
+    "forest_ruth": (forest_ruth, _start_qv, _observe_qv),
+    "implicit_euler": (implicit_euler, _start_qv, _observe_qv),
+    "implicit_midpoint": (implicit_midpoint, _start_qv, _observe_qv),
+    "semi_implicit_euler_velocity_implicit": (semi_implicit_euler_velocity_implicit, _start_qv, _observe_qv),
+    "position_first_euler_decay_after_kick": (position_first_euler_decay_after_kick, _start_qv, _observe_qv),
+    "position_first_euler_decay_before_kick": (position_first_euler_decay_before_kick, _start_qv, _observe_qv),
+}
+
+_LOOPS: dict = {}
+
+
+def _loops(scheme_id: str):
+    """(single, batch) compiled loops of a floor: ``single(state, h, k, m, n) -> state`` in
+    registers, ``batch(states (nstate, nb), h, k, m, n)`` in place, the batch innermost."""
+    if scheme_id not in _LOOPS:
+        step = FLOORS[scheme_id][0]
+        jit = numba.njit(error_model="numpy")
+
+        @jit
+        def single(s, h, k, m, n):
+            for _ in range(n):
+                s = step(s, h, k, m)
+            return s
+
+        @jit
+        def batch2(a, h, k, m, n):
+            for _ in range(n):
+                for b in range(a.shape[1]):
+                    s = step((a[0, b], a[1, b]), h, k, m)
+                    a[0, b] = s[0]
+                    a[1, b] = s[1]
+
+        @jit
+        def batch3(a, h, k, m, n):
+            for _ in range(n):
+                for b in range(a.shape[1]):
+                    s = step((a[0, b], a[1, b], a[2, b]), h, k, m)
+                    a[0, b] = s[0]
+                    a[1, b] = s[1]
+                    a[2, b] = s[2]
+
+        _LOOPS[scheme_id] = (single, batch2, batch3)
+    return _LOOPS[scheme_id]
+
+
+def run_floor(scheme_id: str, x0: float, v0: float, h: float, k: float, m: float, n: int) -> tuple[float, float]:
+    """(x, v) after n steps of the floor from (x0, v0)."""
+    _, start, observe = FLOORS[scheme_id]
+    single = _loops(scheme_id)[0]
+    return observe(single(start(x0, v0, h, k, m), h, k, m, n), h, k, m)
+
+
+def floor_timer(scheme_id: str, h: float, steps: int, batch: int = 1, k: float = 1.0, m: float = 1.0,
+                x0: float = 1.0, v0: float = 0.0, clock=time.perf_counter):
+    """``(warm-up seconds, once)`` as ``reference._compiled.step_timer``: ``once()`` times one
+    call of ``steps`` steps of the floor (one spring in registers, or a batch of springs) and
+    returns seconds per step."""
+    _, start, _ = FLOORS[scheme_id]
+    single, batch2, batch3 = _loops(scheme_id)
+    s0 = start(x0, v0, h, k, m)
+    states = np.repeat(np.array(s0, dtype=np.float64)[:, None], batch, axis=1)
+    loop = batch2 if len(s0) == 2 else batch3
+    t = clock()
+    single(s0, h, k, m, 2)
+    loop(states.copy(), h, k, m, 2)
+    warm = clock() - t
+
+    def once() -> float:
+        if batch == 1:
+            t0 = clock()
+            single(s0, h, k, m, steps)
+        else:
+            work = states.copy()
+            t0 = clock()
+            loop(work, h, k, m, steps)
+        return (clock() - t0) / steps
+
+    return warm, once

@@ -1,0 +1,470 @@
+"""Compiled kernels of a (scheme, scene) pair, generated as source and cached on disk.
+
+For each pair this module writes one Python file: the scheme's ``step``/``start``/``observe``
+and the scene's ``accel``/``solve``/``project``, copied verbatim from their source files
+(decorators dropped, renamed ``scheme_step``, ``scene_accel``, ...), the module-level
+constants and helper functions they read, and the loop ``advance_n``, every function
+``numba.njit(cache=True)``. The file's name carries a hash of its own text (and of this
+module, numba's and Python's versions), so an edited scheme or scene yields a new file that
+compiles afresh, and a kernel compiled from old source is never loaded: numba's own cache
+checks only the file a function is defined in, never its callees in other files, and caches
+no function that takes or passes a function as an argument (the scheme's kernels become
+globals of the file instead). Files live under ``$HARNESS_CACHE`` (default ``~/.cache/integrator-harness``)
+in ``kernels/``, numba's cache beside them in ``__pycache__``; both are written under a
+temporary name and then put in place, so worker processes compiling the same pair at once
+each see a whole file.
+
+Two loops, both running the unchanged step function:
+
+* **pointwise** (the scene declares ``pointwise``: ``accel[i, b]`` and ``solve[i, b]``
+  depend only on entry (i, b) of the state, so every entry is its own 1-DOF system) and the
+  scheme unconstrained: the step runs on a tuple of floats, one entry at a time, and numba
+  inlines it into a loop of scalars without an array temporary. On one entry the steps run
+  in registers (the entry outermost); on a batch the entries run innermost, over contiguous
+  memory, so the loop vectorises. The entries are independent, so either order computes
+  every entry's float operations in the step's order: the same states as the array path.
+  An implicit step on a linear scene takes one Newton iteration (exact); the file then also
+  holds the step copied for exactly one (``scheme_step_once``: the iteration loop's convergence exit
+  dropped, which a single pass never takes), straight-line code that vectorises.
+* **array** (every other pair): the step on the state's arrays, as the interpreted driver
+  runs it; each operation allocates its result.
+
+A pair whose source cannot be copied (a global that is neither a number, a module nor a
+function of this project) is compiled in memory instead, every process anew, and says so
+(``Kernels.cached`` False).
+"""
+from __future__ import annotations
+
+import ast
+import builtins
+import hashlib
+import importlib.util
+import inspect
+import math
+import os
+import sys
+import tempfile
+import textwrap
+import time
+import types
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._scheme import largest_magnitude
+
+#: Modules a copied function may name, and the import line that gives them.
+_MODULE_IMPORTS = {np: "import numpy as {name}", math: "import math as {name}"}
+#: Packages whose functions may be copied into a kernel file.
+_OWN_PACKAGES = ("reference", "scenarios")
+#: Functions the kernel file imports rather than copies (numba compiles them through the
+#: overloads registered below).
+_IMPORTED = {largest_magnitude: "from reference._scheme import largest_magnitude"}
+
+
+def cache_dir() -> Path:
+    """Where kernel files and numba's cache of them live: ``$HARNESS_CACHE/kernels``, else
+    ``~/.cache/integrator-harness/kernels`` (``$XDG_CACHE_HOME`` if set)."""
+    root = os.environ.get("HARNESS_CACHE")
+    if not root:
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        root = os.path.join(base, "integrator-harness")
+    return Path(root) / "kernels"
+
+
+class SourceUnavailable(Exception):
+    """A function's source cannot be copied into a kernel file (the reason is the message)."""
+
+
+@dataclass
+class Stats:
+    """What this process compiled and what it loaded from the disk cache."""
+
+    compiled: int = 0
+    compile_s: float = 0.0
+    loaded: int = 0
+    load_s: float = 0.0
+
+    def snapshot(self) -> dict:
+        return {"kernels_compiled": self.compiled, "compile_s": self.compile_s,
+                "kernels_loaded": self.loaded, "load_s": self.load_s}
+
+
+STATS = Stats()
+
+
+_OVERLOADS: list = []
+
+
+def _register_overloads() -> None:
+    """``largest_magnitude`` inside compiled code: ``abs`` of a float (the pointwise loop),
+    ``max(abs)`` of an array (the array loop), as the interpreted function computes it.
+    Registered before the first kernel compiles, not on import (numba takes ~0.5 s to import)."""
+    if _OVERLOADS:
+        return
+    from numba.core import types as nbtypes
+    from numba.extending import overload
+
+    @overload(largest_magnitude)
+    def _largest_magnitude(x):
+        if isinstance(x, nbtypes.Float):
+            return lambda x: abs(x)
+        if isinstance(x, nbtypes.Array):
+            return lambda x: np.max(np.abs(x))
+        return None
+
+    _OVERLOADS.append(_largest_magnitude)
+
+
+# ------------------------------------------------------------------ source
+def _free_globals(tree: ast.FunctionDef) -> list[str]:
+    """Names a function reads that it does not bind (its parameters, assignments, loops)."""
+    bound = {a.arg for a in tree.args.args + tree.args.kwonlyargs + tree.args.posonlyargs}
+    loads = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            if isinstance(node.ctx, ast.Store):
+                bound.add(node.id)
+            elif node.id not in loads:
+                loads.append(node.id)
+    return [n for n in loads if n not in bound and not hasattr(builtins, n)]
+
+
+def _function_tree(fn, name: str) -> ast.FunctionDef:
+    try:
+        src = textwrap.dedent(inspect.getsource(fn))
+    except (OSError, TypeError) as exc:
+        raise SourceUnavailable(f"no source for {fn!r}: {exc}") from None
+    tree = ast.parse(src).body[0]
+    if not isinstance(tree, ast.FunctionDef):
+        raise SourceUnavailable(f"{fn!r} is not a plain function")
+    tree.decorator_list = []
+    tree.name = name
+    return tree
+
+
+class _Source:
+    """The text of one kernel file, built function by function."""
+
+    def __init__(self):
+        self.imports: dict[str, str] = {}
+        self.constants: dict[str, str] = {}
+        self.functions: dict[str, str] = {}
+        self.origins: dict[str, str] = {}
+        self._copied: dict[str, object] = {}
+        self._trees: dict[str, ast.FunctionDef] = {}
+
+    def add(self, fn, name: str, bind: tuple[str, ...] = ()) -> None:
+        """Copy ``fn`` as ``name``, with the globals it reads. ``bind`` names the kernels its
+        first parameters receive (``scene_accel``, ...): those parameters are dropped and the
+        kernels called as globals of the file, since numba caches no function that takes a
+        function as an argument or passes one on."""
+        if name in self._copied:
+            if self._copied[name] is not fn:
+                raise SourceUnavailable(f"two functions named {name}")
+            return
+        self._copied[name] = fn
+        tree = _function_tree(fn, name)
+        if bind:
+            params = tree.args.args[:len(bind)]
+            if len(params) < len(bind) or tree.args.posonlyargs:
+                raise SourceUnavailable(f"{fn.__qualname__} does not take the kernels {bind} first")
+            renames = {a.arg: kernel for a, kernel in zip(params, bind)}
+            tree.args.args = tree.args.args[len(bind):]
+            for node in ast.walk(tree):
+                if isinstance(node, ast.Name) and node.id in renames:
+                    if isinstance(node.ctx, ast.Store):
+                        raise SourceUnavailable(f"{fn.__qualname__} assigns to its kernel {node.id}")
+                    node.id = renames[node.id]
+        module = sys.modules.get(fn.__module__)
+        self.origins[name] = f"{fn.__module__}.{fn.__qualname__}"
+        for gname in _free_globals(tree):
+            if gname in bind:
+                continue
+            if gname not in fn.__globals__:
+                raise SourceUnavailable(f"{fn.__qualname__} reads an undefined global {gname}")
+            self._global(gname, fn.__globals__[gname], module)
+        self.functions[name] = ast.unparse(tree)
+        self._trees[name] = tree
+
+    def add_one_iteration(self, name: str, new_name: str, iterations: str) -> bool:
+        """Copy the already copied ``name`` as ``new_name`` for exactly one iteration: each loop
+        ``for _ in range(<iterations>)`` whose body ends ``if ...: break`` becomes one pass
+        without that exit (a break that ends the last pass changes nothing). Unlike a loop with
+        an exit, straight-line code vectorises over a batch. False if there is no such loop."""
+        tree = ast.parse(self.functions[name]).body[0]
+        found = False
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.For) and isinstance(node.iter, ast.Call)
+                    and getattr(node.iter.func, "id", None) == "range" and len(node.iter.args) == 1
+                    and getattr(node.iter.args[0], "id", None) == iterations and node.body
+                    and isinstance(node.body[-1], ast.If) and not node.body[-1].orelse
+                    and [type(b) for b in node.body[-1].body] == [ast.Break]):
+                node.body = node.body[:-1] or [ast.Pass()]
+                node.iter.args = [ast.Constant(1)]
+                found = True
+        if found:
+            tree.name = new_name
+            self.origins[new_name] = self.origins[name] + ", one iteration"
+            self.functions[new_name] = ast.unparse(ast.fix_missing_locations(tree))
+        return found
+
+    def _global(self, name: str, value, module) -> None:
+        if isinstance(value, types.ModuleType):
+            for mod, line in _MODULE_IMPORTS.items():
+                if value is mod:
+                    self._put(self.imports, name, line.format(name=name))
+                    return
+            raise SourceUnavailable(f"module {value.__name__} (as {name}) cannot be named in a kernel")
+        if isinstance(value, (bool, int, float)):
+            self._put(self.constants, name, f"{name} = {value!r}")
+            return
+        if value in _IMPORTED:
+            self._put(self.imports, name, _IMPORTED[value])
+            return
+        if isinstance(value, types.FunctionType) and value.__module__.split(".")[0] in _OWN_PACKAGES:
+            self.add(value, name)
+            return
+        raise SourceUnavailable(f"global {name} = {value!r} cannot be copied into a kernel")
+
+    def _put(self, table: dict, name: str, line: str) -> None:
+        if table.get(name, line) != line:
+            raise SourceUnavailable(f"two different globals named {name}")
+        table[name] = line
+
+    def text(self, header: str, loop: str) -> str:
+        # error_model="numpy": a division by zero gives inf/nan, as on the interpreted (numpy)
+        # path, instead of raising, and the loops skip the zero checks (~15% of a spring step).
+        parts = [header, "import numba", *sorted(set(self.imports.values())), "",
+                 '_jit = numba.njit(cache=True, error_model="numpy")', ""]
+        parts += sorted(self.constants.values()) + [""]
+        for name, body in self.functions.items():
+            parts += [f"# from {self.origins[name]}", "@_jit", body, ""]
+        return "\n".join(parts + [loop])
+
+
+def _loop_source(kind: str, nstate: int, pointwise: bool, once: bool = False) -> str:
+    """``advance_n(state, t0, h, i0, n, p, k) -> state``: steps i0 .. i0 + n - 1 of a run
+    started at t0 (step i starts at t0 + i h, as in the interpreted driver, so a run cut into
+    pieces is the same run). ``k`` is the one integer a scheme takes besides the state: Newton
+    iterations allowed (implicit) or projection passes (constrained). The state passed in is
+    not modified. ``once``: the file has ``scheme_step_once``, the step for one Newton iteration."""
+    extra = "k, " if kind in ("implicit", "constrained") else ""
+    call = f"scheme_step({extra}{{x}}, {{t}}, h, p)"
+    if not pointwise:
+        return "\n".join([
+            "@_jit",
+            "def advance_n(state, t0, h, i0, n, p, k):",
+            "    for i in range(i0, i0 + n):",
+            "        state = " + call.format(x="state", t="t0 + i * h"),
+            "    return state", ""])
+    s = [f"s{j}" for j in range(nstate)]
+
+    def entries(r, b):
+        return "(" + ", ".join(f"{x}[{r}, {b}]" for x in s) + ",)"
+
+    def loops(step_call, indent):
+        body = ["if nb == 1:",
+                "    for r in range(ndof):",
+                f"        x = {entries('r', 0)}",
+                "        for i in range(i0, i0 + n):",
+                "            x = " + step_call.format(x="x", t="t0 + i * h"),
+                *[f"        {x}[r, 0] = x[{j}]" for j, x in enumerate(s)],
+                "else:",
+                "    for i in range(i0, i0 + n):",
+                "        t = t0 + i * h",
+                "        for r in range(ndof):",
+                "            for b in range(nb):",
+                "                x = " + step_call.format(x=entries("r", "b"), t="t"),
+                *[f"                {x}[r, b] = x[{j}]" for j, x in enumerate(s)]]
+        return [indent + line for line in body]
+
+    lines = ["@_jit", "def advance_n(state, t0, h, i0, n, p, k):"]
+    lines += [f"    {x} = state[{j}].copy()" for j, x in enumerate(s)]
+    lines += ["    ndof, nb = s0.shape"]
+    if once:
+        # One Newton iteration (every linear scene: exact) runs the step copied without the
+        # iteration loop's exit, which leaves the batch loop straight-line code that vectorises.
+        lines += ["    if k == 1:", *loops(call.replace("scheme_step(k, ", "scheme_step_once(1, "), "        "),
+                  "    else:", *loops(call, "        ")]
+    else:
+        lines += loops(call, "    ")
+    lines += ["    return (" + ", ".join(s) + ",)", ""]
+    return "\n".join(lines)
+
+
+def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
+    """(text of the kernel file, pointwise?) for a pair. Raises SourceUnavailable."""
+    kind = ("constrained" if scheme.constrained else "implicit" if scheme.implicit
+            else "decay" if getattr(scheme, "decay", False) else "explicit")
+    pointwise = bool(getattr(scene_cls, "pointwise", False)) and not scheme.constrained
+    src = _Source()
+    kernels = {"explicit": ("scene_accel",), "implicit": ("scene_accel", "scene_solve"),
+               "constrained": ("scene_accel", "scene_project"),
+               "decay": ("scene_accel", "scene_damping_rate")}[kind]
+    src.add(scheme.step, "scheme_step", kernels)
+    src.add(scheme.start, "start", ("scene_accel",))
+    src.add(scheme.observe, "observe", ("scene_accel",))
+    src.add(scene_cls.accel, "scene_accel")
+    if kind == "implicit":
+        src.add(scene_cls.solve, "scene_solve")
+    if kind == "constrained":
+        src.add(scene_cls.project, "scene_project")
+    if kind == "decay":
+        src.add(scene_cls.damping_rate, "scene_damping_rate")
+    once = False
+    if kind == "implicit" and pointwise:
+        # The Newton parameter is the step's first after the two kernels.
+        params = src._trees["scheme_step"].args.args
+        once = bool(params) and src.add_one_iteration("scheme_step", "scheme_step_once", params[0].arg)
+    header = (f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind}, '
+              f'{"pointwise" if pointwise else "array"} loop), generated by reference._kernels."""')
+    return src.text(header, _loop_source(kind, nstate, pointwise, once)), pointwise
+
+
+# ------------------------------------------------------------------ files
+def _key(text: str) -> str:
+    """Hash of the kernel file's text, of this module (the overloads the text compiles
+    through) and of numba's and Python's versions."""
+    import numba
+
+    h = hashlib.sha256(text.encode())
+    h.update(Path(__file__).read_bytes())
+    h.update(f"numba {numba.__version__} python {sys.version}".encode())
+    return h.hexdigest()[:16]
+
+
+def _write_once(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` unless a file is already there: to a temporary name in the
+    same directory, then linked to its name, which fails if another process got there first
+    (its file is the same text). A reader never sees half a file, and a file once there is
+    never replaced: numba's cache of it is stamped with its modification time."""
+    if path.exists():
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".py")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            pass
+        except OSError:  # a file system without hard links: rename (the same text if raced)
+            os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _import_file(name: str, path: Path):
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return module
+
+
+@dataclass
+class Kernels:
+    """The compiled pieces of one pair. ``path`` is the kernel file (None when compiled in
+    memory, ``why_uncached`` then says why); ``pointwise`` which loop ``advance_n`` runs."""
+
+    start: object
+    advance_n: object
+    observe: object
+    pointwise: bool
+    path: Path | None
+    why_uncached: str = ""
+
+    @property
+    def cached(self) -> bool:
+        return self.path is not None
+
+    def dispatchers(self) -> list:
+        return [self.start, self.advance_n, self.observe]
+
+
+def load(scheme, scene_cls, nstate: int) -> Kernels:
+    """The kernels of a pair from its kernel file (written first if missing). Not yet
+    compiled: the first call compiles, or loads numba's cache of the file."""
+    _register_overloads()
+    try:
+        text, pointwise = kernel_source(scheme, scene_cls, nstate)
+    except SourceUnavailable as exc:
+        return _in_memory(scheme, scene_cls, str(exc))
+    key = _key(text)
+    stem = f"k_{scheme.id}_{scene_cls.__name__.lower()}_{key}"
+    path = cache_dir() / f"{stem}.py"
+    _write_once(path, text)
+    module = _import_file(f"_harness_kernels.{stem}", path)
+    return Kernels(module.start, module.advance_n, module.observe, pointwise, path)
+
+
+def _in_memory(scheme, scene_cls, why: str) -> Kernels:
+    """The array loop compiled from the function objects themselves (not cacheable)."""
+    import numba
+
+    jit = numba.njit(error_model="numpy")
+    step, scheme_start, scheme_observe = jit(scheme.step), jit(scheme.start), jit(scheme.observe)
+    accel, solve, project = jit(scene_cls.accel), jit(scene_cls.solve), jit(scene_cls.project)
+
+    @jit
+    def start(q, v, t, h, p):
+        return scheme_start(accel, q, v, t, h, p)
+
+    @jit
+    def observe(state, t, h, p):
+        return scheme_observe(accel, state, t, h, p)
+
+    if scheme.constrained:
+        @jit
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, project, k, state, t0 + i * h, h, p)
+            return state
+    elif scheme.implicit:
+        @jit
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, solve, k, state, t0 + i * h, h, p)
+            return state
+    elif getattr(scheme, "decay", False):
+        rate = jit(scene_cls.damping_rate)
+
+        @jit
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, rate, state, t0 + i * h, h, p)
+            return state
+    else:
+        @jit
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, state, t0 + i * h, h, p)
+            return state
+    return Kernels(start, advance_n, observe, False, None, why)
+
+
+def warm(kernels: Kernels, call) -> float:
+    """Run ``call()`` (the first call of the pair's kernels, which compiles them or loads them
+    from the cache), account it in ``STATS`` and return its seconds, CPU seconds of this
+    process (numba compiles in this thread; a core shared with other work does not inflate them)."""
+    t = time.process_time()
+    call()
+    seconds = time.process_time() - t
+    misses = sum(sum(d.stats.cache_misses.values()) for d in kernels.dispatchers())
+    if kernels.cached and misses == 0:
+        STATS.loaded += 1
+        STATS.load_s += seconds
+    else:
+        STATS.compiled += 1
+        STATS.compile_s += seconds
+    return seconds

@@ -1,0 +1,176 @@
+"""Compiled kernels (reference._kernels): generated from the schemes' and scenes' source, cached
+on disk, never stale; the pointwise loop; the hand-written floors (reference._floors) as a check."""
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from reference import METHODS, integrate
+from reference import _kernels
+from reference._compiled import _parts, run_compiled
+from reference._floors import FLOORS, run_floor
+from scenarios import SCENES, make_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+POINTWISE = sorted(s for s in SCENES if make_scene(s).pointwise)
+
+
+def test_every_unconstrained_scheme_has_a_floor():
+    assert set(FLOORS) == {sid for sid, s in METHODS.items() if not s.constrained}
+
+
+@pytest.mark.parametrize("scheme_id", sorted(FLOORS))
+def test_each_compiled_scheme_equals_its_hand_written_floor(scheme_id):
+    """1000 steps of the unit spring at dt = 0.01. The explicit schemes' floors repeat the
+    kernels' float operations in the same order: measured bitwise. The implicit floors spell
+    the one Newton step as a closed form (measured 2e-15 apart); 1e-13 is a hundred roundoffs of
+    a unit-size state, far below a scheme's error per step (~1e-6 at this dt and order 1)."""
+    spring = make_scene("spring")
+    q, v = run_compiled(METHODS[scheme_id], spring, 0.01, 1000)
+    x, w = run_floor(scheme_id, 1.0, 0.0, 0.01, 1.0, 1.0, 1000)
+    assert abs(q[0, 0] - x) <= 1e-13 and abs(v[0, 0] - w) <= 1e-13
+    if not METHODS[scheme_id].implicit:
+        assert (q[0, 0], v[0, 0]) == (x, w)
+
+
+@pytest.mark.parametrize("scene_id", POINTWISE)
+def test_a_pointwise_scene_computes_each_entry_from_that_entry_alone(scene_id):
+    """What ``pointwise`` declares: the kernels on a (ndof, batch) array equal the kernels on each
+    entry as a float (numpy's vectorised sin may differ from the scalar one by an ulp: 1e-15)."""
+    scene = make_scene(scene_id)
+    rng = np.random.default_rng(1)
+    q, v, r = (rng.normal(size=(scene.ndof, 5)) for _ in range(3))
+    p = scene.pvec
+    a = scene.accel(q, v, 0.3, p)
+    x = scene.solve(q, v, 0.3, p, 0.01, 1e-4, r)
+    for i in range(scene.ndof):
+        for b in range(5):
+            assert a[i, b] == pytest.approx(scene.accel(q[i, b], v[i, b], 0.3, p), rel=1e-15, abs=1e-300)
+            assert x[i, b] == pytest.approx(scene.solve(q[i, b], v[i, b], 0.3, p, 0.01, 1e-4, r[i, b]),
+                                            rel=1e-15, abs=1e-300)
+
+
+@pytest.mark.parametrize("scheme_id", ["rk4", "verlet", "implicit_euler"])
+def test_the_pointwise_loop_on_a_batch_is_the_interpreted_batch(scheme_id):
+    """A batch of springs in the pointwise loop (entries innermost) gives the interpreted
+    driver's states bitwise: the same float operations per entry, in the same order."""
+    spring = make_scene("spring")
+    q0 = np.array([[1.0], [0.5], [-2.0]])
+    v0 = np.array([[0.0], [0.3], [1.0]])
+    scheme = METHODS[scheme_id]
+    assert _parts(scheme, spring).kernels.pointwise
+    q, v = run_compiled(scheme, spring, 0.05, 300, q0=q0, v0=v0)
+    ref = integrate(scheme, spring, 0.05, 300, every=300, q0=q0, v0=v0)
+    np.testing.assert_array_equal(q, ref.q[-1])
+    np.testing.assert_array_equal(v, ref.v[-1])
+
+
+def test_a_non_pointwise_scene_runs_the_array_loop_and_every_kernel_is_cached():
+    for scene_id in ("kepler", "projectile", "chain"):
+        kernels = _parts(METHODS["rk4"], make_scene(scene_id)).kernels
+        assert not kernels.pointwise and kernels.cached, scene_id
+    assert _parts(METHODS["rk4"], make_scene("spring")).kernels.pointwise
+
+
+#: One pair compiled in a fresh process: the scheme is the module at argv[1] (a copy of
+#: semi-implicit Euler), the cache under $HARNESS_CACHE. Prints the compiled and the
+#: interpreted final state and what the process compiled and loaded.
+_PAIR_SCRIPT = """
+import importlib.util, json, sys
+spec = importlib.util.spec_from_file_location("edited_scheme", sys.argv[1])
+mod = importlib.util.module_from_spec(spec); spec.loader.exec_module(mod)
+from reference import integrate
+from reference._compiled import run_compiled, _parts
+from reference._kernels import STATS
+from scenarios import make_scene
+spring = make_scene("spring")
+q, v = run_compiled(mod.edited, spring, 0.1, 100)
+ref = integrate(mod.edited, spring, 0.1, 100, every=100)
+print(json.dumps({"q": float(q[0, 0]), "q_interpreted": float(ref.q[-1, 0, 0]), "compiled": STATS.compiled,
+                  "loaded": STATS.loaded, "path": str(_parts(mod.edited, spring).kernels.path)}))
+"""
+
+_SCHEME = '''
+from reference._scheme import scheme
+
+
+@scheme(order=1, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0)
+def edited(accel, state, t, h, p):
+    q, v = state
+    a = accel(q, v, t, p)
+    v = v + {kick} * a
+    return (q + h * v, v)
+'''
+
+
+def _run_pair(scheme_file: Path, cache: Path, background: bool = False):
+    env = {**os.environ, "HARNESS_CACHE": str(cache), "PYTHONPATH": str(ROOT)}
+    cmd = [sys.executable, "-c", _PAIR_SCRIPT, str(scheme_file)]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if background:
+        return proc
+    return _result(proc)
+
+
+def _result(proc) -> dict:
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 0, err
+    return json.loads(out.splitlines()[-1])
+
+
+def test_an_edited_scheme_recompiles_and_a_stale_kernel_is_never_loaded(tmp_path):
+    """Two processes compile a pair at once into an empty cache (each writes whole files), a
+    third loads it without compiling; after the scheme's file is edited, the next process
+    compiles a new kernel and gets the edited scheme's states, never the cached old ones."""
+    cache, scheme_file = tmp_path / "cache", tmp_path / "edited_scheme.py"
+    scheme_file.write_text(_SCHEME.format(kick="h"))
+    first = [_run_pair(scheme_file, cache, background=True) for _ in range(2)]
+    a, b = (_result(p) for p in first)
+    for r in (a, b):
+        assert r["q"] == r["q_interpreted"] and r["compiled"] + r["loaded"] == 1
+    assert a["compiled"] == 1  # started at once: at least one of them compiled
+    again = _run_pair(scheme_file, cache)
+    assert (again["compiled"], again["loaded"]) == (0, 1) and again["q"] == a["q"]
+    assert again["path"] == a["path"]
+
+    scheme_file.write_text(_SCHEME.format(kick="0.5 * h"))
+    edited = _run_pair(scheme_file, cache)
+    assert (edited["compiled"], edited["loaded"]) == (1, 0)
+    assert edited["q"] == edited["q_interpreted"] and edited["q"] != a["q"]
+    assert edited["path"] != a["path"] and Path(edited["path"]).exists()
+    assert len(list((cache / "kernels").glob("k_edited_spring_*.py"))) == 2
+
+
+def test_a_scheme_whose_source_cannot_be_copied_is_compiled_in_memory():
+    """A scheme with no source file to copy from (defined by exec) cannot be written into a
+    kernel file: the pair compiles in memory, says why, and runs the same."""
+    from reference._scheme import scheme
+
+    namespace = {"scheme": scheme}
+    exec(textwrap.dedent('''
+        @scheme(order=1, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0)
+        def uses_a_dict(accel, state, t, h, p):
+            q, v = state
+            v = v + h * accel(q, v, t, p)
+            return (q + h * v, v)
+        '''), namespace)
+    made = namespace["uses_a_dict"]
+    with pytest.raises(_kernels.SourceUnavailable):  # exec'd source has no file to copy from
+        _kernels.kernel_source(made, type(make_scene("spring")), 2)
+    kernels = _kernels.load(made, type(make_scene("spring")), 2)
+    assert not kernels.cached and kernels.why_uncached
+    q, _ = run_compiled(made, make_scene("spring"), 0.1, 50)
+    assert q[0, 0] == run_compiled(METHODS["semi_implicit_euler"], make_scene("spring"), 0.1, 50)[0][0, 0]
+
+
+def test_the_cache_lives_under_harness_cache(monkeypatch, tmp_path):
+    monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))
+    assert _kernels.cache_dir() == tmp_path / "kernels"
+    monkeypatch.delenv("HARNESS_CACHE")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert _kernels.cache_dir() == tmp_path / "xdg" / "integrator-harness" / "kernels"
