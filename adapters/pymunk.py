@@ -25,8 +25,9 @@ Every setting is read back into the result.
 Chipmunk has no loop of its own to call: the engine's loop (``steps(n)``) is a Python loop of
 ``space.step`` alone (the force, where the mode computes it, is a Python ``velocity_func``
 that Chipmunk calls inside the step), except ``applied_force``, whose force is set from Python
-before each step (that is the mode), and the pin-jointed pendulum, whose angle is followed
-every step (Chipmunk reports the bob's position; the angle's whole turns need every step).
+before each step (that is the mode), and the pin-jointed pendulum, whose angle is followed in
+chunks of steps short enough that it cannot turn half a turn unseen (Chipmunk reports the bob's
+position, so the angle's whole turns must be followed).
 The state is read only at output points. Force evaluations are counted, in a counting run, by
 wrapping the Python force functions (``velocity_func`` calls per step divided by the bodies, or
 the force set before each step); Chipmunk's own constraints (DampedSpring, PinJoint) compute
@@ -166,7 +167,7 @@ class _Model:
         self.settings["engine_loop"] = (
             "from Python every step: the force set on body.force, then space.step (the mode)"
             if self.mode == "applied_force" else
-            "space.step only, the bob's angle followed every step" if self.scene_id == "pendulum" else
+            "space.step only, the bob's angle read between chunks of steps it cannot turn half a turn in" if self.scene_id == "pendulum" else
             "space.step only (the force is Chipmunk's velocity_func call)" if self.mode == "spring_force" else
             "space.step only")
         if self.force_calls is None:
@@ -333,20 +334,40 @@ class _Model:
                 apply()
                 step(dt)
         elif self.scene_id == "pendulum":
-            # state()'s angle update, without building its arrays: the angle's whole turns need every step.
-            body, theta, atan2, isfinite = self.body, self.theta, math.atan2, math.isfinite
-            for _ in range(n):
-                step(dt)
-                x, y = body.position
-                angle = atan2(x, -y)
-                theta = unwrap(theta, angle) if isfinite(angle) else angle
-            self.theta = theta
+            self._pendulum_steps(n)
         else:
             for _ in range(n):
                 step(dt)
 
     def run(self, marks):
         return run_by_steps(self, marks)
+
+    def _pendulum_steps(self, n: int) -> None:
+        """n steps of the pin-jointed pendulum, the angle followed between them in chunks.
+
+        Chipmunk reports the bob's position, so the angle is known modulo 2 pi and its whole
+        turns must be followed: ``unwrap`` is exact as long as the angle moves less than pi
+        between two looks. A chunk is as many steps as the bob cannot turn a quarter turn in at
+        twice the fastest angular rate its energy allows (speed at the bottom from the current
+        speed and height, v_max^2 = v^2 + 2 g (y + L)); the states it reaches are those of a
+        look after every step, bit for bit (``unwrap`` adds whole turns to Chipmunk's angle).
+        """
+        step, dt, body = self.space.step, self.dt, self.body
+        g, length = -self.space.gravity[1], self.joint.distance
+        theta = self.theta
+        left = n
+        while left > 0:
+            (x, y), (vx, vy) = body.position, body.velocity
+            fastest = 2.0 * math.sqrt(max(vx * vx + vy * vy + 2.0 * g * (y + length), 0.0)) / length
+            chunk = int(0.5 * math.pi / (dt * fastest)) if math.isfinite(fastest) and fastest > 0.0 else 1
+            chunk = max(1, min(chunk, left))
+            for _ in range(chunk):
+                step(dt)
+            left -= chunk
+            x, y = body.position
+            angle = math.atan2(x, -y)
+            theta = unwrap(theta, angle) if math.isfinite(angle) else angle
+        self.theta = theta
 
     def evaluations(self):
         if self.force_calls is not None:
