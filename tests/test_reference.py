@@ -1,5 +1,4 @@
 """Reference schemes: the seed's worked examples, energy factors, counting, batching, long-run behaviour."""
-import math
 
 import numpy as np
 import pytest
@@ -224,4 +223,8 @@ def test_forest_ruth_coefficient():
     from reference.forest_ruth import THETA
 
     assert THETA == pytest.approx(1.3512071919596578, rel=1e-15)
-    assert math.isclose(2 * THETA + (1 - 2 * THETA), 1.0)
+    # Yoshida's condition for the triple jump theta, 1 - 2 theta, theta to cancel the third-order
+    # error of its leapfrogs: 2 theta^3 + (1 - 2 theta)^3 = 0 (its real root is 1/(2 - 2^(1/3))).
+    assert 2 * THETA**3 + (1 - 2 * THETA) ** 3 == pytest.approx(0.0, abs=1e-14)
+    # A wrong theta fails it: the nearby 1.35 leaves 2.7e-2.
+    assert abs(2 * 1.35**3 + (1 - 2 * 1.35) ** 3) > 1e-3
