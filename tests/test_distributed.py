@@ -114,8 +114,12 @@ def test_a_killed_worker_costs_its_cell_one_retry_and_every_cell_is_stored_once(
 
     kills = tmp / "kills"
     once = dask_faults.attempts(kills, KILLED_ONCE)
-    assert [a.split()[0] for a in once] == ["killed", "ran"]
-    assert once[0].split()[1] != once[1].split()[1]  # the retry ran in another worker process
+    # Killed once, then ran in another worker process. Dask may run it once more: a result still
+    # on a worker that the always-killed task then kills (before the client polls) is lost with
+    # it and recomputed; the client still stores it once (no duplicated cell, above).
+    assert [a.split()[0] for a in once][:2] == ["killed", "ran"] and len(once) <= 3
+    assert all(a.split()[0] == "ran" for a in once[1:])
+    assert once[0].split()[1] != once[1].split()[1]
     rk4 = cells[cells.method == "ref:rk4"]
     assert set(rk4.status) == {"ok"}
 
