@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import asdict
 
 import numpy as np
 
@@ -64,6 +65,8 @@ def measures_for(task) -> list[str]:
     if getattr(get_method(task.method), "adaptive", False):
         # It picks its own steps (dt is the output interval): nothing to measure against dt.
         out = [m for m in out if m not in ("order", "stability")]
+    if suite.scenes[task.scene].advise is not None and "order" in out:  # fixed-step methods only
+        out.append("advise")
     if task.family != "ref" and suite.identify and not make_scene(task.scene, **task.params).constrained:
         # A constrained scene's only reference scheme projects positions; no engine integrates
         # that (MuJoCo's rope is reduced coordinates, pymunk's impulses): nothing to identify.
@@ -135,7 +138,10 @@ def run_task(task) -> list[dict]:
     keep(*_guard_many(task, ("energy", "error"), lambda: _energy_and_error(task, run_method, scene, dt, spec, suite)))
     if "order" in measures:
         keep(_guard(task, "order", lambda: _order(task, run_method, scene, spec)))
-    keep(_guard(task, "cost", lambda: _cost(task, method, scene, dt, suite)))
+    cost = _guard(task, "cost", lambda: _cost(task, method, scene, dt, suite))
+    keep(cost)
+    if "advise" in measures:
+        keep(*_guard_many(task, ("advise",), lambda: _advise(task, method, scene, spec, suite, cost)))
     if "stability" in measures:
         keep(_guard(task, "stability", lambda: _stability(task, run_method, scene, suite, spec)))
     from .scene_cells import scene_cells
@@ -290,6 +296,24 @@ def _cost(task, method, scene, dt, suite) -> dict:
                        "as_stepped_s_per_step": res.get("as_stepped_s_per_step"),
                        "as_stepped_repeats_s_per_step": (res.get("as_stepped") or {}).get("repeats_s_per_step"),
                        "as_stepped_timing": (res.get("as_stepped") or {}).get("timing")})
+
+
+def _advise(task, method, scene, spec, suite, cost) -> list[dict]:
+    """One cell per frame rate of the suite: the method's search over substeps
+    (``harness.advise.advise_method``), its cost per step from this task's cost cell. Value:
+    the cost per frame of the fewest substeps that meet the tolerances (None where none does)."""
+    from .advise import Request, advise_method
+
+    per_step = (cost["value"], f"{cost['data'].get('timing')}; {cost['data'].get('clock')} clock (the cost cell)") \
+        if cost["status"] == "ok" and cost["value"] else None
+    cells = []
+    for hz in suite.frame_rates:
+        request = Request(hz=hz, **spec.advise).checked()
+        res = advise_method(method, scene, request, timeout=suite.cell_timeout, cost_per_step=per_step)
+        best = res.best_row
+        cells.append(_cell(task, "advise", "ok", best.cost_per_frame_s if best is not None else None, 1.0 / hz,
+                           data=_plain({"hz": hz, "request": asdict(request), **res.as_dict()})))
+    return cells
 
 
 def _identity(task, method, scene) -> dict:

@@ -11,7 +11,7 @@ import sys
 
 from scenarios import InvalidInput
 
-COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision",
+COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision", "advise",
             "nightly", "compare", "history", "bounds"]
 
 

@@ -32,6 +32,8 @@ class SceneSpec:
     methods: tuple[str, ...] | None = None   # this scene's methods (None: the suite's)
     compiled: bool = False         # reference schemes step compiled (runs too long to interpret)
     stability_hi: float | None = None   # largest h*omega the stability search tries (None: its default)
+    advise: dict | None = None     # the advice at the suite's frame rates (harness.advise.Request fields
+                                   # but hz: horizon, energy_tol, error_tol, max_substeps); None: none
 
 
 @dataclass(frozen=True)
@@ -51,6 +53,7 @@ class Suite:
                                              # Kepler, so a search to 1e4 would take about 15 minutes.
     cell_timeout: float = 120.0              # seconds a task (one scene x method, all its measures) may take
     bounds: bool = True                      # measure the reviewed energy bounds
+    frame_rates: tuple[float, ...] = (60.0,)  # frame rates of the advice cells (scenes with ``advise``)
     identify: bool = True                    # identity table for engine modes
 
 
@@ -91,10 +94,14 @@ SOLAR_METHODS = ("ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocity_
 #: its whole span, 5000 steps x dt: 1.4e7 days at this bound, 4.5e8 days at WHFast's limit.
 SOLAR_STABILITY_HI = 4.0
 
+#: The advice a game or animation programmer asks for: 10 s at the suite's frame rates, the
+#: energy within 0.1% of the largest exact energy, up to 16 substeps a frame.
+ADVISE = {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 16}
+
 SUITES: dict[str, Suite] = {
     "smoke": Suite(
         "smoke",
-        scenes={"spring": SceneSpec(periods=20, order_points=6, order_span=4.0)},
+        scenes={"spring": SceneSpec(periods=20, order_points=6, order_span=4.0, advise=ADVISE)},
         methods=("ref:explicit_euler", "ref:semi_implicit_euler", "ref:leapfrog", "ref:rk4", "ref:implicit_euler",
                  "mujoco:euler", "pymunk:applied_force"),
         cost_repeats=3, series_points=200, stability_steps=500, cell_timeout=60.0,
@@ -102,12 +109,13 @@ SUITES: dict[str, Suite] = {
     "standard": Suite(
         "standard",
         scenes={
-            "spring": SceneSpec(periods=200, skip=VELOCITY_SCHEMES),
-            "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS),
-            "pendulum": SceneSpec(periods=50, skip=VELOCITY_SCHEMES),
+            "spring": SceneSpec(periods=200, skip=VELOCITY_SCHEMES, advise=ADVISE),
+            "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE),
+            "pendulum": SceneSpec(periods=50, skip=VELOCITY_SCHEMES, advise=ADVISE),
             "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0, skip=VELOCITY_SCHEMES),
             "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True),
-            "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS, skip=CHAIN_STANDARD_SKIP),
+            "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS, skip=CHAIN_STANDARD_SKIP,
+                               advise=ADVISE),
             "rope": SceneSpec(params={"N": 5}, periods=20, stability=False, extras=ROPE_EXTRAS,
                               skip=ROPE_STANDARD_SKIP),
             "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
@@ -117,18 +125,18 @@ SUITES: dict[str, Suite] = {
     "full": Suite(
         "full",
         scenes={
-            "spring": SceneSpec(periods=2000, order_points=8, order_span=16.0),
-            "damped_spring": SceneSpec(periods=200, order_points=8, order_span=16.0, extras=DAMPED_SPRING_EXTRAS),
-            "pendulum": SceneSpec(periods=500, order_points=8, order_span=16.0),
+            "spring": SceneSpec(periods=2000, order_points=8, order_span=16.0, advise=ADVISE),
+            "damped_spring": SceneSpec(periods=200, order_points=8, order_span=16.0, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE),
+            "pendulum": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE),
             "kepler": SceneSpec(homega=0.02, periods=1000, order_points=8, order_span=16.0),
             "projectile": SceneSpec(homega=0.01, periods=0.2, order_points=8, order_span=16.0),
-            "chain": SceneSpec(periods=500, order_points=8, order_span=16.0,
+            "chain": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE,
                                extras={**CHAIN_EXTRAS, "scaling": {"ns": (10, 100, 1000, 10000)}}),
             "rope": SceneSpec(periods=200, order_points=8, order_span=16.0, stability=False, extras=ROPE_EXTRAS),
             "solar_system": SceneSpec(dt=10.0, horizon=1.0e7, order_points=8, order_span=16.0, compiled=True,
                                       stability_hi=SOLAR_STABILITY_HI),
         },
         cost_repeats=9, cost_steps=100_000, series_points=1000, stability_steps=5000, cell_timeout=900.0,
-        stability_homega_max=1000.0,
+        stability_homega_max=1000.0, frame_rates=(60.0, 240.0, 1000.0),
     ),
 }

@@ -120,6 +120,49 @@ def stability_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
     return _save(fig, path)
 
 
+def advice_chart(cells: pd.DataFrame, scene: str, hz: float, path: Path) -> bool:
+    """Cost per frame against the error the advice judges (energy error where the suite sets an
+    energy tolerance, else position error), one point per (method, substeps) measured at ``hz``,
+    the tolerance as a horizontal line; rows unstable there drawn at the top edge. Cost: s x the
+    method's CPU seconds per step from its cost cell (compiled kernel / engine step)."""
+    rows = cells[(cells.measure == "advise") & (cells.status == "ok")]
+    rows = [r for _, r in rows.iterrows() if r.data.get("hz") == hz and r.data.get("rows")]
+    if not rows:
+        return False
+    request = rows[0].data["request"]
+    key, tol, label = (("energy_error", request["energy_tol"], "energy error (max |E - E_exact| / max |E_exact|)")
+                       if request.get("energy_tol") is not None else
+                       ("position_error", request["error_tol"], "max position error"))
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    stable_pts, unstable_pts = [], []
+    for r in sorted(rows, key=lambda r: r.method):
+        pts = [(x["cost_per_frame_s"] * 1e6, x[key], x["stable"]) for x in r.data["rows"] if x.get("cost_per_frame_s")]
+        good = sorted((c, e) for c, e, stable in pts if stable and e is not None and e > 0)
+        if good:
+            xs, ys = zip(*good)
+            ax.plot(xs, ys, marker="o", markersize=3, label=r.method, **_style(r.method))
+            stable_pts += good
+        unstable_pts += [(c, r.method) for c, _, stable in pts if not stable]
+    if not stable_pts and not unstable_pts:
+        plt.close(fig)
+        return False
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    top = max([e for _, e in stable_pts] + [tol]) * 10
+    if unstable_pts:
+        ax.scatter([c for c, _ in unstable_pts], [top] * len(unstable_pts), marker="x", color="tab:red",
+                   label="unstable (drawn at the top edge)", zorder=3)
+        for method, c in {m: c for c, m in sorted(unstable_pts)}.items():  # one label a method
+            ax.annotate(method, (c, top), textcoords="offset points", xytext=(0, -9), ha="center", fontsize=6,
+                        color="tab:red")
+    ax.axhline(tol, color="0.3", linestyle=":", label=f"tolerance {tol:g}")
+    ax.set_xlabel("cost per frame: substeps x CPU µs per step (compiled kernel / engine step)")
+    ax.set_ylabel(label)
+    ax.set_title(f"{scene} at {hz:g} Hz: error against cost, one point per (method, substeps)")
+    ax.legend(fontsize=7, ncol=2, loc="best")
+    return _save(fig, path)
+
+
 #: Where an unbounded limit is drawn on the stability-against-damping chart (above every finite one).
 DAMPING_CHART_TOP = 20.0
 

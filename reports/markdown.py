@@ -295,6 +295,75 @@ def findings(piv: dict, cells: pd.DataFrame) -> list[str]:
     return lines + [""]
 
 
+def _frame_rates(cells: pd.DataFrame) -> list[float]:
+    rows = cells[(cells.measure == "advise") & (cells.status == "ok")]
+    return sorted({float(r.data["hz"]) for _, r in rows.iterrows() if r.data.get("hz")})
+
+
+def _per_frame(row: dict) -> str:
+    c = row.get("cost_per_frame_s")
+    return "–" if c is None else f"{c * 1e6:.3g} µs"
+
+
+def advice_section(cells: pd.DataFrame, hz: float, chart_names: dict) -> list[str]:
+    """"At 60 Hz": per scene, the method that meets the suite's tolerances with the cheapest
+    frame (its fewest substeps), the runners-up, and how many methods meet none; from this
+    run's ``advise`` cells (``harness.advise``), cost per frame = substeps x the cost cell's
+    CPU time per step."""
+    rows = cells[(cells.measure == "advise") & (cells.data.map(lambda d: d.get("hz") == hz))]
+    if rows.empty:
+        return []
+    request = next((r.data["request"] for _, r in rows.iterrows() if r.data.get("request")), {})
+    tol = []
+    if request.get("energy_tol") is not None:
+        tol.append(f"energy error ≤ {request['energy_tol']:g}")
+    if request.get("error_tol") is not None:
+        tol.append(f"position error ≤ {request['error_tol']:g}")
+    lines = [f"## At {hz:g} Hz", "",
+             f"Which method, with how many substeps a frame, keeps each scene stable and within "
+             f"{' and '.join(tol) or 'the tolerances'} over {request.get('horizon', float('nan')):g} s at {hz:g} "
+             f"frames a second, for the least cost per frame (`harness advise`; substeps 1 to "
+             f"{request.get('max_substeps', '?')}, cost = substeps × the cost cell's CPU time per step).", ""]
+    for scene, grp in rows.groupby("scene", sort=False):
+        meeting, failing, broken = [], [], []
+        for _, r in grp.iterrows():
+            if r.status != "ok":
+                broken.append(f"`{r.method}` {r.status}")
+                continue
+            best = r.data.get("best")
+            if best is None:
+                failing.append((r.method, r.data.get("reason") or "–"))
+            else:
+                meeting.append((r.data["rows"][best].get("cost_per_frame_s") or math.inf, r.method,
+                                r.data["rows"][best]))
+        meeting.sort(key=lambda m: (m[0], m[1]))
+        lines += [f"### `{scene}` at {hz:g} Hz", ""]
+        if meeting:
+            _, method, row = meeting[0]
+            lines.append(f"**Advised: `{method}`, {row['substeps']} substep{'s' if row['substeps'] > 1 else ''}, "
+                         f"{_per_frame(row)} per frame.**")
+        else:
+            lines.append("**No method meets the tolerances here.**")
+        lines += ["", "| rank | method | substeps | h·ω | energy error | class | position error | per frame | "
+                      "evals/frame |", "|---|---|---|---|---|---|---|---|---|"]
+        for i, (_, method, row) in enumerate(meeting[:5], start=1):
+            lines.append(f"| {i} | `{method}` | {row['substeps']} | {row['homega']:.3g} | {_fmt(row.get('energy_error'), '.2e')} | "
+                         f"{row.get('energy_class') or '–'} | {_fmt(row.get('position_error'), '.2e')} | "
+                         f"{_per_frame(row)} | {_fmt(row.get('evals_per_frame'), '.3g')} |")
+        if len(meeting) > 5:
+            lines.append(f"| | {len(meeting) - 5} more meet them | | | | | | | |")
+        lines.append("")
+        if failing:
+            lines.append("Cannot meet them: " + "; ".join(f"`{m}`: {why}" for m, why in sorted(failing)) + ".")
+            lines.append("")
+        if broken:
+            lines += ["Not advised (see Failures): " + ", ".join(broken) + ".", ""]
+        name = chart_names.get((scene, f"advise{hz:g}"))
+        if name:
+            lines += [f"![Error against cost per frame on {scene} at {hz:g} Hz]({name})", ""]
+    return lines
+
+
 def bounds_section(cells: pd.DataFrame) -> list[str]:
     b = cells[cells.measure == "bound"]
     if b.empty:
@@ -410,6 +479,11 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing, t
             if fn(cells[cells.scene == scene], scene, out_dir / name):
                 chart_names[(scene, kind)] = name
                 written.append(name)
+        for hz in _frame_rates(cells):
+            name = f"charts/run{run_id}-{scene}-advise{hz:g}hz.png"
+            if charts.advice_chart(cells[cells.scene == scene], scene, hz, out_dir / name):
+                chart_names[(scene, f"advise{hz:g}")] = name
+                written.append(name)
     damping_chart = f"charts/run{run_id}-damping-stability.png"
     if charts.damping_stability_chart(cells, out_dir / damping_chart):
         written.append(damping_chart)
@@ -426,6 +500,8 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing, t
     lines += ["## Per scene", "", COST_COLUMNS, ""]
     for scene in scenes:
         lines += scene_section(scene, piv, chart_names)
+    for hz in _frame_rates(cells):
+        lines += advice_section(cells, hz, chart_names)
     lines += findings(piv, cells)
     lines += failures(cells)
     lines += bounds_section(cells)

@@ -73,7 +73,8 @@ def test_dask_smoke_run_matches_the_local_run_cell_for_cell(local_run, dask_run)
     number is a deterministic floating-point computation (no randomness, no threads in a scheme),
     so the Dask run reproduces it bit for bit: the cell retried after its worker died included.
     Cost cells hold wall time per step, which no two runs share: their status and their counted
-    force evaluations are compared instead. The always-killed task is checked in the next test."""
+    force evaluations are compared instead; advice cells (a cost per frame) their measured rows,
+    less the cost. The always-killed task is checked in the next test."""
     (ltmp, lcode), (dtmp, dcode) = local_run, dask_run
     assert (lcode, dcode) == (0, 0)
     _, local = stored(ltmp)
@@ -90,6 +91,12 @@ def test_dask_smoke_run_matches_the_local_run_cell_for_cell(local_run, dask_run)
         assert (key, b.status) == (key, a.status)
         if key[2] == "cost":
             assert b.data["force_evals_per_step"] == a.data["force_evals_per_step"], key
+        elif key[2] == "advise":
+            def measured(rows):
+                return [{k: v for k, v in r.items() if k != "cost_per_frame_s"} for r in rows]
+
+            assert measured(b.data["rows"]) == measured(a.data["rows"]), key
+            assert b.data["best"] == a.data["best"], key
         else:
             assert b.value == a.value or (a.value != a.value and b.value != b.value), (key, a.value, b.value)
             assert b.data.get("class") == a.data.get("class"), key
@@ -107,8 +114,12 @@ def test_a_killed_worker_costs_its_cell_one_retry_and_every_cell_is_stored_once(
 
     kills = tmp / "kills"
     once = dask_faults.attempts(kills, KILLED_ONCE)
-    assert [a.split()[0] for a in once] == ["killed", "ran"]
-    assert once[0].split()[1] != once[1].split()[1]  # the retry ran in another worker process
+    # Killed once, then ran in another worker process. Dask may run it once more: a result still
+    # on a worker that the always-killed task then kills (before the client polls) is lost with
+    # it and recomputed; the client still stores it once (no duplicated cell, above).
+    assert [a.split()[0] for a in once][:2] == ["killed", "ran"] and len(once) <= 3
+    assert all(a.split()[0] == "ran" for a in once[1:])
+    assert once[0].split()[1] != once[1].split()[1]
     rk4 = cells[cells.method == "ref:rk4"]
     assert set(rk4.status) == {"ok"}
 
@@ -117,7 +128,8 @@ def test_a_killed_worker_costs_its_cell_one_retry_and_every_cell_is_stored_once(
     assert len(always) == distributed.ALLOWED_FAILURES + 1 == 2  # one retry, not Dask's default three
     assert always[0].split()[1] != always[1].split()[1]
     dead = cells[cells.method == "ref:implicit_euler"]
-    assert len(dead) == 5 and set(dead.status) == {"crashed"}
+    killed_measures = next(len(t.measures()) for t in tasks if t.label == KILLED_ALWAYS)
+    assert len(dead) == killed_measures >= 5 and set(dead.status) == {"crashed"}
     for detail in dead.detail:
         assert "Dask worker died on each of 2 attempts (KilledWorker" in detail
     report = (tmp / "out" / "report.md").read_text()

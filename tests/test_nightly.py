@@ -28,6 +28,7 @@ from harness.storage import History
 from harness.suites import SUITES, SceneSpec, Suite
 
 SECTIONS = ["## Verdict", "## The trade-off, measured", "## Which scheme each engine mode is", "## Per scene",
+            "## At 60 Hz",
             "## Findings", "## Failures", "## Appendix: versions and settings"]
 ROOT = Path(__file__).resolve().parents[1]
 #: The one reviewed bound the module's runs measure: semi-implicit Euler's band on the unit
@@ -103,7 +104,8 @@ def test_smoke_nightly_writes_every_section_and_charts(first_run):
     positions = [report.index(section) for section in SECTIONS]
     assert positions == sorted(positions)  # the verdict first, the appendix last
     charts = list((tmp / "out" / "charts").glob("*.png"))
-    assert {c.name.split("-")[-1] for c in charts} == {"energy.png", "workprecision.png", "stability.png"}
+    assert {c.name.split("-")[-1] for c in charts} == {"energy.png", "workprecision.png", "stability.png",
+                                                       "advise60hz.png"}
     assert all(c.stat().st_size > 1000 for c in charts)
     assert sorted(_chart_links(report)) == sorted(f"charts/{c.name}" for c in charts)
     # The trade-off table shows explicit Euler as `grows`, with the textbook agreeing.
@@ -113,6 +115,12 @@ def test_smoke_nightly_writes_every_section_and_charts(first_run):
     scene_table = report.split("### `spring`")[1].split("![")[0]
     for method in SUITES["smoke"].methods:  # every method has its row, measured in full
         assert f"| `{method}` | ok |" in scene_table
+    advice = report.split("## At 60 Hz")[1].split("## Findings")[0]
+    # The games default needs 16 substeps for 1e-3 (its energy error is h*omega/2); leapfrog
+    # meets it at 1 and explicit Euler at none (spectral radius > 1 at every h).
+    assert "**Advised: `ref:leapfrog`, 1 substep" in advice or "**Advised: `ref:rk4`, 1 substep" in advice
+    assert "| `ref:semi_implicit_euler` | 16 | 0.00104 |" in advice
+    assert "`ref:explicit_euler`: unstable: spectral radius > 1 at every h" in advice
     findings = report.split("## Findings")[1].split("## Failures")[0]
     assert "`pymunk:applied_force` on `spring` is **explicit Euler**" in findings
     appendix = report.split("## Appendix")[1]
@@ -131,7 +139,7 @@ def test_smoke_nightly_stores_a_valid_complete_run(first_run):
     assert run.run_id == 1 and run.complete == 1
     assert run.suite == "smoke" and run.versions["numpy"] and run.machine["cpus"]
     cells = h.cells(1)
-    assert set(cells.measure) == {"energy", "error", "order", "stability", "cost", "identity", "bound"}
+    assert set(cells.measure) == {"energy", "error", "order", "stability", "cost", "identity", "bound", "advise"}
     assert not cells.duplicated(["scene", "method", "measure", "dt"]).any()
     assert set(cells.status) == {"ok"}
     timing = run.timing

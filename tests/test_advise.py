@@ -1,0 +1,141 @@
+"""``harness advise``: the cheapest method and substeps that meet tolerances at a frame rate.
+
+Each advice figure is checked against a re-measurement through another path (the reference
+driver directly) and against theory where the scene has one: semi-implicit Euler's energy
+error on the unit spring is h*omega/2 (its modified energy; tests/theory.py), explicit Euler's
+largest stable h*omega with damping ratio zeta is 2*zeta (|1 + h lambda| <= 1 with
+lambda = omega(-zeta +- i sqrt(1 - zeta^2))).
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import numpy as np
+
+import pytest
+
+import reference
+from harness.advise import Advice, Request, advise, advise_method
+from harness.cli import main
+from harness.commands.advise import _lines as advise_lines
+from harness.methods import get_method
+from scenarios import InvalidInput, make_scene
+
+SPRING_60HZ = Request(hz=60, horizon=60, energy_tol=1e-3, max_substeps=16)
+
+
+@pytest.fixture(scope="module")
+def spring_advice():
+    scene = make_scene("spring")
+    return advise(scene, SPRING_60HZ, ["ref:semi_implicit_euler", "ref:leapfrog", "ref:explicit_euler",
+                                       "ref:implicit_euler"], jobs=2)
+
+
+def test_unit_spring_at_60_hz_prints_the_advice_and_its_table(spring_advice):
+    lines = list(advise_lines(spring_advice))
+    out = "\n".join(lines)
+    assert lines[0] == ("advise spring (k=1, m=1, x0=1, v0=0) at 60 Hz over 60: energy error <= 0.001; "
+                        "substeps 1..16")
+    assert lines[1].startswith("cheapest that meets the tolerances: ref:leapfrog, 1 substep, ")
+    assert lines[1].endswith(" µs per frame")
+    table = out.split("meets the tolerances (cheapest frame first")[1].split("cannot meet them")[0]
+    rows = [line.split() for line in table.splitlines() if line.strip().startswith("ref:")]
+    assert [r[0] for r in rows] == ["ref:leapfrog", "ref:semi_implicit_euler"]
+    assert rows[1][1] == "16"  # h*omega/2 <= 1e-3 needs h <= 1/(60 * 8.3): 16 substeps
+    assert rows[1][3] == "2"  # its measured limit, h*omega = 2
+    assert re.search(r"^  ref:explicit_euler +unstable: spectral radius > 1 at every h", out, re.M)
+
+
+def test_a_row_is_what_the_reference_driver_measures_and_what_theory_says(spring_advice):
+    """The semi-implicit Euler row re-measured independently: the reference driver stepped
+    directly at the advised h, energy error from the recorded states; and theory (h*omega/2)."""
+    sie = next(m for m in spring_advice.methods if m.method == "ref:semi_implicit_euler")
+    row = sie.best_row
+    assert row.substeps == 16 and row.meets and row.stable
+    scene = make_scene("spring")
+    steps = 60 * 60 * 16
+    traj = reference.integrate(reference.METHODS["semi_implicit_euler"], scene, row.h, steps, steps // 2000)
+    e0 = scene.exact_energy(traj.t)
+    again = float(np.max(np.abs(traj.energy[:, 0] - e0)) / np.max(np.abs(e0)))
+    assert row.energy_error == again
+    assert row.energy_error == pytest.approx(row.homega / 2, rel=0.01)  # theory, recorded every ~29th step
+    assert row.evals_per_frame == 16.0  # counted: one force evaluation a step
+    assert row.cost_per_frame_s == 16 * sie.cost_per_step_s > 0
+    assert sie.limit_verdict == "limited" and sie.homega_limit == pytest.approx(2.0, rel=1e-3)
+    # 16 first (it meets), then the bisection over the levels 1..8: 2, 4 and 8 all miss.
+    assert [(r.substeps, r.meets) for r in sie.rows] == [(2, False), (4, False), (8, False), (16, True)]
+
+
+def test_explicit_euler_is_advised_against_at_every_substep_count(spring_advice):
+    ee = next(m for m in spring_advice.methods if m.method == "ref:explicit_euler")
+    assert ee.best is None and ee.limit_verdict == "unstable"
+    assert ee.reason.startswith("unstable: spectral radius > 1 at every h")
+    assert all(not r.stable and r.rho > 1.0 for r in ee.rows)
+    assert "ref:explicit_euler" not in [m.method for m in spring_advice.meeting]
+    ie = next(m for m in spring_advice.methods if m.method == "ref:implicit_euler")
+    assert ie.best is None and ie.reason.startswith("energy falls ")  # stable, but damps 6% in 60 s
+
+
+def test_a_stiff_chain_leaves_only_implicit_schemes_or_many_substeps():
+    """k = 1e4, N = 32: omega = 200, so one substep at 60 Hz is h*omega = 3.33, past every
+    explicit scheme's limit (2 for semi-implicit Euler, 2 sqrt 2 for RK4). The cost per step is
+    given (as the nightly gives its cost cell's): what is tested here is the search."""
+    scene = make_scene("chain", N=32, k=1e4)
+    request = Request(hz=60, horizon=1.0, energy_tol=1e-2, max_substeps=16).checked()
+    by = {m: advise_method(get_method(m), scene, request, cost_per_step=(1e-6, "given"))
+          for m in ("ref:semi_implicit_euler", "ref:rk4", "ref:implicit_midpoint")}
+    assert by["ref:semi_implicit_euler"].homega_limit == pytest.approx(2.0, rel=1e-3)
+    assert by["ref:rk4"].homega_limit == pytest.approx(2 * math.sqrt(2), rel=1e-3)
+    for m in ("ref:semi_implicit_euler", "ref:rk4"):
+        one = [r for r in by[m].rows if r.substeps == 1]
+        assert not one or (not one[0].stable and one[0].rho > 1.0)
+        assert by[m].best is None or by[m].best_row.substeps >= 2
+    mid = by["ref:implicit_midpoint"]
+    assert mid.limit_verdict == "unbounded" and mid.best_row.substeps == 1  # energy kept exactly
+    advice = Advice("chain", dict(scene.values), request, list(by.values()))
+    assert advice.meeting[0].method == "ref:implicit_midpoint"
+    assert advice.verdict() == "cheapest that meets the tolerances: ref:implicit_midpoint, 1 substep, 1 µs per frame"
+
+
+def test_a_damped_scene_moves_the_limit_to_theory():
+    """Explicit Euler on a damped spring is stable for h*omega <= 2 zeta: the advice's limit
+    includes the damping, and the energy error is against the exact decaying energy."""
+    scene = make_scene("damped_spring", c=0.2)  # zeta = c / (2 sqrt(k m)) = 0.1
+    request = Request(hz=60, horizon=10, energy_tol=1e-3).checked()
+    ee = advise_method(get_method("ref:explicit_euler"), scene, request, cost_per_step=(1e-7, "given"))
+    assert ee.limit_verdict == "limited" and ee.homega_limit == pytest.approx(0.2, rel=1e-3)
+    assert all(r.stable for r in ee.rows)  # h*omega = 1/60 and less: inside 2 zeta
+    sie = advise_method(get_method("ref:semi_implicit_euler"), scene, request, cost_per_step=(1e-7, "given"))
+    assert sie.best is not None and all(r.energy_error is not None for r in sie.rows if r.stable)
+
+
+def test_a_tolerance_no_method_meets_names_the_closest_and_exits_0(capsys):
+    code = main(["advise", "spring", "--hz", "60", "--energy-tol", "1e-15", "--horizon", "1", "--max-substeps", "2",
+                 "--methods", "ref:semi_implicit_euler,ref:leapfrog", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["meeting"] == []
+    assert out["verdict"].startswith("no method meets the tolerances; closest: ref:leapfrog at 2 substeps (energy ")
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["nosuch", "--hz", "60", "--energy-tol", "1e-3"], "unknown scene 'nosuch'"),
+    (["spring", "--hz", "0", "--energy-tol", "1e-3"], "--hz=0 is out of range"),
+    (["spring", "--hz", "-5", "--energy-tol", "1e-3"], "--hz=-5 is out of range"),
+    (["spring", "--hz", "60"], "no tolerance given"),
+    (["spring", "--hz", "60", "--energy-tol", "0"], "--energy-tol=0 is out of range"),
+    (["spring", "--hz", "60", "--error-tol", "-1"], "--error-tol=-1 is out of range"),
+    (["spring", "--hz", "60", "--energy-tol", "1e-3", "--horizon", "0.01"], "shorter than one frame at 60 Hz"),
+    (["spring", "--hz", "60", "--energy-tol", "1e-3", "--methods", "nosuch:*"], "pattern 'nosuch:*' matches no method"),
+    (["spring", "--hz", "60", "--energy-tol", "1e-3", "--max-substeps", "0"], "--max-substeps=0 is out of range"),
+])
+def test_bad_input_is_one_line_exit_2(argv, says, capsys):
+    assert main(["advise", *argv]) == 2
+    err = capsys.readouterr().err
+    assert says in err and err.count("\n") == 1
+
+
+def test_request_needs_a_tolerance_before_anything_runs():
+    with pytest.raises(InvalidInput, match="no tolerance given"):
+        Request(hz=60).checked()
