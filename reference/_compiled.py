@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from scenarios import Scene, Trajectory
+from scenarios import Scene, Trajectory, no_velocity_dependence
 from scenarios.trajectory import OK, UNSTABLE, divergence_detail, diverged
 
 from . import _kernels
@@ -49,9 +49,24 @@ class _Compiled:
         return self.observe(state, t0 + n * h, h, p)
 
 
+def compiled_as(scheme, scene_cls):
+    """The scheme whose kernel a pair compiles. A scheme that is, update for update, another
+    where the force has no velocity dependence (``Scheme.same_without_velocity``: the velocity-
+    implicit and the decaying kicks) compiles as that one on a scene class whose force never
+    depends on the velocity (its damping rate is ``no_velocity_dependence``): the same bits (its
+    solve divides by 1 + h 0 = 1, its decay multiplies by e^0 = 1, both exact), without the
+    solve or the exponential that a loop written for that scene would not have."""
+    if scheme.same_without_velocity and scene_cls.damping_rate is no_velocity_dependence:
+        from . import METHODS
+
+        return METHODS[scheme.same_without_velocity]
+    return scheme
+
+
 def _parts(scheme, scene: Scene) -> _Compiled:
     key = (scheme, type(scene))
     if key not in _DRIVERS:
+        scheme = compiled_as(scheme, type(scene))
         q, v = _kernel_layout(scene, None, None)
         with np.errstate(all="ignore"):
             nstate = len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))

@@ -1,7 +1,7 @@
 """Scene registry: ``SCENES[id]`` is a Scene class; ``make_scene`` validates parameters."""
 from __future__ import annotations
 
-from ._base import InvalidInput, Param, Scene
+from ._base import InvalidInput, Param, Scene, no_velocity_dependence
 from .chain import Chain
 from .damped_spring import DampedSpring
 from .kepler import Kepler
@@ -36,4 +36,5 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-__all__ = ["SCENES", "Scene", "Param", "InvalidInput", "Trajectory", "make_scene", "parse_overrides"]
+__all__ = ["SCENES", "Scene", "Param", "InvalidInput", "Trajectory", "make_scene", "parse_overrides",
+           "no_velocity_dependence"]

@@ -228,3 +228,12 @@ def test_pin_jointed_pendulum_follows_whole_turns_in_chunks():
     (qa, va), (qb, vb) = chunked.state(), stepwise.state()
     assert qa[0] == qb[0] and va[0] == vb[0]
     assert qa[0] > 10 * 2 * math.pi
+
+
+def test_every_engine_mode_has_a_bench_scene():
+    """``harness bench --engines`` benches every mode: each has a scene it poses."""
+    from harness.engine_bench import bench_scene, engine_modes
+
+    for mode in engine_modes():
+        assert bench_scene(mode).id in mode.scenes, mode.id
+    assert bench_scene(adapters.ENGINE_METHODS["pymunk:space_damping"]).id == "damped_spring"

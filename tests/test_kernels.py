@@ -174,3 +174,22 @@ def test_the_cache_lives_under_harness_cache(monkeypatch, tmp_path):
     monkeypatch.delenv("HARNESS_CACHE")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert _kernels.cache_dir() == tmp_path / "xdg" / "integrator-harness" / "kernels"
+
+
+@pytest.mark.parametrize("scheme_id", sorted(s for s, m in METHODS.items() if m.same_without_velocity))
+def test_a_velocity_scheme_compiles_as_its_twin_where_no_force_depends_on_velocity(scheme_id):
+    """``compiled_as``: on the spring (a force that never depends on the velocity) the velocity-
+    implicit and decaying kicks compile as the scheme they equal there; on the damped spring as
+    themselves. Either way the compiled run is the interpreted run, bitwise (the spring at dt = 0.05,
+    the damped spring at c = 0.6 (zeta = 0.3): there the solve and the decay do work)."""
+    from reference._compiled import compiled_as
+    from scenarios import DampedSpring, Spring
+
+    scheme = METHODS[scheme_id]
+    assert compiled_as(scheme, Spring) is METHODS[scheme.same_without_velocity]
+    assert compiled_as(scheme, DampedSpring) is scheme
+    for scene in (make_scene("spring"), make_scene("damped_spring", c=0.6)):
+        q, v = run_compiled(scheme, scene, 0.05, 400)
+        ref = integrate(scheme, scene, 0.05, 400, every=400)
+        np.testing.assert_array_equal(q, ref.q[-1])
+        np.testing.assert_array_equal(v, ref.v[-1])
