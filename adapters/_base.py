@@ -34,8 +34,10 @@ from typing import Callable, Mapping, Protocol
 
 import numpy as np
 
-from scenarios import Scene, Trajectory
-from scenarios.trajectory import OK, UNSTABLE, divergence_detail, diverged
+from records import Trajectory
+
+from scenarios import Scene
+from records.trajectory import OK, UNSTABLE, divergence_detail, diverged
 
 
 class Model(Protocol):
@@ -231,7 +233,7 @@ class EngineMode:
     def timed_run(self, scene: Scene, dt: float, steps: int, now: Callable[[], float], loop: str = "engine") -> float:
         """Seconds on the clock ``now`` that one run of ``steps`` steps with a single output point
         takes through ``loop`` (as ``simulate`` runs it), the model built and closed outside the
-        clock: what ``harness.cost`` times, free of the jitter of building an engine model. A run
+        clock: what ``harness.measures.cost`` times, free of the jitter of building an engine model. A run
         that needs its step-by-step replay (it diverged) is timed with the replay."""
         if loop not in self.LOOPS:
             raise ValueError(f"loop: {loop!r} is not one of {', '.join(self.LOOPS)}")
@@ -287,7 +289,7 @@ class EngineMode:
 def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every: int = 1) -> Trajectory:
     """Step ``model`` ``steps`` times, recording as the reference driver records.
 
-    A step whose state diverged (the reference driver's criterion, ``scenarios.trajectory.diverged``)
+    A step whose state diverged (the reference driver's criterion, ``records.trajectory.diverged``)
     or where the engine reported a divergence, stops the
     run: status ``unstable`` with that step, the arrays ending at the last good recorded state.
     """

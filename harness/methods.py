@@ -13,7 +13,8 @@ from dataclasses import dataclass, field
 
 import adapters
 import reference
-from scenarios import InvalidInput, Scene, Trajectory
+from records import InvalidInput, Trajectory
+from scenarios import Scene
 from scenarios._base import no_solve
 
 

@@ -23,7 +23,7 @@ def measure_max_rel_energy_error(method_id: str, scene_id: str, dt: float, steps
 
     from harness import validate
     from harness.methods import check_supported, get_method
-    from harness.runner import simulate
+    from harness.execution.simulate import simulate
     from scenarios import make_scene
 
     dt = validate.positive_finite("dt", dt)

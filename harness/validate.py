@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from scenarios import InvalidInput
+from records import InvalidInput
 
 
 def positive_finite(name: str, value) -> float:

@@ -13,8 +13,10 @@ import time
 
 import numpy as np
 
-from scenarios import Scene, Trajectory, no_velocity_dependence
-from scenarios.trajectory import OK, UNSTABLE, divergence_detail, diverged
+from records import Trajectory
+
+from scenarios import Scene, no_velocity_dependence
+from records.trajectory import OK, UNSTABLE, divergence_detail, diverged
 
 from . import _kernels
 from ._integrate import iterations_for, newton_max

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenarios import Scene, Trajectory
-from scenarios.trajectory import DIVERGED, OK, UNSTABLE, divergence_detail, diverged
+from records import Trajectory
+
+from scenarios import Scene
+from records.trajectory import DIVERGED, OK, UNSTABLE, divergence_detail, diverged
 
 #: Newton iterations allowed per implicit step on a nonlinear scene.
 NEWTON_MAX = 50

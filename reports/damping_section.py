@@ -1,7 +1,7 @@
 """The report's section on stability against damping: a table of the largest stable h*omega at
 each damping ratio, measured beside the theory of the scheme each method is (its own, or the one
 an engine mode was identified as), and the chart. The agreement marks come with the cells
-(``harness.stability_damping`` judges them); this only prints."""
+(``harness.measures.stability_damping`` judges them); this only prints."""
 from __future__ import annotations
 
 import math

@@ -1,5 +1,5 @@
 """The report's "History" section and its trend charts, drawn from a judged history
-(``harness.history.Trend``): it prints and draws what it is given, and judges nothing."""
+(``harness.history.series.Trend``): it prints and draws what it is given, and judges nothing."""
 from __future__ import annotations
 
 import math

@@ -308,7 +308,7 @@ def _per_frame(row: dict) -> str:
 def advice_section(cells: pd.DataFrame, hz: float, chart_names: dict) -> list[str]:
     """"At 60 Hz": per scene, the method that meets the suite's tolerances with the cheapest
     frame (its fewest substeps), the runners-up, and how many methods meet none; from this
-    run's ``advise`` cells (``harness.advise``), cost per frame = substeps x the cost cell's
+    run's ``advise`` cells (``harness.measures.advise``), cost per frame = substeps x the cost cell's
     CPU time per step."""
     rows = cells[(cells.measure == "advise") & (cells.data.map(lambda d: d.get("hz") == hz))]
     if rows.empty:
@@ -511,7 +511,7 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing, t
 
 
 def write_report(history, run_id: int, out_dir, regressions=(), previous=None, timing=None, trend=None) -> Path:
-    """``trend``: the suite's judged history (``harness.history.Trend``) for the History section."""
+    """``trend``: the suite's judged history (``harness.history.series.Trend``) for the History section."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     text, charts_written = render(history, run_id, out_dir, list(regressions), previous, timing, trend)

@@ -9,7 +9,7 @@ import math
 
 import pandas as pd
 
-from harness.workprecision import error_at_equal_cost
+from harness.measures.workprecision import error_at_equal_cost
 
 
 def _rows(piv: dict, scene: str, measure: str) -> dict:

@@ -1,7 +1,9 @@
 """Scene registry: ``SCENES[id]`` is a Scene class; ``make_scene`` validates parameters."""
 from __future__ import annotations
 
-from ._base import InvalidInput, Param, Scene, no_velocity_dependence
+from records import InvalidInput
+
+from ._base import Param, Scene, no_velocity_dependence
 from .chain import Chain
 from .damped_spring import DampedSpring
 from .kepler import Kepler
@@ -10,7 +12,6 @@ from .projectile import Projectile
 from .rope import Rope
 from .solar_system import SolarSystem
 from .spring import Spring
-from .trajectory import Trajectory
 
 SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
     Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope, SolarSystem,
@@ -36,5 +37,5 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-__all__ = ["SCENES", "Scene", "Param", "InvalidInput", "Trajectory", "make_scene", "parse_overrides",
+__all__ = ["SCENES", "Scene", "Param", "make_scene", "parse_overrides",
            "no_velocity_dependence"]

@@ -21,10 +21,7 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
-
-class InvalidInput(ValueError):
-    """Bad user input, raised before anything is stepped. The message is one line
-    naming the field and what it may be."""
+from records import InvalidInput
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ def attempts(directory, label: str) -> list[str]:
 
 
 def dask_setup(worker):
-    import harness.distributed as distributed
+    import harness.execution.distributed as distributed
 
     plan = json.loads(os.environ.get(PLAN_VAR, "{}"))
     directory = os.environ.get(DIR_VAR)
@@ -48,7 +48,7 @@ def dask_setup(worker):
         return original(task, timeout)
 
     run_cell_task.kills_worker = True
-    # The client pickles harness.distributed.run_cell_task by name, so the worker runs this one.
+    # The client pickles harness.execution.distributed.run_cell_task by name, so the worker runs this one.
     distributed.run_cell_task = run_cell_task
 
 

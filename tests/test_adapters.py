@@ -28,11 +28,12 @@ import pytest
 
 import adapters
 import reference
-from harness import runner
+from harness.execution import simulate as runner
 from harness.cli import main
-from harness.commands.list import catalogue
+from harness.cli.list import catalogue
 from harness.methods import all_methods, get_method
-from scenarios import SCENES, InvalidInput, make_scene
+from records import InvalidInput
+from scenarios import SCENES, make_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 ROUNDOFF = 1e-12
@@ -89,9 +90,9 @@ def test_spring_engine_mode_is_the_reference_scheme(method_id, scheme_id, tol, d
 @pytest.mark.filterwarnings("ignore:overflow encountered")  # the scheme's energy of a blown-up state
 def test_explicit_euler_blows_up_in_pymunk_exactly_where_the_scheme_does():
     # Energy grows by (1 + h^2) = 1.25 per step at h = 0.5, so the amplitude passes the
-    # divergence threshold (scenarios.trajectory.DIVERGED = 1e100) at step ~2064; the larger of
+    # divergence threshold (records.trajectory.DIVERGED = 1e100) at step ~2064; the larger of
     # |x| and |v| lags the amplitude by a few steps (measured: 2066). The same step in both.
-    from scenarios.trajectory import DIVERGED
+    from records.trajectory import DIVERGED
 
     spring = make_scene("spring")
     run = engine("pymunk:applied_force", spring, 0.5, 10_000)
@@ -264,7 +265,7 @@ def test_one_model_set_to_each_state_steps_as_a_fresh_one(method_id):
     """``EngineMode.one_steps`` (one model, ``set_state`` before each step; what the one-step
     map uses) against a model built at each state: bitwise the same, on every linear scene the
     mode poses, from zero, unit and random states."""
-    from harness._measure import started_at
+    from harness.measures.common import started_at
 
     method = adapters.ENGINE_METHODS[method_id]
     rng = np.random.default_rng(0)

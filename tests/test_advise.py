@@ -17,11 +17,12 @@ import numpy as np
 import pytest
 
 import reference
-from harness.advise import Advice, Request, advise, advise_method
+from harness.measures.advise import Advice, Request, advise, advise_method
 from harness.cli import main
-from harness.commands.advise import _lines as advise_lines
+from harness.cli.advise import _lines as advise_lines
 from harness.methods import get_method
-from scenarios import InvalidInput, make_scene
+from records import InvalidInput
+from scenarios import make_scene
 
 SPRING_60HZ = Request(hz=60, horizon=60, energy_tol=1e-3, max_substeps=16)
 

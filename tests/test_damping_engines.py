@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import adapters
-from harness.identify import MATCH_RTOL, identify
+from harness.measures.identify import MATCH_RTOL, identify
 from scenarios import make_scene
 
 pytestmark = pytest.mark.skipif(not all(adapters.ENGINE_METHODS[m].available()[0] for m in
@@ -125,9 +125,9 @@ def test_mujoco_discrete_is_backward_euler_on_the_damped_chain_away_from_rest_le
     """The damped chain's reason for mujoco:discrete: from a generic state (no tendon at its rest
     length) its one-step map is backward Euler's, damping included (measured 2.8e-14 on entries
     of ~19): what fails from the chain's own initial state is the tendons left out there."""
-    from harness import isolation
-    from harness.damping import generic_state
-    from harness.stability import one_step_map
+    from harness.execution import isolation
+    from harness.measures.damping import generic_state
+    from harness.measures.stability import one_step_map
 
     monkeypatch.setattr(isolation, "IN_WORKER", True)
     scene = make_scene("chain", N=4, c=20.0)

@@ -20,12 +20,12 @@ import pytest
 from dask.distributed import LocalCluster
 
 import dask_faults
-from harness import distributed
+from harness.execution import distributed
 from harness.cli import main
-from harness.isolation import ORPHAN_GRACE_S, WorkerFailure, run_in_worker
-from harness.nightly import Task, build_tasks
-from harness.storage import History
-from harness.suites import SUITES
+from harness.execution.isolation import ORPHAN_GRACE_S, WorkerFailure, run_in_worker
+from harness.nightly.run import Task, build_tasks
+from harness.history.storage import History
+from harness.nightly.suites import SUITES
 
 FAULTS = str(Path(__file__).with_name("dask_faults.py"))
 KILLED_ONCE = "cell spring ref:rk4"              # its worker dies on the first attempt only

@@ -1,4 +1,4 @@
-"""The energy classification rule (harness.energy) against series built to break it (issue 12):
+"""The energy classification rule (harness.measures.energy) against series built to break it (issue 12):
 saturation at order one, escape, a slow secular drift hidden under a large oscillation, a
 random walk; and the run that broke it, explicit Euler over 1e7 days on the outer solar system.
 
@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness import energy
-from harness.energy import classify
+from harness.measures import energy
+from harness.measures.energy import classify
 from scenarios import make_scene
 
 T = np.linspace(0.0, 1000.0, 20_001)

@@ -125,7 +125,7 @@ def test_modes_that_cannot_count_say_why():
 # ---------------------------------------------------------------- the two cost figures
 
 def test_cost_of_an_engine_mode_has_two_figures_and_ratios_use_the_engines_own():
-    from harness import cost
+    from harness.measures import cost
 
     spring = make_scene("spring")
     res = cost.cost_per_step("mujoco:euler", spring, 0.01, time_steps=500, repeats=2)
@@ -141,7 +141,7 @@ def test_cost_of_an_engine_mode_has_two_figures_and_ratios_use_the_engines_own()
 
 
 def test_a_force_applied_from_python_every_step_is_said_in_the_cost():
-    from harness import cost
+    from harness.measures import cost
 
     res = cost.wall_time_per_step("pybullet:semi_implicit", make_scene("spring"), 0.01, steps=300, repeats=1)
     assert res["loop"] == "engine" and "from Python every step" in res["engine_loop"]
@@ -232,7 +232,7 @@ def test_pin_jointed_pendulum_follows_whole_turns_in_chunks():
 
 def test_every_engine_mode_has_a_bench_scene():
     """``harness bench --engines`` benches every mode: each has a scene it poses."""
-    from harness.engine_bench import bench_scene, engine_modes
+    from harness.bench.engines import bench_scene, engine_modes
 
     for mode in engine_modes():
         assert bench_scene(mode).id in mode.scenes, mode.id

@@ -18,12 +18,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness import step_detect
+from harness.history import step_detect
 from harness.cli import main
-from harness.compare import compare_cells
-from harness.history import what_differs
-from harness.storage import MEASUREMENT_VERSION, History
-from harness.suites import SceneSpec, Suite
+from harness.history.compare import compare_cells
+from harness.history.series import what_differs
+from harness.history.storage import MEASUREMENT_VERSION, History
+from harness.nightly.suites import SceneSpec, Suite
 from tests.slow_plugin import SLOWDOWN_VAR
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,7 +35,7 @@ SUITE = Suite("history-smoke", scenes={"spring": SceneSpec(periods=2, order_span
 #: Nights in a synthetic history, and the seeds each kind of series is drawn with.
 NIGHTS, SEEDS = 12, range(25)
 #: Night-to-night noise of a cost ratio: lognormal, 2% (explicit Euler's process-to-process
-#: spread, harness.compare); each night's repeats spread 3-8% (the smoke suite's: 0.4-14%).
+#: spread, harness.history.compare); each night's repeats spread 3-8% (the smoke suite's: 0.4-14%).
 NOISE, SPREAD = 0.02, (0.03, 0.08)
 
 
@@ -191,7 +191,7 @@ def test_what_differs_between_two_runs():
 # ----------------------------------------------------------------------------- end to end
 #: One nightly of ``SUITE`` in a process of its own, as ``harness nightly`` runs: the environment
 #: it is given (``HARNESS_TEST_SLOWDOWN``) reaches its workers. Prints its run id and regressions.
-NIGHTLY = ("import json, sys; from pathlib import Path; from harness.nightly import run_nightly; "
+NIGHTLY = ("import json, sys; from pathlib import Path; from harness.nightly.run import run_nightly; "
            "from tests.test_history import SUITE; "
            "r = run_nightly(SUITE, Path(sys.argv[1]), Path(sys.argv[2]), jobs=1); "
            "print(json.dumps({'run_id': r['run_id'], 'regressions': [g.as_dict() for g in r['regressions']]}))")
@@ -317,7 +317,7 @@ def test_a_database_of_an_older_schema_is_refused_in_one_line(tmp_path):
 
 
 def test_segment_medians_are_numpys_weighted_medians():
-    from harness.step_detect import _segment_costs
+    from harness.history.step_detect import _segment_costs
 
     rng = np.random.default_rng(7)
     x, w = rng.normal(size=40), rng.uniform(0.1, 2.0, 40)

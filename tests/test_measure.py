@@ -16,14 +16,20 @@ import numpy as np
 import pytest
 
 import reference
-from harness import cost, energy, error, order, stability, workprecision
-from harness._measure import started_at
-from harness.tidy import frame, order_points_frame
+from harness.measures import cost
+from harness.measures import energy
+from harness.measures import error
+from harness.measures import order
+from harness.measures import stability
+from harness.measures import workprecision
+from harness.measures.common import started_at
+from harness.measures.frames import frame, order_points_frame
 from harness.cli import main
 from harness.methods import RefMethod
-from scenarios import InvalidInput, Trajectory, make_scene
+from records import InvalidInput, Trajectory
+from scenarios import make_scene
 from scenarios.pendulum import Pendulum
-from scenarios.trajectory import UNSTABLE
+from records.trajectory import UNSTABLE
 from theory import (ENERGY_DT, ENERGY_STEPS, ORDER_SCENES, ORDER_TOL, REF_ENERGY, REF_EVALS, REF_ORDER,
                     REF_STABILITY, STABILITY_RTOL, UNBOUNDED, UNSTABLE as NEVER_STABLE)
 

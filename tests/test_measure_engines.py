@@ -1,5 +1,5 @@
 """The measurements on engine modes: the same measures, through the same generic method
-interface (``harness.runner.simulate``, isolated workers) as the reference schemes.
+interface (``harness.execution.simulate.simulate``, isolated workers) as the reference schemes.
 
 Expected values and tolerances: tests/theory.py (issue 4; ENGINES.md for what each mode
 integrates). These need the engine adapters; an unknown method id is a failure here,
@@ -9,7 +9,13 @@ from __future__ import annotations
 
 import pytest
 
-from harness import cost, energy, order, stability
+from harness.measures import cost
+
+from harness.measures import energy
+
+from harness.measures import order
+
+from harness.measures import stability
 from harness.methods import get_method
 from scenarios import make_scene
 from theory import ENGINE_ORDER, ENGINE_STABILITY, ORDER_TOL, STABILITY_RTOL, UNBOUNDED

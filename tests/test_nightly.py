@@ -20,12 +20,12 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from harness import bounds as bounds_mod
+from harness.history import bounds as bounds_mod
 from harness.cli import main
-from harness.compare import compare_cells
-from harness.nightly import Task, run_nightly, schedule
-from harness.storage import History
-from harness.suites import SUITES, SceneSpec, Suite
+from harness.history.compare import compare_cells
+from harness.nightly.run import Task, run_nightly, schedule
+from harness.history.storage import History
+from harness.nightly.suites import SUITES, SceneSpec, Suite
 
 SECTIONS = ["## Verdict", "## The trade-off, measured", "## Which scheme each engine mode is", "## Per scene",
             "## At 60 Hz",

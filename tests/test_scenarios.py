@@ -3,7 +3,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from scenarios import SCENES, InvalidInput, make_scene, parse_overrides
+from records import InvalidInput
+
+from scenarios import SCENES, make_scene, parse_overrides
 
 
 def ode(scene):

@@ -11,8 +11,9 @@ from scipy.integrate import solve_ivp
 from harness.cli import main
 from harness.methods import RefMethod, get_method
 from reference import METHODS, integrate
-from scenarios import InvalidInput, make_scene
-from scenarios.trajectory import DIVERGED
+from records import InvalidInput
+from scenarios import make_scene
+from records.trajectory import DIVERGED
 from scenarios.solar_system import accel as solar_accel
 from scenarios.solar_system import load_bodies
 from scenarios.solar_system import solve as solar_solve
@@ -288,7 +289,7 @@ def test_verlet_constrained_loses_energy_at_first_order(rope):
 
 
 def test_rope_study_frame():
-    from harness.rope_study import rope_vs_iterations
+    from harness.measures.rope_study import rope_vs_iterations
 
     frame = rope_vs_iterations(iterations=(1, 8), t_end=0.2, timing=False)
     assert list(frame["iterations"]) == [1, 8]
@@ -397,7 +398,7 @@ def test_implicit_euler_cost_grows_linearly_with_n():
     slope 0.9-1.0. Tolerance 0.7..1.3: a 20% timing disturbance at either end of one decade (two
     shared cores) moves the slope by 0.08, and cache effects a little more; a dense solve would
     give 2 (assembly) to 3 (LU), far outside."""
-    from harness.scaling import implicit_cost_vs_n
+    from harness.measures.scaling import implicit_cost_vs_n
     from reference._compiled import run_compiled
 
     frame = implicit_cost_vs_n(ns=(1000, 3000, 10000), repeats=3, work_per_call=1_000_000)

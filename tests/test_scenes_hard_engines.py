@@ -13,9 +13,10 @@ import pytest
 
 import adapters
 import reference
-from harness import damping, stability
-from harness._measure import started_at
-from harness.constraint import constraint_drift
+from harness.measures import damping
+from harness.measures import stability
+from harness.measures.common import started_at
+from harness.measures.constraint import constraint_drift
 from harness.methods import get_method
 from scenarios import make_scene
 
@@ -250,8 +251,8 @@ def test_rope_constraint_drift_and_energy_change(rope):
 @pytest.fixture
 def tiny_suite(monkeypatch):
     """A suite of a 4-mass chain and a 3-link rope, run in this process (engines too)."""
-    from harness import isolation
-    from harness.suites import SUITES, SceneSpec, Suite
+    from harness.execution import isolation
+    from harness.nightly.suites import SUITES, SceneSpec, Suite
 
     suite = Suite("tiny", scenes={
         "chain": SceneSpec(params={"N": 4}, periods=10, order_points=6, order_span=4.0,
@@ -269,10 +270,10 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     """Engine tasks run whole; the reference schemes' own scene cells run alone (their cost
     cells would each compile a (scheme, scene) pair, which the cost tests already cover; the
     scaling cell reuses the implicit-Euler chain pair test_scenes_hard compiles)."""
-    from harness.cells import measures_for, run_task
-    from harness.nightly import Task, build_tasks
-    from harness.scene_cells import scene_cells
-    from harness.storage import History
+    from harness.nightly.cells import measures_for, run_task
+    from harness.nightly.run import Task, build_tasks
+    from harness.nightly.scene_cells import scene_cells
+    from harness.history.storage import History
     from reports.markdown import render
 
     tasks, skipped = build_tasks(tiny_suite)

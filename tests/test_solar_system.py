@@ -16,18 +16,19 @@ import numpy as np
 import pytest
 
 import adapters
-from harness.cells import failed_cells, run_task
-from harness.isolation import WorkerFailure
-from harness.energy import energy_behaviour
-from harness.error import trajectory_error
+from harness.nightly.cells import failed_cells, run_task
+from harness.execution.isolation import WorkerFailure
+from harness.measures.energy import energy_behaviour
+from harness.measures.error import trajectory_error
 from harness.methods import get_method
-from harness.nightly import Task, build_tasks
-from harness.storage import History
-from harness.suites import SOLAR_METHODS, SOLAR_STABILITY_HI, SUITES, SceneSpec, Suite
-from harness.workprecision import chart_ready, error_at_equal_cost, work_precision
+from harness.nightly.run import Task, build_tasks
+from harness.history.storage import History
+from harness.nightly.suites import SOLAR_METHODS, SOLAR_STABILITY_HI, SUITES, SceneSpec, Suite
+from harness.measures.workprecision import chart_ready, error_at_equal_cost, work_precision
 from reference import METHODS, integrate
 from reports.markdown import write_report
-from scenarios import Trajectory, make_scene
+from records import Trajectory
+from scenarios import make_scene
 
 pytest.importorskip("rebound")
 
@@ -82,7 +83,7 @@ def test_rebound_leapfrog_is_ref_leapfrog_over_the_whole_study(solar):
 # ------------------------------------------------------------------------ energy
 @pytest.mark.parametrize("method_id", ["rebound:leapfrog", "rebound:whfast", "rebound:saba", "rebound:ias15"])
 def test_engine_energy_over_the_study(solar, method_id):
-    """Every REBOUND mode keeps |dE/E| bounded over 2e5 days (harness.energy's rule). Measured
+    """Every REBOUND mode keeps |dE/E| bounded over 2e5 days (harness.measures.energy's rule). Measured
     max |dE/E|: leapfrog 4.08e-6, whfast 5.31e-9, saba 5.0e-14, ias15 2.06e-15."""
     res = energy_behaviour(method_id, solar, DT, STEPS, every=20)
     assert res["status"] == "ok" and res["classification"] == "bounded", res["rule"]
@@ -121,7 +122,7 @@ def test_reference_energy_classes_over_the_whole_study(solar):
 
 # ------------------------------------------------------------------------ work-precision
 def test_whfast_is_ahead_of_leapfrog_at_equal_cost(solar):
-    """harness.workprecision over one Jupiter orbit at h*omega = 0.2 .. 0.00625 (dt 140 .. 4.3
+    """harness.measures.workprecision over one Jupiter orbit at h*omega = 0.2 .. 0.00625 (dt 140 .. 4.3
     days), each mode timed on REBOUND's own loop (sim.steps(n)): a WHFast step costs ~4.3x a
     leapfrog step (measured 1.4 us and 0.33 us), so the two sweeps overlap in cost only where
     leapfrog's dt is a few times smaller than WHFast's; six points give three overlapping ones.

@@ -18,9 +18,9 @@ import math
 import pytest
 
 import adapters
-from harness import isolation
+from harness.execution import isolation
 from harness.methods import get_method
-from harness.stability_damping import (CLOSED_FORM, MATRICES, THEORY_RTOL, ZETAS, computed_limit,
+from harness.measures.stability_damping import (CLOSED_FORM, MATRICES, THEORY_RTOL, ZETAS, computed_limit,
                                        limit_vs_damping, spectral_radius, theory_limit)
 from reference import METHODS
 
@@ -108,9 +108,9 @@ def test_each_engine_mode_measures_the_theory_of_its_scheme_within_half_a_percen
 def test_the_nightly_report_charts_stability_against_damping(tmp_path):
     """A small suite on the damped spring: the section's table has every zeta with the measured
     limit, the theory and the mark, and the chart is written and linked."""
-    from harness.nightly import run_nightly
-    from harness.storage import History
-    from harness.suites import DAMPED_SPRING_EXTRAS, SceneSpec, Suite
+    from harness.nightly.run import run_nightly
+    from harness.history.storage import History
+    from harness.nightly.suites import DAMPED_SPRING_EXTRAS, SceneSpec, Suite
 
     methods = ("ref:semi_implicit_euler", "ref:semi_implicit_euler_velocity_implicit", "mujoco:euler")
     suite = Suite("damping", scenes={"damped_spring": SceneSpec(periods=5, extras=DAMPED_SPRING_EXTRAS)},

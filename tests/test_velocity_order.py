@@ -1,7 +1,7 @@
 """Order where the force depends on the velocity (issue 12): leapfrog, Forest-Ruth and the Verlet
 forms measure order 1 on the damped spring and the projectile. It is the schemes, not their code:
 the reference code's measured one-step map is the matrix written from the update formulas
-(harness.stability_damping), and that matrix's local error against the exact flow exp(h A) is
+(harness.measures.stability_damping), and that matrix's local error against the exact flow exp(h A) is
 O(h^2) once zeta > 0 (a kick that takes the velocity-dependent force at the velocity before it,
 without a solve), O(h^3) (leapfrog) and O(h^5) (Forest-Ruth) without damping. So the schemes
 declare order 1 for velocity-dependent forces, and the order check judges them by it.
@@ -17,8 +17,10 @@ import pytest
 from scipy.linalg import expm
 from scipy.stats import linregress
 
-from harness import order, stability
-from harness.stability_damping import MATRICES
+from harness.measures import order
+
+from harness.measures import stability
+from harness.measures.stability_damping import MATRICES
 from reference import METHODS
 from scenarios import make_scene
 

@@ -1,0 +1,108 @@
+"""The reference rows of ``harness bench``: each unconstrained scheme's compiled kernel beside
+its floor (``reference._floors``, the same scheme hand-written as one loop of scalars), on one
+unit spring and on a batch of 1000, timed in the same process in interleaved repeats
+(kernel, floor, kernel, floor, ...: a machine that slows for a while slows both of a pair).
+
+Each figure is the minimum over the repeats of one call of the whole loop (200,000 steps on
+one spring, 2,000 on the batch) divided by its steps: the kernel's own time per step, the
+call from Python spread over the loop. The ratio kernel/floor is the figure that matters.
+
+Targets (issue 11), judged here and printed met/MISSED, never asserted by a timed test:
+every scheme within ``FLOOR_RATIO_TARGET`` of its floor on one spring and on the batch;
+semi-implicit Euler at most ``SIE_SINGLE_TARGET_NS`` per step on one spring and
+``SIE_BATCH_TARGET_NS`` per spring-step on the batch; RK4 per spring-step on the batch at most
+``RK4_OVER_SIE_TARGET`` times semi-implicit Euler's.
+"""
+from __future__ import annotations
+
+from reference import METHODS
+from reference._compiled import CLOCKS, step_timer
+from reference._floors import FLOORS, floor_timer
+from scenarios import make_scene
+
+FLOOR_RATIO_TARGET = 2.0
+SIE_SINGLE_TARGET_NS = 10.0
+SIE_BATCH_TARGET_NS = 0.4
+RK4_OVER_SIE_TARGET = 3.0
+
+DT = 0.01
+SINGLE_STEPS = 200_000
+BATCH = 1000
+BATCH_STEPS = 2_000
+REPEATS = 9
+
+#: The bench runs on the spring, which has no constraints: constrained schemes
+#: (ref:verlet_constrained) are measured on the rope by ``harness.measures.rope_study``.
+UNCONSTRAINED = [sid for sid, s in METHODS.items() if not s.constrained]
+
+
+def _pair(scheme_id: str, steps: int, batch: int, repeats: int) -> tuple[float, float]:
+    """(kernel, floor) seconds per step, min over interleaved repeats."""
+    spring = make_scene("spring")
+    k, m = spring.values["k"], spring.values["m"]
+    x0, v0 = spring.values["x0"], spring.values["v0"]
+    _, kernel = step_timer(METHODS[scheme_id], spring, DT, steps, batch=batch)
+    _, floor = floor_timer(scheme_id, DT, steps, batch=batch, k=k, m=m, x0=x0, v0=v0, clock=CLOCKS["wall"])
+    kt, ft = [], []
+    for _ in range(repeats):
+        kt.append(kernel())
+        ft.append(floor())
+    return min(kt), min(ft)
+
+
+def measure(scheme_ids=None, repeats: int = REPEATS) -> dict:
+    """``{"rows": [...], "targets": [...]}``: per scheme ns per step (one spring) and per
+    spring-step (the batch), each beside its floor and the ratio; then every target with the
+    measured value and ``met``."""
+    rows = []
+    for sid in scheme_ids or UNCONSTRAINED:
+        single, single_floor = _pair(sid, SINGLE_STEPS, 1, repeats)
+        batch, batch_floor = _pair(sid, BATCH_STEPS, BATCH, repeats)
+        rows.append({"method": f"ref:{sid}", "single_ns_per_step": single * 1e9,
+                     "single_floor_ns_per_step": single_floor * 1e9, "single_ratio_to_floor": single / single_floor,
+                     "batch1000_ns_per_spring_step": batch * 1e9 / BATCH,
+                     "batch1000_floor_ns_per_spring_step": batch_floor * 1e9 / BATCH,
+                     "batch1000_ratio_to_floor": batch / batch_floor})
+    return {"rows": rows, "targets": targets(rows)}
+
+
+def targets(rows: list[dict]) -> list[dict]:
+    """Each target the rows let us judge: what, the measured value, the bound, met."""
+    out = []
+
+    def add(what, value, bound):
+        out.append({"target": what, "value": value, "bound": bound, "met": value <= bound})
+
+    by = {r["method"]: r for r in rows}
+    for r in rows:
+        add(f"{r['method']} 1 spring / floor", r["single_ratio_to_floor"], FLOOR_RATIO_TARGET)
+        add(f"{r['method']} 1000 springs / floor", r["batch1000_ratio_to_floor"], FLOOR_RATIO_TARGET)
+    sie, rk4 = by.get("ref:semi_implicit_euler"), by.get("ref:rk4")
+    if sie:
+        add("ref:semi_implicit_euler 1 spring, ns/step", sie["single_ns_per_step"], SIE_SINGLE_TARGET_NS)
+        add("ref:semi_implicit_euler 1000 springs, ns/spring-step", sie["batch1000_ns_per_spring_step"],
+            SIE_BATCH_TARGET_NS)
+    if sie and rk4:
+        add("ref:rk4 / ref:semi_implicit_euler, 1000 springs per spring-step",
+            rk4["batch1000_ns_per_spring_step"] / sie["batch1000_ns_per_spring_step"], RK4_OVER_SIE_TARGET)
+        # Not a target: what the same ratio is between the two floors (the schemes' own work).
+        out.append({"target": "(floors) rk4 / semi_implicit_euler, 1000 springs per spring-step",
+                    "value": rk4["batch1000_floor_ns_per_spring_step"] / sie["batch1000_floor_ns_per_spring_step"],
+                    "bound": None, "met": None})
+    return out
+
+
+def lines(result: dict) -> list[str]:
+    out = [f"{'method':38s} {'1 spring ns/step':>16s} {'floor':>7s} {'ratio':>6s}   "
+           f"{'1000 springs ns/spring-step':>27s} {'floor':>7s} {'ratio':>6s}"]
+    for r in result["rows"]:
+        out.append(f"{r['method']:38s} {r['single_ns_per_step']:16.2f} {r['single_floor_ns_per_step']:7.2f} "
+                   f"{r['single_ratio_to_floor']:6.2f}   {r['batch1000_ns_per_spring_step']:27.3f} "
+                   f"{r['batch1000_floor_ns_per_spring_step']:7.3f} {r['batch1000_ratio_to_floor']:6.2f}")
+    out += ["", "targets:"]
+    for t in result["targets"]:
+        if t["bound"] is None:
+            out.append(f"  {t['target']}: {t['value']:.3g}")
+        else:
+            out.append(f"  {t['target']}: {t['value']:.3g} <= {t['bound']:g}: {'met' if t['met'] else 'MISSED'}")
+    return out

@@ -1,0 +1,40 @@
+"""The ``harness`` command line. Each subcommand lives in ``harness/cli/<name>.py`` with
+``add_parser(subparsers)`` and ``run(args) -> exit code``.
+
+Bad input exits 2 with one line on stderr naming the field and the valid choices.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from records import InvalidInput
+
+COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision", "advise",
+            "nightly", "compare", "history", "bounds"]
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2, like every other input error
+        self.exit(2, f"harness: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="harness", description="Validation harness for physics-engine integrators.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name in COMMANDS:
+        module = importlib.import_module(f"harness.cli.{name}")
+        module.add_parser(sub).set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args._run(args) or 0)
+    except InvalidInput as exc:
+        print(f"harness: error: {exc}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:
+        return 0

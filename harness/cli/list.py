@@ -1,0 +1,59 @@
+"""``harness list``: scenes, methods and their metadata (and why a method is unavailable)."""
+from __future__ import annotations
+
+import json
+
+from scenarios import SCENES
+
+from harness.methods import all_methods
+
+
+def add_parser(sub):
+    p = sub.add_parser("list", help="list scenes and methods with their metadata")
+    p.add_argument("--json", action="store_true")
+    return p
+
+
+def catalogue() -> dict:
+    scenes = {sid: cls().describe() for sid, cls in SCENES.items()}
+    methods = {}
+    for mid, m in all_methods().items():
+        ok, why = m.available()
+        entry = m.describe()
+        entry["available"] = ok
+        if not ok:
+            entry["unavailable_reason"] = why
+        support = {}
+        for sid, cls in SCENES.items():
+            sup, reason = m.supports(cls()) if ok else (False, why)
+            support[sid] = True if sup else reason
+        entry["scenes"] = support
+        methods[mid] = entry
+    return {"scenes": scenes, "methods": methods}
+
+
+def run(args) -> int:
+    cat = catalogue()
+    if args.json:
+        print(json.dumps(cat, indent=1))
+        return 0
+    print("Scenes")
+    for sid, s in cat["scenes"].items():
+        params = ", ".join(f"{k}={v['value']:g} {v['allowed']}" for k, v in s["params"].items()) or "none"
+        print(f"  {sid:16s} {s['title']}")
+        print(f"  {'':16s} omega={s['omega']:.4g}  params: {params}")
+    print("\nMethods")
+    for mid, m in cat["methods"].items():
+        if m["family"] == "ref":
+            line = (f"order {m['order']}, {m['force_evals']} eval/step, "
+                    f"{'symplectic' if m['symplectic'] else 'not symplectic'}, "
+                    f"{'implicit' if m['implicit'] else 'explicit'}, energy {m['energy']}, h*w max {m['homega_max']}")
+        else:
+            line = m.get("summary", "")
+        state = "" if m["available"] else f"  [unavailable: {m['unavailable_reason']}]"
+        print(f"  {mid:42s} {line}{state}")
+        unsupported = {s: r for s, r in m["scenes"].items() if r is not True}
+        if m["available"] and unsupported:
+            for s, r in unsupported.items():
+                print(f"  {'':42s}   unsupported on {s}: {r}")
+    return 0

@@ -1,0 +1,50 @@
+"""What the measurement commands share: the scene/method arguments, validation before
+anything is stepped, and printing a result as JSON or as a short table."""
+from __future__ import annotations
+
+import json
+import sys
+
+from scenarios import make_scene, parse_overrides
+
+from harness import validate
+from harness.measures.frames import jsonable
+from harness.methods import check_supported, get_method
+
+
+def add_common(p, method_required: bool = True):
+    p.add_argument("scene")
+    if method_required:
+        p.add_argument("--method", required=True, help="ref:NAME or ENGINE:MODE (see `harness list`)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene parameter")
+    p.add_argument("--timeout", default="60", help="seconds an engine run may take")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    return p
+
+
+def scene_of(args):
+    return make_scene(args.scene, **parse_overrides(args.set))
+
+
+def method_for(method_id: str, scene):
+    method = get_method(method_id)
+    check_supported(method, scene)
+    return method
+
+
+def timeout_of(args) -> float:
+    return validate.positive_finite("--timeout", args.timeout)
+
+
+def emit(result, as_json: bool, lines) -> int:
+    if as_json:
+        json.dump(jsonable(result), sys.stdout, indent=1)
+        sys.stdout.write("\n")
+    else:
+        for line in lines(result):
+            print(line)
+    return 0
+
+
+def fmt(x, spec: str = ".6g") -> str:
+    return "-" if x is None else format(x, spec)

@@ -1,0 +1,62 @@
+"""``harness nightly``: run the matrix, store it, compare with the last run, write the report.
+Exit 1 when anything regressed (the list also heads the report), 2 on bad input (an unreachable
+scheduler included), 3 when the Dask cluster was lost mid-run."""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from harness import validate
+from harness.history.compare import regression_lines
+from harness.nightly.run import DEFAULT_DB, DEFAULT_OUT, run_nightly
+from harness.nightly.suites import SUITES
+
+
+def add_parser(sub):
+    p = sub.add_parser("nightly", help="run the comparison matrix, store it, report, flag regressions")
+    p.add_argument("--suite", default="standard", help=f"one of: {', '.join(SUITES)}")
+    p.add_argument("--out", default=str(DEFAULT_OUT), help="report directory (report.md + charts/)")
+    p.add_argument("--db", default=str(DEFAULT_DB), help="SQLite history")
+    p.add_argument("--jobs", default=None, help="worker processes (default: all cores)")
+    p.add_argument("--scheduler", default=None,
+                   help="Dask scheduler address [tcp://]HOST:PORT, or local:N for a LocalCluster of N worker "
+                        "processes (default: $HARNESS_SCHEDULER unless --jobs is given, else local worker processes)")
+    p.add_argument("--bounds", default=None, help="energy bounds file (default: the reviewed harness/energy_bounds.csv)")
+    p.add_argument("--cell-timeout", default=None,
+                   help="seconds one task (a scene x method, all its measures) may take before its worker is "
+                        "killed and the rest of it recorded timed_out (default: the suite's)")
+    p.add_argument("--json", action="store_true", help="print the run summary as JSON")
+    return p
+
+
+def run(args) -> int:
+    from harness.history import bounds as bounds_mod
+
+    suite = validate.choice("--suite", args.suite, list(SUITES))
+    jobs = validate.count("--jobs", args.jobs, 1) if args.jobs is not None else None
+    cell_timeout = validate.positive_finite("--cell-timeout", args.cell_timeout) if args.cell_timeout is not None else None
+    bounds_path = Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH
+    bounds_mod.load(bounds_path)  # a broken bounds file fails before anything runs
+    from harness.execution.distributed import ClusterLost, resolve_scheduler
+
+    resolve_scheduler(args.scheduler, jobs is not None)  # a bad address fails before anything runs
+    try:
+        result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path,
+                             cell_timeout=cell_timeout)
+    except ClusterLost as exc:
+        print(f"harness: error: {exc}; the run is left incomplete (never compared, the previous report kept)",
+              file=sys.stderr)
+        return 3
+    regs = result["regressions"]
+    if args.json:
+        print(json.dumps({"run_id": result["run_id"], "previous": result["previous"], "report": str(result["report"]),
+                          "regressions": [r.as_dict() for r in regs], "timing": result["timing"]}, indent=1,
+                         default=str))
+    else:
+        print(f"run {result['run_id']}: report {result['report']} ({result['timing']['total_s']:.1f}s)")
+        for line in regression_lines(regs):
+            print(line)
+    if regs:
+        print(f"harness: {len(regs)} regression(s)", file=sys.stderr)
+    return 1 if regs else 0

@@ -1,0 +1,45 @@
+"""``harness workprecision SCENE [--method M ...]``: (cost, error) pairs per method across a
+shared timestep sweep, ready to chart."""
+from __future__ import annotations
+
+from harness import validate
+from harness.methods import all_methods
+from harness.measures.workprecision import HOMEGA_MAX, PERIODS, POINTS, REPEATS, chart_ready, work_precision
+from harness.cli.measure_args import add_common, emit, fmt, method_for, scene_of, timeout_of
+
+
+def add_parser(sub):
+    p = sub.add_parser("workprecision", help="error against cost across a timestep sweep")
+    add_common(p, method_required=False)
+    p.add_argument("--method", action="append", help="method id (repeat; default: every available method)")
+    p.add_argument("--points", default=str(POINTS), help="timesteps: h*omega = max/2^k")
+    p.add_argument("--homega-max", default=repr(HOMEGA_MAX), help="largest h*omega")
+    p.add_argument("--periods", default=repr(PERIODS), help="horizon in scene periods")
+    p.add_argument("--repeats", default=str(REPEATS), help="timed repeats per point")
+    return p
+
+
+def run(args) -> int:
+    points = validate.count("--points", args.points, 1)
+    homega_max = validate.positive_finite("--homega-max", args.homega_max)
+    periods = validate.positive_finite("--periods", args.periods)
+    repeats = validate.count("--repeats", args.repeats, 1)
+    timeout = timeout_of(args)
+    scene = scene_of(args)
+    if args.method:
+        methods = [method_for(m, scene) for m in args.method]
+    else:
+        methods = [m for m in all_methods().values() if m.available()[0] and m.supports(scene)[0]]
+    rows = work_precision(methods, scene, points=points, homega_max=homega_max, periods=periods,
+                          repeats=repeats, timeout=timeout)
+    return emit({"scene": scene.id, "params": dict(scene.values), "rows": rows, "chart": chart_ready(rows)},
+                args.json, _lines)
+
+
+def _lines(r):
+    yield f"work-precision on {r['scene']}"
+    yield "  s/unit t: wall seconds per unit of simulated time; reference schemes compiled, engines their own loop"
+    yield f"  {'method':40s} {'h*omega':>9s} {'error':>10s} {'s/unit t':>10s} {'evals/unit t':>12s}"
+    for row in r["rows"]:
+        yield (f"  {row['method']:40s} {row['omega_dt']:9.4g} {fmt(row['error'], '10.3e')} "
+               f"{fmt(row['s_per_unit_time'], '10.3e')} {fmt(row['evals_per_unit_time'], '12.4g')}")

@@ -1,0 +1,3 @@
+"""The stored history: ``storage`` (SQLite, one row per measured cell, one schema version),
+``series`` (a cell's values across runs), ``step_detect`` (steps in a noisy series), ``compare``
+(regressions of the latest run), ``bounds`` (the reviewed energy-bounds file beside it)."""

@@ -1,0 +1,186 @@
+"""What got worse between two stored runs.
+
+Cells are matched on (scene, method, measure, dt). A regression is, in run B against run A:
+
+* ``energy bound``: a ``bound`` cell whose max |dE/E| is above the reviewed bound (read from
+  the bounds file at comparison time, so a tightened bound is checked against stored runs);
+* ``order``: observed order down by more than ``ORDER_DROP`` (0.3);
+* ``stability``: largest stable h*omega down by more than ``STABILITY_DROP`` (1%), or a method
+  that was unbounded now has a limit;
+* ``new failure``: a cell that was ``ok`` is now unstable / crashed / timed out (or a cell
+  present in A is missing from B), or a cell new in B (a new method or scene) that crashed
+  or timed out: the harness could not measure it. (A new cell that is ``unstable`` is a
+  measurement: a blow-up is a result.)
+* ``slowdown``: the cost ratio to explicit Euler worsens beyond the spread of its repeats:
+  ratio_B > ratio_A * (1 + spread_A + spread_B + PROCESS_SPREAD), a run's spread being that
+  of its interleaved repeats' ratios, (max - min) / min. Repeats in one process miss how
+  much one process differs from the next (where the allocator and the compiled code land):
+  the smoke suite's ratios on the spring, measured in 34 fresh worker processes with the
+  code unchanged, spread by max/min 1.09-1.11 (explicit and semi-implicit Euler), 1.13
+  (leapfrog), 1.17 (pymunk), 1.21 (MuJoCo), 1.24 (implicit Euler) and 1.34 (RK4), while the
+  repeats within a process spread by 0.4-14%. PROCESS_SPREAD = 0.5 covers that with room:
+  a slowdown is flagged from 1.5x on, gross changes (a kernel no longer compiled, a step
+  doing twice the work), not noise.
+
+Only runs of the same suite and measurement version are compared. Once three complete runs of
+the suite exist, the default comparison judges cost over the whole history instead of the last
+two runs (``harness.history.series``): a drift of a few percent a night adds up past the noise there,
+and one noisy night is not a step.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import pandas as pd
+
+from records import InvalidInput
+
+from harness.history import bounds as bounds_mod
+from harness.history.storage import History
+
+ORDER_DROP = 0.3
+STABILITY_DROP = 0.01
+PROCESS_SPREAD = 0.5
+
+
+@dataclass(frozen=True)
+class Regression:
+    kind: str
+    scene: str
+    method: str
+    measure: str
+    dt: float | None
+    before: object
+    after: object
+    detail: str
+
+    def line(self) -> str:
+        where = f"{self.method} on {self.scene}" + (f" at dt={self.dt:g}" if self.dt is not None else "")
+        return f"{self.kind}: {where}: {self.detail}"
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "scene": self.scene, "method": self.method, "measure": self.measure,
+                "dt": self.dt, "before": self.before, "after": self.after, "detail": self.detail}
+
+
+def _key(row) -> tuple:
+    dt = row["dt"]
+    return (row["scene"], row["method"], row["measure"], None if dt is None or pd.isna(dt) else round(float(dt), 15))
+
+
+def _val(x):
+    return None if x is None or (isinstance(x, float) and math.isnan(x)) else x
+
+
+def _ratio_spread(data: dict) -> float:
+    return data.get("ratio_spread", data.get("spread")) or 0.0
+
+
+def bound_violations(cells: pd.DataFrame, bounds: list[bounds_mod.Bound]) -> list[Regression]:
+    by_key = {(b.scene, b.method, round(b.dt, 15), b.steps): b for b in bounds}
+    out = []
+    for _, row in cells[cells.measure == "bound"].iterrows():
+        b = by_key.get((row["scene"], row["method"], round(float(row["dt"]), 15), int(row["steps"])))
+        if b is None or row["status"] != "ok":
+            continue  # failures are reported as new failures
+        if not row["value"] <= b.bound:
+            out.append(Regression("energy bound", b.scene, b.method, "bound", b.dt, b.bound, row["value"],
+                                  f"max |dE/E| = {row['value']:.3e} > bound {b.bound:.2g} over {b.steps} steps"))
+    return out
+
+
+def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Bound]) -> list[Regression]:
+    out = bound_violations(b, bounds)
+    a_rows = {_key(r): r for _, r in a.iterrows()}
+    b_rows = {_key(r): r for _, r in b.iterrows()}
+    for key, rb in b_rows.items():
+        if key not in a_rows and rb["status"] in ("crashed", "timed_out"):
+            scene, method, measure, dt = key
+            out.append(Regression("new failure", scene, method, measure, dt, "absent", rb["status"],
+                                  f"{measure}: {rb['status']}: {rb['detail'] or ''}".rstrip(": ")))
+    for key, ra in a_rows.items():
+        scene, method, measure, dt = key
+        rb = b_rows.get(key)
+        if rb is None:
+            if ra["status"] == "ok":
+                out.append(Regression("new failure", scene, method, measure, dt, "ok", "missing",
+                                      f"{measure} cell missing from the newer run"))
+            continue
+        if ra["status"] == "ok" and rb["status"] != "ok":
+            out.append(Regression("new failure", scene, method, measure, dt, "ok", rb["status"],
+                                  f"{measure}: {rb['status']}: {rb['detail'] or ''}".rstrip(": ")))
+            continue
+        if ra["status"] != "ok" or rb["status"] != "ok":
+            continue
+        va, vb = _val(ra["value"]), _val(rb["value"])
+        if measure == "order" and va is not None and vb is not None and vb < va - ORDER_DROP:
+            out.append(Regression("order", scene, method, measure, dt, va, vb,
+                                  f"observed order {va:.2f} -> {vb:.2f} (drop > {ORDER_DROP})"))
+        elif measure == "stability":
+            ua, ub = ra["data"].get("unbounded"), rb["data"].get("unbounded")
+            if ua and not ub:
+                out.append(Regression("stability", scene, method, measure, dt, "unbounded", vb,
+                                      f"was unbounded, now h*omega max = {vb:.4g}"))
+            elif va is not None and vb is not None and math.isfinite(va) and vb < va * (1 - STABILITY_DROP):
+                out.append(Regression("stability", scene, method, measure, dt, va, vb,
+                                      f"largest stable h*omega {va:.4g} -> {vb:.4g} (drop > {STABILITY_DROP:.0%})"))
+        elif measure == "cost":
+            ra_ratio, rb_ratio = ra["data"].get("ratio_to_explicit_euler"), rb["data"].get("ratio_to_explicit_euler")
+            if ra_ratio and rb_ratio:
+                spread = _ratio_spread(ra["data"]) + _ratio_spread(rb["data"]) + PROCESS_SPREAD
+                if rb_ratio > ra_ratio * (1 + spread):
+                    out.append(Regression("slowdown", scene, method, measure, dt, ra_ratio, rb_ratio,
+                                          f"cost ratio to explicit Euler {ra_ratio:.2f} -> {rb_ratio:.2f}, "
+                                          f"beyond the noise allowed ({spread:.0%}: the repeats' spreads "
+                                          f"and {PROCESS_SPREAD:.0%} from process to process)"))
+    return out
+
+
+def compare_runs(history: History, run_a: int | None = None, run_b: int | None = None,
+                 bounds_path=bounds_mod.DEFAULT_PATH, trend=None) -> tuple[int | None, int, list[Regression]]:
+    """Regressions of ``run_b`` (default: the latest complete run) against ``run_a`` (default: the
+    complete run before it of the same suite and measurement version). With no earlier run, only the
+    bounds are checked. Against the default run, once ``history.MIN_RUNS`` runs of the suite exist,
+    cost is judged over the history (``harness.history.series``, its step detection; ``trend`` is that
+    history if already loaded) instead of by the slowdown rule above, for every cost cell with
+    that many measured points."""
+    if run_b is None:
+        runs = history.runs()
+        if runs.empty:
+            raise InvalidInput(f"no complete run stored in {history.path}")
+        run_b = int(runs.run_id.iloc[-1])
+    info_b = history.run(run_b)
+    explicit_pair = run_a is not None
+    if run_a is None:
+        run_a = history.previous_complete(run_b)
+    else:
+        info_a = history.run(run_a)
+        if info_a["measurement_version"] != info_b["measurement_version"]:
+            raise InvalidInput(f"runs {run_a} and {run_b} have different measurement versions "
+                               f"({info_a['measurement_version']} vs {info_b['measurement_version']}): not comparable")
+        if info_a["suite"] != info_b["suite"]:
+            raise InvalidInput(f"runs {run_a} and {run_b} ran different suites ({info_a['suite']} vs "
+                               f"{info_b['suite']}): not comparable")
+    bounds = bounds_mod.load(bounds_path)
+    cells_b = history.cells(run_b)
+    if run_a is None:
+        return None, run_b, bound_violations(cells_b, bounds)
+    regressions = compare_cells(history.cells(run_a), cells_b, bounds)
+    if explicit_pair:
+        return run_a, run_b, regressions
+    if trend is None:
+        from harness.history import series as history_mod
+
+        trend = history_mod.load(history, run_id=run_b,
+                                 measurement_version=int(info_b["measurement_version"]))
+    if trend.judged:
+        regressions = [r for r in regressions if not (r.kind == "slowdown" and trend.judges(
+            _key({"scene": r.scene, "method": r.method, "measure": r.measure, "dt": r.dt})))]
+        regressions += trend.regressions()
+    return run_a, run_b, regressions
+
+
+def regression_lines(regressions: list[Regression]) -> list[str]:
+    """The lines the CLI prints: one per regression, or that there were none."""
+    return [f"REGRESSION {r.line()}" for r in regressions] or ["no regressions"]

@@ -1,0 +1,209 @@
+"""History of nightly runs in an embedded SQLite database.
+
+One ``runs`` row per run (metadata: date, git commit, package and engine versions, machine,
+suite, settings, the measurement version) and one ``cells`` row per measured cell: a tidy
+table with the scene, method, measure, timestep, status and the measure's headline value,
+the rest of the measurement in a JSON column.
+
+A run is inserted with ``complete = 0`` and marked complete only after its last cell and its
+report are written; every cell is committed in its own transaction. A run killed half-way
+therefore leaves every earlier run intact and is itself never read as complete.
+Runs are only compared with runs of the same ``MEASUREMENT_VERSION`` (as asv does with
+its benchmark versions).
+"""
+from __future__ import annotations
+
+import json
+import math
+import sqlite3
+from contextlib import closing
+from pathlib import Path
+
+import pandas as pd
+
+#: Bump when a measure's definition changes: results across versions are not comparable.
+#: 2: cost on the worker's CPU clock with explicit Euler timed beside it in the same cell;
+#: order over half a period; stability searched up to the suite's h*omega maximum.
+#: 3: an engine mode's cost is its own loop's (``engine s/step``), no longer the per-step path.
+MEASUREMENT_VERSION = 3
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS runs (
+    run_id INTEGER PRIMARY KEY AUTOINCREMENT,
+    started TEXT NOT NULL,
+    finished TEXT,
+    complete INTEGER NOT NULL DEFAULT 0,
+    suite TEXT NOT NULL,
+    measurement_version INTEGER NOT NULL,
+    git_commit TEXT,
+    versions TEXT NOT NULL,
+    machine TEXT NOT NULL,
+    settings TEXT NOT NULL,
+    wall_s REAL,
+    timing TEXT,
+    regressions INTEGER
+);
+CREATE TABLE IF NOT EXISTS cells (
+    run_id INTEGER NOT NULL REFERENCES runs(run_id),
+    scene TEXT NOT NULL,
+    method TEXT NOT NULL,
+    family TEXT NOT NULL,
+    measure TEXT NOT NULL,
+    dt REAL,
+    steps INTEGER,
+    status TEXT NOT NULL,
+    detail TEXT,
+    value REAL,
+    wall_s REAL,
+    data TEXT NOT NULL,
+    UNIQUE (run_id, scene, method, measure, dt)
+);
+CREATE INDEX IF NOT EXISTS cells_run ON cells(run_id);
+"""
+
+#: The columns this code reads: a database whose tables lack any (an older schema) is refused.
+REQUIRED_COLUMNS = {
+    "runs": ("run_id", "started", "finished", "complete", "suite", "measurement_version", "git_commit", "versions",
+             "machine", "settings", "wall_s", "timing", "regressions"),
+    "cells": ("run_id", "scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value",
+              "wall_s", "data"),
+}
+
+CELL_COLUMNS = ["scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value", "wall_s", "data"]
+
+
+def _json(obj) -> str:
+    return json.dumps(obj, default=_default, allow_nan=True)
+
+
+def _default(x):
+    import numpy as np
+
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.floating):
+        return float(x)
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return str(x)
+
+
+def _num(x):
+    if x is None:
+        return None
+    x = float(x)
+    return x if not math.isnan(x) else None
+
+
+class History:
+    """The run history at ``path`` (created on first use)."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with closing(self._connect()) as con, con:
+            con.executescript(SCHEMA)
+            missing = {table: sorted(set(cols) - {r[1] for r in con.execute(f"PRAGMA table_info({table})")})
+                       for table, cols in REQUIRED_COLUMNS.items()}
+        missing = {t: cols for t, cols in missing.items() if cols}
+        if missing:
+            from records import InvalidInput
+
+            lacks = "; ".join(f"{t} lacks {', '.join(cols)}" for t, cols in missing.items())
+            raise InvalidInput(f"{self.path} was written by an older harness ({lacks}): not read, never mixed "
+                               f"with new runs; start a new history with --db")
+
+    def _connect(self) -> sqlite3.Connection:
+        con = sqlite3.connect(self.path, timeout=30)
+        con.row_factory = sqlite3.Row
+        return con
+
+    # ---------------------------------------------------------------- writing
+    def start_run(self, *, started: str, suite: str, git_commit: str | None, versions: dict, machine: dict,
+                  settings: dict) -> int:
+        with closing(self._connect()) as con, con:
+            cur = con.execute(
+                "INSERT INTO runs (started, suite, measurement_version, git_commit, versions, machine, settings) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (started, suite, MEASUREMENT_VERSION, git_commit, _json(versions), _json(machine), _json(settings)))
+            return int(cur.lastrowid)
+
+    def add_cell(self, run_id: int, cell: dict) -> None:
+        """Store one measured cell; a cell already stored for this run is replaced, never duplicated."""
+        row = {c: cell.get(c) for c in CELL_COLUMNS}
+        row["data"] = _json(cell.get("data", {}))
+        row["value"] = _num(row["value"])
+        with closing(self._connect()) as con, con:
+            con.execute(
+                f"INSERT OR REPLACE INTO cells (run_id, {', '.join(CELL_COLUMNS)}) "
+                f"VALUES (?, {', '.join('?' for _ in CELL_COLUMNS)})",
+                (run_id, *[row[c] for c in CELL_COLUMNS]))
+
+    def finish_run(self, run_id: int, *, finished: str, wall_s: float, timing: dict, regressions: int) -> None:
+        with closing(self._connect()) as con, con:
+            con.execute("UPDATE runs SET finished = ?, wall_s = ?, timing = ?, regressions = ?, complete = 1 "
+                        "WHERE run_id = ?", (finished, wall_s, _json(timing), regressions, run_id))
+
+    # ---------------------------------------------------------------- reading
+    def runs(self, complete_only: bool = True) -> pd.DataFrame:
+        q = "SELECT * FROM runs" + (" WHERE complete = 1" if complete_only else "") + " ORDER BY run_id"
+        with closing(self._connect()) as con:
+            df = pd.read_sql_query(q, con)
+        # pandas >= 3 reads a text column as its string dtype, where SQL NULL (an unfinished
+        # run's finish time and timing, an unknown commit) becomes NaN: back to None.
+        for col in ("started", "finished", "suite", "git_commit"):
+            df[col] = df[col].astype(object).map(lambda s: s if isinstance(s, str) else None)
+        for col in ("versions", "machine", "settings", "timing"):
+            df[col] = df[col].astype(object).map(lambda s: json.loads(s) if isinstance(s, str) and s else {})
+        return df
+
+    def run(self, run_id: int) -> dict:
+        df = self.runs(complete_only=False)
+        match = df[df.run_id == run_id]
+        if match.empty:
+            from records import InvalidInput
+
+            valid = ", ".join(str(r) for r in df.run_id) or "none stored"
+            raise InvalidInput(f"unknown run {run_id} in {self.path} (valid: {valid})")
+        return match.iloc[0].to_dict()
+
+    def cells(self, run_id: int) -> pd.DataFrame:
+        """The run's cells as a tidy DataFrame; ``data`` decoded to dicts."""
+        with closing(self._connect()) as con:
+            df = pd.read_sql_query("SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt",
+                                   con, params=(run_id,))
+        df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
+        df["data"] = df["data"].astype(object).map(json.loads)
+        return df
+
+    def cells_of_runs(self, run_ids, measures, data_of=()) -> pd.DataFrame:
+        """The cells of several runs at once, of the given measures only; ``data`` decoded for the
+        measures in ``data_of``, empty for the rest (an energy cell's series is most of its bytes)."""
+        run_ids, measures, data_of = [int(r) for r in run_ids], list(measures), list(data_of) or [""]
+        if not run_ids or not measures:
+            return pd.DataFrame(columns=["run_id", *CELL_COLUMNS])
+        marks = lambda xs: ", ".join("?" for _ in xs)  # noqa: E731
+        columns = ", ".join(c for c in ("run_id", *CELL_COLUMNS) if c != "data")
+        q = (f"SELECT {columns}, CASE WHEN measure IN ({marks(data_of)}) THEN data ELSE '{{}}' END AS data "
+             f"FROM cells WHERE run_id IN ({marks(run_ids)}) AND measure IN ({marks(measures)}) "
+             f"ORDER BY run_id, scene, method, measure, dt")
+        with closing(self._connect()) as con:
+            df = pd.read_sql_query(q, con, params=(*data_of, *run_ids, *measures))
+        df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
+        df["data"] = df["data"].astype(object).map(json.loads)
+        return df
+
+    def previous_complete(self, run_id: int) -> int | None:
+        """The latest complete run before ``run_id`` of the same suite and measurement version
+        (another suite measures other horizons and sweeps: its cells are not comparable)."""
+        runs = self.runs()
+        mine = self.run(run_id)
+        older = runs[(runs.run_id < run_id) & (runs.measurement_version == mine["measurement_version"])
+                     & (runs.suite == mine["suite"])]
+        return int(older.run_id.iloc[-1]) if not older.empty else None
+
+    def integrity_ok(self) -> bool:
+        with closing(self._connect()) as con:
+            return con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"

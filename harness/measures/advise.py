@@ -1,0 +1,467 @@
+"""Advice at a frame rate: the cheapest method, with the fewest substeps, that keeps a scene
+stable and within a user's tolerances over a horizon. Every figure is measured here, by the
+harness's own measures.
+
+At ``hz`` frames a second and ``s`` substeps a frame the step is h = 1 / (hz s), s one of the
+levels 1, 2, 4, ... <= ``max_substeps``. For each candidate method the most substeps are
+measured first: a method that misses the tolerances there misses them at every coarser step
+(a convergent method's error falls with h), and is judged by that one run. Where it meets
+them, a bisection over the levels finds the fewest substeps that still do: that method's
+cheapest frame (cost per frame = s x cost per step). At each level, one rule for every method:
+
+* **stable**: on a linear scene, the spectral radius of the method's one-step map at h
+  (``harness.measures.stability``: rho <= 1 + RHO_TOL), measured before anything is run; a step with
+  rho > 1 grows without bound, so its horizon run is skipped. On every scene the run itself
+  must finish within ``stability.GROWTH`` times the size of the true solution. Beside it,
+  the method's largest stable h*omega on that scene (linear scenes; its own damping
+  included, as the one-step map includes it), searched over the h*omega the advice can use.
+* **energy error**: ``max_n |E_n - E_exact(t_n)| / max_n |E_exact(t_n)|`` over the horizon,
+  relative to the largest exact energy (the initial one where the scene dissipates: relative
+  to a damped spring's decaying energy itself the error would grow without meaning), and its
+  class by ``harness.measures.energy.classify``.
+* **position error**: ``max_n max_i |q_i(t_n) - q_i,true(t_n)|``, absolute, in the scene's
+  units, against the exact solution or the scene's reference (``harness.measures.error.true_state``),
+  up to the scene's reference horizon.
+* **force evaluations per frame**: counted over the horizon run (s x evaluations per step;
+  None, with the reason, where an engine mode cannot be counted).
+* **cost per frame**: s x the method's measured time per step (``harness.measures.cost``: the compiled
+  kernel of a reference scheme, the engine mode's step for an engine), on the CPU clock,
+  measured once, at the step of the row that meets the tolerances (a nightly passes its cost
+  cell's figure instead, and every row then has one).
+
+A method that meets the tolerances at no level is listed with why, from its most substeps;
+where none meets them the closest is named. The search measures only what it must: one run
+for a method that cannot meet the tolerances, a bisection over the levels for one that can,
+no run for a step already known unstable, each method's limit measured once and its time per
+step only where it is advised (timing a reference scheme compiles its kernel).
+"""
+from __future__ import annotations
+
+import fnmatch
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from records import InvalidInput
+
+from scenarios import Scene
+
+from harness import validate
+from harness.measures.common import resolve
+from harness.measures.error import true_state, trusted_until
+
+#: Default horizon, in the scene's time unit (seconds for the animation scenes).
+HORIZON = 10.0
+MAX_SUBSTEPS = 16
+#: Recorded states per horizon run (the energy classification wants >= 100).
+RECORDED = 2000
+#: The limit search goes at least this far in h*omega (past every explicit scheme's limit),
+#: so that a method stable at every step the advice uses still shows where it would fail.
+LIMIT_SEARCH_HI = 10.0
+#: Relative bracket of the stability-limit search (three digits are all the advice prints).
+LIMIT_RTOL = 1e-4
+#: Timing of the cost per step: repeats and steps per repeat (compiled kernel / engine).
+COST_REPEATS = 3
+
+
+@dataclass(frozen=True)
+class Request:
+    """What the user asks: a scene at ``hz`` frames per unit time, over ``horizon``, within
+    ``energy_tol`` (relative) and/or ``error_tol`` (absolute position error)."""
+
+    hz: float
+    horizon: float = HORIZON
+    energy_tol: float | None = None
+    error_tol: float | None = None
+    max_substeps: int = MAX_SUBSTEPS
+
+    def checked(self) -> "Request":
+        """The request validated field by field (InvalidInput, one line, before anything runs)."""
+        hz = validate.positive_finite("--hz", self.hz)
+        horizon = validate.positive_finite("--horizon", self.horizon)
+        energy = None if self.energy_tol is None else validate.positive_finite("--energy-tol", self.energy_tol)
+        error = None if self.error_tol is None else validate.positive_finite("--error-tol", self.error_tol)
+        if energy is None and error is None:
+            raise InvalidInput("no tolerance given (allowed: --energy-tol REL and/or --error-tol ABS, each > 0)")
+        if horizon < 1.0 / hz:
+            raise InvalidInput(f"--horizon={self.horizon} is shorter than one frame at {hz:g} Hz "
+                               f"(allowed: >= {1.0 / hz:g})")
+        substeps = validate.count("--max-substeps", self.max_substeps, 1)
+        return Request(hz, horizon, energy, error, substeps)
+
+    @property
+    def substeps(self) -> list[int]:
+        """1, 2, 4, ... up to ``max_substeps``."""
+        return [2 ** i for i in range(int(math.log2(self.max_substeps)) + 1)]
+
+    def tolerances_text(self) -> str:
+        parts = []
+        if self.energy_tol is not None:
+            parts.append(f"energy error <= {self.energy_tol:g}")
+        if self.error_tol is not None:
+            parts.append(f"position error <= {self.error_tol:g}")
+        return " and ".join(parts)
+
+
+@dataclass
+class Row:
+    """One (method, substeps) measured. ``meets`` the tolerances, else ``why`` not."""
+
+    substeps: int
+    h: float
+    homega: float
+    stable: bool
+    status: str                     # ok, unstable, crashed, timed_out (of the horizon run, or "skipped")
+    rho: float | None = None        # spectral radius of the one-step map at h (linear scenes)
+    energy_error: float | None = None
+    energy_gained: bool | None = None
+    energy_class: str | None = None
+    position_error: float | None = None
+    evals_per_frame: float | None = None
+    cost_per_frame_s: float | None = None
+    meets: bool = False
+    why: str = ""
+    detail: str = ""
+
+
+@dataclass
+class MethodAdvice:
+    """One method's search: its rows (in the order measured), the row that meets the
+    tolerances with the fewest substeps (``best``, an index into ``rows``), or ``reason``."""
+
+    method: str
+    status: str = "ok"              # ok, or crashed / timed_out where the search itself died
+    homega_limit: float | None = None
+    limit_verdict: str = "not measured"   # limited, unbounded (stable at every h*omega searched), unstable
+    limit_searched: float | None = None   # the largest h*omega the limit search tried
+    cost_per_step_s: float | None = None
+    cost_timing: str = ""
+    evals_reason: str = ""
+    rows: list[Row] = field(default_factory=list)
+    best: int | None = None
+    reason: str = ""
+
+    @property
+    def best_row(self) -> Row | None:
+        return None if self.best is None else self.rows[self.best]
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "MethodAdvice":
+        d = dict(d)
+        rows = [Row(**r) for r in d.pop("rows", [])]
+        return cls(rows=rows, **d)
+
+
+# ----------------------------------------------------------------------------- one method
+def _limit(method, scene: Scene, request: Request, timeout) -> tuple[float | None, str, float | None]:
+    """(largest stable h*omega, verdict, largest h*omega searched) on a linear scene, by the
+    spectral radius, from a hundredth of the smallest step the advice uses to its largest or
+    LIMIT_SEARCH_HI, whichever is further; (None, "not measured: ...", None) elsewhere."""
+    from harness.measures.stability import largest_stable_dt
+
+    if not scene.linear:
+        return None, "not measured (nonlinear scene: each run is judged by its growth)", None
+    hi = max(scene.omega / request.hz, LIMIT_SEARCH_HI)
+    lo = min(1e-4, scene.omega / request.hz / request.max_substeps / 100.0)
+    res = largest_stable_dt(method, scene, criterion="spectral_radius", lo=lo, hi=hi, rtol=LIMIT_RTOL,
+                            timeout=timeout)
+    return res.get("omega_dt_max"), res["verdict"], hi
+
+
+def _energy_error(traj, scene: Scene) -> tuple[float | None, bool | None]:
+    e = np.asarray(traj.energy[:, 0], dtype=float)
+    exact = np.asarray(scene.exact_energy(traj.t), dtype=float)
+    scale = float(np.max(np.abs(exact)))
+    if scale == 0.0 or not np.all(np.isfinite(e)):
+        return None, None
+    dev = e - exact
+    i = int(np.argmax(np.abs(dev)))
+    return float(abs(dev[i]) / scale), bool(dev[i] > 0.0)
+
+
+def _position_error(traj, scene: Scene) -> float | None:
+    keep = traj.t <= trusted_until(scene)
+    q_true, _, _ = true_state(scene, traj.t[keep])
+    with np.errstate(all="ignore"):
+        err = np.abs(traj.q[keep, 0, :] - q_true)
+    return float(np.max(err)) if err.size and np.all(np.isfinite(err)) else None
+
+
+def _growth(traj, scene: Scene) -> float:
+    from harness.measures.stability import growth
+
+    return growth(traj, scene)
+
+
+def _pct(x: float) -> str:
+    return f"{x:.3g}" if x < 1e-3 else f"{100 * x:.3g}%"
+
+
+def _judge(row: Row, request: Request) -> None:
+    """Fill ``meets`` and ``why`` of a row whose run finished stably."""
+    whys = []
+    if request.energy_tol is not None:
+        if row.energy_error is None:
+            whys.append("energy error undefined")
+        elif row.energy_error > request.energy_tol:
+            way = "grows" if row.energy_gained else "falls"
+            whys.append(f"energy {way} {_pct(row.energy_error)} over {request.horizon:g} s "
+                        f"(tolerance {request.energy_tol:g})")
+    if request.error_tol is not None:
+        if row.position_error is None:
+            whys.append("position error not measurable")
+        elif row.position_error > request.error_tol:
+            whys.append(f"position error {row.position_error:.3g} > {request.error_tol:g}")
+    row.meets = not whys
+    row.why = "; ".join(whys)
+
+
+def _cost_per_step(method, scene: Scene, h: float) -> tuple[float | None, str]:
+    from harness.measures.cost import wall_time_per_step
+
+    res = wall_time_per_step(method, scene, h, repeats=COST_REPEATS, clock="cpu")
+    return res["s_per_step"], f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
+
+
+def advise_method(method, scene: Scene, request: Request, *, timeout: float | None = None,
+                  cost_per_step: tuple[float, str] | None = None) -> MethodAdvice:
+    """The search over substeps for one method, in this process (the caller isolates engines).
+    ``cost_per_step`` = (seconds, how timed) reuses a measured figure (a nightly's cost cell)."""
+    method = resolve(method, scene)
+    out = MethodAdvice(method.id)
+    try:
+        out.homega_limit, out.limit_verdict, out.limit_searched = _limit(method, scene, request, timeout)
+    except InvalidInput as exc:  # the one-step map cannot be measured: each step is judged by its run
+        out.limit_verdict = f"not measured ({exc})"
+    if cost_per_step is not None:
+        out.cost_per_step_s, out.cost_timing = cost_per_step
+    levels = request.substeps
+    rows: dict[int, Row] = {}
+
+    def measure(s: int) -> Row:
+        if s not in rows:
+            rows[s] = _row(method, scene, request, s, out, timeout)
+        return rows[s]
+
+    # The most substeps first: a method that misses the tolerances there misses them at every
+    # coarser step too (a convergent method's error falls with h), and is judged by one run.
+    # Where it meets them, bisect over the levels for the fewest substeps that still do.
+    if measure(levels[-1]).meets:
+        fails, meets = -1, len(levels) - 1
+        while meets - fails > 1:
+            mid = (fails + meets) // 2
+            if measure(levels[mid]).meets:
+                meets = mid
+            else:
+                fails = mid
+        best = levels[meets]
+    else:
+        best = None
+    out.rows = [rows[s] for s in sorted(rows)]
+    if best is not None:
+        out.best = sorted(rows).index(best)
+        if out.cost_per_step_s is None:
+            out.cost_per_step_s, out.cost_timing = _cost_per_step(method, scene, out.best_row.h)
+    for row in out.rows:
+        if out.cost_per_step_s is not None:
+            row.cost_per_frame_s = row.substeps * out.cost_per_step_s
+    if out.best is None:
+        out.reason = _reason(out, request)
+    return out
+
+
+def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, timeout) -> Row:
+    """One substep count measured: stability first (no run for a step known unstable), then the
+    horizon run's energy, position error and counted evaluations, judged against the request."""
+    from harness.execution.simulate import simulate
+    from harness.measures.stability import GROWTH, spectral_test
+
+    h = 1.0 / (request.hz * s)
+    row = Row(substeps=s, h=h, homega=h * scene.omega, stable=False, status="skipped")
+    if scene.linear and not out.limit_verdict.startswith("not measured"):
+        stable, info = spectral_test(method, scene, h, timeout=timeout)
+        row.rho = info.get("rho")
+        if not stable:
+            row.why = (f"unstable: spectral radius {row.rho:.6g} > 1 at h*omega = {row.homega:.3g}"
+                       if row.rho is not None else f"unstable: {info.get('reason')}")
+            return row
+    steps = max(1, int(round(request.horizon * request.hz * s)))
+    traj = simulate(method, scene, h, steps, max(1, steps // RECORDED), timeout=timeout)
+    row.status, row.detail = traj.status, traj.detail
+    if traj.status in ("crashed", "timed_out"):
+        row.why = f"{traj.status}: {traj.detail}"
+        return row
+    g = _growth(traj, scene) if traj.ok else math.inf
+    if not traj.ok or not g <= GROWTH:
+        row.why = (f"unstable: blew up at step {traj.failed_step} of {steps} (h*omega = {row.homega:.3g})"
+                   if not traj.ok else f"unstable: grew to {g:.3g}x the true solution's size")
+        return row
+    row.stable = True
+    row.energy_error, row.energy_gained = _energy_error(traj, scene)
+    row.energy_class = _energy_class(traj, scene)
+    row.position_error = _position_error(traj, scene)
+    if traj.force_evals is None:
+        out.evals_reason = traj.meta.get("force_evals_reason") or f"{method.id} does not count its force evaluations"
+    else:
+        row.evals_per_frame = traj.force_evals / steps * s
+    _judge(row, request)
+    return row
+
+
+def _energy_class(traj, scene: Scene) -> str | None:
+    from harness.measures.energy import classify
+
+    return classify(traj.energy[:, 0], scene.exact_energy(traj.t), traj.t).get("classification")
+
+
+def _reason(advice: MethodAdvice, request: Request) -> str:
+    """Why a method meets the tolerances at no substep count tried, in a few words: what its
+    most substeps measured."""
+    last = advice.rows[-1]
+    if last.stable:
+        return f"{last.why} at {last.substeps} substep{'s' if last.substeps > 1 else ''}"
+    if last.status in ("crashed", "timed_out"):
+        return last.why
+    if advice.limit_verdict == "unstable":
+        return (f"unstable: spectral radius > 1 at every h (h*omega = {last.homega:.3g} at "
+                f"{last.substeps} substeps)")
+    if advice.homega_limit is not None:
+        return f"unstable: h*omega = {last.homega:.3g} > {advice.homega_limit:.3g} at {last.substeps} substeps"
+    return f"{last.why} at {last.substeps} substeps"
+
+
+# ----------------------------------------------------------------------------- the advice
+@dataclass
+class Advice:
+    scene: str
+    params: dict
+    request: Request
+    methods: list[MethodAdvice]
+    left_out: list[dict] = field(default_factory=list)
+
+    @property
+    def meeting(self) -> list[MethodAdvice]:
+        """Methods that meet the tolerances, cheapest frame first (fewest evaluations, then
+        the id, where a cost is missing)."""
+        ok = [m for m in self.methods if m.best is not None]
+        return sorted(ok, key=lambda m: (_inf(m.best_row.cost_per_frame_s), m.method))
+
+    @property
+    def failing(self) -> list[MethodAdvice]:
+        return sorted((m for m in self.methods if m.best is None), key=lambda m: m.method)
+
+    @property
+    def closest(self) -> tuple[MethodAdvice, Row] | None:
+        """Where no method meets the tolerances: the stable row nearest them (the smallest
+        largest ratio of a measured error to its tolerance)."""
+        best, score = None, math.inf
+        for m in self.methods:
+            for r in m.rows:
+                if not r.stable:
+                    continue
+                x = _excess(r, self.request)
+                if x < score:
+                    best, score = (m, r), x
+        return best
+
+    def verdict(self) -> str:
+        meeting = self.meeting
+        if meeting:
+            m = meeting[0]
+            r = m.best_row
+            return (f"cheapest that meets the tolerances: {m.method}, {r.substeps} substep"
+                    f"{'s' if r.substeps > 1 else ''}, {_us(r.cost_per_frame_s)} per frame")
+        near = self.closest
+        if near is None:
+            return "no method meets the tolerances, and none ran stably at any substep count tried"
+        m, r = near
+        return (f"no method meets the tolerances; closest: {m.method} at {r.substeps} substep"
+                f"{'s' if r.substeps > 1 else ''} ({r.why})")
+
+    def as_dict(self) -> dict:
+        return {"scene": self.scene, "params": self.params, "request": asdict(self.request),
+                "verdict": self.verdict(), "meeting": [m.method for m in self.meeting],
+                "methods": [m.as_dict() for m in self.methods], "left_out": self.left_out}
+
+
+def _inf(x):
+    return math.inf if x is None else x
+
+
+def _excess(row: Row, request: Request) -> float:
+    ratios = []
+    if request.energy_tol is not None:
+        ratios.append(_inf(row.energy_error) / request.energy_tol)
+    if request.error_tol is not None:
+        ratios.append(_inf(row.position_error) / request.error_tol)
+    return max(ratios)
+
+
+def _us(seconds: float | None) -> str:
+    return "cost not measured" if seconds is None else f"{seconds * 1e6:.3g} µs"
+
+
+def candidates(scene: Scene, patterns: list[str] | None) -> tuple[list[str], list[dict]]:
+    """Method ids matching ``patterns`` (fnmatch, e.g. ``ref:*``; default every method) that can
+    be advised on ``scene``, and those left out with why. A pattern matching no method id is
+    bad input."""
+    from harness.methods import all_methods
+
+    methods = all_methods()
+    ids = list(methods)
+    if patterns:
+        chosen = []
+        for pat in patterns:
+            hit = [m for m in ids if fnmatch.fnmatchcase(m, pat)]
+            if not hit:
+                raise InvalidInput(f"--methods pattern {pat!r} matches no method (valid: {', '.join(ids)}, "
+                                   "or a pattern such as ref:* or mujoco:*)")
+            chosen += hit
+        ids = list(dict.fromkeys(chosen))
+    keep, left = [], []
+    for mid in ids:
+        m = methods[mid]
+        ok, why = m.available()
+        if ok:
+            ok, why = m.supports(scene)
+        if ok and getattr(m, "adaptive", False):
+            ok, why = False, "chooses its own steps: substeps do not apply"
+        (keep.append(mid) if ok else left.append({"method": mid, "reason": why}))
+    return keep, left
+
+
+def _advise_in_worker(method_id: str, scene: Scene, request: Request, timeout, plugins) -> MethodAdvice:
+    from harness.methods import get_method, use_plugins
+
+    use_plugins(plugins)
+    return advise_method(get_method(method_id), scene, request, timeout=timeout)
+
+
+def advise(scene: Scene, request: Request, patterns: list[str] | None = None, *, jobs: int = 1,
+           timeout: float = 120.0) -> Advice:
+    """Advice for ``scene``: every candidate method searched in ``jobs`` reused worker processes
+    (an engine that aborts or hangs costs its method a ``crashed`` / ``timed_out`` entry), then
+    ranked."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from harness.execution.isolation import WorkerFailure, WorkerPool
+    from harness.methods import active_plugins
+
+    request = request.checked()
+    validate.scene_values(scene)
+    ids, left = candidates(scene, patterns)
+    plugins = active_plugins()
+    results: dict[str, MethodAdvice] = {}
+    with WorkerPool(max(1, min(jobs, len(ids) or 1))) as pool, ThreadPoolExecutor(max(1, jobs)) as threads:
+        futures = {mid: threads.submit(pool.call, _advise_in_worker, (mid, scene, request, timeout, plugins),
+                                       timeout=timeout) for mid in ids}
+        for mid, fut in futures.items():
+            res = fut.result()
+            if isinstance(res, WorkerFailure):
+                res = MethodAdvice(mid, status=res.status, reason=f"{res.status}: {res.detail}")
+            results[mid] = res
+    return Advice(scene.id, dict(scene.values), request, [results[m] for m in ids], left)

@@ -1,0 +1,267 @@
+"""Cost of a step: force evaluations (counted) and wall time, and the ratio to explicit Euler.
+
+The rule, one way for each kind of method:
+
+* **Force evaluations per step** are counted, never declared: a run of ``count_steps``
+  steps (default 100) through the runner, ``Trajectory.force_evals / steps run``. The
+  reference driver wraps the scene's force and subtracts start-up evaluations (Verlet's
+  a_0), so these are per step proper; ``solves_per_step`` counts the implicit schemes'
+  linear solves (one per Newton iteration). An engine mode reports what its engine counts
+  (MuJoCo's forward passes, in every run), or, where counting needs a callback that would slow
+  the timed loop (REBOUND, pymunk), what a counting run (``simulate(..., count=True)``, in this
+  process, as the timing runs) counts over the steps the isolated run ran; or None with the
+  adapter's reason (pybullet, Chipmunk's constraints).
+* **Wall time per step**, reference schemes: the compiled path
+  (:func:`reference._compiled.time_per_step`, the same step functions compiled by numba),
+  one warm-up call (it compiles, or loads the pair's kernels from the disk cache), then ``repeats`` (5) timed runs of ``time_steps``
+  (100,000) steps; the figure is the **minimum** over repeats (the least-disturbed run, as
+  timeit and asv take it).
+* **Wall time per step**, engine modes, two figures, each ``method.simulate`` timed in this
+  process (no worker): one warm-up call of up to ENGINE_PILOT_STEPS (500) steps, then
+  ``repeats`` timed runs of N steps and of 0 steps; the figure is ``(min t(N) - min t(0)) / N``.
+  An engine mode's runs are timed with its model built off the clock (``EngineMode.timed_run``):
+  on a shared core, building the model jitters by more than a short run of the engine's own
+  loop takes (1,000 WHFast steps on the solar system, 1.5 ms, came out at -0.6 us a step with
+  the building subtracted, measured). A plugin's whole ``simulate`` is timed and t(0) takes the
+  building out.
+
+  - ``s_per_step``, **engine s/step**: the engine's own loop (``loop="engine"``:
+    ``mujoco.rollout``, REBOUND's ``sim.steps(n)``, a Python loop calling only the step
+    function for pybullet and pymunk), N = ENGINE_TIME_STEPS (10,000), one output point. Where
+    the scene's force has no native element in the engine and is applied from Python every
+    step (pybullet's springs, pymunk's ``applied_force``), the loop says so
+    (``engine_loop``, from the adapter's settings). Every ratio and chart uses this figure.
+  - ``as_stepped``, **as stepped by the harness**: the per-step path (``loop="harness"``:
+    state read and checked and forces applied after every step), N = HARNESS_TIME_STEPS
+    (2,000): what stepping the engine one call at a time from Python costs.
+
+  A model so slow that N steps would take longer than ENGINE_RUN_BUDGET_S (0.25 s, judged
+  from the warm-up) is timed over fewer steps, at least ENGINE_MIN_STEPS (200): a 32-body
+  chain stepped from Python costs ~100 us a step, and 10,000 steps x 6 runs would take
+  half a minute to say what 0.25 s says.
+* **Clock**: wall time (``time.perf_counter``) by default; ``clock="cpu"`` reads the CPU
+  time of the process (``time.process_time``) instead, which other processes sharing the
+  core do not inflate (the nightly runs its cells side by side on shared cores). The
+  engine modes and the compiled loops run in one thread, so on an idle core the two agree.
+* **Spread**: every repeat is kept, with the median and ``rel_spread = (max - min)/min``,
+  so a later slowdown can be judged against this run's noise.
+* **Ratio to explicit Euler**: ``ref:explicit_euler`` timed by the compiled rule above
+  on the same scene at the same dt in the same call, on the same clock, its repeats
+  interleaved with the method's (method, baseline, method, baseline, ...): a machine that
+  slows for a while slows both of a pair. Measured on this project's shared 2-core machine,
+  a worker's compiled explicit Euler ran at 80 ns a step and, for seconds on end, at
+  140-150 ns, on the CPU clock too. The ratio is the median of the pairs' ratios, its
+  ``ratio_spread`` (max - min) / min of them.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+import reference
+from reference._compiled import CLOCKS, step_timer, time_per_step
+
+from scenarios import Scene
+
+from harness.measures.common import resolve, step
+
+COUNT_STEPS = 100
+REF_TIME_STEPS = 100_000
+ENGINE_TIME_STEPS = 10_000
+HARNESS_TIME_STEPS = 2_000
+ENGINE_PILOT_STEPS = 500
+ENGINE_RUN_BUDGET_S = 0.25
+ENGINE_MIN_STEPS = 200
+REPEATS = 5
+BASELINE = "ref:explicit_euler"
+
+
+def _spread(times: list[float]) -> dict:
+    lo = min(times)
+    return {"s_per_step": lo, "median_s_per_step": float(np.median(times)), "repeats_s_per_step": list(times),
+            "rel_spread": (max(times) - lo) / lo if lo > 0 else None}
+
+
+def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_STEPS,
+                        timeout: float | None = None) -> dict:
+    """Force evaluations and solves per step, counted over ``steps`` steps."""
+    method = resolve(method, scene)
+    traj = step(method, scene, dt, steps, steps, timeout)
+    ran = traj.meta.get("steps_run", steps if traj.ok else (traj.failed_step or 1) - 1)
+    if traj.force_evals is None and ran > 0 and traj.status in ("ok", "unstable") and \
+            getattr(method, "counting_run", False):
+        counted = method.simulate(scene, dt, ran, ran, count=True)
+        if counted.force_evals is not None:
+            traj = counted
+    out: dict = {"count_steps": int(ran), "count_status": traj.status}
+    if traj.force_evals is None or ran <= 0:
+        out.update(force_evals_per_step=None,
+                   force_evals_reason=traj.meta.get("force_evals_reason") or "the engine mode does not count them")
+    else:
+        out["force_evals_per_step"] = traj.force_evals / ran
+        out["start_force_evals"] = traj.meta.get("start_force_evals")
+    out["solves_per_step"] = None if traj.solves is None or ran <= 0 else traj.solves / ran
+    scheme = getattr(method, "scheme", None)
+    if scheme is not None:
+        out["declared_force_evals"] = scheme.force_evals
+        out["declared_implicit"] = scheme.implicit
+    return out
+
+
+_COMPILED_TIMING = "compiled (numba), min of repeats after warm-up"
+_LOOP_TIMING = {
+    "engine": "engine s/step: in-process simulate through the engine's own loop, state read at the output "
+              "point only, model built off the clock, (min t(N) - min t(0))/N after warm-up",
+    "harness": "as stepped by the harness: in-process simulate one step at a time, state read and checked (and "
+               "forces applied) after every step, model built off the clock, (min t(N) - min t(0))/N after warm-up",
+}
+
+
+class _Timing:
+    """One method's timing by the module's rule, a repeat at a time (so that two methods'
+    repeats can be interleaved)."""
+
+    def __init__(self, method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine"):
+        self.now = CLOCKS[clock]
+        self.scheme = getattr(method, "scheme", None)
+        self.times, self.empty = [], []
+        self.loop, self.engine_loop = loop, None
+        if self.scheme is not None:
+            self.n = int(steps or REF_TIME_STEPS)
+            self.warmup_s, self._once = step_timer(self.scheme, scene, dt, self.n, clock=clock)
+        else:
+            self.asked = int(steps or (ENGINE_TIME_STEPS if loop == "engine" else HARNESS_TIME_STEPS))
+            self.method, self.scene, self.dt = method, scene, dt
+            pilot = min(self.asked, ENGINE_PILOT_STEPS)
+            t = self.now()
+            warm = self._simulate(pilot)  # warm-up, and the pilot for the step count
+            self.warmup_s = self.now() - t
+            if loop == "engine":
+                self.engine_loop = (warm.meta.get("settings") or {}).get("engine_loop")
+            pilot_s = self.warmup_s / pilot
+            n = self.asked
+            if pilot_s * self.asked > ENGINE_RUN_BUDGET_S:
+                n = max(ENGINE_MIN_STEPS, int(ENGINE_RUN_BUDGET_S / pilot_s))
+            self.n = min(n, self.asked)
+
+    def repeat(self) -> None:
+        if self.scheme is not None:
+            self.times.append(self._once())
+            return
+        self.empty.append(self._run_s(0))
+        self.times.append(self._run_s(self.n))
+
+    def _simulate(self, n: int):
+        if self.loop == "engine":  # an engine mode's default loop (a plugin's simulate takes no loop)
+            return self.method.simulate(self.scene, self.dt, n, max(n, 1))
+        return self.method.simulate(self.scene, self.dt, n, max(n, 1), loop=self.loop)
+
+    def _run_s(self, n: int) -> float:
+        """Seconds of one run of n steps: the run alone where the mode can time it (an engine
+        mode's ``timed_run``, its model built off the clock), else the whole ``simulate``."""
+        timed_run = getattr(self.method, "timed_run", None)
+        if timed_run is not None:
+            return timed_run(self.scene, self.dt, n, self.now, self.loop)
+        t = self.now()
+        self._simulate(n)
+        return self.now() - t
+
+    def per_step(self) -> list[float]:
+        if self.scheme is not None:
+            return list(self.times)
+        setup = min(self.empty)
+        return [(t - setup) / self.n for t in self.times]
+
+    def result(self, clock: str) -> dict:
+        out = {"timing": _COMPILED_TIMING if self.scheme is not None else _LOOP_TIMING[self.loop], "clock": clock,
+               "time_steps": self.n, "warmup_s": self.warmup_s, **_spread(self.per_step())}
+        if self.scheme is None:
+            out["setup_s"] = min(self.empty)
+            out["time_steps_asked"] = self.asked
+            out["loop"] = self.loop
+            if self.engine_loop is not None:
+                out["engine_loop"] = self.engine_loop
+        return out
+
+
+def _steppable_per_step(method) -> bool:
+    """An engine mode with a per-step path to time beside its own loop (``EngineMode.LOOPS``)."""
+    return getattr(method, "scheme", None) is None and "harness" in getattr(method, "LOOPS", ())
+
+
+def wall_time_per_step(method, scene: Scene, dt: float, *, steps: int | None = None,
+                       repeats: int = REPEATS, clock: str = "wall", loop: str = "engine") -> dict:
+    """Seconds per step by the rule in the module docstring (compiled for reference schemes,
+    in-process ``simulate`` for engine modes, through ``loop``), on ``clock`` ("wall" or "cpu")."""
+    method = resolve(method, scene)
+    timing = _Timing(method, scene, dt, steps, clock, loop)
+    for _ in range(repeats):
+        timing.repeat()
+    return timing.result(clock)
+
+
+def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = None, repeats: int = REPEATS,
+                  count_steps: int = COUNT_STEPS, timeout: float | None = None,
+                  baseline: dict | None = None, clock: str = "wall") -> dict:
+    """Counted evaluations, time per step and the ratio to explicit Euler (compiled) on
+    the same scene and dt, the two timed in interleaved repeats (module docstring).
+    ``baseline`` reuses an explicit-Euler timing from the same run instead."""
+    method = resolve(method, scene)
+    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
+           "omega_dt": float(dt) * scene.omega}
+    out.update(counted_evaluations(method, scene, dt, steps=count_steps, timeout=timeout))
+    stepped = _Timing(method, scene, dt, time_steps, clock, "harness") if _steppable_per_step(method) else None
+    if baseline is not None:
+        out.update(wall_time_per_step(method, scene, dt, steps=time_steps, repeats=repeats, clock=clock))
+        _add_as_stepped(out, stepped, repeats, clock)
+        out["baseline"] = baseline
+        out["ratio_to_explicit_euler"] = out["s_per_step"] / baseline["s_per_step"]
+        out["ratio_spread"] = (out.get("rel_spread") or 0.0) + (baseline.get("rel_spread") or 0.0)
+        return out
+    timing = _Timing(method, scene, dt, time_steps, clock)
+    from harness.methods import get_method
+
+    ok, why = get_method(BASELINE).supports(scene)
+    if not ok:  # a constrained scene (the rope): no explicit-Euler run to compare with
+        for _ in range(repeats):
+            timing.repeat()
+        out.update(timing.result(clock))
+        _add_as_stepped(out, stepped, repeats, clock)
+        out["baseline"] = {"method": BASELINE, "unsupported": why}
+        out["ratio_to_explicit_euler"] = None
+        return out
+    # A reference scheme and its baseline run the same compiled loop length: a shorter loop
+    # carries more of the call's fixed cost per step (1.3x per step at 2,000 steps, measured).
+    base_steps = timing.n if timing.scheme is not None else REF_TIME_STEPS
+    base = _Timing(resolve(BASELINE, scene), scene, dt, base_steps, clock)
+    for _ in range(repeats):
+        timing.repeat()
+        base.repeat()
+        if stepped is not None:
+            stepped.repeat()
+    out.update(timing.result(clock))
+    _add_as_stepped(out, stepped, 0, clock)
+    out["baseline"] = {"method": BASELINE, **base.result(clock)}
+    ratios = [m / b for m, b in zip(timing.per_step(), base.per_step())]
+    out["ratio_repeats"] = ratios
+    out["ratio_to_explicit_euler"] = float(np.median(ratios))
+    out["ratio_spread"] = (max(ratios) - min(ratios)) / min(ratios)
+    return out
+
+
+def _add_as_stepped(out: dict, stepped: "_Timing | None", repeats: int, clock: str) -> None:
+    """The second figure of an engine mode (module docstring): ``as_stepped`` (the timing) and
+    ``as_stepped_s_per_step``; ``repeats`` more repeats first where they were not interleaved."""
+    if stepped is None:
+        return
+    for _ in range(repeats):
+        stepped.repeat()
+    res = stepped.result(clock)
+    out["as_stepped"] = res
+    out["as_stepped_s_per_step"] = res["s_per_step"]
+
+
+def explicit_euler_baseline(scene: Scene, dt: float, *, repeats: int = REPEATS, clock: str = "wall",
+                            steps: int = REF_TIME_STEPS) -> dict:
+    res = time_per_step(reference.METHODS["explicit_euler"], scene, dt, steps, repeats=repeats, clock=clock)
+    return {"method": BASELINE, "timing": _COMPILED_TIMING, "clock": clock,
+            "time_steps": steps, "warmup_s": res["warmup_s"], **_spread(res["repeats"])}

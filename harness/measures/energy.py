@@ -1,0 +1,200 @@
+"""Energy behaviour: the relative energy error series and its classification.
+
+The series, for every recorded step n (energy always from the state, by the scene):
+
+    dE/E (t_n) = (E_n - E_exact(t_n)) / |E_exact(t_n)|
+
+against the exact energy at that time (``scene.exact_energy``): for a damped scene the
+exact *decaying* energy, not E_0. ``max_rel_error`` and ``final_rel_error`` are max |dE/E|
+and |dE/E| at the last step.
+
+The classification, one rule for every method. Growth and decay are multiplicative
+(explicit Euler gains a factor 1 + h^2 w^2 a step), so the rule reads the signed log-ratio
+``g_n = sign(E_exact) ln(E_n / E_exact(t_n))`` (about dE/E while small; positive when energy
+was gained, also for a negative energy such as a bound orbit's), where both make straight lines:
+
+0. The exact energy is zero or changes sign during the run (its zero is a convention,
+   and a falling projectile's crosses it): dE/E is undefined there; not classified.
+1. The run went unstable, or an energy is not finite                  -> ``grows``
+   (a run that crashed or timed out is not classified).
+2. E_n reached or crossed zero while the exact energy did not (its sign flipped):
+   ``grows`` if E_n - E_exact > 0 there, else ``decays``.
+3. A body left the system (the scene's ``escaped``, where it has one: a planet on an
+   unbound heliocentric orbit) at some recorded state: ``grows`` if g > 0 there, else
+   ``decays``. After an escape the energy error stops growing (it saturates at whatever
+   the escaped body took with it), which rule 5 alone would read as bounded.
+4. |dE/E| reached ORDER_ONE (0.5) at some recorded state: the energy is lost, not kept
+   (explicit Euler on the outer solar system saturates at 0.92 once the planets have gone):
+   ``grows`` if g > 0 there, else ``decays``.
+5. Split the run into tenths by step. A = max |g| over the first tenth, B = max |g| over
+   the last, S = |secular_rate| x the run's span (the least-squares trend of g over the
+   whole run). If ``B <= ENVELOPE_RATIO * A + FLOOR`` (the error did not outgrow its start)
+   and ``S <= SECULAR_SHARE * A + FLOOR`` (no trend hidden under the oscillation): ``bounded``.
+6. Otherwise look at the mean of g over each tenth: increasing from every tenth to the
+   next -> ``grows``; decreasing -> ``decays``; neither (a random walk, or a trend smaller
+   than the oscillation around it) -> ``drifts``.
+
+ENVELOPE_RATIO = 2 leaves room for a symplectic method's band to be met a little later
+than the first tenth; SECULAR_SHARE = 0.25: a band leaves a least-squares trend too, a pure
+sinusoid over N periods 12/(2 pi N) = 1.9/N of its amplitude (0.19 at the rule's minimum of
+ten periods), and the bands measured here far less (0.026 of the envelope at most:
+semi-implicit Euler on the outer solar system; 0.02 on the chain, 0.014 on the pendulum and
+Kepler); a drift of a quarter of the envelope over the run is a drift; FLOOR = 1e-10 is
+roundoff: at the horizons used (<= 1e6 steps), rounding accumulates at most ~1e-16 a step, so a smaller error
+says nothing. The rule
+needs the first tenth to hold a few oscillations of the energy error (a few periods
+of the scene), so classify over at least ten periods (``short_horizon`` says when not),
+and at least MIN_RECORDED recorded states. The numbers behind the verdict come with it,
+with ``secular_rate``, the least-squares slope of g against t (per unit time).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import linregress
+
+from records import Trajectory
+
+from scenarios import Scene
+from records.trajectory import UNSTABLE
+
+from harness.measures.common import resolve, step
+
+ENVELOPE_RATIO = 2.0
+FLOOR = 1e-10
+ORDER_ONE = 0.5
+SECULAR_SHARE = 0.25
+#: Fewest recorded states that leave ten tenths of ten points each.
+MIN_RECORDED = 100
+#: The rule wants this many periods of the scene in the run.
+MIN_PERIODS = 10.0
+CLASSES = ("grows", "bounded", "decays", "drifts")
+
+
+def relative_error_series(traj: Trajectory, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """(E_exact(t_n), dE/E(t_n)) for batch member 0 of a trajectory."""
+    e_exact = np.asarray(scene.exact_energy(traj.t), dtype=float)
+    with np.errstate(all="ignore"):
+        rel = (traj.energy[:, 0] - e_exact) / np.abs(e_exact)
+    return e_exact, rel
+
+
+def relative_error_defined(e_exact: np.ndarray) -> bool:
+    """Rule 0: dE/E means something only while the exact energy keeps one sign, never zero."""
+    e_exact = np.asarray(e_exact, dtype=float)
+    return not (np.any(e_exact == 0.0) or np.any(np.sign(e_exact) != np.sign(e_exact[0])))
+
+
+def escaped_states(scene: Scene, traj: Trajectory) -> np.ndarray | None:
+    """Per recorded state of batch member 0, whether a body had left the system (the scene's
+    ``escaped``), or None for a scene that cannot tell."""
+    fn = getattr(scene, "escaped", None)
+    if fn is None or traj.q.shape[0] == 0:
+        return None
+    with np.errstate(all="ignore"):
+        return np.asarray(fn(traj.q[:, 0], traj.v[:, 0]), dtype=bool)
+
+
+def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: bool = False,
+             escaped: np.ndarray | None = None) -> dict:
+    """The classification of an energy series by the rule in the module docstring, with
+    the numbers behind it. ``escaped``: per recorded state, whether a body had left the
+    system (the scene's ``escaped``), or None where the scene cannot tell."""
+    energy, e_exact, t = (np.asarray(a, dtype=float) for a in (energy, e_exact, t))
+    out: dict = {"classification": None, "rule": None}
+    if not relative_error_defined(e_exact):
+        # An energy's zero is a convention (a falling projectile's exact energy crosses it):
+        # relative to it, dE/E means nothing there.
+        out["rule"] = "exact energy is zero or changes sign over the run: dE/E undefined, not classified"
+        return out
+    if unstable or not np.all(np.isfinite(energy)):
+        out.update(classification="grows", rule="run unstable or energy not finite")
+        return out
+    ratio = energy / e_exact
+    if np.any(ratio <= 0.0):
+        i = int(np.argmax(ratio <= 0.0))
+        up = energy[i] - e_exact[i] > 0.0
+        out.update(classification="grows" if up else "decays",
+                   rule=f"energy crossed zero at step index {i} (exact energy did not)")
+        return out
+    g = np.sign(e_exact) * np.log(ratio)
+    if escaped is not None and np.any(escaped):
+        i = int(np.argmax(np.asarray(escaped)))
+        out.update(classification="grows" if g[i] > 0 else "decays", escaped_index=i,
+                   rule=f"a body left the system at step index {i}: not bounded")
+        return out
+    rel = np.abs(energy - e_exact) / np.abs(e_exact)
+    if np.any(rel >= ORDER_ONE):
+        i = int(np.argmax(rel >= ORDER_ONE))
+        out.update(classification="grows" if g[i] > 0 else "decays",
+                   rule=f"|dE/E| reached {ORDER_ONE:g} at step index {i}: energy lost (saturated or escaped), "
+                        "not bounded")
+        return out
+    if len(energy) < MIN_RECORDED:
+        out["rule"] = f"too few recorded states ({len(energy)} < {MIN_RECORDED}) to classify"
+        return out
+    tenths = np.array_split(np.arange(len(g)), 10)
+    first = float(np.max(np.abs(g[tenths[0]])))
+    last = float(np.max(np.abs(g[tenths[-1]])))
+    means = np.array([float(np.mean(g[idx])) for idx in tenths])
+    slope = float(linregress(t, g).slope) if np.ptp(t) > 0 else 0.0
+    secular = abs(slope) * float(np.ptp(t))
+    out.update(first_tenth_envelope=first, last_tenth_envelope=last,
+               envelope_ratio=last / first if first > 0 else None,
+               tenth_means=means.tolist(), secular_rate=slope, secular_change=secular)
+    within = last <= ENVELOPE_RATIO * first + FLOOR
+    if within and secular <= SECULAR_SHARE * first + FLOOR:
+        out.update(classification="bounded",
+                   rule=f"last-tenth envelope {last:.3g} <= {ENVELOPE_RATIO:g} x first {first:.3g} + {FLOOR:g}, "
+                        f"trend {secular:.3g} <= {SECULAR_SHARE:g} x first")
+        return out
+    why = (f"trend {secular:.3g} > {SECULAR_SHARE:g} x first-tenth envelope {first:.3g}" if within
+           else "envelope grew")
+    if np.all(np.diff(means) > 0):
+        out.update(classification="grows", rule=f"{why}; tenth means of g increase")
+    elif np.all(np.diff(means) < 0):
+        out.update(classification="decays", rule=f"{why}; tenth means of g decrease")
+    else:
+        out.update(classification="drifts", rule=f"{why}; tenth means of g not monotone")
+    return out
+
+
+def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int = 1,
+                     timeout: float | None = None, series: bool = False, state_error: bool = True) -> dict:
+    """Step ``method`` and measure its energy behaviour against the exact energy.
+
+    Returns the run's status, ``max_rel_error``, ``final_rel_error`` (both |dE/E|), the
+    classification and the numbers behind it; ``series`` adds ``t`` and ``rel_error``.
+
+    Beside it, from the same run, the global error of the state against the exact or reference
+    solution (``harness.measures.error``: ||(q, v/omega) - true|| relative to the true state's size, so
+    a phase error counts in full): ``state_error_max``, ``state_error_final`` and where it
+    comes from. Energy alone overstates accuracy: implicit midpoint keeps a spring's energy to
+    roundoff while its phase drifts by h^2/12 a unit of time (``state_error`` False skips it)."""
+    method = resolve(method, scene)
+    traj = step(method, scene, dt, steps, every, timeout)
+    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
+           "steps": int(steps), "every": int(every), "omega_dt": float(dt) * scene.omega,
+           "periods": float(dt) * steps / scene.period, "status": traj.status, "detail": traj.detail,
+           "failed_step": traj.failed_step}
+    if traj.q.shape[0] == 0:
+        out.update(classification=None, rule=f"no states recorded ({traj.status})")
+        return out
+    e_exact, rel = relative_error_series(traj, scene)
+    with np.errstate(invalid="ignore"):
+        out.update(max_rel_error=float(np.max(np.abs(rel))), final_rel_error=float(abs(rel[-1])))
+    if traj.ok or traj.status == UNSTABLE:
+        out.update(classify(traj.energy[:, 0], e_exact, traj.t, unstable=not traj.ok,
+                            escaped=escaped_states(scene, traj)))
+    else:  # a crash or a timeout says nothing about the energy
+        out.update(classification=None, rule=f"run {traj.status}: not classified")
+    out["short_horizon"] = out["periods"] < MIN_PERIODS
+    if state_error and traj.ok:
+        from harness.measures.error import trajectory_error
+
+        err = trajectory_error(traj, scene)
+        out.update(state_error_max=err["error_max"], state_error_final=err["error_final"],
+                   state_error_source=err["source"], state_error_t_compared=err.get("t_compared"))
+    if series:
+        out["t"] = traj.t
+        out["rel_error"] = rel
+    return out

@@ -1,0 +1,120 @@
+"""Which reference scheme does a method integrate? Step it and every reference scheme on the
+same scene, from the same state, with the same dt, and rank the schemes by the largest
+difference in (q, v) over every step.
+
+A scheme *matches* when that difference is within roundoff: ``MATCH_RTOL`` of the largest
+state component seen. Different schemes of the same order differ by a power of dt times the
+state (1e-4 and up at the default ~100 steps per period), roundoff by 1e-16 per operation,
+so the gap between a match and the runner-up is many orders of magnitude; both are reported.
+Several schemes can match when a scene cannot tell them apart (on a force that depends on
+the velocity only, position-first Euler and explicit Euler are the same update). A scheme that
+differs from another only in how it treats velocity-dependent forces
+(``Scheme.same_without_velocity``) is not a candidate on a scene without them.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from records import Trajectory
+
+from scenarios import Scene
+from records.trajectory import OK, UNSTABLE
+
+from harness.methods import all_methods
+from harness.execution.simulate import simulate
+
+#: A difference this small relative to the state is roundoff: measured matches are 0 to
+#: 1e-12 relative over 10^4 steps (MuJoCo RK4 1.2e-14, the revolute pendulum 3e-12).
+MATCH_RTOL = 1e-9
+
+#: Default run: 100 steps per period over 10 periods.
+STEPS_PER_PERIOD = 100
+PERIODS = 10
+
+
+def default_dt(scene: Scene) -> float:
+    return scene.period / STEPS_PER_PERIOD
+
+
+def default_steps() -> int:
+    return STEPS_PER_PERIOD * PERIODS
+
+
+def max_deviation(a: Trajectory, b: Trajectory) -> float:
+    """Largest |difference| in q and v over the recorded steps; inf when the two runs did not
+    record the same steps (one stopped earlier: they are not the same scheme)."""
+    if a.step.shape != b.step.shape or not np.array_equal(a.step, b.step):
+        return math.inf
+    if len(a.step) == 0:
+        return math.inf
+    with np.errstate(invalid="ignore"):
+        return float(max(np.max(np.abs(a.q - b.q)), np.max(np.abs(a.v - b.v))))
+
+
+def identify(method, scene: Scene, dt: float | None = None, steps: int | None = None,
+             timeout: float | None = None) -> dict:
+    """Rank every reference scheme by its deviation from ``method`` on ``scene``."""
+    dt = default_dt(scene) if dt is None else dt
+    steps = default_steps() if steps is None else steps
+    run = simulate(method, scene, dt, steps, 1, timeout=timeout)
+    out = {"method": method.id, "scene": scene.id, "params": dict(scene.values), "dt": dt, "steps": steps,
+           "status": run.status, "detail": run.detail,
+           "engine_version": run.meta.get("engine_version"), "settings": run.meta.get("settings")}
+    if run.status not in (OK, UNSTABLE):
+        return {**out, "matches": [], "match": None, "max_deviation": None, "runner_up": None, "candidates": []}
+    scale = max(1.0, float(np.max(np.abs(run.q), initial=0.0)), float(np.max(np.abs(run.v), initial=0.0)))
+    tolerance = MATCH_RTOL * scale
+    candidates = []
+    for mid, ref in all_methods().items():
+        if getattr(ref, "family", None) != "ref" or mid == method.id or not ref.supports(scene)[0]:
+            continue
+        if not scene.velocity_dependent and getattr(ref.scheme, "same_without_velocity", None):
+            continue  # here it is another scheme, update for update: that one is the candidate
+        traj = ref.simulate(scene, dt, steps, 1)
+        dev = max_deviation(run, traj)
+        candidates.append({"method": mid, "max_deviation": dev, "status": traj.status,
+                           "matches": dev <= tolerance})
+    candidates.sort(key=lambda c: c["max_deviation"])
+    matches = [c["method"] for c in candidates if c["matches"]]
+    if not matches:
+        # What the engine mode itself records, measured, about why nothing can match here.
+        out["why_no_match"] = dict(getattr(method, "no_match", None) or {}).get(scene.id)
+    best = candidates[0] if candidates else None
+    # The runner-up is the closest scheme that is not the answer: the first non-match after
+    # a match, the second-closest when nothing matches.
+    others = [c for c in candidates[0 if matches else 1:] if not c["matches"]]
+    return {**out, "tolerance": tolerance, "matches": matches,
+            "match": matches[0] if matches else None,
+            "max_deviation": best["max_deviation"] if best else None,
+            "runner_up": others[0] if others else None, "candidates": candidates}
+
+
+def format_report(result: dict) -> str:
+    """The identification as text: the verdict first, then every candidate."""
+    version = f", {result['method'].split(':')[0]} {result['engine_version']}" if result.get("engine_version") else ""
+    lines = [f"{result['method']} on {result['scene']}: dt = {result['dt']:.6g}, {result['steps']} steps{version}"]
+    if result["status"] not in (OK, UNSTABLE):
+        lines.append(f"  the run {result['status']}: {result['detail']}")
+        return "\n".join(lines)
+    if result["status"] == UNSTABLE:
+        lines.append(f"  (the run went unstable: {result['detail']}; compared up to there)")
+    if result["matches"]:
+        dev = result["max_deviation"]
+        kind = "bitwise" if dev == 0 else "roundoff"
+        lines.append(f"  matches {' = '.join(result['matches'])}: max |diff| = {dev:.3g} ({kind})")
+    else:
+        best = result["candidates"][0] if result["candidates"] else None
+        closest = f"; closest {best['method']} at max |diff| = {best['max_deviation']:.3g}" if best else ""
+        lines.append(f"  matches no reference scheme within {result['tolerance']:.3g}{closest}")
+        if result.get("why_no_match"):
+            lines.append(f"  why: {result['why_no_match']}")
+    if result["runner_up"] is not None:
+        lines.append(f"  runner-up {result['runner_up']['method']}: max |diff| = "
+                     f"{result['runner_up']['max_deviation']:.3g}")
+    lines.append("  all schemes, max |diff| in (q, v) over every step:")
+    for c in result["candidates"]:
+        mark = "  <- match" if c["matches"] else ""
+        lines.append(f"    {c['method']:42s} {c['max_deviation']:10.3g}{mark}")
+    return "\n".join(lines)

@@ -1,0 +1,142 @@
+"""Nightly suites: which scenes, at what nominal timestep, horizons and sweeps.
+
+A scene's nominal timestep is given as h*omega (so one number means the same thing on a
+spring and on a stiff chain); horizons are in the scene's periods. ``smoke`` runs in seconds
+(for the tests), ``standard`` is what ``make nightly`` runs (<= 5 minutes on 2 cores),
+``full`` uses longer horizons and finer sweeps (and the chain and rope at the issue's sizes:
+N = 32 and N = 10, the scenes' defaults; the standard suite runs N = 8 and N = 5).
+The rope's stability is not bisected: its constraints keep every position bounded, so a
+run does not blow up; its ``constraint`` cell measures how well the links hold instead.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    params: dict = field(default_factory=dict)
+    homega: float = 0.1            # nominal h*omega for the energy/error/cost cells
+    periods: float = 50.0          # energy horizon, in periods of the scene
+    order_points: int = 6          # timesteps in the order / work-precision sweep
+    order_span: float = 8.0        # ratio of the largest to the smallest timestep in that sweep
+    order_periods: float = 0.5     # horizon of each order run, in periods (the order measure's default:
+                                   # half an orbit from perihelion; one period took Kepler's first-order
+                                   # sweeps 30x the steps, 1.47M for explicit Euler, for the same slope)
+    stability: bool = True         # bisect the largest stable timestep
+    extras: dict = field(default_factory=dict)  # scene-specific cells and their settings (harness.nightly.scene_cells)
+    skip: tuple[str, ...] = ()     # methods left out on this scene in this suite (listed with the reason)
+    # Where the issue fixes the study in the scene's own units, they override homega/periods:
+    dt: float | None = None        # nominal timestep
+    horizon: float | None = None   # energy horizon
+    methods: tuple[str, ...] | None = None   # this scene's methods (None: the suite's)
+    compiled: bool = False         # reference schemes step compiled (runs too long to interpret)
+    stability_hi: float | None = None   # largest h*omega the stability search tries (None: its default)
+    advise: dict | None = None     # the advice at the suite's frame rates (harness.measures.advise.Request fields
+                                   # but hz: horizon, energy_tol, error_tol, max_substeps); None: none
+
+
+@dataclass(frozen=True)
+class Suite:
+    name: str
+    scenes: dict[str, SceneSpec]
+    methods: tuple[str, ...] | None = None   # None: every available method
+    cost_repeats: int = 5
+    cost_steps: int | None = None            # timed steps per repeat (None: the cost measure's, 100,000
+                                             # compiled, 2,000 for an engine mode)
+    series_points: int = 400                 # energy-series samples kept per cell for the charts
+    stability_steps: int = 1000              # horizon of the boundedness test
+    stability_homega_max: float = 100.0      # top of the stability search, in h*omega: beyond it a method is
+                                             # "unbounded (searched to ...)". An adaptive engine mode (REBOUND's
+                                             # ias15: dt is its output interval) is stable at every dt and its
+                                             # finite-horizon test costs in proportion to dt: 4.6 s at 100 on
+                                             # Kepler, so a search to 1e4 would take about 15 minutes.
+    cell_timeout: float = 120.0              # seconds a task (one scene x method, all its measures) may take
+    bounds: bool = True                      # measure the reviewed energy bounds
+    frame_rates: tuple[float, ...] = (60.0,)  # frame rates of the advice cells (scenes with ``advise``)
+    identify: bool = True                    # identity table for engine modes
+
+
+#: The chain's own cells: damping at 100x the explicit limit (the issue's "100x that dt") and
+#: backward Euler's cost against N over the issue's range (a lighter timing than the full suite's).
+CHAIN_EXTRAS = {"damping": {"factor": 100.0},
+                "scaling": {"ns": (10, 100, 1000, 10000), "repeats": 3, "work_per_call": 1_000_000}}
+#: The damped spring's own cell: the largest stable h*omega at each of the issue's damping ratios,
+#: beside linear-stability theory (harness.measures.stability_damping).
+DAMPED_SPRING_EXTRAS = {"stability_vs_damping": {"zetas": (0.0, 0.05, 0.1, 0.5, 1.0, 2.0)}}
+#: The schemes that differ from semi-implicit Euler only where the force depends on the
+#: velocity: the standard suite runs them on the damped spring and the projectile only.
+VELOCITY_SCHEMES = ("ref:semi_implicit_euler_velocity_implicit", "ref:position_first_euler_decay_after_kick",
+                    "ref:position_first_euler_decay_before_kick")
+
+#: Reference schemes the standard suite leaves out on the chain, to stay in its budget: each
+#: costs its (scheme, scene) numba compile, 5-10 s of CPU. It keeps explicit Euler (the cost
+#: baseline), semi-implicit Euler and leapfrog (limit h*omega = 2), RK4 (2 sqrt 2), implicit
+#: Euler and implicit midpoint, and every engine mode; the full suite runs all ten schemes.
+CHAIN_STANDARD_SKIP = ("ref:semi_implicit_euler_position_first", "ref:verlet", "ref:velocity_verlet",
+                       "ref:forest_ruth")
+#: MuJoCo modes the standard suite leaves out on the rope: on a hinge chain with no springs or
+#: damping they are mujoco:euler bitwise (tests/test_scenes_hard_engines.py).
+ROPE_STANDARD_SKIP = ("mujoco:implicitfast", "mujoco:discrete")
+#: The rope's constraint cell also runs ref:verlet_constrained at these projection passes.
+ROPE_EXTRAS = {"constraint": {"iterations": (1, 4, 16)}}
+#: The outer solar system in the standard suite: the schemes issue 6 names against REBOUND's
+#: modes (the full suite runs every method). Its largest stable dt is left to the full suite:
+#: each task's boundedness runs need the reference solve over 1000 steps of the largest dt
+#: tried (1.3e6 days for leapfrog, 2.8e6 at the search cap), computed afresh in every worker.
+SOLAR_METHODS = ("ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocity_verlet", "ref:leapfrog",
+                 "ref:forest_ruth", "ref:rk4", "rebound:leapfrog", "rebound:whfast", "rebound:ias15",
+                 "rebound:saba")
+
+#: The solar system's stability search stops at h*omega = 4 (dt = 2760 days, 1.6 steps per
+#: Jupiter orbit): WHFast and SABA, exact on each Kepler orbit, stay bounded far beyond (WHFast
+#: to h*omega = 132 over 100 steps), and each boundedness run needs the reference solve over
+#: its whole span, 5000 steps x dt: 1.4e7 days at this bound, 4.5e8 days at WHFast's limit.
+SOLAR_STABILITY_HI = 4.0
+
+#: The advice a game or animation programmer asks for: 10 s at the suite's frame rates, the
+#: energy within 0.1% of the largest exact energy, up to 16 substeps a frame.
+ADVISE = {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 16}
+
+SUITES: dict[str, Suite] = {
+    "smoke": Suite(
+        "smoke",
+        scenes={"spring": SceneSpec(periods=20, order_points=6, order_span=4.0, advise=ADVISE)},
+        methods=("ref:explicit_euler", "ref:semi_implicit_euler", "ref:leapfrog", "ref:rk4", "ref:implicit_euler",
+                 "mujoco:euler", "pymunk:applied_force"),
+        cost_repeats=3, series_points=200, stability_steps=500, cell_timeout=60.0,
+    ),
+    "standard": Suite(
+        "standard",
+        scenes={
+            "spring": SceneSpec(periods=200, skip=VELOCITY_SCHEMES, advise=ADVISE),
+            "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE),
+            "pendulum": SceneSpec(periods=50, skip=VELOCITY_SCHEMES, advise=ADVISE),
+            "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0, skip=VELOCITY_SCHEMES),
+            "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True),
+            "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS, skip=CHAIN_STANDARD_SKIP,
+                               advise=ADVISE),
+            "rope": SceneSpec(params={"N": 5}, periods=20, stability=False, extras=ROPE_EXTRAS,
+                              skip=ROPE_STANDARD_SKIP),
+            "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
+                                      methods=SOLAR_METHODS, compiled=True),
+        },
+    ),
+    "full": Suite(
+        "full",
+        scenes={
+            "spring": SceneSpec(periods=2000, order_points=8, order_span=16.0, advise=ADVISE),
+            "damped_spring": SceneSpec(periods=200, order_points=8, order_span=16.0, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE),
+            "pendulum": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE),
+            "kepler": SceneSpec(homega=0.02, periods=1000, order_points=8, order_span=16.0),
+            "projectile": SceneSpec(homega=0.01, periods=0.2, order_points=8, order_span=16.0),
+            "chain": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE,
+                               extras={**CHAIN_EXTRAS, "scaling": {"ns": (10, 100, 1000, 10000)}}),
+            "rope": SceneSpec(periods=200, order_points=8, order_span=16.0, stability=False, extras=ROPE_EXTRAS),
+            "solar_system": SceneSpec(dt=10.0, horizon=1.0e7, order_points=8, order_span=16.0, compiled=True,
+                                      stability_hi=SOLAR_STABILITY_HI),
+        },
+        cost_repeats=9, cost_steps=100_000, series_points=1000, stability_steps=5000, cell_timeout=900.0,
+        stability_homega_max=1000.0, frame_rates=(60.0, 240.0, 1000.0),
+    ),
+}
