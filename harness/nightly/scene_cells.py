@@ -22,6 +22,8 @@ from __future__ import annotations
 
 from scenarios import make_scene
 
+from harness.nightly.cell_kit import energy_run, finite, guard, make_cell, plain
+
 #: Methods the ``scaling`` cell is measured for unless the suite entry names others.
 SCALING_METHODS = ("ref:implicit_euler",)
 
@@ -41,17 +43,15 @@ def measures_for(task, spec) -> list[str]:
 
 
 def scene_cells(task, method, scene, dt, spec, suite, claims=None) -> list[dict]:
-    from harness.nightly.cells import _guard
 
     builders = {"constraint": lambda: _constraint(task, method, scene, dt, spec, suite),
                 "damping": lambda: _damping(task, method, scene, spec, suite),
                 "stability_vs_damping": lambda: _stability_vs_damping(task, method, spec, claims or {}),
                 "scaling": lambda: _scaling(task, spec)}
-    return [_guard(task, m, builders[m]) for m in measures_for(task, spec)]
+    return [guard(task, m, builders[m]) for m in measures_for(task, spec)]
 
 
 def _constraint(task, method, scene, dt, spec, suite) -> dict:
-    from harness.nightly.cells import _cell, _finite, _plain, energy_run
     from harness.measures.constraint import constraint_drift
     from harness.methods import get_method
 
@@ -68,12 +68,11 @@ def _constraint(task, method, scene, dt, spec, suite) -> dict:
             rows.append({key: r.get(key) for key in ("iterations", "status", "max_stretch", "final_stretch",
                                                      "energy_change", "max_energy_change")})
         data["by_iterations"] = rows
-    return _cell(task, "constraint", res["status"], _finite(res.get("max_stretch")), dt, steps, res["detail"],
-                 _plain(data))
+    return make_cell(task, "constraint", res["status"], finite(res.get("max_stretch")), dt, steps, res["detail"],
+                 plain(data))
 
 
 def _damping(task, method, scene, spec, suite) -> dict:
-    from harness.nightly.cells import _cell, _finite, _plain
     from harness.measures.damping import FACTOR, damping_far_beyond_the_limit
 
     factor = spec.extras["damping"].get("factor", FACTOR)
@@ -85,12 +84,11 @@ def _damping(task, method, scene, spec, suite) -> dict:
     data = {k: res.get(k) for k in ("factor", "omega_dt", "energy_kept", "rho", "stable", "reason", "modal_leak",
                                     "linearity_residual", "highest", "lowest", "failed_step")}
     data["run_status"] = res["status"]
-    return _cell(task, "damping", status, _finite(res.get("energy_kept_one_step")), res["dt"], res["steps"], detail,
-                 _plain(data))
+    return make_cell(task, "damping", status, finite(res.get("energy_kept_one_step")), res["dt"], res["steps"], detail,
+                 plain(data))
 
 
 def _stability_vs_damping(task, method, spec, claims) -> dict:
-    from harness.nightly.cells import _cell, _plain
     from harness.measures.stability_damping import ZETAS, CURVE_ZETAS, limit_vs_damping, theory_curve
 
     zetas = tuple(spec.extras["stability_vs_damping"].get("zetas", ZETAS))
@@ -102,17 +100,16 @@ def _stability_vs_damping(task, method, spec, claims) -> dict:
         data["theory_curve"] = {"zeta": list(CURVE_ZETAS), "homega_max": theory_curve(res["scheme"][4:])}
     agreeing = sum(1 for r in res["rows"] if r["agrees"])
     detail = "" if res["scheme"] else "no scheme identified: measured only"
-    return _cell(task, "stability_vs_damping", "ok", float(agreeing) if res["scheme"] else None, detail=detail,
-                 data=_plain(data))
+    return make_cell(task, "stability_vs_damping", "ok", float(agreeing) if res["scheme"] else None, detail=detail,
+                 data=plain(data))
 
 
 def _scaling(task, spec) -> dict:
-    from harness.nightly.cells import _cell, _plain
     from harness.measures.scaling import implicit_cost_vs_n
 
     settings = dict(spec.extras["scaling"])
     settings.pop("methods", None)
     frame = implicit_cost_vs_n(scheme=task.method.split(":", 1)[1], **settings)
-    return _cell(task, "scaling", "ok", frame.attrs["slope"],
-                 data=_plain({"rows": frame.to_dict("records"), "rvalue": frame.attrs["rvalue"],
+    return make_cell(task, "scaling", "ok", frame.attrs["slope"],
+                 data=plain({"rows": frame.to_dict("records"), "rvalue": frame.attrs["rvalue"],
                               "intercept": frame.attrs["intercept"], "settings": settings}))
