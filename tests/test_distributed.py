@@ -286,4 +286,4 @@ def test_a_hung_cell_in_a_dask_worker_is_timed_out_and_never_outlives_its_worker
             executor.close()
     assert isinstance(hung, WorkerFailure) and hung.status == "timed_out"
     assert hung.detail == "no result within 0.001 s; worker killed"
-    assert [(c["measure"], c["status"]) for c in cells] == [("bound", "ok")]
+    assert [(c.measure, c.status) for c in cells] == [("bound", "ok")]

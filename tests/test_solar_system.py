@@ -210,8 +210,8 @@ def nightly_cells(tmp_path_factory):
 def test_every_nightly_measure_runs_on_the_solar_system(nightly_cells):
     cells, _, _ = nightly_cells
     for method, rows in cells.items():
-        measures = {c["measure"]: c for c in rows}
-        assert all(c["status"] == "ok" for c in rows), [(c["measure"], c["status"], c["detail"]) for c in rows]
+        measures = {c.measure: c for c in rows}
+        assert all(c.status == "ok" for c in rows), [(c.measure, c.status, c.detail) for c in rows]
         if method == "rebound:ias15":
             # Adaptive: dt is its output interval, so no order (and no stability limit) in dt.
             assert set(measures) == {"energy", "error", "cost"}
@@ -219,10 +219,10 @@ def test_every_nightly_measure_runs_on_the_solar_system(nightly_cells):
             assert set(measures) == {"energy", "error", "order", "cost"}
             # Second order for the leapfrogs and WHFast, fourth for RK4, within the order tests' 0.15
             # (measured 1.994, 2.003, 4.093 over half an orbit).
-            assert measures["order"]["value"] == pytest.approx(4 if method == "ref:rk4" else 2, abs=0.15)
-        assert measures["error"]["data"]["source"] == "solar_system reference_solution"
-    ref = {c["measure"]: c for c in cells["ref:leapfrog"]}
-    assert ref["energy"]["data"]["backend"] == "compiled" and ref["cost"]["data"]["force_evals_per_step"] == 1
+            assert measures["order"].value == pytest.approx(4 if method == "ref:rk4" else 2, abs=0.15)
+        assert measures["error"].figures.source == "solar_system reference_solution"
+    ref = {c.measure: c for c in cells["ref:leapfrog"]}
+    assert ref["energy"].figures.backend == "compiled" and ref["cost"].figures.force_evals_per_step == 1
 
 
 def test_stability_cells_on_the_solar_system(nightly_cells):
@@ -233,14 +233,14 @@ def test_stability_cells_on_the_solar_system(nightly_cells):
     spec = dataclasses.replace(STUDY.scenes["solar_system"], stability=True, stability_hi=SOLAR_STABILITY_HI)
     with pytest.MonkeyPatch.context() as mp:
         mp.setitem(SUITES, "solar_test", dataclasses.replace(STUDY, scenes={"solar_system": spec}))
-        cells = {m: {c["measure"]: c for c in run_task(Task("cell", "solar_system", m, get_method(m).family, {},
+        cells = {m: {c.measure: c for c in run_task(Task("cell", "solar_system", m, get_method(m).family, {},
                                                               "solar_test"))}
                  for m in ("ref:leapfrog", "rebound:whfast")}
     leapfrog, whfast = cells["ref:leapfrog"]["stability"], cells["rebound:whfast"]["stability"]
-    assert leapfrog["status"] == "ok" and leapfrog["data"]["verdict"] == "limited"
-    assert 1.5 < leapfrog["value"] < 2.5
-    assert whfast["status"] == "ok" and whfast["data"]["verdict"] == "unbounded"
-    assert whfast["data"]["homega_searched"] == pytest.approx(SOLAR_STABILITY_HI, rel=1e-12)
+    assert leapfrog.status == "ok" and leapfrog.figures.verdict == "limited"
+    assert 1.5 < leapfrog.value < 2.5
+    assert whfast.status == "ok" and whfast.figures.verdict == "unbounded"
+    assert whfast.figures.homega_searched == pytest.approx(SOLAR_STABILITY_HI, rel=1e-12)
 
 
 def test_nightly_report_states_the_solar_findings(nightly_cells):
@@ -252,7 +252,7 @@ def test_nightly_report_states_the_solar_findings(nightly_cells):
     assert any("`rebound:ias15` keeps max |ΔE/E|" in ln and ln.endswith("✓.") for ln in lines), lines
     assert any("times `rebound:leapfrog`'s" in ln and ln.endswith("✓.") for ln in lines), lines
     assert not any("✗" in ln for ln in lines), lines
-    cost = {m: next(c for c in rows if c["measure"] == "cost")["value"] for m, rows in cells.items()}
+    cost = {m: next(c for c in rows if c.measure == "cost").value for m, rows in cells.items()}
     # Direction only (timings are noisy): 4 force evaluations against 1; measured 3.6x to 7.7x
     # across runs on this shared 2-core machine.
     assert cost["ref:rk4"] > 1.5 * cost["ref:leapfrog"]

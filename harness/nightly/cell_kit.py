@@ -9,12 +9,16 @@ import time
 
 import numpy as np
 
+from records.cell import Cell
 
-def make_cell(task, measure, status="ok", value=None, dt=None, steps=None, detail="", data=None, wall=0.0) -> dict:
-    """One measured cell of ``task``."""
-    return {"scene": task.scene, "method": task.method, "family": task.family, "measure": measure,
-            "dt": dt, "steps": steps, "status": status, "detail": detail or "", "value": value,
-            "wall_s": wall, "data": data or {}}
+
+def make_cell(task, measure, status="ok", value=None, dt=None, steps=None, detail="", figures=None, extra=None,
+              wall=0.0) -> Cell:
+    """One measured cell of ``task``: ``figures`` of the measure's type (``records.cell.FIGURES``),
+    anything else it recorded in ``extra``."""
+    return Cell(scene=task.scene, method=task.method, family=task.family, measure=measure, status=status,
+                params=dict(task.params or {}), dt=dt, steps=steps, value=value, wall_s=wall, detail=detail or "",
+                figures=figures, extra=dict(extra or {}))
 
 
 def finite(x):
@@ -52,7 +56,7 @@ def energy_run(scene, dt, spec, suite) -> tuple[int, int]:
     return steps, max(1, steps // (4 * suite.series_points))
 
 
-def _kernels_since(before: dict, cell: dict) -> None:
+def _kernels_since(before: dict, cell: Cell) -> None:
     """Record in ``cell`` the compiled kernels its measure compiled or loaded from the disk
     cache (``reference._kernels.STATS`` counts both in this process), if any."""
     from reference._kernels import STATS
@@ -60,10 +64,10 @@ def _kernels_since(before: dict, cell: dict) -> None:
     now = STATS.snapshot()
     delta = {k: now[k] - before[k] for k in now}
     if delta["kernels_compiled"] or delta["kernels_loaded"]:
-        cell["data"]["kernels"] = delta
+        cell.kernels = delta
 
 
-def guard(task, measure, fn) -> dict:
+def guard(task, measure, fn) -> Cell:
     """``fn()``'s cell, timed; any exception becomes a ``crashed`` cell with the message."""
     from reference._kernels import STATS
 
@@ -73,12 +77,12 @@ def guard(task, measure, fn) -> dict:
         cell = fn()
     except Exception as exc:  # a measurement error is a recorded result, not a dead run
         cell = make_cell(task, measure, "crashed", detail=f"{type(exc).__name__}: {exc}"[:500])
-    cell["wall_s"] = time.perf_counter() - t0
+    cell.wall_s = time.perf_counter() - t0
     _kernels_since(before, cell)
     return cell
 
 
-def guard_many(task, measures, fn) -> list[dict]:
+def guard_many(task, measures, fn) -> list[Cell]:
     """``guard`` for a function that measures several cells at once (their wall time shared)."""
     from reference._kernels import STATS
 
@@ -89,6 +93,6 @@ def guard_many(task, measures, fn) -> list[dict]:
     except Exception as exc:
         cells = [make_cell(task, m, "crashed", detail=f"{type(exc).__name__}: {exc}"[:500]) for m in measures]
     for c in cells:
-        c["wall_s"] = (time.perf_counter() - t0) / len(cells)
+        c.wall_s = (time.perf_counter() - t0) / len(cells)
     _kernels_since(before, cells[0])
     return cells

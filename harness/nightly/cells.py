@@ -33,6 +33,9 @@ import numpy as np
 
 from scenarios import make_scene
 
+from records.cell import (AdviceFigures, BoundFigures, Cell, Claims, CostFigures, EnergyFigures, ErrorFigures,
+                          IdentityFigures, OrderFigures, StabilityFigures)
+
 from harness.nightly.cell_kit import energy_run, finite, guard, guard_many, make_cell, nominal_dt, plain
 from harness.nightly.scene_cells import measures_for as scene_measures, scene_cells
 from harness.nightly.suites import SUITES, Suite
@@ -75,26 +78,26 @@ def measures_for(task) -> list[str]:
     return out + scene_measures(task, suite.scenes[task.scene])
 
 
-def _claims(method, scene=None) -> dict:
-    """The textbook claims a method's cells are judged by; the order is the one declared for
-    the scene (a lower one where its force depends on the velocity, with a note saying so)."""
+def _claims(method, scene=None) -> Claims:
+    """The textbook claims a method's cells are judged by (none known without a scheme); the
+    order is the one declared for the scene (a lower one where its force depends on the
+    velocity, with a note saying so)."""
     scheme = getattr(method, "scheme", None)
     if scheme is None:
-        return {}
+        return Claims()
     velocity = scene is not None and scene.velocity_dependent
     order = scheme.order_for(velocity)
-    note = {"order_note": f"{order} with a velocity-dependent force ({scheme.order} otherwise)"} \
-        if order != scheme.order else {}
-    return {"order": order, **note, "force_evals": scheme.force_evals,
-            "force_evals_text": f"{scheme.force_evals} + solve" if scheme.implicit else str(scheme.force_evals),
-            "energy": scheme.energy_claim, "homega_max": scheme.homega_max, "scheme": f"ref:{scheme.id}"}
+    note = f"{order} with a velocity-dependent force ({scheme.order} otherwise)" if order != scheme.order else None
+    return Claims(scheme=f"ref:{scheme.id}", order=order, order_note=note, force_evals=scheme.force_evals,
+                  force_evals_text=f"{scheme.force_evals} + solve" if scheme.implicit else str(scheme.force_evals),
+                  energy=scheme.energy_claim, homega_max=scheme.homega_max)
 
 
 def _downsample(n: int, points: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(n, points)).astype(int))
 
 
-def run_task(task) -> list[dict]:
+def run_task(task) -> list[Cell]:
     """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message."""
     from harness.execution.isolation import report_partial
     from harness.methods import get_method, use_plugins
@@ -114,15 +117,17 @@ def run_task(task) -> list[dict]:
 
     def keep(*new):
         for c in new:
-            c["data"].setdefault("claims", claims)
+            if c.claims is None:
+                c.claims = claims
             cells.append(c)
             report_partial(c)
 
     measures = measures_for(task)
     if "identity" in measures:
         identity = guard(task, "identity", lambda: _identity(task, method, scene))
-        if identity["status"] == "ok" and identity["data"].get("match_claims"):
-            claims = identity["data"]["match_claims"]
+        match_claims = identity.figures.match_claims
+        if identity.ok and match_claims is not None and match_claims.known:
+            claims = match_claims
         keep(identity)
     keep(*guard_many(task, ("energy", "error"), lambda: _energy_and_error(task, run_method, scene, dt, spec, suite)))
     if "order" in measures:
@@ -137,18 +142,18 @@ def run_task(task) -> list[dict]:
     return cells
 
 
-def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
+def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
     from harness.measures.energy import classify, escaped_states, relative_error_defined, relative_error_series
     from harness.measures.error import trajectory_error
     from harness.execution.simulate import simulate
 
     steps, every = energy_run(scene, dt, spec, suite)
     traj = simulate(method, scene, dt, steps, every, timeout=suite.cell_timeout)
-    settings = {"settings": traj.meta.get("settings"), "engine_version": traj.meta.get("engine_version"),
-                "backend": traj.meta.get("backend")}
+    settings = {key: traj.meta.get(key) for key in ("settings", "engine_version", "backend")}
     if traj.status not in ("ok", "unstable") or traj.q.shape[0] == 0:
-        return [make_cell(task, m, traj.status, dt=dt, steps=steps, detail=traj.detail, data=dict(settings))
-                for m in ("energy", "error")]
+        return [make_cell(task, "energy", traj.status, dt=dt, steps=steps, detail=traj.detail,
+                          figures=EnergyFigures(**settings)),
+                make_cell(task, "error", traj.status, dt=dt, steps=steps, detail=traj.detail, extra=settings)]
     e_exact, rel = relative_error_series(traj, scene)
     cls = classify(traj.energy[:, 0], e_exact, traj.t, unstable=traj.status == "unstable",
                    escaped=escaped_states(scene, traj))
@@ -159,19 +164,17 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
     defined = relative_error_defined(e_exact)
     with np.errstate(all="ignore"):
         max_rel = finite(np.nanmax(np.abs(rel))) if traj.ok and defined else None
-    energy = make_cell(task, "energy", traj.status, max_rel, dt, steps, traj.detail,
-                   {"class": cls.get("classification"), "rule": cls.get("rule"), "rel_error_defined": defined,
-                    "final_rel_error": finite(abs(rel[-1])) if traj.ok and defined else None,
-                    "failed_step": traj.failed_step, "series": series, "numbers": plain(cls), **settings})
+    energy = make_cell(task, "energy", traj.status, max_rel, dt, steps, traj.detail, EnergyFigures.pick(
+        cls, energy_class=cls.get("classification"), rel_error_defined=defined,
+        final_rel_error=finite(abs(rel[-1])) if traj.ok and defined else None, failed_step=traj.failed_step,
+        series=series, numbers=plain(cls), **settings))
     err = trajectory_error(traj, scene) if traj.ok else {}
     error = make_cell(task, "error", traj.status, finite(err.get("error_max")), dt, steps, traj.detail,
-                  {"error_final": err.get("error_final"), "source": err.get("source"),
-                   "t_compared": err.get("t_compared"), "horizon": err.get("horizon"),
-                   "t_final": err.get("t_final")})
+                      ErrorFigures.pick(err))
     return [energy, error]
 
 
-def _order(task, method, scene, spec) -> dict:
+def _order(task, method, scene, spec) -> Cell:
     from harness.measures.order import observed_order
 
     res = observed_order(method, scene, points=spec.order_points, span=spec.order_span, periods=spec.order_periods)
@@ -184,70 +187,58 @@ def _order(task, method, scene, spec) -> dict:
             # Nothing failed: the method is more accurate than the floor at every dt of the sweep
             # (SABA(10,6,4) on the solar system), so it has no measurable order here.
             status, detail = "ok", "no order: every error at or below the roundoff/reference floor"
-    return make_cell(task, "order", status, finite(order), detail=detail,
-                 data={"points": plain(res.get("points", [])), "excluded": plain(res.get("excluded", [])),
-                       "rvalue": res.get("rvalue"), "range": plain(res.get("range"))})
+    return make_cell(task, "order", status, finite(order), detail=detail, figures=OrderFigures(
+        points=plain(res.get("points", [])), excluded=plain(excluded), rvalue=res.get("rvalue"),
+        range=plain(res.get("range"))))
 
 
-def _stability(task, method, scene, suite, spec) -> dict:
+def _stability(task, method, scene, suite, spec) -> Cell:
     from harness.measures.stability import largest_stable_dt
 
     hi = spec.stability_hi if spec.stability_hi is not None else suite.stability_homega_max
     res = largest_stable_dt(method, scene, steps=suite.stability_steps, hi=hi)
     verdict = res.get("verdict")
-    data = {"criterion": res.get("criterion"), "criterion_rule": res.get("criterion_rule"), "verdict": verdict,
-            "dt_max": res.get("dt_max"), "unbounded": verdict == "unbounded",
-            "unstable_everywhere": verdict == "unstable",
-            "homega_searched": (res.get("dt_searched_max") or 0) * scene.omega,
-            "rho_above_dt_max": res.get("rho_above_dt_max")}
-    value = res.get("omega_dt_max")
-    if verdict == "unbounded":
-        value = math.inf
-    return make_cell(task, "stability", "ok", value, detail=res.get("detail", ""), data=plain(data))
+    figures = StabilityFigures.pick(plain(res), unbounded=verdict == "unbounded",
+                                    unstable_everywhere=verdict == "unstable",
+                                    homega_searched=plain((res.get("dt_searched_max") or 0) * scene.omega))
+    value = math.inf if verdict == "unbounded" else res.get("omega_dt_max")
+    return make_cell(task, "stability", "ok", value, detail=res.get("detail", ""), figures=figures)
 
 
-def _cost(task, method, scene, dt, suite) -> dict:
+def _cost(task, method, scene, dt, suite) -> Cell:
     """Counted evaluations; CPU seconds per step and, timed in this worker on the same clock in
     repeats interleaved with the method's, explicit Euler's (the ratio's baseline)."""
     from harness.measures.cost import cost_per_step
 
     res = cost_per_step(method, scene, dt, time_steps=suite.cost_steps, repeats=suite.cost_repeats, clock="cpu")
-    base = res["baseline"]
-    return make_cell(task, "cost", "ok", res.get("s_per_step"), dt, res.get("time_steps"),
-                 data={"force_evals_per_step": res.get("force_evals_per_step"),
-                       "solves_per_step": res.get("solves_per_step"), "timing": res.get("timing"),
-                       "clock": res.get("clock"), "repeats_s_per_step": res.get("repeats_s_per_step"),
-                       "spread": res.get("rel_spread") or 0.0,
-                       "ratio_to_explicit_euler": res.get("ratio_to_explicit_euler"),
-                       "ratio_spread": res.get("ratio_spread") or 0.0, "ratio_repeats": res.get("ratio_repeats"),
-                       "baseline_s_per_step": base.get("s_per_step"),
-                       "baseline_repeats_s_per_step": base.get("repeats_s_per_step"),
-                       "loop": res.get("loop"), "engine_loop": res.get("engine_loop"),
-                       # An engine mode's second figure: stepped one call at a time from Python.
-                       "as_stepped_s_per_step": res.get("as_stepped_s_per_step"),
-                       "as_stepped_repeats_s_per_step": (res.get("as_stepped") or {}).get("repeats_s_per_step"),
-                       "as_stepped_timing": (res.get("as_stepped") or {}).get("timing")})
+    base, stepped = res["baseline"], res.get("as_stepped") or {}
+    return make_cell(task, "cost", "ok", res.get("s_per_step"), dt, res.get("time_steps"), figures=CostFigures.pick(
+        res, spread=res.get("rel_spread") or 0.0, ratio_spread=res.get("ratio_spread") or 0.0,
+        baseline_s_per_step=base.get("s_per_step"), baseline_repeats_s_per_step=base.get("repeats_s_per_step"),
+        # An engine mode's second figure: stepped one call at a time from Python.
+        as_stepped_repeats_s_per_step=stepped.get("repeats_s_per_step"), as_stepped_timing=stepped.get("timing")))
 
 
-def _advise(task, method, scene, spec, suite, cost) -> list[dict]:
+def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
     """One cell per frame rate of the suite: the method's search over substeps
     (``harness.measures.advise.advise_method``), its cost per step from this task's cost cell. Value:
     the cost per frame of the fewest substeps that meet the tolerances (None where none does)."""
     from harness.measures.advise import Request, advise_method
 
-    per_step = (cost["value"], f"{cost['data'].get('timing')}; {cost['data'].get('clock')} clock (the cost cell)") \
-        if cost["status"] == "ok" and cost["value"] else None
+    per_step = (cost.value, f"{cost.figures.timing}; {cost.figures.clock} clock (the cost cell)") \
+        if cost.ok and cost.value else None
     cells = []
     for hz in suite.frame_rates:
         request = Request(hz=hz, **spec.advise).checked()
         res = advise_method(method, scene, request, timeout=suite.cell_timeout, cost_per_step=per_step)
         best = res.best_row
+        figures, extra = AdviceFigures.from_data(plain({"hz": hz, "request": asdict(request), **res.as_dict()}))
         cells.append(make_cell(task, "advise", "ok", best.cost_per_frame_s if best is not None else None, 1.0 / hz,
-                           data=plain({"hz": hz, "request": asdict(request), **res.as_dict()})))
+                               figures=figures, extra=extra))
     return cells
 
 
-def _identity(task, method, scene) -> dict:
+def _identity(task, method, scene) -> Cell:
     from reference import METHODS
 
     from harness.measures.identify import identify
@@ -255,7 +246,7 @@ def _identity(task, method, scene) -> dict:
     res = identify(method, scene)
     match = res.get("match")
     mode = task.method.split(":", 1)[1]
-    match_claims = {}
+    match_claims = Claims()
     if match and match.startswith("ref:"):
         from harness.methods import RefMethod
 
@@ -270,36 +261,39 @@ def _identity(task, method, scene) -> dict:
                 f"(max deviation {closest.get('max_deviation', float('nan')):.2e})")
         if res.get("why_no_match"):
             note += f": {res['why_no_match']}"
-    return make_cell(task, "identity", "ok", finite(res.get("max_deviation") if match else closest.get("max_deviation")),
-                 res.get("dt"), res.get("steps"),
-                 data={"match": match, "matches": list(res.get("matches") or []), "closest": closest.get("method"),
-                       "runner_up": runner.get("method"),
-                       "runner_up_deviation": finite(runner.get("max_deviation")),
-                       "name_suggests": NAME_SUGGESTS.get(mode), "match_claims": match_claims, "note": note})
+    return make_cell(task, "identity", "ok",
+                     finite(res.get("max_deviation") if match else closest.get("max_deviation")),
+                     res.get("dt"), res.get("steps"),
+                     figures=IdentityFigures(match=match, matches=list(res.get("matches") or []),
+                                             closest=closest.get("method"), runner_up=runner.get("method"),
+                                             runner_up_deviation=finite(runner.get("max_deviation")),
+                                             name_suggests=NAME_SUGGESTS.get(mode), match_claims=match_claims,
+                                             note=note))
 
 
-def _bound(task) -> dict:
+def _bound(task) -> Cell:
     from harness.pytest_plugin import measure_max_rel_energy_error
 
     value, status, detail = measure_max_rel_energy_error(task.method, task.scene, task.dt, task.steps, **task.params)
-    return make_cell(task, "bound", status, finite(value), task.dt, task.steps, detail, {"bound": task.bound})
+    return make_cell(task, "bound", status, finite(value), task.dt, task.steps, detail, BoundFigures(bound=task.bound))
 
 
-def failed_cells(task, failure) -> list[dict]:
+def failed_cells(task, failure) -> list[Cell]:
     """The worker died or hung: the cells it sent before (``failure.partial``) are kept, and
     every measure it did not finish is recorded with that outcome, the first of them (where
     the worker was lost) with why, the rest as not reached."""
     detail = getattr(failure, "detail", str(failure))
     status = getattr(failure, "status", "crashed")
-    done = [c for c in getattr(failure, "partial", None) or [] if isinstance(c, dict)]
-    measured = {c["measure"] for c in done}
+    done = [c for c in getattr(failure, "partial", None) or [] if isinstance(c, Cell)]
+    measured = {c.measure for c in done}
     missing = [m for m in task.measures() if m not in measured]
-    wall = getattr(failure, "seconds", 0.0) - sum(c.get("wall_s") or 0.0 for c in done)
+    wall = getattr(failure, "seconds", 0.0) - sum(c.wall_s or 0.0 for c in done)
     out = list(done)
     for i, m in enumerate(missing):
         why = detail if i == 0 else f"not reached: the worker was lost in {missing[0]} ({detail})"
-        out.append(make_cell(task, m, status, detail=why, dt=task.dt if task.kind == "bound" else None,
-                         steps=task.steps if task.kind == "bound" else None,
-                         data={"bound": task.bound} if task.kind == "bound" else {},
-                         wall=max(wall, 0.0) if i == 0 else 0.0))
+        bound = task.kind == "bound"
+        out.append(make_cell(task, m, status, detail=why, dt=task.dt if bound else None,
+                             steps=task.steps if bound else None,
+                             figures=BoundFigures(bound=task.bound) if bound else None,
+                             wall=max(wall, 0.0) if i == 0 else 0.0))
     return out

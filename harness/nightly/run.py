@@ -21,6 +21,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from records.cell import Cell
 from scenarios import SCENES, make_scene
 
 from harness.history import bounds as bounds_mod
@@ -213,7 +214,7 @@ def previous_task_seconds(history: History, suite_name: str) -> dict[str, float]
     return dict(runs.timing.iloc[-1].get("task_s", {})) if not runs.empty else {}
 
 
-def timing_summary(cells_by_task: dict[str, list[dict]], stats: dict, wall_cells: float) -> dict:
+def timing_summary(cells_by_task: dict[str, list[Cell]], stats: dict, wall_cells: float) -> dict:
     """Where the cells' time went: worker seconds by measure, by family, numba compilation
     (kernels compiled, and kernels loaded from the disk cache instead), per task (wall in the
     parent, CPU in the worker) and the slowest tasks."""
@@ -222,13 +223,13 @@ def timing_summary(cells_by_task: dict[str, list[dict]], stats: dict, wall_cells
     kernels = defaultdict(float)  # compiled / loaded from the disk cache, and their seconds
     for label, cells in cells_by_task.items():
         for c in cells:
-            w = c.get("wall_s") or 0.0
-            by_measure[c["measure"]] += w
-            by_family[c["family"]] += w
-            for k, v in ((c.get("data") or {}).get("kernels") or {}).items():
+            w = c.wall_s or 0.0
+            by_measure[c.measure] += w
+            by_family[c.family] += w
+            for k, v in (c.kernels or {}).items():
                 kernels[k] += v
         st = stats.get(label)
-        task_s[label] = st.wall_s if st is not None else sum(c.get("wall_s") or 0.0 for c in cells)
+        task_s[label] = st.wall_s if st is not None else sum(c.wall_s or 0.0 for c in cells)
         task_cpu[label] = st.cpu_s if st is not None else None
     known = [v for v in task_cpu.values() if v is not None]
     slowest = sorted(task_s.items(), key=lambda kv: -kv[1])[:5]
@@ -266,7 +267,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     run_id = history.start_run(started=now(), suite=suite_name, git_commit=commit, versions=versions,
                                machine=machine, settings=settings)
     progress = Progress(len(tasks), progress_stream)
-    cells_by_task: dict[str, list[dict]] = {}
+    cells_by_task: dict[str, list[Cell]] = {}
     t_cells = time.perf_counter()
     try:
         for task, result in executor.run(tasks, timeout):
@@ -274,8 +275,8 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
             for cell in cells:
                 history.add_cell(run_id, cell)
             cells_by_task[task.label] = cells
-            worst = next((c["status"] for c in cells if c["status"] != "ok"), "ok")
-            progress.update(task, worst, sum(c.get("wall_s") or 0.0 for c in cells))
+            worst = next((c.status for c in cells if c.status != "ok"), "ok")
+            progress.update(task, worst, sum(c.wall_s or 0.0 for c in cells))
     finally:
         executor.close()
     t_cells = time.perf_counter() - t_cells
