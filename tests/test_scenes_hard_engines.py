@@ -274,6 +274,7 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     from harness.nightly.run import Task, build_tasks
     from harness.nightly.scene_cells import scene_cells
     from harness.history.storage import History
+    from harness.judge import judge
     from reports.markdown import render
 
     tasks, skipped = build_tasks(tiny_suite)
@@ -310,7 +311,8 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     assert [b["iterations"] for b in by[("ref:verlet_constrained", "constraint")].data["by_iterations"]] == [1, 4]
     assert by[("mujoco:discrete", "stability")].data["unbounded"]
 
-    text, _ = render(history, run_id, tmp_path / "out", [], None, {})
+    cells = history.cell_records(run_id)
+    text, _ = render(history.run(run_id), cells, judge(cells), tmp_path / "out", {})
     findings = text.split("## Findings")[1]
     assert "`ref:implicit_euler` on `chain` at 100x the explicit limit (h·ω_max = 200)" in findings
     assert "`mujoco:discrete` on `chain` is backward Euler only where every tendon is stretched" in findings

@@ -21,12 +21,11 @@ from harness.execution.isolation import WorkerFailure
 from harness.measures.energy import energy_behaviour
 from harness.measures.error import trajectory_error
 from harness.methods import get_method
-from harness.nightly.run import Task, build_tasks
+from harness.nightly.run import Task, build_tasks, report_run
 from harness.history.storage import History
 from harness.nightly.suites import SOLAR_METHODS, SOLAR_STABILITY_HI, SUITES, SceneSpec, Suite
 from harness.measures.workprecision import chart_ready, error_at_equal_cost, work_precision
 from reference import METHODS, integrate
-from reports.markdown import write_report
 from records import Trajectory
 from scenarios import make_scene
 
@@ -198,12 +197,12 @@ def nightly_cells(tmp_path_factory):
         for rows in cells.values():
             for c in rows:
                 history.add_cell(run_id, c)
-        report = write_report(history, run_id, tmp / "out").read_text()
+        report = report_run(history, run_id, tmp / "out").read_text()
         # The same run with one more task that timed out: the findings still render, and say so.
         failure = WorkerFailure("timed_out", "worker killed after 120 s")
         for c in failed_cells(Task("cell", "solar_system", "rebound:saba", "rebound", {}, "solar_test"), failure):
             history.add_cell(run_id, c)
-        with_failure = write_report(history, run_id, tmp / "out2").read_text()
+        with_failure = report_run(history, run_id, tmp / "out2").read_text()
     return cells, report, with_failure
 
 

@@ -118,7 +118,8 @@ class History:
             cur = con.execute(
                 "INSERT INTO runs (started, suite, measurement_version, git_commit, versions, machine, settings) "
                 "VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (started, suite, MEASUREMENT_VERSION, git_commit, to_json(versions), to_json(machine), to_json(settings)))
+                (started, suite, MEASUREMENT_VERSION, git_commit, to_json(versions), to_json(machine),
+                 to_json(settings)))
             return int(cur.lastrowid)
 
     def add_cell(self, run_id: int, cell: Cell | dict) -> None:

@@ -242,6 +242,17 @@ def timing_summary(cells_by_task: dict[str, list[Cell]], stats: dict, wall_cells
             "tasks_without_cpu": len(task_cpu) - len(known)}
 
 
+def report_run(history: History, run_id: int, out: Path, regressions=(), previous=None, timing=None,
+               trend=None) -> Path:
+    """The run's stored cells judged (``harness.judge``) and written as its report (``reports.markdown``)."""
+    from harness.judge import judge
+    from reports.markdown import write_report
+
+    cells = history.cell_records(run_id)
+    judged = judge(cells, regressions=regressions, previous=previous, trend=trend)
+    return write_report(history.run(run_id), cells, judged, out, timing=timing, trend=trend)
+
+
 def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB,
                 jobs: int | None = None, scheduler: str | None = None, bounds_path=bounds_mod.DEFAULT_PATH,
                 progress_stream=None, cell_timeout: float | None = None) -> dict:
@@ -249,7 +260,6 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     previous complete run of the same suite, write the report, mark the run complete.
     ``cell_timeout`` (seconds per task) overrides the suite's."""
     from harness.nightly.cells import failed_cells
-    from reports.markdown import write_report
 
     suite = SUITES[suite] if isinstance(suite, str) else suite
     suite_name = suite.name
@@ -288,7 +298,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     timing["total_s"] = time.perf_counter() - t_start  # up to the report: what its footer can say
     timing["main_cpu_s"] = time.process_time() - cpu_start
     t_report = time.perf_counter()
-    report = write_report(history, run_id, out, regressions=regressions, previous=run_a, timing=timing, trend=trend)
+    report = report_run(history, run_id, out, regressions=regressions, previous=run_a, timing=timing, trend=trend)
     timing["report_s"] = time.perf_counter() - t_report
     timing["finished_s"] = time.perf_counter() - t_start
     history.finish_run(run_id, finished=now(), wall_s=timing["finished_s"], timing=timing,
