@@ -425,17 +425,20 @@ def _simulate(method_id: str, scene: Scene, dt: float, steps: int, every: int) -
     return get_method(method_id).simulate(scene, dt, steps, every)
 
 
-def simulate_isolated(method_id: str, scene: Scene, dt: float, steps: int, every: int = 1,
+def simulate_isolated(method, scene: Scene, dt: float, steps: int, every: int = 1,
                       timeout: float | None = None) -> Trajectory:
-    """Step an engine mode in a worker; a crash or a hang comes back as a failed Trajectory."""
-    limit = DEFAULT_TIMEOUT_S if timeout is None else timeout
-    out = run_in_worker(_simulate, (method_id, scene, dt, steps, every), timeout=limit)
-    if isinstance(out, WorkerFailure):
+    """Step an engine mode (a method, or its id) in a worker, which looks it up again by its id;
+    a crash or a hang comes back as a failed Trajectory."""
+    if isinstance(method, str):
         from harness.methods import get_method
 
-        info = get_method(method_id).describe()  # a failed run, too, says which engine and settings
+        method = get_method(method)
+    limit = DEFAULT_TIMEOUT_S if timeout is None else timeout
+    out = run_in_worker(_simulate, (method.id, scene, dt, steps, every), timeout=limit)
+    if isinstance(out, WorkerFailure):
+        info = method.describe()  # a failed run, too, says which engine and settings
         meta = {"backend": "engine", "engine": info.get("engine"), "engine_version": info.get("engine_version"),
                 "settings": info.get("settings"), "worker": out.as_dict(), "params": dict(scene.values)}
-        return Trajectory.failed(scene.id, method_id, dt, steps, out.status, out.detail, every=every,
+        return Trajectory.failed(scene.id, method.id, dt, steps, out.status, out.detail, every=every,
                                  ndof=scene.ndof, meta=meta)
     return out
