@@ -15,7 +15,7 @@ import adapters
 import reference
 from records import InvalidInput, Trajectory
 from scenarios import Scene
-from scenarios._base import no_solve
+from scenarios.scene import no_solve
 
 
 @dataclass(frozen=True)
