@@ -21,5 +21,29 @@ def simulate(method, scene: Scene, dt: float, steps: int, every: int = 1, timeou
         from harness.execution import isolation
 
         if not isolation.IN_WORKER:
-            return isolation.simulate_isolated(method.id, scene, dt, steps, every, timeout=timeout)
+            return simulate_isolated(method.id, scene, dt, steps, every, timeout=timeout)
     return method.simulate(scene, dt, steps, every)
+
+
+def _simulate(method_id: str, scene: Scene, dt: float, steps: int, every: int) -> Trajectory:
+    from harness.methods import get_method
+
+    return get_method(method_id).simulate(scene, dt, steps, every)
+
+
+def simulate_isolated(method_id: str, scene: Scene, dt: float, steps: int, every: int = 1,
+                      timeout: float | None = None) -> Trajectory:
+    """Step an engine mode in a worker; a crash or a hang comes back as a failed Trajectory."""
+    from harness.execution.isolation import DEFAULT_TIMEOUT_S, WorkerFailure, run_in_worker
+
+    limit = DEFAULT_TIMEOUT_S if timeout is None else timeout
+    out = run_in_worker(_simulate, (method_id, scene, dt, steps, every), timeout=limit)
+    if isinstance(out, WorkerFailure):
+        from harness.methods import get_method
+
+        info = get_method(method_id).describe()  # a failed run, too, says which engine and settings
+        meta = {"backend": "engine", "engine": info.get("engine"), "engine_version": info.get("engine_version"),
+                "settings": info.get("settings"), "worker": out.as_dict(), "params": dict(scene.values)}
+        return Trajectory.failed(scene.id, method_id, dt, steps, out.status, out.detail, every=every,
+                                 ndof=scene.ndof, meta=meta)
+    return out

@@ -18,7 +18,7 @@ time and 9.2-13 us of CPU time; the compiled explicit-Euler step 93-990 ns wall,
 CPU. On an idle core the two clocks agree (the steps run in one thread).
 
 A task's cells are sent back one by one as they are measured
-(``isolation.report_partial``), so a task that later crashes or hangs keeps them.
+(``pool.report_partial``), so a task that later crashes or hangs keeps them.
 
 Every cell records the textbook claims it is judged against (from the scheme's
 declarations, or for an engine mode from the scheme it was identified as), so the report
@@ -107,7 +107,7 @@ def _downsample(n: int, points: int) -> np.ndarray:
 
 def run_task(task) -> list[dict]:
     """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message."""
-    from harness.execution.isolation import report_partial
+    from harness.execution.pool import report_partial
     from harness.methods import get_method, use_plugins
 
     use_plugins(task.plugins)
