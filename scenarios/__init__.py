@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from records import InvalidInput
 
-from ._base import Param, Scene, no_solve, no_velocity_dependence
+from .scene import Param, Scene, no_solve, no_velocity_dependence
 from .chain import Chain
 from .damped_spring import DampedSpring
 from .kepler import Kepler

@@ -448,7 +448,8 @@ def advise(scene: Scene, request: Request, patterns: list[str] | None = None, *,
     ranked."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from harness.execution.isolation import WorkerFailure, WorkerPool
+    from harness.execution.isolation import WorkerFailure
+    from harness.execution.pool import WorkerPool
     from harness.methods import active_plugins
 
     request = request.checked()
