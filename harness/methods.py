@@ -1,9 +1,11 @@
-"""Method ids, one namespace for reference schemes and engine modes.
+"""The method registry: one namespace of ids for reference schemes and engine modes.
 
-``ref:NAME`` is a reference scheme; ``ENGINE:MODE`` (``mujoco:euler``, ``rebound:whfast``, ...)
-is an engine mode from ``adapters``; modules named in ``$HARNESS_PLUGINS`` may add more
-(``load_plugins``). Every method answers the same questions: is it
-available, does it support a scene (and if not, why), and ``simulate(scene, dt, steps, every)``.
+``ref:NAME`` is a reference scheme (``reference.RefMethod``); ``ENGINE:MODE`` (``mujoco:euler``,
+``rebound:whfast``, ...) is an engine mode from ``adapters``; modules named in ``$HARNESS_PLUGINS``
+may add more (``load_plugins``). Every method is a ``records.Method``: it answers the same
+questions (is it available, does it support a scene and if not why, ``simulate(scene, dt, steps,
+every)``) and declares every optional capability; a plugin's method that leaves some out gets
+their defaults here, once, where it is loaded (``as_method``).
 """
 from __future__ import annotations
 
