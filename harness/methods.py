@@ -15,7 +15,7 @@ import os
 import adapters
 import reference
 from records import InvalidInput, Method, MethodId
-from records.method import OPTIONAL
+from records.method import OPTIONAL, REQUIRED
 from reference import RefMethod
 from scenarios import Scene
 
@@ -24,14 +24,20 @@ class CompletedMethod:
     """A plugin's method that declares only part of ``records.Method``, with every capability it
     leaves out set to its default (``records.method.OPTIONAL``; ``family`` from its id;
     ``compiled_twin()`` itself): the one place where a method's attributes are looked for, so
-    that the rest of the harness reads declared fields."""
+    that the rest of the harness reads declared fields. One without a ``REQUIRED`` member is
+    refused (InvalidInput, one line)."""
 
     def __init__(self, inner):
+        missing = [name for name in REQUIRED if not hasattr(inner, name)]
+        if missing:
+            raise InvalidInput(f"method {getattr(inner, 'id', inner)!r} has no {', '.join(missing)} "
+                               f"(a method has {', '.join(REQUIRED)})")
         self.inner = inner
         self.id = inner.id
         self.family = getattr(inner, "family", None) or MethodId.parse(inner.id).family
         for name, default in OPTIONAL.items():
             setattr(self, name, getattr(inner, name, default))
+        self._twin = getattr(inner, "compiled_twin", None)
 
     def available(self) -> tuple[bool, str]:
         return self.inner.available()
@@ -45,8 +51,8 @@ class CompletedMethod:
     def describe(self) -> dict:
         return self.inner.describe()
 
-    def compiled_twin(self):
-        return self
+    def compiled_twin(self) -> Method:
+        return self if self._twin is None else as_method(self._twin())
 
     def __repr__(self) -> str:
         return f"CompletedMethod({self.inner!r})"

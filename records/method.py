@@ -5,7 +5,7 @@ Every method answers every question below. A capability that only some methods h
 declared field whose default says "not this method" (``scheme`` None for an engine mode,
 ``one_steps`` None for a reference scheme): callers read the field and never probe for an
 attribute. ``OPTIONAL`` holds those defaults; ``harness.methods`` fills them in, in one place,
-for a plugin's method that leaves some out.
+for a plugin's method that leaves some out (it must have ``REQUIRED``).
 """
 from __future__ import annotations
 
@@ -66,6 +66,9 @@ class Method(Protocol):
         on its compiled driver (force evaluations then not counted); itself for a method that
         already runs its own loop."""
 
+
+#: What every method must have itself; :data:`OPTIONAL` can be filled in for it.
+REQUIRED = ("id", "available", "supports", "simulate", "describe")
 
 #: Every optional capability of :class:`Method` and the value that means "not this method".
 OPTIONAL: Mapping[str, Any] = MappingProxyType({

@@ -194,6 +194,18 @@ def test_a_plugin_may_not_register_a_reference_id_or_a_bare_name(monkeypatch):
         assert "\n" not in str(exc.value)
 
 
+def test_a_plugin_method_without_what_every_method_must_have_is_a_one_line_error(monkeypatch):
+    module = types.ModuleType("incomplete_plugin_for_tests")
+    inner = types.SimpleNamespace(id="incomplete:mode", available=lambda: (True, ""))
+    module.METHODS = {inner.id: inner}
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    monkeypatch.setattr(registry, "_PLUGIN_METHODS", {})
+    with pytest.raises(InvalidInput) as exc:
+        registry.load_plugins([module.__name__])
+    assert str(exc.value) == ("method 'incomplete:mode' has no supports, simulate, describe "
+                              "(a method has id, available, supports, simulate, describe)")
+
+
 def test_an_unknown_method_is_a_one_line_error_naming_the_valid_ones():
     with pytest.raises(InvalidInput) as exc:
         registry.get_method("ref:no_such_scheme")
