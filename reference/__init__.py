@@ -1,14 +1,23 @@
-"""Reference integrators: ``METHODS[id]`` is a :class:`Scheme`; ``integrate`` steps one on a scene."""
+"""Reference integrators: ``METHODS[id]`` is a :class:`Scheme`; ``integrate`` steps one on a scene,
+``integrate_compiled`` on its compiled kernel; ``RefMethod`` is a scheme as a method (``records.Method``).
+
+Timing, for the harness's cost measures and benches: ``step_timer`` / ``time_per_step`` time a
+scheme's compiled kernel on ``CLOCKS[name]``, ``KERNEL_STATS`` counts the kernels compiled and
+loaded in this process; ``FLOORS`` / ``floor_timer`` are the hand-written floors (imported, with
+numba, on first use).
+"""
 from __future__ import annotations
 
-from ._compiled import integrate_compiled
+from ._compiled import CLOCKS, integrate_compiled, step_timer, time_per_step
 from ._integrate import integrate
+from ._kernels import STATS as KERNEL_STATS
 from ._scheme import Scheme
 from .explicit_euler import explicit_euler
 from .forest_ruth import forest_ruth
 from .implicit_euler import implicit_euler
 from .implicit_midpoint import implicit_midpoint
 from .leapfrog import leapfrog
+from .method import RefMethod
 from .position_first_euler_decay import position_first_euler_decay_after_kick, position_first_euler_decay_before_kick
 from .rk4 import rk4
 from .semi_implicit_euler import semi_implicit_euler
@@ -25,4 +34,18 @@ METHODS: dict[str, Scheme] = {s.id: s for s in (
     position_first_euler_decay_before_kick,
 )}
 
-__all__ = ["METHODS", "Scheme", "integrate", "integrate_compiled"]
+#: Public names of ``_floors``, imported on first use: the floors compile with numba, which a
+#: harness command that times nothing need not import.
+_FLOOR_NAMES = ("FLOORS", "floor_timer")
+
+
+def __getattr__(name: str):
+    if name in _FLOOR_NAMES:
+        from . import _floors
+
+        return getattr(_floors, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["METHODS", "Scheme", "RefMethod", "integrate", "integrate_compiled", "CLOCKS", "step_timer",
+           "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

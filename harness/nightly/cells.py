@@ -54,7 +54,7 @@ def suite_of(task) -> Suite:
     return task.suite if isinstance(task.suite, Suite) else SUITES[task.suite]
 
 
-def measures_for(task) -> list[str]:
+def measures_for(task, method=None) -> list[str]:
     """The task's measures, in the order ``run_task`` measures them."""
     from harness.methods import get_method
 
@@ -62,7 +62,7 @@ def measures_for(task) -> list[str]:
     out = list(MEASURES)
     if not suite.scenes[task.scene].stability:
         out.remove("stability")
-    if getattr(get_method(task.method), "adaptive", False):
+    if (method or get_method(task.method)).adaptive:
         # It picks its own steps (dt is the output interval): nothing to measure against dt.
         out = [m for m in out if m not in ("order", "stability")]
     if suite.scenes[task.scene].advise is not None and "order" in out:  # fixed-step methods only
@@ -79,7 +79,7 @@ def measures_for(task) -> list[str]:
 def _claims(method, scene=None) -> dict:
     """The textbook claims a method's cells are judged by; the order is the one declared for
     the scene (a lower one where its force depends on the velocity, with a note saying so)."""
-    scheme = getattr(method, "scheme", None)
+    scheme = method.scheme
     if scheme is None:
         return {}
     velocity = scene is not None and scene.velocity_dependent
@@ -119,7 +119,7 @@ def run_task(task) -> list[dict]:
     method = get_method(task.method)
     dt = nominal_dt(spec, scene)
     # Long runs of reference schemes on the compiled path (same states); counting stays interpreted.
-    run_method = method.compiled_twin() if spec.compiled and hasattr(method, "compiled_twin") else method
+    run_method = method.compiled_twin() if spec.compiled else method
     claims = _claims(method, scene)
     cells = []
 
@@ -129,7 +129,7 @@ def run_task(task) -> list[dict]:
             cells.append(c)
             report_partial(c)
 
-    measures = measures_for(task)
+    measures = measures_for(task, method)
     if "identity" in measures:
         identity = _guard(task, "identity", lambda: _identity(task, method, scene))
         if identity["status"] == "ok" and identity["data"].get("match_claims"):
@@ -162,7 +162,7 @@ def energy_steps(spec, scene, dt: float) -> int:
 def _kernels_since(before: dict, cell: dict) -> None:
     """Record in ``cell`` the compiled kernels its measure compiled or loaded from the disk
     cache (``reference._kernels.STATS`` counts both in this process), if any."""
-    from reference._kernels import STATS
+    from reference import KERNEL_STATS as STATS
 
     now = STATS.snapshot()
     delta = {k: now[k] - before[k] for k in now}
@@ -171,7 +171,7 @@ def _kernels_since(before: dict, cell: dict) -> None:
 
 
 def _guard(task, measure, fn) -> dict:
-    from reference._kernels import STATS
+    from reference import KERNEL_STATS as STATS
 
     t0 = time.perf_counter()
     before = STATS.snapshot()
@@ -185,7 +185,7 @@ def _guard(task, measure, fn) -> dict:
 
 
 def _guard_many(task, measures, fn) -> list[dict]:
-    from reference._kernels import STATS
+    from reference import KERNEL_STATS as STATS
 
     t0 = time.perf_counter()
     before = STATS.snapshot()

@@ -60,7 +60,7 @@ def _constraint(task, method, scene, dt, spec, suite) -> dict:
     data = {k: res.get(k) for k in ("final_stretch", "energy_change", "max_energy_change", "t_final",
                                     "iterations", "failed_step")}
     passes = spec.extras.get("constraint", {}).get("iterations", ())
-    if passes and getattr(method, "scheme", None) is not None and method.scheme.constrained:
+    if passes and method.scheme is not None and method.scheme.constrained:
         rows = []
         for k in passes:
             r = constraint_drift(get_method(task.method, {"iterations": k}), scene, dt, steps, every=every,
