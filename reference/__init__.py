@@ -12,20 +12,21 @@ from ._compiled import CLOCKS, integrate_compiled, step_timer, time_per_step
 from ._integrate import integrate
 from ._kernels import STATS as KERNEL_STATS
 from ._scheme import Scheme
-from .explicit_euler import explicit_euler
-from .forest_ruth import forest_ruth
-from .implicit_euler import implicit_euler
-from .implicit_midpoint import implicit_midpoint
-from .leapfrog import leapfrog
 from .method import RefMethod
-from .position_first_euler_decay import position_first_euler_decay_after_kick, position_first_euler_decay_before_kick
-from .rk4 import rk4
-from .semi_implicit_euler import semi_implicit_euler
-from .semi_implicit_euler_position_first import semi_implicit_euler_position_first
-from .semi_implicit_euler_velocity_implicit import semi_implicit_euler_velocity_implicit
-from .velocity_verlet import velocity_verlet
-from .verlet import verlet
-from .verlet_constrained import verlet_constrained
+from .schemes.explicit_euler import explicit_euler
+from .schemes.forest_ruth import forest_ruth
+from .schemes.implicit_euler import implicit_euler
+from .schemes.implicit_midpoint import implicit_midpoint
+from .schemes.leapfrog import leapfrog
+from .schemes.position_first_euler_decay import (position_first_euler_decay_after_kick,
+                                                 position_first_euler_decay_before_kick)
+from .schemes.rk4 import rk4
+from .schemes.semi_implicit_euler import semi_implicit_euler
+from .schemes.semi_implicit_euler_position_first import semi_implicit_euler_position_first
+from .schemes.semi_implicit_euler_velocity_implicit import semi_implicit_euler_velocity_implicit
+from .schemes.velocity_verlet import velocity_verlet
+from .schemes.verlet import verlet
+from .schemes.verlet_constrained import verlet_constrained
 
 METHODS: dict[str, Scheme] = {s.id: s for s in (
     explicit_euler, semi_implicit_euler, semi_implicit_euler_position_first, verlet, velocity_verlet,
