@@ -125,7 +125,8 @@ def engine_version(dist: str) -> str | None:
 
 @dataclass(frozen=True)
 class EngineMode:
-    """One integrator mode of one engine, usable wherever a ``ref:`` method is.
+    """One integrator mode of one engine, usable wherever a ``ref:`` method is: a
+    ``records.Method``, every capability declared (``scheme`` None: no reference scheme behind it).
 
     ``scenes`` lists the scene ids the mode poses; ``unsupported`` gives the reason for every
     scene it cannot pose minimally. ``settings`` describe the mode (each result records the
@@ -153,6 +154,7 @@ class EngineMode:
     counting_run: bool = False
 
     isolated = True
+    scheme = None
 
     #: The loops ``simulate`` can step a model with (module docstring).
     LOOPS = ("engine", "harness")
@@ -181,6 +183,10 @@ class EngineMode:
         if scene.id in self.scenes:
             return True, ""
         return False, self.unsupported.get(scene.id, f"{self.id} has no model of scene {scene.id}")
+
+    def compiled_twin(self) -> "EngineMode":
+        """Itself: an engine mode already runs the engine's own loop."""
+        return self
 
     def _model(self, scene: Scene, dt: float, count: bool = False):
         """(engine module, model of ``scene`` at ``dt``); a scene it does not pose is a ValueError."""

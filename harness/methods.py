@@ -1,70 +1,68 @@
-"""Method ids, one namespace for reference schemes and engine modes.
+"""The method registry: one namespace of ids for reference schemes and engine modes.
 
-``ref:NAME`` is a reference scheme; ``ENGINE:MODE`` (``mujoco:euler``, ``rebound:whfast``, ...)
-is an engine mode from ``adapters``; modules named in ``$HARNESS_PLUGINS`` may add more
-(``load_plugins``). Every method answers the same questions: is it
-available, does it support a scene (and if not, why), and ``simulate(scene, dt, steps, every)``.
+``ref:NAME`` is a reference scheme (``reference.RefMethod``); ``ENGINE:MODE`` (``mujoco:euler``,
+``rebound:whfast``, ...) is an engine mode from ``adapters``; modules named in ``$HARNESS_PLUGINS``
+may add more (``load_plugins``). Every method is a ``records.Method``: it answers the same
+questions (is it available, does it support a scene and if not why, ``simulate(scene, dt, steps,
+every)``) and declares every optional capability; a plugin's method that leaves some out gets
+their defaults here, once, where it is loaded (``as_method``).
 """
 from __future__ import annotations
 
 import importlib
 import os
-from dataclasses import dataclass, field
 
 import adapters
 import reference
-from records import InvalidInput, Trajectory
+from records import InvalidInput, Method, MethodId
+from records.method import OPTIONAL, REQUIRED
+from reference import RefMethod
 from scenarios import Scene
-from scenarios._base import no_solve
 
 
-@dataclass(frozen=True)
-class RefMethod:
-    """A reference scheme as a method. ``options`` are the run-time options the scheme declares
-    (``Scheme.options``: a constrained scheme's projection ``iterations``); unset ones keep the
-    scheme's defaults. ``compiled`` picks the compiled driver (same states, not counted)."""
+class CompletedMethod:
+    """A plugin's method that declares only part of ``records.Method``, with every capability it
+    leaves out set to its default (``records.method.OPTIONAL``; ``family`` from its id;
+    ``compiled_twin()`` itself): the one place where a method's attributes are looked for, so
+    that the rest of the harness reads declared fields. One without a ``REQUIRED`` member is
+    refused (InvalidInput, one line)."""
 
-    scheme: reference.Scheme
-    options: dict = field(default_factory=dict, compare=False)
-    #: Step on the compiled path (``reference.integrate_compiled``): the same states, for runs
-    #: too long to interpret; force evaluations are then not counted.
-    compiled: bool = field(default=False, compare=False)
-
-    @property
-    def id(self) -> str:
-        return f"ref:{self.scheme.id}"
-
-    family = "ref"
-    engine = "reference"
-    isolated = False
+    def __init__(self, inner):
+        missing = [name for name in REQUIRED if not hasattr(inner, name)]
+        if missing:
+            raise InvalidInput(f"method {getattr(inner, 'id', inner)!r} has no {', '.join(missing)} "
+                               f"(a method has {', '.join(REQUIRED)})")
+        self.inner = inner
+        self.id = inner.id
+        self.family = getattr(inner, "family", None) or MethodId.parse(inner.id).family
+        for name, default in OPTIONAL.items():
+            setattr(self, name, getattr(inner, name, default))
+        self._twin = getattr(inner, "compiled_twin", None)
 
     def available(self) -> tuple[bool, str]:
-        return True, ""
+        return self.inner.available()
 
     def supports(self, scene: Scene) -> tuple[bool, str]:
-        if self.scheme.constrained and not scene.constrained:
-            return False, (f"scene {scene.id} has no constraints to project "
-                           f"(without them {self.id} is plain ref:verlet)")
-        if scene.constrained and not self.scheme.constrained:
-            return False, (f"scene {scene.id} is held together by constraints that only a constrained "
-                           f"scheme enforces (ref:verlet_constrained); here its particles would fall freely")
-        if self.scheme.decay and not scene.has_damping_rate:
-            return False, (f"scene {scene.id} has no single linear damping rate for {self.id} to decay "
-                           "(it needs a(x, v) = a(x, 0) - gamma v with one rate gamma)")
-        if self.scheme.implicit and type(scene).solve is no_solve:
-            return False, f"scene {scene.id} provides no implicit solve"
-        return True, ""
+        return self.inner.supports(scene)
 
-    def compiled_twin(self) -> "RefMethod":
-        return RefMethod(self.scheme, self.options, compiled=True)
-
-    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
-        if self.compiled:
-            return reference.integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
-        return reference.integrate(self.scheme, scene, dt, steps, every, **self.options)
+    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1, **kwargs):
+        return self.inner.simulate(scene, dt, steps, every, **kwargs)
 
     def describe(self) -> dict:
-        return {"id": self.id, "family": "ref", **{k: v for k, v in self.scheme.describe().items() if k != "id"}}
+        return self.inner.describe()
+
+    def compiled_twin(self) -> Method:
+        return self if self._twin is None else as_method(self._twin())
+
+    def __repr__(self) -> str:
+        return f"CompletedMethod({self.inner!r})"
+
+
+def as_method(obj) -> Method:
+    """``obj`` itself where it implements all of ``records.Method`` (a ``RefMethod``, an
+    ``EngineMode``), else a :class:`CompletedMethod` around it (it must at least have ``id``,
+    ``available()``, ``supports(scene)``, ``simulate(scene, dt, steps, every)`` and ``describe()``)."""
+    return obj if isinstance(obj, Method) else CompletedMethod(obj)
 
 
 def parse_options(items: list[str] | None) -> dict[str, str]:
@@ -78,8 +76,8 @@ def parse_options(items: list[str] | None) -> dict[str, str]:
     return out
 
 
-def _with_options(method, options: dict) -> object:
-    valid = method.scheme.options if isinstance(method, RefMethod) else {}
+def _with_options(method: Method, options: dict) -> Method:
+    valid = method.scheme.options if method.scheme is not None else {}
     checked = {}
     for name, value in options.items():
         if name not in valid:
@@ -99,7 +97,7 @@ def _with_options(method, options: dict) -> object:
 #: Environment variable naming plugin modules (``module[,module]``) that add methods.
 PLUGINS_ENV = "HARNESS_PLUGINS"
 
-_PLUGIN_METHODS: dict[str, dict] = {}   # module name -> the methods it registered
+_PLUGIN_METHODS: dict[str, dict] = {}   # module name -> the methods it registered, completed (as_method)
 _TASK_PLUGINS: tuple[str, ...] = ()     # in a worker: the plugins its current task names
 
 
@@ -113,10 +111,11 @@ def load_plugins(names) -> dict[str, object]:
     """Import each plugin module once and return the methods they register, by id.
 
     A plugin module defines ``METHODS``, a dict from method id (``family:mode``) to a method
-    object: anything with ``id``, ``family``, ``isolated``, ``available()``, ``supports(scene)``,
-    ``simulate(scene, dt, steps, every)`` and ``describe()``, as an engine mode has
-    (``adapters._base.EngineMode``). ``isolated = True`` steps it in a worker process, so an
-    abort or a hang in it becomes a recorded result."""
+    object: an ``adapters.EngineMode``, or anything with ``id``, ``available()``,
+    ``supports(scene)``, ``simulate(scene, dt, steps, every)`` and ``describe()``, whose other
+    capabilities (``records.Method``) are then given their defaults here (:func:`as_method`).
+    ``isolated = True`` steps it in a worker process, so an abort or a hang in it becomes a
+    recorded result."""
     out: dict[str, object] = {}
     for name in names:
         if name not in _PLUGIN_METHODS:
@@ -129,12 +128,21 @@ def load_plugins(names) -> dict[str, object]:
                 raise InvalidInput(f"{PLUGINS_ENV}: plugin module {name!r} defines no METHODS dict "
                                    "(method id -> method object)")
             for mid, m in methods.items():
-                if getattr(m, "id", None) != mid or ":" not in mid or mid.startswith("ref:"):
+                if getattr(m, "id", None) != mid or _plugin_family(mid) is None:
                     raise InvalidInput(f"{PLUGINS_ENV}: plugin {name!r} registers {mid!r} for a method whose id is "
                                        f"{getattr(m, 'id', None)!r} (ids are family:mode, the family not 'ref')")
-            _PLUGIN_METHODS[name] = dict(methods)
+            _PLUGIN_METHODS[name] = {mid: as_method(m) for mid, m in methods.items()}
         out.update(_PLUGIN_METHODS[name])
     return out
+
+
+def _plugin_family(method_id) -> str | None:
+    """The family of a plugin's method id, None where it is not ``family:mode`` or is ``ref``."""
+    try:
+        mid = MethodId.parse(method_id)
+    except InvalidInput:
+        return None
+    return None if mid.reference else mid.family
 
 
 def use_plugins(names) -> None:
@@ -153,7 +161,7 @@ def active_plugins() -> tuple[str, ...]:
 def all_methods() -> dict[str, object]:
     """Every method id, reference schemes first, then engine modes (available or not), then
     the methods of the plugin modules in ``$HARNESS_PLUGINS``."""
-    out: dict[str, object] = {f"ref:{sid}": RefMethod(s) for sid, s in reference.METHODS.items()}
+    out: dict[str, Method] = {m.id: m for m in map(RefMethod, reference.METHODS.values())}
     out.update(adapters.ENGINE_METHODS)
     for mid, m in load_plugins(active_plugins()).items():
         if mid in out and out[mid] is not m:
@@ -162,7 +170,7 @@ def all_methods() -> dict[str, object]:
     return out
 
 
-def get_method(method_id: str, options: dict | None = None):
+def get_method(method_id: str, options: dict | None = None) -> Method:
     """The method with that id; ``options`` (``{"iterations": 5}``) set a scheme's run-time options."""
     methods = all_methods()
     if method_id not in methods:
@@ -170,7 +178,7 @@ def get_method(method_id: str, options: dict | None = None):
     return _with_options(methods[method_id], options or {})
 
 
-def check_supported(method, scene: Scene) -> None:
+def check_supported(method: Method, scene: Scene) -> None:
     ok, why = method.available()
     if not ok:
         raise InvalidInput(f"method {method.id} is unavailable: {why}")

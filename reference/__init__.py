@@ -1,22 +1,32 @@
-"""Reference integrators: ``METHODS[id]`` is a :class:`Scheme`; ``integrate`` steps one on a scene."""
+"""Reference integrators: ``METHODS[id]`` is a :class:`Scheme`; ``integrate`` steps one on a scene,
+``integrate_compiled`` on its compiled kernel; ``RefMethod`` is a scheme as a method (``records.Method``).
+
+Timing, for the harness's cost measures and benches: ``step_timer`` / ``time_per_step`` time a
+scheme's compiled kernel on ``CLOCKS[name]``, ``KERNEL_STATS`` counts the kernels compiled and
+loaded in this process; ``FLOORS`` / ``floor_timer`` are the hand-written floors (imported, with
+numba, on first use).
+"""
 from __future__ import annotations
 
-from ._compiled import integrate_compiled
+from ._compiled import CLOCKS, integrate_compiled, step_timer, time_per_step
 from ._integrate import integrate
+from ._kernels import STATS as KERNEL_STATS
 from ._scheme import Scheme
-from .explicit_euler import explicit_euler
-from .forest_ruth import forest_ruth
-from .implicit_euler import implicit_euler
-from .implicit_midpoint import implicit_midpoint
-from .leapfrog import leapfrog
-from .position_first_euler_decay import position_first_euler_decay_after_kick, position_first_euler_decay_before_kick
-from .rk4 import rk4
-from .semi_implicit_euler import semi_implicit_euler
-from .semi_implicit_euler_position_first import semi_implicit_euler_position_first
-from .semi_implicit_euler_velocity_implicit import semi_implicit_euler_velocity_implicit
-from .velocity_verlet import velocity_verlet
-from .verlet import verlet
-from .verlet_constrained import verlet_constrained
+from .method import RefMethod
+from .schemes.explicit_euler import explicit_euler
+from .schemes.forest_ruth import forest_ruth
+from .schemes.implicit_euler import implicit_euler
+from .schemes.implicit_midpoint import implicit_midpoint
+from .schemes.leapfrog import leapfrog
+from .schemes.position_first_euler_decay import (position_first_euler_decay_after_kick,
+                                                 position_first_euler_decay_before_kick)
+from .schemes.rk4 import rk4
+from .schemes.semi_implicit_euler import semi_implicit_euler
+from .schemes.semi_implicit_euler_position_first import semi_implicit_euler_position_first
+from .schemes.semi_implicit_euler_velocity_implicit import semi_implicit_euler_velocity_implicit
+from .schemes.velocity_verlet import velocity_verlet
+from .schemes.verlet import verlet
+from .schemes.verlet_constrained import verlet_constrained
 
 METHODS: dict[str, Scheme] = {s.id: s for s in (
     explicit_euler, semi_implicit_euler, semi_implicit_euler_position_first, verlet, velocity_verlet,
@@ -25,4 +35,18 @@ METHODS: dict[str, Scheme] = {s.id: s for s in (
     position_first_euler_decay_before_kick,
 )}
 
-__all__ = ["METHODS", "Scheme", "integrate", "integrate_compiled"]
+#: Public names of ``_floors``, imported on first use: the floors compile with numba, which a
+#: harness command that times nothing need not import.
+_FLOOR_NAMES = ("FLOORS", "floor_timer")
+
+
+def __getattr__(name: str):
+    if name in _FLOOR_NAMES:
+        from . import _floors
+
+        return getattr(_floors, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["METHODS", "Scheme", "RefMethod", "integrate", "integrate_compiled", "CLOCKS", "step_timer",
+           "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from records import InvalidInput
 
-from ._base import Param, Scene, no_velocity_dependence
+from .scene import Param, Scene, no_solve, no_velocity_dependence
 from .chain import Chain
 from .damped_spring import DampedSpring
 from .kepler import Kepler
@@ -38,4 +38,4 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
 
 
 __all__ = ["SCENES", "Scene", "Param", "make_scene", "parse_overrides",
-           "no_velocity_dependence"]
+           "no_solve", "no_velocity_dependence"]

@@ -29,7 +29,7 @@ import math
 import numpy as np
 from scipy.fft import dst, idst
 
-from ._base import Param, Scene
+from .scene import Param, Scene
 from ._oscillator import damped_oscillator
 
 

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from ._base import Param, Scene
+from .scene import Param, Scene
 from ._oscillator import damped_oscillator
 
 

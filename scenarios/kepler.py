@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ._base import Param, Scene, no_velocity_dependence
+from .scene import Param, Scene, no_velocity_dependence
 
 
 def accel(q, v, t, p):

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from ._base import Param, Scene
+from .scene import Param, Scene
 
 
 def accel(q, v, t, p):

@@ -31,8 +31,8 @@ import math
 import numpy as np
 from scipy.linalg import eigh
 
-from ._base import Param, Scene
-from ._reference import SegmentedSolution, cached
+from .scene import Param, Scene
+from ._solutions import SegmentedSolution, cached
 
 
 def accel(q, v, t, p):

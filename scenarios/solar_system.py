@@ -20,8 +20,8 @@ from importlib import resources
 
 import numpy as np
 
-from ._base import Scene
-from ._reference import SegmentedSolution, cached
+from .scene import Scene
+from ._solutions import SegmentedSolution, cached
 
 #: G in AU^3 / (solar mass day^2), the value the data set is given with.
 G = 2.95912208286e-4

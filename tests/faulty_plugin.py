@@ -2,7 +2,7 @@
 
 ``faulty:abort`` aborts the process in its first step (as pymunk does on a negative mass);
 ``faulty:hang`` never returns from its first step (as REBOUND does with dt = 0). Both are
-engine modes like any adapter's, stepped by the same loop (``adapters._base.drive``), so
+engine modes like any adapter's, stepped by the same loop (``adapters.drive``), so
 the nightly meets them exactly where it meets a real engine's failure::
 
     HARNESS_PLUGINS=tests.faulty_plugin harness nightly --suite smoke --cell-timeout 5
@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from adapters._base import EngineMode
+from adapters import EngineMode
 
 HANG_S = 3600.0
 

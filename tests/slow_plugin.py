@@ -1,7 +1,7 @@
 """A ``HARNESS_PLUGINS`` module for the tests: an engine mode whose step slows on demand.
 
 ``slowtest:semi_implicit`` steps the spring by semi-implicit Euler in Python (as a user's
-``velocity_func`` would), through the adapters' own loop (``adapters._base.drive``). With
+``velocity_func`` would), through the adapters' own loop (``adapters.drive``). With
 ``HARNESS_TEST_SLOWDOWN=N`` in the nightly's environment, each step computes its update N times
 on the CPU (the clock the nightly times cost on) and keeps the last: its states, and so every
 accuracy figure, stay bitwise the same while its cost grows. Measured here: the loop's own ~8 us
@@ -18,7 +18,7 @@ import os
 
 import numpy as np
 
-from adapters._base import EngineMode
+from adapters import EngineMode
 
 SLOWDOWN_VAR = "HARNESS_TEST_SLOWDOWN"
 

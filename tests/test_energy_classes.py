@@ -81,7 +81,7 @@ def test_a_random_walk_drifts():
 def test_explicit_euler_over_1e7_days_on_the_outer_solar_system_is_not_bounded():
     """The run that was classed bounded: 1e6 steps of 10 days, compiled. Its |dE/E| saturates
     at 0.92 once the planets have left; a planet is unbound before the end."""
-    from harness.methods import RefMethod
+    from reference import RefMethod
     from reference import METHODS
 
     solar = make_scene("solar_system")

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import adapters
-from adapters._base import output_marks
+from adapters import output_marks
 from scenarios import make_scene
 
 #: (h * omega, steps, every): a stable run, and one past every explicit scheme's stability

@@ -12,7 +12,9 @@ import time
 
 import pytest
 
-from harness.execution.isolation import WorkerFailure, WorkerPool, report_partial, run_in_worker, simulate_isolated
+from harness.execution.isolation import WorkerFailure, run_in_worker
+from harness.execution.pool import WorkerPool, report_partial
+from harness.execution.simulate import simulate_isolated
 from scenarios import make_scene
 
 #: Slack on a timeout: killing and reaping a worker takes milliseconds; a loaded 2-core

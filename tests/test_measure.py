@@ -25,7 +25,7 @@ from harness.measures import workprecision
 from harness.measures.common import started_at
 from harness.measures.frames import frame, order_points_frame
 from harness.cli import main
-from harness.methods import RefMethod
+from reference import RefMethod
 from records import InvalidInput, Trajectory
 from scenarios import make_scene
 from scenarios.pendulum import Pendulum

@@ -1,128 +1,256 @@
-"""records.cell: a Cell converted to its tidy DataFrame row and its SQLite row and back, for the
-figures of every measure, through the history; a history written before the figures were typed
-loads to the same records."""
+"""records/: the divergence test every run asks at every step; method ids parsed once; and the
+one Method protocol every registered method answers in full (reference schemes, engine modes, a
+plugin's modes, and a plugin's method that declares only the least a method must have)."""
 from __future__ import annotations
 
-import json
-import math
-from dataclasses import fields
+import re
+import sys
+import types
+from collections.abc import Mapping
+from pathlib import Path
 
+import numpy as np
 import pytest
 
-from records.cell import CELL_COLUMNS, FIGURES, Cell, Claims, EnergyFigures, IdentityFigures
+import adapters
+import reference
+from harness import methods as registry
+from harness.measures import energy
+from records import REFERENCE, InvalidInput, Method, MethodId, is_reference, scheme_name
+from records.method import OPTIONAL
+from records.trajectory import DIVERGED, diverged
+from reference import RefMethod
+from scenarios import make_scene
 
-from harness.history.storage import History
-
-
-def _sample(kind: str, i: int):
-    """A distinct value of the annotated type ``kind`` for the i-th field."""
-    if kind.startswith("str"):
-        return f"text {i}"
-    if kind.startswith("bool"):
-        return i % 2 == 0
-    if kind.startswith("int"):
-        return i + 1
-    if kind.startswith("float"):
-        return 0.25 + i
-    if kind.startswith("list"):
-        return [0.5 * i, {"row": i, "ok": True}]
-    if kind.startswith("dict"):
-        return {"key": i, "nested": [1.5, None]}
-    if kind.startswith("Claims"):
-        return CLAIMS
-    return {"any": i}
+ROOT = Path(__file__).resolve().parents[1]
+PLUGINS = "tests.faulty_plugin,tests.slow_plugin"
 
 
-CLAIMS = Claims(scheme="ref:leapfrog", order=2, order_note=None, force_evals=1, force_evals_text="1",
-                energy="bounded", homega_max=2.0)
+# --------------------------------------------------------------------------- divergence
+def componentwise(q, v) -> bool:
+    """The rule, spelled out: some component not finite, or beyond DIVERGED."""
+    x = np.concatenate([np.ravel(q), np.ravel(v)])
+    return bool(np.any(~np.isfinite(x)) or np.any(np.abs(x) > DIVERGED))
 
 
-def full_figures(measure: str):
-    """The figures of ``measure`` with every field set."""
-    cls = FIGURES[measure]
-    return cls(**{f.name: _sample(str(f.type), i) for i, f in enumerate(fields(cls))})
+@pytest.mark.parametrize("value", [0.0, 1.0, -3e99, DIVERGED, -DIVERGED, np.nextafter(DIVERGED, np.inf), 1e101,
+                                   1e160, -1e200, np.inf, -np.inf, np.nan])
+@pytest.mark.parametrize("where", ["q", "v"])
+def test_diverged_is_the_componentwise_rule(value, where):
+    """Edge values in either half of the state (NaN in v alone included), among ordinary ones."""
+    q, v = np.array([0.5, -2.0, 1e3]), np.array([0.1, 7.0, -1e-300])
+    (q if where == "q" else v)[1] = value
+    assert diverged(q, v) == componentwise(q, v)
 
 
-def full_cell(measure: str) -> Cell:
-    return Cell(scene="chain", method="mujoco:discrete", family="mujoco", measure=measure, status="ok",
-                params={"N": 8}, dt=0.01, steps=1000, value=1.25e-3, wall_s=0.5, detail="measured",
-                figures=full_figures(measure), claims=CLAIMS, kernels={"kernels_compiled": 1, "compile_s": 0.5},
-                extra={"unlisted": [1, 2]})
+def test_diverged_agrees_with_the_rule_on_random_states_across_every_scale():
+    """Many components each just under DIVERGED (their squares' sum passes the fast bound, so the
+    componentwise test decides), and random magnitudes from 1e-300 to 1e300."""
+    rng = np.random.default_rng(7)
+    q = np.full(100, 0.99 * DIVERGED)
+    assert not diverged(q, np.zeros(3)) and not componentwise(q, np.zeros(3))
+    for _ in range(2000):
+        n = rng.integers(1, 12)
+        q = rng.choice([-1, 1], n) * 10.0 ** rng.uniform(-300, 300, n)
+        v = rng.choice([-1, 1], (n, 2)) * 10.0 ** rng.uniform(-300, 300, (n, 2))
+        assert diverged(q, v) == componentwise(q, v)
 
 
-@pytest.mark.parametrize("measure", sorted(FIGURES))
-def test_every_measures_cell_survives_its_rows(measure):
-    cell = full_cell(measure)
-    assert all(getattr(cell.figures, f.name) is not None for f in fields(cell.figures))
-    assert Cell.from_row(cell.to_row()) == cell
-    db = cell.to_db_row()
-    assert list(db) == list(CELL_COLUMNS) and isinstance(db["data"], str)
-    assert Cell.from_db_row(db) == cell
-    # The stored data is one flat dict: the figures under their keys beside claims, kernels,
-    # params and the extra keys.
-    data = json.loads(db["data"])
-    assert {"claims", "kernels", "params", "unlisted"} <= set(data)
-    assert set(data) - {"claims", "kernels", "params", "unlisted"} == set(type(cell.figures).stored_keys())
+# --------------------------------------------------------------------------- MethodId
+@pytest.mark.parametrize("text, family, name", [
+    ("ref:rk4", "ref", "rk4"),
+    ("mujoco:implicitfast", "mujoco", "implicitfast"),
+    ("plugin:mode:with:colons", "plugin", "mode:with:colons"),  # only the first colon splits
+])
+def test_method_id_parses_family_and_name(text, family, name):
+    mid = MethodId.parse(text)
+    assert (mid.family, mid.name, str(mid)) == (family, name, text)
+    assert mid.reference == (family == REFERENCE) == is_reference(text)
+    assert scheme_name(text) == (name if family == REFERENCE else None)
 
 
-@pytest.mark.parametrize("measure", sorted(FIGURES))
-def test_every_measures_cell_survives_the_history(tmp_path, measure):
-    h = History(tmp_path / "h.sqlite")
-    run = h.start_run(started="now", suite="smoke", git_commit=None, versions={}, machine={}, settings={})
-    cell = full_cell(measure)
-    h.add_cell(run, cell)
-    (back,) = h.cell_records(run)
-    assert back == cell
-    frame = h.cells(run)
-    assert Cell.from_row(frame.iloc[0]) == cell
-    assert list(frame.columns) == ["run_id", *CELL_COLUMNS]
+@pytest.mark.parametrize("text", ["rk4", ":rk4", "ref:", "", "ref"])
+def test_a_method_id_without_family_and_name_is_a_one_line_error(text):
+    with pytest.raises(InvalidInput) as exc:
+        MethodId.parse(text)
+    message = str(exc.value)
+    assert "\n" not in message and repr(text) in message and "family:name" in message
 
 
-def test_a_failed_cell_stores_no_figures_and_reads_back_empty(tmp_path):
-    cell = Cell(scene="spring", method="faulty:abort", family="faulty", measure="energy", status="crashed",
-                detail="SIGABRT")
-    assert cell.figures == EnergyFigures() and cell.data() == {}
-    h = History(tmp_path / "h.sqlite")
-    run = h.start_run(started="now", suite="smoke", git_commit=None, versions={}, machine={}, settings={})
-    h.add_cell(run, cell)
-    (back,) = h.cell_records(run)
-    assert back == cell and back.dt is None and back.steps is None and back.value is None
+def test_scheme_name_of_anything_but_a_reference_id_is_none():
+    assert scheme_name(None) is None and scheme_name("refx:rk4") is None and not is_reference("refx:rk4")
+    assert scheme_name("ref:semi_implicit_euler") == "semi_implicit_euler"
 
 
-def test_a_history_written_before_the_figures_were_typed_loads():
-    """The row as the nightly stored it before: every figure written, None ones as null, the
-    energy class under ``class``, claims beside them, an empty dict where no scheme is known."""
-    old = {"scene": "spring", "method": "mujoco:euler", "family": "mujoco", "measure": "identity", "dt": 0.1,
-           "steps": 200, "status": "ok", "detail": None, "value": 0.0, "wall_s": None,
-           "data": json.dumps({"match": "ref:semi_implicit_euler", "matches": ["ref:semi_implicit_euler"],
-                               "closest": "ref:semi_implicit_euler", "runner_up": "ref:leapfrog",
-                               "runner_up_deviation": 0.003, "name_suggests": None, "note": None,
-                               "match_claims": {"order": 1, "force_evals": 1, "force_evals_text": "1",
-                                                "energy": "bounded", "homega_max": 2.0,
-                                                "scheme": "ref:semi_implicit_euler"},
-                               "claims": {}})}
-    cell = Cell.from_db_row(old)
-    assert cell.figures == IdentityFigures(
-        match="ref:semi_implicit_euler", matches=["ref:semi_implicit_euler"], closest="ref:semi_implicit_euler",
-        runner_up="ref:leapfrog", runner_up_deviation=0.003,
-        match_claims=Claims(scheme="ref:semi_implicit_euler", order=1, force_evals=1, force_evals_text="1",
-                            energy="bounded", homega_max=2.0))
-    assert cell.claims == Claims() and not cell.claims.known and cell.extra == {}
-    assert cell.detail == "" and cell.wall_s == 0.0 and cell.steps == 200
-    assert cell.figures.all_matches == ["ref:semi_implicit_euler"]
-    energy = Cell.from_row({"scene": "spring", "method": "ref:rk4", "family": "ref", "measure": "energy",
-                            "status": "ok", "value": 2.5e-6, "steps": 1000.0, "dt": float("nan"),
-                            "data": {"class": "decays", "rule": "trend", "failed_step": None, "settings": None}})
-    assert energy.figures.energy_class == "decays" and energy.figures.failed_step is None
-    assert energy.dt is None and energy.steps == 1000 and energy.claims is None
-    assert energy.data() == {"class": "decays", "rule": "trend"}
+# --------------------------------------------------------------------------- the protocol
+class Partial:
+    """A plugin's method with only what every method must have (README: ``id``, ``available()``,
+    ``supports(scene)``, ``simulate(...)``, ``describe()``): semi-implicit Euler underneath."""
+
+    id = "partial:semi_implicit"
+
+    def available(self):
+        return True, ""
+
+    def supports(self, scene):
+        return (True, "") if scene.id == "spring" else (False, "spring only")
+
+    def simulate(self, scene, dt, steps, every=1):
+        traj = reference.integrate(reference.METHODS["semi_implicit_euler"], scene, dt, steps, every)
+        traj.method = self.id
+        return traj
+
+    def describe(self):
+        return {"id": self.id, "family": "partial"}
 
 
-def test_claims_store_none_as_a_claim():
-    """Explicit Euler claims no stable h*omega: a None that is stored, unlike a missing figure."""
-    claims = Claims(scheme="ref:explicit_euler", order=1, force_evals=1, force_evals_text="1", energy="grows",
-                    homega_max=None)
-    assert claims.to_data()["homega_max"] is None and "order_note" not in claims.to_data()
-    assert Claims.from_data(claims.to_data())[0] == claims
-    inf = Claims(scheme="ref:implicit_euler", homega_max=math.inf)
-    assert Cell.from_db_row(Cell("s", "m", "ref", "cost", claims=inf).to_db_row()).claims.homega_max == math.inf
+@pytest.fixture
+def with_plugins(monkeypatch):
+    """The two test plugins and a partial one, loaded as ``$HARNESS_PLUGINS`` loads them."""
+    module = types.ModuleType("partial_plugin_for_tests")
+    module.METHODS = {Partial.id: Partial()}
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    monkeypatch.setattr(registry, "_PLUGIN_METHODS", {})
+    monkeypatch.setenv(registry.PLUGINS_ENV, f"{PLUGINS},{module.__name__}")
+    return registry.all_methods()
+
+
+def test_every_registered_method_answers_every_capability(with_plugins):
+    methods = with_plugins
+    assert {"ref:rk4", "mujoco:euler", "faulty:abort", "slowtest:semi_implicit", Partial.id} <= set(methods)
+    for mid, m in methods.items():
+        assert isinstance(m, Method), mid
+        assert m.id == mid and m.family == MethodId.parse(mid).family, mid
+        assert (m.scheme is not None) == is_reference(mid), mid
+        assert m.scheme is None or m.scheme is reference.METHODS[scheme_name(mid)], mid
+        assert all(isinstance(getattr(m, flag), bool) for flag in ("isolated", "adaptive", "counting_run")), mid
+        assert isinstance(m.no_match, Mapping) and isinstance(m.LOOPS, tuple), mid
+        assert m.one_steps is None or callable(m.one_steps), mid
+        assert m.timed_run is None or callable(m.timed_run), mid
+        twin = m.compiled_twin()
+        assert isinstance(twin, Method) and twin.id == mid, mid
+        info = m.describe()
+        assert info["id"] == mid and info["family"] == m.family, mid
+
+
+def test_reference_methods_declare_in_process_fixed_step_and_a_compiled_twin():
+    for sid, scheme in reference.METHODS.items():
+        m = registry.get_method(f"ref:{sid}")
+        assert isinstance(m, RefMethod) and m.scheme is scheme and m.family == REFERENCE
+        assert (m.isolated, m.adaptive, m.counting_run, m.LOOPS, m.one_steps, m.timed_run) == \
+               (False, False, False, (), None, None)
+        assert dict(m.no_match) == {}
+        twin = m.compiled_twin()
+        assert twin.compiled and not m.compiled and twin.scheme is scheme
+
+
+def test_the_compiled_twin_steps_the_same_states():
+    # Bitwise on the spring: the compiled kernel is generated from the same step function.
+    spring = make_scene("spring")
+    m = registry.get_method("ref:rk4")
+    interpreted, compiled = m.simulate(spring, 0.1, 200, 7), m.compiled_twin().simulate(spring, 0.1, 200, 7)
+    np.testing.assert_array_equal(interpreted.q, compiled.q)
+    np.testing.assert_array_equal(interpreted.v, compiled.v)
+    assert interpreted.force_evals == 4 * 200 and compiled.force_evals is None
+
+
+def test_engine_modes_declare_no_scheme_their_loops_and_themselves_as_twin():
+    for mid, m in adapters.ENGINE_METHODS.items():
+        assert m.scheme is None and m.isolated and m.compiled_twin() is m, mid
+        assert m.LOOPS == ("engine", "harness") and callable(m.one_steps) and callable(m.timed_run), mid
+        # Only IAS15 picks its own steps; the counting run is where the counter is a callback.
+        assert m.adaptive == (mid == "rebound:ias15"), mid
+        assert m.counting_run == (m.engine == "rebound" or mid in ("pymunk:spring_force", "pymunk:applied_force"))
+
+
+def test_a_plugin_that_builds_on_engine_mode_is_used_as_it_is(with_plugins):
+    for mid in ("faulty:abort", "faulty:hang", "slowtest:semi_implicit"):
+        assert isinstance(with_plugins[mid], adapters.EngineMode)
+
+
+def test_a_partial_plugin_method_gets_the_defaults_once_where_it_is_loaded(with_plugins):
+    m = with_plugins[Partial.id]
+    assert isinstance(m, registry.CompletedMethod) and isinstance(m.inner, Partial)
+    assert m.family == "partial" and m.compiled_twin() is m
+    assert {name: getattr(m, name) for name in OPTIONAL} == dict(OPTIONAL)
+    assert registry.get_method(Partial.id) is m  # loaded once, completed once
+    # The measures take it as they take an engine mode: stepped in this process, nothing declared.
+    res = energy.energy_behaviour(Partial.id, make_scene("spring"), 0.1, 1000)
+    ref = energy.energy_behaviour("ref:semi_implicit_euler", make_scene("spring"), 0.1, 1000)
+    assert res["status"] == "ok" and res["classification"] == ref["classification"] == "bounded"
+    assert res["max_rel_error"] == ref["max_rel_error"] and res["state_error_max"] == ref["state_error_max"]
+
+
+def test_a_plugin_may_not_register_a_reference_id_or_a_bare_name(monkeypatch):
+    for bad in ("ref:rk4", "rk4"):
+        module = types.ModuleType("bad_plugin_for_tests")
+        inner = Partial()
+        inner.id = bad
+        module.METHODS = {bad: inner}
+        monkeypatch.setitem(sys.modules, module.__name__, module)
+        monkeypatch.setattr(registry, "_PLUGIN_METHODS", {})
+        with pytest.raises(InvalidInput, match="ids are family:mode, the family not 'ref'") as exc:
+            registry.load_plugins([module.__name__])
+        assert "\n" not in str(exc.value)
+
+
+def test_a_plugin_method_without_what_every_method_must_have_is_a_one_line_error(monkeypatch):
+    module = types.ModuleType("incomplete_plugin_for_tests")
+    inner = types.SimpleNamespace(id="incomplete:mode", available=lambda: (True, ""))
+    module.METHODS = {inner.id: inner}
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    monkeypatch.setattr(registry, "_PLUGIN_METHODS", {})
+    with pytest.raises(InvalidInput) as exc:
+        registry.load_plugins([module.__name__])
+    assert str(exc.value) == ("method 'incomplete:mode' has no supports, simulate, describe "
+                              "(a method has id, available, supports, simulate, describe)")
+
+
+def test_an_unknown_method_is_a_one_line_error_naming_the_valid_ones():
+    with pytest.raises(InvalidInput) as exc:
+        registry.get_method("ref:no_such_scheme")
+    message = str(exc.value)
+    assert "\n" not in message and "'ref:no_such_scheme'" in message and "ref:rk4" in message
+    assert "mujoco:euler" in message
+
+
+def test_a_nightly_task_resolves_its_method_once(monkeypatch):
+    """``run_task`` looks the task's method up once and hands the object on (its measures, the
+    list of measures); the cost cell's explicit-Euler baseline is looked up once too."""
+    from harness.execution import isolation
+    from harness.nightly.cells import run_task
+    from harness.nightly.run import build_tasks
+    from harness.nightly.suites import SUITES
+
+    looked_up = []
+    real = registry.get_method
+
+    def counting(method_id, options=None):
+        looked_up.append(method_id)
+        return real(method_id, options)
+
+    monkeypatch.setattr(registry, "get_method", counting)
+    monkeypatch.setattr(isolation, "IN_WORKER", True)  # as in a nightly worker
+    tasks, _ = build_tasks(SUITES["smoke"])
+    task = next(t for t in tasks if t.kind == "cell" and t.method == "ref:semi_implicit_euler")
+    cells = run_task(task)
+    assert {c["measure"] for c in cells} >= {"energy", "error", "order", "cost"}
+    assert all(c["status"] == "ok" for c in cells), [(c["measure"], c["detail"]) for c in cells]
+    assert looked_up.count(task.method) == 1 and looked_up.count("ref:explicit_euler") == 1, looked_up
+
+
+# --------------------------------------------------------------------------- private modules
+PRIVATE_IMPORT = re.compile(r"^\s*(?:from|import)\s+((?:reference|adapters|scenarios|harness|reports|records)"
+                            r"(?:\.[a-z_]+)*\._[a-z_]+)", re.M)
+
+
+def test_no_package_imports_another_packages_private_module():
+    offenders = []
+    for path in ROOT.rglob("*.py"):
+        rel = path.relative_to(ROOT)
+        if rel.parts[0] in ("tests", ".venv", "build") or rel.parts[0].startswith("."):
+            continue
+        for module in PRIVATE_IMPORT.findall(path.read_text()):
+            if module.split(".")[0] != rel.parts[0]:
+                offenders.append(f"{rel}: {module}")
+    assert offenders == []

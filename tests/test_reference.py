@@ -220,7 +220,7 @@ def test_implicit_midpoint_conserves_spring_energy():
 
 
 def test_forest_ruth_coefficient():
-    from reference.forest_ruth import THETA
+    from reference.schemes.forest_ruth import THETA
 
     assert THETA == pytest.approx(1.3512071919596578, rel=1e-15)
     # Yoshida's condition for the triple jump theta, 1 - 2 theta, theta to cancel the third-order

@@ -9,7 +9,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from harness.cli import main
-from harness.methods import RefMethod, get_method
+from harness.methods import get_method
+from reference import RefMethod
 from reference import METHODS, integrate
 from records import InvalidInput
 from scenarios import make_scene

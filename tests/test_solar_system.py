@@ -110,7 +110,7 @@ def test_reference_energy_classes_over_the_whole_study(solar):
     Measured max |dE/E| (first-tenth / last-tenth envelopes): leapfrog 4.08e-6, velocity Verlet
     8.42e-6, Forest-Ruth 2.56e-9, semi-implicit Euler 1.14e-3, all bounded; RK4 4.7e-9 decays
     (4.4e-10 / 4.7e-9, secular rate -2.4e-14 per day); explicit Euler 0.66 grows."""
-    from harness.methods import RefMethod
+    from reference import RefMethod
 
     expected = {"leapfrog": "bounded", "velocity_verlet": "bounded", "forest_ruth": "bounded",
                 "semi_implicit_euler": "bounded", "rk4": "decays", "explicit_euler": "grows"}

@@ -38,7 +38,7 @@ import numpy as np
 
 from scenarios import Scene, make_scene
 
-from reference._compiled import CLOCKS
+from reference import CLOCKS
 
 from harness.measures.cost import HARNESS_TIME_STEPS, _Timing
 

@@ -15,9 +15,7 @@ semi-implicit Euler at most ``SIE_SINGLE_TARGET_NS`` per step on one spring and
 """
 from __future__ import annotations
 
-from reference import METHODS
-from reference._compiled import CLOCKS, step_timer
-from reference._floors import FLOORS, floor_timer
+from reference import CLOCKS, FLOORS, METHODS, floor_timer, step_timer
 from scenarios import make_scene
 
 FLOOR_RATIO_TARGET = 2.0

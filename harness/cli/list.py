@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import json
 
+from records import is_reference
+
 from scenarios import SCENES
 
 from harness.methods import all_methods
@@ -44,7 +46,7 @@ def run(args) -> int:
         print(f"  {'':16s} omega={s['omega']:.4g}  params: {params}")
     print("\nMethods")
     for mid, m in cat["methods"].items():
-        if m["family"] == "ref":
+        if is_reference(mid):
             line = (f"order {m['order']}, {m['force_evals']} eval/step, "
                     f"{'symplectic' if m['symplectic'] else 'not symplectic'}, "
                     f"{'implicit' if m['implicit'] else 'explicit'}, energy {m['energy']}, h*w max {m['homega_max']}")

@@ -38,15 +38,15 @@ error names the worker and the difference.
 """
 from __future__ import annotations
 
-import hashlib
 import logging
 import os
 import re
 import time
 import uuid
-from pathlib import Path
 
 from records import InvalidInput
+
+from harness.execution.environment import environment
 
 #: The environment variable read when ``--scheduler`` is not given.
 ENV_VAR = "HARNESS_SCHEDULER"
@@ -66,12 +66,6 @@ POLL_S = 1.0
 
 #: Address schemes a Dask scheduler listens on.
 SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
-
-#: Packages whose version must agree between the client and every worker (results depend on them).
-COMPARED_PACKAGES = ("numpy", "scipy", "numba", "mujoco", "pybullet", "pymunk", "rebound")
-
-#: The project's packages whose code a worker runs; their digest must match the client's.
-CODE_PACKAGES = ("records", "scenarios", "reference", "adapters", "harness")
 
 _ADDRESS = re.compile(r"^(?:(?P<scheme>[a-z]+)://)?(?P<host>\[[0-9a-fA-F:]+\]|[A-Za-z0-9_.-]+):(?P<port>\d+)/?$")
 _FORMS = f"local:N (N >= 1 worker processes) or a scheduler address [SCHEME://]HOST:PORT (schemes: {', '.join(SCHEMES)})"
@@ -126,36 +120,6 @@ def run_cell_task(task, timeout):
     from harness.execution.isolation import run_in_worker
 
     return run_in_worker(run_task, (task,), timeout=timeout)
-
-
-def code_digest() -> str:
-    """SHA-256 over the project's package files (path and content), to tell two copies apart."""
-    root = Path(__file__).resolve().parents[2]
-    h = hashlib.sha256()
-    for pkg in CODE_PACKAGES:
-        for path in sorted((root / pkg).rglob("*")):
-            if path.suffix in (".py", ".csv", ".toml") and "__pycache__" not in path.parts:
-                h.update(str(path.relative_to(root)).encode())
-                h.update(path.read_bytes())
-    return h.hexdigest()[:16]
-
-
-def environment() -> dict:
-    """What a process would compute cells with: compared between the client and each worker."""
-    import multiprocessing
-    import platform
-    from importlib import metadata
-
-    from harness.history.storage import MEASUREMENT_VERSION
-
-    packages = {}
-    for pkg in COMPARED_PACKAGES:
-        try:
-            packages[pkg] = metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            packages[pkg] = None
-    return {"python": ".".join(platform.python_version_tuple()[:2]), "measurement version": MEASUREMENT_VERSION,
-            "code digest": code_digest(), **packages, "daemon": multiprocessing.current_process().daemon}
 
 
 def _allowed_failures(dask_scheduler=None):

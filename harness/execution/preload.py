@@ -3,8 +3,7 @@ with its import-time output silenced, so that each worker forked from the server
 the engines loaded (importing MuJoCo alone takes about 0.3 s)."""
 import contextlib
 
-from adapters import ENGINE_METHODS
-from adapters._base import import_engine
+from adapters import ENGINE_METHODS, import_engine
 
 for _module in sorted({m.module for m in ENGINE_METHODS.values()}):
     with contextlib.suppress(Exception):

@@ -30,38 +30,18 @@ and one noisy night is not a step.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import pandas as pd
 
 from records import InvalidInput
 
 from harness.history import bounds as bounds_mod
+from harness.history.regression import Regression
 from harness.history.storage import History
 
 ORDER_DROP = 0.3
 STABILITY_DROP = 0.01
 PROCESS_SPREAD = 0.5
-
-
-@dataclass(frozen=True)
-class Regression:
-    kind: str
-    scene: str
-    method: str
-    measure: str
-    dt: float | None
-    before: object
-    after: object
-    detail: str
-
-    def line(self) -> str:
-        where = f"{self.method} on {self.scene}" + (f" at dt={self.dt:g}" if self.dt is not None else "")
-        return f"{self.kind}: {where}: {self.detail}"
-
-    def as_dict(self) -> dict:
-        return {"kind": self.kind, "scene": self.scene, "method": self.method, "measure": self.measure,
-                "dt": self.dt, "before": self.before, "after": self.after, "detail": self.detail}
 
 
 def _key(row) -> tuple:

@@ -31,6 +31,7 @@ import pandas as pd
 from records import InvalidInput
 
 from harness.history import step_detect
+from harness.history.regression import Regression
 from harness.history.storage import MEASUREMENT_VERSION, History
 
 MEASURES = ("energy", "error", "order", "stability", "cost")
@@ -97,7 +98,7 @@ class CellHistory:
     points: list[Point]
     fit: step_detect.Fit | None = None
     changes: list[Change] = field(default_factory=list)
-    regression: object | None = None   # a harness.history.compare.Regression
+    regression: Regression | None = None
 
     @property
     def key(self) -> tuple:
@@ -340,8 +341,6 @@ def _cell_history(rows: list[dict], runs: dict[int, dict], judged: bool) -> Cell
                                    st.confidence))
     found = fit.regression(worse_up)
     if found is not None:
-        from harness.history.compare import Regression
-
         index, before, after = found
         since = ok[index]
         steps = [c for c in cell.changes if c.run_id >= since.run_id]

@@ -428,7 +428,7 @@ def candidates(scene: Scene, patterns: list[str] | None) -> tuple[list[str], lis
         ok, why = m.available()
         if ok:
             ok, why = m.supports(scene)
-        if ok and getattr(m, "adaptive", False):
+        if ok and m.adaptive:
             ok, why = False, "chooses its own steps: substeps do not apply"
         (keep.append(mid) if ok else left.append({"method": mid, "reason": why}))
     return keep, left
@@ -448,7 +448,8 @@ def advise(scene: Scene, request: Request, patterns: list[str] | None = None, *,
     ranked."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from harness.execution.isolation import WorkerFailure, WorkerPool
+    from harness.execution.isolation import WorkerFailure
+    from harness.execution.pool import WorkerPool
     from harness.methods import active_plugins
 
     request = request.checked()

@@ -2,8 +2,9 @@
 runner, and turning results into JSON-ready dicts and tidy DataFrames.
 
 Every measure is a plain function ``measure(method, scene, **settings) -> dict``: the
-method is an id (``ref:rk4``, ``mujoco:euler``) or a method object (anything with
-``id``, ``available()``, ``supports(scene)`` and ``simulate(scene, dt, steps, every)``),
+method is an id (``ref:rk4``, ``mujoco:euler``) or a method object (a ``records.Method``, or
+anything with ``id``, ``available()``, ``supports(scene)``, ``simulate(scene, dt, steps, every)``
+and ``describe()``, its other capabilities then defaulted by ``harness.methods.as_method``),
 the scene is a :class:`scenarios.Scene`. Methods are always stepped through
 :func:`harness.execution.simulate.simulate`, so engine modes run isolated exactly as in ``harness run``.
 Results are plain dicts; :mod:`harness.measures.frames` turns them into JSON and DataFrames.
@@ -14,26 +15,25 @@ import copy
 
 import numpy as np
 
-from records import InvalidInput, Trajectory
+from records import InvalidInput, Method, Trajectory
 
 from scenarios import Scene, make_scene
 
-from harness.methods import check_supported, get_method
+from harness.methods import as_method, check_supported, get_method
 from harness.execution.simulate import simulate
 
 
-def resolve(method, scene: Scene):
+def resolve(method, scene: Scene) -> Method:
     """The method object for ``method`` (an id or an object), checked against ``scene``."""
-    if isinstance(method, str):
-        method = get_method(method)
+    method = get_method(method) if isinstance(method, str) else as_method(method)
     check_supported(method, scene)
     return method
 
 
-def require_fixed_step(method, measure: str) -> None:
+def require_fixed_step(method: Method, measure: str) -> None:
     """An adaptive method (IAS15) picks its own steps and takes dt as its output interval, so
     a measure of behaviour against dt does not apply: say so before stepping anything."""
-    if getattr(method, "adaptive", False):
+    if method.adaptive:
         raise InvalidInput(f"method {method.id} chooses its own steps (dt is only its output interval): "
                            f"{measure} against dt does not apply")
 
@@ -42,11 +42,11 @@ def step(method, scene: Scene, dt: float, steps: int, every: int = 1, timeout: f
     return simulate(method, scene, float(dt), int(steps), int(every), timeout=timeout)
 
 
-def declared_order(method, scene: Scene | None = None) -> int | None:
+def declared_order(method: Method, scene: Scene | None = None) -> int | None:
     """The order a method declares (a reference scheme's ``order``, or on a ``scene`` whose force
     depends on the velocity its ``order_velocity_dependent``; ``order`` in an engine mode's
     ``describe()``), or None."""
-    scheme = getattr(method, "scheme", None)
+    scheme = method.scheme
     if scheme is not None:
         return int(scheme.order_for(scene is not None and scene.velocity_dependent))
     order = method.describe().get("order")

@@ -57,8 +57,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from records import Method
+
 import reference
-from reference._compiled import CLOCKS, step_timer, time_per_step
+from reference import CLOCKS, step_timer, time_per_step
 
 from scenarios import Scene
 
@@ -87,8 +89,7 @@ def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_S
     method = resolve(method, scene)
     traj = step(method, scene, dt, steps, steps, timeout)
     ran = traj.meta.get("steps_run", steps if traj.ok else (traj.failed_step or 1) - 1)
-    if traj.force_evals is None and ran > 0 and traj.status in ("ok", "unstable") and \
-            getattr(method, "counting_run", False):
+    if traj.force_evals is None and ran > 0 and traj.status in ("ok", "unstable") and method.counting_run:
         counted = method.simulate(scene, dt, ran, ran, count=True)
         if counted.force_evals is not None:
             traj = counted
@@ -100,7 +101,7 @@ def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_S
         out["force_evals_per_step"] = traj.force_evals / ran
         out["start_force_evals"] = traj.meta.get("start_force_evals")
     out["solves_per_step"] = None if traj.solves is None or ran <= 0 else traj.solves / ran
-    scheme = getattr(method, "scheme", None)
+    scheme = method.scheme
     if scheme is not None:
         out["declared_force_evals"] = scheme.force_evals
         out["declared_implicit"] = scheme.implicit
@@ -120,9 +121,9 @@ class _Timing:
     """One method's timing by the module's rule, a repeat at a time (so that two methods'
     repeats can be interleaved)."""
 
-    def __init__(self, method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine"):
+    def __init__(self, method: Method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine"):
         self.now = CLOCKS[clock]
-        self.scheme = getattr(method, "scheme", None)
+        self.scheme = method.scheme
         self.times, self.empty = [], []
         self.loop, self.engine_loop = loop, None
         if self.scheme is not None:
@@ -158,9 +159,8 @@ class _Timing:
     def _run_s(self, n: int) -> float:
         """Seconds of one run of n steps: the run alone where the mode can time it (an engine
         mode's ``timed_run``, its model built off the clock), else the whole ``simulate``."""
-        timed_run = getattr(self.method, "timed_run", None)
-        if timed_run is not None:
-            return timed_run(self.scene, self.dt, n, self.now, self.loop)
+        if self.method.timed_run is not None:
+            return self.method.timed_run(self.scene, self.dt, n, self.now, self.loop)
         t = self.now()
         self._simulate(n)
         return self.now() - t
@@ -183,9 +183,9 @@ class _Timing:
         return out
 
 
-def _steppable_per_step(method) -> bool:
+def _steppable_per_step(method: Method) -> bool:
     """An engine mode with a per-step path to time beside its own loop (``EngineMode.LOOPS``)."""
-    return getattr(method, "scheme", None) is None and "harness" in getattr(method, "LOOPS", ())
+    return method.scheme is None and "harness" in method.LOOPS
 
 
 def wall_time_per_step(method, scene: Scene, dt: float, *, steps: int | None = None,
@@ -220,7 +220,8 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     timing = _Timing(method, scene, dt, time_steps, clock)
     from harness.methods import get_method
 
-    ok, why = get_method(BASELINE).supports(scene)
+    baseline_method = get_method(BASELINE)
+    ok, why = baseline_method.supports(scene)
     if not ok:  # a constrained scene (the rope): no explicit-Euler run to compare with
         for _ in range(repeats):
             timing.repeat()
@@ -232,7 +233,7 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     # A reference scheme and its baseline run the same compiled loop length: a shorter loop
     # carries more of the call's fixed cost per step (1.3x per step at 2,000 steps, measured).
     base_steps = timing.n if timing.scheme is not None else REF_TIME_STEPS
-    base = _Timing(resolve(BASELINE, scene), scene, dt, base_steps, clock)
+    base = _Timing(baseline_method, scene, dt, base_steps, clock)
     for _ in range(repeats):
         timing.repeat()
         base.repeat()

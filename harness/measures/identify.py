@@ -17,11 +17,12 @@ import math
 
 import numpy as np
 
-from records import Trajectory
+from records import REFERENCE, MethodId, Trajectory
 
 from scenarios import Scene
 from records.trajectory import OK, UNSTABLE
 
+from harness.measures.common import resolve
 from harness.methods import all_methods
 from harness.execution.simulate import simulate
 
@@ -56,6 +57,7 @@ def max_deviation(a: Trajectory, b: Trajectory) -> float:
 def identify(method, scene: Scene, dt: float | None = None, steps: int | None = None,
              timeout: float | None = None) -> dict:
     """Rank every reference scheme by its deviation from ``method`` on ``scene``."""
+    method = resolve(method, scene)
     dt = default_dt(scene) if dt is None else dt
     steps = default_steps() if steps is None else steps
     run = simulate(method, scene, dt, steps, 1, timeout=timeout)
@@ -68,9 +70,9 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     tolerance = MATCH_RTOL * scale
     candidates = []
     for mid, ref in all_methods().items():
-        if getattr(ref, "family", None) != "ref" or mid == method.id or not ref.supports(scene)[0]:
+        if ref.family != REFERENCE or mid == method.id or not ref.supports(scene)[0]:
             continue
-        if not scene.velocity_dependent and getattr(ref.scheme, "same_without_velocity", None):
+        if not scene.velocity_dependent and ref.scheme.same_without_velocity:
             continue  # here it is another scheme, update for update: that one is the candidate
         traj = ref.simulate(scene, dt, steps, 1)
         dev = max_deviation(run, traj)
@@ -80,7 +82,7 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     matches = [c["method"] for c in candidates if c["matches"]]
     if not matches:
         # What the engine mode itself records, measured, about why nothing can match here.
-        out["why_no_match"] = dict(getattr(method, "no_match", None) or {}).get(scene.id)
+        out["why_no_match"] = method.no_match.get(scene.id)
     best = candidates[0] if candidates else None
     # The runner-up is the closest scheme that is not the answer: the first non-match after
     # a match, the second-closest when nothing matches.
@@ -93,7 +95,8 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
 
 def format_report(result: dict) -> str:
     """The identification as text: the verdict first, then every candidate."""
-    version = f", {result['method'].split(':')[0]} {result['engine_version']}" if result.get("engine_version") else ""
+    family = MethodId.parse(result["method"]).family
+    version = f", {family} {result['engine_version']}" if result.get("engine_version") else ""
     lines = [f"{result['method']} on {result['scene']}: dt = {result['dt']:.6g}, {result['steps']} steps{version}"]
     if result["status"] not in (OK, UNSTABLE):
         lines.append(f"  the run {result['status']}: {result['detail']}")

@@ -6,8 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from reference import METHODS, integrate
-from reference._compiled import time_per_step
+from reference import METHODS, integrate, time_per_step
 from scenarios import make_scene
 
 

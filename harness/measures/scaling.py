@@ -10,8 +10,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import linregress
 
-from reference import METHODS
-from reference._compiled import time_per_step
+from reference import METHODS, time_per_step
 from scenarios import make_scene
 
 #: dof-steps per timed call: enough that a call lasts milliseconds at every N.

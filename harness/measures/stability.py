@@ -39,7 +39,7 @@ import math
 
 import numpy as np
 
-from records import InvalidInput
+from records import InvalidInput, Method
 
 from scenarios import Scene
 
@@ -65,15 +65,14 @@ def _one_step_here(method, scene: Scene, y0: np.ndarray, dt: float, timeout) -> 
     return np.concatenate([traj.q[-1, 0], traj.v[-1, 0]]), ""
 
 
-def _one_steps_here(method, scene: Scene, states: np.ndarray, dt: float, timeout) -> list:
+def _one_steps_here(method: Method, scene: Scene, states: np.ndarray, dt: float, timeout) -> list:
     """In this process. A method that can step many states on one model (an engine mode's
     ``one_steps``) builds it once, after the runner's checks."""
-    many = getattr(method, "one_steps", None)
-    if many is not None:
+    if method.one_steps is not None:
         from harness import validate
 
         validate.scene_values(scene)
-        stepped = many(scene, validate.positive_finite("dt", dt), states)
+        stepped = method.one_steps(scene, validate.positive_finite("dt", dt), states)
         if stepped is not None:
             return stepped
     return [_one_step_here(method, scene, y, dt, timeout) for y in states]
@@ -86,7 +85,7 @@ def _one_steps_in_worker(method_id: str, scene: Scene, states: np.ndarray, dt: f
     return _one_steps_here(get_method(method_id), scene, states, dt, None)
 
 
-def one_steps(method, scene: Scene, states: np.ndarray, dt: float, timeout: float | None = None):
+def one_steps(method: Method, scene: Scene, states: np.ndarray, dt: float, timeout: float | None = None):
     """``(y_1, why)`` after one step of ``dt`` from each state ``y_0 = (q, v)`` (rows of
     ``states``); ``y_1`` is None, with the reason, where the step did not finish.
 
@@ -101,8 +100,7 @@ def one_steps(method, scene: Scene, states: np.ndarray, dt: float, timeout: floa
     from harness.methods import all_methods
 
     states = np.atleast_2d(np.asarray(states, dtype=float))
-    isolated = bool(getattr(method, "isolated", False)) and not isolation.IN_WORKER
-    if not isolated:
+    if not method.isolated or isolation.IN_WORKER:
         return _one_steps_here(method, scene, states, dt, timeout)
     if all_methods().get(method.id) is not None:
         limit = isolation.DEFAULT_TIMEOUT_S if timeout is None else timeout

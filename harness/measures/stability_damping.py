@@ -35,8 +35,11 @@ import math
 
 import numpy as np
 
+from records import REFERENCE, MethodId, is_reference, scheme_name
+
 from scenarios import make_scene
 
+from harness.measures.common import resolve
 from harness.measures.stability import HOMEGA_HI, HOMEGA_LO, RHO_TOL, SCAN_RATIO, largest_stable_dt
 
 #: The issue's sweep of damping ratios.
@@ -227,10 +230,10 @@ def limit_vs_damping(method, zetas=ZETAS, *, scheme: str | None = None, hi: floa
     with the theory of ``scheme`` (a reference scheme id, ``ref:`` or not; default: the method's
     own scheme where it is one) beside each: ``rows`` of {zeta, measured, verdict, theory,
     theory_source, agrees}."""
+    method = resolve(method, make_scene("damped_spring"))
     if scheme is None:
-        own = getattr(method, "scheme", None)
-        scheme = own.id if own is not None else None
-    sid = scheme[4:] if scheme and scheme.startswith("ref:") else scheme
+        scheme = method.scheme.id if method.scheme is not None else None
+    sid = scheme_name(scheme) if is_reference(scheme) else scheme
     rows = []
     for z in zetas:
         scene = make_scene("damped_spring", c=2.0 * float(z))
@@ -243,5 +246,5 @@ def limit_vs_damping(method, zetas=ZETAS, *, scheme: str | None = None, hi: floa
             theory = math.inf  # beyond the search: the measure can only say "unbounded"
         rows.append({"zeta": float(z), "measured": measured, "verdict": verdict, "theory": th["homega_max"],
                      "theory_source": th["source"], "agrees": agrees(measured, theory) if sid else None})
-    return {"method": getattr(method, "id", str(method)), "scheme": f"ref:{sid}" if sid else None, "rows": rows,
+    return {"method": method.id, "scheme": str(MethodId(REFERENCE, sid)) if sid else None, "rows": rows,
             "tolerance": THEORY_RTOL}

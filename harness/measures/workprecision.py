@@ -51,7 +51,7 @@ def work_precision(methods, scene: Scene, *, points: int = POINTS, homega_max: f
     resolved = [resolve(m, scene) for m in methods]
     rows = []
     for method in resolved:
-        isref = getattr(method, "scheme", None) is not None
+        isref = method.scheme is not None
         for dt, steps in sweep(scene, points=points, homega_max=homega_max, periods=periods):
             res = global_error(method, scene, dt, steps, timeout=timeout)
             row = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": dt,

@@ -18,7 +18,7 @@ time and 9.2-13 us of CPU time; the compiled explicit-Euler step 93-990 ns wall,
 CPU. On an idle core the two clocks agree (the steps run in one thread).
 
 A task's cells are sent back one by one as they are measured
-(``isolation.report_partial``), so a task that later crashes or hangs keeps them.
+(``pool.report_partial``), so a task that later crashes or hangs keeps them.
 
 Every cell records the textbook claims it is judged against (from the scheme's
 declarations, or for an engine mode from the scheme it was identified as), so the report
@@ -58,7 +58,7 @@ def suite_of(task) -> Suite:
     return task.suite if isinstance(task.suite, Suite) else SUITES[task.suite]
 
 
-def measures_for(task) -> list[str]:
+def measures_for(task, method=None) -> list[str]:
     """The task's measures, in the order ``run_task`` measures them."""
     from harness.methods import get_method
 
@@ -66,7 +66,7 @@ def measures_for(task) -> list[str]:
     out = list(MEASURES)
     if not suite.scenes[task.scene].stability:
         out.remove("stability")
-    if getattr(get_method(task.method), "adaptive", False):
+    if (method or get_method(task.method)).adaptive:
         # It picks its own steps (dt is the output interval): nothing to measure against dt.
         out = [m for m in out if m not in ("order", "stability")]
     if suite.scenes[task.scene].advise is not None and "order" in out:  # fixed-step methods only
@@ -82,7 +82,7 @@ def _claims(method, scene=None) -> Claims:
     """The textbook claims a method's cells are judged by (none known without a scheme); the
     order is the one declared for the scene (a lower one where its force depends on the
     velocity, with a note saying so)."""
-    scheme = getattr(method, "scheme", None)
+    scheme = method.scheme
     if scheme is None:
         return Claims()
     velocity = scene is not None and scene.velocity_dependent
@@ -99,7 +99,7 @@ def _downsample(n: int, points: int) -> np.ndarray:
 
 def run_task(task) -> list[Cell]:
     """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message."""
-    from harness.execution.isolation import report_partial
+    from harness.execution.pool import report_partial
     from harness.methods import get_method, use_plugins
 
     use_plugins(task.plugins)
@@ -111,7 +111,7 @@ def run_task(task) -> list[Cell]:
     method = get_method(task.method)
     dt = nominal_dt(spec, scene)
     # Long runs of reference schemes on the compiled path (same states); counting stays interpreted.
-    run_method = method.compiled_twin() if spec.compiled and hasattr(method, "compiled_twin") else method
+    run_method = method.compiled_twin() if spec.compiled else method
     claims = _claims(method, scene)
     cells = []
 
@@ -122,7 +122,7 @@ def run_task(task) -> list[Cell]:
             cells.append(c)
             report_partial(c)
 
-    measures = measures_for(task)
+    measures = measures_for(task, method)
     if "identity" in measures:
         identity = guard(task, "identity", lambda: _identity(task, method, scene))
         match_claims = identity.figures.match_claims

@@ -13,7 +13,6 @@ from __future__ import annotations
 import datetime as dt_
 import os
 import platform
-import subprocess
 import sys
 import time
 from collections import defaultdict
@@ -24,6 +23,7 @@ from pathlib import Path
 from records.cell import Cell
 from scenarios import SCENES, make_scene
 
+from harness.execution.environment import run_metadata
 from harness.history import bounds as bounds_mod
 from harness.history.compare import compare_runs
 from harness.history.series import load as load_trend
@@ -108,14 +108,14 @@ def schedule(tasks: list[Task], expected_s: dict[str, float]) -> list[Task]:
 
 # ----------------------------------------------------------------------------- executors
 class LocalExecutor:
-    """Runs the tasks in ``jobs`` reused worker processes (``harness.execution.isolation.WorkerPool``):
+    """Runs the tasks in ``jobs`` reused worker processes (``harness.execution.pool.WorkerPool``):
     a worker that crashes or hangs costs its task, recorded as such, and is replaced; numba
     kernels a worker compiled for one task serve its later tasks (the explicit-Euler baseline
     every cost cell times beside its method, a scene's kernels shared by its tasks)."""
 
     def __init__(self, jobs: int):
         self.jobs = max(1, jobs)
-        self.task_stats: dict[str, object] = {}  # label -> isolation.CallStats
+        self.task_stats: dict[str, object] = {}  # label -> pool.CallStats
         self.workers_started = 0
 
     def describe(self) -> str:
@@ -123,7 +123,7 @@ class LocalExecutor:
 
     def run(self, tasks: list[Task], timeout: float):
         from harness.nightly.cells import run_task
-        from harness.execution.isolation import WorkerPool
+        from harness.execution.pool import WorkerPool
 
         with WorkerPool(self.jobs) as pool, ThreadPoolExecutor(self.jobs) as threads:
             futures = {threads.submit(pool.call_with_stats, run_task, (t,), timeout=timeout): t for t in tasks}
@@ -178,30 +178,6 @@ class Progress:
 
 
 # ----------------------------------------------------------------------------- metadata
-def run_metadata() -> tuple[str | None, dict, dict]:
-    from importlib import metadata
-
-    try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10,
-                                cwd=Path(__file__).resolve().parent).stdout.strip() or None
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                               text=True, timeout=10, cwd=Path(__file__).resolve().parent).stdout.strip()
-        if commit and dirty:
-            commit += "+dirty"
-    except (OSError, subprocess.SubprocessError):
-        commit = None
-    versions = {"python": platform.python_version()}
-    for pkg in ("integrator-harness", "numpy", "scipy", "numba", "pandas", "matplotlib",
-                "mujoco", "pybullet", "pymunk", "rebound", "dask", "distributed"):
-        try:
-            versions[pkg] = metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            versions[pkg] = None
-    machine = {"node": platform.node(), "system": platform.system(), "release": platform.release(),
-               "machine": platform.machine(), "processor": platform.processor(), "cpus": os.cpu_count()}
-    return commit, versions, machine
-
-
 def now() -> str:
     return dt_.datetime.now(dt_.timezone.utc).isoformat(timespec="seconds")
 

@@ -61,7 +61,7 @@ def _constraint(task, method, scene, dt, spec, suite) -> Cell:
     res = constraint_drift(method, scene, dt, steps, every=every, timeout=suite.cell_timeout)
     by_iterations = None
     passes = spec.extras.get("constraint", {}).get("iterations", ())
-    if passes and getattr(method, "scheme", None) is not None and method.scheme.constrained:
+    if passes and method.scheme is not None and method.scheme.constrained:
         by_iterations = []
         for k in passes:
             r = constraint_drift(get_method(task.method, {"iterations": k}), scene, dt, steps, every=every,

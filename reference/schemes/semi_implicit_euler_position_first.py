@@ -1,4 +1,4 @@
-from ._scheme import scheme
+from .._scheme import scheme
 
 
 @scheme(order=1, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0)

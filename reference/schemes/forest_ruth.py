@@ -1,4 +1,4 @@
-from ._scheme import scheme
+from .._scheme import scheme
 
 #: theta = 1 / (2 - 2^(1/3)), the Forest-Ruth (Yoshida) coefficient.
 THETA = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))

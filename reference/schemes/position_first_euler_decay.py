@@ -3,7 +3,7 @@ factor e^{-gamma h}: Chipmunk's two ways of damping. They apply to forces a(x, v
 gamma v with one rate gamma (the scene's ``damping_rate``)."""
 import math
 
-from ._scheme import scheme
+from .._scheme import scheme
 
 
 @scheme(order=1, force_evals=1, symplectic=False, implicit=False, energy_claim="bounded", homega_max=2.0,

@@ -1,4 +1,4 @@
-from ._scheme import scheme
+from .._scheme import scheme
 
 #: Projection passes per step unless the caller sets ``iterations``.
 DEFAULT_ITERATIONS = 10

@@ -1,4 +1,4 @@
-from ._scheme import scheme
+from .._scheme import scheme
 
 
 @scheme(order=4, force_evals=4, symplectic=False, implicit=False, energy_claim="decays", homega_max=2.8284271247461903)

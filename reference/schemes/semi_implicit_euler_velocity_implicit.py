@@ -1,4 +1,4 @@
-from ._scheme import largest_magnitude, scheme
+from .._scheme import largest_magnitude, scheme
 
 #: Newton stops when the update is below this, relative to the iterate (as implicit Euler's).
 NEWTON_RTOL = 1e-13

@@ -1,4 +1,4 @@
-from ._scheme import scheme
+from .._scheme import scheme
 
 
 @scheme(order=1, force_evals=1, symplectic=False, implicit=False, energy_claim="grows", homega_max=None)

@@ -1,4 +1,4 @@
-from ._scheme import scheme
+from .._scheme import scheme
 
 
 def start(accel, q, v, t, h, p):

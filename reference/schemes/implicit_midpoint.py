@@ -1,4 +1,4 @@
-from ._scheme import largest_magnitude, scheme
+from .._scheme import largest_magnitude, scheme
 from .implicit_euler import NEWTON_RTOL
 
 

@@ -1,0 +1,77 @@
+"""What a method is: the one protocol that the reference schemes (``reference.RefMethod``) and
+the engine modes (``adapters.EngineMode``, and a plugin's) both implement.
+
+Every method answers every question below. A capability that only some methods have is a
+declared field whose default says "not this method" (``scheme`` None for an engine mode,
+``one_steps`` None for a reference scheme): callers read the field and never probe for an
+attribute. ``OPTIONAL`` holds those defaults; ``harness.methods`` fills them in, in one place,
+for a plugin's method that leaves some out (it must have ``REQUIRED``).
+"""
+from __future__ import annotations
+
+from types import MappingProxyType
+from typing import Any, Callable, Mapping, Protocol, runtime_checkable
+
+from .trajectory import Trajectory
+
+#: No scene on which the method, measured, integrates no reference scheme (``Method.no_match``).
+NO_REASONS: Mapping[str, str] = MappingProxyType({})
+
+
+@runtime_checkable
+class Method(Protocol):
+    """A way of stepping a scene: ``ref:NAME`` (a reference scheme) or ``ENGINE:MODE``."""
+
+    #: ``family:name`` (``records.MethodId``).
+    id: str
+    #: ``ref`` for a reference scheme, else the engine (or a plugin's family).
+    family: str
+    #: The reference scheme it runs (``reference.Scheme``: order, force evaluations, claims),
+    #: None for anything else. Declared claims are read from here.
+    scheme: Any
+    #: Stepped in a worker process, so that an abort or a hang becomes a recorded result.
+    isolated: bool
+    #: Chooses its own steps, ``dt`` being only the output interval: nothing is measured
+    #: against dt (observed order, largest stable dt, substeps).
+    adaptive: bool
+    #: Counts its force evaluations only in a counting run (``simulate(..., count=True)``),
+    #: the counter being a callback that would slow its timed loop.
+    counting_run: bool
+    #: Scene id -> why, measured, the method integrates no reference scheme there (one line).
+    no_match: Mapping[str, str]
+    #: The loops ``simulate(..., loop=...)`` accepts; empty where it takes no ``loop``.
+    LOOPS: tuple[str, ...]
+    #: ``one_steps(scene, dt, states) -> [(y_1 | None, why)] | None``: one step of ``dt`` from each
+    #: state on one model built once (None back where the model cannot be set to a state);
+    #: None where the method has no such path.
+    one_steps: Callable | None
+    #: ``timed_run(scene, dt, steps, now, loop) -> seconds``: one run timed with its model built
+    #: off the clock; None where the method has no setup to keep off it.
+    timed_run: Callable | None
+
+    def available(self) -> tuple[bool, str]:
+        """(True, "") or (False, why): whether it can run here at all (an engine installed)."""
+
+    def supports(self, scene) -> tuple[bool, str]:
+        """(True, "") or (False, why) for ``scene``."""
+
+    def simulate(self, scene, dt: float, steps: int, every: int = 1) -> Trajectory:
+        """``steps`` steps of ``dt`` on ``scene``, recorded every ``every`` steps (and the last)."""
+
+    def describe(self) -> dict:
+        """Plain JSON: ``id``, ``family`` and what else describes the method."""
+
+    def compiled_twin(self) -> "Method":
+        """The same method on its fastest path that gives the same states: a reference scheme
+        on its compiled driver (force evaluations then not counted); itself for a method that
+        already runs its own loop."""
+
+
+#: What every method must have itself; :data:`OPTIONAL` can be filled in for it.
+REQUIRED = ("id", "available", "supports", "simulate", "describe")
+
+#: Every optional capability of :class:`Method` and the value that means "not this method".
+OPTIONAL: Mapping[str, Any] = MappingProxyType({
+    "scheme": None, "isolated": False, "adaptive": False, "counting_run": False, "no_match": NO_REASONS,
+    "LOOPS": (), "one_steps": None, "timed_run": None,
+})

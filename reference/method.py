@@ -1,0 +1,72 @@
+"""A reference scheme as a method (``records.Method``): the reference package's own face to the
+harness, beside the engine modes of ``adapters``."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from records import REFERENCE, MethodId, Trajectory
+from records.method import NO_REASONS
+
+from scenarios import Scene, no_solve
+
+from ._compiled import integrate_compiled
+from ._integrate import integrate
+from ._scheme import Scheme
+
+
+@dataclass(frozen=True)
+class RefMethod:
+    """A reference scheme as a method. ``options`` are the run-time options the scheme declares
+    (``Scheme.options``: a constrained scheme's projection ``iterations``); unset ones keep the
+    scheme's defaults. ``compiled`` picks the compiled driver (same states, not counted)."""
+
+    scheme: Scheme
+    options: dict = field(default_factory=dict, compare=False)
+    #: Step on the compiled path (``reference.integrate_compiled``): the same states, for runs
+    #: too long to interpret; force evaluations are then not counted.
+    compiled: bool = field(default=False, compare=False)
+
+    # The capabilities of records.Method, declared: stepped in this process, at the dt it is
+    # given, counted on every run, matching itself; no loop to choose, no engine model to reuse
+    # or to build off the clock (its timing is the compiled kernel's, ``reference.step_timer``).
+    family = REFERENCE
+    isolated = False
+    adaptive = False
+    counting_run = False
+    no_match = NO_REASONS
+    LOOPS = ()
+    one_steps = None
+    timed_run = None
+
+    @property
+    def id(self) -> str:
+        return str(MethodId(REFERENCE, self.scheme.id))
+
+    def available(self) -> tuple[bool, str]:
+        return True, ""
+
+    def supports(self, scene: Scene) -> tuple[bool, str]:
+        if self.scheme.constrained and not scene.constrained:
+            return False, (f"scene {scene.id} has no constraints to project "
+                           f"(without them {self.id} is plain ref:verlet)")
+        if scene.constrained and not self.scheme.constrained:
+            return False, (f"scene {scene.id} is held together by constraints that only a constrained "
+                           f"scheme enforces (ref:verlet_constrained); here its particles would fall freely")
+        if self.scheme.decay and not scene.has_damping_rate:
+            return False, (f"scene {scene.id} has no single linear damping rate for {self.id} to decay "
+                           "(it needs a(x, v) = a(x, 0) - gamma v with one rate gamma)")
+        if self.scheme.implicit and type(scene).solve is no_solve:
+            return False, f"scene {scene.id} provides no implicit solve"
+        return True, ""
+
+    def compiled_twin(self) -> "RefMethod":
+        return RefMethod(self.scheme, self.options, compiled=True)
+
+    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
+        if self.compiled:
+            return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
+        return integrate(self.scheme, scene, dt, steps, every, **self.options)
+
+    def describe(self) -> dict:
+        return {"id": self.id, "family": self.family,
+                **{k: v for k, v in self.scheme.describe().items() if k != "id"}}
