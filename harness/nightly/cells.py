@@ -1,4 +1,4 @@
-"""One nightly task -> its measured cells (plain dicts, one per measure; see ``storage``).
+"""One nightly task -> its measured cells (``records.cell.Cell``, one per measure).
 
 A scene x method task measures, at the suite's nominal timestep h = homega / omega (or the
 scene spec's ``dt`` where the study is fixed in the scene's units):

@@ -3,12 +3,12 @@
 * ``constraint`` (every constrained scene, every method): ``harness.measures.constraint`` over the
   energy run (the same dt, steps and recording). For a scheme with projection passes
   (``ref:verlet_constrained``) also at each pass count in ``extras["constraint"]["iterations"]``
-  (``data["by_iterations"]``). Value: the largest relative stretch.
+  (``ConstraintFigures.by_iterations``). Value: the largest relative stretch.
 * ``damping`` (scenes whose suite entry lists it in ``extras``: the chain; every method):
   ``harness.measures.damping`` at ``extras["damping"]["factor"]`` (default 100) times the explicit
   limit. Value: the energy kept after one step. As with ``stability``, a method found to
-  grow there is a measured result (``data["stable"]`` False, the run's own status in
-  ``data["run_status"]``), not a failed cell; the status is ``crashed`` / ``timed_out`` only
+  grow there is a measured result (``DampingFigures.stable`` False, the run's own status in
+  ``run_status``), not a failed cell; the status is ``crashed`` / ``timed_out`` only
   when the measurement itself did not finish.
 * ``stability_vs_damping`` (scenes whose suite entry lists it: the damped spring; every
   method): ``harness.measures.stability_damping`` over ``extras["stability_vs_damping"]["zetas"]``, each
