@@ -9,7 +9,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+
+from records.cell import Cell  # noqa: E402
 
 
 def _style(method: str) -> dict:
@@ -25,17 +26,21 @@ def _save(fig, path: Path) -> bool:
     return path.stat().st_size > 0
 
 
-def energy_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
+def _ok(cells: list[Cell], measure: str, statuses=("ok",)) -> list[Cell]:
+    """The cells of one measure with one of these statuses, by method."""
+    return sorted((c for c in cells if c.measure == measure and c.status in statuses), key=lambda c: c.method)
+
+
+def energy_chart(cells: list[Cell], scene: str, path: Path) -> bool:
     """E(t)/E_exact(0) per method at the nominal timestep, log scale; the exact curve faint.
     Explicit Euler's energy runs away, symplectic schemes stay in a band, RK4 and implicit Euler sink."""
-    rows = cells[(cells.measure == "energy") & cells.status.isin(["ok", "unstable"])]
-    rows = [r for _, r in rows.iterrows() if r.data.get("series")]
+    rows = [c for c in _ok(cells, "energy", ("ok", "unstable")) if c.figures.series]
     if not rows:
         return False
     fig, ax = plt.subplots(figsize=(8, 4.5))
     exact_drawn = False
-    for r in sorted(rows, key=lambda r: r.method):
-        s = r.data["series"]
+    for r in rows:
+        s = r.figures.series
         t, e, ex = np.asarray(s["t"]), np.asarray(s["energy"], dtype=float), np.asarray(s["exact"], dtype=float)
         e0 = abs(ex[0]) if len(ex) and ex[0] != 0 else 1.0
         if not exact_drawn:
@@ -56,12 +61,12 @@ def cost_source(method: str) -> str:
     return "compiled" if method.startswith("ref:") else "engine's own loop"
 
 
-def workprecision_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
+def workprecision_chart(cells: list[Cell], scene: str, path: Path) -> bool:
     """Max global error against measured cost (seconds per unit of simulated time, on the
     clock the cost cells used), log-log, one line per method over its timestep sweep:
     reference schemes solid (compiled loop), engines dashed (the engine's own loop)."""
-    order = {r.method: r for _, r in cells[(cells.measure == "order") & (cells.status == "ok")].iterrows()}
-    cost = {r.method: r for _, r in cells[(cells.measure == "cost") & (cells.status == "ok")].iterrows()}
+    order = {c.method: c for c in _ok(cells, "order")}
+    cost = {c.method: c for c in _ok(cells, "cost")}
     fig, ax = plt.subplots(figsize=(8, 4.5))
     drawn = 0
     clocks = set()
@@ -69,13 +74,13 @@ def workprecision_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
         if method not in cost:
             continue
         sps = cost[method].value
-        pts = [p for p in order[method].data.get("points", []) if p.get("error") and p["error"] > 0]
+        pts = [p for p in order[method].figures.points or [] if p["error"] and p["error"] > 0]
         if not pts or not sps:
             continue
         work = [sps / p["dt"] for p in pts]
         err = [p["error"] for p in pts]
         ax.plot(work, err, marker="o", markersize=3, label=f"{method} ({cost_source(method)})", **_style(method))
-        clocks.add(cost[method].data.get("clock") or "wall")
+        clocks.add(cost[method].figures.clock or "wall")
         drawn += 1
     if not drawn:
         plt.close(fig)
@@ -91,21 +96,20 @@ def workprecision_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
     return _save(fig, path)
 
 
-def stability_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
+def stability_chart(cells: list[Cell], scene: str, path: Path) -> bool:
     """Largest stable h*omega per method: bars; unbounded methods drawn to the searched bound
     and hatched; methods unstable for every h drawn at zero and labelled."""
-    rows = cells[(cells.measure == "stability") & (cells.status == "ok")]
-    if rows.empty:
+    rows = _ok(cells, "stability")
+    if not rows:
         return False
-    rows = rows.sort_values("method")
     fig, ax = plt.subplots(figsize=(8, 0.35 * len(rows) + 1.2))
-    for i, (_, r) in enumerate(rows.iterrows()):
-        d = r.data
-        if d.get("unstable_everywhere"):
+    for i, r in enumerate(rows):
+        f = r.figures
+        if f.unstable_everywhere:
             ax.barh(i, 0.0)
             ax.text(0.02, i, "unstable for every h", va="center", fontsize=7)
-        elif d.get("unbounded"):
-            bound = d.get("homega_searched") or 100.0
+        elif f.unbounded:
+            bound = f.homega_searched or 100.0
             ax.barh(i, bound, hatch="//", color="0.85", edgecolor="0.4")
             ax.text(bound, i, f" unbounded (searched to {bound:.3g})", va="center", fontsize=7)
         else:
@@ -113,30 +117,29 @@ def stability_chart(cells: pd.DataFrame, scene: str, path: Path) -> bool:
             ax.barh(i, v, color="tab:blue" if r.method.startswith("ref:") else "tab:orange")
             ax.text(v, i, f" {v:.4g}", va="center", fontsize=7)
     ax.set_yticks(range(len(rows)))
-    ax.set_yticklabels(list(rows.method), fontsize=7)
+    ax.set_yticklabels([r.method for r in rows], fontsize=7)
     ax.set_xscale("symlog", linthresh=10)
     ax.set_xlabel("largest stable h·ω")
     ax.set_title(f"{scene}: stability limit (blue: reference, orange: engine)")
     return _save(fig, path)
 
 
-def advice_chart(cells: pd.DataFrame, scene: str, hz: float, path: Path) -> bool:
+def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path) -> bool:
     """Cost per frame against the error the advice judges (energy error where the suite sets an
     energy tolerance, else position error), one point per (method, substeps) measured at ``hz``,
     the tolerance as a horizontal line; rows unstable there drawn at the top edge. Cost: s x the
     method's CPU seconds per step from its cost cell (compiled kernel / engine step)."""
-    rows = cells[(cells.measure == "advise") & (cells.status == "ok")]
-    rows = [r for _, r in rows.iterrows() if r.data.get("hz") == hz and r.data.get("rows")]
+    rows = [c for c in _ok(cells, "advise") if c.figures.hz == hz and c.figures.rows]
     if not rows:
         return False
-    request = rows[0].data["request"]
+    request = rows[0].figures.request
     key, tol, label = (("energy_error", request["energy_tol"], "energy error (max |E - E_exact| / max |E_exact|)")
-                       if request.get("energy_tol") is not None else
+                       if request["energy_tol"] is not None else
                        ("position_error", request["error_tol"], "max position error"))
     fig, ax = plt.subplots(figsize=(8, 4.5))
     stable_pts, unstable_pts = [], []
-    for r in sorted(rows, key=lambda r: r.method):
-        pts = [(x["cost_per_frame_s"] * 1e6, x[key], x["stable"]) for x in r.data["rows"] if x.get("cost_per_frame_s")]
+    for r in rows:
+        pts = [(x["cost_per_frame_s"] * 1e6, x[key], x["stable"]) for x in r.figures.rows if x["cost_per_frame_s"]]
         good = sorted((c, e) for c, e, stable in pts if stable and e is not None and e > 0)
         if good:
             xs, ys = zip(*good)
@@ -167,13 +170,13 @@ def advice_chart(cells: pd.DataFrame, scene: str, hz: float, path: Path) -> bool
 DAMPING_CHART_TOP = 20.0
 
 
-def damping_stability_chart(cells: pd.DataFrame, path: Path) -> bool:
+def damping_stability_chart(cells: list[Cell], path: Path) -> bool:
     """Largest stable h*omega against the damping ratio: one theory line per reference scheme
     (from its cell's ``theory_curve``), the measured limits as points: small dots for the
     reference schemes, larger markers for the engine modes. Unbounded limits are drawn at
     DAMPING_CHART_TOP; a scheme unstable at every h is left out at that zeta."""
-    rows = cells[(cells.measure == "stability_vs_damping") & (cells.status == "ok")]
-    if rows.empty:
+    rows = _ok(cells, "stability_vs_damping")
+    if not rows:
         return False
 
     def y(v):
@@ -181,25 +184,25 @@ def damping_stability_chart(cells: pd.DataFrame, path: Path) -> bool:
 
     fig, ax = plt.subplots(figsize=(11, 5))
     colors = {}
-    refs = [r for _, r in rows.sort_values("method").iterrows() if r.method.startswith("ref:")]
+    refs = [r for r in rows if r.method.startswith("ref:")]
     for i, r in enumerate(refs):
-        curve = r.data.get("theory_curve")
+        curve = r.figures.theory_curve
         color = plt.cm.tab20(i % 20)
         colors[r.method] = color
         if curve:
             zs = [z for z, v in zip(curve["zeta"], curve["homega_max"]) if v is not None]
             vs = [y(v) for v in curve["homega_max"] if v is not None]
             ax.plot(zs, vs, color=color, linewidth=1.2, label=f"{r.method[4:]} (theory)")
-        pts = [(row["zeta"], y(row["measured"])) for row in r.data.get("rows", []) if row["measured"] is not None]
+        pts = [(row["zeta"], y(row["measured"])) for row in r.figures.rows or [] if row["measured"] is not None]
         if pts:
             ax.plot(*zip(*pts), linestyle="none", marker=".", color=color, markersize=5)
     markers = "osD^v<>ph*"
-    engines = [r for _, r in rows.sort_values("method").iterrows() if not r.method.startswith("ref:")]
+    engines = [r for r in rows if not r.method.startswith("ref:")]
     for i, r in enumerate(engines):
-        pts = [(row["zeta"], y(row["measured"])) for row in r.data.get("rows", []) if row["measured"] is not None]
+        pts = [(row["zeta"], y(row["measured"])) for row in r.figures.rows or [] if row["measured"] is not None]
         if not pts:
             continue
-        scheme = r.data.get("scheme")
+        scheme = r.figures.scheme
         ax.plot(*zip(*pts), linestyle="none", marker=markers[i % len(markers)], markersize=7, fillstyle="none",
                 color=colors.get(scheme, "k"), label=f"{r.method} (as {scheme[4:] if scheme else '?'})")
     ax.set_yscale("log")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-import pandas as pd
+from records.cell import Cell
 
 CHECK, CROSS = "✓", "✗"
 
@@ -19,17 +19,17 @@ def _limit(v) -> str:
     return f"{v:.4g}"
 
 
-def damping_stability_section(cells: pd.DataFrame, chart_name: str | None) -> list[str]:
-    rows = cells[(cells.measure == "stability_vs_damping")]
-    if rows.empty:
+def damping_stability_section(cells: list[Cell], chart_name: str | None) -> list[str]:
+    rows = sorted((c for c in cells if c.measure == "stability_vs_damping"), key=lambda c: c.method)
+    if not rows:
         return []
-    ok = rows[rows.status == "ok"]
+    ok = [c for c in rows if c.status == "ok"]
     zetas = []
-    for _, r in ok.iterrows():
-        for row in r.data.get("rows", []):
+    for r in ok:
+        for row in r.figures.rows or []:
             if row["zeta"] not in zetas:
                 zetas.append(row["zeta"])
-    tol = next((r.data.get("tolerance") for _, r in ok.iterrows()), None)
+    tol = ok[0].figures.tolerance if ok else None
     lines = ["## Stability against damping", "",
              "Largest stable h·ω on `damped_spring` (ω = 1, c = 2ζ) at each damping ratio ζ: measured (spectral "
              "radius of the measured one-step map) / theory (spectral radius of the scheme's own recurrence on the "
@@ -41,19 +41,19 @@ def damping_stability_section(cells: pd.DataFrame, chart_name: str | None) -> li
              if tol is not None else "", "",
              "| method | theory of | " + " | ".join(f"ζ = {z:g}" for z in zetas) + " |",
              "|---|---|" + "---|" * len(zetas)]
-    for _, r in rows.sort_values("method").iterrows():
+    for r in rows:
         if r.status != "ok":
             lines.append(f"| `{r.method}` | {r.status}: {r.detail} |" + " |" * len(zetas))
             continue
-        by = {row["zeta"]: row for row in r.data.get("rows", [])}
-        scheme = r.data.get("scheme")
+        by = {row["zeta"]: row for row in r.figures.rows or []}
+        scheme = r.figures.scheme
         out = []
         for z in zetas:
             row = by.get(z)
             if row is None:
                 out.append("–")
                 continue
-            mark = "" if row.get("agrees") is None else (f" {CHECK}" if row["agrees"] else f" {CROSS}")
+            mark = "" if row["agrees"] is None else (f" {CHECK}" if row["agrees"] else f" {CROSS}")
             theory = f" / {_limit(row['theory'])}" if scheme else ""
             out.append(f"{_limit(row['measured'])}{theory}{mark}")
         lines.append(f"| `{r.method}` | {f'`{scheme}`' if scheme else '–'} | " + " | ".join(out) + " |")

@@ -1,4 +1,6 @@
-"""The nightly report: stored cells -> ``report.md`` and PNG charts. It never simulates.
+"""The nightly report: a run's cells and what judging them found (``harness.judge``: a
+``records.findings.Judgement``) -> ``report.md`` and PNG charts. It never simulates and judges
+nothing: it prints records.
 
 Written atomically: charts carry the run id in their names (new files, the previous report's
 charts untouched), the markdown goes to a temporary file that ``os.replace`` moves over
@@ -11,19 +13,17 @@ import math
 import os
 from pathlib import Path
 
-import pandas as pd
+from records.cell import Cell, Claims
+from records.findings import MARK, ClaimChecks, Finding, Judgement, Verdict
 
 from . import charts
 from .damping_section import damping_stability_section
 from .history_section import history_section
-from .scene_findings import scene_findings
 
 CHECK, CROSS = "✓", "✗"
 
-#: A measured order within this of the declared order gets a check mark (the order tests' tolerance).
-ORDER_TOL = 0.15
-#: A measured stability limit within this fraction of the textbook's gets a check mark.
-STABILITY_TOL = 0.005
+#: What the At-Hz section says of a request no advice cell carried.
+REQUEST_UNKNOWN = {"energy_tol": None, "error_tol": None, "horizon": float("nan"), "max_substeps": "?"}
 
 
 def _fmt(x, spec=".3g", none="–"):
@@ -34,25 +34,32 @@ def _fmt(x, spec=".3g", none="–"):
     return format(x, spec)
 
 
-def _pivot(cells: pd.DataFrame) -> dict:
-    """{(scene, method): {measure: row}} for the scene x method cells (bounds excluded)."""
+def _pivot(cells: list[Cell]) -> dict:
+    """{(scene, method): {measure: cell}} for the scene x method cells (bounds excluded)."""
     out: dict = {}
-    for _, r in cells[cells.measure != "bound"].iterrows():
-        out.setdefault((r.scene, r.method), {})[r.measure] = r
+    for c in cells:
+        if c.measure != "bound":
+            out.setdefault((c.scene, c.method), {})[c.measure] = c
     return out
 
 
-def homega_text(row) -> str:
-    if row is None:
+def _of(cells: list[Cell], measure: str, *statuses: str) -> list[Cell]:
+    """The cells of one measure (of these statuses, if any given)."""
+    return [c for c in cells if c.measure == measure and (not statuses or c.status in statuses)]
+
+
+def homega_text(cell: Cell | None) -> str:
+    if cell is None:
         return "–"
-    if row.status != "ok":
-        return row.status
-    d = row.data
-    if d.get("unstable_everywhere"):
+    if cell.status != "ok":
+        return cell.status
+    f = cell.figures
+    if f.unstable_everywhere:
         return "none (ρ > 1 for every h)"
-    if d.get("unbounded"):
-        return f"unbounded (searched to {d.get('homega_searched', float('nan')):.3g})"
-    return _fmt(row.value, ".4g")
+    if f.unbounded:
+        searched = f.homega_searched if f.homega_searched is not None else float("nan")
+        return f"unbounded (searched to {searched:.3g})"
+    return _fmt(cell.value, ".4g")
 
 
 def claim_homega_text(c) -> str:
@@ -65,52 +72,42 @@ def claim_homega_text(c) -> str:
     return f"{float(c):.4g}"
 
 
-def homega_ok(row, claim) -> bool | None:
-    if row is None or row.status != "ok":
-        return None
-    d = row.data
-    if claim is None:
-        return bool(d.get("unstable_everywhere"))
-    if claim == math.inf or claim == "inf":
-        return bool(d.get("unbounded"))
-    return row.value is not None and not d.get("unbounded") and abs(row.value / float(claim) - 1) <= STABILITY_TOL
-
-
 def mark(ok) -> str:
     return "" if ok is None else (CHECK if ok else CROSS)
 
 
 # ----------------------------------------------------------------------------- sections
-def verdict(regressions, previous, cells: pd.DataFrame | None = None, trend=None) -> list[str]:
+def verdict(v: Verdict) -> list[str]:
     lines = ["## Verdict", ""]
-    against = f"run {previous}" if previous is not None else "no earlier run (bounds checked only)"
-    if previous is not None and trend is not None and trend.judged:
-        against += f" (cost judged over the last {len(trend.runs)} runs: see [History](#history))"
-    if not regressions:
+    against = f"run {v.previous}" if v.previous is not None else "no earlier run (bounds checked only)"
+    if v.judged_runs is not None:
+        against += f" (cost judged over the last {v.judged_runs} runs: see [History](#history))"
+    if not v.regressions:
         lines.append(f"**No regressions** against {against}.")
     else:
-        lines.append(f"**{len(regressions)} regression(s)** against {against}:")
+        lines.append(f"**{len(v.regressions)} regression(s)** against {against}:")
         lines.append("")
-        lines += [f"- {r.line()}" for r in regressions]
-    changed = trend.latest_changes() if trend is not None else []
-    if changed:
-        lines += ["", f"{len(changed)} accuracy figure(s) changed in this run (deterministic: reported at once): "
-                      + ", ".join(f"{c.measure} of `{c.method}` on `{c.scene}` {ch.before:.4g} -> {ch.after:.4g}"
-                                  for c, ch in changed) + "; see [History](#history)."]
-    failed = _failed(cells) if cells is not None else []
-    if failed:
-        lines += ["", f"{len(failed)} method(s) could not be measured in full in this run (crashed or timed out): "
-                      + ", ".join(f"`{m}` on `{sc}`" for (sc, m), _ in failed) + "; see [Failures](#failures)."]
+        lines += [f"- {r}" for r in v.regressions]
+    if v.changed:
+        lines += ["", f"{len(v.changed)} accuracy figure(s) changed in this run (deterministic: reported at once): "
+                      + ", ".join(f"{c.measure} of `{c.method}` on `{c.scene}` {c.before:.4g} -> {c.after:.4g}"
+                                  for c in v.changed) + "; see [History](#history)."]
+    if v.failed:
+        lines += ["", f"{len(v.failed)} method(s) could not be measured in full in this run (crashed or timed out): "
+                      + ", ".join(f"`{m}` on `{sc}`" for sc, m in v.failed) + "; see [Failures](#failures)."]
     return lines + [""]
 
 
-def _failed(cells: pd.DataFrame) -> list[tuple[tuple[str, str], pd.DataFrame]]:
+def _failed(cells: list[Cell]) -> list[tuple[tuple[str, str], list[Cell]]]:
     """((scene, method), its crashed / timed-out cells), for every method with any."""
-    bad = cells[cells.status.isin(["crashed", "timed_out"])]
-    return [(key, grp) for key, grp in bad.groupby(["scene", "method"], sort=True)]
+    out: dict = {}
+    for c in cells:
+        if c.status in ("crashed", "timed_out"):
+            out.setdefault((c.scene, c.method), []).append(c)
+    return sorted(out.items(), key=lambda kv: kv[0])
 
 
-def failures(cells: pd.DataFrame) -> list[str]:
+def failures(cells: list[Cell]) -> list[str]:
     """Where and why: every crashed or timed-out cell, grouped by scene x method and outcome."""
     lines = ["## Failures", ""]
     groups = _failed(cells)
@@ -120,14 +117,16 @@ def failures(cells: pd.DataFrame) -> list[str]:
               "limit) is recorded and the run goes on; the cells measured before it are kept.", "",
               "| method | scene | outcome | measures | why |", "|---|---|---|---|---|"]
     for (scene, method), grp in groups:
-        subs = sorted(grp.groupby(["status", "detail"], sort=False), key=lambda kv: kv[0][1].startswith("not reached"))
-        for (status, detail), sub in subs:
+        by: dict = {}
+        for c in grp:
+            by.setdefault((c.status, c.detail), []).append(c.measure)
+        for (status, detail), measures in sorted(by.items(), key=lambda kv: kv[0][1].startswith("not reached")):
             why = " ".join(str(detail).split()).replace("|", "\\|") or "–"
-            lines.append(f"| `{method}` | {scene} | **{status}** | {', '.join(sub.measure)} | {why} |")
+            lines.append(f"| `{method}` | {scene} | **{status}** | {', '.join(measures)} | {why} |")
     return lines + [""]
 
 
-def tradeoff_table(piv: dict, scene: str = "spring") -> list[str]:
+def tradeoff_table(piv: dict, judged: dict, scene: str = "spring") -> list[str]:
     lines = [f"## The trade-off, measured (reference schemes on `{scene}`)", "",
              "Each cell: measured value, the textbook's claim in brackets, and whether they agree. "
              "Cost: counted force evaluations per step, and CPU time per step as a ratio to explicit Euler's, "
@@ -138,31 +137,32 @@ def tradeoff_table(piv: dict, scene: str = "spring") -> list[str]:
     if not rows:
         return lines + ["", f"_no reference cells on {scene} in this run_", ""]
     for method, ms in sorted(rows):
-        claims = next((r.data.get("claims") for r in ms.values() if r.data.get("claims")), {}) or {}
-        cost, order, energy, stab = ms.get("cost"), ms.get("order"), ms.get("energy"), ms.get("stability")
+        ok = judged.get((scene, method), ClaimChecks())
+        claims = ok.claims
+        cost, order, energy, stab = (ms.get(m) for m in ("cost", "order", "energy", "stability"))
         if cost is not None and cost.status == "ok":
-            evals = cost.data.get("force_evals_per_step")
-            ev_ok = evals is not None and claims.get("force_evals") is not None and abs(evals - claims["force_evals"]) < 1e-9
-            evals_txt = f"{_fmt(evals, '.3g')} [{claims.get('force_evals_text', claims.get('force_evals', '?'))}] {mark(ev_ok)}"
-            ratio = cost.data.get("ratio_to_explicit_euler")
-            ratio_txt = _fmt(ratio, ".2f")
+            evals_txt = (f"{_fmt(cost.figures.force_evals_per_step, '.3g')} [{_claim(claims, 'force_evals_text')}] "
+                         f"{mark(ok.evals)}")
+            ratio_txt = _fmt(cost.figures.ratio_to_explicit_euler, ".2f")
         else:
             evals_txt = ratio_txt = cost.status if cost is not None else "–"
         if order is not None and order.status == "ok":
-            o_ok = claims.get("order") is not None and abs(order.value - claims["order"]) <= ORDER_TOL
-            order_txt = f"{order.value:.2f} [{claims.get('order', '?')}] {mark(o_ok)}"
+            order_txt = f"{order.value:.2f} [{_claim(claims, 'order')}] {mark(ok.order)}"
         else:
             order_txt = order.status if order is not None else "–"
         if energy is not None:
-            cls = energy.data.get("class") or energy.status
-            e_ok = claims.get("energy") == cls if energy.data.get("class") else None
-            energy_txt = f"{cls} [{claims.get('energy', '?')}] {mark(e_ok)}"
+            cls = energy.figures.energy_class or energy.status
+            energy_txt = f"{cls} [{_claim(claims, 'energy')}] {mark(ok.energy)}"
         else:
             energy_txt = "–"
-        claim_h = claims.get("homega_max", "?")
-        stab_txt = f"{homega_text(stab)} [{claim_homega_text(claim_h)}] {mark(homega_ok(stab, claim_h))}"
+        stab_txt = f"{homega_text(stab)} [{claim_homega_text(_claim(claims, 'homega_max'))}] {mark(ok.homega)}"
         lines.append(f"| `{method}` | {evals_txt} | {ratio_txt} | {order_txt} | {energy_txt} | {stab_txt} |")
     return lines + [""]
+
+
+def _claim(claims: Claims, name: str):
+    """One claim as the table prints it: "?" where no claims are known."""
+    return getattr(claims, name) if claims.known else "?"
 
 
 def identity_table(piv: dict) -> list[str]:
@@ -179,10 +179,10 @@ def identity_table(piv: dict) -> list[str]:
         if row.status != "ok":
             lines.append(f"| `{method}` | {scene} | {row.status}: {row.detail} | | |")
             continue
-        d = row.data
-        runner = f"`{d.get('runner_up')}` ({_fmt(d.get('runner_up_deviation'), '.2e')})" if d.get("runner_up") else "–"
-        matches = _matches(d)
-        said = " = ".join(f"`{m}`" for m in matches) if matches else f"none (closest `{d.get('closest')}`)"
+        f = row.figures
+        runner = f"`{f.runner_up}` ({_fmt(f.runner_up_deviation, '.2e')})" if f.runner_up else "–"
+        matches = f.all_matches
+        said = " = ".join(f"`{m}`" for m in matches) if matches else f"none (closest `{f.closest}`)"
         lines.append(f"| `{method}` | {scene} | {said} | {_fmt(row.value, '.2e')} | {runner} |")
     if not n:
         lines.append("| _no engine modes in this run_ | | | | |")
@@ -194,7 +194,7 @@ def _energy_text(energy) -> str:
         return "–"
     if energy.status != "ok":
         return energy.status
-    if energy.data.get("rel_error_defined") is False:
+    if energy.figures.rel_error_defined is False:
         return "undefined (exact E crosses 0)"
     return _fmt(energy.value, ".2e")
 
@@ -219,23 +219,23 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
     for (s, method), ms in sorted(piv.items()):
         if s != scene:
             continue
-        energy, error, order = ms.get("energy"), ms.get("error"), ms.get("order")
-        stab, cost = ms.get("stability"), ms.get("cost")
+        energy, error, order, stab, cost = (ms.get(m) for m in ("energy", "error", "order", "stability", "cost"))
         statuses = sorted({r.status for r in ms.values() if r.status != "ok"})
         status = ", ".join(statuses) if statuses else "ok"
-        if energy is not None and energy.status == "unstable" and energy.data.get("failed_step"):
-            status += f" (energy run: step {energy.data['failed_step']})"
+        if energy is not None and energy.status == "unstable" and energy.figures.failed_step:
+            status += f" (energy run: step {energy.figures.failed_step})"
+        timed = cost is not None and cost.status == "ok"
         cells = [
             f"`{method}`", status,
             _energy_text(energy),
-            (energy.data.get("class") or "–") if energy is not None else "–",
+            (energy.figures.energy_class or "–") if energy is not None else "–",
             _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
             _order_text(order),
             homega_text(stab),
-            _fmt(cost.data.get("force_evals_per_step"), ".3g") if cost is not None and cost.status == "ok" else "–",
-            _fmt(cost.value * 1e6, ".3g") if cost is not None and cost.status == "ok" else (cost.status if cost is not None else "–"),
-            _fmt(_micro(cost.data.get("as_stepped_s_per_step")), ".3g") if cost is not None and cost.status == "ok" else "–",
-            _fmt(cost.data.get("ratio_to_explicit_euler"), ".2f") if cost is not None and cost.status == "ok" else "–",
+            _fmt(cost.figures.force_evals_per_step, ".3g") if timed else "–",
+            _fmt(cost.value * 1e6, ".3g") if timed else (cost.status if cost is not None else "–"),
+            _fmt(_micro(cost.figures.as_stepped_s_per_step), ".3g") if timed else "–",
+            _fmt(cost.figures.ratio_to_explicit_euler, ".2f") if timed else "–",
         ]
         lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
@@ -255,87 +255,66 @@ def _order_text(order) -> str:
         return "–"
     if order.status != "ok":
         return order.status
-    note = (order.data.get("claims") or {}).get("order_note")
+    note = order.claims.order_note if order.claims is not None else None
     return _fmt(order.value, ".2f") + (f" [{note}]" if note else "")
 
 
-def _matches(d: dict) -> list[str]:
-    """Every scheme an identity cell matched (several where the scene cannot tell them apart:
-    under a constant force, explicit and position-first Euler are one update)."""
-    return list(d.get("matches") or ([d["match"]] if d.get("match") else []))
+def finding_line(f: Finding) -> str:
+    """A finding as its line: its verdict mark where its text carries one."""
+    return f.text.replace(MARK, CHECK if f.ok else CROSS)
 
 
-def findings(piv: dict, cells: pd.DataFrame) -> list[str]:
-    """Engine behaviour a user would not expect, derived from this run's measurements."""
-    out = []
-    for (scene, method), ms in sorted(piv.items()):
-        if method.startswith("ref:"):
-            continue
-        ident, energy = ms.get("identity"), ms.get("energy")
-        if ident is not None and ident.status == "ok":
-            d = ident.data
-            matches, dev = _matches(d), ident.value
-            expected = d.get("name_suggests")
-            if expected and matches and f"ref:{expected}" not in matches:
-                said = " = ".join(f"`{m}`" for m in matches)
-                out.append(f"`{method}` on `{scene}` integrates as **{said}** (max deviation {dev:.1e}), "
-                           f"not the {expected.replace('_', ' ')} its name suggests.")
-            elif matches == ["ref:explicit_euler"]:
-                out.append(f"`{method}` on `{scene}` is **explicit Euler** (max deviation {dev:.1e}).")
-            elif not matches and d.get("note"):
-                out.append(f"`{method}` on `{scene}`: {d['note']}")
-        if energy is not None and energy.status == "unstable" and energy.data.get("failed_step"):
-            out.append(f"`{method}` blows up on `{scene}` at the nominal timestep (step {energy.data['failed_step']}).")
-        elif energy is not None and energy.status == "ok" and energy.data.get("class") == "grows":
-            out.append(f"`{method}` gains energy on `{scene}` at the nominal timestep "
-                       f"(max |ΔE/E| {energy.value:.2e}).")
-    out += scene_findings(piv, cells)
+def findings(found) -> list[str]:
+    """What judging the run found (``Judgement.findings``), one line each."""
     lines = ["## Findings", ""]
-    lines += [f"- {f}" for f in dict.fromkeys(out)] or ["- nothing unexpected in this run"]
+    lines += [f"- {finding_line(f)}" for f in found] or ["- nothing unexpected in this run"]
     return lines + [""]
 
 
-def _frame_rates(cells: pd.DataFrame) -> list[float]:
-    rows = cells[(cells.measure == "advise") & (cells.status == "ok")]
-    return sorted({float(r.data["hz"]) for _, r in rows.iterrows() if r.data.get("hz")})
+def _frame_rates(cells: list[Cell]) -> list[float]:
+    return sorted({float(c.figures.hz) for c in _of(cells, "advise", "ok") if c.figures.hz})
 
 
 def _per_frame(row: dict) -> str:
-    c = row.get("cost_per_frame_s")
+    c = row["cost_per_frame_s"]
     return "–" if c is None else f"{c * 1e6:.3g} µs"
 
 
-def advice_section(cells: pd.DataFrame, hz: float, chart_names: dict) -> list[str]:
+def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]:
     """"At 60 Hz": per scene, the method that meets the suite's tolerances with the cheapest
     frame (its fewest substeps), the runners-up, and how many methods meet none; from this
     run's ``advise`` cells (``harness.measures.advise``), cost per frame = substeps x the cost cell's
     CPU time per step."""
-    rows = cells[(cells.measure == "advise") & (cells.data.map(lambda d: d.get("hz") == hz))]
-    if rows.empty:
+    rows = [c for c in cells if c.measure == "advise" and c.figures.hz == hz]
+    if not rows:
         return []
-    request = next((r.data["request"] for _, r in rows.iterrows() if r.data.get("request")), {})
+    request = next((c.figures.request for c in rows if c.figures.request), None)
+    request = {**REQUEST_UNKNOWN, **(request or {})}
     tol = []
-    if request.get("energy_tol") is not None:
+    if request["energy_tol"] is not None:
         tol.append(f"energy error ≤ {request['energy_tol']:g}")
-    if request.get("error_tol") is not None:
+    if request["error_tol"] is not None:
         tol.append(f"position error ≤ {request['error_tol']:g}")
     lines = [f"## At {hz:g} Hz", "",
              f"Which method, with how many substeps a frame, keeps each scene stable and within "
-             f"{' and '.join(tol) or 'the tolerances'} over {request.get('horizon', float('nan')):g} s at {hz:g} "
+             f"{' and '.join(tol) or 'the tolerances'} over {request['horizon']:g} s at {hz:g} "
              f"frames a second, for the least cost per frame (`harness advise`; substeps 1 to "
-             f"{request.get('max_substeps', '?')}, cost = substeps × the cost cell's CPU time per step).", ""]
-    for scene, grp in rows.groupby("scene", sort=False):
+             f"{request['max_substeps']}, cost = substeps × the cost cell's CPU time per step).", ""]
+    by_scene: dict = {}
+    for c in rows:
+        by_scene.setdefault(c.scene, []).append(c)
+    for scene, grp in by_scene.items():
         meeting, failing, broken = [], [], []
-        for _, r in grp.iterrows():
+        for r in grp:
             if r.status != "ok":
                 broken.append(f"`{r.method}` {r.status}")
                 continue
-            best = r.data.get("best")
+            best = r.figures.best
             if best is None:
-                failing.append((r.method, r.data.get("reason") or "–"))
+                failing.append((r.method, r.figures.reason or "–"))
             else:
-                meeting.append((r.data["rows"][best].get("cost_per_frame_s") or math.inf, r.method,
-                                r.data["rows"][best]))
+                row = r.figures.rows[best]
+                meeting.append((row["cost_per_frame_s"] or math.inf, r.method, row))
         meeting.sort(key=lambda m: (m[0], m[1]))
         lines += [f"### `{scene}` at {hz:g} Hz", ""]
         if meeting:
@@ -347,9 +326,9 @@ def advice_section(cells: pd.DataFrame, hz: float, chart_names: dict) -> list[st
         lines += ["", "| rank | method | substeps | h·ω | energy error | class | position error | per frame | "
                       "evals/frame |", "|---|---|---|---|---|---|---|---|---|"]
         for i, (_, method, row) in enumerate(meeting[:5], start=1):
-            lines.append(f"| {i} | `{method}` | {row['substeps']} | {row['homega']:.3g} | {_fmt(row.get('energy_error'), '.2e')} | "
-                         f"{row.get('energy_class') or '–'} | {_fmt(row.get('position_error'), '.2e')} | "
-                         f"{_per_frame(row)} | {_fmt(row.get('evals_per_frame'), '.3g')} |")
+            lines.append(f"| {i} | `{method}` | {row['substeps']} | {row['homega']:.3g} | {_fmt(row['energy_error'], '.2e')} | "
+                         f"{row['energy_class'] or '–'} | {_fmt(row['position_error'], '.2e')} | "
+                         f"{_per_frame(row)} | {_fmt(row['evals_per_frame'], '.3g')} |")
         if len(meeting) > 5:
             lines.append(f"| | {len(meeting) - 5} more meet them | | | | | | | |")
         lines.append("")
@@ -364,34 +343,35 @@ def advice_section(cells: pd.DataFrame, hz: float, chart_names: dict) -> list[st
     return lines
 
 
-def bounds_section(cells: pd.DataFrame) -> list[str]:
-    b = cells[cells.measure == "bound"]
-    if b.empty:
+def bounds_section(cells: list[Cell], judged: dict) -> list[str]:
+    b = _of(cells, "bound")
+    if not b:
         return []
     lines = ["## Energy bounds (reviewed file)", "", "| method | scene | dt | steps | max \\|ΔE/E\\| | bound | |",
              "|---|---|---|---|---|---|---|"]
-    for _, r in b.sort_values(["scene", "method", "dt"]).iterrows():
-        bound = r.data.get("bound")
-        ok = r.status == "ok" and bound is not None and r.value <= bound
+    for r in sorted(b, key=lambda c: (c.scene, c.method, c.dt)):
+        bound = r.figures.bound
+        ok = judged.get((r.scene, r.method, r.dt))
         val = _fmt(r.value, ".2e") if r.status == "ok" else r.status
-        lines.append(f"| `{r.method}` | {r.scene} | {r['dt']:g} | {int(r.steps)} | {val} | {_fmt(bound, '.2g')} | {mark(ok)} |")
+        lines.append(f"| `{r.method}` | {r.scene} | {r.dt:g} | {int(r.steps)} | {val} | {_fmt(bound, '.2g')} | {mark(ok)} |")
     return lines + [""]
 
 
-def appendix(run: dict, cells: pd.DataFrame) -> list[str]:
+def appendix(run: dict, cells: list[Cell]) -> list[str]:
     lines = ["## Appendix: versions and settings", "", "| package | version |", "|---|---|"]
     for pkg, ver in sorted((run.get("versions") or {}).items()):
         lines.append(f"| {pkg} | {ver or 'not installed'} |")
     lines += ["", "Settings each engine adapter used (as the adapter recorded them):", ""]
     seen = set()
-    for _, r in cells[(cells.family != "ref") & (cells.measure == "energy")].sort_values(["method", "scene"]).iterrows():
-        settings = r.data.get("settings")
+    engine_runs = sorted((c for c in _of(cells, "energy") if c.family != "ref"), key=lambda c: (c.method, c.scene))
+    for r in engine_runs:
+        settings = r.figures.settings
         key = (r.method, r.scene)
         if settings is None or key in seen:
             continue
         seen.add(key)
         items = "; ".join(f"{k}={v}" for k, v in settings.items()) if isinstance(settings, dict) else str(settings)
-        lines.append(f"- `{r.method}` on `{r.scene}` ({r.data.get('engine_version', '?')}): {items}")
+        lines.append(f"- `{r.method}` on `{r.scene}` ({r.figures.engine_version}): {items}")
     if not seen:
         lines.append("- none recorded: no engine run finished in this run")
     settings = run.get("settings") or {}
@@ -464,11 +444,15 @@ def where_the_time_went(timing: dict) -> list[str]:
 
 
 # ----------------------------------------------------------------------------- the report
-def render(history, run_id: int, out_dir: Path, regressions, previous, timing, trend=None) -> tuple[str, list[str]]:
-    run = history.run(run_id)
-    cells = history.cells(run_id)
+def render(run: dict, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None,
+           trend=None) -> tuple[str, list[str]]:
+    """(the report's markdown, the chart files written, relative to ``out_dir``) of ``run`` (its
+    stored metadata), its ``cells``, what judging them found, and ``trend`` (the suite's judged
+    history, ``harness.history.series.Trend``: the History section)."""
+    run_id = run["run_id"]
     piv = _pivot(cells)
-    scenes = list(dict.fromkeys(cells[cells.measure != "bound"].scene))
+    scenes = list(dict.fromkeys(c.scene for c in cells if c.measure != "bound"))
+    of_scene = {scene: [c for c in cells if c.scene == scene] for scene in scenes}
     chart_dir = out_dir / "charts"
     chart_dir.mkdir(parents=True, exist_ok=True)
     chart_names, written = {}, []
@@ -476,12 +460,12 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing, t
         for kind, fn in (("energy", charts.energy_chart), ("workprecision", charts.workprecision_chart),
                          ("stability", charts.stability_chart)):
             name = f"charts/run{run_id}-{scene}-{kind}.png"
-            if fn(cells[cells.scene == scene], scene, out_dir / name):
+            if fn(of_scene[scene], scene, out_dir / name):
                 chart_names[(scene, kind)] = name
                 written.append(name)
         for hz in _frame_rates(cells):
             name = f"charts/run{run_id}-{scene}-advise{hz:g}hz.png"
-            if charts.advice_chart(cells[cells.scene == scene], scene, hz, out_dir / name):
+            if charts.advice_chart(of_scene[scene], scene, hz, out_dir / name):
                 chart_names[(scene, f"advise{hz:g}")] = name
                 written.append(name)
     damping_chart = f"charts/run{run_id}-damping-stability.png"
@@ -490,11 +474,11 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing, t
     else:
         damping_chart = None
     lines = [f"# Integrator comparison: run {run_id} ({run['suite']})", ""]
-    lines += verdict(regressions, previous, cells, trend)
+    lines += verdict(judged.verdict)
     section, trend_charts = history_section(trend, run_id, out_dir)
     lines += section
     written += trend_charts
-    lines += tradeoff_table(piv)
+    lines += tradeoff_table(piv, judged.claims)
     lines += identity_table(piv)
     lines += damping_stability_section(cells, damping_chart)
     lines += ["## Per scene", "", COST_COLUMNS, ""]
@@ -502,19 +486,19 @@ def render(history, run_id: int, out_dir: Path, regressions, previous, timing, t
         lines += scene_section(scene, piv, chart_names)
     for hz in _frame_rates(cells):
         lines += advice_section(cells, hz, chart_names)
-    lines += findings(piv, cells)
+    lines += findings(judged.findings)
     lines += failures(cells)
-    lines += bounds_section(cells)
+    lines += bounds_section(cells, judged.bounds)
     lines += appendix(run, cells)
     lines += footer(run, timing)
     return "\n".join(lines), written
 
 
-def write_report(history, run_id: int, out_dir, regressions=(), previous=None, timing=None, trend=None) -> Path:
-    """``trend``: the suite's judged history (``harness.history.series.Trend``) for the History section."""
+def write_report(run: dict, cells: list[Cell], judged: Judgement, out_dir, timing=None, trend=None) -> Path:
+    """``render`` written to ``out_dir/report.md`` (atomically, see above)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    text, charts_written = render(history, run_id, out_dir, list(regressions), previous, timing, trend)
+    text, charts_written = render(run, cells, judged, out_dir, timing, trend)
     target = out_dir / "report.md"
     tmp = out_dir / f".report.md.{os.getpid()}.tmp"
     with open(tmp, "w") as fh:

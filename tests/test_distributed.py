@@ -26,6 +26,7 @@ from harness.execution.isolation import ORPHAN_GRACE_S, WorkerFailure, run_in_wo
 from harness.nightly.run import Task, build_tasks
 from harness.history.storage import History
 from harness.nightly.suites import SUITES
+from records.cell import FIGURES
 
 FAULTS = str(Path(__file__).with_name("dask_faults.py"))
 KILLED_ONCE = "cell spring ref:rk4"              # its worker dies on the first attempt only
@@ -89,14 +90,15 @@ def test_dask_smoke_run_matches_the_local_run_cell_for_cell(local_run, dask_run)
     for key, a in local.iterrows():
         b = on_dask.loc[key]
         assert (key, b.status) == (key, a.status)
+        fa, fb = (FIGURES[key[2]].from_data(r.data)[0] for r in (a, b))
         if key[2] == "cost":
-            assert b.data["force_evals_per_step"] == a.data["force_evals_per_step"], key
+            assert fb.force_evals_per_step == fa.force_evals_per_step, key
         elif key[2] == "advise":
             def measured(rows):
                 return [{k: v for k, v in r.items() if k != "cost_per_frame_s"} for r in rows]
 
-            assert measured(b.data["rows"]) == measured(a.data["rows"]), key
-            assert b.data["best"] == a.data["best"], key
+            assert measured(fb.rows) == measured(fa.rows), key
+            assert fb.best == fa.best, key
         else:
             assert b.value == a.value or (a.value != a.value and b.value != b.value), (key, a.value, b.value)
             assert b.data.get("class") == a.data.get("class"), key
@@ -286,4 +288,4 @@ def test_a_hung_cell_in_a_dask_worker_is_timed_out_and_never_outlives_its_worker
             executor.close()
     assert isinstance(hung, WorkerFailure) and hung.status == "timed_out"
     assert hung.detail == "no result within 0.001 s; worker killed"
-    assert [(c["measure"], c["status"]) for c in cells] == [("bound", "ok")]
+    assert [(c.measure, c.status) for c in cells] == [("bound", "ok")]

@@ -186,8 +186,7 @@ def test_bench_engines_refuses_an_unknown_mode_in_one_line(capsys):
 
 
 def test_the_work_precision_chart_says_which_loop_and_clock(tmp_path, monkeypatch):
-    import pandas as pd
-
+    from records.cell import Cell, CostFigures, OrderFigures
     from reports import charts
 
     said = {}
@@ -200,11 +199,10 @@ def test_the_work_precision_chart_says_which_loop_and_clock(tmp_path, monkeypatc
         return real(fig, path)
 
     monkeypatch.setattr(charts, "_save", keep)
-    points = {"points": [{"dt": 0.1, "error": 1e-3}, {"dt": 0.05, "error": 2.5e-4}]}
-    cells = pd.DataFrame([
-        {"measure": "order", "status": "ok", "method": m, "value": 2.0, "data": points} for m in ("ref:leapfrog", "mujoco:euler")
-    ] + [{"measure": "cost", "status": "ok", "method": m, "value": 1e-6, "data": {"clock": "cpu"}}
-         for m in ("ref:leapfrog", "mujoco:euler")])
+    points = OrderFigures(points=[{"dt": 0.1, "error": 1e-3}, {"dt": 0.05, "error": 2.5e-4}])
+    methods = ("ref:leapfrog", "mujoco:euler")
+    cells = [Cell("spring", m, m.split(":")[0], "order", value=2.0, figures=points) for m in methods] + \
+        [Cell("spring", m, m.split(":")[0], "cost", value=1e-6, figures=CostFigures(clock="cpu")) for m in methods]
     assert charts.workprecision_chart(cells, "spring", tmp_path / "wp.png")
     assert said["legend"] == ["mujoco:euler (engine's own loop)", "ref:leapfrog (compiled)"]
     assert said["xlabel"].startswith("cost: CPU seconds") and "engines: their own loop" in said["xlabel"]

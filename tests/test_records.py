@@ -234,8 +234,8 @@ def test_a_nightly_task_resolves_its_method_once(monkeypatch):
     tasks, _ = build_tasks(SUITES["smoke"])
     task = next(t for t in tasks if t.kind == "cell" and t.method == "ref:semi_implicit_euler")
     cells = run_task(task)
-    assert {c["measure"] for c in cells} >= {"energy", "error", "order", "cost"}
-    assert all(c["status"] == "ok" for c in cells), [(c["measure"], c["detail"]) for c in cells]
+    assert {c.measure for c in cells} >= {"energy", "error", "order", "cost"}
+    assert all(c.status == "ok" for c in cells), [(c.measure, c.detail) for c in cells]
     assert looked_up.count(task.method) == 1 and looked_up.count("ref:explicit_euler") == 1, looked_up
 
 

@@ -274,6 +274,7 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     from harness.nightly.run import Task, build_tasks
     from harness.nightly.scene_cells import scene_cells
     from harness.history.storage import History
+    from harness.judge import judge
     from reports.markdown import render
 
     tasks, skipped = build_tasks(tiny_suite)
@@ -288,18 +289,18 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     for task in (Task("cell", "chain", "mujoco:discrete", "mujoco", {"N": 4}, "tiny"),
                  Task("cell", "rope", "pymunk:pin_joint", "pymunk", {"N": 3}, "tiny")):
         cells = run_task(task)
-        assert [c["measure"] for c in cells] == [m for m in ["identity", "energy", "error", "order", "cost",
+        assert [c.measure for c in cells] == [m for m in ["identity", "energy", "error", "order", "cost",
                                                              "stability", "constraint", "damping"]
                                                  if m in measures_for(task)]
-        assert all(c["status"] == "ok" for c in cells), [(c["measure"], c["detail"]) for c in cells]
+        assert all(c.status == "ok" for c in cells), [(c.measure, c.detail) for c in cells]
         for c in cells:
             history.add_cell(run_id, c)
     for task in (Task("cell", "chain", "ref:implicit_euler", "ref", {"N": 4}, "tiny"),
                  Task("cell", "rope", "ref:verlet_constrained", "ref", {"N": 3}, "tiny")):
         scene, method, spec = make_scene(task.scene, **task.params), get_method(task.method), tiny_suite.scenes[task.scene]
         cells = scene_cells(task, method, scene, spec.homega / scene.omega, spec, tiny_suite)
-        assert [c["measure"] for c in cells] == (["damping", "scaling"] if task.scene == "chain" else ["constraint"])
-        assert all(c["status"] == "ok" for c in cells), [(c["measure"], c["detail"]) for c in cells]
+        assert [c.measure for c in cells] == (["damping", "scaling"] if task.scene == "chain" else ["constraint"])
+        assert all(c.status == "ok" for c in cells), [(c.measure, c.detail) for c in cells]
         for c in cells:
             history.add_cell(run_id, c)
     by = {(r.method, r.measure): r for _, r in history.cells(run_id).iterrows()}
@@ -310,7 +311,8 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     assert [b["iterations"] for b in by[("ref:verlet_constrained", "constraint")].data["by_iterations"]] == [1, 4]
     assert by[("mujoco:discrete", "stability")].data["unbounded"]
 
-    text, _ = render(history, run_id, tmp_path / "out", [], None, {})
+    cells = history.cell_records(run_id)
+    text, _ = render(history.run(run_id), cells, judge(cells), tmp_path / "out", {})
     findings = text.split("## Findings")[1]
     assert "`ref:implicit_euler` on `chain` at 100x the explicit limit (h·ω_max = 200)" in findings
     assert "`mujoco:discrete` on `chain` is backward Euler only where every tendon is stretched" in findings

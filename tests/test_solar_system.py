@@ -21,12 +21,11 @@ from harness.execution.isolation import WorkerFailure
 from harness.measures.energy import energy_behaviour
 from harness.measures.error import trajectory_error
 from harness.methods import get_method
-from harness.nightly.run import Task, build_tasks
+from harness.nightly.run import Task, build_tasks, report_run
 from harness.history.storage import History
 from harness.nightly.suites import SOLAR_METHODS, SOLAR_STABILITY_HI, SUITES, SceneSpec, Suite
 from harness.measures.workprecision import chart_ready, error_at_equal_cost, work_precision
 from reference import METHODS, integrate
-from reports.markdown import write_report
 from records import Trajectory
 from scenarios import make_scene
 
@@ -198,20 +197,20 @@ def nightly_cells(tmp_path_factory):
         for rows in cells.values():
             for c in rows:
                 history.add_cell(run_id, c)
-        report = write_report(history, run_id, tmp / "out").read_text()
+        report = report_run(history, run_id, tmp / "out").read_text()
         # The same run with one more task that timed out: the findings still render, and say so.
         failure = WorkerFailure("timed_out", "worker killed after 120 s")
         for c in failed_cells(Task("cell", "solar_system", "rebound:saba", "rebound", {}, "solar_test"), failure):
             history.add_cell(run_id, c)
-        with_failure = write_report(history, run_id, tmp / "out2").read_text()
+        with_failure = report_run(history, run_id, tmp / "out2").read_text()
     return cells, report, with_failure
 
 
 def test_every_nightly_measure_runs_on_the_solar_system(nightly_cells):
     cells, _, _ = nightly_cells
     for method, rows in cells.items():
-        measures = {c["measure"]: c for c in rows}
-        assert all(c["status"] == "ok" for c in rows), [(c["measure"], c["status"], c["detail"]) for c in rows]
+        measures = {c.measure: c for c in rows}
+        assert all(c.status == "ok" for c in rows), [(c.measure, c.status, c.detail) for c in rows]
         if method == "rebound:ias15":
             # Adaptive: dt is its output interval, so no order (and no stability limit) in dt.
             assert set(measures) == {"energy", "error", "cost"}
@@ -219,10 +218,10 @@ def test_every_nightly_measure_runs_on_the_solar_system(nightly_cells):
             assert set(measures) == {"energy", "error", "order", "cost"}
             # Second order for the leapfrogs and WHFast, fourth for RK4, within the order tests' 0.15
             # (measured 1.994, 2.003, 4.093 over half an orbit).
-            assert measures["order"]["value"] == pytest.approx(4 if method == "ref:rk4" else 2, abs=0.15)
-        assert measures["error"]["data"]["source"] == "solar_system reference_solution"
-    ref = {c["measure"]: c for c in cells["ref:leapfrog"]}
-    assert ref["energy"]["data"]["backend"] == "compiled" and ref["cost"]["data"]["force_evals_per_step"] == 1
+            assert measures["order"].value == pytest.approx(4 if method == "ref:rk4" else 2, abs=0.15)
+        assert measures["error"].figures.source == "solar_system reference_solution"
+    ref = {c.measure: c for c in cells["ref:leapfrog"]}
+    assert ref["energy"].figures.backend == "compiled" and ref["cost"].figures.force_evals_per_step == 1
 
 
 def test_stability_cells_on_the_solar_system(nightly_cells):
@@ -233,14 +232,14 @@ def test_stability_cells_on_the_solar_system(nightly_cells):
     spec = dataclasses.replace(STUDY.scenes["solar_system"], stability=True, stability_hi=SOLAR_STABILITY_HI)
     with pytest.MonkeyPatch.context() as mp:
         mp.setitem(SUITES, "solar_test", dataclasses.replace(STUDY, scenes={"solar_system": spec}))
-        cells = {m: {c["measure"]: c for c in run_task(Task("cell", "solar_system", m, get_method(m).family, {},
+        cells = {m: {c.measure: c for c in run_task(Task("cell", "solar_system", m, get_method(m).family, {},
                                                               "solar_test"))}
                  for m in ("ref:leapfrog", "rebound:whfast")}
     leapfrog, whfast = cells["ref:leapfrog"]["stability"], cells["rebound:whfast"]["stability"]
-    assert leapfrog["status"] == "ok" and leapfrog["data"]["verdict"] == "limited"
-    assert 1.5 < leapfrog["value"] < 2.5
-    assert whfast["status"] == "ok" and whfast["data"]["verdict"] == "unbounded"
-    assert whfast["data"]["homega_searched"] == pytest.approx(SOLAR_STABILITY_HI, rel=1e-12)
+    assert leapfrog.status == "ok" and leapfrog.figures.verdict == "limited"
+    assert 1.5 < leapfrog.value < 2.5
+    assert whfast.status == "ok" and whfast.figures.verdict == "unbounded"
+    assert whfast.figures.homega_searched == pytest.approx(SOLAR_STABILITY_HI, rel=1e-12)
 
 
 def test_nightly_report_states_the_solar_findings(nightly_cells):
@@ -252,7 +251,7 @@ def test_nightly_report_states_the_solar_findings(nightly_cells):
     assert any("`rebound:ias15` keeps max |ΔE/E|" in ln and ln.endswith("✓.") for ln in lines), lines
     assert any("times `rebound:leapfrog`'s" in ln and ln.endswith("✓.") for ln in lines), lines
     assert not any("✗" in ln for ln in lines), lines
-    cost = {m: next(c for c in rows if c["measure"] == "cost")["value"] for m, rows in cells.items()}
+    cost = {m: next(c for c in rows if c.measure == "cost").value for m, rows in cells.items()}
     # Direction only (timings are noisy): 4 force evaluations against 1; measured 3.6x to 7.7x
     # across runs on this shared 2-core machine.
     assert cost["ref:rk4"] > 1.5 * cost["ref:leapfrog"]

@@ -3,7 +3,8 @@
 One ``runs`` row per run (metadata: date, git commit, package and engine versions, machine,
 suite, settings, the measurement version) and one ``cells`` row per measured cell: a tidy
 table with the scene, method, measure, timestep, status and the measure's headline value,
-the rest of the measurement in a JSON column.
+the rest of the measurement in a JSON column. A cell is converted to and from its row by
+``records.cell.Cell`` (``to_db_row`` / ``from_db_row``), nowhere else.
 
 A run is inserted with ``complete = 0`` and marked complete only after its last cell and its
 report are written; every cell is committed in its own transaction. A run killed half-way
@@ -14,12 +15,13 @@ its benchmark versions).
 from __future__ import annotations
 
 import json
-import math
 import sqlite3
 from contextlib import closing
 from pathlib import Path
 
 import pandas as pd
+
+from records.cell import CELL_COLUMNS as _CELL_COLUMNS, Cell, to_json
 
 #: Bump when a measure's definition changes: results across versions are not comparable.
 #: 2: cost on the worker's CPU clock with explicit Euler timed beside it in the same cell;
@@ -69,32 +71,21 @@ REQUIRED_COLUMNS = {
               "wall_s", "data"),
 }
 
-CELL_COLUMNS = ["scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value", "wall_s", "data"]
+CELL_COLUMNS = list(_CELL_COLUMNS)
 
 
-def _json(obj) -> str:
-    return json.dumps(obj, default=_default, allow_nan=True)
-
-
-def _default(x):
-    import numpy as np
-
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.floating):
-        return float(x)
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return str(x)
-
-
-def _num(x):
-    if x is None:
-        return None
-    x = float(x)
-    return x if not math.isnan(x) else None
+def _tidy(df: pd.DataFrame) -> pd.DataFrame:
+    """The ``cells`` rows read by pandas -> the tidy frame: each row read as a ``Cell`` and
+    written back as its tidy row (``data`` a dict, a missing detail ""), any other column kept."""
+    if df.empty:
+        df["data"] = df["data"].astype(object)
+        return df
+    rows = [Cell.from_db_row(r).to_row() for r in df.to_dict("records")]
+    out = pd.DataFrame(rows, index=df.index, columns=CELL_COLUMNS)
+    for col in df.columns:
+        if col not in CELL_COLUMNS:
+            out.insert(0, col, df[col])
+    return out
 
 
 class History:
@@ -127,14 +118,14 @@ class History:
             cur = con.execute(
                 "INSERT INTO runs (started, suite, measurement_version, git_commit, versions, machine, settings) "
                 "VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (started, suite, MEASUREMENT_VERSION, git_commit, _json(versions), _json(machine), _json(settings)))
+                (started, suite, MEASUREMENT_VERSION, git_commit, to_json(versions), to_json(machine),
+                 to_json(settings)))
             return int(cur.lastrowid)
 
-    def add_cell(self, run_id: int, cell: dict) -> None:
-        """Store one measured cell; a cell already stored for this run is replaced, never duplicated."""
-        row = {c: cell.get(c) for c in CELL_COLUMNS}
-        row["data"] = _json(cell.get("data", {}))
-        row["value"] = _num(row["value"])
+    def add_cell(self, run_id: int, cell: Cell | dict) -> None:
+        """Store one measured cell (a ``Cell``, or its tidy row as a dict); a cell already stored
+        for this run is replaced, never duplicated."""
+        row = (cell if isinstance(cell, Cell) else Cell.from_row(cell)).to_db_row()
         with closing(self._connect()) as con, con:
             con.execute(
                 f"INSERT OR REPLACE INTO cells (run_id, {', '.join(CELL_COLUMNS)}) "
@@ -144,7 +135,7 @@ class History:
     def finish_run(self, run_id: int, *, finished: str, wall_s: float, timing: dict, regressions: int) -> None:
         with closing(self._connect()) as con, con:
             con.execute("UPDATE runs SET finished = ?, wall_s = ?, timing = ?, regressions = ?, complete = 1 "
-                        "WHERE run_id = ?", (finished, wall_s, _json(timing), regressions, run_id))
+                        "WHERE run_id = ?", (finished, wall_s, to_json(timing), regressions, run_id))
 
     # ---------------------------------------------------------------- reading
     def runs(self, complete_only: bool = True) -> pd.DataFrame:
@@ -174,9 +165,14 @@ class History:
         with closing(self._connect()) as con:
             df = pd.read_sql_query("SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt",
                                    con, params=(run_id,))
-        df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
-        df["data"] = df["data"].astype(object).map(json.loads)
-        return df
+        return _tidy(df)
+
+    def cell_records(self, run_id: int) -> list[Cell]:
+        """The run's cells as ``Cell`` records, in the order of ``cells``."""
+        with closing(self._connect()) as con:
+            rows = con.execute("SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt",
+                               (run_id,)).fetchall()
+        return [Cell.from_db_row(r) for r in rows]
 
     def cells_of_runs(self, run_ids, measures, data_of=()) -> pd.DataFrame:
         """The cells of several runs at once, of the given measures only; ``data`` decoded for the
@@ -191,9 +187,7 @@ class History:
              f"ORDER BY run_id, scene, method, measure, dt")
         with closing(self._connect()) as con:
             df = pd.read_sql_query(q, con, params=(*data_of, *run_ids, *measures))
-        df["detail"] = df["detail"].astype(object).map(lambda s: s if isinstance(s, str) else "")
-        df["data"] = df["data"].astype(object).map(json.loads)
-        return df
+        return _tidy(df)
 
     def previous_complete(self, run_id: int) -> int | None:
         """The latest complete run before ``run_id`` of the same suite and measurement version

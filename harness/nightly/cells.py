@@ -1,4 +1,4 @@
-"""One nightly task -> its measured cells (plain dicts, one per measure; see ``storage``).
+"""One nightly task -> its measured cells (``records.cell.Cell``, one per measure).
 
 A scene x method task measures, at the suite's nominal timestep h = homega / omega (or the
 scene spec's ``dt`` where the study is fixed in the scene's units):
@@ -27,13 +27,17 @@ never needs to import the schemes or the engines.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import asdict
 
 import numpy as np
 
 from scenarios import make_scene
 
+from records.cell import (AdviceFigures, BoundFigures, Cell, Claims, CostFigures, EnergyFigures, ErrorFigures,
+                          IdentityFigures, OrderFigures, StabilityFigures)
+
+from harness.nightly.cell_kit import energy_run, finite, guard, guard_many, make_cell, nominal_dt, plain
+from harness.nightly.scene_cells import measures_for as scene_measures, scene_cells
 from harness.nightly.suites import SUITES, Suite
 
 #: The measures of a scene x method task, in the order they run (identity first for an engine
@@ -71,48 +75,36 @@ def measures_for(task, method=None) -> list[str]:
         # A constrained scene's only reference scheme projects positions; no engine integrates
         # that (MuJoCo's rope is reduced coordinates, pymunk's impulses): nothing to identify.
         out.insert(0, "identity")
-    from harness.nightly.scene_cells import measures_for as scene_measures
-
     return out + scene_measures(task, suite.scenes[task.scene])
 
 
-def _claims(method, scene=None) -> dict:
-    """The textbook claims a method's cells are judged by; the order is the one declared for
-    the scene (a lower one where its force depends on the velocity, with a note saying so)."""
+def _claims(method, scene=None) -> Claims:
+    """The textbook claims a method's cells are judged by (none known without a scheme); the
+    order is the one declared for the scene (a lower one where its force depends on the
+    velocity, with a note saying so)."""
     scheme = method.scheme
     if scheme is None:
-        return {}
+        return Claims()
     velocity = scene is not None and scene.velocity_dependent
     order = scheme.order_for(velocity)
-    note = {"order_note": f"{order} with a velocity-dependent force ({scheme.order} otherwise)"} \
-        if order != scheme.order else {}
-    return {"order": order, **note, "force_evals": scheme.force_evals,
-            "force_evals_text": f"{scheme.force_evals} + solve" if scheme.implicit else str(scheme.force_evals),
-            "energy": scheme.energy_claim, "homega_max": scheme.homega_max, "scheme": f"ref:{scheme.id}"}
-
-
-def _cell(task, measure, status="ok", value=None, dt=None, steps=None, detail="", data=None, wall=0.0) -> dict:
-    return {"scene": task.scene, "method": task.method, "family": task.family, "measure": measure,
-            "dt": dt, "steps": steps, "status": status, "detail": detail or "", "value": value,
-            "wall_s": wall, "data": data or {}}
-
-
-def _finite(x):
-    return None if x is None or not np.isfinite(x) else float(x)
+    note = f"{order} with a velocity-dependent force ({scheme.order} otherwise)" if order != scheme.order else None
+    return Claims(scheme=f"ref:{scheme.id}", order=order, order_note=note, force_evals=scheme.force_evals,
+                  force_evals_text=f"{scheme.force_evals} + solve" if scheme.implicit else str(scheme.force_evals),
+                  energy=scheme.energy_claim, homega_max=scheme.homega_max)
 
 
 def _downsample(n: int, points: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(n, points)).astype(int))
 
 
-def run_task(task) -> list[dict]:
+def run_task(task) -> list[Cell]:
     """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message."""
     from harness.execution.pool import report_partial
     from harness.methods import get_method, use_plugins
 
     use_plugins(task.plugins)
     if task.kind == "bound":
-        return [_guard(task, "bound", lambda: _bound(task))]
+        return [guard(task, "bound", lambda: _bound(task))]
     suite = suite_of(task)
     spec = suite.scenes[task.scene]
     scene = make_scene(task.scene, **task.params)
@@ -125,99 +117,43 @@ def run_task(task) -> list[dict]:
 
     def keep(*new):
         for c in new:
-            c["data"].setdefault("claims", claims)
+            if c.claims is None:
+                c.claims = claims
             cells.append(c)
             report_partial(c)
 
     measures = measures_for(task, method)
     if "identity" in measures:
-        identity = _guard(task, "identity", lambda: _identity(task, method, scene))
-        if identity["status"] == "ok" and identity["data"].get("match_claims"):
-            claims = identity["data"]["match_claims"]
+        identity = guard(task, "identity", lambda: _identity(task, method, scene))
+        match_claims = identity.figures.match_claims
+        if identity.ok and match_claims is not None and match_claims.known:
+            claims = match_claims
         keep(identity)
-    keep(*_guard_many(task, ("energy", "error"), lambda: _energy_and_error(task, run_method, scene, dt, spec, suite)))
+    keep(*guard_many(task, ("energy", "error"), lambda: _energy_and_error(task, run_method, scene, dt, spec, suite)))
     if "order" in measures:
-        keep(_guard(task, "order", lambda: _order(task, run_method, scene, spec)))
-    cost = _guard(task, "cost", lambda: _cost(task, method, scene, dt, suite))
+        keep(guard(task, "order", lambda: _order(task, run_method, scene, spec)))
+    cost = guard(task, "cost", lambda: _cost(task, method, scene, dt, suite))
     keep(cost)
     if "advise" in measures:
-        keep(*_guard_many(task, ("advise",), lambda: _advise(task, method, scene, spec, suite, cost)))
+        keep(*guard_many(task, ("advise",), lambda: _advise(task, method, scene, spec, suite, cost)))
     if "stability" in measures:
-        keep(_guard(task, "stability", lambda: _stability(task, run_method, scene, suite, spec)))
-    from harness.nightly.scene_cells import scene_cells
-
+        keep(guard(task, "stability", lambda: _stability(task, run_method, scene, suite, spec)))
     keep(*scene_cells(task, method, scene, dt, spec, suite, claims))
     return cells
 
 
-def nominal_dt(spec, scene) -> float:
-    return spec.dt if spec.dt is not None else spec.homega / scene.omega
-
-
-def energy_steps(spec, scene, dt: float) -> int:
-    horizon = spec.horizon if spec.horizon is not None else spec.periods * scene.period
-    return max(10, int(round(horizon / dt)))
-
-
-def _kernels_since(before: dict, cell: dict) -> None:
-    """Record in ``cell`` the compiled kernels its measure compiled or loaded from the disk
-    cache (``reference._kernels.STATS`` counts both in this process), if any."""
-    from reference import KERNEL_STATS as STATS
-
-    now = STATS.snapshot()
-    delta = {k: now[k] - before[k] for k in now}
-    if delta["kernels_compiled"] or delta["kernels_loaded"]:
-        cell["data"]["kernels"] = delta
-
-
-def _guard(task, measure, fn) -> dict:
-    from reference import KERNEL_STATS as STATS
-
-    t0 = time.perf_counter()
-    before = STATS.snapshot()
-    try:
-        cell = fn()
-    except Exception as exc:  # a measurement error is a recorded result, not a dead run
-        cell = _cell(task, measure, "crashed", detail=f"{type(exc).__name__}: {exc}"[:500])
-    cell["wall_s"] = time.perf_counter() - t0
-    _kernels_since(before, cell)
-    return cell
-
-
-def _guard_many(task, measures, fn) -> list[dict]:
-    from reference import KERNEL_STATS as STATS
-
-    t0 = time.perf_counter()
-    before = STATS.snapshot()
-    try:
-        cells = fn()
-    except Exception as exc:
-        cells = [_cell(task, m, "crashed", detail=f"{type(exc).__name__}: {exc}"[:500]) for m in measures]
-    for c in cells:
-        c["wall_s"] = (time.perf_counter() - t0) / len(cells)
-    _kernels_since(before, cells[0])
-    return cells
-
-
-def energy_run(scene, dt, spec, suite) -> tuple[int, int]:
-    """(steps, every) of the energy run: ``spec.horizon`` (else ``spec.periods`` periods), about
-    4 x series_points recorded."""
-    steps = energy_steps(spec, scene, dt)
-    return steps, max(1, steps // (4 * suite.series_points))
-
-
-def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
+def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
     from harness.measures.energy import classify, escaped_states, relative_error_defined, relative_error_series
     from harness.measures.error import trajectory_error
     from harness.execution.simulate import simulate
 
     steps, every = energy_run(scene, dt, spec, suite)
     traj = simulate(method, scene, dt, steps, every, timeout=suite.cell_timeout)
-    settings = {"settings": traj.meta.get("settings"), "engine_version": traj.meta.get("engine_version"),
-                "backend": traj.meta.get("backend")}
+    settings = {key: traj.meta.get(key) for key in ("settings", "engine_version", "backend")}
     if traj.status not in ("ok", "unstable") or traj.q.shape[0] == 0:
-        return [_cell(task, m, traj.status, dt=dt, steps=steps, detail=traj.detail, data=dict(settings))
-                for m in ("energy", "error")]
+        return [make_cell(task, "energy", traj.status, dt=dt, steps=steps, detail=traj.detail,
+                          figures=EnergyFigures(**settings)),
+                make_cell(task, "error", traj.status, dt=dt, steps=steps, detail=traj.detail, extra=settings)]
     e_exact, rel = relative_error_series(traj, scene)
     cls = classify(traj.energy[:, 0], e_exact, traj.t, unstable=traj.status == "unstable",
                    escaped=escaped_states(scene, traj))
@@ -227,20 +163,18 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[dict]:
     # a meaning (it read 273 for explicit Euler), so none is stored.
     defined = relative_error_defined(e_exact)
     with np.errstate(all="ignore"):
-        max_rel = _finite(np.nanmax(np.abs(rel))) if traj.ok and defined else None
-    energy = _cell(task, "energy", traj.status, max_rel, dt, steps, traj.detail,
-                   {"class": cls.get("classification"), "rule": cls.get("rule"), "rel_error_defined": defined,
-                    "final_rel_error": _finite(abs(rel[-1])) if traj.ok and defined else None,
-                    "failed_step": traj.failed_step, "series": series, "numbers": _plain(cls), **settings})
+        max_rel = finite(np.nanmax(np.abs(rel))) if traj.ok and defined else None
+    energy = make_cell(task, "energy", traj.status, max_rel, dt, steps, traj.detail, EnergyFigures.pick(
+        cls, energy_class=cls.get("classification"), rel_error_defined=defined,
+        final_rel_error=finite(abs(rel[-1])) if traj.ok and defined else None, failed_step=traj.failed_step,
+        series=series, numbers=plain(cls), **settings))
     err = trajectory_error(traj, scene) if traj.ok else {}
-    error = _cell(task, "error", traj.status, _finite(err.get("error_max")), dt, steps, traj.detail,
-                  {"error_final": err.get("error_final"), "source": err.get("source"),
-                   "t_compared": err.get("t_compared"), "horizon": err.get("horizon"),
-                   "t_final": err.get("t_final")})
+    error = make_cell(task, "error", traj.status, finite(err.get("error_max")), dt, steps, traj.detail,
+                      ErrorFigures.pick(err))
     return [energy, error]
 
 
-def _order(task, method, scene, spec) -> dict:
+def _order(task, method, scene, spec) -> Cell:
     from harness.measures.order import observed_order
 
     res = observed_order(method, scene, points=spec.order_points, span=spec.order_span, periods=spec.order_periods)
@@ -253,70 +187,58 @@ def _order(task, method, scene, spec) -> dict:
             # Nothing failed: the method is more accurate than the floor at every dt of the sweep
             # (SABA(10,6,4) on the solar system), so it has no measurable order here.
             status, detail = "ok", "no order: every error at or below the roundoff/reference floor"
-    return _cell(task, "order", status, _finite(order), detail=detail,
-                 data={"points": _plain(res.get("points", [])), "excluded": _plain(res.get("excluded", [])),
-                       "rvalue": res.get("rvalue"), "range": _plain(res.get("range"))})
+    return make_cell(task, "order", status, finite(order), detail=detail, figures=OrderFigures(
+        points=plain(res.get("points", [])), excluded=plain(excluded), rvalue=res.get("rvalue"),
+        range=plain(res.get("range"))))
 
 
-def _stability(task, method, scene, suite, spec) -> dict:
+def _stability(task, method, scene, suite, spec) -> Cell:
     from harness.measures.stability import largest_stable_dt
 
     hi = spec.stability_hi if spec.stability_hi is not None else suite.stability_homega_max
     res = largest_stable_dt(method, scene, steps=suite.stability_steps, hi=hi)
     verdict = res.get("verdict")
-    data = {"criterion": res.get("criterion"), "criterion_rule": res.get("criterion_rule"), "verdict": verdict,
-            "dt_max": res.get("dt_max"), "unbounded": verdict == "unbounded",
-            "unstable_everywhere": verdict == "unstable",
-            "homega_searched": (res.get("dt_searched_max") or 0) * scene.omega,
-            "rho_above_dt_max": res.get("rho_above_dt_max")}
-    value = res.get("omega_dt_max")
-    if verdict == "unbounded":
-        value = math.inf
-    return _cell(task, "stability", "ok", value, detail=res.get("detail", ""), data=_plain(data))
+    figures = StabilityFigures.pick(plain(res), unbounded=verdict == "unbounded",
+                                    unstable_everywhere=verdict == "unstable",
+                                    homega_searched=plain((res.get("dt_searched_max") or 0) * scene.omega))
+    value = math.inf if verdict == "unbounded" else res.get("omega_dt_max")
+    return make_cell(task, "stability", "ok", value, detail=res.get("detail", ""), figures=figures)
 
 
-def _cost(task, method, scene, dt, suite) -> dict:
+def _cost(task, method, scene, dt, suite) -> Cell:
     """Counted evaluations; CPU seconds per step and, timed in this worker on the same clock in
     repeats interleaved with the method's, explicit Euler's (the ratio's baseline)."""
     from harness.measures.cost import cost_per_step
 
     res = cost_per_step(method, scene, dt, time_steps=suite.cost_steps, repeats=suite.cost_repeats, clock="cpu")
-    base = res["baseline"]
-    return _cell(task, "cost", "ok", res.get("s_per_step"), dt, res.get("time_steps"),
-                 data={"force_evals_per_step": res.get("force_evals_per_step"),
-                       "solves_per_step": res.get("solves_per_step"), "timing": res.get("timing"),
-                       "clock": res.get("clock"), "repeats_s_per_step": res.get("repeats_s_per_step"),
-                       "spread": res.get("rel_spread") or 0.0,
-                       "ratio_to_explicit_euler": res.get("ratio_to_explicit_euler"),
-                       "ratio_spread": res.get("ratio_spread") or 0.0, "ratio_repeats": res.get("ratio_repeats"),
-                       "baseline_s_per_step": base.get("s_per_step"),
-                       "baseline_repeats_s_per_step": base.get("repeats_s_per_step"),
-                       "loop": res.get("loop"), "engine_loop": res.get("engine_loop"),
-                       # An engine mode's second figure: stepped one call at a time from Python.
-                       "as_stepped_s_per_step": res.get("as_stepped_s_per_step"),
-                       "as_stepped_repeats_s_per_step": (res.get("as_stepped") or {}).get("repeats_s_per_step"),
-                       "as_stepped_timing": (res.get("as_stepped") or {}).get("timing")})
+    base, stepped = res["baseline"], res.get("as_stepped") or {}
+    return make_cell(task, "cost", "ok", res.get("s_per_step"), dt, res.get("time_steps"), figures=CostFigures.pick(
+        res, spread=res.get("rel_spread") or 0.0, ratio_spread=res.get("ratio_spread") or 0.0,
+        baseline_s_per_step=base.get("s_per_step"), baseline_repeats_s_per_step=base.get("repeats_s_per_step"),
+        # An engine mode's second figure: stepped one call at a time from Python.
+        as_stepped_repeats_s_per_step=stepped.get("repeats_s_per_step"), as_stepped_timing=stepped.get("timing")))
 
 
-def _advise(task, method, scene, spec, suite, cost) -> list[dict]:
+def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
     """One cell per frame rate of the suite: the method's search over substeps
     (``harness.measures.advise.advise_method``), its cost per step from this task's cost cell. Value:
     the cost per frame of the fewest substeps that meet the tolerances (None where none does)."""
     from harness.measures.advise import Request, advise_method
 
-    per_step = (cost["value"], f"{cost['data'].get('timing')}; {cost['data'].get('clock')} clock (the cost cell)") \
-        if cost["status"] == "ok" and cost["value"] else None
+    per_step = (cost.value, f"{cost.figures.timing}; {cost.figures.clock} clock (the cost cell)") \
+        if cost.ok and cost.value else None
     cells = []
     for hz in suite.frame_rates:
         request = Request(hz=hz, **spec.advise).checked()
         res = advise_method(method, scene, request, timeout=suite.cell_timeout, cost_per_step=per_step)
         best = res.best_row
-        cells.append(_cell(task, "advise", "ok", best.cost_per_frame_s if best is not None else None, 1.0 / hz,
-                           data=_plain({"hz": hz, "request": asdict(request), **res.as_dict()})))
+        figures, extra = AdviceFigures.from_data(plain({"hz": hz, "request": asdict(request), **res.as_dict()}))
+        cells.append(make_cell(task, "advise", "ok", best.cost_per_frame_s if best is not None else None, 1.0 / hz,
+                               figures=figures, extra=extra))
     return cells
 
 
-def _identity(task, method, scene) -> dict:
+def _identity(task, method, scene) -> Cell:
     from reference import METHODS
 
     from harness.measures.identify import identify
@@ -324,13 +246,13 @@ def _identity(task, method, scene) -> dict:
     res = identify(method, scene)
     match = res.get("match")
     mode = task.method.split(":", 1)[1]
-    match_claims = {}
+    match_claims = Claims()
     if match and match.startswith("ref:"):
         from harness.methods import RefMethod
 
         match_claims = _claims(RefMethod(METHODS[match[4:]]), scene)
     if res.get("status") not in ("ok", "unstable"):
-        return _cell(task, "identity", res.get("status"), detail=res.get("detail"))
+        return make_cell(task, "identity", res.get("status"), detail=res.get("detail"))
     runner = res.get("runner_up") or {}
     closest = (res.get("candidates") or [{}])[0]
     note = None
@@ -339,49 +261,39 @@ def _identity(task, method, scene) -> dict:
                 f"(max deviation {closest.get('max_deviation', float('nan')):.2e})")
         if res.get("why_no_match"):
             note += f": {res['why_no_match']}"
-    return _cell(task, "identity", "ok", _finite(res.get("max_deviation") if match else closest.get("max_deviation")),
-                 res.get("dt"), res.get("steps"),
-                 data={"match": match, "matches": list(res.get("matches") or []), "closest": closest.get("method"),
-                       "runner_up": runner.get("method"),
-                       "runner_up_deviation": _finite(runner.get("max_deviation")),
-                       "name_suggests": NAME_SUGGESTS.get(mode), "match_claims": match_claims, "note": note})
+    return make_cell(task, "identity", "ok",
+                     finite(res.get("max_deviation") if match else closest.get("max_deviation")),
+                     res.get("dt"), res.get("steps"),
+                     figures=IdentityFigures(match=match, matches=list(res.get("matches") or []),
+                                             closest=closest.get("method"), runner_up=runner.get("method"),
+                                             runner_up_deviation=finite(runner.get("max_deviation")),
+                                             name_suggests=NAME_SUGGESTS.get(mode), match_claims=match_claims,
+                                             note=note))
 
 
-def _bound(task) -> dict:
+def _bound(task) -> Cell:
     from harness.pytest_plugin import measure_max_rel_energy_error
 
     value, status, detail = measure_max_rel_energy_error(task.method, task.scene, task.dt, task.steps, **task.params)
-    return _cell(task, "bound", status, _finite(value), task.dt, task.steps, detail, {"bound": task.bound})
+    return make_cell(task, "bound", status, finite(value), task.dt, task.steps, detail, BoundFigures(bound=task.bound))
 
 
-def failed_cells(task, failure) -> list[dict]:
+def failed_cells(task, failure) -> list[Cell]:
     """The worker died or hung: the cells it sent before (``failure.partial``) are kept, and
     every measure it did not finish is recorded with that outcome, the first of them (where
     the worker was lost) with why, the rest as not reached."""
     detail = getattr(failure, "detail", str(failure))
     status = getattr(failure, "status", "crashed")
-    done = [c for c in getattr(failure, "partial", None) or [] if isinstance(c, dict)]
-    measured = {c["measure"] for c in done}
+    done = [c for c in getattr(failure, "partial", None) or [] if isinstance(c, Cell)]
+    measured = {c.measure for c in done}
     missing = [m for m in task.measures() if m not in measured]
-    wall = getattr(failure, "seconds", 0.0) - sum(c.get("wall_s") or 0.0 for c in done)
+    wall = getattr(failure, "seconds", 0.0) - sum(c.wall_s or 0.0 for c in done)
     out = list(done)
     for i, m in enumerate(missing):
         why = detail if i == 0 else f"not reached: the worker was lost in {missing[0]} ({detail})"
-        out.append(_cell(task, m, status, detail=why, dt=task.dt if task.kind == "bound" else None,
-                         steps=task.steps if task.kind == "bound" else None,
-                         data={"bound": task.bound} if task.kind == "bound" else {},
-                         wall=max(wall, 0.0) if i == 0 else 0.0))
+        bound = task.kind == "bound"
+        out.append(make_cell(task, m, status, detail=why, dt=task.dt if bound else None,
+                             steps=task.steps if bound else None,
+                             figures=BoundFigures(bound=task.bound) if bound else None,
+                             wall=max(wall, 0.0) if i == 0 else 0.0))
     return out
-
-
-def _plain(x):
-    """numpy values -> JSON-able Python."""
-    if isinstance(x, dict):
-        return {k: _plain(v) for k, v in x.items() if not isinstance(v, np.ndarray) or v.size <= 4096}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, np.generic):
-        return x.item()
-    return x

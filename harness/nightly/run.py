@@ -20,6 +20,7 @@ from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from records.cell import Cell
 from scenarios import SCENES, make_scene
 
 from harness.execution.environment import run_metadata
@@ -189,7 +190,7 @@ def previous_task_seconds(history: History, suite_name: str) -> dict[str, float]
     return dict(runs.timing.iloc[-1].get("task_s", {})) if not runs.empty else {}
 
 
-def timing_summary(cells_by_task: dict[str, list[dict]], stats: dict, wall_cells: float) -> dict:
+def timing_summary(cells_by_task: dict[str, list[Cell]], stats: dict, wall_cells: float) -> dict:
     """Where the cells' time went: worker seconds by measure, by family, numba compilation
     (kernels compiled, and kernels loaded from the disk cache instead), per task (wall in the
     parent, CPU in the worker) and the slowest tasks."""
@@ -198,13 +199,13 @@ def timing_summary(cells_by_task: dict[str, list[dict]], stats: dict, wall_cells
     kernels = defaultdict(float)  # compiled / loaded from the disk cache, and their seconds
     for label, cells in cells_by_task.items():
         for c in cells:
-            w = c.get("wall_s") or 0.0
-            by_measure[c["measure"]] += w
-            by_family[c["family"]] += w
-            for k, v in ((c.get("data") or {}).get("kernels") or {}).items():
+            w = c.wall_s or 0.0
+            by_measure[c.measure] += w
+            by_family[c.family] += w
+            for k, v in (c.kernels or {}).items():
                 kernels[k] += v
         st = stats.get(label)
-        task_s[label] = st.wall_s if st is not None else sum(c.get("wall_s") or 0.0 for c in cells)
+        task_s[label] = st.wall_s if st is not None else sum(c.wall_s or 0.0 for c in cells)
         task_cpu[label] = st.cpu_s if st is not None else None
     known = [v for v in task_cpu.values() if v is not None]
     slowest = sorted(task_s.items(), key=lambda kv: -kv[1])[:5]
@@ -217,6 +218,17 @@ def timing_summary(cells_by_task: dict[str, list[dict]], stats: dict, wall_cells
             "tasks_without_cpu": len(task_cpu) - len(known)}
 
 
+def report_run(history: History, run_id: int, out: Path, regressions=(), previous=None, timing=None,
+               trend=None) -> Path:
+    """The run's stored cells judged (``harness.judge``) and written as its report (``reports.markdown``)."""
+    from harness.judge import judge
+    from reports.markdown import write_report
+
+    cells = history.cell_records(run_id)
+    judged = judge(cells, regressions=regressions, previous=previous, trend=trend)
+    return write_report(history.run(run_id), cells, judged, out, timing=timing, trend=trend)
+
+
 def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB,
                 jobs: int | None = None, scheduler: str | None = None, bounds_path=bounds_mod.DEFAULT_PATH,
                 progress_stream=None, cell_timeout: float | None = None) -> dict:
@@ -224,7 +236,6 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     previous complete run of the same suite, write the report, mark the run complete.
     ``cell_timeout`` (seconds per task) overrides the suite's."""
     from harness.nightly.cells import failed_cells
-    from reports.markdown import write_report
 
     suite = SUITES[suite] if isinstance(suite, str) else suite
     suite_name = suite.name
@@ -242,7 +253,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     run_id = history.start_run(started=now(), suite=suite_name, git_commit=commit, versions=versions,
                                machine=machine, settings=settings)
     progress = Progress(len(tasks), progress_stream)
-    cells_by_task: dict[str, list[dict]] = {}
+    cells_by_task: dict[str, list[Cell]] = {}
     t_cells = time.perf_counter()
     try:
         for task, result in executor.run(tasks, timeout):
@@ -250,8 +261,8 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
             for cell in cells:
                 history.add_cell(run_id, cell)
             cells_by_task[task.label] = cells
-            worst = next((c["status"] for c in cells if c["status"] != "ok"), "ok")
-            progress.update(task, worst, sum(c.get("wall_s") or 0.0 for c in cells))
+            worst = next((c.status for c in cells if c.status != "ok"), "ok")
+            progress.update(task, worst, sum(c.wall_s or 0.0 for c in cells))
     finally:
         executor.close()
     t_cells = time.perf_counter() - t_cells
@@ -263,7 +274,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     timing["total_s"] = time.perf_counter() - t_start  # up to the report: what its footer can say
     timing["main_cpu_s"] = time.process_time() - cpu_start
     t_report = time.perf_counter()
-    report = write_report(history, run_id, out, regressions=regressions, previous=run_a, timing=timing, trend=trend)
+    report = report_run(history, run_id, out, regressions=regressions, previous=run_a, timing=timing, trend=trend)
     timing["report_s"] = time.perf_counter() - t_report
     timing["finished_s"] = time.perf_counter() - t_start
     history.finish_run(run_id, finished=now(), wall_s=timing["finished_s"], timing=timing,

@@ -1,0 +1,440 @@
+"""Judging a nightly run, in one place: the tolerances, the rules that give a measured figure its
+check or cross against the textbook, the verdict against the previous run, and the findings.
+
+``judge(cells, ...)`` reads the run's cells (``records.cell.Cell``) and returns a
+``records.findings.Judgement``: plain records the report prints (``reports/`` judges nothing).
+
+A scene's own findings are declared as data: ``SCENE_CHECKS[scene]`` is a table of ``Check``
+rows, each naming what is checked (its ``finding``, one of ``FINDINGS``), the cells it reads
+(``measure``, ``methods``), what it is judged against (``expect``, ``against``) and with which
+tolerance. Adding a check to a scene is a row, not a new function.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from records.cell import Cell, Claims
+from records.findings import MARK, Change, ClaimChecks, Finding, Judgement, Verdict
+
+from harness.measures.workprecision import error_at_equal_cost as at_equal_cost
+
+#: A measured order within this of the declared order gets a check mark (the order tests' tolerance).
+ORDER_TOL = 0.15
+#: A measured stability limit within this fraction of the textbook's gets a check mark.
+STABILITY_TOL = 0.005
+#: Counted force evaluations per step agree with the declared number to this (they are counts).
+EVALS_TOL = 1e-9
+
+
+# ----------------------------------------------------------------------------- the claims
+def claims_of(cells: dict) -> Claims:
+    """The claims a method's cells carry ({measure: cell}); none known: every field None."""
+    return next((c.claims for c in cells.values() if c.claims is not None and c.claims.known), Claims())
+
+
+def homega_ok(cell: Cell | None, claim) -> bool | None:
+    """A stability cell against the claimed largest stable h*omega (None: no h is stable; inf:
+    every h is) to STABILITY_TOL; None where there is nothing to judge."""
+    if cell is None or cell.status != "ok":
+        return None
+    f = cell.figures
+    if claim is None:
+        return bool(f.unstable_everywhere)
+    if claim == math.inf:
+        return bool(f.unbounded)
+    return cell.value is not None and not f.unbounded and abs(cell.value / float(claim) - 1) <= STABILITY_TOL
+
+
+def claim_checks(cells: dict) -> ClaimChecks:
+    """One method's cells on one scene ({measure: cell}) against the claims they carry."""
+    claims = claims_of(cells)
+    cost, order, energy, stab = (cells.get(m) for m in ("cost", "order", "energy", "stability"))
+    evals = order_ok = energy_ok = None
+    if cost is not None and cost.status == "ok":
+        n = cost.figures.force_evals_per_step
+        evals = n is not None and claims.force_evals is not None and abs(n - claims.force_evals) < EVALS_TOL
+    if order is not None and order.status == "ok":
+        order_ok = claims.order is not None and abs(order.value - claims.order) <= ORDER_TOL
+    if energy is not None and energy.figures.energy_class:
+        energy_ok = claims.energy == energy.figures.energy_class
+    return ClaimChecks(claims=claims, evals=evals, order=order_ok, energy=energy_ok,
+                       homega=homega_ok(stab, claims.homega_max) if claims.known else None)
+
+
+def bound_ok(cell: Cell) -> bool:
+    """A reviewed energy bound holds: the cell measured, at or below its bound."""
+    bound = cell.figures.bound
+    return cell.status == "ok" and bound is not None and cell.value <= bound
+
+
+# ----------------------------------------------------------------------------- the verdict
+def failed_methods(cells: list[Cell]) -> list[tuple[str, str]]:
+    """(scene, method) of every method with a crashed or timed-out cell, sorted."""
+    return sorted({(c.scene, c.method) for c in cells if c.status in ("crashed", "timed_out")})
+
+
+def verdict(cells: list[Cell], regressions=(), previous=None, trend=None) -> Verdict:
+    """The run against ``previous`` (``regressions`` from ``harness.history.compare``; ``trend``:
+    the suite's judged history, whose latest accuracy changes are reported at once)."""
+    changed = trend.latest_changes() if trend is not None else []
+    judged = len(trend.runs) if previous is not None and trend is not None and trend.judged else None
+    return Verdict(previous=previous, regressions=tuple(r.line() for r in regressions), judged_runs=judged,
+                   changed=tuple(Change(c.scene, c.method, c.measure, ch.before, ch.after) for c, ch in changed),
+                   failed=tuple(failed_methods(cells)))
+
+
+# ----------------------------------------------------------------------------- the findings
+def pivot(cells: list[Cell]) -> dict:
+    """{(scene, method): {measure: cell}} for the scene x method cells (bounds excluded)."""
+    out: dict = {}
+    for c in cells:
+        if c.measure != "bound":
+            out.setdefault((c.scene, c.method), {})[c.measure] = c
+    return out
+
+
+def engine_findings(piv: dict) -> list[Finding]:
+    """Engine behaviour a user would not expect, on any scene: a mode that integrates as another
+    scheme than its name suggests, or as explicit Euler, or as none; a blow-up or an energy gain
+    at the nominal timestep."""
+    out = []
+    for (scene, method), ms in sorted(piv.items()):
+        if method.startswith("ref:"):
+            continue
+        ident, energy = ms.get("identity"), ms.get("energy")
+        if ident is not None and ident.status == "ok":
+            f = ident.figures
+            matches, dev = f.all_matches, ident.value
+            expected = f.name_suggests
+            if expected and matches and f"ref:{expected}" not in matches:
+                said = " = ".join(f"`{m}`" for m in matches)
+                out.append(Finding(f"`{method}` on `{scene}` integrates as **{said}** (max deviation {dev:.1e}), "
+                                   f"not the {expected.replace('_', ' ')} its name suggests.", None, scene, method))
+            elif matches == ["ref:explicit_euler"]:
+                out.append(Finding(f"`{method}` on `{scene}` is **explicit Euler** (max deviation {dev:.1e}).",
+                                   None, scene, method))
+            elif not matches and f.note:
+                out.append(Finding(f"`{method}` on `{scene}`: {f.note}", None, scene, method))
+        if energy is not None and energy.status == "unstable" and energy.figures.failed_step:
+            out.append(Finding(f"`{method}` blows up on `{scene}` at the nominal timestep "
+                               f"(step {energy.figures.failed_step}).", None, scene, method))
+        elif energy is not None and energy.status == "ok" and energy.figures.energy_class == "grows":
+            out.append(Finding(f"`{method}` gains energy on `{scene}` at the nominal timestep "
+                               f"(max |ΔE/E| {energy.value:.2e}).", None, scene, method))
+    return out
+
+
+@dataclass(frozen=True)
+class Check:
+    """One row of a scene's findings table: the ``finding`` (a key of ``FINDINGS``), the
+    ``measure`` whose cells it reads, of ``methods`` (empty: every method with that measure),
+    what they are judged ``against`` (methods) or ``expect``ed to be, with ``tolerance``;
+    ``note``: what the line says of why, where the measurement cannot say it."""
+
+    finding: str
+    measure: str
+    methods: tuple[str, ...] = ()
+    against: tuple[str, ...] = ()
+    expect: object = None
+    tolerance: float | None = None
+    note: str = ""
+
+
+def _g(x, spec=".3g") -> str:
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def _names(methods) -> str:
+    return ", ".join(f"`{m}`" for m in methods)
+
+
+def _rows(piv: dict, scene: str, check: Check, statuses=("ok",)) -> dict:
+    """{method: cell} of the check's measure on ``scene`` (of its methods, if it names any)."""
+    return {m: ms[check.measure] for (s, m), ms in sorted(piv.items())
+            if s == scene and check.measure in ms and (not check.methods or m in check.methods)
+            and ms[check.measure].status in statuses}
+
+
+def _value(cell: Cell | None):
+    if cell is None or cell.status != "ok" or cell.value is None or math.isnan(cell.value):
+        return None
+    return float(cell.value)
+
+
+def stability_limits(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """Every method's largest stable h*omega on the scene, grouped by limit."""
+    stab = _rows(piv, scene, check)
+    if not stab:
+        return []
+    by_limit: dict = {}
+    for m, r in stab.items():
+        if r.figures.verdict == "limited":
+            by_limit.setdefault(round(r.value, 3), []).append(m)
+    parts = [f"h·ω_max = {v:.4g}: {_names(ms)}" for v, ms in sorted(by_limit.items())]
+    never = [m for m, r in stab.items() if r.figures.unstable_everywhere]
+    free = [m for m, r in stab.items() if r.figures.unbounded]
+    if never:
+        parts.append(f"unstable at every h: {_names(never)}")
+    if free:
+        searched = max(stab[m].figures.homega_searched or 0 for m in free)
+        parts.append(f"stable at every h searched (to h·ω = {searched:.3g}): {_names(free)}")
+    return [Finding(f"`{scene}`: largest stable h·ω on the stiffest mode, measured: " + "; ".join(parts) + ".",
+                    scene=scene)]
+
+
+def damping_beyond_the_limit(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """What each method stable far beyond the explicit limit keeps of the energy, per mode; which grow."""
+    damp = _rows(piv, scene, check)
+    if not damp:
+        return []
+    first = next(iter(damp.values())).figures
+    homega, factor = first.omega_dt, first.factor if first.factor is not None else 100
+    out = []
+    for m, r in damp.items():
+        if not r.figures.stable:
+            continue
+        hi, lo = r.figures.highest or {}, r.figures.lowest or {}
+        out.append(Finding(
+            f"`{m}` on `{scene}` at {factor:g}x the explicit limit (h·ω_max = {_g(homega, '.4g')}): keeps "
+            f"{_g(r.value, '.3g')} of the energy after one step from the scene's state; per step its highest mode "
+            f"keeps {_g(hi.get('energy_factor'), '.3g')} of its energy (damping ratio ζ = "
+            f"{_g(hi.get('zeta'), '.3f')}), its lowest {_g(lo.get('energy_factor'), '.3g')} (ζ = "
+            f"{_g(lo.get('zeta'), '.3f')}); the exact motion keeps all of it (ζ = 0).", scene=scene, method=m))
+    growing = [m for m, r in damp.items() if r.figures.stable is False]
+    if growing:
+        rhos = [damp[m].figures.rho for m in growing if damp[m].figures.rho is not None]
+        out.append(Finding(f"`{scene}` at h·ω_max = {_g(homega, '.4g')}: {len(growing)} methods grow there (spectral "
+                           f"radius {_g(min(rhos), '.3g')} to {_g(max(rhos), '.3g')} per step): {_names(growing)}.",
+                           scene=scene))
+    return out
+
+
+def matches_only_from_a_generic_state(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """A mode that is its ``against`` scheme from a generic state but matches none from the
+    scene's: its one-step map's highest mode beside the scheme's, and the energy each keeps."""
+    (method,), (scheme,) = check.methods, check.against
+    ident, dd = piv.get((scene, method), {}).get("identity"), piv.get((scene, method), {}).get(check.measure)
+    be = piv.get((scene, scheme), {}).get(check.measure)
+    if not (ident is not None and ident.status == "ok" and ident.figures.match is None and dd is not None
+            and dd.status == "ok" and be is not None and be.status == "ok"):
+        return []
+    rho_d, rho_b = (dd.figures.highest or {}).get("rho"), (be.figures.highest or {}).get("rho")
+    apart = abs(rho_d / rho_b - 1.0) if rho_d is not None and rho_b else None
+    return [Finding(
+        f"`{method}` on `{scene}` is {check.expect} only where every tendon is stretched: from a generic state its "
+        f"one-step map is {check.expect}'s (highest mode's spectral radius within {_g(apart, '.1e')} relative), but "
+        f"from the scene's state, {check.note}: it matches no scheme (closest `{scheme}`, max deviation "
+        f"{_g(ident.value, '.2e')}) and keeps {_g(dd.value, '.3g')} of the energy after that first step at 100x the "
+        f"limit, where {check.expect} keeps {_g(be.value, '.3g')}.", scene=scene, method=method)]
+
+
+def cost_against_size(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """The log-log slope of cost per step against N."""
+    out = []
+    for m, r in _rows(piv, scene, check).items():
+        rows = r.figures.rows or []
+        ns = [row["N"] for row in rows]
+        per_dof = rows[-1]["ns_per_dof_step"] if rows else None
+        out.append(Finding(f"`{m}` on `{scene}`: cost per step grows as N^{r.value:.2f} over N = {min(ns)}…{max(ns)} "
+                           f"(log-log fit, r = {_g(r.figures.rvalue, '.4f')}; {_g(per_dof, '.3g')} ns per mass-step "
+                           f"at N = {max(ns)}): {check.note}.", scene=scene, method=m))
+    return out
+
+
+def constraint_drift(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """Every method's largest link stretch and energy change; a projecting scheme's against its passes."""
+    rows = _rows(piv, scene, check, ("ok", "unstable"))
+    if not rows:
+        return []
+    first = next(iter(rows.values()))
+    parts = []
+    for m, r in rows.items():
+        f = r.figures
+        k = f", {f.iterations} passes" if f.iterations else ""
+        parts.append(f"`{m}`{k}: {_g(r.value, '.2e')} stretch, energy {_g(f.energy_change, '+.2%')}")
+    out = [Finding(f"`{scene}` over t = {_g(first.figures.t_final, '.3g')} at the nominal dt = {_g(first.dt, '.3g')}, "
+                   f"largest relative link stretch and energy change at the end: " + "; ".join(parts) + ".",
+                   scene=scene)]
+    for m, r in rows.items():
+        by = r.figures.by_iterations
+        if by:
+            out.append(Finding(f"`{m}` on `{scene}` against projection passes: " + "; ".join(
+                f"{b['iterations']}: stretch {_g(b['max_stretch'], '.2e')}, energy {_g(b['energy_change'], '+.2%')}"
+                for b in by) + ".", scene=scene, method=m))
+    return out
+
+
+def energy_classes(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """Every method's energy class over the run: those of ``methods`` expected ``expect``."""
+    energy = {m: ms["energy"] for (s, m), ms in sorted(piv.items()) if s == scene and "energy" in ms}
+    ran = [r for r in energy.values() if r.status in ("ok", "unstable")]
+    if not ran:
+        return []
+    dt, steps = ran[0].dt, ran[0].steps
+
+    def text(m):
+        r = energy[m]
+        if r.status not in ("ok", "unstable"):
+            return f"`{m}` {r.status}"
+        val = _value(r)
+        return f"`{m}` {val:.1e} {r.figures.energy_class}" if val is not None else f"`{m}` {r.figures.energy_class}"
+
+    named = [m for m in energy if m in check.methods]
+    ok = bool(named) and all(energy[m].status == "ok" and energy[m].figures.energy_class == check.expect
+                             for m in named)
+    return [Finding(f"`{scene}`, energy over {dt * steps:.3g} days at dt = {dt:g} (max |ΔE/E|, class): symplectic "
+                    + ", ".join(text(m) for m in named) + f": all {check.expect} {MARK}. Others: "
+                    + ", ".join(text(m) for m in energy if m not in check.methods) + ".", ok, scene)]
+
+
+def energy_not_bounded(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """A method whose energy error is expected to drift (a class in ``expect``), with its envelopes."""
+    out = []
+    for m, r in _rows(piv, scene, check).items():
+        n = r.figures.numbers or {}
+        nan = math.nan
+        out.append(Finding(
+            f"`{scene}`: `{m}`'s energy error is not bounded but {r.figures.energy_class} {MARK}: |ΔE/E| envelope "
+            f"{n.get('first_tenth_envelope', nan):.1e} over the first tenth of the run, "
+            f"{n.get('last_tenth_envelope', nan):.1e} over the last (secular rate {n.get('secular_rate', nan):.2e} "
+            f"per day).", r.figures.energy_class in check.expect, scene, m))
+    return out
+
+
+def integrates_as(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """An engine mode identified as the ``expect``ed reference scheme."""
+    out = []
+    for m, ident in _rows(piv, scene, check).items():
+        match, dev = ident.figures.match, _value(ident)
+        how = "bitwise" if dev == 0 else f"to {dev:.1e}"
+        out.append(Finding(
+            f"`{scene}`: `{m}` integrates as `{match}` ({how} over {int(ident.steps)} steps of {ident.dt:.4g} days) "
+            f"{MARK}; runner-up `{ident.figures.runner_up}` at {ident.figures.runner_up_deviation or math.nan:.1e}.",
+            match == check.expect, scene, m))
+    return out
+
+
+def energy_within(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """A method's max |dE/E| over the run at most ``tolerance``."""
+    out = []
+    for m, r in _rows(piv, scene, check).items():
+        if _value(r) is not None:
+            out.append(Finding(f"`{scene}`: `{m}` keeps max |ΔE/E| = {_value(r):.1e} over the run "
+                               f"(limit {check.tolerance:g}) {MARK}.", _value(r) <= check.tolerance, scene, m))
+    return out
+
+
+def _sweep(piv: dict, scene: str, method: str) -> dict | None:
+    """(cost per unit time, error) along a method's order sweep: the sweep's errors, the cost cell's
+    seconds per step (a fixed-step method's cost per step does not depend on dt) over each dt."""
+    ms = piv.get((scene, method), {})
+    order, sps = ms.get("order"), _value(ms.get("cost"))
+    if order is None or order.status != "ok" or not sps:
+        return None
+    pts = [p for p in order.figures.points or [] if p["error"] and p["dt"]]
+    if len(pts) < 2:
+        return None
+    return {"cost": [sps / p["dt"] for p in pts], "error": [p["error"] for p in pts]}
+
+
+def error_at_equal_cost(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """A method's max global error at equal cost per simulated day, as a ratio to each of
+    ``against``'s: below ``tolerance`` at every shared point."""
+    out = []
+    for method in check.methods:
+        mine = _sweep(piv, scene, method)
+        for other in check.against:
+            theirs = _sweep(piv, scene, other)
+            if mine is None or theirs is None:
+                continue
+            rows = at_equal_cost(mine, theirs)
+            if not rows:
+                out.append(Finding(f"`{scene}`: `{method}` and `{other}` share no cost range in this run's sweeps.",
+                                   None, scene, method))
+                continue
+            ratios = [r["ratio"] for r in rows]
+            lo, hi = f"{min(ratios):.1e}", f"{max(ratios):.1e}"
+            span = lo if lo == hi else f"{lo} to {hi}"
+            points = f"{len(rows)} point{'s' if len(rows) > 1 else ''}"
+            out.append(Finding(f"`{scene}`, work-precision: at equal cost per simulated day, `{method}`'s max global "
+                               f"error is {span} times `{other}`'s ({points} of the order sweep) {MARK}.",
+                               max(ratios) < check.tolerance, scene, method))
+    return out
+
+
+def cost_ratio(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """A method's time per step as a ratio to ``against``'s, beside their counted evaluations."""
+    out = []
+    for method in check.methods:
+        for other in check.against:
+            rk, lf = piv.get((scene, method), {}).get("cost"), piv.get((scene, other), {}).get("cost")
+            if not (_value(lf) and _value(rk)):
+                continue
+            ev_lf, ev_rk = lf.figures.force_evals_per_step, rk.figures.force_evals_per_step
+            evals = f"{ev_rk:g} against {ev_lf:g} counted force evaluations" if ev_lf and ev_rk else \
+                "evaluations not counted"
+            out.append(Finding(
+                f"`{scene}`, cost: `{method}` takes {_value(rk) / _value(lf):.2f}x `{other}`'s time per step "
+                f"(compiled, {_value(rk) * 1e6:.3g} µs against {_value(lf) * 1e6:.3g} µs, min of repeats; spreads "
+                f"{rk.figures.spread or 0:.0%} and {lf.figures.spread or 0:.0%}) for {evals}.", None, scene, method))
+    return out
+
+
+#: The findings a scene's table may name.
+FINDINGS = {f.__name__: f for f in (stability_limits, damping_beyond_the_limit, matches_only_from_a_generic_state,
+                                     cost_against_size, constraint_drift, energy_classes, energy_not_bounded,
+                                     integrates_as, energy_within, error_at_equal_cost, cost_ratio)}
+
+#: The schemes the outer solar system's energy finding calls symplectic.
+SOLAR_SYMPLECTIC = ("ref:semi_implicit_euler", "ref:leapfrog", "ref:velocity_verlet", "ref:forest_ruth",
+                    "rebound:leapfrog", "rebound:whfast", "rebound:saba")
+#: The drift the issue allows IAS15 over the run.
+IAS15_LIMIT = 1e-13
+
+#: Each scene's findings, in the order the report lists them.
+SCENE_CHECKS: dict[str, tuple[Check, ...]] = {
+    "chain": (
+        Check("stability_limits", "stability"),
+        Check("damping_beyond_the_limit", "damping"),
+        Check("matches_only_from_a_generic_state", "damping", methods=("mujoco:discrete",),
+              against=("ref:implicit_euler",), expect="backward Euler",
+              note="where every spring but the two beside the displaced mass sits exactly at its rest length, "
+                   "MuJoCo leaves those tendons out of its implicit step"),
+        Check("cost_against_size", "scaling", note="the tridiagonal solve is sparse"),
+    ),
+    "rope": (
+        Check("constraint_drift", "constraint"),
+    ),
+    "solar_system": (
+        Check("energy_classes", "energy", methods=SOLAR_SYMPLECTIC, expect="bounded"),
+        Check("energy_not_bounded", "energy", methods=("ref:rk4",), expect=("decays", "grows", "drifts")),
+        Check("integrates_as", "identity", methods=("rebound:leapfrog",), expect="ref:leapfrog"),
+        Check("energy_within", "energy", methods=("rebound:ias15",), tolerance=IAS15_LIMIT),
+        Check("error_at_equal_cost", "order", methods=("rebound:whfast",), against=("rebound:leapfrog", "ref:leapfrog"),
+              tolerance=1.0),
+        Check("cost_ratio", "cost", methods=("ref:rk4",), against=("ref:leapfrog",)),
+    ),
+}
+
+
+def scene_findings(piv: dict) -> list[Finding]:
+    """The checks of every scene present in this run, each table row in turn."""
+    present = {s for s, _ in piv}
+    return [f for scene, checks in SCENE_CHECKS.items() if scene in present
+            for check in checks for f in FINDINGS[check.finding](check, scene, piv)]
+
+
+# ----------------------------------------------------------------------------- the run
+def judge(cells: list[Cell], regressions=(), previous=None, trend=None) -> Judgement:
+    """Everything the report prints that is judged rather than measured."""
+    piv = pivot(cells)
+    seen, findings = set(), []
+    for f in engine_findings(piv) + scene_findings(piv):
+        if f.text not in seen:  # a line said twice is printed once
+            seen.add(f.text)
+            findings.append(f)
+    return Judgement(verdict=verdict(cells, regressions, previous, trend),
+                     claims={key: claim_checks(ms) for key, ms in piv.items() if key[1].startswith("ref:")},
+                     bounds={(c.scene, c.method, c.dt): bound_ok(c) for c in cells if c.measure == "bound"},
+                     findings=tuple(findings))

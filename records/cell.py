@@ -1,0 +1,394 @@
+"""A measured cell: one measure of one method on one scene, as the nightly stores and reports it.
+
+``Cell`` holds what every cell has (scene, params, method, family, measure, status, dt, steps,
+value, wall_s, detail), the measure's figures as a typed record (``FIGURES[measure]``: a
+frozen dataclass per measure, one attribute per figure the reports read), the textbook claims
+the cell is judged against (``Claims``), and whatever else the measure recorded in ``extra``.
+
+The conversions live here and nowhere else: ``Cell.to_row`` / ``Cell.from_row`` for the tidy
+DataFrame row (``data`` as a dict), ``Cell.to_db_row`` / ``Cell.from_db_row`` for the SQLite row
+(``data`` as JSON). The stored ``data`` is one flat dict, as it always was: the figures under
+their keys (``EnergyFigures.energy_class`` is stored as ``class``), ``claims``, ``kernels``,
+``params`` and the extra keys beside them; a figure that is None is not written, and a key
+that is not written reads back as None. A history written before the figures were typed
+therefore loads unchanged.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field, fields
+from typing import Any, ClassVar
+
+#: The columns of a cell, in the tidy DataFrame and in the SQLite ``cells`` table.
+CELL_COLUMNS = ("scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value", "wall_s", "data")
+
+
+class Record:
+    """A frozen record stored as a flat dict: field ``name`` under its ``KEYS.get(name, name)``,
+    None figures left out; a field named in ``NESTED`` holds a record of that class."""
+
+    KEYS: ClassVar[dict[str, str]] = {}
+    NESTED: ClassVar[dict[str, type]] = {}
+
+    @classmethod
+    def stored_keys(cls) -> dict[str, str]:
+        """{stored key: field name}."""
+        return {cls.KEYS.get(f.name, f.name): f.name for f in fields(cls)}
+
+    @classmethod
+    def from_data(cls, data: dict) -> tuple["Record", dict]:
+        """(the record, the keys of ``data`` that are none of its fields)."""
+        keys = cls.stored_keys()
+        mine = {keys[k]: v for k, v in data.items() if k in keys}
+        for name, kind in cls.NESTED.items():
+            if isinstance(mine.get(name), dict):
+                mine[name] = kind.from_data(mine[name])[0]
+        return cls(**mine), {k: v for k, v in data.items() if k not in keys}
+
+    @classmethod
+    def pick(cls, result: dict, **given) -> "Record":
+        """The record of the entries of ``result`` (a measure's result) named as its fields are
+        stored, and of ``given``; the rest of ``result`` is not taken."""
+        keys = cls.stored_keys()
+        taken = {name: result[key] for key, name in keys.items() if key in result and name not in given}
+        return cls(**taken, **given)
+
+    def to_data(self) -> dict:
+        out = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is None:
+                continue
+            out[self.KEYS.get(f.name, f.name)] = v.to_data() if isinstance(v, Record) else v
+        return out
+
+
+@dataclass(frozen=True)
+class Claims(Record):
+    """The textbook claims of a scheme, as a cell is judged by them: its order (on this scene),
+    counted force evaluations per step, energy behaviour, largest stable h*omega (None: none is
+    stable; inf: every one is). ``scheme`` is None where no scheme is known (an engine mode that
+    matches none)."""
+
+    scheme: str | None = None
+    order: float | None = None
+    order_note: str | None = None
+    force_evals: float | None = None
+    force_evals_text: str | None = None
+    energy: str | None = None
+    homega_max: float | None = None
+
+    @property
+    def known(self) -> bool:
+        return self.scheme is not None
+
+    def to_data(self) -> dict:
+        """{} where no scheme is known; else every claim, None included (a None ``homega_max``
+        is a claim: no h is stable), the order note only where there is one."""
+        if not self.known:
+            return {}
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        if self.order_note is None:
+            del out["order_note"]
+        return out
+
+
+@dataclass(frozen=True)
+class Figures(Record):
+    """The figures of one measure (a subclass per measure)."""
+
+
+@dataclass(frozen=True)
+class EnergyFigures(Figures):
+    """``energy``: max |dE/E| (the cell's value) and its classification over the energy run."""
+
+    KEYS: ClassVar[dict[str, str]] = {"energy_class": "class"}
+    energy_class: str | None = None          # bounded, grows, decays, drifts, ... (stored as "class")
+    rule: str | None = None
+    rel_error_defined: bool | None = None    # False where the exact energy crosses zero
+    final_rel_error: float | None = None
+    failed_step: int | None = None
+    series: dict | None = None               # {"t", "energy", "exact"}, downsampled, for the chart
+    numbers: dict | None = None              # the classification's figures (envelopes, secular rate)
+    settings: Any = None                     # what an engine adapter recorded of its settings
+    engine_version: str | None = None
+    backend: str | None = None
+
+
+@dataclass(frozen=True)
+class ErrorFigures(Figures):
+    """``error``: max global error (the value) over the energy run."""
+
+    error_final: float | None = None
+    source: str | None = None
+    t_compared: float | None = None
+    horizon: float | None = None
+    t_final: float | None = None
+
+
+@dataclass(frozen=True)
+class OrderFigures(Figures):
+    """``order``: the observed order (the value) of the dt sweep."""
+
+    points: list | None = None               # [{"dt", "error", ...}] used in the fit
+    excluded: list | None = None
+    rvalue: float | None = None
+    range: list | None = None
+
+
+@dataclass(frozen=True)
+class StabilityFigures(Figures):
+    """``stability``: the largest stable h*omega (the value; inf where unbounded)."""
+
+    criterion: str | None = None
+    criterion_rule: str | None = None
+    verdict: str | None = None               # limited, unbounded, unstable
+    dt_max: float | None = None
+    unbounded: bool | None = None
+    unstable_everywhere: bool | None = None
+    homega_searched: float | None = None
+    rho_above_dt_max: float | None = None
+
+
+@dataclass(frozen=True)
+class CostFigures(Figures):
+    """``cost``: CPU seconds per step (the value), counted evaluations, the ratio to explicit Euler."""
+
+    force_evals_per_step: float | None = None
+    solves_per_step: float | None = None
+    timing: str | None = None
+    clock: str | None = None
+    repeats_s_per_step: list | None = None
+    spread: float | None = None
+    ratio_to_explicit_euler: float | None = None
+    ratio_spread: float | None = None
+    ratio_repeats: list | None = None
+    baseline_s_per_step: float | None = None
+    baseline_repeats_s_per_step: list | None = None
+    loop: str | None = None
+    engine_loop: str | None = None
+    as_stepped_s_per_step: float | None = None
+    as_stepped_repeats_s_per_step: list | None = None
+    as_stepped_timing: str | None = None
+
+
+@dataclass(frozen=True)
+class IdentityFigures(Figures):
+    """``identity``: which reference scheme an engine mode integrates (value: the max deviation)."""
+
+    NESTED: ClassVar[dict[str, type]] = {"match_claims": Claims}
+    match: str | None = None
+    matches: list | None = None
+    closest: str | None = None
+    runner_up: str | None = None
+    runner_up_deviation: float | None = None
+    name_suggests: str | None = None
+    match_claims: Claims | None = None
+    note: str | None = None
+
+    @property
+    def all_matches(self) -> list[str]:
+        """Every scheme matched (several where the scene cannot tell them apart)."""
+        return list(self.matches or ([self.match] if self.match else []))
+
+
+@dataclass(frozen=True)
+class AdviceFigures(Figures):
+    """``advise``: one frame rate's search over substeps (value: the best cost per frame). ``rows``
+    are the measured (substeps, h*omega, errors, cost per frame ...) rows, ``best`` an index."""
+
+    hz: float | None = None
+    request: dict | None = None
+    method: str | None = None
+    status: str | None = None
+    homega_limit: float | None = None
+    limit_verdict: str | None = None
+    limit_searched: float | None = None
+    cost_per_step_s: float | None = None
+    cost_timing: str | None = None
+    evals_reason: str | None = None
+    rows: list | None = None
+    best: int | None = None
+    reason: str | None = None
+
+
+@dataclass(frozen=True)
+class BoundFigures(Figures):
+    """``bound``: a reviewed energy bound (the value: the measured max |dE/E|)."""
+
+    bound: float | None = None
+
+
+@dataclass(frozen=True)
+class ConstraintFigures(Figures):
+    """``constraint``: the largest relative link stretch (the value) over the energy run."""
+
+    final_stretch: float | None = None
+    energy_change: float | None = None
+    max_energy_change: float | None = None
+    t_final: float | None = None
+    iterations: int | None = None
+    failed_step: int | None = None
+    by_iterations: list | None = None
+
+
+@dataclass(frozen=True)
+class DampingFigures(Figures):
+    """``damping``: far beyond the explicit limit (the value: energy kept after one step)."""
+
+    factor: float | None = None
+    omega_dt: float | None = None
+    energy_kept: float | None = None
+    rho: float | None = None
+    stable: bool | None = None
+    reason: str | None = None
+    modal_leak: float | None = None
+    linearity_residual: float | None = None
+    highest: dict | None = None              # the highest mode: rho, energy_factor, zeta
+    lowest: dict | None = None
+    failed_step: int | None = None
+    run_status: str | None = None
+
+
+@dataclass(frozen=True)
+class StabilityVsDampingFigures(Figures):
+    """``stability_vs_damping``: the limit at each damping ratio beside the theory (value: agreeing)."""
+
+    scheme: str | None = None
+    rows: list | None = None                 # [{"zeta", "measured", "theory", "agrees"}]
+    tolerance: float | None = None
+    judged_by: str | None = None
+    theory_curve: dict | None = None
+
+
+@dataclass(frozen=True)
+class ScalingFigures(Figures):
+    """``scaling``: compiled cost per step against N (the value: the log-log slope)."""
+
+    rows: list | None = None
+    rvalue: float | None = None
+    intercept: float | None = None
+    settings: dict | None = None
+
+
+#: The figures of each measure.
+FIGURES: dict[str, type[Figures]] = {
+    "energy": EnergyFigures, "error": ErrorFigures, "order": OrderFigures, "stability": StabilityFigures,
+    "cost": CostFigures, "identity": IdentityFigures, "advise": AdviceFigures, "bound": BoundFigures,
+    "constraint": ConstraintFigures, "damping": DampingFigures, "stability_vs_damping": StabilityVsDampingFigures,
+    "scaling": ScalingFigures,
+}
+
+
+def _number(x):
+    """A stored number: None for missing or NaN (SQL NULL reads back as NaN in a DataFrame)."""
+    if x is None:
+        return None
+    x = float(x)
+    return None if math.isnan(x) else x
+
+
+def _json_default(x):
+    import numpy as np
+
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.floating):
+        return float(x)
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return str(x)
+
+
+def to_json(obj) -> str:
+    """JSON as the history stores it (numpy values as Python ones, NaN and inf allowed)."""
+    return json.dumps(obj, default=_json_default, allow_nan=True)
+
+
+@dataclass
+class Cell:
+    """One measured cell. ``figures`` is ``FIGURES[measure]`` (all None where the measure failed)."""
+
+    scene: str
+    method: str
+    family: str
+    measure: str
+    status: str = "ok"
+    params: dict = field(default_factory=dict)
+    dt: float | None = None
+    steps: int | None = None
+    value: float | None = None
+    wall_s: float = 0.0
+    detail: str = ""
+    figures: Figures | None = None
+    claims: Claims | None = None
+    kernels: dict | None = None              # compiled kernels this cell's measure compiled or loaded
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.figures is None:
+            self.figures = FIGURES.get(self.measure, Figures)()
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    # ------------------------------------------------------------------ the stored data dict
+    def data(self) -> dict:
+        """The flat dict stored in the ``data`` column."""
+        out = dict(self.extra)
+        out.update(self.figures.to_data())
+        if self.claims is not None:
+            out["claims"] = self.claims.to_data()
+        if self.kernels:
+            out["kernels"] = dict(self.kernels)
+        if self.params:
+            out["params"] = dict(self.params)
+        return out
+
+    @staticmethod
+    def _split(measure: str, data: dict | None) -> dict:
+        data = dict(data or {})
+        claims = data.pop("claims", None)
+        kernels = data.pop("kernels", None)
+        params = data.pop("params", None) or {}
+        figures, extra = FIGURES.get(measure, Figures).from_data(data)
+        return {"figures": figures, "extra": extra, "kernels": kernels, "params": dict(params),
+                "claims": Claims.from_data(claims)[0] if isinstance(claims, dict) else None}
+
+    # ------------------------------------------------------------------ the tidy DataFrame row
+    def to_row(self) -> dict:
+        """The tidy row: every column of ``CELL_COLUMNS``, ``data`` as a dict."""
+        return {"scene": self.scene, "method": self.method, "family": self.family, "measure": self.measure,
+                "dt": self.dt, "steps": self.steps, "status": self.status, "detail": self.detail,
+                "value": self.value, "wall_s": self.wall_s, "data": self.data()}
+
+    @classmethod
+    def from_row(cls, row) -> "Cell":
+        """From a tidy row (a dict, or a DataFrame row: missing numbers may read as NaN)."""
+        get = row.get
+        steps = _number(get("steps"))
+        detail = get("detail")
+        return cls(scene=row["scene"], method=row["method"], family=row["family"], measure=row["measure"],
+                   status=row["status"], dt=_number(get("dt")), steps=None if steps is None else int(steps),
+                   value=_number(get("value")), wall_s=_number(get("wall_s")) or 0.0,
+                   detail=detail if isinstance(detail, str) else "",
+                   **cls._split(row["measure"], get("data")))
+
+    # ------------------------------------------------------------------ the SQLite row
+    def to_db_row(self) -> dict:
+        """The ``cells`` table's columns (less ``run_id``): ``data`` as JSON, a NaN value as NULL."""
+        row = self.to_row()
+        row["value"] = _number(row["value"])
+        row["data"] = to_json(row["data"])
+        return row
+
+    @classmethod
+    def from_db_row(cls, row) -> "Cell":
+        """From a ``cells`` row (a mapping of its columns, ``data`` as JSON text)."""
+        data = row["data"]
+        return cls.from_row({**{c: row[c] for c in CELL_COLUMNS if c != "data"},
+                             "data": json.loads(data) if isinstance(data, str) and data else {}})

@@ -1,0 +1,140 @@
+"""harness.judge: the check/cross rules against the claims, the bounds, the verdict and the scenes'
+findings tables, on cells built by hand; and reports/ rendering the records it returns without
+importing anything of the harness."""
+from __future__ import annotations
+
+import ast
+import math
+from pathlib import Path
+
+import pytest
+
+from records.cell import FIGURES, Cell, Claims
+from records.findings import MARK, Finding
+
+from harness import judge
+from reports.markdown import CHECK, CROSS, finding_line, verdict as verdict_lines
+
+LEAPFROG = Claims(scheme="ref:leapfrog", order=2, force_evals=1, force_evals_text="1", energy="bounded",
+                  homega_max=2.0)
+
+
+def cell(measure, value=None, method="ref:leapfrog", scene="spring", status="ok", claims=LEAPFROG, **figures):
+    return Cell(scene=scene, method=method, family=method.split(":")[0], measure=measure, status=status,
+                value=value, dt=0.1, steps=100, figures=FIGURES[measure](**figures), claims=claims)
+
+
+def checks(*cells):
+    return judge.claim_checks({c.measure: c for c in cells})
+
+
+def test_order_is_checked_within_its_tolerance():
+    assert checks(cell("order", 2.0 + 0.99 * judge.ORDER_TOL)).order is True
+    assert checks(cell("order", 2.0 + 1.01 * judge.ORDER_TOL)).order is False
+    assert checks(cell("order", 2.0, status="unstable")).order is None
+
+
+def test_evaluations_energy_and_the_claims_judged_against():
+    got = checks(cell("cost", 1e-7, force_evals_per_step=1.0), cell("energy", 1e-4, energy_class="bounded"))
+    assert (got.evals, got.energy, got.claims) == (True, True, LEAPFROG)
+    got = checks(cell("cost", 1e-7, force_evals_per_step=2.0), cell("energy", 1e-1, energy_class="grows"))
+    assert (got.evals, got.energy) == (False, False)
+    # A cell whose class is unknown (crashed) is not judged.
+    assert checks(cell("energy", status="crashed")).energy is None
+
+
+@pytest.mark.parametrize("claim, value, figures, ok", [
+    (2.0, 2.0 * (1 + 0.99 * judge.STABILITY_TOL), {}, True),
+    (2.0, 2.0 * (1 + 1.01 * judge.STABILITY_TOL), {}, False),
+    (2.0, math.inf, {"unbounded": True}, False),
+    (None, None, {"unstable_everywhere": True}, True),   # explicit Euler: no h is stable
+    (None, 2.0, {}, False),
+    (math.inf, math.inf, {"unbounded": True}, True),     # backward Euler: every h is
+    (math.inf, 50.0, {}, False),
+])
+def test_the_stability_limit_against_its_claim(claim, value, figures, ok):
+    claims = Claims(scheme="ref:x", homega_max=claim)
+    assert checks(cell("stability", value, claims=claims, **figures)).homega is ok
+
+
+def test_a_method_without_claims_is_not_judged():
+    got = checks(cell("stability", 2.0, claims=Claims()), cell("order", 2.0, claims=Claims()))
+    assert got.homega is None and got.order is False and not got.claims.known
+
+
+def test_bounds():
+    assert judge.bound_ok(cell("bound", 1e-3, bound=1e-3)) is True
+    assert judge.bound_ok(cell("bound", 1.1e-3, bound=1e-3)) is False
+    assert judge.bound_ok(cell("bound", None, status="crashed", bound=1e-3)) is False
+
+
+def test_the_verdict_names_every_method_that_failed():
+    cells = [cell("energy", 1e-3), cell("cost", None, method="faulty:hang", status="timed_out"),
+             cell("order", None, method="faulty:abort", status="crashed"), cell("error", None, status="unstable")]
+    v = judge.verdict(cells, previous=3)
+    assert v.failed == (("spring", "faulty:abort"), ("spring", "faulty:hang")) and v.regressions == ()
+    text = "\n".join(verdict_lines(v))
+    assert "**No regressions** against run 3." in text and "2 method(s) could not be measured" in text
+
+
+def test_every_scene_check_names_a_finding_and_a_measure():
+    for scene, rows in judge.SCENE_CHECKS.items():
+        for row in rows:
+            assert row.finding in judge.FINDINGS, (scene, row)
+            assert row.measure in {"energy", "error", "order", "cost", "stability", "identity", "constraint",
+                                   "damping", "scaling"}
+
+
+def solar(ias15=5e-14, rk4_class="decays", whfast_class="bounded", match="ref:leapfrog"):
+    return [cell("energy", 1e-5, method="rebound:whfast", scene="solar_system", energy_class=whfast_class),
+            cell("energy", 1e-5, method="ref:leapfrog", scene="solar_system", energy_class="bounded"),
+            cell("energy", 1e-4, method="ref:rk4", scene="solar_system", energy_class=rk4_class,
+                 numbers={"first_tenth_envelope": 1e-6, "last_tenth_envelope": 1e-4, "secular_rate": -1e-9}),
+            cell("energy", ias15, method="rebound:ias15", scene="solar_system", energy_class="bounded"),
+            cell("identity", 0.0, method="rebound:leapfrog", scene="solar_system", match=match,
+                 runner_up="ref:velocity_verlet", runner_up_deviation=1e-9)]
+
+
+def test_the_solar_systems_table_passes_a_run_that_holds():
+    found = judge.judge(solar()).findings
+    judged = [f for f in found if f.ok is not None]
+    assert len(judged) == 4 and all(f.ok for f in judged), found
+    lines = [finding_line(f) for f in found]
+    assert any("symplectic `rebound:whfast` 1.0e-05 bounded, `ref:leapfrog` 1.0e-05 bounded: all bounded ✓. "
+               "Others: `rebound:ias15` 5.0e-14 bounded, `ref:rk4` 1.0e-04 decays." in ln for ln in lines), lines
+    assert "`solar_system`: `rebound:ias15` keeps max |ΔE/E| = 5.0e-14 over the run (limit 1e-13) ✓." in lines
+
+
+def test_the_solar_systems_table_fails_each_check_that_does_not_hold():
+    found = judge.judge(solar(ias15=2e-13, rk4_class="bounded", whfast_class="grows", match="ref:verlet")).findings
+    judged = [f for f in found if f.ok is not None]
+    assert len(judged) == 4 and not any(f.ok for f in judged), found
+    assert all(CROSS in finding_line(f) and CHECK not in finding_line(f) for f in judged)
+    # WHFast gaining energy on a scene is an engine finding of its own.
+    assert any("`rebound:whfast` gains energy on `solar_system`" in f.text for f in found)
+
+
+def test_a_finding_prints_its_mark_where_its_text_carries_it():
+    assert finding_line(Finding(f"all bounded {MARK}. Others", True)) == "all bounded ✓. Others"
+    assert finding_line(Finding(f"x {MARK}.", False)) == "x ✗."
+    assert finding_line(Finding("nothing judged")) == "nothing judged"
+
+
+def test_engine_findings_say_what_a_mode_integrates_as():
+    ident = cell("identity", 1e-15, method="mujoco:implicit", claims=Claims(), match="ref:semi_implicit_euler",
+                 matches=["ref:semi_implicit_euler"], name_suggests="implicit_euler")
+    (f,) = judge.judge([ident]).findings
+    assert f.text == ("`mujoco:implicit` on `spring` integrates as **`ref:semi_implicit_euler`** (max deviation "
+                      "1.0e-15), not the implicit euler its name suggests.") and f.ok is None
+
+
+def test_reports_import_nothing_of_the_harness():
+    """reports/ renders records: it imports records/ and plotting, never harness, adapters,
+    reference or scenarios."""
+    for path in sorted((Path(__file__).resolve().parent.parent / "reports").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            for name in names:
+                assert name.split(".")[0] not in {"harness", "adapters", "reference", "scenarios"}, (path.name, name)
+
