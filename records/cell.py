@@ -134,7 +134,7 @@ class OrderFigures(Figures):
     points: list | None = None               # [{"dt", "error", ...}] used in the fit
     excluded: list | None = None
     rvalue: float | None = None
-    range: list | None = None
+    range: dict | None = None               # the dt range the sweep chose
 
 
 @dataclass(frozen=True)

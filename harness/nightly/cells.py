@@ -165,7 +165,7 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
     with np.errstate(all="ignore"):
         max_rel = finite(np.nanmax(np.abs(rel))) if traj.ok and defined else None
     energy = make_cell(task, "energy", traj.status, max_rel, dt, steps, traj.detail, EnergyFigures.pick(
-        cls, energy_class=cls.get("classification"), rel_error_defined=defined,
+        cls, energy_class=cls["classification"], rel_error_defined=defined,
         final_rel_error=finite(abs(rel[-1])) if traj.ok and defined else None, failed_step=traj.failed_step,
         series=series, numbers=plain(cls), **settings))
     err = trajectory_error(traj, scene) if traj.ok else {}
@@ -178,18 +178,15 @@ def _order(task, method, scene, spec) -> Cell:
     from harness.measures.order import observed_order
 
     res = observed_order(method, scene, points=spec.order_points, span=spec.order_span, periods=spec.order_periods)
-    order = res.get("order")
-    excluded = res.get("excluded", [])
+    order, excluded = res["order"], res["excluded"]
     status, detail = "ok", ""
     if order is None or not np.isfinite(order):
         status, detail = "unstable", "too few usable points"
-        if not res.get("points") and excluded and all(p["reason"].startswith("roundoff floor") for p in excluded):
+        if not res["points"] and excluded and all(p["reason"].startswith("roundoff floor") for p in excluded):
             # Nothing failed: the method is more accurate than the floor at every dt of the sweep
             # (SABA(10,6,4) on the solar system), so it has no measurable order here.
             status, detail = "ok", "no order: every error at or below the roundoff/reference floor"
-    return make_cell(task, "order", status, finite(order), detail=detail, figures=OrderFigures(
-        points=plain(res.get("points", [])), excluded=plain(excluded), rvalue=res.get("rvalue"),
-        range=plain(res.get("range"))))
+    return make_cell(task, "order", status, finite(order), detail=detail, figures=OrderFigures.pick(plain(res)))
 
 
 def _stability(task, method, scene, suite, spec) -> Cell:
@@ -197,11 +194,11 @@ def _stability(task, method, scene, suite, spec) -> Cell:
 
     hi = spec.stability_hi if spec.stability_hi is not None else suite.stability_homega_max
     res = largest_stable_dt(method, scene, steps=suite.stability_steps, hi=hi)
-    verdict = res.get("verdict")
+    verdict = res["verdict"]
     figures = StabilityFigures.pick(plain(res), unbounded=verdict == "unbounded",
                                     unstable_everywhere=verdict == "unstable",
-                                    homega_searched=plain((res.get("dt_searched_max") or 0) * scene.omega))
-    value = math.inf if verdict == "unbounded" else res.get("omega_dt_max")
+                                    homega_searched=plain((res["dt_searched_max"] or 0) * scene.omega))
+    value = math.inf if verdict == "unbounded" else res["omega_dt_max"]
     return make_cell(task, "stability", "ok", value, detail=res.get("detail", ""), figures=figures)
 
 
@@ -211,12 +208,12 @@ def _cost(task, method, scene, dt, suite) -> Cell:
     from harness.measures.cost import cost_per_step
 
     res = cost_per_step(method, scene, dt, time_steps=suite.cost_steps, repeats=suite.cost_repeats, clock="cpu")
-    base, stepped = res["baseline"], res.get("as_stepped") or {}
+    # The baseline's figures and an engine mode's second figure (stepped one call at a time from
+    # Python) are stored flat, under baseline_... and as_stepped_...
+    flat = {**res, **{f"baseline_{k}": v for k, v in res["baseline"].items()},
+            **{f"as_stepped_{k}": v for k, v in (res.get("as_stepped") or {}).items()}}
     return make_cell(task, "cost", "ok", res.get("s_per_step"), dt, res.get("time_steps"), figures=CostFigures.pick(
-        res, spread=res.get("rel_spread") or 0.0, ratio_spread=res.get("ratio_spread") or 0.0,
-        baseline_s_per_step=base.get("s_per_step"), baseline_repeats_s_per_step=base.get("repeats_s_per_step"),
-        # An engine mode's second figure: stepped one call at a time from Python.
-        as_stepped_repeats_s_per_step=stepped.get("repeats_s_per_step"), as_stepped_timing=stepped.get("timing")))
+        flat, spread=res.get("rel_spread") or 0.0, ratio_spread=res.get("ratio_spread") or 0.0))
 
 
 def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
@@ -244,17 +241,17 @@ def _identity(task, method, scene) -> Cell:
     from harness.measures.identify import identify
 
     res = identify(method, scene)
-    match = res.get("match")
+    match = res["match"]
     mode = task.method.split(":", 1)[1]
     match_claims = Claims()
     if match and match.startswith("ref:"):
         from harness.methods import RefMethod
 
         match_claims = _claims(RefMethod(METHODS[match[4:]]), scene)
-    if res.get("status") not in ("ok", "unstable"):
-        return make_cell(task, "identity", res.get("status"), detail=res.get("detail"))
-    runner = res.get("runner_up") or {}
-    closest = (res.get("candidates") or [{}])[0]
+    if res["status"] not in ("ok", "unstable"):
+        return make_cell(task, "identity", res["status"], detail=res["detail"])
+    runner = res["runner_up"] or {}
+    closest = (res["candidates"] or [{}])[0]
     note = None
     if match is None and closest:
         note = (f"matches no reference scheme; closest `{closest.get('method')}` "
@@ -262,9 +259,9 @@ def _identity(task, method, scene) -> Cell:
         if res.get("why_no_match"):
             note += f": {res['why_no_match']}"
     return make_cell(task, "identity", "ok",
-                     finite(res.get("max_deviation") if match else closest.get("max_deviation")),
-                     res.get("dt"), res.get("steps"),
-                     figures=IdentityFigures(match=match, matches=list(res.get("matches") or []),
+                     finite(res["max_deviation"] if match else closest.get("max_deviation")),
+                     res["dt"], res["steps"],
+                     figures=IdentityFigures(match=match, matches=list(res["matches"] or []),
                                              closest=closest.get("method"), runner_up=runner.get("method"),
                                              runner_up_deviation=finite(runner.get("max_deviation")),
                                              name_suggests=NAME_SUGGESTS.get(mode), match_claims=match_claims,

@@ -69,7 +69,7 @@ def _constraint(task, method, scene, dt, spec, suite) -> Cell:
             by_iterations.append({key: r.get(key) for key in ("iterations", "status", "max_stretch", "final_stretch",
                                                               "energy_change", "max_energy_change")})
     figures = ConstraintFigures.pick(plain(res), by_iterations=plain(by_iterations))
-    return make_cell(task, "constraint", res["status"], finite(res.get("max_stretch")), dt, steps, res["detail"],
+    return make_cell(task, "constraint", res["status"], finite(res["max_stretch"]), dt, steps, res["detail"],
                      figures)
 
 
@@ -80,10 +80,10 @@ def _damping(task, method, scene, spec, suite) -> Cell:
     res = damping_far_beyond_the_limit(method, scene, factor=factor, timeout=suite.cell_timeout)
     status = res["status"] if res["status"] in ("crashed", "timed_out") else "ok"
     detail = res["detail"]
-    if res.get("stable") is False:
+    if res["stable"] is False:
         detail = f"grows: spectral radius {res['rho']:.4g} at h*omega = {res['omega_dt']:.4g}"
     figures = DampingFigures.pick(plain(res), run_status=res["status"])
-    return make_cell(task, "damping", status, finite(res.get("energy_kept_one_step")), res["dt"], res["steps"],
+    return make_cell(task, "damping", status, finite(res["energy_kept_one_step"]), res["dt"], res["steps"],
                      detail, figures)
 
 
