@@ -15,6 +15,7 @@ from pathlib import Path
 
 from records.cell import Cell, Claims
 from records.findings import MARK, ClaimChecks, Finding, Judgement, Verdict
+from records.run import RunRecord, RunTiming
 
 from . import charts
 from .damping_section import damping_stability_section
@@ -357,9 +358,9 @@ def bounds_section(cells: list[Cell], judged: dict) -> list[str]:
     return lines + [""]
 
 
-def appendix(run: dict, cells: list[Cell]) -> list[str]:
+def appendix(run: RunRecord, cells: list[Cell]) -> list[str]:
     lines = ["## Appendix: versions and settings", "", "| package | version |", "|---|---|"]
-    for pkg, ver in sorted((run.get("versions") or {}).items()):
+    for pkg, ver in sorted(run.versions.items()):
         lines.append(f"| {pkg} | {ver or 'not installed'} |")
     lines += ["", "Settings each engine adapter used (as the adapter recorded them):", ""]
     seen = set()
@@ -374,32 +375,31 @@ def appendix(run: dict, cells: list[Cell]) -> list[str]:
         lines.append(f"- `{r.method}` on `{r.scene}` ({r.figures.engine_version}): {items}")
     if not seen:
         lines.append("- none recorded: no engine run finished in this run")
-    settings = run.get("settings") or {}
-    suite = settings.get("suite") or {}
+    settings = run.settings
+    suite = settings.suite
     if suite:
         lines += ["", "The suite's settings:", ""]
-        for scene, spec in (suite.get("scenes") or {}).items():
+        for scene, spec in suite["scenes"].items():
             lines.append(f"- `{scene}`: " + "; ".join(f"{k}={v}" for k, v in spec.items()))
         rest = {k: v for k, v in suite.items() if k not in ("name", "scenes")}
-        rest["cell_timeout"] = settings.get("cell_timeout", rest.get("cell_timeout"))
-        if settings.get("plugins"):
-            rest["plugins"] = ",".join(settings["plugins"])
+        rest["cell_timeout"] = settings.cell_timeout if settings.cell_timeout is not None else rest["cell_timeout"]
+        if settings.plugins:
+            rest["plugins"] = ",".join(settings.plugins)
         lines.append("- " + "; ".join(f"{k}={v}" for k, v in rest.items()))
-    skipped = settings.get("skipped") or []
+    skipped = settings.skipped
     if skipped:
         lines += ["", "Left out of the matrix:", ""]
         lines += [f"- `{s['method']}` on `{s['scene']}`: {s['reason']}" for s in skipped]
     return lines + [""]
 
 
-def footer(run: dict, timing: dict | None) -> list[str]:
-    timing = timing or {}
+def footer(run: RunRecord, timing: RunTiming) -> list[str]:
     lines = ["---", ""]
-    total = timing.get("total_s")
-    lines.append(f"Run {run['run_id']} ({run['suite']} suite), started {run['started']}, commit "
-                 f"`{run.get('git_commit') or 'unknown'}`, measurement version {run['measurement_version']}. "
-                 f"Cells ran on: {timing.get('executor', (run.get('settings') or {}).get('executor', '?'))}.")
-    if total is not None:
+    executor = timing.executor if timing.executor is not None else (run.settings.executor or "?")
+    lines.append(f"Run {run.run_id} ({run.suite} suite), started {run.started}, commit "
+                 f"`{run.git_commit or 'unknown'}`, measurement version {run.measurement_version}. "
+                 f"Cells ran on: {executor}.")
+    if timing.total_s is not None:
         lines += [""] + where_the_time_went(timing)
     return lines + [""]
 
@@ -408,48 +408,50 @@ def _by(d: dict, n: int = 8) -> str:
     return ", ".join(f"{k} {v:.1f}s" for k, v in sorted(d.items(), key=lambda kv: -kv[1])[:n]) or "–"
 
 
-def _kernels_phrase(timing: dict) -> str:
+def _kernels_phrase(timing: RunTiming) -> str:
     """How much of the workers' CPU compiled kernels, and how many came from the disk cache."""
-    compiled, loaded = timing.get("kernels_compiled"), timing.get("kernels_loaded")
+    compiled, loaded = timing.kernels_compiled, timing.kernels_loaded
     if compiled is None:  # a run stored before kernels were cached
-        return (f", {timing['numba_compile_s']:.1f}s of it numba compiling the timing kernels"
-                if timing.get("numba_compile_s") else "")
+        return (f", {timing.numba_compile_s:.1f}s of it numba compiling the timing kernels"
+                if timing.numba_compile_s else "")
     if not compiled and not loaded:
         return ""
-    return (f", {timing.get('numba_compile_s', 0.0):.1f}s of it numba compiling {compiled} (scheme, scene) "
-            f"kernels, {loaded} more loaded from the disk cache in {timing.get('kernel_load_s', 0.0):.1f}s")
+    return (f", {timing.numba_compile_s or 0.0:.1f}s of it numba compiling {compiled} (scheme, scene) "
+            f"kernels, {loaded} more loaded from the disk cache in {timing.kernel_load_s:.1f}s")
 
 
-def where_the_time_went(timing: dict) -> list[str]:
+def where_the_time_went(timing: RunTiming) -> list[str]:
     """The footer's account of the run's time: wall against the CPU the workers spent, and
     where the worker seconds went (by measure, by family, numba compilation, slowest tasks)."""
-    total, cells_s = timing.get("total_s", 0.0), timing.get("cells_s", 0.0)
-    jobs = timing.get("jobs")
-    lines = [f"Wall time {total:.1f}s to this report, {cells_s:.1f}s of it running {timing.get('tasks', '?')} tasks"
-             + (f" in {jobs} worker processes on {timing.get('cpus', '?')} cores" if jobs else "") + "."]
-    cpu = timing.get("worker_cpu_s")
+    total, cells_s, jobs = timing.total_s or 0.0, timing.cells_s, timing.jobs
+    tasks = "?" if timing.tasks is None else timing.tasks
+    cpus = "?" if timing.cpus is None else timing.cpus
+    lines = [f"Wall time {total:.1f}s to this report, {cells_s:.1f}s of it running {tasks} tasks"
+             + (f" in {jobs} worker processes on {cpus} cores" if jobs else "") + "."]
+    cpu = timing.worker_cpu_s
     if cpu is not None:
         busy = f" (on average {cpu / cells_s:.2f} workers busy)" if cells_s > 0 else ""
-        lost = timing.get("tasks_without_cpu") or 0
+        lost = timing.tasks_without_cpu or 0
         lines[-1] += (f" CPU time in the workers {cpu:.1f}s{busy}"
                       + (f", not counting {lost} task(s) whose worker was lost" if lost else "")
                       + _kernels_phrase(timing)
-                      + f"; in the main process {timing.get('main_cpu_s', 0.0):.1f}s.")
-    lines += ["", f"Worker seconds by measure: {_by(timing.get('worker_seconds_by_measure', {}))}.",
-              "", f"By family: {_by(timing.get('worker_seconds_by_family', {}))}."]
-    slowest = timing.get("slowest_tasks") or []
-    if slowest:
-        lines += ["", "Slowest tasks: " + ", ".join(f"{label} {sec:.1f}s" for label, sec in slowest) + "."]
+                      + f"; in the main process {timing.main_cpu_s:.1f}s.")
+    lines += ["", f"Worker seconds by measure: {_by(timing.worker_seconds_by_measure)}.",
+              "", f"By family: {_by(timing.worker_seconds_by_family)}."]
+    if timing.slowest_tasks:
+        lines += ["", "Slowest tasks: " + ", ".join(f"{label} {sec:.1f}s" for label, sec in timing.slowest_tasks) + "."]
     return lines
 
 
 # ----------------------------------------------------------------------------- the report
-def render(run: dict, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None,
+def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None,
            trend=None) -> tuple[str, list[str]]:
     """(the report's markdown, the chart files written, relative to ``out_dir``) of ``run`` (its
-    stored metadata), its ``cells``, what judging them found, and ``trend`` (the suite's judged
-    history, ``harness.history.series.Trend``: the History section)."""
-    run_id = run["run_id"]
+    stored metadata, a ``RunRecord`` or the history's row), its ``cells``, what judging them
+    found, ``timing`` (where the run's time went, a ``RunTiming`` or the nightly's dict) and
+    ``trend`` (the suite's judged history, ``harness.history.series.Trend``: the History section)."""
+    run, timing = RunRecord.of(run), RunTiming.of(timing)
+    run_id = run.run_id
     piv = _pivot(cells)
     scenes = list(dict.fromkeys(c.scene for c in cells if c.measure != "bound"))
     of_scene = {scene: [c for c in cells if c.scene == scene] for scene in scenes}
@@ -473,7 +475,7 @@ def render(run: dict, cells: list[Cell], judged: Judgement, out_dir: Path, timin
         written.append(damping_chart)
     else:
         damping_chart = None
-    lines = [f"# Integrator comparison: run {run_id} ({run['suite']})", ""]
+    lines = [f"# Integrator comparison: run {run_id} ({run.suite})", ""]
     lines += verdict(judged.verdict)
     section, trend_charts = history_section(trend, run_id, out_dir)
     lines += section

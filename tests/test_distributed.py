@@ -63,10 +63,30 @@ def dask_run(tmp_path_factory):
               "distributed.worker.daemon": dask.config.get("distributed.worker.daemon")}
     with pytest.MonkeyPatch.context() as mp, dask.config.set(config):
         mp.delenv(distributed.ENV_VAR, raising=False)
-        mp.setenv(dask_faults.PLAN_VAR, json.dumps({KILLED_ONCE: 1, KILLED_ALWAYS: 99}))
+        mp.setenv(dask_faults.PLAN_VAR, json.dumps({KILLED_ONCE: 1}))
         mp.setenv(dask_faults.DIR_VAR, str(kills))
         code = main(nightly_argv(tmp, "--scheduler", "local:2"))
     return tmp, code
+
+
+@pytest.fixture(scope="module")
+def dask_dead_run(tmp_path_factory):
+    """One task, whose worker dies on every attempt, on ``local:2``."""
+    from harness.nightly.run import run_nightly
+    from harness.nightly.suites import SceneSpec, Suite
+
+    tmp = tmp_path_factory.mktemp("dask_dead")
+    kills = tmp / "kills"
+    kills.mkdir()
+    config = {"distributed.worker.preload": [FAULTS],
+              "distributed.worker.daemon": dask.config.get("distributed.worker.daemon")}
+    suite = Suite("dead", scenes={"spring": SceneSpec(periods=1)}, methods=(KILLED_ALWAYS.split()[-1],), bounds=False)
+    with pytest.MonkeyPatch.context() as mp, dask.config.set(config):
+        mp.delenv(distributed.ENV_VAR, raising=False)
+        mp.setenv(dask_faults.PLAN_VAR, json.dumps({KILLED_ALWAYS: 99}))
+        mp.setenv(dask_faults.DIR_VAR, str(kills))
+        result = run_nightly(suite, tmp / "out", tmp / "h.sqlite", scheduler="local:2")
+    return tmp, result, suite
 
 
 def test_dask_smoke_run_matches_the_local_run_cell_for_cell(local_run, dask_run):
@@ -75,18 +95,17 @@ def test_dask_smoke_run_matches_the_local_run_cell_for_cell(local_run, dask_run)
     so the Dask run reproduces it bit for bit: the cell retried after its worker died included.
     Cost cells hold wall time per step, which no two runs share: their status and their counted
     force evaluations are compared instead; advice cells (a cost per frame) their measured rows,
-    less the cost. The always-killed task is checked in the next test."""
+    less the cost."""
     (ltmp, lcode), (dtmp, dcode) = local_run, dask_run
     assert (lcode, dcode) == (0, 0)
     _, local = stored(ltmp)
     _, on_dask = stored(dtmp)
-    always = KILLED_ALWAYS.split()[-1]
     # dt is NaN for the cells of a sweep (order, stability); -1 makes those keys compare equal.
-    local = local[local.method != always].fillna({"dt": -1.0}).set_index(KEY).sort_index()
-    on_dask = on_dask[on_dask.method != always].fillna({"dt": -1.0}).set_index(KEY).sort_index()
+    local = local.fillna({"dt": -1.0}).set_index(KEY).sort_index()
+    on_dask = on_dask.fillna({"dt": -1.0}).set_index(KEY).sort_index()
     assert list(local.index) == list(on_dask.index)
     tasks, _ = build_tasks(SUITES["smoke"])
-    assert len(local) == sum(len(t.measures()) for t in tasks if t.label != KILLED_ALWAYS)
+    assert len(local) == sum(len(t.measures()) for t in tasks)
     for key, a in local.iterrows():
         b = on_dask.loc[key]
         assert (key, b.status) == (key, a.status)
@@ -116,23 +135,24 @@ def test_a_killed_worker_costs_its_cell_one_retry_and_every_cell_is_stored_once(
 
     kills = tmp / "kills"
     once = dask_faults.attempts(kills, KILLED_ONCE)
-    # Killed once, then ran in another worker process. Dask may run it once more: a result still
-    # on a worker that the always-killed task then kills (before the client polls) is lost with
-    # it and recomputed; the client still stores it once (no duplicated cell, above).
-    assert [a.split()[0] for a in once][:2] == ["killed", "ran"] and len(once) <= 3
-    assert all(a.split()[0] == "ran" for a in once[1:])
-    assert once[0].split()[1] != once[1].split()[1]
+    assert [a.split()[0] for a in once] == ["killed", "ran"]
+    assert once[0].split()[1] != once[1].split()[1]  # the retry ran in another worker process
     rk4 = cells[cells.method == "ref:rk4"]
     assert set(rk4.status) == {"ok"}
+    assert set(cells.status) == {"ok"}  # the death cost no other task its cell
 
-    always = dask_faults.attempts(kills, KILLED_ALWAYS)
-    assert always[0].split()[0] == always[1].split()[0] == "killed"
+
+def test_a_worker_killed_on_every_attempt_costs_its_task_two_attempts_then_crashed_cells(dask_dead_run):
+    tmp, result, suite = dask_dead_run
+    always = dask_faults.attempts(tmp / "kills", KILLED_ALWAYS)
+    assert [a.split()[0] for a in always] == ["killed", "killed"]
     assert len(always) == distributed.ALLOWED_FAILURES + 1 == 2  # one retry, not Dask's default three
     assert always[0].split()[1] != always[1].split()[1]
-    dead = cells[cells.method == "ref:implicit_euler"]
-    killed_measures = next(len(t.measures()) for t in tasks if t.label == KILLED_ALWAYS)
-    assert len(dead) == killed_measures >= 5 and set(dead.status) == {"crashed"}
-    for detail in dead.detail:
+    _, cells = stored(tmp)
+    tasks, _ = build_tasks(suite)
+    assert [t.label for t in tasks] == [KILLED_ALWAYS]
+    assert len(cells) == len(tasks[0].measures()) >= 5 and set(cells.status) == {"crashed"}
+    for detail in cells.detail:
         assert "Dask worker died on each of 2 attempts (KilledWorker" in detail
     report = (tmp / "out" / "report.md").read_text()
     assert "| `ref:implicit_euler` | crashed |" in report

@@ -254,3 +254,24 @@ def test_no_package_imports_another_packages_private_module():
             if module.split(".")[0] != rel.parts[0]:
                 offenders.append(f"{rel}: {module}")
     assert offenders == []
+
+
+def test_a_run_row_and_its_timing_become_typed_records_and_an_older_row_keeps_the_defaults():
+    from records.run import RunRecord, RunSettings, RunTiming
+
+    row = {"run_id": 3, "suite": "smoke", "started": "2026-11-23T10:00:00+00:00", "measurement_version": 3,
+           "git_commit": "abc", "complete": 1, "versions": {"numpy": "2.1"}, "machine": {"cpus": 2},
+           "settings": {"suite": {"name": "smoke", "scenes": {}}, "executor": "local", "cell_timeout": 60.0,
+                        "plugins": ["tests.faulty_plugin"], "skipped": [], "jobs": 2, "unknown_later_key": 1},
+           "wall_s": 12.5, "timing": {"total_s": 10.0}}
+    run = RunRecord.of(row)
+    assert (run.run_id, run.suite, run.git_commit, run.versions, run.settings.executor) == (3, "smoke", "abc", {"numpy": "2.1"}, "local")
+    assert run.settings.plugins == ["tests.faulty_plugin"] and run.settings.cell_timeout == 60.0
+    assert RunRecord.of(run) is run
+    old = RunRecord.of({"run_id": 1, "suite": "smoke", "started": "x", "measurement_version": 2, "settings": None,
+                        "versions": None})
+    assert old.settings == RunSettings() and old.versions == {} and old.git_commit is None
+    timing = RunTiming.of({"total_s": 5.0, "cells_s": 4.0, "kernels_compiled": 0, "kernel_load_s": None,
+                           "slowest_tasks": [["cell spring ref:rk4", 1.0]], "not_a_field": 9})
+    assert (timing.total_s, timing.cells_s, timing.kernels_compiled, timing.kernel_load_s) == (5.0, 4.0, 0, 0.0)
+    assert RunTiming.of(None) == RunTiming() and RunTiming().total_s is None

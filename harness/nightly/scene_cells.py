@@ -20,12 +20,14 @@
 """
 from __future__ import annotations
 
+from records import MethodId, scheme_name
 from scenarios import make_scene
 
 from records.cell import (Cell, Claims, ConstraintFigures, DampingFigures, ScalingFigures,
                           StabilityVsDampingFigures)
 
 from harness.nightly.cell_kit import energy_run, finite, guard, make_cell, plain
+from harness.nightly.suites import SceneExtras
 
 #: Methods the ``scaling`` cell is measured for unless the suite entry names others.
 SCALING_METHODS = ("ref:implicit_euler",)
@@ -35,14 +37,21 @@ def measures_for(task, spec) -> list[str]:
     out = []
     if make_scene(task.scene, **task.params).constrained:
         out.append("constraint")
-    if "damping" in spec.extras:
+    extras = _extras(spec)
+    if extras.damping_factor is not None:
         out.append("damping")
-    if "stability_vs_damping" in spec.extras:
+    if extras.stability_zetas is not None:
         out.append("stability_vs_damping")
-    scaling = spec.extras.get("scaling")
-    if scaling is not None and task.method in scaling.get("methods", SCALING_METHODS):
+    if extras.scaling is not None and task.method in extras.scaling_methods:
         out.append("scaling")
     return out
+
+
+def _extras(spec) -> SceneExtras:
+    from harness.measures.damping import FACTOR
+    from harness.measures.stability_damping import ZETAS
+
+    return SceneExtras.of(spec.extras, damping_factor=FACTOR, zetas=ZETAS, scaling_methods=SCALING_METHODS)
 
 
 def scene_cells(task, method, scene, dt, spec, suite, claims: Claims | None = None) -> list[Cell]:
@@ -60,13 +69,13 @@ def _constraint(task, method, scene, dt, spec, suite) -> Cell:
     steps, every = energy_run(scene, dt, spec, suite)
     res = constraint_drift(method, scene, dt, steps, every=every, timeout=suite.cell_timeout)
     by_iterations = None
-    passes = spec.extras.get("constraint", {}).get("iterations", ())
+    passes = _extras(spec).constraint_iterations
     if passes and method.scheme is not None and method.scheme.constrained:
         by_iterations = []
         for k in passes:
             r = constraint_drift(get_method(task.method, {"iterations": k}), scene, dt, steps, every=every,
                                  timeout=suite.cell_timeout)
-            by_iterations.append({key: r.get(key) for key in ("iterations", "status", "max_stretch", "final_stretch",
+            by_iterations.append({key: r[key] for key in ("iterations", "status", "max_stretch", "final_stretch",
                                                               "energy_change", "max_energy_change")})
     figures = ConstraintFigures.pick(plain(res), by_iterations=plain(by_iterations))
     return make_cell(task, "constraint", res["status"], finite(res["max_stretch"]), dt, steps, res["detail"],
@@ -74,9 +83,9 @@ def _constraint(task, method, scene, dt, spec, suite) -> Cell:
 
 
 def _damping(task, method, scene, spec, suite) -> Cell:
-    from harness.measures.damping import FACTOR, damping_far_beyond_the_limit
+    from harness.measures.damping import damping_far_beyond_the_limit
 
-    factor = spec.extras["damping"].get("factor", FACTOR)
+    factor = _extras(spec).damping_factor
     res = damping_far_beyond_the_limit(method, scene, factor=factor, timeout=suite.cell_timeout)
     status = res["status"] if res["status"] in ("crashed", "timed_out") else "ok"
     detail = res["detail"]
@@ -88,13 +97,13 @@ def _damping(task, method, scene, spec, suite) -> Cell:
 
 
 def _stability_vs_damping(task, method, spec, claims: Claims) -> Cell:
-    from harness.measures.stability_damping import ZETAS, CURVE_ZETAS, limit_vs_damping, theory_curve
+    from harness.measures.stability_damping import CURVE_ZETAS, limit_vs_damping, theory_curve
 
-    zetas = tuple(spec.extras["stability_vs_damping"].get("zetas", ZETAS))
+    zetas = _extras(spec).stability_zetas
     res = limit_vs_damping(method, zetas, scheme=claims.scheme)
     curve = None
     if task.family == "ref" and res["scheme"]:
-        curve = {"zeta": list(CURVE_ZETAS), "homega_max": theory_curve(res["scheme"][4:])}
+        curve = {"zeta": list(CURVE_ZETAS), "homega_max": theory_curve(scheme_name(res["scheme"]))}
     agreeing = sum(1 for r in res["rows"] if r["agrees"])
     detail = "" if res["scheme"] else "no scheme identified: measured only"
     figures = StabilityVsDampingFigures(
@@ -107,9 +116,8 @@ def _stability_vs_damping(task, method, spec, claims: Claims) -> Cell:
 def _scaling(task, spec) -> Cell:
     from harness.measures.scaling import implicit_cost_vs_n
 
-    settings = dict(spec.extras["scaling"])
-    settings.pop("methods", None)
-    frame = implicit_cost_vs_n(scheme=task.method.split(":", 1)[1], **settings)
+    settings = dict(_extras(spec).scaling)
+    frame = implicit_cost_vs_n(scheme=MethodId.parse(task.method).name, **settings)
     return make_cell(task, "scaling", "ok", frame.attrs["slope"], figures=ScalingFigures(**plain(
         {"rows": frame.to_dict("records"), "rvalue": frame.attrs["rvalue"], "intercept": frame.attrs["intercept"],
          "settings": settings})))

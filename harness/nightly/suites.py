@@ -14,6 +14,30 @@ from dataclasses import dataclass, field
 
 
 @dataclass(frozen=True)
+class SceneExtras:
+    """A scene's own cells and their settings (``SceneSpec.extras``, as the suites write it), typed:
+    read here, in one place, by ``of``. None / empty: the scene has no such cell."""
+
+    constraint_iterations: tuple = ()          # projection passes the constraint cell repeats at
+    damping_factor: float | None = None        # the damping cell: this many times the explicit limit
+    stability_zetas: tuple | None = None       # the stability-vs-damping cell's damping ratios
+    scaling: dict | None = None                # the scaling cell's settings (implicit_cost_vs_n's)
+    scaling_methods: tuple = ()                # the methods the scaling cell runs for
+
+    @classmethod
+    def of(cls, extras: dict, *, damping_factor: float, zetas: tuple, scaling_methods: tuple) -> "SceneExtras":
+        """``extras`` typed; the measures' defaults fill what a suite leaves out."""
+        damping = extras.get("damping")
+        svd = extras.get("stability_vs_damping")
+        scaling = extras.get("scaling")
+        return cls(constraint_iterations=tuple(extras.get("constraint", {}).get("iterations", ())),
+                   damping_factor=None if damping is None else damping.get("factor", damping_factor),
+                   stability_zetas=None if svd is None else tuple(svd.get("zetas", zetas)),
+                   scaling=None if scaling is None else {k: v for k, v in scaling.items() if k != "methods"},
+                   scaling_methods=() if scaling is None else tuple(scaling.get("methods", scaling_methods)))
+
+
+@dataclass(frozen=True)
 class SceneSpec:
     params: dict = field(default_factory=dict)
     homega: float = 0.1            # nominal h*omega for the energy/error/cost cells

@@ -1,0 +1,94 @@
+"""A stored nightly run as typed records: what the report's footer and appendix print.
+
+``RunRecord.of`` and ``RunTiming.of`` are the one conversion from the history's run row and the
+timing the nightly measured (dicts, possibly written by an older version: a field it lacks
+keeps its default)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+
+def _known(cls, d: dict | None) -> dict:
+    names = {f.name for f in fields(cls)}
+    return {k: v for k, v in (d or {}).items() if k in names}
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How the run was set up: the suite (``asdict(Suite)``), where its cells ran, the per-task
+    time limit, plugins, and the (scene, method) pairs left out with why."""
+
+    suite: dict = field(default_factory=dict)
+    executor: str | None = None
+    jobs: int | None = None
+    cell_timeout: float | None = None
+    plugins: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+
+    @classmethod
+    def of(cls, d: dict | None) -> "RunSettings":
+        known = _known(cls, d)
+        return cls(**{k: v for k, v in known.items() if v is not None or k in ("executor", "jobs", "cell_timeout")})
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """One stored run: ``History.run(run_id)`` typed."""
+
+    run_id: int
+    suite: str
+    started: str
+    measurement_version: int
+    git_commit: str | None = None
+    finished: str | None = None
+    complete: bool = False
+    versions: dict = field(default_factory=dict)
+    machine: dict = field(default_factory=dict)
+    settings: RunSettings = field(default_factory=RunSettings)
+    wall_s: float | None = None
+
+    @classmethod
+    def of(cls, run) -> "RunRecord":
+        if isinstance(run, cls):
+            return run
+        d = _known(cls, dict(run))
+        d["settings"] = RunSettings.of(d.get("settings"))
+        d["versions"] = d.get("versions") or {}
+        d["machine"] = d.get("machine") or {}
+        return cls(**d)
+
+
+@dataclass(frozen=True)
+class RunTiming:
+    """Where a run's time went, as the nightly measured it (``harness.nightly.run``)."""
+
+    total_s: float | None = None
+    cells_s: float = 0.0
+    tasks: int | None = None
+    executor: str | None = None
+    jobs: int | None = None
+    cpus: int | None = None
+    workers_started: int | None = None
+    worker_cpu_s: float | None = None
+    tasks_without_cpu: int = 0
+    main_cpu_s: float = 0.0
+    numba_compile_s: float | None = None
+    kernels_compiled: int | None = None
+    kernels_loaded: int | None = None
+    kernel_load_s: float = 0.0
+    worker_seconds_by_measure: dict = field(default_factory=dict)
+    worker_seconds_by_family: dict = field(default_factory=dict)
+    slowest_tasks: list = field(default_factory=list)
+    task_s: dict = field(default_factory=dict)
+    task_cpu_s: dict = field(default_factory=dict)
+    report_s: float | None = None
+    finished_s: float | None = None
+
+    @classmethod
+    def of(cls, timing) -> "RunTiming":
+        if isinstance(timing, cls):
+            return timing
+        defaults = cls()
+        d = {k: (v if v is not None or getattr(defaults, k) is None else getattr(defaults, k))
+             for k, v in _known(cls, timing).items()}
+        return cls(**d)
