@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from records.cell import Cell, Claims
+from records.cell import Cell, Claims, pivot
 from records.findings import MARK, Change, ClaimChecks, Finding, Judgement, Verdict
 
 from harness.measures.workprecision import error_at_equal_cost as at_equal_cost
@@ -85,15 +85,6 @@ def verdict(cells: list[Cell], regressions=(), previous=None, trend=None) -> Ver
 
 
 # ----------------------------------------------------------------------------- the findings
-def pivot(cells: list[Cell]) -> dict:
-    """{(scene, method): {measure: cell}} for the scene x method cells (bounds excluded)."""
-    out: dict = {}
-    for c in cells:
-        if c.measure != "bound":
-            out.setdefault((c.scene, c.method), {})[c.measure] = c
-    return out
-
-
 def engine_findings(piv: dict) -> list[Finding]:
     """Engine behaviour a user would not expect, on any scene: a mode that integrates as another
     scheme than its name suggests, or as explicit Euler, or as none; a blow-up or an energy gain

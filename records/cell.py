@@ -392,3 +392,12 @@ class Cell:
         data = row["data"]
         return cls.from_row({**{c: row[c] for c in CELL_COLUMNS if c != "data"},
                              "data": json.loads(data) if isinstance(data, str) and data else {}})
+
+
+def pivot(cells: list[Cell]) -> dict:
+    """{(scene, method): {measure: cell}} for the scene x method cells (bounds excluded)."""
+    out: dict = {}
+    for c in cells:
+        if c.measure != "bound":
+            out.setdefault((c.scene, c.method), {})[c.measure] = c
+    return out

@@ -5,12 +5,21 @@ timing the nightly measured (dicts, possibly written by an older version: a fiel
 keeps its default)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields
 
 
 def _known(cls, d: dict | None) -> dict:
-    names = {f.name for f in fields(cls)}
-    return {k: v for k, v in (d or {}).items() if k in names}
+    """The entries of ``d`` that are fields of ``cls``, less a None where the field's default is
+    not None (an older row's null list or dict keeps the empty default)."""
+    out = {}
+    for f in fields(cls):
+        if f.name not in (d or {}):
+            continue
+        default = f.default if f.default is not MISSING else (
+            f.default_factory() if f.default_factory is not MISSING else None)
+        if d[f.name] is not None or default is None:
+            out[f.name] = d[f.name]
+    return out
 
 
 @dataclass(frozen=True)
@@ -27,8 +36,7 @@ class RunSettings:
 
     @classmethod
     def of(cls, d: dict | None) -> "RunSettings":
-        known = _known(cls, d)
-        return cls(**{k: v for k, v in known.items() if v is not None or k in ("executor", "jobs", "cell_timeout")})
+        return cls(**_known(cls, d))
 
 
 @dataclass(frozen=True)
@@ -52,10 +60,7 @@ class RunRecord:
         if isinstance(run, cls):
             return run
         d = _known(cls, dict(run))
-        d["settings"] = RunSettings.of(d.get("settings"))
-        d["versions"] = d.get("versions") or {}
-        d["machine"] = d.get("machine") or {}
-        return cls(**d)
+        return cls(**{**d, "settings": RunSettings.of(d.get("settings"))})
 
 
 @dataclass(frozen=True)
@@ -86,9 +91,4 @@ class RunTiming:
 
     @classmethod
     def of(cls, timing) -> "RunTiming":
-        if isinstance(timing, cls):
-            return timing
-        defaults = cls()
-        d = {k: (v if v is not None or getattr(defaults, k) is None else getattr(defaults, k))
-             for k, v in _known(cls, timing).items()}
-        return cls(**d)
+        return timing if isinstance(timing, cls) else cls(**_known(cls, timing))

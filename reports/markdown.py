@@ -13,7 +13,7 @@ import math
 import os
 from pathlib import Path
 
-from records.cell import Cell, Claims
+from records.cell import Cell, Claims, pivot
 from records.findings import MARK, ClaimChecks, Finding, Judgement, Verdict
 from records.run import RunRecord, RunTiming
 
@@ -33,15 +33,6 @@ def _fmt(x, spec=".3g", none="–"):
     if isinstance(x, float) and math.isinf(x):
         return "unbounded"
     return format(x, spec)
-
-
-def _pivot(cells: list[Cell]) -> dict:
-    """{(scene, method): {measure: cell}} for the scene x method cells (bounds excluded)."""
-    out: dict = {}
-    for c in cells:
-        if c.measure != "bound":
-            out.setdefault((c.scene, c.method), {})[c.measure] = c
-    return out
 
 
 def _of(cells: list[Cell], measure: str, *statuses: str) -> list[Cell]:
@@ -452,7 +443,7 @@ def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None
     ``trend`` (the suite's judged history, ``harness.history.series.Trend``: the History section)."""
     run, timing = RunRecord.of(run), RunTiming.of(timing)
     run_id = run.run_id
-    piv = _pivot(cells)
+    piv = pivot(cells)
     scenes = list(dict.fromkeys(c.scene for c in cells if c.measure != "bound"))
     of_scene = {scene: [c for c in cells if c.scene == scene] for scene in scenes}
     chart_dir = out_dir / "charts"

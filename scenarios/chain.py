@@ -29,7 +29,7 @@ import math
 import numpy as np
 from scipy.fft import dst, idst
 
-from .scene import Param, Scene
+from .scene import DampedByC, Param, Scene
 from ._oscillator import damped_oscillator
 
 
@@ -94,7 +94,7 @@ def solve(q, v, t, p, alpha, beta, r):
     return x
 
 
-class Chain(Scene):
+class Chain(DampedByC, Scene):
     id = "chain"
     title = "stiff spring chain between two walls, N DOF, linear; exact solution from the normal modes"
     params = {
@@ -108,14 +108,6 @@ class Chain(Scene):
     linear = True
     accel = staticmethod(accel)
     solve = staticmethod(solve)
-
-    @property
-    def velocity_dependent(self):
-        return self.values["c"] != 0.0
-
-    @property
-    def conservative(self):
-        return self.values["c"] == 0.0
 
     def mode_damping_ratios(self) -> np.ndarray:
         """zeta_j = c w_j / (2 k), j = 1..N."""

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from .scene import Param, Scene
+from .scene import DampedByC, Param, Scene
 from ._oscillator import damped_oscillator
 
 
@@ -18,7 +18,7 @@ def solve(q, v, t, p, alpha, beta, r):
     return r / (1.0 + alpha * (c / m) + beta * (k / m))
 
 
-class DampedSpring(Scene):
+class DampedSpring(DampedByC, Scene):
     id = "damped_spring"
     title = "damped oscillator (any damping ratio), 1 DOF; exact solution and exact decaying energy"
     params = {
@@ -48,14 +48,6 @@ class DampedSpring(Scene):
     @classmethod
     def c_for_zeta(cls, zeta: float, k: float = 1.0, m: float = 1.0) -> float:
         return 2.0 * zeta * math.sqrt(k * m)
-
-    @property
-    def velocity_dependent(self):
-        return self.values["c"] != 0.0
-
-    @property
-    def conservative(self):
-        return self.values["c"] == 0.0
 
     def initial_state(self):
         return np.array([self.values["x0"]]), np.array([self.values["v0"]])

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from .scene import Param, Scene
+from .scene import DampedByC, Param, Scene
 
 
 def accel(q, v, t, p):
@@ -23,7 +23,7 @@ def solve(q, v, t, p, alpha, beta, r):
     return r / (1.0 + alpha * (c / m))
 
 
-class Projectile(Scene):
+class Projectile(DampedByC, Scene):
     id = "projectile"
     title = "point mass under gravity and linear drag, 2 DOF; exact solution in closed form"
     params = {
@@ -42,14 +42,6 @@ class Projectile(Scene):
     def damping_rate(p):
         """gamma = c/m: a(x, v) = a(x, 0) - gamma v (what exponential-damping schemes read)."""
         return p[2] / p[1]
-
-    @property
-    def velocity_dependent(self):
-        return self.values["c"] != 0.0
-
-    @property
-    def conservative(self):
-        return self.values["c"] == 0.0
 
     def initial_state(self):
         a = math.radians(self.values["angle"])

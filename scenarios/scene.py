@@ -220,3 +220,17 @@ class Scene:
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v:g}" for k, v in self.values.items())
         return f"{type(self).__name__}({args})"
+
+
+class DampedByC:
+    """A scene whose force depends on the velocity through its damping coefficient ``c`` alone
+    (the damped spring, the chain's dashpots, the projectile's drag): c = 0 leaves it conservative.
+    Mixed in before ``Scene``."""
+
+    @property
+    def velocity_dependent(self) -> bool:
+        return self.values["c"] != 0.0
+
+    @property
+    def conservative(self) -> bool:
+        return self.values["c"] == 0.0

@@ -6,6 +6,7 @@ Two smoke nightlies run once for the module: one in local worker processes, one 
 on every attempt. Comparing the two covers both "same numbers as a local run" and "a killed
 worker costs its cell one retry", in one Dask run.
 """
+import contextlib
 import json
 import os
 import re
@@ -53,18 +54,26 @@ def local_run(tmp_path_factory):
     return tmp, code
 
 
-@pytest.fixture(scope="module")
-def dask_run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("dask")
+@contextlib.contextmanager
+def worker_kills(tmp, plan: dict):
+    """Dask workers that preload tests/dask_faults.py with ``plan`` (task label -> attempts that
+    die), logging every attempt under ``tmp/kills``; no scheduler from the environment. Restores
+    the worker preload and the daemon flag the executor sets for its LocalCluster."""
     kills = tmp / "kills"
     kills.mkdir()
-    # Restores the worker preload and the daemon flag the executor sets for its LocalCluster.
     config = {"distributed.worker.preload": [FAULTS],
               "distributed.worker.daemon": dask.config.get("distributed.worker.daemon")}
     with pytest.MonkeyPatch.context() as mp, dask.config.set(config):
         mp.delenv(distributed.ENV_VAR, raising=False)
-        mp.setenv(dask_faults.PLAN_VAR, json.dumps({KILLED_ONCE: 1}))
+        mp.setenv(dask_faults.PLAN_VAR, json.dumps(plan))
         mp.setenv(dask_faults.DIR_VAR, str(kills))
+        yield
+
+
+@pytest.fixture(scope="module")
+def dask_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("dask")
+    with worker_kills(tmp, {KILLED_ONCE: 1}):
         code = main(nightly_argv(tmp, "--scheduler", "local:2"))
     return tmp, code
 
@@ -76,15 +85,8 @@ def dask_dead_run(tmp_path_factory):
     from harness.nightly.suites import SceneSpec, Suite
 
     tmp = tmp_path_factory.mktemp("dask_dead")
-    kills = tmp / "kills"
-    kills.mkdir()
-    config = {"distributed.worker.preload": [FAULTS],
-              "distributed.worker.daemon": dask.config.get("distributed.worker.daemon")}
     suite = Suite("dead", scenes={"spring": SceneSpec(periods=1)}, methods=(KILLED_ALWAYS.split()[-1],), bounds=False)
-    with pytest.MonkeyPatch.context() as mp, dask.config.set(config):
-        mp.delenv(distributed.ENV_VAR, raising=False)
-        mp.setenv(dask_faults.PLAN_VAR, json.dumps({KILLED_ALWAYS: 99}))
-        mp.setenv(dask_faults.DIR_VAR, str(kills))
+    with worker_kills(tmp, {KILLED_ALWAYS: 99}):
         result = run_nightly(suite, tmp / "out", tmp / "h.sqlite", scheduler="local:2")
     return tmp, result, suite
 

@@ -20,35 +20,26 @@ def add_parser(sub):
 
 
 def run(args) -> int:
+    """The reference kernels beside their floors, or (``--engines``) the engine modes beside their
+    bare loops: the same steps, validate the ids, measure, print JSON or lines."""
     from harness import validate
-    from harness.bench import kernels as kernel_bench
 
     if args.engines:
-        return _run_engines(args)
-    for sid in args.methods or ():
-        validate.choice("method", sid, UNCONSTRAINED)
-    result = kernel_bench.measure(args.methods)
+        import adapters
+
+        from harness.bench import engines as bench
+
+        valid = list(adapters.ENGINE_METHODS)
+    else:
+        from harness.bench import kernels as bench
+
+        valid = UNCONSTRAINED
+    for mid in args.methods or ():
+        validate.choice("method", mid, valid)
+    result = bench.measure(args.methods)
     if args.json:
         print(json.dumps(result, indent=1))
         return 0
-    for line in kernel_bench.lines(result):
-        print(line)
-    return 0
-
-
-def _run_engines(args) -> int:
-    import adapters
-
-    from harness import validate
-
-    from harness.bench import engines as engine_bench
-
-    for mid in args.methods or ():
-        validate.choice("method", mid, list(adapters.ENGINE_METHODS))
-    rows = engine_bench.measure(args.methods)
-    if args.json:
-        print(json.dumps(rows, indent=1))
-        return 0
-    for line in engine_bench.lines(rows):
+    for line in bench.lines(result):
         print(line)
     return 0
