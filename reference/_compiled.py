@@ -9,6 +9,7 @@ pointwise scene, run as a loop of scalars without array temporaries.
 """
 from __future__ import annotations
 
+import contextlib
 import time
 
 import numpy as np
@@ -155,6 +156,109 @@ def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int =
     return Trajectory(scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
                       step=recorded.astype(np.int64), t=recorded * dt, q=q, v=v, energy=energy,
                       status=status, detail=detail, failed_step=failed, meta=meta)
+
+
+# ------------------------------------------------------------------ the exact compiled run
+#: (scheme, scene class) -> (its kernels, why its counted run might not compute the interpreted
+#: bits, "" where it does), for this process.
+_COUNTED: dict[tuple, tuple] = {}
+#: Whether ``RefMethod.simulate`` takes the exact compiled run where a pair has one (``exact_compiled``).
+_PREFER_EXACT = [False]
+
+
+@contextlib.contextmanager
+def exact_compiled(enabled: bool = True):
+    """Within it, a reference scheme's runs (``RefMethod.simulate``) step on
+    :func:`integrate_exact` wherever it computes the interpreted run's bits, and interpreted
+    elsewhere: the nightly's accuracy measurements, the same numbers in a fraction of the time."""
+    before = _PREFER_EXACT[0]
+    _PREFER_EXACT[0] = bool(enabled)
+    try:
+        yield
+    finally:
+        _PREFER_EXACT[0] = before
+
+
+def prefer_exact() -> bool:
+    return _PREFER_EXACT[0]
+
+
+def _counted_parts(scheme, scene: Scene) -> tuple:
+    key = (scheme, type(scene))
+    if key not in _COUNTED:
+        q, v = _kernel_layout(scene, None, None)
+        with np.errstate(all="ignore"):
+            nstate = len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))
+        kernels = _kernels.load(scheme, type(scene), nstate)
+        why = kernels.exact_why
+        if not why:
+            from . import _libm
+
+            why = next((f"numba's {f} gives other bits than numpy's on this machine"
+                        for f in kernels.libm if not _libm.agrees(f)), "")
+        if not why:
+            k = newton_max(scene) if scheme.implicit else (scheme.iterations or 0)
+            out = np.empty((3,) + q.shape)
+
+            def first():
+                cnt = np.zeros(3, np.int64)
+                state = kernels.start_counted(cnt, q, v, 0.0, 0.01 / scene.omega, scene.pvec)
+                kernels.run_counted(state, 0.0, 0.01 / scene.omega, 2, 1, scene.pvec, int(k), out, out.copy(), cnt)
+
+            with np.errstate(all="ignore"):
+                _kernels.warm(kernels, first, kernels.counted_dispatchers())
+        _COUNTED[key] = (kernels, why)
+    return _COUNTED[key]
+
+
+def exact_why(scheme, scene: Scene) -> str:
+    """Why :func:`integrate_exact` does not run ``scheme`` on ``scene`` ("" where it does)."""
+    for name in ("accel", "solve", "project", "damping_rate"):
+        if name in vars(scene):
+            return f"scene {scene.id} overrides its {name} on the instance: the kernels are the class's"
+    return _counted_parts(scheme, scene)[1]
+
+
+def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1, q0=None, v0=None,
+                    t0: float = 0.0, iterations: int | None = None) -> Trajectory | None:
+    """``reference.integrate`` compiled: the same trajectory, bit for bit, with the same force
+    evaluations, solves and projections counted, the same recording and the same divergence
+    stop, from the pair's ``run_counted`` kernel (``reference._kernels``); None where the pair
+    has none that computes the interpreted bits (:func:`exact_why` says why), for the caller
+    to interpret instead. ``meta["backend"]`` says "compiled, counted"."""
+    steps, every = int(steps), int(every)
+    if every < 1 or steps < 0 or exact_why(scheme, scene):
+        return None
+    kernels = _counted_parts(scheme, scene)[0]
+    q, v = _kernel_layout(scene, q0, v0)
+    p, k, h, t0 = scene.pvec, _k(scheme, scene, iterations), float(dt), float(t0)
+    marks = np.arange(every, steps + 1, every, dtype=np.int64)
+    if steps % every:
+        marks = np.append(marks, steps)
+    marks = np.concatenate([np.zeros(1, np.int64), marks])
+    out_q, out_v = np.empty((len(marks),) + q.shape), np.empty((len(marks),) + v.shape)
+    cnt = np.zeros(3, np.int64)
+    with np.errstate(all="ignore"):
+        state = kernels.start_counted(cnt, q, v, t0, h, p)
+        start_evals = int(cnt[0])
+        cnt[:] = 0
+        _, recorded, failed = kernels.run_counted(state, t0, h, steps, every, p, int(k), out_q, out_v, cnt)
+    failed = int(failed) or None
+    step_arr = marks[:recorded]
+    q_arr = np.ascontiguousarray(out_q[:recorded].transpose(0, 2, 1))
+    v_arr = np.ascontiguousarray(out_v[:recorded].transpose(0, 2, 1))
+    with np.errstate(over="ignore", invalid="ignore"):
+        energy = scene.energy(q_arr, v_arr)
+    meta = {"backend": "compiled, counted", "start_force_evals": start_evals,
+            "steps_run": (failed - 1) if failed else steps, "params": dict(scene.values)}
+    if scheme.constrained:
+        meta["iterations"] = int(k)
+        meta["projections"] = int(cnt[2])
+    return Trajectory(
+        scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
+        step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=energy,
+        status=UNSTABLE if failed else OK, detail=divergence_detail(failed, t0 + failed * dt) if failed else "",
+        failed_step=failed, force_evals=int(cnt[0]), solves=int(cnt[1]), meta=meta)
 
 
 def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None, iterations: int | None = None):

@@ -98,14 +98,25 @@ def _downsample(n: int, points: int) -> np.ndarray:
 
 
 def run_task(task) -> list[Cell]:
-    """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message."""
-    from harness.execution.pool import report_partial
-    from harness.methods import get_method, use_plugins
+    """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message.
+    Reference schemes step on the compiled path wherever it computes the interpreted run's
+    bits (``reference.exact_compiled``; the suite's ``exact_compiled``)."""
+    from reference import exact_compiled
+
+    from harness.methods import use_plugins
 
     use_plugins(task.plugins)
     if task.kind == "bound":
         return [guard(task, "bound", lambda: _bound(task))]
     suite = suite_of(task)
+    with exact_compiled(suite.exact_compiled):
+        return _scene_task(task, suite)
+
+
+def _scene_task(task, suite: Suite) -> list[Cell]:
+    from harness.execution.pool import report_partial
+    from harness.methods import get_method
+
     spec = suite.scenes[task.scene]
     scene = make_scene(task.scene, **task.params)
     method = get_method(task.method)
