@@ -218,3 +218,19 @@ def test_nightly_cells_are_the_same_with_and_without_the_exact_run():
         return cells
 
     assert measured(True) == measured(False)
+
+
+def test_only_the_schemes_let_compile_compile_their_counted_kernels(monkeypatch, tmp_path):
+    from reference import _compiled
+
+    monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))  # nothing compiled here yet
+    monkeypatch.setattr(_compiled, "_COUNTED", {})
+    scene, method = make_scene("spring"), RefMethod(METHODS["semi_implicit_euler_position_first"])
+    with exact_compiled(compile_for={"leapfrog"}):
+        assert exact_why(method.scheme, scene) == _compiled.NOT_YET
+        assert method.simulate(scene, 0.1, 10).meta["backend"] == "interpreted"
+    with exact_compiled(compile_for={"semi_implicit_euler_position_first"}):
+        assert method.simulate(scene, 0.1, 10).meta["backend"] == "compiled, counted"
+    monkeypatch.setattr(_compiled, "_COUNTED", {})  # another process: compiled before, so taken
+    with exact_compiled(compile_for=set()):
+        assert method.simulate(scene, 0.1, 10).meta["backend"] == "compiled, counted"

@@ -15,7 +15,11 @@ The rule, one way for each kind of method:
   (:func:`reference._compiled.time_per_step`, the same step functions compiled by numba),
   one warm-up call (it compiles, or loads the pair's kernels from the disk cache), then ``repeats`` (5) timed runs of ``time_steps``
   (100,000) steps; the figure is the **minimum** over repeats (the least-disturbed run, as
-  timeit and asv take it).
+  timeit and asv take it). A kernel so slow that a run would take longer than
+  REF_RUN_BUDGET_S (0.05 s, judged from a pilot run of REF_PILOT_STEPS, 2,000) runs fewer
+  steps, at least REF_MIN_STEPS (5,000): Kepler's implicit midpoint at 1.2 us a step, or the
+  solar system's RK4, say in 50 ms what 100,000 steps say in 0.12-0.4 s, since the call's fixed
+  cost (about 1 us) is then 1e-5 of a run and the clock reads to the nanosecond.
 * **Wall time per step**, engine modes, two figures, each ``method.simulate`` timed in this
   process (no worker): one warm-up call of up to ENGINE_PILOT_STEPS (500) steps, then
   ``repeats`` timed runs of N steps and of 0 steps; the figure is ``(min t(N) - min t(0)) / N``.
@@ -68,6 +72,9 @@ from harness.measures.common import resolve, step
 
 COUNT_STEPS = 100
 REF_TIME_STEPS = 100_000
+REF_PILOT_STEPS = 2_000
+REF_RUN_BUDGET_S = 0.05
+REF_MIN_STEPS = 5_000
 ENGINE_TIME_STEPS = 10_000
 HARNESS_TIME_STEPS = 2_000
 ENGINE_PILOT_STEPS = 500
@@ -119,9 +126,11 @@ _LOOP_TIMING = {
 
 class _Timing:
     """One method's timing by the module's rule, a repeat at a time (so that two methods'
-    repeats can be interleaved)."""
+    repeats can be interleaved). ``budget`` False: a compiled loop runs ``steps`` steps
+    whatever they cost (explicit Euler timed beside a scheme runs the scheme's loop length)."""
 
-    def __init__(self, method: Method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine"):
+    def __init__(self, method: Method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine",
+                 budget: bool = True):
         self.now = CLOCKS[clock]
         self.scheme = method.scheme
         self.times, self.empty = [], []
@@ -129,6 +138,10 @@ class _Timing:
         if self.scheme is not None:
             self.n = int(steps or REF_TIME_STEPS)
             self.warmup_s, self._once = step_timer(self.scheme, scene, dt, self.n, clock=clock)
+            if budget:
+                per_step = self._once(min(self.n, REF_PILOT_STEPS))
+                if per_step * self.n > REF_RUN_BUDGET_S:
+                    self.n = max(min(REF_MIN_STEPS, self.n), int(REF_RUN_BUDGET_S / per_step))
         else:
             self.asked = int(steps or (ENGINE_TIME_STEPS if loop == "engine" else HARNESS_TIME_STEPS))
             self.method, self.scene, self.dt = method, scene, dt
@@ -146,7 +159,7 @@ class _Timing:
 
     def repeat(self) -> None:
         if self.scheme is not None:
-            self.times.append(self._once())
+            self.times.append(self._once(self.n))
             return
         self.empty.append(self._run_s(0))
         self.times.append(self._run_s(self.n))
@@ -233,7 +246,7 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     # A reference scheme and its baseline run the same compiled loop length: a shorter loop
     # carries more of the call's fixed cost per step (1.3x per step at 2,000 steps, measured).
     base_steps = timing.n if timing.scheme is not None else REF_TIME_STEPS
-    base = _Timing(baseline_method, scene, dt, base_steps, clock)
+    base = _Timing(baseline_method, scene, dt, base_steps, clock, budget=timing.scheme is None)
     for _ in range(repeats):
         timing.repeat()
         base.repeat()

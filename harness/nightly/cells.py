@@ -109,7 +109,10 @@ def run_task(task) -> list[Cell]:
     if task.kind == "bound":
         return [guard(task, "bound", lambda: _bound(task))]
     suite = suite_of(task)
-    with exact_compiled(suite.exact_compiled):
+    # The task compiles its own scheme's counted kernels; other schemes (an engine task's
+    # identity candidates) take theirs where the scheme's own task compiled them before.
+    own = {task.method.split(":", 1)[1]} if task.family == "ref" else set()
+    with exact_compiled(suite.exact_compiled, compile_for=own):
         return _scene_task(task, suite)
 
 
