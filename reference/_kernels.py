@@ -132,13 +132,15 @@ def _register_overloads() -> None:
 #: Calls whose result numba computes bit for bit as numpy and Python do: IEEE 754's correctly
 #: rounded square root, the exact abs, min and max, and making arrays.
 EXACT_CALLS = frozenset({"np.sqrt", "math.sqrt", "np.abs", "abs", "min", "max", "np.empty_like", "np.zeros_like",
-                         "np.empty", "np.zeros", "range", "len", "float", "int"})
+                         "np.empty", "np.zeros", "np.eye", "np.outer", "np.ascontiguousarray", "range", "len", "float",
+                         "int"})
 #: Array methods likewise exact.
 EXACT_METHODS = frozenset({"copy"})
-#: Functions both sides take from the C library where numpy does not bring its own vectorised
-#: version: the same bits exactly where this machine's numpy and numba agree on them
-#: (``reference._libm.agrees``, checked once per process).
-LIBM_CALLS = frozenset({"np.sin", "np.cos", "np.exp", "math.sin", "math.cos", "math.exp"})
+#: Functions both sides take from a library: the C library's sin, cos and exp (where numpy does
+#: not bring its own vectorised version) and LAPACK's dense solve (numpy's bundled build against
+#: the one numba calls through scipy): the same bits exactly where this machine's builds agree
+#: on them (``reference._libm.agrees``, checked once per process).
+LIBM_CALLS = frozenset({"np.sin", "np.cos", "np.exp", "math.sin", "math.cos", "math.exp", "np.linalg.solve"})
 
 
 def exact_operations(tree: ast.FunctionDef, modules: dict[str, str], known: set[str], libm: set[str]) -> str:
@@ -150,8 +152,8 @@ def exact_operations(tree: ast.FunctionDef, modules: dict[str, str], known: set[
     without fastmath, which the kernels do not ask for), so a function built only of those,
     of exact operations and of calls to other such functions computes the same bits either
     way. A reduction (np.sum, np.dot, @: numpy sums pairwise, numba in order), ``**`` (numpy's
-    pow against numba's repeated products), linear algebra (other LAPACK builds) or any call
-    not listed might not. ``modules`` maps the names bound to numpy and math to "np" and
+    pow against numba's repeated products) or any call not listed might not; a library
+    function (``LIBM_CALLS``) does where the machine's builds agree. ``modules`` maps the names bound to numpy and math to "np" and
     "math"; ``known``: functions and kernels of the file (exact if their own source is);
     the libm functions called are added to ``libm``."""
     for node in ast.walk(tree):
@@ -165,8 +167,12 @@ def exact_operations(tree: ast.FunctionDef, modules: dict[str, str], known: set[
             if name in known or name in EXACT_CALLS:
                 continue
             return f"calls {name}"
-        if isinstance(func, ast.Attribute) and isinstance(func.value, ast.Name) and func.value.id in modules:
-            name = f"{modules[func.value.id]}.{func.attr}"
+        root, path = func, []
+        while isinstance(root, ast.Attribute):
+            path.insert(0, root.attr)
+            root = root.value
+        if path and isinstance(root, ast.Name) and root.id in modules:
+            name = ".".join([modules[root.id], *path])
             if name in EXACT_CALLS:
                 continue
             if name in LIBM_CALLS:

@@ -109,11 +109,25 @@ def run_task(task) -> list[Cell]:
     if task.kind == "bound":
         return [guard(task, "bound", lambda: _bound(task))]
     suite = suite_of(task)
-    # The task compiles its own scheme's counted kernels; other schemes (an engine task's
-    # identity candidates) take theirs where the scheme's own task compiled them before.
-    own = {task.method.split(":", 1)[1]} if task.family == "ref" else set()
-    with exact_compiled(suite.exact_compiled, compile_for=own):
+    with exact_compiled(suite.exact_compiled, compile_for=compiles_for(task, suite)):
         return _scene_task(task, suite)
+
+
+def compiles_for(task, suite: Suite) -> set[str]:
+    """The reference schemes whose counted kernels a task compiles (``reference.exact_compiled``):
+    a reference task its own scheme's; an engine task those of the schemes no task of the suite
+    runs on its scene, which its identity compares with and nobody else would compile. Every
+    other run takes the kernel its own task compiled, where it was compiled before (in a run
+    after a kernel changed, the engine tasks interpret what is not yet compiled, instead of
+    compiling a dozen candidates within their time limit)."""
+    import reference
+
+    if task.family == "ref":
+        return {task.method.split(":", 1)[1]}
+    spec = suite.scenes[task.scene]
+    run = [m for m in (suite.methods or [f"ref:{s}" for s in reference.METHODS]) if m.startswith("ref:")]
+    run = {m[4:] for m in run if m not in spec.skip and (spec.methods is None or m in spec.methods)}
+    return set(reference.METHODS) - run
 
 
 def _scene_task(task, suite: Suite) -> list[Cell]:
