@@ -17,10 +17,19 @@ def _style(method: str) -> dict:
     return {"linestyle": "-" if method.startswith("ref:") else "--", "linewidth": 1.2}
 
 
+#: The charts' resolution (dots per inch) and the margin left around what they draw (inches).
+DPI, PAD_INCHES = 90, 0.1
+
+
 def _save(fig, path: Path) -> bool:
+    """``fig`` written to ``path`` as PNG, cropped to what it draws plus PAD_INCHES: the crop of
+    ``savefig(bbox_inches="tight")``, with the box measured once, at the PNG's dpi, and handed
+    to savefig; "tight" draws the whole figure once to measure it and once more to write it."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=90, bbox_inches="tight")
+    fig.set_dpi(DPI)
+    box = fig.get_tightbbox(fig.canvas.get_renderer()).padded(PAD_INCHES)
+    fig.savefig(tmp, dpi=DPI, bbox_inches=box)
     plt.close(fig)
     tmp.replace(path)
     return path.stat().st_size > 0
