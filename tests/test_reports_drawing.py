@@ -76,3 +76,29 @@ def test_a_worker_that_dies_costs_its_chart_only(tmp_path):
         drawn = draw_charts(todo, tmp_path, jobs=2)
     assert drawn == [f"charts/line{i}.png" for i in range(1, 6)]
     assert sorted(p.name for p in (tmp_path / "charts").iterdir()) == [f"line{i}.png" for i in range(1, 6)]
+
+
+@pytest.mark.parametrize("mathtext, plain", [
+    (r"$\mathdefault{10^{-10}}$", "10⁻¹⁰"), (r"$\mathdefault{10^{0}}$", "10⁰"), (r"$\mathdefault{10^{6}}$", "10⁶"),
+    (r"$\mathdefault{4\times10^{-1}}$", "4×10⁻¹"), (r"$\mathdefault{0}$", "0"), (r"$\mathdefault{-10^{2}}$", "−10²"),
+    ("", ""), ("0.5", "0.5"), (r"$\alpha$", r"$\alpha$"),  # not a power of ten: left as it is
+])
+def test_log_tick_labels_are_written_without_mathtext(mathtext, plain):
+    assert charts.plain_power_label(mathtext) == plain
+
+
+def test_a_saved_log_axis_keeps_its_ticks_and_labels_them_in_plain_text(tmp_path):
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    ax.plot([1e-7, 1e-2], [1e-9, 1e-2])
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ticks = ax.get_xticks()
+    labels = [t.get_text() for t in ax.xaxis.get_majorticklabels()]
+    charts._plain_power_labels(fig)
+    fig.canvas.draw()
+    assert np.array_equal(ax.get_xticks(), ticks)
+    assert [t.get_text() for t in ax.xaxis.get_majorticklabels()] == [charts.plain_power_label(s) for s in labels]
+    assert "10⁻⁵" in [t.get_text() for t in ax.xaxis.get_majorticklabels()]
+    plt.close(fig)
