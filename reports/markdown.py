@@ -6,6 +6,10 @@ Written atomically: charts carry the run id in their names (new files, the previ
 charts untouched), the markdown goes to a temporary file that ``os.replace`` moves over
 ``report.md`` in one step, and only then are charts no longer referenced removed. A run
 killed half-way leaves the previous report whole.
+
+The charts are listed (``report_charts``) and drawn, by ``jobs`` worker processes
+(``reports.drawing``), before any markdown is written; the markdown links the charts drawn, so
+it is the same however many processes drew them.
 """
 from __future__ import annotations
 
