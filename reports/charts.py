@@ -29,7 +29,9 @@ def plain_power_label(label: str) -> str:
     m = re.fullmatch(r"\$\\mathdefault\{([-0-9.]*(?:\\times)?(?:10\^\{-?[0-9]+\})?)\}\$", label)
     if not m:
         return label
-    body = m.group(1).replace("\\times", "×").replace("-", "−", 1 if m.group(1).startswith("-") else 0)
+    body = m.group(1).replace("\\times", "×")
+    if body.startswith("-"):
+        body = "−" + body[1:]  # the minus sign mathtext sets
     return re.sub(r"\^\{(-?[0-9]+)\}", lambda e: e.group(1).translate(_SUPERSCRIPT), body)
 
 
