@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import matplotlib
@@ -10,6 +11,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from matplotlib.ticker import Formatter, LogFormatterMathtext  # noqa: E402
+
 from records.cell import Cell  # noqa: E402
 
 
@@ -17,10 +20,66 @@ def _style(method: str) -> dict:
     return {"linestyle": "-" if method.startswith("ref:") else "--", "linewidth": 1.2}
 
 
+_SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
+
+
+def plain_power_label(label: str) -> str:
+    """A log axis's tick label as plain text: ``$\\mathdefault{4\\times10^{-3}}$`` -> ``4×10⁻³``
+    (Unicode superscripts); any other label as it is."""
+    m = re.fullmatch(r"\$\\mathdefault\{([-0-9.]*(?:\\times)?(?:10\^\{-?[0-9]+\})?)\}\$", label)
+    if not m:
+        return label
+    body = m.group(1).replace("\\times", "×")
+    if body.startswith("-"):
+        body = "−" + body[1:]  # the minus sign mathtext sets
+    return re.sub(r"\^\{(-?[0-9]+)\}", lambda e: e.group(1).translate(_SUPERSCRIPT), body)
+
+
+class PlainPowerFormatter(Formatter):
+    """A log (or symlog) axis's own tick labels, written as plain text (``plain_power_label``):
+    the same labels, without mathtext, whose parser was the largest cost of drawing these
+    charts after the ticks themselves."""
+
+    def __init__(self, inner: Formatter):
+        self.inner = inner
+
+    def set_axis(self, axis):
+        super().set_axis(axis)
+        self.inner.set_axis(axis)
+
+    def set_locs(self, locs):
+        self.inner.set_locs(locs)
+
+    def __call__(self, x, pos=None):
+        return plain_power_label(self.inner(x, pos))
+
+    def format_data_short(self, value):
+        return self.inner.format_data_short(value)
+
+
+def _plain_power_labels(fig) -> None:
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            if isinstance(axis.get_major_formatter(), LogFormatterMathtext):
+                axis.set_major_formatter(PlainPowerFormatter(axis.get_major_formatter()))
+            if isinstance(axis.get_minor_formatter(), LogFormatterMathtext):
+                axis.set_minor_formatter(PlainPowerFormatter(axis.get_minor_formatter()))
+
+
+#: The charts' resolution (dots per inch) and the margin left around what they draw (inches).
+DPI, PAD_INCHES = 90, 0.1
+
+
 def _save(fig, path: Path) -> bool:
+    """``fig`` written to ``path`` as PNG, cropped to what it draws plus PAD_INCHES: the crop of
+    ``savefig(bbox_inches="tight")``, with the box measured once, at the PNG's dpi, and handed
+    to savefig; "tight" draws the whole figure once to measure it and once more to write it."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=90, bbox_inches="tight")
+    fig.set_dpi(DPI)
+    _plain_power_labels(fig)
+    box = fig.get_tightbbox(fig.canvas.get_renderer()).padded(PAD_INCHES)
+    fig.savefig(tmp, dpi=DPI, bbox_inches=box)
     plt.close(fig)
     tmp.replace(path)
     return path.stat().st_size > 0

@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from .charts import _save  # noqa: E402
+from .drawing import Chart  # noqa: E402
 
 #: Trend charts drawn at most (regressions first, then the latest changes); the rest are listed.
 MAX_CHARTS = 12
@@ -62,10 +63,29 @@ def trend_chart(cell, run_ids: list[int], path: Path) -> bool:
     return _save(fig, path)
 
 
-def history_section(trend, run_id: int, out_dir: Path) -> tuple[list[str], list[str]]:
-    """(markdown lines, chart files written, relative to ``out_dir``); no section without a history."""
+def _changed_in_order(trend) -> list:
+    """The changed cells, in the order the section lists them: regressions first, then the
+    latest changes."""
+    return sorted(trend.changed(), key=lambda c: (c.regression is None, -max(ch.run_id for ch in c.changes), c.label))
+
+
+def _chart_name(run_id: int, i: int) -> str:
+    return f"charts/run{run_id}-history-{i}.png"
+
+
+def history_charts(trend, run_id: int) -> list[Chart]:
+    """The trend charts the section shows (MAX_CHARTS at most), to be drawn (``reports.drawing``)."""
     if trend is None or not trend.runs:
-        return [], []
+        return []
+    return [Chart(_chart_name(run_id, i), trend_chart, (cell, trend.run_ids))
+            for i, cell in enumerate(_changed_in_order(trend)[:MAX_CHARTS])]
+
+
+def history_section(trend, run_id: int, drawn) -> list[str]:
+    """The section's markdown lines, none without a history; ``drawn``: the names of the charts
+    drawn (of ``history_charts``), the others left out."""
+    if trend is None or not trend.runs:
+        return []
     lines = ["## History", ""]
     ids = trend.run_ids
     how = (f"cost judged by step detection over them (from {trend.min_runs} runs on)" if trend.judged
@@ -75,13 +95,12 @@ def history_section(trend, run_id: int, out_dir: Path) -> tuple[list[str], list[
              f"(runs {which}); accuracy figures compared run to run, {how}.")
     if trend.left_out:
         intro += f" {trend.left_out}."
-    changed = trend.changed()
-    if not changed:
-        return lines + [intro + " **Unchanged**: no accuracy figure changed and no cost step was detected.", ""], []
+    order = _changed_in_order(trend)
+    if not order:
+        return lines + [intro + " **Unchanged**: no accuracy figure changed and no cost step was detected.", ""]
     lines += [intro, "",
               "| cell | measure | change | from run | commits | what differs | |",
               "|---|---|---|---|---|---|---|"]
-    order = sorted(changed, key=lambda c: (c.regression is None, -max(ch.run_id for ch in c.changes), c.label))
     for cell in order:
         for ch in cell.changes:
             size = f" ({ch.size:+.1%})" if ch.size is not None else ""
@@ -90,12 +109,11 @@ def history_section(trend, run_id: int, out_dir: Path) -> tuple[list[str], list[
             lines.append(f"| `{cell.method}` on {cell.scene} | {cell.measure} | {_fmt(ch.before)} → {_fmt(ch.after)}"
                          f"{size}{conf} | {ch.run_id} | {ch.commits} | {ch.cause} | {flag} |")
     lines.append("")
-    written = []
+    drawn = set(drawn)
     for i, cell in enumerate(order[:MAX_CHARTS]):
-        name = f"charts/run{run_id}-history-{i}.png"
-        if trend_chart(cell, ids, out_dir / name):
-            written.append(name)
+        name = _chart_name(run_id, i)
+        if name in drawn:
             lines += [f"![History of {cell.label}]({name})", ""]
     if len(order) > MAX_CHARTS:
         lines += [f"{len(order) - MAX_CHARTS} more changed cell(s) listed above without a chart.", ""]
-    return lines, written
+    return lines

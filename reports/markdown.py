@@ -6,6 +6,10 @@ Written atomically: charts carry the run id in their names (new files, the previ
 charts untouched), the markdown goes to a temporary file that ``os.replace`` moves over
 ``report.md`` in one step, and only then are charts no longer referenced removed. A run
 killed half-way leaves the previous report whole.
+
+The charts are listed (``report_charts``) and drawn, by ``jobs`` worker processes
+(``reports.drawing``), before any markdown is written; the markdown links the charts drawn, so
+it is the same however many processes drew them.
 """
 from __future__ import annotations
 
@@ -18,8 +22,9 @@ from records.findings import MARK, ClaimChecks, Finding, Judgement, Verdict
 from records.run import RunRecord, RunTiming
 
 from . import charts
+from .drawing import Chart, draw_charts
 from .damping_section import damping_stability_section
-from .history_section import history_section
+from .history_section import history_charts, history_section
 
 CHECK, CROSS = "✓", "✗"
 
@@ -435,45 +440,47 @@ def where_the_time_went(timing: RunTiming) -> list[str]:
 
 
 # ----------------------------------------------------------------------------- the report
+def report_charts(run_id: int, cells: list[Cell], trend=None) -> tuple[list[Chart], dict]:
+    """(every chart the report can show, to be drawn: ``reports.drawing``; {(scene, kind): chart
+    name} of the per-scene ones, for the sections that show them)."""
+    scenes = list(dict.fromkeys(c.scene for c in cells if c.measure != "bound"))
+    todo, names = [], {}
+    for scene in scenes:
+        of_scene = [c for c in cells if c.scene == scene]
+        for kind, fn in (("energy", charts.energy_chart), ("workprecision", charts.workprecision_chart),
+                         ("stability", charts.stability_chart)):
+            names[(scene, kind)] = name = f"charts/run{run_id}-{scene}-{kind}.png"
+            todo.append(Chart(name, fn, (of_scene, scene)))
+        for hz in _frame_rates(cells):
+            names[(scene, f"advise{hz:g}")] = name = f"charts/run{run_id}-{scene}-advise{hz:g}hz.png"
+            todo.append(Chart(name, charts.advice_chart, (of_scene, scene, hz)))
+    names["damping"] = name = f"charts/run{run_id}-damping-stability.png"
+    todo.append(Chart(name, charts.damping_stability_chart, (cells,)))
+    return todo + history_charts(trend, run_id), names
+
+
 def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None,
-           trend=None) -> tuple[str, list[str]]:
+           trend=None, jobs: int = 1) -> tuple[str, list[str]]:
     """(the report's markdown, the chart files written, relative to ``out_dir``) of ``run`` (its
     stored metadata, a ``RunRecord`` or the history's row), its ``cells``, what judging them
     found, ``timing`` (where the run's time went, a ``RunTiming`` or the nightly's dict) and
-    ``trend`` (the suite's judged history, ``harness.history.series.Trend``: the History section)."""
+    ``trend`` (the suite's judged history, ``harness.history.series.Trend``: the History section).
+    ``jobs``: processes drawing the charts (``reports.drawing``; 1: this one)."""
     run, timing = RunRecord.of(run), RunTiming.of(timing)
     run_id = run.run_id
     piv = pivot(cells)
     scenes = list(dict.fromkeys(c.scene for c in cells if c.measure != "bound"))
-    of_scene = {scene: [c for c in cells if c.scene == scene] for scene in scenes}
-    chart_dir = out_dir / "charts"
-    chart_dir.mkdir(parents=True, exist_ok=True)
-    chart_names, written = {}, []
-    for scene in scenes:
-        for kind, fn in (("energy", charts.energy_chart), ("workprecision", charts.workprecision_chart),
-                         ("stability", charts.stability_chart)):
-            name = f"charts/run{run_id}-{scene}-{kind}.png"
-            if fn(of_scene[scene], scene, out_dir / name):
-                chart_names[(scene, kind)] = name
-                written.append(name)
-        for hz in _frame_rates(cells):
-            name = f"charts/run{run_id}-{scene}-advise{hz:g}hz.png"
-            if charts.advice_chart(of_scene[scene], scene, hz, out_dir / name):
-                chart_names[(scene, f"advise{hz:g}")] = name
-                written.append(name)
-    damping_chart = f"charts/run{run_id}-damping-stability.png"
-    if charts.damping_stability_chart(cells, out_dir / damping_chart):
-        written.append(damping_chart)
-    else:
-        damping_chart = None
+    (out_dir / "charts").mkdir(parents=True, exist_ok=True)
+    todo, names = report_charts(run_id, cells, trend)
+    written = draw_charts(todo, out_dir, jobs)
+    drawn = set(written)
+    chart_names = {key: name for key, name in names.items() if name in drawn}
     lines = [f"# Integrator comparison: run {run_id} ({run.suite})", ""]
     lines += verdict(judged.verdict)
-    section, trend_charts = history_section(trend, run_id, out_dir)
-    lines += section
-    written += trend_charts
+    lines += history_section(trend, run_id, drawn)
     lines += tradeoff_table(piv, judged.claims)
     lines += identity_table(piv)
-    lines += damping_stability_section(cells, damping_chart)
+    lines += damping_stability_section(cells, chart_names.get("damping"))
     lines += ["## Per scene", "", COST_COLUMNS, ""]
     for scene in scenes:
         lines += scene_section(scene, piv, chart_names)
@@ -487,11 +494,13 @@ def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None
     return "\n".join(lines), written
 
 
-def write_report(run: dict, cells: list[Cell], judged: Judgement, out_dir, timing=None, trend=None) -> Path:
-    """``render`` written to ``out_dir/report.md`` (atomically, see above)."""
+def write_report(run: dict, cells: list[Cell], judged: Judgement, out_dir, timing=None, trend=None,
+                 jobs: int = 1) -> Path:
+    """``render`` written to ``out_dir/report.md`` (atomically, see above); ``jobs`` processes
+    draw its charts."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    text, charts_written = render(run, cells, judged, out_dir, timing, trend)
+    text, charts_written = render(run, cells, judged, out_dir, timing, trend, jobs)
     target = out_dir / "report.md"
     tmp = out_dir / f".report.md.{os.getpid()}.tmp"
     with open(tmp, "w") as fh:

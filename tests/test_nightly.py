@@ -17,8 +17,10 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
+from matplotlib.image import imread
 
 from harness.history import bounds as bounds_mod
 from harness.cli import main
@@ -26,6 +28,10 @@ from harness.history.compare import compare_cells
 from harness.nightly.run import Task, run_nightly, schedule
 from harness.history.storage import History
 from harness.nightly.suites import SUITES, SceneSpec, Suite
+from harness.judge import judge
+from reports import charts
+from reports.drawing import ChartNotDrawn
+from reports.markdown import write_report
 
 SECTIONS = ["## Verdict", "## The trade-off, measured", "## Which scheme each engine mode is", "## Per scene",
             "## At 60 Hz",
@@ -156,6 +162,47 @@ def test_smoke_nightly_stores_a_valid_complete_run(first_run):
     assert timing["kernels_compiled"] + timing["kernels_loaded"] >= 5
     assert (timing["numba_compile_s"] > 0) == (timing["kernels_compiled"] > 0)
     assert timing["cells_s"] < timing["total_s"] < timing["finished_s"]
+
+
+def _write_stored_report(tmp: Path, out: Path, jobs: int) -> str:
+    """The smoke run's report written again from its stored cells, its charts drawn by ``jobs``
+    processes."""
+    h = History(tmp / "h.sqlite")
+    cells = h.cell_records(1)
+    return write_report(h.run(1), cells, judge(cells), out, timing=h.run(1)["timing"], jobs=jobs).read_text()
+
+
+def _broken_energy_chart(cells, scene, path):
+    raise RuntimeError("energy series unreadable")
+
+
+def test_charts_drawn_in_worker_processes_make_the_same_report(first_run, tmp_path):
+    tmp, _, _ = first_run
+    serial = _write_stored_report(tmp, tmp_path / "serial", jobs=1)
+    parallel = _write_stored_report(tmp, tmp_path / "parallel", jobs=2)
+    assert parallel == serial  # the markdown, byte for byte
+    links = _chart_links(serial)
+    assert len(links) == 4  # the spring's energy, work-precision, stability and 60 Hz advice charts
+    for folder in ("serial", "parallel"):
+        assert sorted(p.name for p in (tmp_path / folder / "charts").iterdir()) == sorted(Path(n).name for n in links)
+    for name in links:  # the same drawing code on the same cells: the same pixels
+        a, b = imread(tmp_path / "serial" / name), imread(tmp_path / "parallel" / name)
+        assert a.shape == b.shape and np.array_equal(a, b), name
+
+
+def test_a_chart_that_raises_in_a_worker_leaves_the_report_whole(first_run, tmp_path, monkeypatch):
+    """The broken chart is left out as a chart with nothing to draw is, and named in a warning;
+    the rest of the report is as it was."""
+    tmp, _, _ = first_run
+    whole = _write_stored_report(tmp, tmp_path / "whole", jobs=1)
+    monkeypatch.setattr(charts, "energy_chart", _broken_energy_chart)
+    with pytest.warns(ChartNotDrawn, match=r"run1-spring-energy\.png .*RuntimeError: energy series unreadable"):
+        report = _write_stored_report(tmp, tmp_path / "out", jobs=2)
+    energy_link = "![Energy against time on spring](charts/run1-spring-energy.png)\n\n"
+    assert energy_link in whole
+    assert report == whole.replace(energy_link, "")
+    assert sorted(p.name for p in (tmp_path / "out" / "charts").iterdir()) == [
+        "run1-spring-advise60hz.png", "run1-spring-stability.png", "run1-spring-workprecision.png"]
 
 
 def test_a_killed_nightly_leaves_report_and_history_whole_and_the_next_run_succeeds(killed_then_rerun, first_run):

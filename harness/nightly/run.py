@@ -219,14 +219,16 @@ def timing_summary(cells_by_task: dict[str, list[Cell]], stats: dict, wall_cells
 
 
 def report_run(history: History, run_id: int, out: Path, regressions=(), previous=None, timing=None,
-               trend=None) -> Path:
-    """The run's stored cells judged (``harness.judge``) and written as its report (``reports.markdown``)."""
+               trend=None, jobs: int | None = None) -> Path:
+    """The run's stored cells judged (``harness.judge``) and written as its report (``reports.markdown``),
+    its charts drawn by ``jobs`` processes (default: one a core)."""
     from harness.judge import judge
     from reports.markdown import write_report
 
     cells = history.cell_records(run_id)
     judged = judge(cells, regressions=regressions, previous=previous, trend=trend)
-    return write_report(history.run(run_id), cells, judged, out, timing=timing, trend=trend)
+    return write_report(history.run(run_id), cells, judged, out, timing=timing, trend=trend,
+                        jobs=jobs or os.cpu_count() or 1)
 
 
 def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB,
@@ -274,7 +276,10 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     timing["total_s"] = time.perf_counter() - t_start  # up to the report: what its footer can say
     timing["main_cpu_s"] = time.process_time() - cpu_start
     t_report = time.perf_counter()
-    report = report_run(history, run_id, out, regressions=regressions, previous=run_a, timing=timing, trend=trend)
+    # The cells' workers are gone by now: as many chart processes as the cells had, at most one a core.
+    chart_jobs = min(getattr(executor, "jobs", None) or os.cpu_count() or 1, os.cpu_count() or 1)
+    report = report_run(history, run_id, out, regressions=regressions, previous=run_a, timing=timing, trend=trend,
+                        jobs=chart_jobs)
     timing["report_s"] = time.perf_counter() - t_report
     timing["finished_s"] = time.perf_counter() - t_start
     history.finish_run(run_id, finished=now(), wall_s=timing["finished_s"], timing=timing,
