@@ -158,18 +158,12 @@ class _Timing:
                 self.engine_loop = (warm.meta.get("settings") or {}).get("engine_loop")
             # The pilot: the warm-up's steps timed again with the model built off the clock (the
             # warm-up also builds it, which on MuJoCo's rope is most of 500 steps' time).
-            pilot_s = (self._run_s(pilot) - self._run_s(0)) / pilot
+            self.n = pilot
+            pilot_s = (self._run_s(pilot) - self._run_s(0)) / self.n
             n = self.asked
             if pilot_s * self.asked > ENGINE_RUN_BUDGET_S:
                 n = max(ENGINE_MIN_STEPS, int(ENGINE_RUN_BUDGET_S / pilot_s))
-            self.n = min(n, self.asked)
-            # Time only steps the method runs: a run that diverges within them (MuJoCo's implicit
-            # on the rope, at step 2434 of 10,000) is replayed step by step to find where, and
-            # (replay + steps run) / N is no cost per step of anything.
-            check = warm if self.n <= pilot else self._simulate(self.n)
-            if check.failed_step is not None and check.failed_step <= self.n:
-                self.n = max(1, check.failed_step - 1)
-                self.stopped = f"timed over the {self.n} steps before the run diverged at step {check.failed_step}"
+            self.n = self.n if self.stopped else min(n, self.asked)
 
     def repeat(self) -> None:
         if self.scheme is not None:
@@ -185,12 +179,24 @@ class _Timing:
 
     def _run_s(self, n: int) -> float:
         """Seconds of one run of n steps: the run alone where the mode can time it (an engine
-        mode's ``timed_run``, its model built off the clock), else the whole ``simulate``."""
+        mode's ``timed_run``, its model built off the clock), else the whole ``simulate``.
+
+        Only steps the method runs are timed: a run that diverges within them (MuJoCo's implicit
+        on the rope, at step 2434 of 10,000) is replayed step by step to find where, and
+        (replay + steps run) / n is no cost per step of anything. Such a run sets ``n`` to the
+        steps before the failing one and is timed again over those (a model diverges at the
+        same step every run: it shows on the first run of n steps, before a repeat is kept)."""
         if self.method.timed_run is not None:
-            return self.method.timed_run(self.scene, self.dt, n, self.now, self.loop)
-        t = self.now()
-        self._simulate(n)
-        return self.now() - t
+            seconds, failed = self.method.timed_run(self.scene, self.dt, n, self.now, self.loop)
+        else:
+            t = self.now()
+            failed = self._simulate(n).failed_step
+            seconds = self.now() - t
+        if failed is not None and 0 < failed <= n:
+            self.n = max(1, failed - 1)
+            self.stopped = f"timed over the {self.n} steps before the run diverged at step {failed}"
+            return self._run_s(self.n)
+        return seconds
 
     def per_step(self) -> list[float]:
         if self.scheme is not None:
