@@ -16,10 +16,10 @@ The rule, one way for each kind of method:
   one warm-up call (it compiles, or loads the pair's kernels from the disk cache), then ``repeats`` (5) timed runs of ``time_steps``
   (100,000) steps; the figure is the **minimum** over repeats (the least-disturbed run, as
   timeit and asv take it). A kernel so slow that a run would take longer than
-  REF_RUN_BUDGET_S (0.05 s, judged from a pilot run of REF_PILOT_STEPS, 2,000) runs fewer
+  REF_RUN_BUDGET_S (0.02 s, judged from a pilot run of REF_PILOT_STEPS, 2,000) runs fewer
   steps, at least REF_MIN_STEPS (5,000): Kepler's implicit midpoint at 1.2 us a step, or the
-  solar system's RK4, say in 50 ms what 100,000 steps say in 0.12-0.4 s, since the call's fixed
-  cost (about 1 us) is then 1e-5 of a run and the clock reads to the nanosecond.
+  solar system's RK4, say in 20 ms what 100,000 steps say in 0.12-0.4 s, since the call's fixed
+  cost (about 1 us) is then 5e-5 of a run and the clock reads to the nanosecond.
 * **Wall time per step**, engine modes, two figures, each ``method.simulate`` timed in this
   process (no worker): one warm-up call of up to ENGINE_PILOT_STEPS (500) steps, then
   ``repeats`` timed runs of N steps and of 0 steps; the figure is ``(min t(N) - min t(0)) / N``.
@@ -77,7 +77,7 @@ from harness.measures.common import resolve, step
 COUNT_STEPS = 100
 REF_TIME_STEPS = 100_000
 REF_PILOT_STEPS = 2_000
-REF_RUN_BUDGET_S = 0.05
+REF_RUN_BUDGET_S = 0.02
 REF_MIN_STEPS = 5_000
 ENGINE_TIME_STEPS = 10_000
 HARNESS_TIME_STEPS = 2_000
