@@ -236,26 +236,30 @@ class EngineMode:
         })
         return traj
 
-    def timed_run(self, scene: Scene, dt: float, steps: int, now: Callable[[], float], loop: str = "engine") -> float:
-        """Seconds on the clock ``now`` that one run of ``steps`` steps with a single output point
-        takes through ``loop`` (as ``simulate`` runs it), the model built and closed outside the
-        clock: what ``harness.measures.cost`` times, free of the jitter of building an engine model. A run
-        that needs its step-by-step replay (it diverged) is timed with the replay."""
+    def timed_run(self, scene: Scene, dt: float, steps: int, now: Callable[[], float],
+                  loop: str = "engine") -> tuple[float, int | None]:
+        """(seconds on the clock ``now`` that one run of ``steps`` steps with a single output point
+        takes through ``loop`` (as ``simulate`` runs it), the step it diverged at or None), the
+        model built and closed outside the clock: what ``harness.measures.cost`` times, free of
+        the jitter of building an engine model. A run that needs its step-by-step replay (it
+        diverged) is timed with the replay; the cost measure then times the steps before."""
         if loop not in self.LOOPS:
             raise ValueError(f"loop: {loop!r} is not one of {', '.join(self.LOOPS)}")
         engine, model = self._model(scene, dt)
         try:
             every = max(int(steps), 1)
             t = now()
+            traj = None
             if loop == "engine" and hasattr(model, "run"):
-                if run_engine_loop(model, scene, self.id, dt, steps, every) is None:
+                traj = run_engine_loop(model, scene, self.id, dt, steps, every)
+                if traj is None:
                     spent, model = model, None
                     spent.close()
                     model = self._build(engine, scene, dt, False)
-                    drive(model, scene, self.id, dt, steps, every)
+                    traj = drive(model, scene, self.id, dt, steps, every)
             else:
-                drive(model, scene, self.id, dt, steps, every)
-            return now() - t
+                traj = drive(model, scene, self.id, dt, steps, every)
+            return now() - t, traj.failed_step
         finally:
             if model is not None:
                 model.close()

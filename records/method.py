@@ -45,8 +45,8 @@ class Method(Protocol):
     #: state on one model built once (None back where the model cannot be set to a state);
     #: None where the method has no such path.
     one_steps: Callable | None
-    #: ``timed_run(scene, dt, steps, now, loop) -> seconds``: one run timed with its model built
-    #: off the clock; None where the method has no setup to keep off it.
+    #: ``timed_run(scene, dt, steps, now, loop) -> (seconds, failed step or None)``: one run timed
+    #: with its model built off the clock; None where the method has no setup to keep off it.
     timed_run: Callable | None
 
     def available(self) -> tuple[bool, str]:

@@ -1,5 +1,7 @@
 """Reference integrators: ``METHODS[id]`` is a :class:`Scheme`; ``integrate`` steps one on a scene,
-``integrate_compiled`` on its compiled kernel; ``RefMethod`` is a scheme as a method (``records.Method``).
+``integrate_compiled`` on its compiled kernel, ``integrate_exact`` on its compiled kernel where that
+computes ``integrate``'s bits (counted alike; ``exact_compiled()`` makes ``RefMethod`` take it);
+``RefMethod`` is a scheme as a method (``records.Method``).
 
 Timing, for the harness's cost measures and benches: ``step_timer`` / ``time_per_step`` time a
 scheme's compiled kernel on ``CLOCKS[name]``, ``KERNEL_STATS`` counts the kernels compiled and
@@ -8,7 +10,8 @@ numba, on first use).
 """
 from __future__ import annotations
 
-from ._compiled import CLOCKS, integrate_compiled, step_timer, time_per_step
+from ._compiled import (CLOCKS, exact_compiled, exact_why, integrate_compiled, integrate_exact, step_timer,
+                        time_per_step)
 from ._integrate import integrate
 from ._kernels import STATS as KERNEL_STATS
 from ._scheme import Scheme
@@ -48,5 +51,6 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["METHODS", "Scheme", "RefMethod", "integrate", "integrate_compiled", "CLOCKS", "step_timer",
+__all__ = ["METHODS", "Scheme", "RefMethod", "integrate", "integrate_compiled", "integrate_exact", "exact_compiled",
+           "exact_why", "CLOCKS", "step_timer",
            "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

@@ -9,6 +9,7 @@ pointwise scene, run as a loop of scalars without array temporaries.
 """
 from __future__ import annotations
 
+import contextlib
 import time
 
 import numpy as np
@@ -157,6 +158,138 @@ def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int =
                       status=status, detail=detail, failed_step=failed, meta=meta)
 
 
+# ------------------------------------------------------------------ the exact compiled run
+#: (scheme, scene class) -> (its kernels, why its counted run might not compute the interpreted
+#: bits, "" where it does), for this process.
+_COUNTED: dict[tuple, tuple] = {}
+#: Within ``exact_compiled``: whether ``RefMethod.simulate`` takes the exact compiled run, and the
+#: schemes whose counted kernels it may compile (None: any).
+_EXACT = {"on": False, "compile": None}
+NOT_YET = "its counted kernel is not compiled on this machine yet"
+
+
+@contextlib.contextmanager
+def exact_compiled(enabled: bool = True, compile_for: set[str] | None = None):
+    """Within it, a reference scheme's runs (``RefMethod.simulate``) step on
+    :func:`integrate_exact` wherever it computes the interpreted run's bits, and interpreted
+    elsewhere: the same numbers in a fraction of the time. ``compile_for``: the scheme ids
+    whose counted kernels may be compiled here (a few seconds each, once per machine); the
+    others take theirs only where an earlier run compiled them, and are interpreted until
+    then (the nightly's task for a scheme compiles its own, not the engine tasks that
+    compare with every scheme)."""
+    before = dict(_EXACT)
+    _EXACT.update(on=bool(enabled), compile=None if compile_for is None else set(compile_for))
+    try:
+        yield
+    finally:
+        _EXACT.update(before)
+
+
+def prefer_exact() -> bool:
+    return _EXACT["on"]
+
+
+def _may_compile(scheme) -> bool:
+    return _EXACT["compile"] is None or scheme.id in _EXACT["compile"]
+
+
+def _counted_parts(scheme, scene: Scene) -> tuple:
+    """(kernels, why not) of a pair, its counted run warmed (compiled, or loaded from the disk
+    cache) where it is exact; NOT_YET, not remembered, where it would have to be compiled
+    and ``exact_compiled`` does not let this scheme compile."""
+    key = (scheme, type(scene))
+    if key in _COUNTED:
+        return _COUNTED[key]
+    q, v = _kernel_layout(scene, None, None)
+    with np.errstate(all="ignore"):
+        nstate = len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))
+    kernels = _kernels.load(scheme, type(scene), nstate)
+    why = kernels.exact_why
+    if not why:
+        from . import _libm
+
+        why = next((f"numba's {f} gives other bits than numpy's on this machine"
+                    for f in kernels.libm if not _libm.agrees(f)), "")
+    if not why:
+        if not (_may_compile(scheme) or kernels.counted_compiled()):
+            return kernels, NOT_YET
+        k = newton_max(scene) if scheme.implicit else (scheme.iterations or 0)
+        h, p = 0.01 / scene.omega, scene.pvec
+
+        def first():  # the variant batch-one runs take
+            out = np.empty((3,) + q.shape)
+            cnt = np.zeros(3, np.int64)
+            if kernels.run_counted_one is not None and q.size == 1:
+                x = kernels.start_counted(cnt, q[0, 0], v[0, 0], 0.0, h, p)
+                kernels.run_counted_one(x, 0.0, h, 2, 1, p, int(k), out, out.copy(), cnt)
+            else:
+                state = kernels.start_counted(cnt, q, v, 0.0, h, p)
+                kernels.run_counted(state, 0.0, h, 2, 1, p, int(k), out, out.copy(), cnt)
+
+        with np.errstate(all="ignore"):
+            _kernels.warm(kernels, first, kernels.counted_dispatchers())
+        kernels.mark_counted()
+    _COUNTED[key] = (kernels, why)
+    return _COUNTED[key]
+
+
+def exact_why(scheme, scene: Scene) -> str:
+    """Why :func:`integrate_exact` does not run ``scheme`` on ``scene`` here ("" where it does)."""
+    for name in ("accel", "solve", "project", "damping_rate"):
+        if name in vars(scene):
+            return f"scene {scene.id} overrides its {name} on the instance: the kernels are the class's"
+    return _counted_parts(scheme, scene)[1]
+
+
+def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1, q0=None, v0=None,
+                    t0: float = 0.0, iterations: int | None = None) -> Trajectory | None:
+    """``reference.integrate`` compiled: the same trajectory, bit for bit, with the same force
+    evaluations, solves and projections counted, the same recording and the same divergence
+    stop, from the pair's ``run_counted`` kernel (``reference._kernels``; on a pointwise scene
+    with one entry, ``run_counted_one``); None where the pair has none that computes the
+    interpreted bits (:func:`exact_why` says why), for the caller to interpret instead.
+    ``meta["backend"]`` says "compiled, counted"."""
+    steps, every = int(steps), int(every)
+    if every < 1 or steps < 0 or exact_why(scheme, scene):
+        return None
+    kernels = _counted_parts(scheme, scene)[0]
+    q, v = _kernel_layout(scene, q0, v0)
+    p, k, h, t0 = scene.pvec, int(_k(scheme, scene, iterations)), float(dt), float(t0)
+    marks = np.arange(every, steps + 1, every, dtype=np.int64)
+    if steps % every:
+        marks = np.append(marks, steps)
+    marks = np.concatenate([np.zeros(1, np.int64), marks])
+    out_q, out_v = np.empty((len(marks),) + q.shape), np.empty((len(marks),) + v.shape)
+    cnt = np.zeros(3, np.int64)
+    with np.errstate(all="ignore"):
+        if kernels.run_counted_one is not None and q.size == 1:
+            state = kernels.start_counted(cnt, q[0, 0], v[0, 0], t0, h, p)
+            start_evals = int(cnt[0])
+            cnt[:] = 0
+            recorded, failed = kernels.run_counted_one(state, t0, h, steps, every, p, k, out_q, out_v, cnt)
+        else:
+            state = kernels.start_counted(cnt, q, v, t0, h, p)
+            start_evals = int(cnt[0])
+            cnt[:] = 0
+            _, recorded, failed = kernels.run_counted(state, t0, h, steps, every, p, k, out_q, out_v, cnt)
+    failed = int(failed) or None
+    step_arr = marks[:recorded]
+    q_arr = np.ascontiguousarray(out_q[:recorded].transpose(0, 2, 1))
+    v_arr = np.ascontiguousarray(out_v[:recorded].transpose(0, 2, 1))
+    with np.errstate(over="ignore", invalid="ignore"):
+        energy = scene.energy(q_arr, v_arr)
+    meta = {"backend": "compiled, counted", "start_force_evals": start_evals,
+            "steps_run": (failed - 1) if failed else steps, "params": dict(scene.values)}
+    if scheme.constrained:
+        meta["iterations"] = k
+        meta["projections"] = int(cnt[2])
+    return Trajectory(
+        scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
+        step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=energy,
+        status=UNSTABLE if failed else OK, detail=divergence_detail(failed, t0 + failed * dt) if failed else "",
+        failed_step=failed, force_evals=int(cnt[0]), solves=int(cnt[1]), meta=meta)
+
+
 def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None, iterations: int | None = None):
     """Final (q, v) after ``steps`` compiled steps, API layout (batch, ndof)."""
     q, v = _kernel_layout(scene, q0, v0)
@@ -172,7 +305,7 @@ CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 def step_timer(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, iterations: int | None = None,
                clock: str = "wall"):
     """``(warm-up seconds, once)``: the compiled loop (``advance_n`` from the first state) called
-    once to compile it, and ``once()`` timing one call of ``steps`` steps on ``clock`` ("wall" or
+    once to compile it, and ``once(n=steps)`` timing one call of n steps on ``clock`` ("wall" or
     "cpu"), in seconds per step."""
     now = CLOCKS[clock]
     q0, v0 = scene.batch_state(batch)
@@ -185,10 +318,10 @@ def step_timer(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, iter
     parts.observe(parts.advance_n(state, 0.0, h, 0, 2, p, k), 2 * h, h, p)
     t_compile = now() - t_compile
 
-    def once() -> float:
+    def once(n: int = steps) -> float:
         t = now()
-        parts.advance_n(state, 0.0, h, 0, int(steps), p, k)
-        return (now() - t) / steps
+        parts.advance_n(state, 0.0, h, 0, int(n), p, k)
+        return (now() - t) / n
 
     return t_compile, once
 

@@ -29,6 +29,15 @@ Two loops, both running the unchanged step function:
 * **array** (every other pair): the step on the state's arrays, as the interpreted driver
   runs it; each operation allocates its result.
 
+A third function, ``run_counted``, runs the interpreted driver's whole loop compiled: every
+step checked for divergence, the observed state recorded every ``every`` steps, and each call
+of the scene's force, solve and projection counted, as ``reference._integrate.Counted`` counts
+them (the step copied as ``scheme_step_counted``, each kernel call ``K(...)`` made
+``K_counted(_cnt, ...)``). It computes the interpreted run's bits where every operation of the
+pair is one numba and numpy compute alike (``KernelFile.exact_why`` empty; see
+``exact_operations``): ``reference._compiled.integrate_exact`` runs the accuracy measurements
+there.
+
 A pair whose source cannot be copied (a global that is neither a number, a module nor a
 function of this project) is compiled in memory instead, every process anew, and says so
 (``Kernels.cached`` False).
@@ -51,6 +60,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from records.trajectory import DIVERGED
 
 from ._scheme import largest_magnitude
 
@@ -115,6 +126,63 @@ def _register_overloads() -> None:
         return None
 
     _OVERLOADS.append(_largest_magnitude)
+
+
+# ------------------------------------------------------------------ exactness
+#: Calls whose result numba computes bit for bit as numpy and Python do: IEEE 754's correctly
+#: rounded square root, the exact abs, min and max, and making arrays.
+EXACT_CALLS = frozenset({"np.sqrt", "math.sqrt", "np.abs", "abs", "min", "max", "np.empty_like", "np.zeros_like",
+                         "np.empty", "np.zeros", "np.eye", "np.outer", "np.ascontiguousarray", "range", "len", "float",
+                         "int"})
+#: Array methods likewise exact.
+EXACT_METHODS = frozenset({"copy"})
+#: Functions both sides take from a library: the C library's sin, cos and exp (where numpy does
+#: not bring its own vectorised version) and LAPACK's dense solve (numpy's bundled build against
+#: the one numba calls through scipy): the same bits exactly where this machine's builds agree
+#: on them (``reference._libm.agrees``, checked once per process).
+LIBM_CALLS = frozenset({"np.sin", "np.cos", "np.exp", "math.sin", "math.cos", "math.exp", "np.linalg.solve"})
+
+
+def exact_operations(tree: ast.FunctionDef, modules: dict[str, str], known: set[str], libm: set[str]) -> str:
+    """Why numba might compute other bits than the interpreted function ``tree``, or "".
+
+    Interpreted, a kernel runs numpy's elementwise operations and Python's float arithmetic;
+    compiled, numba's. Both round every +, -, *, / and sqrt as IEEE 754 says, in the order the
+    source writes them (numba neither reassociates nor contracts a*b + c into one rounding
+    without fastmath, which the kernels do not ask for), so a function built only of those,
+    of exact operations and of calls to other such functions computes the same bits either
+    way. A reduction (np.sum, np.dot, @: numpy sums pairwise, numba in order), ``**`` (numpy's
+    pow against numba's repeated products) or any call not listed might not; a library
+    function (``LIBM_CALLS``) does where the machine's builds agree. ``modules`` maps the names bound to numpy and math to "np" and
+    "math"; ``known``: functions and kernels of the file (exact if their own source is);
+    the libm functions called are added to ``libm``."""
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.BinOp, ast.AugAssign)) and isinstance(node.op, (ast.Pow, ast.MatMult)):
+            return f"uses {'**' if isinstance(node.op, ast.Pow) else '@'}"
+        if not isinstance(node, ast.Call):
+            continue
+        func = node.func
+        if isinstance(func, ast.Name):
+            name = func.id
+            if name in known or name in EXACT_CALLS:
+                continue
+            return f"calls {name}"
+        root, path = func, []
+        while isinstance(root, ast.Attribute):
+            path.insert(0, root.attr)
+            root = root.value
+        if path and isinstance(root, ast.Name) and root.id in modules:
+            name = ".".join([modules[root.id], *path])
+            if name in EXACT_CALLS:
+                continue
+            if name in LIBM_CALLS:
+                libm.add(name)
+                continue
+            return f"calls {name}"
+        if isinstance(func, ast.Attribute) and func.attr in EXACT_METHODS:
+            continue
+        return f"calls {ast.unparse(func)}"
+    return ""
 
 
 # ------------------------------------------------------------------ source
@@ -210,6 +278,50 @@ class _Source:
             self.functions[new_name] = ast.unparse(ast.fix_missing_locations(tree))
         return found
 
+    def add_counted(self, name: str, new_name: str, kernels: dict[str, int]) -> None:
+        """Copy the already copied ``name`` as ``new_name`` that counts its kernels' calls: a first
+        parameter ``_cnt`` (int64, one entry per kernel: ``kernels`` maps a kernel's name to its
+        entry) and every call ``K(...)`` of a kernel made ``K_counted(_cnt, ...)``. A kernel named
+        other than as the function of a call (passed on as a value) cannot be counted."""
+        tree = ast.parse(self.functions[name]).body[0]
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in kernels:
+                node.args.insert(0, ast.Name("_cnt", ast.Load()))
+                node.func.id += "_counted"
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Name) and node.id in kernels:
+                raise SourceUnavailable(f"{self.origins[name]} passes the kernel {node.id} on as a value: "
+                                        "its calls cannot be counted")
+        tree.args.args.insert(0, ast.arg("_cnt"))
+        tree.name = new_name
+        self.origins[new_name] = self.origins[name] + ", counted"
+        self.functions[new_name] = ast.unparse(ast.fix_missing_locations(tree))
+        self._trees[new_name] = tree
+        for kernel, entry in kernels.items():
+            wrapper = f"{kernel}_counted"
+            if wrapper in self.functions:
+                continue
+            params = ", ".join(a.arg for a in self._trees[kernel].args.args)
+            self.origins[wrapper] = f"{self.origins[kernel]}, counted in _cnt[{entry}]"
+            self.functions[wrapper] = (f"def {wrapper}(_cnt, {params}):\n    _cnt[{entry}] += 1\n"
+                                       f"    return {kernel}({params})")
+
+    def exact_why(self) -> tuple[str, tuple[str, ...]]:
+        """(why numba may compute other bits than numpy, or "", the libm functions the kernels
+        call) by ``exact_operations``, over every function copied."""
+        modules = {}
+        for alias, line in self.imports.items():
+            if line.startswith("import numpy"):
+                modules[alias] = "np"
+            elif line.startswith("import math"):
+                modules[alias] = "math"
+        libm = set()
+        for name, tree in self._trees.items():
+            why = exact_operations(tree, modules, set(self.functions) | set(self.imports), libm)
+            if why:
+                return f"{self.origins[name]}: {why}", ()
+        return "", tuple(sorted(libm))
+
     def _global(self, name: str, value, module) -> None:
         if isinstance(value, types.ModuleType):
             for mod, line in _MODULE_IMPORTS.items():
@@ -294,8 +406,99 @@ def _loop_source(kind: str, nstate: int, pointwise: bool, once: bool = False) ->
     return "\n".join(lines)
 
 
+def _counted_one_source(kind: str, nstate: int) -> str:
+    """``run_counted_one(x, t0, h, n, every, p, k, out_q, out_v, cnt) -> (recorded, failed)``:
+    ``run_counted`` on a pointwise scene with one entry (one DOF, batch one), its state ``x``
+    the floats ``start_counted`` returns for floats: the same operations on scalars, which
+    numba compiles in a fraction of the time it takes over array expressions."""
+    extra = "k, " if kind in ("implicit", "constrained") else ""
+    return "\n".join([
+        "@_jit",
+        "def run_counted_one(x, t0, h, n, every, p, k, out_q, out_v, cnt):",
+        "    qo, vo = observe(x, t0, h, p)",
+        "    out_q[0, 0, 0] = qo",
+        "    out_v[0, 0, 0] = vo",
+        "    j = 1",
+        "    for i in range(n):",
+        f"        x = scheme_step_counted(cnt, {extra}x, t0 + i * h, h, p)",
+        "        if not (abs(x[0]) <= _DIVERGED and abs(x[1]) <= _DIVERGED):",
+        "            return j, i + 1",
+        "        if (i + 1) % every == 0 or i + 1 == n:",
+        "            qo, vo = observe(x, t0 + (i + 1) * h, h, p)",
+        "            out_q[j, 0, 0] = qo",
+        "            out_v[j, 0, 0] = vo",
+        "            j += 1",
+        "    return j, 0",
+        ""])
+
+
+def _counted_source(kind: str) -> str:
+    """``run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt) -> (state, recorded,
+    failed)``: ``reference._integrate.integrate``'s loop, compiled. Steps 1 .. n of a run started
+    at t0 (step i + 1 starts at t0 + i h), each checked as ``records.trajectory.diverged``
+    checks it (a component not finite or beyond DIVERGED stops the run: ``failed`` is that
+    step, else 0); the observed state of step 0, every ``every`` steps and the last written to
+    ``out_q``/``out_v`` (kernel layout, one record per row; ``recorded`` rows written); the
+    force, solve and projection calls added to ``cnt``."""
+    extra = "k, " if kind in ("implicit", "constrained") else ""
+    return "\n".join([
+        f"_DIVERGED = {DIVERGED!r}",
+        "",
+        "",
+        "@_jit",
+        "def _within(x):",
+        "    for e in x.flat:",
+        "        if not abs(e) <= _DIVERGED:",
+        "            return False",
+        "    return True",
+        "",
+        "",
+        "@_jit",
+        "def run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt):",
+        "    qo, vo = observe(state, t0, h, p)",
+        "    out_q[0, :, :] = qo",
+        "    out_v[0, :, :] = vo",
+        "    j = 1",
+        "    for i in range(n):",
+        f"        state = scheme_step_counted(cnt, {extra}state, t0 + i * h, h, p)",
+        "        if not (_within(state[0]) and _within(state[1])):",
+        "            return state, j, i + 1",
+        "        if (i + 1) % every == 0 or i + 1 == n:",
+        "            qo, vo = observe(state, t0 + (i + 1) * h, h, p)",
+        "            out_q[j, :, :] = qo",
+        "            out_v[j, :, :] = vo",
+        "            j += 1",
+        "    return state, j, 0",
+        ""])
+
+
+#: The counters of ``run_counted``: the entry of ``cnt`` each kernel's calls are added to.
+COUNTED = {"scene_accel": 0, "scene_solve": 1, "scene_project": 2}
+
+
+@dataclass(frozen=True)
+class KernelFile:
+    """The text of a pair's kernel file and what it holds. ``counted``: the file has
+    ``start_counted`` and ``run_counted`` (else ``why_not_counted``); ``exact_why``: why
+    ``run_counted`` might compute other bits than the interpreted driver ("" where it
+    computes the same; ``exact_operations``); ``libm``: the C library functions it calls."""
+
+    text: str
+    pointwise: bool
+    counted: bool
+    why_not_counted: str
+    exact_why: str
+    libm: tuple[str, ...]
+
+
 def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
     """(text of the kernel file, pointwise?) for a pair. Raises SourceUnavailable."""
+    f = kernel_file(scheme, scene_cls, nstate)
+    return f.text, f.pointwise
+
+
+def kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
+    """The kernel file of a pair (``KernelFile``). Raises SourceUnavailable."""
     kind = ("constrained" if scheme.constrained else "implicit" if scheme.implicit
             else "decay" if getattr(scheme, "decay", False) else "explicit")
     pointwise = bool(getattr(scene_cls, "pointwise", False)) and not scheme.constrained
@@ -318,9 +521,22 @@ def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
         # The Newton parameter is the step's first after the two kernels.
         params = src._trees["scheme_step"].args.args
         once = bool(params) and src.add_one_iteration("scheme_step", "scheme_step_once", params[0].arg)
+    loops = _loop_source(kind, nstate, pointwise, once)
+    counted, why_not, exact_why, libm = False, "", "", ()
+    try:
+        called = {name: entry for name, entry in COUNTED.items() if name in kernels}
+        src.add_counted("scheme_step", "scheme_step_counted", called)
+        src.add_counted("start", "start_counted", {"scene_accel": COUNTED["scene_accel"]})
+        counted = True
+        loops += "\n\n" + _counted_source(kind)
+        if pointwise:
+            loops += "\n\n" + _counted_one_source(kind, nstate)
+        exact_why, libm = src.exact_why()
+    except SourceUnavailable as exc:
+        why_not = str(exc)
     header = (f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind}, '
               f'{"pointwise" if pointwise else "array"} loop), generated by reference._kernels."""')
-    return src.text(header, _loop_source(kind, nstate, pointwise, once)), pointwise
+    return KernelFile(src.text(header, loops), pointwise, counted, why_not, exact_why if counted else why_not, libm)
 
 
 # ------------------------------------------------------------------ files
@@ -383,6 +599,15 @@ class Kernels:
     pointwise: bool
     path: Path | None
     why_uncached: str = ""
+    #: ``start_counted`` and ``run_counted`` (None where the file has none: ``exact_why`` says
+    #: why), and on a pointwise scene ``run_counted_one`` (one entry, on floats).
+    start_counted: object = None
+    run_counted: object = None
+    run_counted_one: object = None
+    #: Why ``run_counted`` might not compute the interpreted driver's bits ("" where it does,
+    #: given ``libm``: the C library functions it calls, which ``reference._libm`` checks).
+    exact_why: str = "compiled in memory: no counted run"
+    libm: tuple[str, ...] = ()
 
     @property
     def cached(self) -> bool:
@@ -391,21 +616,42 @@ class Kernels:
     def dispatchers(self) -> list:
         return [self.start, self.advance_n, self.observe]
 
+    def counted_dispatchers(self) -> list:
+        return [d for d in (self.start_counted, self.run_counted, self.run_counted_one, self.observe) if d is not None]
+
+    @property
+    def _counted_mark(self) -> Path | None:
+        return None if self.path is None else self.path.with_suffix(".counted")
+
+    def counted_compiled(self) -> bool:
+        """Whether the counted run was compiled on this machine before (and so loads from the
+        disk cache): a mark put beside the kernel file by :meth:`mark_counted`."""
+        mark = self._counted_mark
+        return mark is not None and mark.exists()
+
+    def mark_counted(self) -> None:
+        mark = self._counted_mark
+        if mark is not None:
+            mark.touch()
+
 
 def load(scheme, scene_cls, nstate: int) -> Kernels:
     """The kernels of a pair from its kernel file (written first if missing). Not yet
     compiled: the first call compiles, or loads numba's cache of the file."""
     _register_overloads()
     try:
-        text, pointwise = kernel_source(scheme, scene_cls, nstate)
+        f = kernel_file(scheme, scene_cls, nstate)
     except SourceUnavailable as exc:
         return _in_memory(scheme, scene_cls, str(exc))
-    key = _key(text)
+    key = _key(f.text)
     stem = f"k_{scheme.id}_{scene_cls.__name__.lower()}_{key}"
     path = cache_dir() / f"{stem}.py"
-    _write_once(path, text)
+    _write_once(path, f.text)
     module = _import_file(f"_harness_kernels.{stem}", path)
-    return Kernels(module.start, module.advance_n, module.observe, pointwise, path)
+    return Kernels(module.start, module.advance_n, module.observe, f.pointwise, path,
+                   start_counted=getattr(module, "start_counted", None), run_counted=getattr(module, "run_counted", None),
+                   run_counted_one=getattr(module, "run_counted_one", None),
+                   exact_why=f.exact_why, libm=f.libm)
 
 
 def _in_memory(scheme, scene_cls, why: str) -> Kernels:
@@ -453,14 +699,15 @@ def _in_memory(scheme, scene_cls, why: str) -> Kernels:
     return Kernels(start, advance_n, observe, False, None, why)
 
 
-def warm(kernels: Kernels, call) -> float:
+def warm(kernels: Kernels, call, dispatchers: list | None = None) -> float:
     """Run ``call()`` (the first call of the pair's kernels, which compiles them or loads them
     from the cache), account it in ``STATS`` and return its seconds, CPU seconds of this
-    process (numba compiles in this thread; a core shared with other work does not inflate them)."""
+    process (numba compiles in this thread; a core shared with other work does not inflate them).
+    ``dispatchers``: the functions ``call`` compiles (default: the timing loop's)."""
     t = time.process_time()
     call()
     seconds = time.process_time() - t
-    misses = sum(sum(d.stats.cache_misses.values()) for d in kernels.dispatchers())
+    misses = sum(sum(d.stats.cache_misses.values()) for d in dispatchers or kernels.dispatchers())
     if kernels.cached and misses == 0:
         STATS.loaded += 1
         STATS.load_s += seconds

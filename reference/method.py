@@ -9,7 +9,7 @@ from records.method import NO_REASONS
 
 from scenarios import Scene, no_solve
 
-from ._compiled import integrate_compiled
+from ._compiled import integrate_compiled, integrate_exact, prefer_exact
 from ._integrate import integrate
 from ._scheme import Scheme
 
@@ -65,6 +65,10 @@ class RefMethod:
     def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
         if self.compiled:
             return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
+        if prefer_exact():  # within ``reference.exact_compiled()``: the same run, compiled where that is exact
+            traj = integrate_exact(self.scheme, scene, dt, steps, every, **self.options)
+            if traj is not None:
+                return traj
         return integrate(self.scheme, scene, dt, steps, every, **self.options)
 
     def describe(self) -> dict:

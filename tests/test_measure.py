@@ -297,6 +297,17 @@ def test_wall_time_per_step_and_ratio(spring):
     assert res["ratio_to_explicit_euler"] > 1.0
 
 
+def test_a_slow_compiled_loop_is_timed_over_fewer_steps(spring, monkeypatch):
+    # Past the budget a repeat runs fewer steps, never under REF_MIN_STEPS, and the explicit-Euler
+    # baseline timed beside it runs the same loop length.
+    monkeypatch.setattr(cost, "REF_RUN_BUDGET_S", 1e-9)
+    res = cost.cost_per_step("ref:rk4", spring, 0.01, repeats=2)
+    assert res["time_steps"] == cost.REF_MIN_STEPS == res["baseline"]["time_steps"]
+    monkeypatch.setattr(cost, "REF_RUN_BUDGET_S", 10.0)
+    res = cost.cost_per_step("ref:rk4", spring, 0.01, repeats=1)
+    assert res["time_steps"] == cost.REF_TIME_STEPS == res["baseline"]["time_steps"]
+
+
 def test_cost_through_the_engine_interface(spring):
     method = Delegate("semi_implicit_euler")
     res = cost.counted_evaluations(method, spring, 0.01)

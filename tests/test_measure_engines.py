@@ -62,3 +62,16 @@ def test_engine_cost_is_measured_the_same_way():
     assert "in-process simulate through the engine's own loop" in res["timing"] and res["s_per_step"] > 0
     assert res["force_evals_per_step"] is not None or res["force_evals_reason"]
     assert res["ratio_to_explicit_euler"] > 0
+
+
+@pytest.mark.parametrize("loop", ["engine", "harness"])
+def test_engine_cost_is_timed_over_the_steps_before_a_blow_up(loop):
+    # Semi-implicit Euler past h*omega = 2 blows up: the run is replayed step by step to find where,
+    # which is no cost of a step; the timing covers the steps before the blow-up and says so.
+    spring, method = make_scene("spring"), get_method("mujoco:euler")
+    failed = method.simulate(spring, 2.2, 5_000, 5_000).failed_step
+    assert failed is not None and 1 < failed < 5_000
+    res = cost.wall_time_per_step(method, spring, 2.2, steps=5_000, repeats=2, loop=loop)
+    assert res["time_steps"] == failed - 1
+    assert f"timed over the {failed - 1} steps before the run diverged at step {failed}" in res["timing"]
+    assert res["s_per_step"] > 0

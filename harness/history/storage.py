@@ -27,7 +27,11 @@ from records.cell import CELL_COLUMNS as _CELL_COLUMNS, Cell, to_json
 #: 2: cost on the worker's CPU clock with explicit Euler timed beside it in the same cell;
 #: order over half a period; stability searched up to the suite's h*omega maximum.
 #: 3: an engine mode's cost is its own loop's (``engine s/step``), no longer the per-step path.
-MEASUREMENT_VERSION = 3
+#: 4: cost timed over the steps a run runs before it diverges (a blow-up's replay was timed
+#: and divided by N); a compiled loop's repeat at most 0.02 s, an engine's 0.1 s (a slow
+#: kernel's figure is an average over fewer steps: Kepler's implicit midpoint, whose Newton
+#: iterations vary around the orbit, reads a few % apart).
+MEASUREMENT_VERSION = 4
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (

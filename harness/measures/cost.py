@@ -15,7 +15,11 @@ The rule, one way for each kind of method:
   (:func:`reference._compiled.time_per_step`, the same step functions compiled by numba),
   one warm-up call (it compiles, or loads the pair's kernels from the disk cache), then ``repeats`` (5) timed runs of ``time_steps``
   (100,000) steps; the figure is the **minimum** over repeats (the least-disturbed run, as
-  timeit and asv take it).
+  timeit and asv take it). A kernel so slow that a run would take longer than
+  REF_RUN_BUDGET_S (0.02 s, judged from a pilot run of REF_PILOT_STEPS, 2,000) runs fewer
+  steps, at least REF_MIN_STEPS (5,000): Kepler's implicit midpoint at 1.2 us a step, or the
+  solar system's RK4, say in 20 ms what 100,000 steps say in 0.12-0.4 s, since the call's fixed
+  cost (about 1 us) is then 5e-5 of a run and the clock reads to the nanosecond.
 * **Wall time per step**, engine modes, two figures, each ``method.simulate`` timed in this
   process (no worker): one warm-up call of up to ENGINE_PILOT_STEPS (500) steps, then
   ``repeats`` timed runs of N steps and of 0 steps; the figure is ``(min t(N) - min t(0)) / N``.
@@ -35,10 +39,14 @@ The rule, one way for each kind of method:
     state read and checked and forces applied after every step), N = HARNESS_TIME_STEPS
     (2,000): what stepping the engine one call at a time from Python costs.
 
-  A model so slow that N steps would take longer than ENGINE_RUN_BUDGET_S (0.25 s, judged
-  from the warm-up) is timed over fewer steps, at least ENGINE_MIN_STEPS (200): a 32-body
+  A run that diverges within the N steps (the engine's warning, or the harness's criterion)
+  is timed over the steps before it, and the timing says so: its step-by-step replay, which
+  finds the failing step, is no cost of a step.
+  A model so slow that N steps would take longer than ENGINE_RUN_BUDGET_S (0.1 s, judged
+  from a pilot of the warm-up's steps, the model built off the clock) is timed over fewer steps, at least ENGINE_MIN_STEPS (200): a 32-body
   chain stepped from Python costs ~100 us a step, and 10,000 steps x 6 runs would take
-  half a minute to say what 0.25 s says.
+  half a minute to say what 0.1 s says (the CPU clock reads to the microsecond, a run of
+  0.1 s to 1e-5 of itself; the spread between repeats is the machine's, 1-5%).
 * **Clock**: wall time (``time.perf_counter``) by default; ``clock="cpu"`` reads the CPU
   time of the process (``time.process_time``) instead, which other processes sharing the
   core do not inflate (the nightly runs its cells side by side on shared cores). The
@@ -68,10 +76,13 @@ from harness.measures.common import resolve, step
 
 COUNT_STEPS = 100
 REF_TIME_STEPS = 100_000
+REF_PILOT_STEPS = 2_000
+REF_RUN_BUDGET_S = 0.02
+REF_MIN_STEPS = 5_000
 ENGINE_TIME_STEPS = 10_000
 HARNESS_TIME_STEPS = 2_000
 ENGINE_PILOT_STEPS = 500
-ENGINE_RUN_BUDGET_S = 0.25
+ENGINE_RUN_BUDGET_S = 0.1
 ENGINE_MIN_STEPS = 200
 REPEATS = 5
 BASELINE = "ref:explicit_euler"
@@ -119,16 +130,23 @@ _LOOP_TIMING = {
 
 class _Timing:
     """One method's timing by the module's rule, a repeat at a time (so that two methods'
-    repeats can be interleaved)."""
+    repeats can be interleaved). ``budget`` False: a compiled loop runs ``steps`` steps
+    whatever they cost (explicit Euler timed beside a scheme runs the scheme's loop length)."""
 
-    def __init__(self, method: Method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine"):
+    def __init__(self, method: Method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine",
+                 budget: bool = True):
         self.now = CLOCKS[clock]
         self.scheme = method.scheme
         self.times, self.empty = [], []
         self.loop, self.engine_loop = loop, None
+        self.stopped = ""
         if self.scheme is not None:
             self.n = int(steps or REF_TIME_STEPS)
             self.warmup_s, self._once = step_timer(self.scheme, scene, dt, self.n, clock=clock)
+            if budget:
+                per_step = self._once(min(self.n, REF_PILOT_STEPS))
+                if per_step * self.n > REF_RUN_BUDGET_S:
+                    self.n = max(min(REF_MIN_STEPS, self.n), int(REF_RUN_BUDGET_S / per_step))
         else:
             self.asked = int(steps or (ENGINE_TIME_STEPS if loop == "engine" else HARNESS_TIME_STEPS))
             self.method, self.scene, self.dt = method, scene, dt
@@ -138,15 +156,18 @@ class _Timing:
             self.warmup_s = self.now() - t
             if loop == "engine":
                 self.engine_loop = (warm.meta.get("settings") or {}).get("engine_loop")
-            pilot_s = self.warmup_s / pilot
+            # The pilot: the warm-up's steps timed again with the model built off the clock (the
+            # warm-up also builds it, which on MuJoCo's rope is most of 500 steps' time).
+            self.n = pilot
+            pilot_s = (self._run_s(pilot) - self._run_s(0)) / self.n
             n = self.asked
             if pilot_s * self.asked > ENGINE_RUN_BUDGET_S:
                 n = max(ENGINE_MIN_STEPS, int(ENGINE_RUN_BUDGET_S / pilot_s))
-            self.n = min(n, self.asked)
+            self.n = self.n if self.stopped else min(n, self.asked)
 
     def repeat(self) -> None:
         if self.scheme is not None:
-            self.times.append(self._once())
+            self.times.append(self._once(self.n))
             return
         self.empty.append(self._run_s(0))
         self.times.append(self._run_s(self.n))
@@ -158,12 +179,24 @@ class _Timing:
 
     def _run_s(self, n: int) -> float:
         """Seconds of one run of n steps: the run alone where the mode can time it (an engine
-        mode's ``timed_run``, its model built off the clock), else the whole ``simulate``."""
+        mode's ``timed_run``, its model built off the clock), else the whole ``simulate``.
+
+        Only steps the method runs are timed: a run that diverges within them (MuJoCo's implicit
+        on the rope, at step 2434 of 10,000) is replayed step by step to find where, and
+        (replay + steps run) / n is no cost per step of anything. Such a run sets ``n`` to the
+        steps before the failing one and is timed again over those (a model diverges at the
+        same step every run: it shows on the first run of n steps, before a repeat is kept)."""
         if self.method.timed_run is not None:
-            return self.method.timed_run(self.scene, self.dt, n, self.now, self.loop)
-        t = self.now()
-        self._simulate(n)
-        return self.now() - t
+            seconds, failed = self.method.timed_run(self.scene, self.dt, n, self.now, self.loop)
+        else:
+            t = self.now()
+            failed = self._simulate(n).failed_step
+            seconds = self.now() - t
+        if failed is not None and 0 < failed <= n:
+            self.n = max(1, failed - 1)
+            self.stopped = f"timed over the {self.n} steps before the run diverged at step {failed}"
+            return self._run_s(self.n)
+        return seconds
 
     def per_step(self) -> list[float]:
         if self.scheme is not None:
@@ -172,7 +205,8 @@ class _Timing:
         return [(t - setup) / self.n for t in self.times]
 
     def result(self, clock: str) -> dict:
-        out = {"timing": _COMPILED_TIMING if self.scheme is not None else _LOOP_TIMING[self.loop], "clock": clock,
+        timing = _COMPILED_TIMING if self.scheme is not None else _LOOP_TIMING[self.loop]
+        out = {"timing": f"{timing}; {self.stopped}" if self.stopped else timing, "clock": clock,
                "time_steps": self.n, "warmup_s": self.warmup_s, **_spread(self.per_step())}
         if self.scheme is None:
             out["setup_s"] = min(self.empty)
@@ -233,7 +267,7 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     # A reference scheme and its baseline run the same compiled loop length: a shorter loop
     # carries more of the call's fixed cost per step (1.3x per step at 2,000 steps, measured).
     base_steps = timing.n if timing.scheme is not None else REF_TIME_STEPS
-    base = _Timing(baseline_method, scene, dt, base_steps, clock)
+    base = _Timing(baseline_method, scene, dt, base_steps, clock, budget=timing.scheme is None)
     for _ in range(repeats):
         timing.repeat()
         base.repeat()

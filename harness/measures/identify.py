@@ -54,6 +54,29 @@ def max_deviation(a: Trajectory, b: Trajectory) -> float:
         return float(max(np.max(np.abs(a.q - b.q)), np.max(np.abs(a.v - b.v))))
 
 
+#: Candidate runs kept in this process, by what determines them: every engine mode identified
+#: on a scene at the same dt is compared with the same reference runs (the nightly identifies
+#: four to ten modes per scene, one task each, in two worker processes).
+_CANDIDATES: dict[tuple, Trajectory] = {}
+CANDIDATES_KEPT = 64
+
+
+def candidate_run(ref, scene: Scene, dt: float, steps: int) -> Trajectory:
+    """``ref.simulate(scene, dt, steps, 1)``, or the same run made before in this process: the key
+    holds the scheme and its options, the scene's id, parameters and initial state, dt, steps
+    and the path reference runs take (``reference.exact_compiled``: the same bits either way)."""
+    import reference
+
+    q0, v0 = scene.batch_state(1)
+    key = (ref.id, tuple(sorted(getattr(ref, "options", {}).items())), scene.id, tuple(sorted(scene.values.items())),
+           q0.tobytes(), v0.tobytes(), float(dt), int(steps), reference._compiled.prefer_exact())
+    if key not in _CANDIDATES:
+        if len(_CANDIDATES) >= CANDIDATES_KEPT:
+            del _CANDIDATES[next(iter(_CANDIDATES))]
+        _CANDIDATES[key] = ref.simulate(scene, dt, steps, 1)
+    return _CANDIDATES[key]
+
+
 def identify(method, scene: Scene, dt: float | None = None, steps: int | None = None,
              timeout: float | None = None) -> dict:
     """Rank every reference scheme by its deviation from ``method`` on ``scene``."""
@@ -74,7 +97,7 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
             continue
         if not scene.velocity_dependent and ref.scheme.same_without_velocity:
             continue  # here it is another scheme, update for update: that one is the candidate
-        traj = ref.simulate(scene, dt, steps, 1)
+        traj = candidate_run(ref, scene, dt, steps)
         dev = max_deviation(run, traj)
         candidates.append({"method": mid, "max_deviation": dev, "status": traj.status,
                            "matches": dev <= tolerance})

@@ -98,14 +98,42 @@ def _downsample(n: int, points: int) -> np.ndarray:
 
 
 def run_task(task) -> list[Cell]:
-    """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message."""
-    from harness.execution.pool import report_partial
-    from harness.methods import get_method, use_plugins
+    """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message.
+    Reference schemes step on the compiled path wherever it computes the interpreted run's
+    bits (``reference.exact_compiled``; the suite's ``exact_compiled``)."""
+    from reference import exact_compiled
+
+    from harness.methods import use_plugins
 
     use_plugins(task.plugins)
     if task.kind == "bound":
         return [guard(task, "bound", lambda: _bound(task))]
     suite = suite_of(task)
+    with exact_compiled(suite.exact_compiled, compile_for=compiles_for(task, suite)):
+        return _scene_task(task, suite)
+
+
+def compiles_for(task, suite: Suite) -> set[str]:
+    """The reference schemes whose counted kernels a task compiles (``reference.exact_compiled``):
+    a reference task its own scheme's; an engine task those of the schemes no task of the suite
+    runs on its scene, which its identity compares with and nobody else would compile. Every
+    other run takes the kernel its own task compiled, where it was compiled before (in a run
+    after a kernel changed, the engine tasks interpret what is not yet compiled, instead of
+    compiling a dozen candidates within their time limit)."""
+    import reference
+
+    if task.family == "ref":
+        return {task.method.split(":", 1)[1]}
+    spec = suite.scenes[task.scene]
+    run = [m for m in (suite.methods or [f"ref:{s}" for s in reference.METHODS]) if m.startswith("ref:")]
+    run = {m[4:] for m in run if m not in spec.skip and (spec.methods is None or m in spec.methods)}
+    return set(reference.METHODS) - run
+
+
+def _scene_task(task, suite: Suite) -> list[Cell]:
+    from harness.execution.pool import report_partial
+    from harness.methods import get_method
+
     spec = suite.scenes[task.scene]
     scene = make_scene(task.scene, **task.params)
     method = get_method(task.method)
