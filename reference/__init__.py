@@ -10,8 +10,8 @@ numba, on first use).
 """
 from __future__ import annotations
 
-from ._compiled import (CLOCKS, exact_compiled, exact_why, integrate_compiled, integrate_exact, step_timer,
-                        time_per_step)
+from ._compiled import (CLOCKS, exact_compiled, exact_why, integrate_compiled, integrate_exact, prefer_exact,
+                        step_timer, time_per_step)
 from ._integrate import integrate
 from ._kernels import STATS as KERNEL_STATS
 from ._scheme import Scheme
@@ -52,5 +52,5 @@ def __getattr__(name: str):
 
 
 __all__ = ["METHODS", "Scheme", "RefMethod", "integrate", "integrate_compiled", "integrate_exact", "exact_compiled",
-           "exact_why", "CLOCKS", "step_timer",
+           "exact_why", "prefer_exact", "CLOCKS", "step_timer",
            "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

@@ -98,6 +98,11 @@ def _within(state) -> bool:
     return not diverged(state[0], state[1])
 
 
+def _record_marks(steps: int, every: int) -> np.ndarray:
+    """The steps a run records, as ``integrate`` records them: 0, every ``every`` steps, the last."""
+    return np.unique(np.append(np.arange(0, steps + 1, every, dtype=np.int64), steps))
+
+
 def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, q0=None, v0=None,
                        iterations: int | None = None):
     """(steps recorded, q, v, failed step or None) of a compiled run, recorded as ``integrate``
@@ -112,7 +117,7 @@ def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, 
     parts = _parts(scheme, scene)
     p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
     state = parts.first_state(q, v, 0.0, h, p)
-    marks = np.unique(np.append(np.arange(0, steps + 1, every), steps))
+    marks = _record_marks(steps, every)
     recorded, qs, vs = [0], [], []
 
     def record(n):
@@ -214,23 +219,30 @@ def _counted_parts(scheme, scene: Scene) -> tuple:
         if not (_may_compile(scheme) or kernels.counted_compiled()):
             return kernels, NOT_YET
         k = newton_max(scene) if scheme.implicit else (scheme.iterations or 0)
-        h, p = 0.01 / scene.omega, scene.pvec
-
-        def first():  # the variant batch-one runs take
-            out = np.empty((3,) + q.shape)
-            cnt = np.zeros(3, np.int64)
-            if kernels.run_counted_one is not None and q.size == 1:
-                x = kernels.start_counted(cnt, q[0, 0], v[0, 0], 0.0, h, p)
-                kernels.run_counted_one(x, 0.0, h, 2, 1, p, int(k), out, out.copy(), cnt)
-            else:
-                state = kernels.start_counted(cnt, q, v, 0.0, h, p)
-                kernels.run_counted(state, 0.0, h, 2, 1, p, int(k), out, out.copy(), cnt)
-
-        with np.errstate(all="ignore"):
-            _kernels.warm(kernels, first, kernels.counted_dispatchers())
+        out = np.empty((3,) + q.shape)
+        with np.errstate(all="ignore"):  # two steps, in the variant batch-one runs take
+            _kernels.warm(kernels, lambda: _counted_run(kernels, q, v, 0.0, 0.01 / scene.omega, 2, 1, scene.pvec,
+                                                        int(k), out, out.copy()),
+                          kernels.counted_dispatchers())
         kernels.mark_counted()
     _COUNTED[key] = (kernels, why)
     return _COUNTED[key]
+
+
+def _counted_run(kernels, q, v, t0, h, n, every, p, k, out_q, out_v) -> tuple[int, int, int, np.ndarray]:
+    """(force evaluations of the start, rows recorded, failing step or 0, the run's counts) of
+    ``run_counted`` from (q, v) (kernel layout), on floats (``run_counted_one``) where the
+    scene is pointwise and the run has one entry."""
+    cnt = np.zeros(3, np.int64)
+    one = kernels.run_counted_one is not None and q.size == 1
+    state = kernels.start_counted(cnt, *((q[0, 0], v[0, 0]) if one else (q, v)), t0, h, p)
+    start_evals = int(cnt[0])
+    cnt[:] = 0
+    if one:
+        recorded, failed = kernels.run_counted_one(state, t0, h, n, every, p, k, out_q, out_v, cnt)
+    else:
+        _, recorded, failed = kernels.run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt)
+    return start_evals, int(recorded), int(failed), cnt
 
 
 def exact_why(scheme, scene: Scene) -> str:
@@ -255,24 +267,11 @@ def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     kernels = _counted_parts(scheme, scene)[0]
     q, v = _kernel_layout(scene, q0, v0)
     p, k, h, t0 = scene.pvec, int(_k(scheme, scene, iterations)), float(dt), float(t0)
-    marks = np.arange(every, steps + 1, every, dtype=np.int64)
-    if steps % every:
-        marks = np.append(marks, steps)
-    marks = np.concatenate([np.zeros(1, np.int64), marks])
+    marks = _record_marks(steps, every)
     out_q, out_v = np.empty((len(marks),) + q.shape), np.empty((len(marks),) + v.shape)
-    cnt = np.zeros(3, np.int64)
     with np.errstate(all="ignore"):
-        if kernels.run_counted_one is not None and q.size == 1:
-            state = kernels.start_counted(cnt, q[0, 0], v[0, 0], t0, h, p)
-            start_evals = int(cnt[0])
-            cnt[:] = 0
-            recorded, failed = kernels.run_counted_one(state, t0, h, steps, every, p, k, out_q, out_v, cnt)
-        else:
-            state = kernels.start_counted(cnt, q, v, t0, h, p)
-            start_evals = int(cnt[0])
-            cnt[:] = 0
-            _, recorded, failed = kernels.run_counted(state, t0, h, steps, every, p, k, out_q, out_v, cnt)
-    failed = int(failed) or None
+        start_evals, recorded, failed, cnt = _counted_run(kernels, q, v, t0, h, steps, every, p, k, out_q, out_v)
+    failed = failed or None
     step_arr = marks[:recorded]
     q_arr = np.ascontiguousarray(out_q[:recorded].transpose(0, 2, 1))
     v_arr = np.ascontiguousarray(out_v[:recorded].transpose(0, 2, 1))

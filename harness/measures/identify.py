@@ -65,11 +65,11 @@ def candidate_run(ref, scene: Scene, dt: float, steps: int) -> Trajectory:
     """``ref.simulate(scene, dt, steps, 1)``, or the same run made before in this process: the key
     holds the scheme and its options, the scene's id, parameters and initial state, dt, steps
     and the path reference runs take (``reference.exact_compiled``: the same bits either way)."""
-    import reference
+    from reference import prefer_exact
 
     q0, v0 = scene.batch_state(1)
     key = (ref.id, tuple(sorted(getattr(ref, "options", {}).items())), scene.id, tuple(sorted(scene.values.items())),
-           q0.tobytes(), v0.tobytes(), float(dt), int(steps), reference._compiled.prefer_exact())
+           q0.tobytes(), v0.tobytes(), float(dt), int(steps), prefer_exact())
     if key not in _CANDIDATES:
         if len(_CANDIDATES) >= CANDIDATES_KEPT:
             del _CANDIDATES[next(iter(_CANDIDATES))]
