@@ -171,6 +171,8 @@ class CostFigures(Figures):
     as_stepped_s_per_step: float | None = None
     as_stepped_repeats_s_per_step: list | None = None
     as_stepped_timing: str | None = None
+    calibration: float | None = None          # the machine's calibration ratio, timed beside
+    calibration_spread: float | None = None   # (harness.measures.calibration)
 
 
 @dataclass(frozen=True)

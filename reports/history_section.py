@@ -96,8 +96,15 @@ def history_section(trend, run_id: int, drawn) -> list[str]:
     if trend.left_out:
         intro += f" {trend.left_out}."
     order = _changed_in_order(trend)
+    machine = [(c, ch) for c in trend.cells for ch in c.machine_steps]
+    if machine:
+        runs = sorted({ch.run_id for _, ch in machine})
+        intro += (f" {len(machine)} cost step(s) the fit found (at run(s) {', '.join(map(str, runs))}) are the "
+                  f"machine's, not the methods': nothing they depend on changed, or the calibration timed beside "
+                  f"them moved as much (`harness history` lists them).")
     if not order:
-        return lines + [intro + " **Unchanged**: no accuracy figure changed and no cost step was detected.", ""]
+        return lines + [intro + " **Unchanged**: no accuracy figure changed and no cost step was detected"
+                        + (" beyond the machine's noise" if machine else "") + ".", ""]
     lines += [intro, "",
               "| cell | measure | change | from run | commits | what differs | |",
               "|---|---|---|---|---|---|---|"]

@@ -21,6 +21,9 @@ import numpy as np
 from adapters import EngineMode
 
 SLOWDOWN_VAR = "HARNESS_TEST_SLOWDOWN"
+#: The plugin's version, as a run records it (``harness.execution.environment.plugin_versions``):
+#: a slowed step is a changed plugin, which the history sees as it sees an engine's upgrade.
+__version__ = f"1.0+repeat{max(1, int(os.environ.get(SLOWDOWN_VAR, '1')))}"
 
 
 class _SpringModel:

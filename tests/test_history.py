@@ -178,6 +178,52 @@ def test_an_accuracy_figure_that_changes_is_reported_at_once_with_its_commits(tm
     assert change["commits"] == "aaaaaaaaaa..bbbbbbbbbb" and change["worse"] is True
 
 
+def calibrated_history(path, ratios, calibrations, commits) -> History:
+    """``stored_history`` with the calibration timed beside each night's cost cell."""
+    h = stored_history(path, ratios, commits=commits)
+    for run, cal in enumerate(calibrations, start=1):
+        row = h.cells(run).query("measure == 'cost'").iloc[0].to_dict()
+        h.add_cell(run, {**row, "data": {**row["data"], "calibration": cal}})
+    return h
+
+
+def test_a_cost_step_where_nothing_changed_is_the_machines_never_a_confident_regression(tmp_path):
+    # Six nights of one commit, the last three with a neighbour: the ratio up 38%. The fit finds
+    # the step; nothing the cell depends on differs across it, so it is the machine's.
+    h = calibrated_history(tmp_path / "h.sqlite", [4.0, 4.04, 3.98, 5.5, 5.52, 5.49], [50.0] * 6, ["a" * 40] * 6)
+    code, out, _ = run_cli("history", "--db", str(tmp_path / "h.sqlite"), "--measure", "cost", "--json")
+    (cell,) = json.loads(out)["cells"]
+    assert code == 0 and cell["steps"] == [] and cell["regression"] is None
+    (step,) = cell["machine_steps"]
+    assert step["run"] == 4 and step["confidence"] is None
+    assert step["cause"] == "same code, engine versions and platform: the machine's noise"
+    assert run_cli("compare", "--db", str(tmp_path / "h.sqlite"))[0] == 0
+    # The last-two rule alike: 4.0 -> 6.5 is beyond 1.6x, but nothing differs.
+    h2 = calibrated_history(tmp_path / "h2.sqlite", [4.0, 6.5], [50.0] * 2, ["a" * 40] * 2)
+    assert compare_cells(h2.cells(1), h2.cells(2), []) != []
+    assert run_cli("compare", "--db", str(tmp_path / "h2.sqlite"))[0] == 0
+
+
+def test_a_cost_step_is_credited_with_the_calibrations_move(tmp_path):
+    commits = [f"{c}" * 40 for c in "aaabbb"]
+    ratios = [4.0, 4.04, 3.98, 5.5, 5.52, 5.49]  # +38% with the code changed at run 4
+    # The calibration moved +35% with it (a neighbour since run 4): what remains is within noise.
+    h = calibrated_history(tmp_path / "moved.sqlite", ratios, [50.0] * 3 + [67.5] * 3, commits)
+    (cell,) = json.loads(run_cli("history", "--db", str(tmp_path / "moved.sqlite"), "--measure", "cost",
+                                 "--json")[1])["cells"]
+    assert cell["steps"] == [] and cell["regression"] is None
+    (step,) = cell["machine_steps"]
+    assert step["cause"] == "within the machine's noise: the calibration moved +35% across it"
+    assert step["confidence"] < 0.95
+    # The calibration steady: the same step is the method's, with its commits, and a regression.
+    h = calibrated_history(tmp_path / "steady.sqlite", ratios, [50.0] * 6, commits)
+    code, out, _ = run_cli("history", "--db", str(tmp_path / "steady.sqlite"), "--measure", "cost", "--json")
+    (cell,) = json.loads(out)["cells"]
+    (step,) = cell["steps"]
+    assert code == 1 and step["run"] == 4 and step["commits"] == "aaaaaaaaaa..bbbbbbbbbb" and step["confidence"] > 0.99
+    assert cell["regression"]["kind"] == "slowdown" and cell["machine_steps"] == []
+
+
 def test_what_differs_between_two_runs():
     a = {"git_commit": "a" * 40, "versions": {"mujoco": "3.3.0", "numpy": "2.4.6"}, "machine": {"system": "Linux"}}
     b = {**a, "versions": {"mujoco": "4.0.0", "numpy": "2.4.6"}}
@@ -186,6 +232,16 @@ def test_what_differs_between_two_runs():
     c = {**a, "git_commit": "b" * 40, "machine": {"system": "Darwin"}}
     assert what_differs(a, c, "ref", deterministic=False) == (
         "code aaaaaaaaaa..bbbbbbbbbb; platform system Linux -> Darwin")
+    # A dirty tree's commit says nothing of its code: the code digest does, where both runs have it.
+    d = {**a, "git_commit": "a" * 40 + "+dirty"}
+    assert what_differs(d, d, "ref", deterministic=False).startswith("code ")
+    d1, d2 = ({**d, "settings": {"code_digest": x}} for x in ("1234", "5678"))
+    assert what_differs(d1, d1, "ref", deterministic=False) == "same code, engine versions and platform"
+    assert what_differs(d1, d2, "ref", deterministic=False) == (
+        "code aaaaaaaaaa+dirty (same commit), its uncommitted changes differ")
+    # A plugin's version is one more package every family depends on.
+    p1, p2 = ({**a, "versions": {**a["versions"], "plugin my.modes": v}} for v in ("1", "2"))
+    assert what_differs(p1, p2, "ref", deterministic=False) == "plugin my.modes 1 -> 2"
 
 
 # ----------------------------------------------------------------------------- end to end
@@ -197,8 +253,20 @@ NIGHTLY = ("import json, sys; from pathlib import Path; from harness.nightly.run
            "print(json.dumps({'run_id': r['run_id'], 'regressions': [g.as_dict() for g in r['regressions']]}))")
 
 
+#: The timings the end-to-end nightlies record instead of the clock's (``HARNESS_INJECT_TIMINGS``):
+#: no test's outcome may depend on the machine's load. The plugin's step at 4.8 us (48x explicit
+#: Euler, as measured here), 20 us slowed by 300 updates a step (about 4x); repeats 1-2% apart;
+#: the calibration pair the same every night.
+def timings(slowdown: int) -> dict:
+    return {"s_per_step": {"ref:explicit_euler": 1e-7, SLOW: 4.8e-6 if slowdown == 1 else 2.0e-5},
+            "jitter": [1.0, 1.02, 0.99], "calibration": {"python": 5e-7, "compiled": 1e-8}}
+
+
 def nightly_process(tmp, slowdown: int) -> dict:
+    injected = tmp / f"timings-{slowdown}.json"
+    injected.write_text(json.dumps(timings(slowdown)))
     env = {**os.environ, "HARNESS_PLUGINS": "tests.slow_plugin", SLOWDOWN_VAR: str(slowdown),
+           "HARNESS_INJECT_TIMINGS": str(injected),
            "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
     done = subprocess.run([sys.executable, "-c", NIGHTLY, str(tmp / "out"), str(tmp / "h.sqlite")], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
@@ -232,7 +300,8 @@ def test_three_nightlies_give_three_points_per_cell_and_an_unchanged_history(nig
     for cell in trend["cells"]:
         assert [p["run"] for p in cell["points"]] == [1, 2, 3] and cell["steps"] == []
     cost = next(c for c in trend["cells"] if c["measure"] == "cost")
-    assert cost["unit"] == "x explicit Euler" and all(p["value"] > 1 for p in cost["points"])
+    assert cost["unit"] == "x explicit Euler" and [p["value"] for p in cost["points"]] == [pytest.approx(48.0)] * 3
+    assert all(p["calibration"] == pytest.approx(50.0) for p in cost["points"])
     section = [line for line in _section(seen["report3"], "History").splitlines() if line.strip()]
     assert len(section) == 1 and "**Unchanged**" in section[0] and "runs 1, 2, 3" in section[0]
 
@@ -241,13 +310,14 @@ def test_a_slowed_method_is_flagged_as_a_step_on_the_run_after_it_slows(nights):
     tmp, seen = nights
     (reg,) = seen["results"][3]["regressions"]
     assert (reg["kind"], reg["method"], reg["measure"]) == ("slowdown", SLOW, "cost")
-    assert "since run 4" in reg["detail"] and reg["after"] / reg["before"] > 2  # 300 updates a step: about 4x
+    assert "since run 4" in reg["detail"] and reg["after"] / reg["before"] == pytest.approx(2.0e-5 / 4.8e-6)
     code, out, _ = run_cli("history", "--db", str(tmp / "h.sqlite"), "--method", SLOW, "--measure", "cost",
                            "--json")
     (cell,) = json.loads(out)["cells"]
     assert code == 1 and [p["run"] for p in cell["points"]] == [1, 2, 3, 4]
     (step,) = cell["steps"]
     assert step["run"] == 4 and step["worse"] and step["size"] > 1.0 and step["confidence"] > 0.999
+    assert step["cause"] == "plugin tests.slow_plugin 1.0+repeat1 -> 1.0+repeat300" and cell["machine_steps"] == []
     assert cell["regression"]["kind"] == "slowdown"
     # The accuracy figures did not move: the slowed step computes the same update.
     code, out, _ = run_cli("history", "--db", str(tmp / "h.sqlite"), "--measure", "energy", "--json")

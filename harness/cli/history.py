@@ -65,6 +65,10 @@ def run(args) -> int:
             size = f" ({ch.size:+.1%})" if ch.size is not None else ""
             print(f"  {'worse' if ch.worse else 'better'} at run {ch.run_id}: {_fmt(ch.before)} -> {_fmt(ch.after)}"
                   f"{size}{conf}; {ch.cause}")
+        for ch in cell.machine_steps:
+            conf = f", confidence left {ch.confidence:.3f}" if ch.confidence is not None else ""
+            print(f"  machine noise at run {ch.run_id}: {_fmt(ch.before)} -> {_fmt(ch.after)} ({ch.size:+.1%}{conf}); "
+                  f"{ch.cause}")
         if cell.regression is not None:
             print(f"  REGRESSION {cell.regression.line()}")
     return 1 if trend.regressions() else 0

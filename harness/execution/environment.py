@@ -70,3 +70,38 @@ def run_metadata() -> tuple[str | None, dict, dict]:
     machine = {"node": platform.node(), "system": platform.system(), "release": platform.release(),
                "machine": platform.machine(), "processor": platform.processor(), "cpus": os.cpu_count()}
     return commit, {"python": platform.python_version(), **versions()}, machine
+
+
+def plugin_versions(modules) -> dict[str, str | None]:
+    """``{"plugin MODULE": version}`` of each ``$HARNESS_PLUGINS`` module: its ``__version__``
+    where it declares one, else a digest of its source, so that a plugin's change (a user's own
+    engine mode, stepped differently) is seen between two runs as an engine's upgrade is."""
+    import importlib
+
+    out = {}
+    for name in modules:
+        try:
+            module = importlib.import_module(name)
+        except Exception:  # noqa: BLE001 - a plugin that fails to import is reported by its tasks
+            out[f"plugin {name}"] = None
+            continue
+        version = getattr(module, "__version__", None)
+        if version is None and getattr(module, "__file__", None):
+            version = "sha256:" + hashlib.sha256(Path(module.__file__).read_bytes()).hexdigest()[:12]
+        out[f"plugin {name}"] = None if version is None else str(version)
+    return out
+
+
+def machine_busy_s() -> float | None:
+    """CPU seconds the whole machine has spent busy (every process; user, system, irq) since it
+    booted, from ``/proc/stat``; None where there is none (not Linux). Two readings around the
+    cells, less the harness's own CPU, are what other processes took while they ran."""
+    try:
+        with open("/proc/stat") as fh:
+            fields = fh.readline().split()
+    except OSError:
+        return None
+    if not fields or fields[0] != "cpu":
+        return None
+    user, nice, system, idle, iowait, irq, softirq, steal = (int(x) for x in (fields[1:9] + ["0"] * 8)[:8])
+    return (user + nice + system + irq + softirq) / os.sysconf("SC_CLK_TCK")

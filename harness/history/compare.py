@@ -20,7 +20,10 @@ Cells are matched on (scene, method, measure, dt). A regression is, in run B aga
   (leapfrog), 1.17 (pymunk), 1.21 (MuJoCo), 1.24 (implicit Euler) and 1.34 (RK4), while the
   repeats within a process spread by 0.4-14%. PROCESS_SPREAD = 0.5 covers that with room:
   a slowdown is flagged from 1.5x on, gross changes (a kernel no longer compiled, a step
-  doing twice the work), not noise.
+  doing twice the work), not noise. The calibration timed beside each cost cell
+  (``harness.measures.calibration``) widens that by how far it moved between the two runs, and
+  between two runs where nothing the cell depends on differs (code, versions, platform) no
+  slowdown is flagged at all: it is the machine's (``harness.history.series``).
 
 Only runs of the same suite and measurement version are compared. Once three complete runs of
 the suite exist, the default comparison judges cost over the whole history instead of the last
@@ -70,7 +73,12 @@ def bound_violations(cells: pd.DataFrame, bounds: list[bounds_mod.Bound]) -> lis
     return out
 
 
-def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Bound]) -> list[Regression]:
+def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Bound],
+                  runs: tuple[dict, dict] | None = None) -> list[Regression]:
+    """Regressions of the cells ``b`` against ``a`` (module docstring); ``runs``: the two runs'
+    stored rows, to tell a cost change where nothing differs (the machine's) from one."""
+    from harness.history.series import NOTHING_DIFFERS, what_differs
+
     out = bound_violations(b, bounds)
     a_rows = {_key(r): r for _, r in a.iterrows()}
     b_rows = {_key(r): r for _, r in b.iterrows()}
@@ -107,13 +115,18 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
                                       f"largest stable h*omega {va:.4g} -> {vb:.4g} (drop > {STABILITY_DROP:.0%})"))
         elif measure == "cost":
             ra_ratio, rb_ratio = ra["data"].get("ratio_to_explicit_euler"), rb["data"].get("ratio_to_explicit_euler")
+            if runs is not None and what_differs(*runs, rb["family"], deterministic=False) == NOTHING_DIFFERS:
+                continue
             if ra_ratio and rb_ratio:
-                spread = _ratio_spread(ra["data"]) + _ratio_spread(rb["data"]) + PROCESS_SPREAD
+                cal_a, cal_b = ra["data"].get("calibration"), rb["data"].get("calibration")
+                moved = abs(cal_b / cal_a - 1.0) if cal_a and cal_b else 0.0
+                spread = _ratio_spread(ra["data"]) + _ratio_spread(rb["data"]) + PROCESS_SPREAD + moved
                 if rb_ratio > ra_ratio * (1 + spread):
                     out.append(Regression("slowdown", scene, method, measure, dt, ra_ratio, rb_ratio,
                                           f"cost ratio to explicit Euler {ra_ratio:.2f} -> {rb_ratio:.2f}, "
-                                          f"beyond the noise allowed ({spread:.0%}: the repeats' spreads "
-                                          f"and {PROCESS_SPREAD:.0%} from process to process)"))
+                                          f"beyond the noise allowed ({spread:.0%}: the repeats' spreads, "
+                                          f"{PROCESS_SPREAD:.0%} from process to process"
+                                          + (f" and the calibration's move, {moved:.0%}" if moved else "") + ")"))
     return out
 
 
@@ -146,7 +159,7 @@ def compare_runs(history: History, run_a: int | None = None, run_b: int | None =
     cells_b = history.cells(run_b)
     if run_a is None:
         return None, run_b, bound_violations(cells_b, bounds)
-    regressions = compare_cells(history.cells(run_a), cells_b, bounds)
+    regressions = compare_cells(history.cells(run_a), cells_b, bounds, runs=(history.run(run_a), info_b))
     if explicit_pair:
         return run_a, run_b, regressions
     if trend is None:

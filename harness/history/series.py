@@ -17,6 +17,21 @@ the value and the value's measured spread. Two kinds of cell are judged two ways
   noise (``step_detect.Fit.regression``); before ``MIN_RUNS`` runs, ``harness.history.compare``'s
   last-two rule judges.
 
+A cost step is kept only when it is larger than what the machine's own noise explains, measured
+in the runs themselves (``explained_by_machine``):
+
+* **nothing changed**: a step between two runs whose code (commit and the code digest: a dirty
+  tree's commit says nothing), the packages the cell depends on (plugins included) and the
+  platform are all the same is the machine's, whatever its size: it is listed as machine noise
+  with no confidence claimed, and never makes a regression;
+* **the calibration moved**: every cost cell times a fixed calibration pair beside it
+  (``harness.measures.calibration``: the interpreter over the compiled kernel). A step of the
+  cell's cost ratio is credited with how far the calibration's level moved across it (a
+  machine whose interpreted code slowed against compiled code moves both), and its confidence
+  is that of what remains: kept when what remains is ``KEEP_Z`` of its noise or more.
+
+The same two rules stand between a detected rise and a ``slowdown`` regression.
+
 Runs of another measurement version are never mixed in: they are left out and said so in one
 line, and a history holding only such runs is refused in one line (or read on its own with
 ``measurement_version``).
@@ -26,7 +41,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
 import pandas as pd
+from scipy.stats import norm
 
 from records import InvalidInput
 
@@ -56,10 +73,11 @@ class Point:
     value: float | None
     spread: float
     status: str
+    calibration: float | None = None  # the machine's calibration ratio, timed beside a cost cell
 
     def as_dict(self) -> dict:
         return {"run": self.run_id, "commit": self.commit, "date": self.date, "value": _plain(self.value),
-                "spread": self.spread, "status": self.status}
+                "spread": self.spread, "status": self.status, "calibration": self.calibration}
 
 
 @dataclass(frozen=True)
@@ -99,6 +117,7 @@ class CellHistory:
     fit: step_detect.Fit | None = None
     changes: list[Change] = field(default_factory=list)
     regression: Regression | None = None
+    machine_steps: list[Change] = field(default_factory=list)  # cost steps the machine explains
 
     @property
     def key(self) -> tuple:
@@ -131,6 +150,7 @@ class CellHistory:
                 "noise": self.fit.noise if self.fit is not None else None,
                 "levels": [{"from_run": a, "to_run": b, "level": _plain(lv)} for a, b, lv in self.levels()],
                 "steps": [c.as_dict() for c in self.changes],
+                "machine_steps": [c.as_dict() for c in self.machine_steps],
                 "regression": self.regression.as_dict() if self.regression is not None else None}
 
 
@@ -201,14 +221,33 @@ def commit_range(run_a: dict, run_b: dict) -> str:
     return f"{_short(a)}..{_short(b)}"
 
 
+#: What ``what_differs`` says when nothing a cell depends on differs.
+NOTHING_DIFFERS = "same code, engine versions and platform"
+
+
+def _same_code(run_a: dict, run_b: dict) -> bool:
+    """One commit, and the same code digest where both runs have one (a ``+dirty`` commit
+    without digests is not known to be the same code)."""
+    a, b = run_a.get("git_commit"), run_b.get("git_commit")
+    if not b or a != b:
+        return False
+    da, db = ((r.get("settings") or {}).get("code_digest") for r in (run_a, run_b))
+    if da and db:
+        return da == db
+    return not b.endswith("+dirty")
+
+
 def what_differs(run_a: dict, run_b: dict, family: str, deterministic: bool = True) -> str:
     """What differs between two runs that a cell of ``family`` depends on: the code, package
-    versions, the platform; or that nothing does (for a ``deterministic`` figure: that it is not)."""
+    versions (plugins' included), the platform; or that nothing does (``NOTHING_DIFFERS``; for a
+    ``deterministic`` figure, that it is not)."""
     out = []
-    if run_a.get("git_commit") != run_b.get("git_commit") or not run_b.get("git_commit"):
-        out.append(f"code {commit_range(run_a, run_b)}")
+    if not _same_code(run_a, run_b):
+        same_commit = run_a.get("git_commit") == run_b.get("git_commit") and run_b.get("git_commit")
+        out.append(f"code {commit_range(run_a, run_b)}" + (", its uncommitted changes differ" if same_commit else ""))
     va, vb = run_a.get("versions") or {}, run_b.get("versions") or {}
-    for pkg in (*COMMON_PACKAGES, *FAMILY_PACKAGES.get(family, ())):
+    plugins = sorted(k for k in {*va, *vb} if k.startswith("plugin "))
+    for pkg in (*COMMON_PACKAGES, *FAMILY_PACKAGES.get(family, ()), *plugins):
         if va.get(pkg) != vb.get(pkg):
             out.append(f"{pkg} {va.get(pkg)} -> {vb.get(pkg)}")
     ma, mb = run_a.get("machine") or {}, run_b.get("machine") or {}
@@ -217,7 +256,36 @@ def what_differs(run_a: dict, run_b: dict, family: str, deterministic: bool = Tr
         out.append("platform " + ", ".join(f"{k} {ma.get(k)} -> {mb.get(k)}" for k in plat))
     if out:
         return "; ".join(out)
-    return "same code, engine versions and platform" + (": the figure is not deterministic" if deterministic else "")
+    return NOTHING_DIFFERS + (": the figure is not deterministic" if deterministic else "")
+
+
+#: Noise units a cost step must exceed once the calibration's move is credited, to be kept.
+KEEP_Z = 2.0
+
+
+def _calibration_level(points: list[Point]) -> float | None:
+    cal = [p.calibration for p in points if p.calibration]
+    return float(np.median(cal)) if cal else None
+
+
+def explained_by_machine(before: list[Point], after: list[Point], level_before: float, level_after: float,
+                         noise: float, runs: dict, family: str) -> tuple[str, float | None]:
+    """Whether a cost change from the points ``before`` to the points ``after`` (levels
+    ``level_before`` -> ``level_after``) is the machine's (module docstring): (why, "" if it is
+    not; the confidence left once the calibration's move is credited, None where nothing
+    changed)."""
+    ra, rb = runs[before[-1].run_id], runs[after[0].run_id]
+    if what_differs(ra, rb, family, deterministic=False) == NOTHING_DIFFERS:
+        return f"{NOTHING_DIFFERS}: the machine's noise", None
+    dx = abs(math.log(level_after / level_before))
+    ca, cb = _calibration_level(before), _calibration_level(after)
+    move = abs(math.log(cb / ca)) if ca and cb else 0.0
+    z = max(0.0, dx - move) / (noise * math.sqrt(1.0 / len(before) + 1.0 / len(after)))
+    confidence = float(1.0 - 2.0 * norm.sf(z))
+    if z < KEEP_Z:
+        return (f"within the machine's noise: the calibration moved {cb / ca - 1:+.0%} across it" if move
+                else "within the cell's noise"), confidence
+    return "", confidence
 
 
 def _cost_point(row) -> tuple[float | None, float, str]:
@@ -312,8 +380,9 @@ def _cell_history(rows: list[dict], runs: dict[int, dict], judged: bool) -> Cell
             value, spread = _accuracy_point(row), 0.0
         if row["status"] != "ok":
             value = None
+        cal = (row["data"] or {}).get("calibration") if measure == "cost" else None
         points.append(Point(int(row["run_id"]), run.get("git_commit"), run.get("started"), value, spread,
-                            row["status"]))
+                            row["status"], float(cal) if cal else None))
     if measure != "cost":
         unit = {"energy": "max |dE/E|", "error": "max global error", "order": "observed order",
                 "stability": "largest stable h*omega"}[measure]
@@ -332,14 +401,23 @@ def _cell_history(rows: list[dict], runs: dict[int, dict], judged: bool) -> Cell
         return cell
     fit = step_detect.detect_steps([p.value for p in ok], [p.spread for p in ok])
     cell.fit = fit
-    for st in fit.steps:
+    for k, st in enumerate(fit.steps):
+        (a0, a1), (b0, b1) = fit.segments[k], fit.segments[k + 1]
         pa, pb = ok[st.index - 1], ok[st.index]
         ra, rb = runs[pa.run_id], runs[pb.run_id]
-        cell.changes.append(Change(pb.run_id, pa.run_id, st.before, st.after, commit_range(ra, rb),
-                                   what_differs(ra, rb, cell.family, deterministic=False),
-                                   (st.after > st.before) == worse_up,
-                                   st.confidence))
+        why, confidence = explained_by_machine(ok[a0:a1], ok[b0:b1], st.before, st.after, fit.noise, runs,
+                                               cell.family)
+        change = Change(pb.run_id, pa.run_id, st.before, st.after, commit_range(ra, rb),
+                        why or what_differs(ra, rb, cell.family, deterministic=False),
+                        (st.after > st.before) == worse_up, confidence)
+        (cell.machine_steps if why else cell.changes).append(change)
     found = fit.regression(worse_up)
+    if found is not None:
+        index, before, after = found
+        best = next(i for i, (a, b) in enumerate(fit.segments) if b == index)
+        (a0, a1), (l0, l1) = fit.segments[best], fit.segments[-1]
+        if explained_by_machine(ok[a0:a1], ok[l0:l1], before, after, fit.noise, runs, cell.family)[0]:
+            found = None
     if found is not None:
         index, before, after = found
         since = ok[index]

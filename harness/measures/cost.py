@@ -60,8 +60,19 @@ The rule, one way for each kind of method:
   a worker's compiled explicit Euler ran at 80 ns a step and, for seconds on end, at
   140-150 ns, on the CPU clock too. The ratio is the median of the pairs' ratios, its
   ``ratio_spread`` (max - min) / min of them.
+* **Calibration**: a fixed workload pair (``harness.measures.calibration``: explicit Euler in a
+  plain Python loop over its compiled kernel) timed in the same interleaved repeats, so that
+  the history can tell a method's step from the machine's (``harness.history.series``).
+* **Injected timings**: with ``HARNESS_INJECT_TIMINGS`` naming a JSON file (or ``injected``
+  given), the timed runs still run but their figures are the file's: ``s_per_step`` by method
+  id (``"*"`` for any other), each repeat multiplied by ``jitter`` (cycled), and the
+  ``calibration`` pair. The clock is then recorded as ``injected``. Tests of verdicts drawn from
+  timings use it, so that no test's outcome depends on the machine's load.
 """
 from __future__ import annotations
+
+import json
+import os
 
 import numpy as np
 
@@ -86,6 +97,40 @@ ENGINE_RUN_BUDGET_S = 0.1
 ENGINE_MIN_STEPS = 200
 REPEATS = 5
 BASELINE = "ref:explicit_euler"
+#: A JSON file of timings to record instead of the clock's (module docstring).
+INJECT_VAR = "HARNESS_INJECT_TIMINGS"
+
+
+def load_injected(path=None) -> dict | None:
+    """The injected timings named by ``path`` (default: ``$HARNESS_INJECT_TIMINGS``), or None."""
+    path = path or os.environ.get(INJECT_VAR)
+    if not path:
+        return None
+    from records import InvalidInput
+
+    try:
+        data = json.loads(open(path).read())
+        per_step = data["s_per_step"]
+        if not isinstance(per_step, dict) or not all(float(v) > 0 for v in per_step.values()):
+            raise ValueError("s_per_step must map method ids to seconds > 0")
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InvalidInput(f"{INJECT_VAR}={path}: not an injected-timings file ({exc}); valid: JSON with "
+                           f"s_per_step {{method id or '*': seconds}}, optional jitter [factors], calibration "
+                           f"{{python, compiled}}") from None
+    return data
+
+
+def jitter(injected: dict, i: int) -> float:
+    factors = injected.get("jitter") or [1.0]
+    return float(factors[i % len(factors)])
+
+
+def _injected_value(injected: dict | None, method_id: str) -> float | None:
+    if injected is None:
+        return None
+    per_step = injected["s_per_step"]
+    value = per_step.get(method_id, per_step.get("*"))
+    return None if value is None else float(value)
 
 
 def _spread(times: list[float]) -> dict:
@@ -134,8 +179,9 @@ class _Timing:
     whatever they cost (explicit Euler timed beside a scheme runs the scheme's loop length)."""
 
     def __init__(self, method: Method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine",
-                 budget: bool = True):
+                 budget: bool = True, injected: dict | None = None):
         self.now = CLOCKS[clock]
+        self.injected, self.injected_value = injected, _injected_value(injected, method.id)
         self.scheme = method.scheme
         self.times, self.empty = [], []
         self.loop, self.engine_loop = loop, None
@@ -199,6 +245,8 @@ class _Timing:
         return seconds
 
     def per_step(self) -> list[float]:
+        if self.injected_value is not None:
+            return [self.injected_value * jitter(self.injected, i) for i in range(len(self.times))]
         if self.scheme is not None:
             return list(self.times)
         setup = min(self.empty)
@@ -206,6 +254,8 @@ class _Timing:
 
     def result(self, clock: str) -> dict:
         timing = _COMPILED_TIMING if self.scheme is not None else _LOOP_TIMING[self.loop]
+        if self.injected_value is not None:
+            timing, clock = f"injected from ${INJECT_VAR}, not measured (the runs timed: {timing})", "injected"
         out = {"timing": f"{timing}; {self.stopped}" if self.stopped else timing, "clock": clock,
                "time_steps": self.n, "warmup_s": self.warmup_s, **_spread(self.per_step())}
         if self.scheme is None:
@@ -223,11 +273,12 @@ def _steppable_per_step(method: Method) -> bool:
 
 
 def wall_time_per_step(method, scene: Scene, dt: float, *, steps: int | None = None,
-                       repeats: int = REPEATS, clock: str = "wall", loop: str = "engine") -> dict:
+                       repeats: int = REPEATS, clock: str = "wall", loop: str = "engine",
+                       injected: dict | None = None) -> dict:
     """Seconds per step by the rule in the module docstring (compiled for reference schemes,
     in-process ``simulate`` for engine modes, through ``loop``), on ``clock`` ("wall" or "cpu")."""
     method = resolve(method, scene)
-    timing = _Timing(method, scene, dt, steps, clock, loop)
+    timing = _Timing(method, scene, dt, steps, clock, loop, injected=injected)
     for _ in range(repeats):
         timing.repeat()
     return timing.result(clock)
@@ -235,23 +286,31 @@ def wall_time_per_step(method, scene: Scene, dt: float, *, steps: int | None = N
 
 def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = None, repeats: int = REPEATS,
                   count_steps: int = COUNT_STEPS, timeout: float | None = None,
-                  baseline: dict | None = None, clock: str = "wall") -> dict:
+                  baseline: dict | None = None, clock: str = "wall", injected: dict | None = None) -> dict:
     """Counted evaluations, time per step and the ratio to explicit Euler (compiled) on
-    the same scene and dt, the two timed in interleaved repeats (module docstring).
-    ``baseline`` reuses an explicit-Euler timing from the same run instead."""
+    the same scene and dt, the two and the calibration timed in interleaved repeats (module
+    docstring). ``baseline`` reuses an explicit-Euler timing from the same run instead (no
+    calibration then); ``injected``: timings to record instead of the clock's (default: the
+    ``HARNESS_INJECT_TIMINGS`` file, if set)."""
+    from harness.measures.calibration import Calibration
+
     method = resolve(method, scene)
+    injected = injected if injected is not None else load_injected()
     out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
            "omega_dt": float(dt) * scene.omega}
     out.update(counted_evaluations(method, scene, dt, steps=count_steps, timeout=timeout))
-    stepped = _Timing(method, scene, dt, time_steps, clock, "harness") if _steppable_per_step(method) else None
+    stepped = (_Timing(method, scene, dt, time_steps, clock, "harness", injected=injected)
+               if _steppable_per_step(method) else None)
     if baseline is not None:
-        out.update(wall_time_per_step(method, scene, dt, steps=time_steps, repeats=repeats, clock=clock))
+        out.update(wall_time_per_step(method, scene, dt, steps=time_steps, repeats=repeats, clock=clock,
+                                      injected=injected))
         _add_as_stepped(out, stepped, repeats, clock)
         out["baseline"] = baseline
         out["ratio_to_explicit_euler"] = out["s_per_step"] / baseline["s_per_step"]
         out["ratio_spread"] = (out.get("rel_spread") or 0.0) + (baseline.get("rel_spread") or 0.0)
         return out
-    timing = _Timing(method, scene, dt, time_steps, clock)
+    timing = _Timing(method, scene, dt, time_steps, clock, injected=injected)
+    calibration = Calibration(clock, None if injected is None else injected.get("calibration"))
     from harness.methods import get_method
 
     baseline_method = get_method(BASELINE)
@@ -259,7 +318,9 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     if not ok:  # a constrained scene (the rope): no explicit-Euler run to compare with
         for _ in range(repeats):
             timing.repeat()
+            calibration.repeat()
         out.update(timing.result(clock))
+        out.update(calibration.result())
         _add_as_stepped(out, stepped, repeats, clock)
         out["baseline"] = {"method": BASELINE, "unsupported": why}
         out["ratio_to_explicit_euler"] = None
@@ -267,13 +328,15 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     # A reference scheme and its baseline run the same compiled loop length: a shorter loop
     # carries more of the call's fixed cost per step (1.3x per step at 2,000 steps, measured).
     base_steps = timing.n if timing.scheme is not None else REF_TIME_STEPS
-    base = _Timing(baseline_method, scene, dt, base_steps, clock, budget=timing.scheme is None)
+    base = _Timing(baseline_method, scene, dt, base_steps, clock, budget=timing.scheme is None, injected=injected)
     for _ in range(repeats):
         timing.repeat()
         base.repeat()
+        calibration.repeat()
         if stepped is not None:
             stepped.repeat()
     out.update(timing.result(clock))
+    out.update(calibration.result())
     _add_as_stepped(out, stepped, 0, clock)
     out["baseline"] = {"method": BASELINE, **base.result(clock)}
     ratios = [m / b for m, b in zip(timing.per_step(), base.per_step())]
