@@ -88,6 +88,8 @@ class RunTiming:
     task_cpu_s: dict = field(default_factory=dict)
     report_s: float | None = None
     finished_s: float | None = None
+    machine_busy: float | None = None   # share of the machine's CPU other processes took during the cells
+    resumed: dict | None = None         # attempts, tasks carried from them, tasks run by the last
 
     @classmethod
     def of(cls, timing) -> "RunTiming":

@@ -395,8 +395,17 @@ def footer(run: RunRecord, timing: RunTiming) -> list[str]:
     lines.append(f"Run {run.run_id} ({run.suite} suite), started {run.started}, commit "
                  f"`{run.git_commit or 'unknown'}`, measurement version {run.measurement_version}. "
                  f"Cells ran on: {executor}.")
+    if timing.resumed:
+        r = timing.resumed
+        lines += ["", f"Resumed: this run was killed and continued {r.get('attempts', 1)} time(s); "
+                      f"{r.get('tasks_carried', 0)} task(s) carried as the killed attempt stored them, "
+                      f"{r.get('tasks_run', 0)} run by the last attempt. Its wall and CPU times below are the "
+                      f"last attempt's, its worker seconds every attempt's."]
     if timing.total_s is not None:
         lines += [""] + where_the_time_went(timing)
+    if timing.machine_busy is not None:
+        lines += ["", f"Other processes took {timing.machine_busy:.0%} of the machine's CPU while the cells ran "
+                      f"(/proc/stat, less the harness's own)."]
     return lines + [""]
 
 
@@ -495,12 +504,14 @@ def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None
 
 
 def write_report(run: dict, cells: list[Cell], judged: Judgement, out_dir, timing=None, trend=None,
-                 jobs: int = 1) -> Path:
+                 jobs: int = 1, before_write=None) -> Path:
     """``render`` written to ``out_dir/report.md`` (atomically, see above); ``jobs`` processes
-    draw its charts."""
+    draw its charts; ``before_write`` is called between the two (the nightly's kill point)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     text, charts_written = render(run, cells, judged, out_dir, timing, trend, jobs)
+    if before_write is not None:
+        before_write()
     target = out_dir / "report.md"
     tmp = out_dir / f".report.md.{os.getpid()}.tmp"
     with open(tmp, "w") as fh:

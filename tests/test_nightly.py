@@ -42,6 +42,24 @@ ROOT = Path(__file__).resolve().parents[1]
 BOUND = bounds_mod.Bound("spring", "ref:semi_implicit_euler", 0.1, 2000, 0.079)
 
 
+#: The timings the module's nightlies record instead of the clock's (``HARNESS_INJECT_TIMINGS``),
+#: the smoke methods' as measured here: the verdicts these tests read (no slowdown on an unchanged
+#: rerun) depend on no clock, so on no neighbour.
+TIMINGS = {"s_per_step": {"ref:explicit_euler": 3.9e-9, "ref:semi_implicit_euler": 7.6e-9, "ref:leapfrog": 8.5e-9,
+                          "ref:rk4": 1.6e-8, "ref:implicit_euler": 1.4e-8, "mujoco:euler": 1.2e-6,
+                          "pymunk:applied_force": 3.1e-6, "*": 1e-6},
+           "jitter": [1.0, 1.03, 0.98], "calibration": {"python": 5e-8, "compiled": 4e-9}}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def injected_timings(tmp_path_factory):
+    path = tmp_path_factory.mktemp("timings") / "timings.json"
+    path.write_text(json.dumps(TIMINGS))
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("HARNESS_INJECT_TIMINGS", str(path))
+        yield path
+
+
 def nightly(tmp, *extra, bounds):
     argv = ["nightly", "--suite", "smoke", "--out", str(tmp / "out"), "--db", str(tmp / "h.sqlite"), "--jobs", "2",
             "--bounds", str(bounds)]
@@ -148,6 +166,10 @@ def test_smoke_nightly_stores_a_valid_complete_run(first_run):
     assert set(cells.measure) == {"energy", "error", "order", "stability", "cost", "identity", "bound", "advise"}
     assert not cells.duplicated(["scene", "method", "measure", "dt"]).any()
     assert set(cells.status) == {"ok"}
+    # Every cost figure is the injected one, and says so: no verdict of this module reads a clock.
+    cost = cells[cells.measure == "cost"]
+    assert {d["clock"] for d in cost.data} == {"injected"} and run.settings["injected_timings"]["s_per_step"]
+    assert all(v == TIMINGS["s_per_step"][m] * 0.98 for m, v in zip(cost.method, cost.value))  # the least repeat
     timing = run.timing
     # Where the time went adds up: worker seconds by measure and by family are two splits of one sum.
     assert sum(timing["worker_seconds_by_measure"].values()) == pytest.approx(

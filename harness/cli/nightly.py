@@ -26,6 +26,10 @@ def add_parser(sub):
     p.add_argument("--cell-timeout", default=None,
                    help="seconds one task (a scene x method, all its measures) may take before its worker is "
                         "killed and the rest of it recorded timed_out (default: the suite's)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the suite's latest run, left incomplete by a kill (SIGKILL, OOM, a lost machine), "
+                        "from the tasks it stored; refused when that run is complete or was measured otherwise "
+                        "(another commit, versions, platform or settings)")
     p.add_argument("--json", action="store_true", help="print the run summary as JSON")
     return p
 
@@ -41,9 +45,12 @@ def run(args) -> int:
     from harness.execution.distributed import ClusterLost, resolve_scheduler
 
     resolve_scheduler(args.scheduler, jobs is not None)  # a bad address fails before anything runs
+    from harness.measures.cost import load_injected
+
+    load_injected()  # a broken $HARNESS_INJECT_TIMINGS file fails before anything runs
     try:
         result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path,
-                             cell_timeout=cell_timeout)
+                             cell_timeout=cell_timeout, resume=args.resume)
     except ClusterLost as exc:
         print(f"harness: error: {exc}; the run is left incomplete (never compared, the previous report kept)",
               file=sys.stderr)

@@ -7,8 +7,10 @@ the rest of the measurement in a JSON column. A cell is converted to and from it
 ``records.cell.Cell`` (``to_db_row`` / ``from_db_row``), nowhere else.
 
 A run is inserted with ``complete = 0`` and marked complete only after its last cell and its
-report are written; every cell is committed in its own transaction. A run killed half-way
-therefore leaves every earlier run intact and is itself never read as complete.
+report are written. A task's cells are committed in one transaction with a ``tasks`` row that
+says the task is done (``add_task_cells``): a run killed half-way leaves every earlier run
+intact, is itself never read as complete, and holds whole tasks only, so that
+``harness nightly --resume`` runs exactly the tasks it has no row for (``done_tasks``).
 Runs are only compared with runs of the same ``MEASUREMENT_VERSION`` (as asv does with
 its benchmark versions).
 """
@@ -65,6 +67,13 @@ CREATE TABLE IF NOT EXISTS cells (
     UNIQUE (run_id, scene, method, measure, dt)
 );
 CREATE INDEX IF NOT EXISTS cells_run ON cells(run_id);
+CREATE TABLE IF NOT EXISTS tasks (
+    run_id INTEGER NOT NULL REFERENCES runs(run_id),
+    label TEXT NOT NULL,
+    wall_s REAL,
+    cpu_s REAL,
+    PRIMARY KEY (run_id, label)
+);
 """
 
 #: The columns this code reads: a database whose tables lack any (an older schema) is refused.
@@ -135,6 +144,31 @@ class History:
                 f"INSERT OR REPLACE INTO cells (run_id, {', '.join(CELL_COLUMNS)}) "
                 f"VALUES (?, {', '.join('?' for _ in CELL_COLUMNS)})",
                 (run_id, *[row[c] for c in CELL_COLUMNS]))
+
+    def update_settings(self, run_id: int, settings: dict) -> None:
+        with closing(self._connect()) as con, con:
+            con.execute("UPDATE runs SET settings = ? WHERE run_id = ?", (to_json(settings), run_id))
+
+    def add_task_cells(self, run_id: int, label: str, cells, wall_s: float | None = None,
+                       cpu_s: float | None = None) -> None:
+        """Store a task's cells and mark the task done, in one transaction: all or none of them."""
+        from harness.execution.faults import checkpoint
+
+        rows = [(c if isinstance(c, Cell) else Cell.from_row(c)).to_db_row() for c in cells]
+        with closing(self._connect()) as con, con:
+            con.executemany(
+                f"INSERT OR REPLACE INTO cells (run_id, {', '.join(CELL_COLUMNS)}) "
+                f"VALUES (?, {', '.join('?' for _ in CELL_COLUMNS)})",
+                [(run_id, *[row[c] for c in CELL_COLUMNS]) for row in rows])
+            con.execute("INSERT OR REPLACE INTO tasks (run_id, label, wall_s, cpu_s) VALUES (?, ?, ?, ?)",
+                        (run_id, label, wall_s, cpu_s))
+            checkpoint("store")
+
+    def done_tasks(self, run_id: int) -> dict[str, tuple[float | None, float | None]]:
+        """{label: (wall seconds, CPU seconds)} of the tasks the run has stored whole."""
+        with closing(self._connect()) as con:
+            rows = con.execute("SELECT label, wall_s, cpu_s FROM tasks WHERE run_id = ?", (run_id,)).fetchall()
+        return {r["label"]: (r["wall_s"], r["cpu_s"]) for r in rows}
 
     def finish_run(self, run_id: int, *, finished: str, wall_s: float, timing: dict, regressions: int) -> None:
         with closing(self._connect()) as con, con:

@@ -310,7 +310,8 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
         out["ratio_spread"] = (out.get("rel_spread") or 0.0) + (baseline.get("rel_spread") or 0.0)
         return out
     timing = _Timing(method, scene, dt, time_steps, clock, injected=injected)
-    calibration = Calibration(clock, None if injected is None else injected.get("calibration"))
+    calibration = Calibration(clock, None if injected is None or not injected.get("calibration")
+                              else {**injected["calibration"], "jitter": injected.get("jitter")})
     from harness.methods import get_method
 
     baseline_method = get_method(BASELINE)

@@ -235,7 +235,8 @@ def _cost(task, method, scene, dt, suite) -> Cell:
     repeats interleaved with the method's, explicit Euler's (the ratio's baseline)."""
     from harness.measures.cost import cost_per_step
 
-    res = cost_per_step(method, scene, dt, time_steps=suite.cost_steps, repeats=suite.cost_repeats, clock="cpu")
+    res = cost_per_step(method, scene, dt, time_steps=suite.cost_steps, repeats=suite.cost_repeats, clock="cpu",
+                        injected=task.timings)
     # The baseline's figures and an engine mode's second figure (stepped one call at a time from
     # Python) are stored flat, under baseline_... and as_stepped_...
     flat = {**res, **{f"baseline_{k}": v for k, v in res["baseline"].items()},

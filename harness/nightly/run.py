@@ -49,6 +49,7 @@ class Task:
     steps: int | None = None
     bound: float | None = None
     plugins: tuple[str, ...] = ()  # plugin modules the worker loads before it looks the method up
+    timings: dict | None = None    # injected timings (``harness.measures.cost``), the clock's if None
 
     @property
     def label(self) -> str:
@@ -63,9 +64,11 @@ class Task:
         return measures_for(self)
 
 
-def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH) -> tuple[list[Task], list[dict]]:
+def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
+                timings: dict | None = None) -> tuple[list[Task], list[dict]]:
     """The matrix, and the (scene, method) pairs left out with why (unavailable / unsupported).
-    Methods registered by ``$HARNESS_PLUGINS`` modules join every suite's matrix."""
+    Methods registered by ``$HARNESS_PLUGINS`` modules join every suite's matrix; ``timings``
+    (injected, ``harness.measures.cost``) ride in every cell task."""
     methods = all_methods()
     plugins = active_plugins()
     listed = methods if suite.methods is None else suite.methods
@@ -87,7 +90,8 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH) -> tuple[list
             if not ok:
                 skipped.append({"scene": scene_id, "method": mid, "reason": why})
                 continue
-            tasks.append(Task("cell", scene_id, mid, m.family, dict(spec.params), suite, plugins=plugins))
+            tasks.append(Task("cell", scene_id, mid, m.family, dict(spec.params), suite, plugins=plugins,
+                              timings=timings))
     if suite.bounds:
         for b in bounds_mod.load(bounds_path):
             m = methods.get(b.method)
@@ -222,21 +226,68 @@ def report_run(history: History, run_id: int, out: Path, regressions=(), previou
                trend=None, jobs: int | None = None) -> Path:
     """The run's stored cells judged (``harness.judge``) and written as its report (``reports.markdown``),
     its charts drawn by ``jobs`` processes (default: one a core)."""
+    from harness.execution.faults import checkpoint
     from harness.judge import judge
     from reports.markdown import write_report
 
     cells = history.cell_records(run_id)
     judged = judge(cells, regressions=regressions, previous=previous, trend=trend)
     return write_report(history.run(run_id), cells, judged, out, timing=timing, trend=trend,
-                        jobs=jobs or os.cpu_count() or 1)
+                        jobs=jobs or os.cpu_count() or 1, before_write=lambda: checkpoint("report"))
+
+
+def _resumable(history: History, suite_name: str, identity: dict) -> tuple[int, dict]:
+    """The run ``--resume`` continues: the suite's latest run, if it is incomplete and was
+    measured as this one would be (``identity``: commit and code, versions, platform, settings);
+    else an ``InvalidInput`` saying what stands in the way."""
+    from records import InvalidInput
+
+    runs = history.runs(complete_only=False)
+    runs = runs[runs.suite == suite_name]
+    if runs.empty:
+        raise InvalidInput(f"--resume: no {suite_name} run in {history.path} to resume (run without --resume)")
+    last = runs.iloc[-1]
+    run_id = int(last.run_id)
+    if int(last.complete):
+        raise InvalidInput(f"--resume: the latest {suite_name} run in {history.path}, run {run_id}, is complete: "
+                           f"nothing to resume (run without --resume)")
+    stored = {"commit": last.git_commit, "versions": last.versions, "machine": _platform(last.machine),
+              "measurement version": int(last.measurement_version),
+              **{k: last.settings.get(k) for k in _RESUME_SETTINGS}}
+    differs = [k for k in identity if _plain(stored.get(k)) != _plain(identity[k])]
+    if differs:
+        what = "; ".join(f"{k}: {stored.get(k)!r} then, {identity[k]!r} now" for k in differs)
+        raise InvalidInput(f"--resume: run {run_id} was measured otherwise ({what[:400]}): its cells are not "
+                           f"mixed with these; run without --resume to start a new run")
+    return run_id, last.settings
+
+
+#: The run settings a resumed run must share with the run it continues.
+_RESUME_SETTINGS = ("suite", "cell_timeout", "plugins", "bounds_file", "code_digest", "injected_timings")
+
+
+def _platform(machine: dict) -> dict:
+    return {k: (machine or {}).get(k) for k in ("node", "system", "machine", "processor", "cpus")}
+
+
+def _plain(x):
+    import json
+
+    return json.loads(json.dumps(x, default=str))
 
 
 def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB,
                 jobs: int | None = None, scheduler: str | None = None, bounds_path=bounds_mod.DEFAULT_PATH,
-                progress_stream=None, cell_timeout: float | None = None) -> dict:
-    """Run the suite (a name in ``SUITES``, or a ``Suite``), store every cell, compare with the
-    previous complete run of the same suite, write the report, mark the run complete.
-    ``cell_timeout`` (seconds per task) overrides the suite's."""
+                progress_stream=None, cell_timeout: float | None = None, resume: bool = False,
+                timings=None) -> dict:
+    """Run the suite (a name in ``SUITES``, or a ``Suite``), store every task's cells as it ends,
+    compare with the previous complete run of the same suite, write the report, mark the run
+    complete. ``cell_timeout`` (seconds per task) overrides the suite's. ``resume``: continue the
+    suite's latest run, left incomplete by a kill, running only the tasks it has not stored
+    (``_resumable`` says when it cannot). ``timings``: an injected-timings file
+    (``harness.measures.cost``; default ``$HARNESS_INJECT_TIMINGS``), recorded in the run."""
+    from harness.execution.environment import code_digest, machine_busy_s, plugin_versions
+    from harness.measures.cost import INJECT_VAR, load_injected
     from harness.nightly.cells import failed_cells
 
     suite = SUITES[suite] if isinstance(suite, str) else suite
@@ -244,35 +295,64 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     timeout = suite.cell_timeout if cell_timeout is None else float(cell_timeout)
     t_start = time.perf_counter()
     cpu_start = time.process_time()
-    tasks, skipped = build_tasks(suite, bounds_path)
+    injected = load_injected(timings)
+    tasks, skipped = build_tasks(suite, bounds_path, injected)
     history = History(db)
-    tasks = schedule(tasks, previous_task_seconds(history, suite_name))
     commit, versions, machine = run_metadata()
+    versions = {**versions, **plugin_versions(active_plugins())}
     executor = make_executor(jobs, scheduler)
     settings = {"suite": asdict(suite), "jobs": jobs, "executor": executor.describe(), "skipped": skipped,
                 "cell_timeout": timeout, "plugins": list(active_plugins()),
-                "bounds_file": str(bounds_path), "measurement_version": MEASUREMENT_VERSION}
-    run_id = history.start_run(started=now(), suite=suite_name, git_commit=commit, versions=versions,
-                               machine=machine, settings=settings)
-    progress = Progress(len(tasks), progress_stream)
+                "bounds_file": str(bounds_path), "measurement_version": MEASUREMENT_VERSION,
+                "code_digest": code_digest(),
+                "injected_timings": None if injected is None else {"file": str(timings or os.environ.get(INJECT_VAR)),
+                                                                   **injected}}
+    carried: dict[str, tuple] = {}
+    if resume:
+        identity = {"commit": commit, "versions": versions, "machine": _platform(machine),
+                    "measurement version": MEASUREMENT_VERSION, **{k: settings[k] for k in _RESUME_SETTINGS}}
+        run_id, stored_settings = _resumable(history, suite_name, identity)
+        carried = history.done_tasks(run_id)
+        attempts = [*stored_settings.get("resumed", []), {"at": now(), "tasks_carried": len(carried)}]
+        history.update_settings(run_id, {**stored_settings, "resumed": attempts})
+    else:
+        run_id = history.start_run(started=now(), suite=suite_name, git_commit=commit, versions=versions,
+                                   machine=machine, settings=settings)
+    to_run = schedule([t for t in tasks if t.label not in carried], previous_task_seconds(history, suite_name))
+    progress = Progress(len(to_run), progress_stream)
     cells_by_task: dict[str, list[Cell]] = {}
-    t_cells = time.perf_counter()
+    busy0, t_cells = machine_busy_s(), time.perf_counter()
     try:
-        for task, result in executor.run(tasks, timeout):
+        for task, result in executor.run(to_run, timeout):
             cells = result if isinstance(result, list) else failed_cells(task, result)
-            for cell in cells:
-                history.add_cell(run_id, cell)
+            stats = getattr(executor, "task_stats", {}).get(task.label)
+            history.add_task_cells(run_id, task.label, cells, getattr(stats, "wall_s", None),
+                                   getattr(stats, "cpu_s", None))
             cells_by_task[task.label] = cells
             worst = next((c.status for c in cells if c.status != "ok"), "ok")
             progress.update(task, worst, sum(c.wall_s or 0.0 for c in cells))
     finally:
         executor.close()
     t_cells = time.perf_counter() - t_cells
+    busy1 = machine_busy_s()
+    stats = dict(getattr(executor, "task_stats", {}))
+    if carried:  # the tasks an earlier attempt stored: their cells and seconds, as stored
+        stored = history.cell_records(run_id)
+        for t in tasks:
+            if t.label in carried:
+                cells_by_task[t.label] = [c for c in stored if _of_task(c, t)]
+                if carried[t.label][0] is not None:
+                    stats[t.label] = _Stored(*carried[t.label])
     trend = load_trend(history, run_id=run_id)  # the suite's history, judged at this run
     run_a, _, regressions = compare_runs(history, None, run_id, bounds_path, trend=trend)
     timing = {"tasks": len(tasks), "executor": executor.describe(), "jobs": getattr(executor, "jobs", None),
               "cpus": os.cpu_count(), "workers_started": getattr(executor, "workers_started", None),
-              **timing_summary(cells_by_task, getattr(executor, "task_stats", {}), t_cells)}
+              **timing_summary(cells_by_task, stats, t_cells)}
+    timing["machine_busy"] = _others_share(busy0, busy1, t_cells, cells_by_task, stats, set(carried),
+                                           time.process_time() - cpu_start)
+    if resume:
+        timing["resumed"] = {"attempts": len(history.run(run_id)["settings"].get("resumed", [])),
+                             "tasks_carried": len(carried), "tasks_run": len(to_run)}
     timing["total_s"] = time.perf_counter() - t_start  # up to the report: what its footer can say
     timing["main_cpu_s"] = time.process_time() - cpu_start
     t_report = time.perf_counter()
@@ -285,3 +365,32 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     history.finish_run(run_id, finished=now(), wall_s=timing["finished_s"], timing=timing,
                        regressions=len(regressions))
     return {"run_id": run_id, "previous": run_a, "regressions": regressions, "report": report, "timing": timing}
+
+
+@dataclass(frozen=True)
+class _Stored:
+    """A carried task's seconds, as its attempt stored them (``pool.CallStats``'s two figures)."""
+
+    wall_s: float | None
+    cpu_s: float | None
+
+
+def _of_task(cell: Cell, task: Task) -> bool:
+    """Whether a stored cell is one of ``task``'s: a bound task's one ``bound`` cell, a cell task's
+    every other cell of its scene and method."""
+    if cell.scene != task.scene or cell.method != task.method:
+        return False
+    if task.kind == "bound":
+        return cell.measure == "bound" and cell.dt is not None and round(cell.dt, 15) == round(task.dt, 15)
+    return cell.measure != "bound"
+
+
+def _others_share(busy0, busy1, wall_s: float, cells_by_task: dict, stats: dict, carried: set,
+                  main_cpu_s: float) -> float | None:
+    """The share of the machine's CPU that other processes took while the cells ran: its busy
+    seconds (``/proc/stat``) less the workers' and this process's, over wall x cores."""
+    if busy0 is None or busy1 is None or wall_s <= 0:
+        return None
+    ours = main_cpu_s + sum(getattr(stats.get(label), "cpu_s", None) or 0.0
+                            for label in cells_by_task if label not in carried)
+    return max(0.0, (busy1 - busy0 - ours) / (wall_s * (os.cpu_count() or 1)))
