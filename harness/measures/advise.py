@@ -220,17 +220,18 @@ def _judge(row: Row, request: Request) -> None:
     row.why = "; ".join(whys)
 
 
-def _cost_per_step(method, scene: Scene, h: float) -> tuple[float | None, str]:
+def _cost_per_step(method, scene: Scene, h: float, injected: dict | None = None) -> tuple[float | None, str]:
     from harness.measures.cost import wall_time_per_step
 
-    res = wall_time_per_step(method, scene, h, repeats=COST_REPEATS, clock="cpu")
+    res = wall_time_per_step(method, scene, h, repeats=COST_REPEATS, clock="cpu", injected=injected)
     return res["s_per_step"], f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
 
 
 def advise_method(method, scene: Scene, request: Request, *, timeout: float | None = None,
-                  cost_per_step: tuple[float, str] | None = None) -> MethodAdvice:
+                  cost_per_step: tuple[float, str] | None = None, injected: dict | None = None) -> MethodAdvice:
     """The search over substeps for one method, in this process (the caller isolates engines).
-    ``cost_per_step`` = (seconds, how timed) reuses a measured figure (a nightly's cost cell)."""
+    ``cost_per_step`` = (seconds, how timed) reuses a measured figure (a nightly's cost cell);
+    ``injected``: timings to read instead of the clock's (``harness.measures.cost``)."""
     method = resolve(method, scene)
     out = MethodAdvice(method.id)
     try:
@@ -265,7 +266,7 @@ def advise_method(method, scene: Scene, request: Request, *, timeout: float | No
     if best is not None:
         out.best = sorted(rows).index(best)
         if out.cost_per_step_s is None:
-            out.cost_per_step_s, out.cost_timing = _cost_per_step(method, scene, out.best_row.h)
+            out.cost_per_step_s, out.cost_timing = _cost_per_step(method, scene, out.best_row.h, injected)
     for row in out.rows:
         if out.cost_per_step_s is not None:
             row.cost_per_frame_s = row.substeps * out.cost_per_step_s
@@ -434,20 +435,22 @@ def candidates(scene: Scene, patterns: list[str] | None) -> tuple[list[str], lis
     return keep, left
 
 
-def _advise_in_worker(method_id: str, scene: Scene, request: Request, timeout, plugins) -> MethodAdvice:
+def _advise_in_worker(method_id: str, scene: Scene, request: Request, timeout, plugins,
+                      injected: dict | None = None) -> MethodAdvice:
     from harness.methods import get_method, use_plugins
 
     use_plugins(plugins)
-    return advise_method(get_method(method_id), scene, request, timeout=timeout)
+    return advise_method(get_method(method_id), scene, request, timeout=timeout, injected=injected)
 
 
 def advise(scene: Scene, request: Request, patterns: list[str] | None = None, *, jobs: int = 1,
            timeout: float = 120.0) -> Advice:
     """Advice for ``scene``: every candidate method searched in ``jobs`` reused worker processes
     (an engine that aborts or hangs costs its method a ``crashed`` / ``timed_out`` entry), then
-    ranked."""
+    ranked. Timings injected by ``$HARNESS_INJECT_TIMINGS`` are read here and handed to the workers."""
     from concurrent.futures import ThreadPoolExecutor
 
+    from harness.measures.cost import load_injected
     from harness.execution.isolation import WorkerFailure
     from harness.execution.pool import WorkerPool
     from harness.methods import active_plugins
@@ -456,9 +459,10 @@ def advise(scene: Scene, request: Request, patterns: list[str] | None = None, *,
     validate.scene_values(scene)
     ids, left = candidates(scene, patterns)
     plugins = active_plugins()
+    injected = load_injected()
     results: dict[str, MethodAdvice] = {}
     with WorkerPool(max(1, min(jobs, len(ids) or 1))) as pool, ThreadPoolExecutor(max(1, jobs)) as threads:
-        futures = {mid: threads.submit(pool.call, _advise_in_worker, (mid, scene, request, timeout, plugins),
+        futures = {mid: threads.submit(pool.call, _advise_in_worker, (mid, scene, request, timeout, plugins, injected),
                                        timeout=timeout) for mid in ids}
         for mid, fut in futures.items():
             res = fut.result()

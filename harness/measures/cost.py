@@ -278,6 +278,7 @@ def wall_time_per_step(method, scene: Scene, dt: float, *, steps: int | None = N
     """Seconds per step by the rule in the module docstring (compiled for reference schemes,
     in-process ``simulate`` for engine modes, through ``loop``), on ``clock`` ("wall" or "cpu")."""
     method = resolve(method, scene)
+    injected = injected if injected is not None else load_injected()
     timing = _Timing(method, scene, dt, steps, clock, loop, injected=injected)
     for _ in range(repeats):
         timing.repeat()
