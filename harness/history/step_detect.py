@@ -115,13 +115,16 @@ class Fit:
 
     def regression(self, worse_if_higher: bool = True) -> tuple[int, float, float] | None:
         """(index of the first step after the best level, best level, latest level) when the latest
-        level is worse than the best before it by more than ``REGRESSION_NOISE`` noise units."""
+        level is worse than the best before it by more than ``REGRESSION_NOISE`` noise units: the
+        cell's noise, or the newest point's own where larger (a night whose figure was measured
+        again in fresh processes carries their spread, ``harness.nightly.run.remeasure_slowdowns``)."""
         if len(self.levels) < 2:
             return None
         sign = 1.0 if worse_if_higher else -1.0
         logs = [sign * math.log(v) for v in self.levels]
         best = int(np.argmin(logs[:-1]))
-        if logs[-1] - logs[best] > REGRESSION_NOISE * self.noise:
+        noise = max(self.noise, self.point_noise[-1]) if self.point_noise else self.noise
+        if logs[-1] - logs[best] > REGRESSION_NOISE * noise:
             return self.segments[best + 1][0], self.levels[best], self.levels[-1]
         return None
 
