@@ -398,3 +398,45 @@ def test_segment_medians_are_numpys_weighted_medians():
             seg, sw = x[start:start + r + 1], w[start:start + r + 1]
             assert medians[r] == np.quantile(seg, 0.5, weights=sw, method="inverted_cdf")
             assert costs[r] == pytest.approx(np.sum(sw * np.abs(seg - medians[r])), rel=1e-12)
+
+
+# ----------------------------------------------------------------------------- re-measured before the verdict
+def _cost_cell(ratio: float):
+    from records.cell import Cell
+
+    return Cell.from_row({"scene": "spring", "method": "ref:rk4", "family": "ref", "measure": "cost", "dt": 0.1,
+                          "steps": 1000, "status": "ok", "value": 1e-7 * ratio,
+                          "data": {"ratio_to_explicit_euler": ratio, "ratio_spread": 0.02}})
+
+
+@pytest.mark.parametrize("again, regressed", [((4.0, 4.1, 3.9), False), ((4.8, 4.75, 4.85), True)])
+def test_a_slowdown_is_measured_again_in_fresh_processes_before_it_is_reported(tmp_path, monkeypatch, again,
+                                                                                regressed):
+    """Six nights, each a new commit, the last 20% up in one process: flagged. Measured again in
+    three fresh processes: where they fall back (process-to-process noise), the night's point is
+    their median with their spread and no slowdown is reported; where they confirm it, it is."""
+    from harness.execution import isolation
+    from harness.history.compare import compare_runs
+    from harness.nightly import run as nightly_run
+
+    h = stored_history(tmp_path / "h.sqlite", [4.0, 4.04, 3.98, 4.02, 4.0, 4.8])
+    _, _, regressions = compare_runs(h, None, 6)
+    assert [(r.kind, r.method) for r in regressions] == [("slowdown", "ref:rk4")]
+    calls = []
+
+    def fake_worker(fn, args, timeout=None):
+        (task,) = args
+        calls.append((task.kind, task.scene, task.method))
+        return [_cost_cell(again[len(calls) - 1])]
+
+    monkeypatch.setattr(isolation, "run_in_worker", fake_worker)
+    task = nightly_run.Task("cell", "spring", "ref:rk4", "ref", {}, "smoke")
+    got = nightly_run.remeasure_slowdowns(h, 6, [task], regressions, timeout=10.0, jobs=1)
+    assert calls == [("cost", "spring", "ref:rk4")] * nightly_run.REMEASURES
+    assert got == {task.label: [4.8, *again]}
+    data = h.cells(6).query("measure == 'cost'").iloc[0].data
+    assert data["first_ratio"] == 4.8 and data["remeasured_ratios"] == list(again)
+    assert data["ratio_to_explicit_euler"] == float(np.median([4.8, *again]))
+    assert data["ratio_spread"] == pytest.approx(max(0.05, (max(4.8, *again) - min(again)) / min(again)))
+    _, _, regressions = compare_runs(h, None, 6)
+    assert bool(regressions) == regressed
