@@ -76,6 +76,10 @@ def parse_options(items: list[str] | None) -> dict[str, str]:
     return out
 
 
+#: The most iterations a scheme's option takes (projection passes, Newton iterations).
+MAX_ITERATIONS = 10**6
+
+
 def _with_options(method: Method, options: dict) -> Method:
     valid = method.scheme.options if method.scheme is not None else {}
     checked = {}
@@ -83,14 +87,9 @@ def _with_options(method: Method, options: dict) -> Method:
         if name not in valid:
             raise InvalidInput(f"unknown option {name!r} for method {method.id} "
                                f"(valid: {', '.join(valid) or 'none'})")
-        try:
-            x = int(value)
-            ok = x == float(value) and x >= 1
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise InvalidInput(f"option {name}={value} is out of range (allowed: integer >= 1)")
-        checked[name] = x
+        from harness import validate
+
+        checked[name] = validate.count(f"option {name}", value, 1, MAX_ITERATIONS)
     return RefMethod(method.scheme, checked) if checked else method
 
 

@@ -17,13 +17,20 @@ def positive_finite(name: str, value) -> float:
     return x
 
 
-def count(name: str, value, minimum: int = 0) -> int:
+#: The most timesteps a sweep (order, work-precision) takes.
+MAX_POINTS = 1000
+#: The largest count any field takes: 1e9 steps of the fastest kernel is minutes; beyond, a typo.
+MAX_COUNT = 10**9
+
+
+def count(name: str, value, minimum: int = 0, maximum: int = MAX_COUNT) -> int:
+    allowed = f"allowed: integer from {minimum} to {maximum}"
     try:
         x = int(value)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{name}={value!r} is not an integer (allowed: integer >= {minimum})") from None
-    if x != float(value) or x < minimum:
-        raise InvalidInput(f"{name}={value} is out of range (allowed: integer >= {minimum})")
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidInput(f"{name}={value!r} is not an integer ({allowed})") from None
+    if not minimum <= x <= maximum or x != float(value):
+        raise InvalidInput(f"{name}={value} is out of range ({allowed})")
     return x
 
 

@@ -336,8 +336,8 @@ def test_a_slowed_method_is_flagged_as_a_step_on_the_run_after_it_slows(nights):
     (["--scene", "moon"], "unknown --scene 'moon' in the history-smoke history of"),
     (["--method", "ref:nope"], f"unknown --method 'ref:nope' in the history-smoke history of"),
     (["--measure", "speed"], "unknown --measure 'speed' (valid: energy, error, order, stability, cost)"),
-    (["--last", "0"], "--last=0 is out of range (allowed: integer >= 1)"),
-    (["--last", "-2"], "--last=-2 is out of range (allowed: integer >= 1)"),
+    (["--last", "0"], "--last=0 is out of range (allowed: integer from 1 to 1000000000)"),
+    (["--last", "-2"], "--last=-2 is out of range (allowed: integer from 1 to 1000000000)"),
     (["--suite", "huge"], "unknown --suite 'huge' in"),
 ])
 def test_bad_history_input_is_one_line_exit_2(nights, argv, says):

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import sqlite3
 import sys
 
 from records import InvalidInput
@@ -35,6 +36,10 @@ def main(argv: list[str] | None = None) -> int:
         return int(args._run(args) or 0)
     except InvalidInput as exc:
         print(f"harness: error: {exc}", file=sys.stderr)
+        return 2
+    except sqlite3.DatabaseError as exc:  # a history truncated or overwritten past its first pages
+        print(f"harness: error: --db: the history cannot be read (SQLite: {exc}); nothing was written to it",
+              file=sys.stderr)
         return 2
     except BrokenPipeError:
         return 0

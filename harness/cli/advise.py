@@ -34,7 +34,7 @@ def add_parser(sub):
 def run(args) -> int:
     request = Request(hz=args.hz, horizon=args.horizon, energy_tol=args.energy_tol, error_tol=args.error_tol,
                       max_substeps=args.max_substeps).checked()
-    jobs = validate.count("--jobs", args.jobs, 1)
+    jobs = validate.count("--jobs", args.jobs, 1, 1024)
     timeout = validate.positive_finite("--timeout", args.timeout)
     patterns = [p.strip() for item in args.methods or () for p in item.split(",") if p.strip()]
     scene = make_scene(args.scene, **parse_overrides(args.set))

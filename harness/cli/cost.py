@@ -21,7 +21,7 @@ def add_parser(sub):
 
 def run(args) -> int:
     dt = validate.positive_finite("--dt", args.dt)
-    repeats = validate.count("--repeats", args.repeats, 1)
+    repeats = validate.count("--repeats", args.repeats, 1, 1000)
     time_steps = validate.count("--time-steps", args.time_steps, 1) if args.time_steps is not None else None
     count_steps = validate.count("--count-steps", args.count_steps, 1)
     timeout = timeout_of(args)

@@ -38,7 +38,7 @@ def run(args) -> int:
     from harness.history import bounds as bounds_mod
 
     suite = validate.choice("--suite", args.suite, list(SUITES))
-    jobs = validate.count("--jobs", args.jobs, 1) if args.jobs is not None else None
+    jobs = validate.count("--jobs", args.jobs, 1, 1024) if args.jobs is not None else None
     cell_timeout = validate.positive_finite("--cell-timeout", args.cell_timeout) if args.cell_timeout is not None else None
     bounds_path = Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH
     bounds_mod.load(bounds_path)  # a broken bounds file fails before anything runs

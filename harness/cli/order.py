@@ -21,7 +21,7 @@ def add_parser(sub):
 
 
 def run(args) -> int:
-    points = validate.count("--points", args.points, MIN_POINTS)
+    points = validate.count("--points", args.points, MIN_POINTS, validate.MAX_POINTS)
     span = validate.positive_finite("--span", args.span)
     if span <= 1.0:
         raise InvalidInput(f"--span={args.span} is out of range (allowed: finite, > 1)")

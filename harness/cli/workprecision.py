@@ -20,10 +20,10 @@ def add_parser(sub):
 
 
 def run(args) -> int:
-    points = validate.count("--points", args.points, 1)
+    points = validate.count("--points", args.points, 1, validate.MAX_POINTS)
     homega_max = validate.positive_finite("--homega-max", args.homega_max)
     periods = validate.positive_finite("--periods", args.periods)
-    repeats = validate.count("--repeats", args.repeats, 1)
+    repeats = validate.count("--repeats", args.repeats, 1, 1000)
     timeout = timeout_of(args)
     scene = scene_of(args)
     if args.method:

@@ -51,15 +51,19 @@ def load(path: str | Path = DEFAULT_PATH) -> list[Bound]:
     if not path.exists():
         raise InvalidInput(f"bounds file {path} does not exist")
     out = []
-    with open(path, newline="") as fh:
-        rows = [r for r in csv.DictReader(line for line in fh if not line.startswith("#"))]
+    try:
+        with open(path, newline="") as fh:
+            rows = [r for r in csv.DictReader(line for line in fh if not line.startswith("#"))]
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise InvalidInput(f"bounds file {path} cannot be read ({type(exc).__name__}: {exc}); valid: a CSV with "
+                           f"fields {', '.join(FIELDS)}") from None
     for i, row in enumerate(rows, start=2):
         try:
             b = Bound(row["scene"], row["method"], float(row["dt"]), int(row["steps"]), float(row["bound"]),
                       row.get("note") or "")
         except (KeyError, TypeError, ValueError) as exc:
             raise InvalidInput(f"bounds file {path} row {i}: {exc} (fields: {', '.join(FIELDS)})") from None
-        if not (b.dt > 0 and b.steps > 0 and b.bound > 0 and math.isfinite(b.bound)):
+        if not (b.dt > 0 and b.steps > 0 and b.bound > 0 and math.isfinite(b.bound) and math.isfinite(b.dt)):
             raise InvalidInput(f"bounds file {path} row {i}: dt, steps and bound must be finite and > 0")
         out.append(b)
     return out

@@ -105,16 +105,20 @@ class History:
     """The run history at ``path`` (created on first use)."""
 
     def __init__(self, path: str | Path):
+        from records import InvalidInput
+
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        with closing(self._connect()) as con, con:
-            con.executescript(SCHEMA)
-            missing = {table: sorted(set(cols) - {r[1] for r in con.execute(f"PRAGMA table_info({table})")})
-                       for table, cols in REQUIRED_COLUMNS.items()}
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            with closing(self._connect()) as con, con:
+                con.executescript(SCHEMA)
+                missing = {table: sorted(set(cols) - {r[1] for r in con.execute(f"PRAGMA table_info({table})")})
+                           for table, cols in REQUIRED_COLUMNS.items()}
+        except (OSError, sqlite3.DatabaseError) as exc:
+            raise InvalidInput(f"--db {self.path}: not a readable history ({type(exc).__name__}: {exc}); valid: a "
+                               f"SQLite history written by harness nightly, or a new file") from None
         missing = {t: cols for t, cols in missing.items() if cols}
         if missing:
-            from records import InvalidInput
-
             lacks = "; ".join(f"{t} lacks {', '.join(cols)}" for t, cols in missing.items())
             raise InvalidInput(f"{self.path} was written by an older harness ({lacks}): not read, never mixed "
                                f"with new runs; start a new history with --db")
