@@ -159,15 +159,17 @@ def _segment_costs(x: np.ndarray, w: np.ndarray, start: int) -> tuple[np.ndarray
     return medians, (W * np.abs(xs[None, :] - medians[:, None])).sum(axis=1)
 
 
-def detect_steps(values, spreads=None) -> Fit:
-    """Fit the series ``values`` (> 0; ``spreads``: each point's measured relative spread, or None)."""
+def detect_steps(values, spreads=None, noise_floor: float = 0.0) -> Fit:
+    """Fit the series ``values`` (> 0; ``spreads``: each point's measured relative spread, or None);
+    ``noise_floor``: the least cell noise (log units), where it was measured otherwise (the
+    process-to-process noise of the newest night's re-measurement)."""
     y = np.asarray(values, dtype=float)
     if y.ndim != 1 or len(y) == 0 or not np.all(np.isfinite(y)) or np.any(y <= 0):
         raise ValueError("step detection needs a non-empty series of finite values > 0")
     x = np.log(y)
     m = len(x)
     spread = np.zeros(m) if spreads is None else np.nan_to_num(np.asarray(spreads, dtype=float), nan=0.0)
-    s = cell_noise(x)
+    s = max(cell_noise(x), float(noise_floor))
     s_i = np.maximum(s, np.log1p(np.maximum(spread, 0.0)) / SPREAD_PER_NOISE)
     w = 1.0 / s_i
     gamma = penalty(m)

@@ -3,14 +3,17 @@
 Flow: build the tasks (one per scene x method that supports it, plus one per reviewed
 energy bound), longest first by the previous run's timings; run each in a reused, isolated
 worker process (a crash, hang or blow-up becomes a recorded cell, and the cells measured
-before a crash or hang are kept); store every cell as it arrives; compare with the previous
-complete run of the suite, judging cost over the suite's history (``harness.history.series``); write
-the report atomically, with the history and where the time went; and only then mark the run
-complete.
+before a crash or hang are kept); store each task's cells as it ends, in one transaction with a
+row saying the task is done; compare with the previous complete run of the suite, judging cost
+over the suite's history (``harness.history.series``); measure every cell that would be reported
+as a slowdown again in fresh processes, and judge again (``remeasure_slowdowns``); write the
+report atomically, with the history and where the time went; and only then mark the run
+complete. A run killed anywhere before that is continued by ``resume`` from the tasks it stored.
 """
 from __future__ import annotations
 
 import datetime as dt_
+import math
 import os
 import platform
 import sys
@@ -377,6 +380,9 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
 
 #: Fresh worker processes a flagged cost cell is measured in again before its slowdown is reported.
 REMEASURES = 3
+#: The expected range of n gaussian draws, in standard deviations (the d2 of control charts): the
+#: re-measured ratios' range, in log units, over it is the cell's process-to-process noise.
+RANGE_IN_SIGMAS = {2: 1.128, 3: 1.693, 4: 2.059, 5: 2.326, 6: 2.534}
 #: The most cells re-measured in one run (a run where everything slowed needs no confirmation cell by cell).
 MAX_REMEASURED = 12
 
@@ -388,8 +394,9 @@ def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regres
     regression). One process's figure can sit 10-35% from another's with nothing changed (where
     the allocator and the compiled code land: ``harness.history.compare``), which one night's
     repeats, all in one process, cannot show. The stored cell becomes the median of the first
-    measurement and the re-measurements, its spread theirs, so that the history judges it
-    against the noise measured in this run. Returns {cell label: the ratios, first one first}."""
+    measurement and the re-measurements, its spread theirs, and their range the cell's
+    process-to-process noise (``process_noise``, log units), which the history takes as the
+    least noise the cell's step detection may assume: judged against the noise measured now. Returns {cell label: the ratios, first one first}."""
     from concurrent.futures import ThreadPoolExecutor
 
     from harness.execution.isolation import run_in_worker
@@ -419,6 +426,7 @@ def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regres
         if first is None or len(ratios) < 2:
             continue
         data.update(first_ratio=float(first), remeasured_ratios=ratios[1:],
+                    process_noise=math.log(max(ratios) / min(ratios)) / RANGE_IN_SIGMAS[len(ratios)],
                     ratio_to_explicit_euler=float(np.median(ratios)),
                     ratio_spread=max(float(data.get("ratio_spread") or 0.0),
                                      (max(ratios) - min(ratios)) / min(ratios)))
