@@ -16,8 +16,29 @@ from matplotlib.ticker import Formatter, LogFormatterMathtext  # noqa: E402
 from records.cell import Cell  # noqa: E402
 
 
-def _style(method: str) -> dict:
-    return {"linestyle": "-" if method.startswith("ref:") else "--", "linewidth": 1.2}
+#: The report's colours: tab20's ten strong ones, its ten light ones, then tab20b's twenty (40 in
+#: all: neighbours in id order differ in hue first), and the markers, cycling at another period.
+COLOURS = ([plt.cm.tab20(i) for i in range(0, 20, 2)] + [plt.cm.tab20(i) for i in range(1, 20, 2)]
+           + [plt.cm.tab20b(i) for i in range(20)])
+MARKERS = "osD^v<>phXP*"
+
+
+def method_styles(methods) -> dict[str, dict]:
+    """One colour and marker per method, the same in every chart of a report: the methods in id
+    order, the i-th the i-th colour (40 distinct) and marker; reference schemes solid lines,
+    engine modes dashed. Charts of one scene show a subset, each method as in the others."""
+    return {m: {"color": COLOURS[i % len(COLOURS)], "marker": MARKERS[i % len(MARKERS)],
+                "linestyle": "-" if m.startswith("ref:") else "--", "linewidth": 1.2}
+            for i, m in enumerate(sorted(set(methods)))}
+
+
+def _style(method: str, styles: dict | None) -> dict:
+    return dict((styles or {}).get(method) or method_styles([method])[method])
+
+
+def _legend_outside(ax, fontsize: float = 7) -> None:
+    """The legend right of the axes, never over the data."""
+    ax.legend(fontsize=fontsize, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
 
 
 _SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
@@ -90,7 +111,7 @@ def _ok(cells: list[Cell], measure: str, statuses=("ok",)) -> list[Cell]:
     return sorted((c for c in cells if c.measure == measure and c.status in statuses), key=lambda c: c.method)
 
 
-def energy_chart(cells: list[Cell], scene: str, path: Path) -> bool:
+def energy_chart(cells: list[Cell], scene: str, path: Path, styles: dict | None = None) -> bool:
     """E(t)/E_exact(0) per method at the nominal timestep, log scale; the exact curve faint.
     Explicit Euler's energy runs away, symplectic schemes stay in a band, RK4 and implicit Euler sink."""
     rows = [c for c in _ok(cells, "energy", ("ok", "unstable")) if c.figures.series]
@@ -105,12 +126,13 @@ def energy_chart(cells: list[Cell], scene: str, path: Path) -> bool:
         if not exact_drawn:
             ax.plot(t, np.abs(ex) / e0, color="0.7", linewidth=4, alpha=0.5, label="exact", zorder=0)
             exact_drawn = True
-        ax.plot(t, np.clip(np.abs(e) / e0, 1e-6, 1e6), label=r.method, **_style(r.method))
+        ax.plot(t, np.clip(np.abs(e) / e0, 1e-6, 1e6), label=r.method, markersize=4,
+                markevery=max(1, len(t) // 10), **_style(r.method, styles))
     ax.set_yscale("log")
     ax.set_xlabel("t")
     ax.set_ylabel("|E(t)| / |E_exact(0)|  (clipped to 1e±6)")
     ax.set_title(f"{scene}: energy at the nominal timestep")
-    ax.legend(fontsize=7, ncol=2, loc="best")
+    _legend_outside(ax)
     return _save(fig, path)
 
 
@@ -120,7 +142,7 @@ def cost_source(method: str) -> str:
     return "compiled" if method.startswith("ref:") else "engine's own loop"
 
 
-def workprecision_chart(cells: list[Cell], scene: str, path: Path) -> bool:
+def workprecision_chart(cells: list[Cell], scene: str, path: Path, styles: dict | None = None) -> bool:
     """Max global error against measured cost (seconds per unit of simulated time, on the
     clock the cost cells used), log-log, one line per method over its timestep sweep:
     reference schemes solid (compiled loop), engines dashed (the engine's own loop)."""
@@ -138,7 +160,7 @@ def workprecision_chart(cells: list[Cell], scene: str, path: Path) -> bool:
             continue
         work = [sps / p["dt"] for p in pts]
         err = [p["error"] for p in pts]
-        ax.plot(work, err, marker="o", markersize=3, label=f"{method} ({cost_source(method)})", **_style(method))
+        ax.plot(work, err, markersize=4, label=f"{method} ({cost_source(method)})", **_style(method, styles))
         clocks.add(cost[method].figures.clock or "wall")
         drawn += 1
     if not drawn:
@@ -146,16 +168,17 @@ def workprecision_chart(cells: list[Cell], scene: str, path: Path) -> bool:
         return False
     ax.set_xscale("log")
     ax.set_yscale("log")
-    clock = {"cpu": "CPU", "wall": "wall"}.get(clocks.pop(), "wall") if len(clocks) == 1 else "mixed-clock"
+    clock = ({"cpu": "CPU", "wall": "wall", "injected": "injected (not measured)"}.get(clocks.pop(), "wall")
+             if len(clocks) == 1 else "mixed-clock")
     ax.set_xlabel(f"cost: {clock} seconds per unit of simulated time (measured; engines: their own loop, "
                   "not the harness's per-step path)")
     ax.set_ylabel("max global error")
     ax.set_title(f"{scene}: work-precision")
-    ax.legend(fontsize=7, ncol=2, loc="best")
+    _legend_outside(ax)
     return _save(fig, path)
 
 
-def stability_chart(cells: list[Cell], scene: str, path: Path) -> bool:
+def stability_chart(cells: list[Cell], scene: str, path: Path, styles: dict | None = None) -> bool:
     """Largest stable h*omega per method: bars; unbounded methods drawn to the searched bound
     and hatched; methods unstable for every h drawn at zero and labelled."""
     rows = _ok(cells, "stability")
@@ -173,17 +196,18 @@ def stability_chart(cells: list[Cell], scene: str, path: Path) -> bool:
             ax.text(bound, i, f" unbounded (searched to {bound:.3g})", va="center", fontsize=7)
         else:
             v = r.value if r.value is not None and not math.isnan(r.value) else 0.0
-            ax.barh(i, v, color="tab:blue" if r.method.startswith("ref:") else "tab:orange")
+            st = _style(r.method, styles)
+            ax.barh(i, v, color=st["color"], edgecolor="0.2", linestyle=st["linestyle"], linewidth=0.8)
             ax.text(v, i, f" {v:.4g}", va="center", fontsize=7)
     ax.set_yticks(range(len(rows)))
     ax.set_yticklabels([r.method for r in rows], fontsize=7)
     ax.set_xscale("symlog", linthresh=10)
     ax.set_xlabel("largest stable h·ω")
-    ax.set_title(f"{scene}: stability limit (blue: reference, orange: engine)")
+    ax.set_title(f"{scene}: stability limit (each method in its report colour; engine modes edged dashed)")
     return _save(fig, path)
 
 
-def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path) -> bool:
+def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path, styles: dict | None = None) -> bool:
     """Cost per frame against the error the advice judges (energy error where the suite sets an
     energy tolerance, else position error), one point per (method, substeps) measured at ``hz``,
     the tolerance as a horizontal line; rows unstable there drawn at the top edge. Cost: s x the
@@ -202,7 +226,7 @@ def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path) -> bool:
         good = sorted((c, e) for c, e, stable in pts if stable and e is not None and e > 0)
         if good:
             xs, ys = zip(*good)
-            ax.plot(xs, ys, marker="o", markersize=3, label=r.method, **_style(r.method))
+            ax.plot(xs, ys, markersize=4, label=r.method, **_style(r.method, styles))
             stable_pts += good
         unstable_pts += [(c, r.method) for c, _, stable in pts if not stable]
     if not stable_pts and not unstable_pts:
@@ -221,7 +245,7 @@ def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path) -> bool:
     ax.set_xlabel("cost per frame: substeps x CPU µs per step (compiled kernel / engine step)")
     ax.set_ylabel(label)
     ax.set_title(f"{scene} at {hz:g} Hz: error against cost, one point per (method, substeps)")
-    ax.legend(fontsize=7, ncol=2, loc="best")
+    _legend_outside(ax)
     return _save(fig, path)
 
 
@@ -229,7 +253,7 @@ def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path) -> bool:
 DAMPING_CHART_TOP = 20.0
 
 
-def damping_stability_chart(cells: list[Cell], path: Path) -> bool:
+def damping_stability_chart(cells: list[Cell], path: Path, styles: dict | None = None) -> bool:
     """Largest stable h*omega against the damping ratio: one theory line per reference scheme
     (from its cell's ``theory_curve``), the measured limits as points: small dots for the
     reference schemes, larger markers for the engine modes. Unbounded limits are drawn at
@@ -242,12 +266,10 @@ def damping_stability_chart(cells: list[Cell], path: Path) -> bool:
         return DAMPING_CHART_TOP if v is not None and math.isinf(v) else v
 
     fig, ax = plt.subplots(figsize=(11, 5))
-    colors = {}
     refs = [r for r in rows if r.method.startswith("ref:")]
-    for i, r in enumerate(refs):
+    for r in refs:
         curve = r.figures.theory_curve
-        color = plt.cm.tab20(i % 20)
-        colors[r.method] = color
+        color = _style(r.method, styles)["color"]
         if curve:
             zs = [z for z, v in zip(curve["zeta"], curve["homega_max"]) if v is not None]
             vs = [y(v) for v in curve["homega_max"] if v is not None]
@@ -255,20 +277,20 @@ def damping_stability_chart(cells: list[Cell], path: Path) -> bool:
         pts = [(row["zeta"], y(row["measured"])) for row in r.figures.rows or [] if row["measured"] is not None]
         if pts:
             ax.plot(*zip(*pts), linestyle="none", marker=".", color=color, markersize=5)
-    markers = "osD^v<>ph*"
     engines = [r for r in rows if not r.method.startswith("ref:")]
-    for i, r in enumerate(engines):
+    for r in engines:
         pts = [(row["zeta"], y(row["measured"])) for row in r.figures.rows or [] if row["measured"] is not None]
         if not pts:
             continue
         scheme = r.figures.scheme
-        ax.plot(*zip(*pts), linestyle="none", marker=markers[i % len(markers)], markersize=7, fillstyle="none",
-                color=colors.get(scheme, "k"), label=f"{r.method} (as {scheme[4:] if scheme else '?'})")
+        st = _style(r.method, styles)
+        ax.plot(*zip(*pts), linestyle="none", marker=st["marker"], markersize=7, fillstyle="none",
+                color=st["color"], label=f"{r.method} (as {scheme[4:] if scheme else '?'})")
     ax.set_yscale("log")
     ax.axhline(DAMPING_CHART_TOP, color="0.8", linewidth=0.8)
     ax.text(0.0, DAMPING_CHART_TOP * 1.05, "unbounded", fontsize=7, color="0.4")
     ax.set_xlabel("damping ratio ζ")
     ax.set_ylabel("largest stable h·ω")
     ax.set_title("damped_spring: stability limit against damping (lines: theory; points: measured)")
-    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    _legend_outside(ax, fontsize=6)
     return _save(fig, path)

@@ -17,7 +17,7 @@ import multiprocessing
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -28,17 +28,18 @@ class ChartNotDrawn(RuntimeWarning):
 
 @dataclass(frozen=True)
 class Chart:
-    """One chart of the report: ``draw(*args, out_dir / name) -> bool`` (True when it drew)."""
+    """One chart of the report: ``draw(*args, out_dir / name, **kwargs) -> bool`` (True when it drew)."""
     name: str  # relative to the report's folder, e.g. "charts/run4-spring-energy.png"
     draw: Callable[..., bool]
     args: tuple
+    kwargs: dict = field(default_factory=dict)
 
 
 def _draw(chart: Chart, out_dir: Path) -> tuple[bool, str | None]:
     """(drew, why not where it raised): the error comes back as text, since not every exception
     pickles back from a worker."""
     try:
-        return bool(chart.draw(*chart.args, out_dir / chart.name)), None
+        return bool(chart.draw(*chart.args, out_dir / chart.name, **chart.kwargs)), None
     except Exception as exc:  # noqa: BLE001 - a chart is never worth the report
         import matplotlib.pyplot as plt
 

@@ -59,7 +59,7 @@ def trend_chart(cell, run_ids: list[int], path: Path) -> bool:
     ax.set_ylabel(cell.unit, fontsize=8)
     ax.tick_params(axis="y", labelsize=7)
     ax.set_title(cell.label, fontsize=8)
-    ax.legend(fontsize=6, loc="best")
+    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)  # never over the data
     return _save(fig, path)
 
 

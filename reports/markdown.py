@@ -453,18 +453,19 @@ def report_charts(run_id: int, cells: list[Cell], trend=None) -> tuple[list[Char
     """(every chart the report can show, to be drawn: ``reports.drawing``; {(scene, kind): chart
     name} of the per-scene ones, for the sections that show them)."""
     scenes = list(dict.fromkeys(c.scene for c in cells if c.measure != "bound"))
+    styles = {"styles": charts.method_styles(c.method for c in cells)}  # one colour and marker a method
     todo, names = [], {}
     for scene in scenes:
         of_scene = [c for c in cells if c.scene == scene]
         for kind, fn in (("energy", charts.energy_chart), ("workprecision", charts.workprecision_chart),
                          ("stability", charts.stability_chart)):
             names[(scene, kind)] = name = f"charts/run{run_id}-{scene}-{kind}.png"
-            todo.append(Chart(name, fn, (of_scene, scene)))
+            todo.append(Chart(name, fn, (of_scene, scene), styles))
         for hz in _frame_rates(cells):
             names[(scene, f"advise{hz:g}")] = name = f"charts/run{run_id}-{scene}-advise{hz:g}hz.png"
-            todo.append(Chart(name, charts.advice_chart, (of_scene, scene, hz)))
+            todo.append(Chart(name, charts.advice_chart, (of_scene, scene, hz), styles))
     names["damping"] = name = f"charts/run{run_id}-damping-stability.png"
-    todo.append(Chart(name, charts.damping_stability_chart, (cells,)))
+    todo.append(Chart(name, charts.damping_stability_chart, (cells,), styles))
     return todo + history_charts(trend, run_id), names
 
 

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import matplotlib.colors
 from matplotlib.image import imread
 
 from harness.history import bounds as bounds_mod
@@ -194,7 +195,7 @@ def _write_stored_report(tmp: Path, out: Path, jobs: int) -> str:
     return write_report(h.run(1), cells, judge(cells), out, timing=h.run(1)["timing"], jobs=jobs).read_text()
 
 
-def _broken_energy_chart(cells, scene, path):
+def _broken_energy_chart(cells, scene, path, styles=None):
     raise RuntimeError("energy series unreadable")
 
 
@@ -413,3 +414,46 @@ def test_bad_suite_and_bad_timeout_are_one_line_exit_2(capsys):
     assert "valid: smoke, standard, full" in capsys.readouterr().err
     assert main(["nightly", "--suite", "smoke", "--cell-timeout", "0"]) == 2
     assert "--cell-timeout=0 is out of range" in capsys.readouterr().err
+
+
+def test_every_chart_keeps_its_legend_off_the_data_and_each_method_its_colour(first_run, monkeypatch, tmp_path):
+    """Each chart of the smoke report drawn again, its figure caught before it is saved: the legend
+    lies outside the axes, and a method has one colour and one marker in every chart it is in,
+    no two methods of the report the same pair."""
+    tmp, _, _ = first_run
+    h = History(tmp / "h.sqlite")
+    cells = h.cell_records(1)
+    seen, save = [], charts._save
+
+    def keep(fig, path):
+        fig.canvas.draw()
+        seen.append((path.name, fig))
+        for ax in fig.axes:
+            legend = ax.get_legend()
+            if legend is not None:
+                box, axes = legend.get_window_extent(), ax.get_window_extent()
+                assert box.x0 >= axes.x1 or box.y0 >= axes.y1, f"{path.name}: legend over the axes"
+        styles = {}
+        for line in fig.axes[0].get_lines():
+            method = line.get_label().split(" ")[0]
+            if method.startswith(("ref:", "mujoco:", "pymunk:", "pybullet:", "rebound:")) and line.get_marker():
+                styles[method] = (matplotlib.colors.to_hex(line.get_color()), line.get_marker())
+        seen[-1] = (path.name, styles)
+        return save(fig, path)
+
+    monkeypatch.setattr(charts, "_save", keep)
+    import reports.markdown as markdown
+
+    todo, _ = markdown.report_charts(1, cells)
+    from reports.drawing import draw_charts
+
+    drawn = draw_charts(todo, tmp_path, jobs=1)
+    assert len(drawn) >= 4 and len(seen) == len(drawn)
+    by_method: dict[str, set] = {}
+    for _, styles in seen:
+        for method, style in styles.items():
+            by_method.setdefault(method, set()).add(style)
+    assert len(by_method) >= 7
+    assert all(len(s) == 1 for s in by_method.values()), by_method  # the same in every chart
+    pairs = [next(iter(s)) for s in by_method.values()]
+    assert len(set(pairs)) == len(pairs) and len({c for c, _ in pairs}) == len(pairs)  # no two alike
