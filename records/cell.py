@@ -156,6 +156,7 @@ class CostFigures(Figures):
     """``cost``: CPU seconds per step (the value), counted evaluations, the ratio to explicit Euler."""
 
     force_evals_per_step: float | None = None
+    force_evals_reason: str | None = None     # why they are not counted, where they are not
     solves_per_step: float | None = None
     timing: str | None = None
     clock: str | None = None

@@ -32,6 +32,27 @@ CHECK, CROSS = "✓", "✗"
 REQUEST_UNKNOWN = {"energy_tol": None, "error_tol": None, "horizon": float("nan"), "max_substeps": "?"}
 
 
+_SUPERSCRIPTS = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+class Footnotes:
+    """Why a figure is missing, said once below its table: ``mark(reason)`` is the dash with the
+    reason's number (one number a reason), ``lines()`` the notes."""
+
+    def __init__(self):
+        self.reasons: dict[str, int] = {}
+
+    def mark(self, reason: str | None, what: str = "–") -> str:
+        if not reason:
+            return what
+        n = self.reasons.setdefault(reason, len(self.reasons) + 1)
+        return what + str(n).translate(_SUPERSCRIPTS)
+
+    def lines(self) -> list[str]:
+        return [f"{str(n).translate(_SUPERSCRIPTS)} {reason}" + ("" if reason.endswith(".") else ".")
+                for reason, n in self.reasons.items()] + ([""] if self.reasons else [])
+
+
 def _fmt(x, spec=".3g", none="–"):
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return none
@@ -213,6 +234,7 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
              "| method | status | max \\|ΔE/E\\| | energy | max global error | order | largest stable h·ω | "
              "evals/step | CPU µs/step | as stepped µs/step | time ratio |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
+    notes = Footnotes()
     for (s, method), ms in sorted(piv.items()):
         if s != scene:
             continue
@@ -229,13 +251,16 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
             _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
             _order_text(order),
             homega_text(stab),
-            _fmt(cost.figures.force_evals_per_step, ".3g") if timed else "–",
+            _fmt(cost.figures.force_evals_per_step, ".3g", notes.mark(
+                cost.figures.force_evals_reason and f"`{method}` counts no force evaluations: "
+                                                    f"{cost.figures.force_evals_reason}")) if timed else "–",
             _fmt(cost.value * 1e6, ".3g") if timed else (cost.status if cost is not None else "–"),
             _fmt(_micro(cost.figures.as_stepped_s_per_step), ".3g") if timed else "–",
             _fmt(cost.figures.ratio_to_explicit_euler, ".2f") if timed else "–",
         ]
         lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
+    lines += notes.lines()
     for kind, title in (("energy", "Energy against time"), ("workprecision", "Work-precision: error against cost"),
                         ("stability", "Largest stable h·ω")):
         name = chart_names.get((scene, kind))
@@ -322,13 +347,18 @@ def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]
             lines.append("**No method meets the tolerances here.**")
         lines += ["", "| rank | method | substeps | h·ω | energy error | class | position error | per frame | "
                       "evals/frame |", "|---|---|---|---|---|---|---|---|---|"]
+        notes = Footnotes()
+        reasons = {r.method: r.figures.evals_reason for r in grp if r.status == "ok"}
         for i, (_, method, row) in enumerate(meeting[:5], start=1):
+            evals = _fmt(row["evals_per_frame"], ".3g", notes.mark(
+                reasons.get(method) and f"`{method}` counts no force evaluations: {reasons[method]}"))
             lines.append(f"| {i} | `{method}` | {row['substeps']} | {row['homega']:.3g} | {_fmt(row['energy_error'], '.2e')} | "
                          f"{row['energy_class'] or '–'} | {_fmt(row['position_error'], '.2e')} | "
-                         f"{_per_frame(row)} | {_fmt(row['evals_per_frame'], '.3g')} |")
+                         f"{_per_frame(row)} | {evals} |")
         if len(meeting) > 5:
             lines.append(f"| | {len(meeting) - 5} more meet them | | | | | | | |")
         lines.append("")
+        lines += notes.lines()
         if failing:
             lines.append("Cannot meet them: " + "; ".join(f"`{m}`: {why}" for m, why in sorted(failing)) + ".")
             lines.append("")

@@ -150,3 +150,53 @@ def test_bad_input_is_one_line_exit_2(argv, says, capsys):
 def test_request_needs_a_tolerance_before_anything_runs():
     with pytest.raises(InvalidInput, match="no tolerance given"):
         Request(hz=60).checked()
+
+
+def test_the_advice_is_data_with_its_runner_up(spring_advice):
+    """``--json``'s ``advice`` object: what the verdict says, as fields a script can read."""
+    d = spring_advice.as_dict()
+    advice = d["advice"]
+    assert advice["method"] == "ref:leapfrog" and advice["substeps"] == 1
+    assert advice["h"] == pytest.approx(1 / 60) and advice["h_omega"] == pytest.approx(1 / 60)
+    assert advice["cost_per_frame_s"] == pytest.approx(8.5e-9) and advice["evals_per_frame"] == 1.0
+    assert 0 < advice["energy_error"] <= 1e-3 and advice["position_error"] > 0
+    runner_up = advice["runner_up"]
+    assert runner_up["method"] == "ref:semi_implicit_euler" and runner_up["substeps"] == 16
+    assert d["closest"] is None and d["verdict"].startswith("cheapest that meets the tolerances: ref:leapfrog")
+    none = Advice("spring", {}, SPRING_60HZ, [m for m in spring_advice.methods if m.best is None])
+    assert none.advice() is None and none.as_dict()["closest"]["method"] == "ref:implicit_euler"
+
+
+def test_engine_modes_count_their_evaluations_in_the_advice_or_say_why(capsys):
+    """pymunk's spring counts its force calls in a counting run, as the cost measure does; Bullet
+    has no callback for its forces, and the advice says so instead of printing a bare dash."""
+    scene = make_scene("spring")
+    request = Request(hz=60, horizon=2, energy_tol=1e-2, max_substeps=2).checked()
+    chipmunk = advise_method(get_method("pymunk:spring_force"), scene, request, cost_per_step=(1e-6, "given"))
+    stable = [r for r in chipmunk.rows if r.stable]
+    assert stable and all(r.evals_per_frame is not None and r.evals_per_frame > 0 for r in stable)
+    bullet = advise_method(get_method("pybullet:semi_implicit"), scene, request, cost_per_step=(1e-6, "given"))
+    assert all(r.evals_per_frame is None for r in bullet.rows)
+    assert bullet.evals_reason.startswith("Bullet evaluates its forces inside stepSimulation")
+    advice = Advice("spring", dict(scene.values), request, [chipmunk, bullet])
+    chosen = advice.as_dict()["advice"]
+    by = {chosen["method"]: chosen, chosen["runner_up"]["method"]: chosen["runner_up"]}
+    assert by["pybullet:semi_implicit"]["evals_reason"] == bullet.evals_reason
+    assert by["pymunk:spring_force"]["evals_reason"] is None
+
+
+def test_a_missing_count_is_a_footnote_in_the_report_not_a_bare_dash():
+    from records.cell import Cell, pivot
+    from reports.markdown import scene_section
+
+    def cost(method, evals, reason=None):
+        return Cell.from_row({"scene": "spring", "method": method, "family": method.split(":")[0], "measure": "cost",
+                              "dt": 0.1, "steps": 100, "status": "ok", "value": 1e-6,
+                              "data": {"force_evals_per_step": evals, "force_evals_reason": reason,
+                                       "ratio_to_explicit_euler": 100.0}})
+
+    why = "Bullet evaluates its forces inside stepSimulation and has no counter or callback for them"
+    lines = scene_section("spring", pivot([cost("pybullet:semi_implicit", None, why), cost("mujoco:euler", 1.0)]), {})
+    row = next(line for line in lines if line.startswith("| `pybullet:semi_implicit`"))
+    assert "| –¹ |" in row
+    assert f"¹ `pybullet:semi_implicit` counts no force evaluations: {why}." in lines

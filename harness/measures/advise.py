@@ -63,6 +63,9 @@ LIMIT_SEARCH_HI = 10.0
 LIMIT_RTOL = 1e-4
 #: Timing of the cost per step: repeats and steps per repeat (compiled kernel / engine).
 COST_REPEATS = 3
+#: Steps a mode that counts its force evaluations only in a counting run is counted over
+#: (``harness.measures.cost.counted_evaluations``; a step's count does not vary with the horizon).
+COUNT_STEPS = 100
 
 
 @dataclass(frozen=True)
@@ -305,10 +308,16 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
     row.energy_error, row.energy_gained = _energy_error(traj, scene)
     row.energy_class = _energy_class(traj, scene)
     row.position_error = _position_error(traj, scene)
-    if traj.force_evals is None:
-        out.evals_reason = traj.meta.get("force_evals_reason") or f"{method.id} does not count its force evaluations"
-    else:
+    if traj.force_evals is not None:
         row.evals_per_frame = traj.force_evals / steps * s
+    else:  # counted as the cost measure counts them: a counting run where the mode has one
+        from harness.measures.cost import counted_evaluations
+
+        counted = counted_evaluations(method, scene, h, steps=min(steps, COUNT_STEPS), timeout=timeout)
+        if counted["force_evals_per_step"] is not None:
+            row.evals_per_frame = counted["force_evals_per_step"] * s
+        else:
+            out.evals_reason = counted["force_evals_reason"]
     _judge(row, request)
     return row
 
@@ -383,10 +392,31 @@ class Advice:
         return (f"no method meets the tolerances; closest: {m.method} at {r.substeps} substep"
                 f"{'s' if r.substeps > 1 else ''} ({r.why})")
 
+    def advice(self) -> dict | None:
+        """The advice as data: the cheapest method that meets the tolerances, its substeps, h,
+        cost per frame, errors and evaluations, and the runner-up alike; None where none meets
+        them (``closest`` then says what came nearest)."""
+        meeting = self.meeting
+        if not meeting:
+            return None
+        return {**_choice(meeting[0]), "runner_up": _choice(meeting[1]) if len(meeting) > 1 else None}
+
     def as_dict(self) -> dict:
+        near = self.closest
         return {"scene": self.scene, "params": self.params, "request": asdict(self.request),
-                "verdict": self.verdict(), "meeting": [m.method for m in self.meeting],
+                "advice": self.advice(), "verdict": self.verdict(),
+                "closest": None if self.meeting or near is None else {**_choice(near[0], near[1]), "why": near[1].why},
+                "meeting": [m.method for m in self.meeting],
                 "methods": [m.as_dict() for m in self.methods], "left_out": self.left_out}
+
+
+def _choice(m: MethodAdvice, row: Row | None = None) -> dict:
+    r = row or m.best_row
+    return {"method": m.method, "substeps": r.substeps, "h": r.h, "h_omega": r.homega,
+            "cost_per_frame_s": r.cost_per_frame_s, "cost_timing": m.cost_timing or None,
+            "energy_error": r.energy_error, "energy_class": r.energy_class, "position_error": r.position_error,
+            "evals_per_frame": r.evals_per_frame, "evals_reason": None if r.evals_per_frame is not None
+            else (m.evals_reason or None)}
 
 
 def _inf(x):
