@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from ._compiled import (CLOCKS, exact_compiled, exact_why, integrate_compiled, integrate_exact, prefer_exact,
                         step_timer, time_per_step)
-from ._integrate import integrate
+from ._integrate import carried_map, integrate
 from ._kernels import STATS as KERNEL_STATS
 from ._scheme import Scheme
 from .method import RefMethod
@@ -51,6 +51,6 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["METHODS", "Scheme", "RefMethod", "integrate", "integrate_compiled", "integrate_exact", "exact_compiled",
+__all__ = ["METHODS", "Scheme", "RefMethod", "carried_map", "integrate", "integrate_compiled", "integrate_exact", "exact_compiled",
            "exact_why", "prefer_exact", "CLOCKS", "step_timer",
            "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

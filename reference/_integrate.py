@@ -37,6 +37,51 @@ def iterations_for(scheme, iterations: int | None) -> int:
     return int(scheme.iterations if iterations is None else iterations)
 
 
+def _advance(scheme, scene: Scene, dt: float, accel, solve, project, iterations: int | None = None):
+    """``advance(state, t) -> state``: one step of ``scheme`` on ``scene``, with the kernels given
+    (counted or not), by the scheme's kind (module ``reference._scheme``'s contract)."""
+    p, rate = scene.pvec, scene.damping_rate
+    if scheme.constrained:
+        iters = iterations_for(scheme, iterations)
+        return lambda state, t: scheme.step(accel, project, iters, state, t, dt, p)
+    if scheme.implicit:
+        nmax = newton_max(scene)
+        return lambda state, t: scheme.step(accel, solve, nmax, state, t, dt, p)
+    if scheme.decay:
+        return lambda state, t: scheme.step(accel, rate, state, t, dt, p)
+    return lambda state, t: scheme.step(accel, state, t, dt, p)
+
+
+def carried_map(scheme, scene: Scene, dt: float) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """``(M, c, names)``: one step of ``scheme`` on a linear ``scene`` as the affine map
+    y_1 = M y_0 + c of the state it carries between steps (``Scheme.carries``: (q, v), or with
+    the previous position or the last acceleration for the Verlet forms), measured by stepping
+    the zero state and each unit state of that carried state. Its spectral radius is the
+    recurrence's: a Verlet form restarted from (q, v) would evaluate its carried acceleration
+    afresh, another map where the force depends on the velocity."""
+    q0, v0 = scene.batch_state(1)
+    q = np.ascontiguousarray(np.atleast_2d(q0).T, dtype=np.float64)
+    v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
+    p = scene.pvec
+    template = scheme.start(scene.accel, q, v, 0.0, dt, p)
+    shapes = [np.shape(a) for a in template]
+    sizes = [int(np.prod(s)) for s in shapes]
+    d = sum(sizes)
+    advance = _advance(scheme, scene, dt, scene.accel, scene.solve, scene.project)
+
+    def run(y):
+        parts = np.split(np.asarray(y, dtype=np.float64), np.cumsum(sizes)[:-1])
+        state = tuple(np.ascontiguousarray(part.reshape(shape)) for part, shape in zip(parts, shapes))
+        with np.errstate(all="ignore"):
+            return np.concatenate([np.ravel(a) for a in advance(state, 0.0)])
+
+    c = run(np.zeros(d))
+    M = np.column_stack([run(e) - c for e in np.eye(d)])
+    n = scene.ndof
+    names = tuple(f"{name}[{i}]" if n > 1 else name for name in scheme.carries for i in range(n))
+    return M, c, names
+
+
 def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
               q0: np.ndarray | None = None, v0: np.ndarray | None = None, t0: float = 0.0,
               iterations: int | None = None) -> Trajectory:
@@ -53,26 +98,10 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
     p = scene.pvec
     accel, solve, project = Counted(scene.accel), Counted(scene.solve), Counted(scene.project)
-    rate = scene.damping_rate
     meta = {}
     if scheme.constrained:
-        iters = iterations_for(scheme, iterations)
-        meta["iterations"] = iters
-
-        def advance(state, t):
-            return scheme.step(accel, project, iters, state, t, dt, p)
-    elif scheme.implicit:
-        nmax = newton_max(scene)
-
-        def advance(state, t):
-            return scheme.step(accel, solve, nmax, state, t, dt, p)
-    elif scheme.decay:
-        def advance(state, t):
-            return scheme.step(accel, rate, state, t, dt, p)
-    else:
-        def advance(state, t):
-            return scheme.step(accel, state, t, dt, p)
-
+        meta["iterations"] = iterations_for(scheme, iterations)
+    advance = _advance(scheme, scene, dt, accel, solve, project, iterations)
     state = scheme.start(accel, q, v, t0, dt, p)
     start_evals = accel.calls
     accel.calls = 0

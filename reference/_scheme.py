@@ -80,6 +80,7 @@ class Scheme:
     decay: bool = False
     order_velocity_dependent: int | None = None
     same_without_velocity: str | None = None
+    carries: tuple[str, ...] = ("q", "v")   # the state carried between steps, as ``start`` builds it
     doc: str = field(default="", compare=False)
 
     @property

@@ -35,9 +35,9 @@ def damping_stability_section(cells: list[Cell], chart_name: str | None) -> list
              "radius of the measured one-step map) / theory (spectral radius of the scheme's own recurrence on the "
              "damped oscillator, closed form or computed), judged against the method's own scheme or, for an "
              f"engine mode, the scheme it was identified as; {CHECK} within {tol:.1%} (none: unstable at every h; "
-             "∞: stable at every h searched). The Verlet forms carry an acceleration evaluated at another "
-             "velocity than the one they report, and the measure restarts each one-step run from (q, v): with "
-             "damping it measures another map than the scheme's recurrence, and says so with ✗."
+             "∞: stable at every h searched). A reference scheme's map is measured on the state it carries "
+             "between steps (the Verlet forms carry an acceleration, position Verlet also the previous "
+             "position): the recurrence the scheme runs, not a restart from (q, v)."
              if tol is not None else "", "",
              "| method | theory of | " + " | ".join(f"ζ = {z:g}" for z in zetas) + " |",
              "|---|---|" + "---|" * len(zetas)]

@@ -88,7 +88,7 @@ class Rope(Scene):
     id = "rope"
     title = "pinned rope of N rigid links under gravity, 2-D, released horizontal; reference by DOP853"
     params = {
-        "N": Param(10, "number of links (= point masses)", lo=1.0, hi=4096.0, integer=True),  # as the chain's
+        "N": Param(10, "number of links (= point masses)", lo=1.0, hi=1e6, integer=True),  # as the chain's
         "l": Param(0.1, "rest length of each link", lo=0.0, lo_open=True),
         "m": Param(0.1, "mass at each link end", lo=0.0, lo_open=True),
         "g": Param(9.81, "gravitational acceleration", lo=0.0),

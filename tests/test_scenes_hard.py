@@ -393,17 +393,22 @@ def test_solar_energy_full_length(solar):
 
 
 # ------------------------------------------------------------------- compiled paths
+@pytest.mark.slow
 def test_implicit_euler_cost_grows_linearly_with_n():
     """The Thomas solve makes a backward-Euler step O(N). Measured on N = 1000..10000 (where the
     per-step constant, ~0.3 us of allocation and Newton bookkeeping, is under 10% of the cost):
-    slope 0.9-1.0. Tolerance 0.7..1.3: a 20% timing disturbance at either end of one decade (two
-    shared cores) moves the slope by 0.08, and cache effects a little more; a dense solve would
-    give 2 (assembly) to 3 (LU), far outside."""
+    slope 0.9-1.0; a dense solve would give 2 (assembly) to 3 (LU). A study read off the clock,
+    so kept out of ``make test`` (a neighbour on a shared core moves one end of the decade):
+    ``pytest -m slow``."""
     from harness.measures.scaling import implicit_cost_vs_n
-    from reference._compiled import run_compiled
 
     frame = implicit_cost_vs_n(ns=(1000, 3000, 10000), repeats=3, work_per_call=1_000_000)
     assert 0.7 <= frame.attrs["slope"] <= 1.3, frame.to_string()
+
+
+def test_implicit_euler_compiles_to_the_interpreted_bits_on_the_chain():
+    from reference._compiled import run_compiled
+
     # The compiled kernels are the interpreted ones: same answer to the last bit.
     chain = make_scene("chain")
     scheme = METHODS["implicit_euler"]

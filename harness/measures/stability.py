@@ -10,7 +10,10 @@ Two boundedness criteria, one rule each:
   to the unit inputs, <= LINEARITY_RTOL, else this criterion does not apply); the check
   runs at the smallest dt searched and at the dt the verdict rests on, not at every
   bisection step. An engine mode's 2*ndof + 2 one-step runs share one worker process.
-  Stable iff rho(M) <= 1 + RHO_TOL. RHO_TOL = 1e-12
+  Stable iff rho(M) <= 1 + RHO_TOL. A reference scheme that carries more than (q, v) between
+  steps (position Verlet the previous position, velocity Verlet the last acceleration) is
+  measured on that carried state instead (``recurrence_map``): its recurrence's map, not a
+  restart's. RHO_TOL = 1e-12
   is roundoff in M's entries (a few eps) with room; it is far below explicit Euler's
   rho - 1 = (h w)^2 / 2 = 5e-9 at the smallest h*omega searched, which a finite horizon
   never sees: 10,000 steps flag explicit Euler only above h*omega of a few hundredths.
@@ -161,8 +164,32 @@ def one_step_map(method, scene: Scene, dt: float, *, timeout: float | None = Non
     return out
 
 
+def recurrence_map(method, scene: Scene, dt: float, *, timeout: float | None = None,
+                   check_affine: bool = True) -> dict:
+    """The map whose spectral radius is the method's stability: ``one_step_map`` on (q, v), except
+    for a reference scheme that carries more between steps (``Scheme.carries``: the previous
+    position, the last acceleration), whose map is measured on that carried state
+    (``reference.carried_map``): restarting such a scheme from (q, v) would evaluate its carried
+    acceleration afresh, at another velocity than the recurrence does where the force depends on
+    it (position and velocity Verlet under damping). ``state`` names the map's coordinates."""
+    method = resolve(method, scene)
+    sch = method.scheme
+    if sch is None or sch.carries == ("q", "v") or sch.constrained:
+        res = one_step_map(method, scene, dt, timeout=timeout, check_affine=check_affine)
+        res.setdefault("state", "(q, v)")
+        return res
+    from reference import carried_map
+
+    M, c, names = carried_map(sch, scene, dt)
+    with np.errstate(all="ignore"):
+        eig = np.linalg.eigvals(M) if np.all(np.isfinite(M)) else np.full(len(M), np.nan)
+    return {"dt": float(dt), "omega_dt": float(dt) * scene.omega, "matrix": M, "offset": c, "eigenvalues": eig,
+            "rho": float(np.max(np.abs(eig))), "linearity_residual": None,
+            "state": f"({', '.join(names)}): the state {sch.id} carries between steps"}
+
+
 def spectral_test(method, scene: Scene, dt: float, *, timeout: float | None = None) -> tuple[bool, dict]:
-    res = one_step_map(method, scene, dt, timeout=timeout, check_affine=False)
+    res = recurrence_map(method, scene, dt, timeout=timeout, check_affine=False)
     if res["rho"] is None:  # a step that did not finish is no stable step
         return False, {"rho": None, "reason": res["reason"]}
     return res["rho"] <= 1.0 + RHO_TOL, {"rho": res["rho"]}
@@ -213,7 +240,7 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
     if use == "spectral_radius":
         if not scene.linear:
             raise InvalidInput(f"criterion spectral_radius needs a linear scene ({scene.id} is not)")
-        first = one_step_map(method, scene, lo / omega, timeout=timeout)
+        first = recurrence_map(method, scene, lo / omega, timeout=timeout)
         if first["rho"] is None:
             if criterion != "auto":
                 raise InvalidInput(f"criterion spectral_radius does not apply: {first['reason']}")
@@ -271,7 +298,7 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
     out.update(verdict="limited", dt_max=good / omega, omega_dt_max=good,
                first_unstable_omega_dt=bad, evaluations=len(evaluations))
     if use == "spectral_radius":
-        out["rho_above_dt_max"] = one_step_map(method, scene, bad / omega, timeout=timeout)["rho"]
+        out["rho_above_dt_max"] = recurrence_map(method, scene, bad / omega, timeout=timeout)["rho"]
     return _with_map(out, method, scene, good / omega, timeout)
 
 
@@ -280,12 +307,12 @@ def _with_map(out: dict, method, scene: Scene, dt: float, timeout) -> dict:
     searched when unstable; the largest when unbounded). On a linear scene judged by the
     finite horizon it is attached too, where measurable: it shows what the horizon missed."""
     if scene.linear:
-        res = one_step_map(method, scene, dt, timeout=timeout)
+        res = recurrence_map(method, scene, dt, timeout=timeout)
         if res["rho"] is None:
             out["spectral"] = {"dt": dt, "rho": None, "reason": res["reason"]}
             if out["criterion"] == "spectral_radius":
                 out["note"] = f"at the reported dt: {res['reason']}; the spectral verdict is doubtful"
         else:
             out["spectral"] = {k: res[k] for k in ("dt", "omega_dt", "rho", "eigenvalues", "matrix", "offset",
-                                                   "linearity_residual")}
+                                                   "linearity_residual", "state")}
     return out

@@ -25,9 +25,9 @@ of M is <= 1. The limit is
 **Measured.** ``harness.measures.stability.largest_stable_dt`` (the spectral radius of the measured one-step
 map) on ``damped_spring`` at c = 2 zeta, for reference schemes and engine modes alike. An engine
 mode is judged against the theory of the scheme it was identified as: within THEORY_RTOL (0.5%).
-The measure restarts every one-step run from (q, v); for the Verlet forms, whose carried
-acceleration was evaluated at another velocity, that map is not the recurrence the scheme runs,
-and the two are shown side by side.
+A reference scheme's map is measured on the state it carries between steps
+(``stability.recurrence_map``): for the Verlet forms, whose carried acceleration was evaluated at
+another velocity than a restart from (q, v) would use, that is the recurrence the scheme runs.
 """
 from __future__ import annotations
 

@@ -21,7 +21,8 @@ def observe(accel, state, t, h, p):
 
 
 @scheme(order=1, force_evals=1, symplectic=False, implicit=False, energy_claim="decays", homega_max=2.0,
-        start=start, observe=observe, constrained=True, iterations=DEFAULT_ITERATIONS)
+        carries=("q", "q_prev", "a", "a_eff"), start=start, observe=observe, constrained=True,
+        iterations=DEFAULT_ITERATIONS)
 def verlet_constrained(accel, project, iterations, state, t, h, p):
     """Position Verlet with position-based constraint projection (Jakobsen, as in cloth and rope
     code): predict, then move the positions back onto the constraints.
