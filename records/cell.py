@@ -111,6 +111,7 @@ class EnergyFigures(Figures):
     failed_step: int | None = None
     series: dict | None = None               # {"t", "energy", "exact"}, downsampled, for the chart
     numbers: dict | None = None              # the classification's figures (envelopes, secular rate)
+    events: list | None = None               # what the bodies did (Scene.events): ejected, spiralled in
     settings: Any = None                     # what an engine adapter recorded of its settings
     engine_version: str | None = None
     backend: str | None = None

@@ -247,7 +247,7 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
         cells = [
             f"`{method}`", status,
             _energy_text(energy),
-            (energy.figures.energy_class or "–") if energy is not None else "–",
+            _class_text(energy),
             _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
             _order_text(order),
             homega_text(stab),
@@ -267,6 +267,16 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
         if name:
             lines += [f"![{title} on {scene}]({name})", ""]
     return lines
+
+
+def _class_text(energy) -> str:
+    """The energy class, with what the bodies did where a class alone misleads (an orbit that
+    spirals in and is thrown out "grows"): the run's events (``Scene.events``)."""
+    if energy is None:
+        return "–"
+    cls = energy.figures.energy_class or "–"
+    events = energy.figures.events or []
+    return cls + (f" ({'; '.join(ev['text'] for ev in events)})" if events else "")
 
 
 def _order_text(order) -> str:

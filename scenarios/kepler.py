@@ -66,6 +66,28 @@ class Kepler(Scene):
         r = np.sqrt(q[..., 0] ** 2 + q[..., 1] ** 2)
         return 0.5 * (v[..., 0] ** 2 + v[..., 1] ** 2) - gm / r
 
+    def events(self, step, t, q, v):
+        """A close approach (r below half the perihelion 1 - e: the orbit spiralled in) and an
+        ejection (the two-body energy v^2/2 - GM/r no longer negative: unbound), at the first
+        recorded state each happens."""
+        gm, e = self.values["GM"], self.values["e"]
+        with np.errstate(all="ignore"):
+            r = np.sqrt(q[:, 0] ** 2 + q[:, 1] ** 2)
+            energy = 0.5 * (v[:, 0] ** 2 + v[:, 1] ** 2) - gm / r
+        out = []
+        perihelion = 1.0 - e
+        close = np.flatnonzero(r < 0.5 * perihelion)
+        if close.size:
+            i = int(close[0] + np.argmin(r[close[0]:]))  # the closest it came from then on
+            out.append({"kind": "close approach", "step": int(step[i]), "t": float(t[i]), "r": float(r[i]),
+                        "text": f"spiralled in to r = {r[i]:.3g} (perihelion {perihelion:g}) by step {int(step[i])}"})
+        unbound = np.flatnonzero(~(energy < 0.0))
+        if unbound.size:
+            i = int(unbound[0])
+            out.append({"kind": "ejected", "step": int(step[i]), "t": float(t[i]), "r": float(r[i]),
+                        "text": f"ejected (unbound: v²/2 - GM/r >= 0) by step {int(step[i])}, at r = {r[i]:.3g}"})
+        return sorted(out, key=lambda ev: ev["step"])
+
     def exact(self, t):
         t = np.asarray(t, dtype=float)
         e, n = self.values["e"], self.omega

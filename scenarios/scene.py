@@ -159,6 +159,14 @@ class Scene:
         """How far states (API layout) are off the constraints; None for unconstrained scenes."""
         return None
 
+    def events(self, step: np.ndarray, t: np.ndarray, q: np.ndarray, v: np.ndarray) -> list[dict]:
+        """What happened to the bodies in a run's recorded states (API layout, one batch member):
+        a body ejected, a close approach; each ``{"kind", "step", "t", "text", ...}``, oldest first.
+        An energy class says how the energy went; an event says what the orbit did (a run that
+        spirals in and is then thrown out reads "grows"). None here: a scene without bodies that
+        can leave or collide."""
+        return []
+
     def exact_energy(self, t: np.ndarray) -> np.ndarray:
         """Exact energy at times t. Conservative scenes keep their initial energy."""
         q0, v0 = self.initial_state()

@@ -172,6 +172,27 @@ class SolarSystem(Scene):
         e = 0.5 * np.sum(dv * dv, axis=-1) - mu / np.sqrt(np.sum(dq * dq, axis=-1))
         return np.any(e >= 0.0, axis=-1)
 
+    def events(self, step, t, q, v):
+        """Each planet's ejection (heliocentric two-body energy no longer negative, as ``escaped``),
+        at the first recorded state it happens, with its distance from the Sun."""
+        n = self.masses.size
+        qq, vv = q.reshape(-1, n, 3), v.reshape(-1, n, 3)
+        dq, dv = qq[:, 1:, :] - qq[:, :1, :], vv[:, 1:, :] - vv[:, :1, :]
+        mu = G * (self.masses[0] + self.masses[1:])
+        with np.errstate(all="ignore"):
+            r = np.sqrt(np.sum(dq * dq, axis=-1))
+            e = 0.5 * np.sum(dv * dv, axis=-1) - mu / r
+        out = []
+        for k, name in enumerate(self.names[1:]):
+            unbound = np.flatnonzero(~(e[:, k] < 0.0))
+            if unbound.size:
+                i = int(unbound[0])
+                out.append({"kind": "ejected", "body": name, "step": int(step[i]), "t": float(t[i]),
+                            "r": float(r[i, k]),
+                            "text": f"{name} ejected (unbound from the Sun) by step {int(step[i])}, at "
+                                    f"{r[i, k]:.3g} AU"})
+        return sorted(out, key=lambda ev: ev["step"])
+
     # ------------------------------------------------------------ reference
     def _reference(self, rtol) -> SegmentedSolution:
         q0, v0 = self.initial_state()

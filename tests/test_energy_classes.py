@@ -131,3 +131,41 @@ def test_ias15_energy_error_does_not_grow_linearly_over_1e7_days():
     rms = [np.sqrt(np.mean(walk[(t > w / 2) & (t <= w)] ** 2)) for w in windows]
     slope = linregress(np.log(windows), np.log(rms)).slope
     assert -0.2 < slope < 0.7, slope
+
+
+def test_an_orbit_that_spirals_in_and_is_thrown_out_says_so_beside_its_class():
+    """Backward Euler on Kepler loses energy for 245 steps, spirals in to r = 0.006 and is thrown
+    out at that close approach: its class ("grows", the energy crossed zero) alone misleads, so
+    the run names both events, at the steps they happened (the run stepped again recording every
+    step, where it recorded every tenth)."""
+    from harness.measures.energy import energy_behaviour
+    from scenarios import make_scene
+
+    r = energy_behaviour("ref:implicit_euler", make_scene("kepler"), 0.02, 20000, every=10)
+    assert r["classification"] == "grows"
+    close, ejected = r["events"]
+    assert (close["kind"], close["step"]) == ("close approach", 245) and close["r"] == pytest.approx(0.00634, rel=1e-2)
+    assert (ejected["kind"], ejected["step"]) == ("ejected", 246)
+    assert energy_behaviour("ref:leapfrog", make_scene("kepler"), 0.02, 2000)["events"] == []
+
+
+def test_a_planet_ejected_from_the_solar_system_is_named():
+    from harness.measures.energy import energy_behaviour
+    from scenarios import make_scene
+
+    r = energy_behaviour("ref:explicit_euler", make_scene("solar_system"), 200.0, 2000, every=10)
+    first = r["events"][0]
+    assert first["kind"] == "ejected" and first["body"] == "Jupiter" and first["step"] <= 400
+    assert first["text"].startswith("Jupiter ejected (unbound from the Sun) by step ")
+
+
+def test_the_report_names_the_events_beside_the_class():
+    from records.cell import Cell, pivot
+    from reports.markdown import scene_section
+
+    ev = {"kind": "ejected", "step": 246, "t": 4.92, "r": 0.54, "text": "ejected (unbound) by step 246, at r = 0.54"}
+    cell = Cell.from_row({"scene": "kepler", "method": "ref:implicit_euler", "family": "ref", "measure": "energy",
+                          "dt": 0.02, "steps": 20000, "status": "ok", "value": 4.9,
+                          "data": {"class": "grows", "events": [ev]}})
+    row = next(line for line in scene_section("kepler", pivot([cell]), {}) if line.startswith("| `ref:implicit"))
+    assert "| grows (ejected (unbound) by step 246, at r = 0.54) |" in row

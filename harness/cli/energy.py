@@ -33,6 +33,8 @@ def _lines(r):
            f"({r['periods']:.3g} periods): {r['status']}")
     yield f"  max |dE/E| {fmt(r.get('max_rel_error'), '.3e')}   final |dE/E| {fmt(r.get('final_rel_error'), '.3e')}"
     yield f"  classification: {r.get('classification') or 'none'} ({r.get('rule')})"
+    for ev in r.get("events") or ():
+        yield f"  event: {ev['text']}"
     if r.get("state_error_max") is not None:
         yield (f"  state error (phase and amplitude, against the {r['state_error_source']} solution): max "
                f"{fmt(r['state_error_max'], '.3e')}   final {fmt(r['state_error_final'], '.3e')}"

@@ -94,6 +94,30 @@ def escaped_states(scene: Scene, traj: Trajectory) -> np.ndarray | None:
         return np.asarray(fn(traj.q[:, 0], traj.v[:, 0]), dtype=bool)
 
 
+#: The most steps a run is stepped again, recording every step, to place its events exactly.
+EVENT_REPLAY_STEPS = 200_000
+
+
+def run_events(scene: Scene, traj: Trajectory, method=None, timeout: float | None = None) -> list[dict]:
+    """What the bodies did in the run (``Scene.events``: ejections, close approaches), named beside
+    the energy class, which alone can mislead. Where the run recorded every ``every`` > 1 steps and
+    something happened, ``method`` (a fixed-step method steps the same states again) is stepped
+    again up to the last event's recorded step, recording every step: the step it happened at and
+    the closest approach, which fall between recorded states, are then the run's own."""
+    if traj.q.shape[0] == 0:
+        return []
+    found = scene.events(traj.step, traj.t, traj.q[:, 0], traj.v[:, 0])
+    if not found or traj.every <= 1 or method is None or getattr(method, "adaptive", False):
+        return found
+    upto = min(max(ev["step"] for ev in found), EVENT_REPLAY_STEPS)
+    fine = step(method, scene, traj.dt, upto, 1, timeout)
+    if fine.q.shape[0] < 2:
+        return found
+    early = scene.events(fine.step, fine.t, fine.q[:, 0], fine.v[:, 0])
+    kinds = {ev["kind"] for ev in early}
+    return sorted(early + [ev for ev in found if ev["kind"] not in kinds], key=lambda ev: ev["step"])
+
+
 def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: bool = False,
              escaped: np.ndarray | None = None) -> dict:
     """The classification of an energy series by the rule in the module docstring, with
@@ -187,6 +211,7 @@ def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int 
                             escaped=escaped_states(scene, traj)))
     else:  # a crash or a timeout says nothing about the energy
         out.update(classification=None, rule=f"run {traj.status}: not classified")
+    out["events"] = run_events(scene, traj, method, timeout)
     out["short_horizon"] = out["periods"] < MIN_PERIODS
     if state_error and traj.ok:
         from harness.measures.error import trajectory_error

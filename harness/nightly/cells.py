@@ -173,7 +173,8 @@ def _scene_task(task, suite: Suite) -> list[Cell]:
 
 
 def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
-    from harness.measures.energy import classify, escaped_states, relative_error_defined, relative_error_series
+    from harness.measures.energy import (classify, escaped_states, relative_error_defined, relative_error_series,
+                                         run_events)
     from harness.measures.error import trajectory_error
     from harness.execution.simulate import simulate
 
@@ -197,7 +198,7 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
     energy = make_cell(task, "energy", traj.status, max_rel, dt, steps, traj.detail, EnergyFigures.pick(
         cls, energy_class=cls["classification"], rel_error_defined=defined,
         final_rel_error=finite(abs(rel[-1])) if traj.ok and defined else None, failed_step=traj.failed_step,
-        series=series, numbers=plain(cls), **settings))
+        series=series, numbers=plain(cls), events=plain(run_events(scene, traj, method, suite.cell_timeout)) or None, **settings))
     err = trajectory_error(traj, scene) if traj.ok else {}
     error = make_cell(task, "error", traj.status, finite(err.get("error_max")), dt, steps, traj.detail,
                       ErrorFigures.pick(err))
