@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from records.cell import Cell, Claims, pivot
 from records.findings import MARK, Change, ClaimChecks, Finding, Judgement, Verdict
 
@@ -113,6 +115,56 @@ def engine_findings(piv: dict) -> list[Finding]:
         elif energy is not None and energy.status == "ok" and energy.figures.energy_class == "grows":
             out.append(Finding(f"`{method}` gains energy on `{scene}` at the nominal timestep "
                                f"(max |ΔE/E| {energy.value:.2e}).", None, scene, method))
+    return out
+
+
+def blowups_at_nominal(piv: dict) -> list[Finding]:
+    """A method that blows up within the stability measure's finite horizon at the suite's
+    nominal timestep, with its evidence: the step, its largest stable h·ω, and the same engine's
+    other modes on the same scene at that step (their nominal runs). Where a companion runs on
+    there, the engine and the scene's model are the same and only the integrator differs: the
+    cause is the mode; where none does, the model at this timestep (its stiffness or its
+    constraints) is what every mode fails on."""
+    out = []
+    for (scene, method), ms in sorted(piv.items()):
+        stab = ms.get("stability")
+        nominal = stab.figures.nominal if stab is not None and stab.status == "ok" else None
+        if not nominal or not nominal.get("failed_step"):
+            continue
+        step, family = nominal["failed_step"], method.split(":")[0]
+        t_fail = step * nominal["dt"]
+        companions = []
+        for (s2, m2), ms2 in sorted(piv.items()):
+            other = ms2.get("stability")
+            if s2 != scene or m2 == method or m2.split(":")[0] != family or other is None or not other.figures.nominal:
+                continue
+            n2 = other.figures.nominal
+            runs_on = not n2.get("failed_step") or n2["failed_step"] > step
+            series = n2.get("series") or {}
+            kept = ""
+            if runs_on and series.get("t"):
+                t, e = np.asarray(series["t"]), np.asarray(series["energy"], dtype=float)
+                e_at = float(np.interp(t_fail, t, e))
+                kept = f", energy {e_at:.3g} (started at {e[0]:.3g})"
+            companions.append((m2, runs_on, (f"runs on{kept}" if runs_on else f"blew up too, at step {n2['failed_step']}")))
+        limit = stab.value
+        own = (nominal.get("series") or {}).get("energy") or []
+        gained = f", its energy {own[0]:.3g} -> {own[-1]:.3g} before it" if len(own) > 1 else ""
+        text = (f"`{method}` on `{scene}` blows up at the nominal h·ω = {nominal['homega']:.3g} (dt = "
+                f"{nominal['dt']:.3g}) at step {step} of {nominal['steps']}{gained} "
+                f"({nominal.get('detail') or 'diverged'}); its largest stable h·ω there is {_g(limit, '.3g')}.")
+        if companions:
+            text += " At that step the same engine's other modes, on the same model: " + "; ".join(
+                f"`{m}` {what}" for m, _, what in companions) + "."
+            steady = [m for m, ok, _ in companions if ok]
+            if steady:
+                text += (f" Cause: the mode's integrator, not the scene's model ({', '.join(f'`{m}`' for m in steady)} "
+                         f"integrate the same model at the same dt). Use {'one of them' if len(steady) > 1 else 'it'}, "
+                         f"or h·ω <= {_g(limit, '.3g')} with `{method}`.")
+            else:
+                text += (f" Cause: the scene's model at this timestep (every mode of the engine fails on it): "
+                         f"h·ω <= {_g(limit, '.3g')}.")
+        out.append(Finding(text, None, scene, method))
     return out
 
 
@@ -421,7 +473,7 @@ def judge(cells: list[Cell], regressions=(), previous=None, trend=None) -> Judge
     """Everything the report prints that is judged rather than measured."""
     piv = pivot(cells)
     seen, findings = set(), []
-    for f in engine_findings(piv) + scene_findings(piv):
+    for f in engine_findings(piv) + blowups_at_nominal(piv) + scene_findings(piv):
         if f.text not in seen:  # a line said twice is printed once
             seen.add(f.text)
             findings.append(f)

@@ -150,6 +150,7 @@ class StabilityFigures(Figures):
     unstable_everywhere: bool | None = None
     homega_searched: float | None = None
     rho_above_dt_max: float | None = None
+    nominal: dict | None = None              # the finite horizon's run at the suite's nominal dt (see cells)
 
 
 @dataclass(frozen=True)

@@ -296,11 +296,16 @@ def finding_line(f: Finding) -> str:
     return f.text.replace(MARK, CHECK if f.ok else CROSS)
 
 
-def findings(found) -> list[str]:
-    """What judging the run found (``Judgement.findings``), one line each."""
+def findings(found, chart_names: dict | None = None) -> list[str]:
+    """What judging the run found (``Judgement.findings``), one line each; then the evidence of
+    a blow-up at the nominal timestep (energy over the stability measure's horizon), per scene."""
     lines = ["## Findings", ""]
     lines += [f"- {finding_line(f)}" for f in found] or ["- nothing unexpected in this run"]
-    return lines + [""]
+    lines.append("")
+    for (scene, kind), name in sorted((chart_names or {}).items(), key=lambda kv: str(kv[0])):
+        if kind == "nominal":
+            lines += [f"![Energy at the nominal timestep over the stability horizon on {scene}]({name})", ""]
+    return lines
 
 
 def _frame_rates(cells: list[Cell]) -> list[float]:
@@ -501,6 +506,8 @@ def report_charts(run_id: int, cells: list[Cell], trend=None) -> tuple[list[Char
                          ("stability", charts.stability_chart)):
             names[(scene, kind)] = name = f"charts/run{run_id}-{scene}-{kind}.png"
             todo.append(Chart(name, fn, (of_scene, scene), styles))
+        names[(scene, "nominal")] = name = f"charts/run{run_id}-{scene}-nominal.png"
+        todo.append(Chart(name, charts.nominal_chart, (of_scene, scene), styles))
         for hz in _frame_rates(cells):
             names[(scene, f"advise{hz:g}")] = name = f"charts/run{run_id}-{scene}-advise{hz:g}hz.png"
             todo.append(Chart(name, charts.advice_chart, (of_scene, scene, hz), styles))
@@ -536,7 +543,7 @@ def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None
         lines += scene_section(scene, piv, chart_names)
     for hz in _frame_rates(cells):
         lines += advice_section(cells, hz, chart_names)
-    lines += findings(judged.findings)
+    lines += findings(judged.findings, chart_names)
     lines += failures(cells)
     lines += bounds_section(cells, judged.bounds)
     lines += appendix(run, cells)

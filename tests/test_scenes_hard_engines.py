@@ -318,3 +318,54 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     assert "`mujoco:discrete` on `chain` is backward Euler only where every tendon is stretched" in findings
     assert "cost per step grows as N^" in findings
     assert "`pymunk:pin_joint`:" in findings and "`ref:verlet_constrained` on `rope` against projection passes" in findings
+
+
+# ----------------------------------------------------------------------------- the rope's limits
+def test_mujoco_implicit_blows_up_on_the_rope_where_its_companions_run_on():
+    """At the standard suite's nominal timestep (h*omega = 0.1, N = 5), MuJoCo's implicit mode
+    gains energy and blows up at step 2434, past the 1,257-step energy run; euler, implicitfast
+    (implicit less the Coriolis and centripetal derivatives) and rk4, on the same model, run on.
+    The rope's stability search runs 10,000 steps, so it sees it: the limit lies below the
+    nominal timestep."""
+    from harness.execution.simulate import simulate
+    from harness.measures.stability import largest_stable_dt
+    from harness.nightly.suites import SUITES
+
+    spec = SUITES["standard"].scenes["rope"]
+    assert spec.stability and spec.stability_steps == 10_000 and "mujoco:implicitfast" not in spec.skip
+    scene = make_scene("rope", **spec.params)
+    dt = spec.homega / scene.omega
+    implicit = simulate(get_method("mujoco:implicit"), scene, dt, 10_000, 100)
+    assert implicit.status == "unstable" and implicit.failed_step == 2434
+    for mode in ("mujoco:euler", "mujoco:implicitfast", "mujoco:rk4"):
+        assert simulate(get_method(mode), scene, dt, 10_000, 100).status == "ok", mode
+    limit = largest_stable_dt(get_method("mujoco:implicit"), scene, steps=spec.stability_steps)["omega_dt_max"]
+    assert limit == pytest.approx(0.0342, rel=1e-2)
+
+
+def _stability_cell(method, failed=None, energy=(1.47, 1.4, 1.3)):
+    from records.cell import Cell
+
+    nominal = {"dt": 0.00284, "homega": 0.1, "steps": 10000, "status": "unstable" if failed else "ok",
+               "failed_step": failed, "detail": "diverged" if failed else "",
+               "series": {"t": [0.0, 3.0, 6.9 if failed else 28.0], "energy": list(energy), "e0": 1.47}}
+    return Cell.from_row({"scene": "rope", "method": method, "family": method.split(":")[0], "measure": "stability",
+                          "dt": None, "steps": None, "status": "ok", "value": 0.0342 if failed else 0.19,
+                          "data": {"criterion": "finite_horizon", "verdict": "limited", "nominal": nominal}})
+
+
+def test_a_blow_up_at_the_nominal_timestep_is_a_finding_with_its_companions():
+    from harness.judge import blowups_at_nominal
+    from records.cell import pivot
+
+    cells = [_stability_cell("mujoco:implicit", failed=2434, energy=(1.47, 2.9, 105.0)),
+             _stability_cell("mujoco:implicitfast"), _stability_cell("pymunk:pin_joint")]
+    (finding,) = blowups_at_nominal(pivot(cells))
+    text = finding.text
+    assert text.startswith("`mujoco:implicit` on `rope` blows up at the nominal h·ω = 0.1 (dt = 0.00284) at "
+                           "step 2434 of 10000, its energy 1.47 -> 105 before it")
+    assert "`mujoco:implicitfast` runs on, energy 1.38 (started at 1.47)" in text and "pymunk" not in text
+    assert "Cause: the mode's integrator, not the scene's model" in text and "h·ω <= 0.0342" in text
+    everyone = [_stability_cell("mujoco:implicit", failed=2434), _stability_cell("mujoco:euler", failed=100)]
+    texts = [f.text for f in blowups_at_nominal(pivot(everyone))]
+    assert any("Cause: the scene's model at this timestep" in t for t in texts)
