@@ -118,6 +118,21 @@ def engine_findings(piv: dict) -> list[Finding]:
     return out
 
 
+def brouwer_law(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """A method's ensemble energy-error slope (``brouwer`` cells) against Brouwer's 0.5: its 95%
+    interval contains it."""
+    out = []
+    for m, r in _rows(piv, scene, check).items():
+        f = r.figures
+        if r.value is None or not f.ci95:
+            continue
+        lo, hi = f.ci95
+        out.append(Finding(f"`{scene}`: `{m}`'s energy error over {f.realizations} realizations and "
+                           f"{f.periods:.3g} periods grows as t^{r.value:.2f} (95% interval {lo:.2f}–{hi:.2f}), "
+                           f"Brouwer's law t^{check.expect:g} {MARK}.", bool(lo <= check.expect <= hi), scene, m))
+    return out
+
+
 def blowups_at_nominal(piv: dict) -> list[Finding]:
     """A method that blows up within the stability measure's finite horizon at the suite's
     nominal timestep, with its evidence: the step, its largest stable h·ω, and the same engine's
@@ -427,7 +442,7 @@ def cost_ratio(check: Check, scene: str, piv: dict) -> list[Finding]:
 #: The findings a scene's table may name.
 FINDINGS = {f.__name__: f for f in (stability_limits, damping_beyond_the_limit, matches_only_from_a_generic_state,
                                      cost_against_size, constraint_drift, energy_classes, energy_not_bounded,
-                                     integrates_as, energy_within, error_at_equal_cost, cost_ratio)}
+                                     integrates_as, energy_within, error_at_equal_cost, cost_ratio, brouwer_law)}
 
 #: The schemes the outer solar system's energy finding calls symplectic.
 SOLAR_SYMPLECTIC = ("ref:semi_implicit_euler", "ref:leapfrog", "ref:velocity_verlet", "ref:forest_ruth",
@@ -449,11 +464,15 @@ SCENE_CHECKS: dict[str, tuple[Check, ...]] = {
     "rope": (
         Check("constraint_drift", "constraint"),
     ),
+    "kepler": (
+        Check("brouwer_law", "brouwer", methods=("rebound:ias15",), expect=0.5),
+    ),
     "solar_system": (
         Check("energy_classes", "energy", methods=SOLAR_SYMPLECTIC, expect="bounded"),
         Check("energy_not_bounded", "energy", methods=("ref:rk4",), expect=("decays", "grows", "drifts")),
         Check("integrates_as", "identity", methods=("rebound:leapfrog",), expect="ref:leapfrog"),
         Check("energy_within", "energy", methods=("rebound:ias15",), tolerance=IAS15_LIMIT),
+        Check("brouwer_law", "brouwer", methods=("rebound:ias15",), expect=0.5),
         Check("error_at_equal_cost", "order", methods=("rebound:whfast",), against=("rebound:leapfrog", "ref:leapfrog"),
               tolerance=1.0),
         Check("cost_ratio", "cost", methods=("ref:rk4",), against=("ref:leapfrog",)),

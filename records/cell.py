@@ -278,11 +278,34 @@ class ScalingFigures(Figures):
 
 
 #: The figures of each measure.
+@dataclass(frozen=True)
+class BrouwerFigures(Figures):
+    """``brouwer``: the energy error's growth over an ensemble (the value: the log-log slope of
+    its RMS against t; Brouwer's law for roundoff, 0.5), with its 95% bootstrap interval."""
+
+    ci95: list | None = None
+    contains_brouwer: bool | None = None
+    expected_slope: float | None = None
+    realizations: int | None = None
+    perturbation: float | None = None
+    horizon: float | None = None
+    periods: float | None = None
+    every: int | None = None
+    failed: int | None = None
+    t: list | None = None
+    rms: list | None = None
+    error_slope: float | None = None
+    error_ci95: list | None = None
+    error_fit_until: float | None = None      # the position error's slope is fitted up to this t
+    reason: str | None = None
+
+
 FIGURES: dict[str, type[Figures]] = {
     "energy": EnergyFigures, "error": ErrorFigures, "order": OrderFigures, "stability": StabilityFigures,
     "cost": CostFigures, "identity": IdentityFigures, "advise": AdviceFigures, "bound": BoundFigures,
     "constraint": ConstraintFigures, "damping": DampingFigures, "stability_vs_damping": StabilityVsDampingFigures,
     "scaling": ScalingFigures,
+    "brouwer": BrouwerFigures,
 }
 
 

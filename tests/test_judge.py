@@ -82,7 +82,7 @@ def test_every_scene_check_names_a_finding_and_a_measure():
         for row in rows:
             assert row.finding in judge.FINDINGS, (scene, row)
             assert row.measure in {"energy", "error", "order", "cost", "stability", "identity", "constraint",
-                                   "damping", "scaling"}
+                                   "damping", "scaling", "brouwer"}
 
 
 def solar(ias15=5e-14, rk4_class="decays", whfast_class="bounded", match="ref:leapfrog"):

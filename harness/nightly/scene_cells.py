@@ -17,13 +17,16 @@
   limit agrees with that theory; a reference scheme's cell also carries its theory curve.
 * ``scaling`` (the chain, ``ref:implicit_euler``; ``extras["scaling"]``): compiled cost per
   step at each N of ``ns`` (``harness.measures.scaling``). Value: the log-log slope.
+* ``brouwer`` (Kepler and the solar system, the methods ``extras["brouwer"]`` names): the
+  energy error's RMS over an ensemble against time (``harness.measures.brouwer``). Value: its
+  log-log slope, 0.5 by Brouwer's law where the error is roundoff.
 """
 from __future__ import annotations
 
 from records import MethodId, scheme_name
 from scenarios import make_scene
 
-from records.cell import (Cell, Claims, ConstraintFigures, DampingFigures, ScalingFigures,
+from records.cell import (BrouwerFigures, Cell, Claims, ConstraintFigures, DampingFigures, ScalingFigures,
                           StabilityVsDampingFigures)
 
 from harness.nightly.cell_kit import energy_run, finite, guard, make_cell, plain
@@ -44,6 +47,8 @@ def measures_for(task, spec) -> list[str]:
         out.append("stability_vs_damping")
     if extras.scaling is not None and task.method in extras.scaling_methods:
         out.append("scaling")
+    if extras.brouwer and task.method in extras.brouwer:
+        out.append("brouwer")
     return out
 
 
@@ -58,7 +63,8 @@ def scene_cells(task, method, scene, dt, spec, suite, claims: Claims | None = No
     builders = {"constraint": lambda: _constraint(task, method, scene, dt, spec, suite),
                 "damping": lambda: _damping(task, method, scene, spec, suite),
                 "stability_vs_damping": lambda: _stability_vs_damping(task, method, spec, claims or Claims()),
-                "scaling": lambda: _scaling(task, spec)}
+                "scaling": lambda: _scaling(task, spec),
+                "brouwer": lambda: _brouwer(task, method, scene, dt, spec)}
     return [guard(task, m, builders[m]) for m in measures_for(task, spec)]
 
 
@@ -121,3 +127,23 @@ def _scaling(task, spec) -> Cell:
     return make_cell(task, "scaling", "ok", frame.attrs["slope"], figures=ScalingFigures(**plain(
         {"rows": frame.to_dict("records"), "rvalue": frame.attrs["rvalue"], "intercept": frame.attrs["intercept"],
          "settings": settings})))
+
+
+def _brouwer(task, method, scene, dt, spec) -> Cell:
+    """The energy error's growth over an ensemble (``harness.measures.brouwer``), with the
+    suite's settings for this method: an adaptive method (IAS15) records ``outputs`` states over
+    the horizon (its dt is the output interval), a fixed-step one steps at the nominal dt."""
+    from harness.measures.brouwer import energy_walk
+
+    settings = _extras(spec).brouwer[task.method]
+    horizon = settings["horizon"] if "horizon" in settings else settings["periods"] * scene.period
+    outputs = int(settings["outputs"])
+    if method.adaptive:
+        step_dt, steps, every = horizon / outputs, outputs, 1
+    else:
+        steps = max(outputs, int(round(horizon / dt)))
+        step_dt, every = dt, max(1, steps // outputs)
+    res = energy_walk(method, scene, step_dt, steps, every, realizations=settings["realizations"])
+    figures, extra = BrouwerFigures.from_data(plain(res))
+    return make_cell(task, "brouwer", "ok", finite(res.get("slope")), step_dt, steps, res.get("reason", ""),
+                     figures, extra)
