@@ -62,13 +62,19 @@ def _lines(a):
     head = (f"  {'method':{w}s} {'substeps':>8s} {'h*omega':>8s} {'limit':>8s} {'energy err':>10s} {'class':>8s} "
             f"{'pos err':>9s} {'us/frame':>9s} {'evals/frame':>11s}")
     meeting = a.meeting
+    notes: dict[str, int] = {}
     if meeting:
         yield head
         for m in meeting:
             b = m.best_row
+            evals = _g(b.evals_per_frame, ".4g")
+            if b.evals_per_frame is None and m.evals_reason:
+                evals += f"[{notes.setdefault(m.evals_reason, len(notes) + 1)}]"
             yield (f"  {m.method:{w}s} {b.substeps:8d} {b.homega:8.3g} {_limit(m):>8s} {_g(b.energy_error):>10s} "
                    f"{b.energy_class or '-':>8s} {_g(b.position_error):>9s} {_us(b.cost_per_frame_s):>9s} "
-                   f"{_g(b.evals_per_frame, '.4g'):>11s}")
+                   f"{evals:>11s}")
+        for reason, n in notes.items():
+            yield f"  [{n}] evaluations not counted: {reason}"
     else:
         yield "  none"
     failing = a.failing
