@@ -326,9 +326,10 @@ def findings(found, chart_names: dict | None = None) -> list[str]:
     lines = ["## Findings", ""]
     lines += [f"- {finding_line(f)}" for f in found] or ["- nothing unexpected in this run"]
     lines.append("")
-    for (scene, kind), name in sorted((chart_names or {}).items(), key=lambda kv: str(kv[0])):
-        if kind == "nominal":
-            lines += [f"![Energy at the nominal timestep over the stability horizon on {scene}]({name})", ""]
+    nominal = sorted((key[0], name) for key, name in (chart_names or {}).items()
+                     if isinstance(key, tuple) and key[1] == "nominal")
+    for scene, name in nominal:
+        lines += [f"![Energy at the nominal timestep over the stability horizon on {scene}]({name})", ""]
     return lines
 
 

@@ -369,3 +369,13 @@ def test_a_blow_up_at_the_nominal_timestep_is_a_finding_with_its_companions():
     everyone = [_stability_cell("mujoco:implicit", failed=2434), _stability_cell("mujoco:euler", failed=100)]
     texts = [f.text for f in blowups_at_nominal(pivot(everyone))]
     assert any("Cause: the scene's model at this timestep" in t for t in texts)
+
+
+def test_the_findings_show_the_blow_up_chart_beside_every_other_chart_name():
+    from reports.markdown import findings
+
+    names = {"damping": "charts/run1-damping-stability.png", ("rope", "nominal"): "charts/run1-rope-nominal.png",
+             ("rope", "energy"): "charts/run1-rope-energy.png"}
+    lines = findings([], names)
+    assert "![Energy at the nominal timestep over the stability horizon on rope](charts/run1-rope-nominal.png)" in lines
+    assert not any("damping" in line or "rope-energy" in line for line in lines)
