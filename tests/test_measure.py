@@ -306,7 +306,7 @@ def test_injected_timings_make_the_ratio_and_its_spread(spring, tmp_path, monkey
                 "calibration": {"python": 6e-8, "compiled": 5e-9}}
     path = tmp_path / "timings.json"
     path.write_text(json.dumps(injected))
-    monkeypatch.setenv(cost.INJECT_VAR, str(path))
+    monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
     res = cost.cost_per_step("ref:rk4", spring, 0.01, time_steps=20_000, repeats=3)
     assert res["repeats_s_per_step"] == pytest.approx([4e-8, 4.4e-8, 3.6e-8], rel=1e-15)
     assert res["s_per_step"] == pytest.approx(3.6e-8, rel=1e-15) and res["clock"] == "injected"

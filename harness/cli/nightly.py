@@ -45,7 +45,7 @@ def run(args) -> int:
     from harness.execution.distributed import ClusterLost, resolve_scheduler
 
     resolve_scheduler(args.scheduler, jobs is not None)  # a bad address fails before anything runs
-    from harness.measures.cost import load_injected
+    from harness.measures.injected import load_injected
 
     load_injected()  # a broken $HARNESS_INJECT_TIMINGS file fails before anything runs
     try:

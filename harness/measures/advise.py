@@ -480,7 +480,7 @@ def advise(scene: Scene, request: Request, patterns: list[str] | None = None, *,
     ranked. Timings injected by ``$HARNESS_INJECT_TIMINGS`` are read here and handed to the workers."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from harness.measures.cost import load_injected
+    from harness.measures.injected import load_injected
     from harness.execution.isolation import WorkerFailure
     from harness.execution.pool import WorkerPool
     from harness.methods import active_plugins

@@ -59,7 +59,7 @@ class Calibration:
 
     def repeat(self) -> None:
         if self.injected is not None:
-            from harness.measures.cost import jitter
+            from harness.measures.injected import jitter
 
             j = jitter(self.injected, len(self.python))
             self.python.append(float(self.injected["python"]) * j)

@@ -63,16 +63,13 @@ The rule, one way for each kind of method:
 * **Calibration**: a fixed workload pair (``harness.measures.calibration``: explicit Euler in a
   plain Python loop over its compiled kernel) timed in the same interleaved repeats, so that
   the history can tell a method's step from the machine's (``harness.history.series``).
-* **Injected timings**: with ``HARNESS_INJECT_TIMINGS`` naming a JSON file (or ``injected``
+* **Injected timings** (``harness.measures.injected``): with ``HARNESS_INJECT_TIMINGS`` naming a JSON file (or ``injected``
   given), the timed runs still run but their figures are the file's: ``s_per_step`` by method
   id (``"*"`` for any other), each repeat multiplied by ``jitter`` (cycled), and the
   ``calibration`` pair. The clock is then recorded as ``injected``. Tests of verdicts drawn from
   timings use it, so that no test's outcome depends on the machine's load.
 """
 from __future__ import annotations
-
-import json
-import os
 
 import numpy as np
 
@@ -84,6 +81,7 @@ from reference import CLOCKS, step_timer, time_per_step
 from scenarios import Scene
 
 from harness.measures.common import resolve, step
+from harness.measures.injected import INJECT_VAR, injected_value, jitter, load_injected
 
 COUNT_STEPS = 100
 REF_TIME_STEPS = 100_000
@@ -97,42 +95,6 @@ ENGINE_RUN_BUDGET_S = 0.1
 ENGINE_MIN_STEPS = 200
 REPEATS = 5
 BASELINE = "ref:explicit_euler"
-#: A JSON file of timings to record instead of the clock's (module docstring).
-INJECT_VAR = "HARNESS_INJECT_TIMINGS"
-
-
-def load_injected(path=None) -> dict | None:
-    """The injected timings named by ``path`` (default: ``$HARNESS_INJECT_TIMINGS``), or None."""
-    path = path or os.environ.get(INJECT_VAR)
-    if not path:
-        return None
-    from records import InvalidInput
-
-    try:
-        data = json.loads(open(path).read())
-        per_step = data["s_per_step"]
-        if not isinstance(per_step, dict) or not all(float(v) > 0 for v in per_step.values()):
-            raise ValueError("s_per_step must map method ids to seconds > 0")
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise InvalidInput(f"{INJECT_VAR}={path}: not an injected-timings file ({exc}); valid: JSON with "
-                           f"s_per_step {{method id or '*': seconds}}, optional jitter [factors], calibration "
-                           f"{{python, compiled}}") from None
-    return data
-
-
-def jitter(injected: dict, i: int) -> float:
-    factors = injected.get("jitter") or [1.0]
-    return float(factors[i % len(factors)])
-
-
-def _injected_value(injected: dict | None, method_id: str) -> float | None:
-    if injected is None:
-        return None
-    per_step = injected["s_per_step"]
-    value = per_step.get(method_id, per_step.get("*"))
-    return None if value is None else float(value)
-
-
 def _spread(times: list[float]) -> dict:
     lo = min(times)
     return {"s_per_step": lo, "median_s_per_step": float(np.median(times)), "repeats_s_per_step": list(times),
@@ -181,7 +143,7 @@ class _Timing:
     def __init__(self, method: Method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine",
                  budget: bool = True, injected: dict | None = None):
         self.now = CLOCKS[clock]
-        self.injected, self.injected_value = injected, _injected_value(injected, method.id)
+        self.injected, self.injected_value = injected, injected_value(injected, method.id)
         self.scheme = method.scheme
         self.times, self.empty = [], []
         self.loop, self.engine_loop = loop, None

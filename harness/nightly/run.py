@@ -293,7 +293,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     (``_resumable`` says when it cannot). ``timings``: an injected-timings file
     (``harness.measures.cost``; default ``$HARNESS_INJECT_TIMINGS``), recorded in the run."""
     from harness.execution.environment import code_digest, machine_busy_s, plugin_versions
-    from harness.measures.cost import INJECT_VAR, load_injected
+    from harness.measures.injected import INJECT_VAR, load_injected
     from harness.nightly.cells import failed_cells
 
     suite = SUITES[suite] if isinstance(suite, str) else suite
