@@ -2,7 +2,7 @@
 ``discrete``) on the spring, the damped spring, the pendulum, the projectile, the spring chain
 and the rope.
 
-Minimal models (measured semantics in ENGINES.md): one body with the scene's exact mass on
+Minimal models (measured semantics in docs/engines.md): one body with the scene's exact mass on
 slide joints along world axes (spring and drag as joint stiffness and damping), or on a hinge
 with a point mass for the pendulum; the chain as one world-child body per mass on its own
 slide joint, the wall springs as joint stiffness and each spring between neighbours as a

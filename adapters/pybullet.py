@@ -4,7 +4,7 @@ the pendulum (a revolute joint, the reduced-coordinate way) and the spring chain
 with one prismatic link per mass, every link a child of the base, the spring forces applied
 as joint forces each step: Bullet has no spring between bodies).
 
-Defaults that silently change the physics are switched off and recorded (ENGINES.md):
+Defaults that silently change the physics are switched off and recorded (docs/engines.md):
 linear/angular damping 0.04 -> 0, the velocity clamp (100, and any finite clamp would hide a
 blow-up) -> inf, sleeping -> disabled, the joints' velocity motors -> zero force, sub-steps -> 0,
 joint damping -> 0.

@@ -59,7 +59,7 @@ _JOINT_UNSUPPORTED = {
 }
 _SPRING_UNSUPPORTED = {
     "spring": "not posed: a DampedSpring to a static body integrates the 1-DOF spring as pymunk:spring_force "
-              "does (position-first semi-implicit Euler, 5e-14 in ENGINES.md); Chipmunk's springs link bodies "
+              "does (position-first semi-implicit Euler, 5e-14 in docs/engines.md); Chipmunk's springs link bodies "
               "on the chain, and damp on the damped spring",
     "pendulum": "a pendulum in Chipmunk is a joint: see pymunk:pin_joint",
     "rope": "a rope in Chipmunk is pin joints: see pymunk:pin_joint",

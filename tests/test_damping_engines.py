@@ -116,7 +116,7 @@ def test_pybullet_damping_is_measured_where_the_engine_reports_minus_one():
     measured = settings["damping_measured_per_step"]
     assert measured["linear"] == measured["angular"] == measured["joint"] == measured["kinetic_energy_change"] == 0.0
     # The probe sees damping where there is some: Bullet's default 0.04 (linear and quadratic,
-    # ENGINES.md) takes -7.8e-4 of the speed per step at dt = 0.01 and |v| = 1, measured.
+    # docs/engines.md) takes -7.8e-4 of the speed per step at dt = 0.01 and |v| = 1, measured.
     damped = applied_damping(pybullet, 0.04, 0.04)
     assert damped["linear"] < -1e-4 and damped["kinetic_energy_change"] < -0.01
 

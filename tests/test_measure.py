@@ -2,7 +2,7 @@
 classification, counted evaluations and timing, the global error's reference solve, the
 CLI's JSON shapes and its bad-input exits.
 
-Numbers and tolerances come from tests/theory.py (issue 4 and ENGINES.md) unless a test
+Numbers and tolerances come from tests/theory.py (issue 4 and docs/engines.md) unless a test
 says otherwise. Engine modes are checked in test_measure_engines.py.
 """
 from __future__ import annotations
@@ -90,7 +90,7 @@ def test_largest_stable_dt_on_spring(spring, sid):
 
 
 def test_explicit_euler_is_unstable_at_every_dt_searched(spring):
-    # Theory (ENGINES.md): |eigenvalue| = sqrt(1 + h^2) > 1 for every h > 0. At the smallest
+    # Theory (docs/engines.md): |eigenvalue| = sqrt(1 + h^2) > 1 for every h > 0. At the smallest
     # h*omega searched, rho - 1 = h^2/2 = 5e-9; the entries of the map are exact to eps,
     # so rho - 1 is good to ~1e-16/5e-9 = 2e-8 relative: 1e-6 leaves room.
     res = stability.largest_stable_dt("ref:explicit_euler", spring)
@@ -103,7 +103,7 @@ def test_explicit_euler_is_unstable_at_every_dt_searched(spring):
 @pytest.mark.parametrize("sid, rho", [
     ("explicit_euler", math.sqrt(2.0)),                              # |1 + i h|, h = 1
     ("implicit_euler", 1.0 / math.sqrt(2.0)),                        # 1/|1 - i h|
-    ("rk4", math.sqrt(1.0 - 1.0 / 72.0 + 1.0 / 576.0)),              # ENGINES.md |R|^2
+    ("rk4", math.sqrt(1.0 - 1.0 / 72.0 + 1.0 / 576.0)),              # docs/engines.md: |R|^2
     ("semi_implicit_euler", 1.0),                                    # det 1, complex pair
     ("implicit_midpoint", 1.0),                                      # Cayley transform
 ])
@@ -231,7 +231,7 @@ def test_energy_classification_on_spring(energy_table, sid):
 def test_energy_numbers_match_theory(energy_table):
     h, n = ENERGY_DT, ENERGY_STEPS
     # Explicit Euler and implicit Euler scale the energy by exactly (1 + h^2)^(+-1) a step
-    # (their maps are scaled rotations); RK4 by |R|^2 = 1 - h^6/72 + h^8/576 (ENGINES.md).
+    # (their maps are scaled rotations); RK4 by |R|^2 = 1 - h^6/72 + h^8/576 (docs/engines.md).
     # 10^4 steps of rounding move ln E by ~1e-12: 1e-9 relative leaves room.
     assert energy_table["explicit_euler"]["final_rel_error"] == pytest.approx((1 + h * h) ** n - 1, rel=1e-9)
     assert energy_table["implicit_euler"]["final_rel_error"] == pytest.approx(1 - (1 + h * h) ** -n, rel=1e-9)

@@ -1,7 +1,7 @@
 """The measurements on engine modes: the same measures, through the same generic method
 interface (``harness.execution.simulate.simulate``, isolated workers) as the reference schemes.
 
-Expected values and tolerances: tests/theory.py (issue 4; ENGINES.md for what each mode
+Expected values and tolerances: tests/theory.py (issue 4; docs/engines.md for what each mode
 integrates). These need the engine adapters; an unknown method id is a failure here,
 never a skip, so a missing adapter cannot pass unnoticed.
 """
@@ -47,7 +47,7 @@ def test_engine_observed_order(method_id, scene_id):
 
 
 @pytest.mark.parametrize("method_id, expected", [
-    ("mujoco:euler", "bounded"),      # semi-implicit Euler, bitwise (ENGINES.md)
+    ("mujoco:euler", "bounded"),      # semi-implicit Euler, bitwise (docs/engines.md)
     ("mujoco:rk4", "decays"),         # classical RK4
     ("mujoco:discrete", "decays"),    # backward Euler
 ])

@@ -1,7 +1,7 @@
 """What the measurements must reproduce, and the tolerance each is held to, with where each
 number comes from: one table for tests/test_measure.py and tests/test_measure_engines.py.
 
-Sources: issue 4 ("Tests that must hold") and the theory section of ENGINES.md (unit
+Sources: issue 4 ("Tests that must hold") and the theory section of docs/engines.md (unit
 spring, omega = 1).
 """
 import math
@@ -10,7 +10,7 @@ SQRT8 = 2.0 * math.sqrt(2.0)
 UNBOUNDED, UNSTABLE = "unbounded", "unstable"
 
 #: Largest stable h*omega on `spring`, "within 0.5%" (issue 4). Theory: the stability
-#: polynomials on the imaginary axis (ENGINES.md): 2 for the one-evaluation symplectic
+#: polynomials on the imaginary axis (docs/engines.md): 2 for the one-evaluation symplectic
 #: schemes, 2 sqrt(2) for RK4, 1.5734 for Forest-Ruth.
 STABILITY_RTOL = 0.005
 REF_STABILITY = {
@@ -57,7 +57,7 @@ REF_ORDER = {
     "position_first_euler_decay_before_kick": 1,
 }
 #: (method, scene) -> order. The engines' scenes: the spring for MuJoCo and pybullet,
-#: the Kepler orbit for REBOUND's leapfrog (ENGINES.md: 2nd order on it).
+#: the Kepler orbit for REBOUND's leapfrog (docs/engines.md: 2nd order on it).
 ENGINE_ORDER = {
     ("mujoco:euler", "spring"): 1,
     ("mujoco:rk4", "spring"): 4,
