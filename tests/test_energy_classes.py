@@ -199,3 +199,17 @@ def test_leapfrog_beside_it_keeps_its_energy_and_loses_its_phase_linearly():
     res = energy_walk(get_method("rebound:leapfrog"), kepler, 0.02, 300_000, 1000, realizations=3)
     assert abs(res["slope"]) < 0.25  # bounded: its oscillation, sampled, not a growth
     assert res["error_slope"] == pytest.approx(1.0, abs=0.1) and res["error_fit_until"] > 0
+
+
+def test_a_max_energy_error_without_a_meaning_is_none_in_the_command_as_in_the_nightly():
+    """Where the exact energy crosses zero (a falling projectile) dE/E means nothing: the command
+    read 273 where the nightly's cell stored none. One rule now (``energy_figures``): none in both,
+    and none for a run that blew up (its failed step says what happened)."""
+    from harness.measures.energy import energy_behaviour
+    from scenarios import make_scene
+
+    falling = energy_behaviour("ref:explicit_euler", make_scene("projectile"), 0.01, 1000)
+    assert falling["rel_error_defined"] is False and falling["max_rel_error"] is None
+    assert falling["classification"] is None
+    blown = energy_behaviour("ref:explicit_euler", make_scene("spring"), 1.5, 2000)
+    assert blown["status"] == "unstable" and blown["max_rel_error"] is None and blown["classification"] == "grows"

@@ -457,3 +457,25 @@ def test_every_chart_keeps_its_legend_off_the_data_and_each_method_its_colour(fi
     assert all(len(s) == 1 for s in by_method.values()), by_method  # the same in every chart
     pairs = [next(iter(s)) for s in by_method.values()]
     assert len(set(pairs)) == len(pairs) and len({c for c, _ in pairs}) == len(pairs)  # no two alike
+
+
+def test_harness_energy_says_what_the_nightlys_energy_cell_says(first_run, capsys):
+    """One rule for both (``harness.measures.energy.energy_figures``): for every energy cell of the
+    smoke run, ``harness energy --json`` at the cell's dt, steps and recording gives the same max
+    and final |dE/E| and the same class, bit for bit."""
+    from harness.nightly.cell_kit import energy_run
+    from scenarios import make_scene
+
+    tmp, _, _ = first_run
+    suite = SUITES["smoke"]
+    cells = [c for c in History(tmp / "h.sqlite").cell_records(1) if c.measure == "energy"]
+    assert len(cells) >= 7
+    for c in cells:
+        scene = make_scene(c.scene)
+        _, every = energy_run(scene, c.dt, suite.scenes[c.scene], suite)
+        assert main(["energy", c.scene, "--method", c.method, "--dt", repr(c.dt), "--steps", str(c.steps),
+                     "--every", str(every), "--json"]) == 0
+        res = json.loads(capsys.readouterr().out)
+        assert res["max_rel_error"] == c.value, c.method
+        assert res["final_rel_error"] == c.figures.final_rel_error, c.method
+        assert res["classification"] == c.figures.energy_class and res["rule"] == c.figures.rule, c.method

@@ -182,12 +182,38 @@ def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: b
     return out
 
 
+def _finite(x) -> float | None:
+    return float(x) if x is not None and np.isfinite(x) else None
+
+
+def energy_figures(traj: Trajectory, scene: Scene, method=None, timeout: float | None = None) -> tuple[dict, np.ndarray]:
+    """The energy figures of a run with recorded states, one rule for ``harness energy`` and the
+    nightly's energy cell: ``max_rel_error`` and ``final_rel_error`` (|dE/E|; None where the run
+    did not finish, where the exact energy crosses zero, rule 0, a number without a meaning,
+    or where not finite), ``rel_error_defined``, the classification and the numbers behind it,
+    and the run's ``events``. Returns (figures, the dE/E series)."""
+    e_exact, rel = relative_error_series(traj, scene)
+    defined = relative_error_defined(e_exact)
+    out: dict = {"rel_error_defined": defined, "max_rel_error": None, "final_rel_error": None}
+    if traj.ok and defined:
+        with np.errstate(all="ignore"):
+            out.update(max_rel_error=_finite(np.nanmax(np.abs(rel))), final_rel_error=_finite(abs(rel[-1])))
+    if traj.ok or traj.status == UNSTABLE:
+        out.update(classify(traj.energy[:, 0], e_exact, traj.t, unstable=not traj.ok,
+                            escaped=escaped_states(scene, traj)))
+    else:  # a crash or a timeout says nothing about the energy
+        out.update(classification=None, rule=f"run {traj.status}: not classified")
+    out["events"] = run_events(scene, traj, method, timeout)
+    return out, rel
+
+
 def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int = 1,
                      timeout: float | None = None, series: bool = False, state_error: bool = True) -> dict:
     """Step ``method`` and measure its energy behaviour against the exact energy.
 
-    Returns the run's status, ``max_rel_error``, ``final_rel_error`` (both |dE/E|), the
-    classification and the numbers behind it; ``series`` adds ``t`` and ``rel_error``.
+    Returns the run's status and ``energy_figures``'s (``max_rel_error``, ``final_rel_error``,
+    the classification and the numbers behind it, the events); ``series`` adds ``t`` and
+    ``rel_error``.
 
     Beside it, from the same run, the global error of the state against the exact or reference
     solution (``harness.measures.error``: ||(q, v/omega) - true|| relative to the true state's size, so
@@ -203,15 +229,8 @@ def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int 
     if traj.q.shape[0] == 0:
         out.update(classification=None, rule=f"no states recorded ({traj.status})")
         return out
-    e_exact, rel = relative_error_series(traj, scene)
-    with np.errstate(invalid="ignore"):
-        out.update(max_rel_error=float(np.max(np.abs(rel))), final_rel_error=float(abs(rel[-1])))
-    if traj.ok or traj.status == UNSTABLE:
-        out.update(classify(traj.energy[:, 0], e_exact, traj.t, unstable=not traj.ok,
-                            escaped=escaped_states(scene, traj)))
-    else:  # a crash or a timeout says nothing about the energy
-        out.update(classification=None, rule=f"run {traj.status}: not classified")
-    out["events"] = run_events(scene, traj, method, timeout)
+    figures, rel = energy_figures(traj, scene, method, timeout)
+    out.update(figures)
     out["short_horizon"] = out["periods"] < MIN_PERIODS
     if state_error and traj.ok:
         from harness.measures.error import trajectory_error

@@ -172,9 +172,13 @@ def _scene_task(task, suite: Suite) -> list[Cell]:
     return cells
 
 
+#: The energy figures of a run (``harness.measures.energy.energy_figures``) that are not the
+#: classification's numbers.
+ENERGY_RUN_FIGURES = ("max_rel_error", "final_rel_error", "rel_error_defined", "events")
+
+
 def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
-    from harness.measures.energy import (classify, escaped_states, relative_error_defined, relative_error_series,
-                                         run_events)
+    from harness.measures.energy import energy_figures
     from harness.measures.error import trajectory_error
     from harness.execution.simulate import simulate
 
@@ -185,20 +189,15 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
         return [make_cell(task, "energy", traj.status, dt=dt, steps=steps, detail=traj.detail,
                           figures=EnergyFigures(**settings)),
                 make_cell(task, "error", traj.status, dt=dt, steps=steps, detail=traj.detail, extra=settings)]
-    e_exact, rel = relative_error_series(traj, scene)
-    cls = classify(traj.energy[:, 0], e_exact, traj.t, unstable=traj.status == "unstable",
-                   escaped=escaped_states(scene, traj))
+    figures, _ = energy_figures(traj, scene, method, suite.cell_timeout)
+    e_exact = np.asarray(scene.exact_energy(traj.t), dtype=float)
     idx = _downsample(len(traj.t), suite.series_points)
     series = {"t": traj.t[idx], "energy": traj.energy[idx, 0], "exact": e_exact[idx]}
-    # A falling projectile's exact energy crosses zero: there max |dE/E| is a number without
-    # a meaning (it read 273 for explicit Euler), so none is stored.
-    defined = relative_error_defined(e_exact)
-    with np.errstate(all="ignore"):
-        max_rel = finite(np.nanmax(np.abs(rel))) if traj.ok and defined else None
-    energy = make_cell(task, "energy", traj.status, max_rel, dt, steps, traj.detail, EnergyFigures.pick(
-        cls, energy_class=cls["classification"], rel_error_defined=defined,
-        final_rel_error=finite(abs(rel[-1])) if traj.ok and defined else None, failed_step=traj.failed_step,
-        series=series, numbers=plain(cls), events=plain(run_events(scene, traj, method, suite.cell_timeout)) or None, **settings))
+    cls = {k: v for k, v in figures.items() if k not in ENERGY_RUN_FIGURES}
+    energy = make_cell(task, "energy", traj.status, figures["max_rel_error"], dt, steps, traj.detail, EnergyFigures.pick(
+        cls, energy_class=cls["classification"], rel_error_defined=figures["rel_error_defined"],
+        final_rel_error=figures["final_rel_error"], failed_step=traj.failed_step,
+        series=series, numbers=plain(cls), events=plain(figures["events"]) or None, **settings))
     err = trajectory_error(traj, scene) if traj.ok else {}
     error = make_cell(task, "error", traj.status, finite(err.get("error_max")), dt, steps, traj.detail,
                       ErrorFigures.pick(err))
