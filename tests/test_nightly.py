@@ -8,6 +8,7 @@ the rerun with a tightened bound. Each test that needs a history of its own work
 import contextlib
 import io
 import json
+import math
 import os
 import shutil
 import signal
@@ -479,3 +480,27 @@ def test_harness_energy_says_what_the_nightlys_energy_cell_says(first_run, capsy
         assert res["max_rel_error"] == c.value, c.method
         assert res["final_rel_error"] == c.figures.final_rel_error, c.method
         assert res["classification"] == c.figures.energy_class and res["rule"] == c.figures.rule, c.method
+
+
+@pytest.mark.parametrize("method", SUITES["smoke"].methods)
+def test_each_command_says_what_the_nightlys_cell_says(first_run, method, capsys):
+    """One code path per measure: ``harness order``, ``stability`` and ``cost`` with the smoke
+    suite's settings give the figures of the smoke run's cells, bit for bit (cost: the counted
+    evaluations, and the figures of the module's injected timings)."""
+    tmp, _, _ = first_run
+    suite, spec = SUITES["smoke"], SUITES["smoke"].scenes["spring"]
+    cells = {c.measure: c for c in History(tmp / "h.sqlite").cell_records(1) if c.method == method}
+
+    def command(*argv):
+        assert main([*argv, "spring", "--method", method, "--json"]) == 0
+        return json.loads(capsys.readouterr().out)
+
+    order = command("order", "--points", str(spec.order_points), "--span", repr(spec.order_span),
+                    "--periods", repr(spec.order_periods))
+    assert order["order"] == cells["order"].value and order["points"] == cells["order"].figures.points
+    stab = command("stability", "--steps", str(suite.stability_steps), "--hi", repr(suite.stability_homega_max))
+    assert (math.inf if stab["verdict"] == "unbounded" else stab["omega_dt_max"]) == cells["stability"].value
+    cost = command("cost", "--dt", repr(cells["cost"].dt), "--repeats", str(suite.cost_repeats))
+    assert cost["force_evals_per_step"] == cells["cost"].figures.force_evals_per_step
+    assert cost["s_per_step"] == cells["cost"].value and cost["clock"] == "injected"
+    assert cost["ratio_to_explicit_euler"] == cells["cost"].figures.ratio_to_explicit_euler

@@ -157,7 +157,7 @@ SUITES: dict[str, Suite] = {
         scenes={"spring": SceneSpec(periods=20, order_points=6, order_span=4.0, advise=ADVISE)},
         methods=("ref:explicit_euler", "ref:semi_implicit_euler", "ref:leapfrog", "ref:rk4", "ref:implicit_euler",
                  "mujoco:euler", "pymunk:applied_force"),
-        cost_repeats=3, series_points=200, stability_steps=500, cell_timeout=120.0,
+        cost_repeats=3, series_points=200, stability_steps=500, cell_timeout=60.0,
     ),
     "standard": Suite(
         "standard",
