@@ -33,6 +33,9 @@ class RunSettings:
     cell_timeout: float | None = None
     plugins: list = field(default_factory=list)
     skipped: list = field(default_factory=list)
+    code_digest: str | None = None           # the project's code (a dirty tree's commit says nothing of it)
+    injected_timings: dict | None = None     # timings read instead of the clock's (harness.measures.injected)
+    resumed: list = field(default_factory=list)  # the attempts that continued the run after a kill
 
     @classmethod
     def of(cls, d: dict | None) -> "RunSettings":

@@ -225,7 +225,8 @@ def test_a_cost_step_is_credited_with_the_calibrations_move(tmp_path):
 
 
 def test_what_differs_between_two_runs():
-    a = {"git_commit": "a" * 40, "versions": {"mujoco": "3.3.0", "numpy": "2.4.6"}, "machine": {"system": "Linux"}}
+    a = {"run_id": 1, "suite": "smoke", "started": "t", "measurement_version": MEASUREMENT_VERSION,
+         "git_commit": "a" * 40, "versions": {"mujoco": "3.3.0", "numpy": "2.4.6"}, "machine": {"system": "Linux"}}
     b = {**a, "versions": {"mujoco": "4.0.0", "numpy": "2.4.6"}}
     assert what_differs(a, b, "mujoco") == "mujoco 3.3.0 -> 4.0.0"
     assert what_differs(a, b, "ref") == "same code, engine versions and platform: the figure is not deterministic"

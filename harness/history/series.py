@@ -46,6 +46,7 @@ import pandas as pd
 from scipy.stats import norm
 
 from records import InvalidInput
+from records.run import RunRecord
 
 from harness.history import step_detect
 from harness.history.regression import Regression
@@ -161,14 +162,14 @@ class Trend:
     path: str
     suite: str
     measurement_version: int
-    runs: list[dict]                 # the runs of the series, oldest first
+    runs: list[RunRecord]            # the runs of the series, oldest first
     cells: list[CellHistory]
     left_out: str = ""               # the runs of other measurement versions, in one line
     min_runs: int = MIN_RUNS
 
     @property
     def run_ids(self) -> list[int]:
-        return [int(r["run_id"]) for r in self.runs]
+        return [r.run_id for r in self.runs]
 
     @property
     def judged(self) -> bool:
@@ -191,7 +192,7 @@ class Trend:
 
     def as_dict(self) -> dict:
         return {"db": self.path, "suite": self.suite, "measurement_version": self.measurement_version,
-                "runs": [{"run": int(r["run_id"]), "commit": r.get("git_commit"), "date": r.get("started")}
+                "runs": [{"run": r.run_id, "commit": r.git_commit, "date": r.started}
                          for r in self.runs],
                 "judged_by_history": self.judged, "left_out": self.left_out or None,
                 "cells": [c.as_dict() for c in self.cells]}
@@ -214,8 +215,8 @@ def _short(commit: str | None) -> str:
     return commit[:10] + ("+dirty" if commit.endswith("+dirty") else "")
 
 
-def commit_range(run_a: dict, run_b: dict) -> str:
-    a, b = run_a.get("git_commit"), run_b.get("git_commit")
+def commit_range(run_a: RunRecord | dict, run_b: RunRecord | dict) -> str:
+    a, b = RunRecord.of(run_a).git_commit, RunRecord.of(run_b).git_commit
     if a and a == b:
         return f"{_short(b)} (same commit)"
     return f"{_short(a)}..{_short(b)}"
@@ -225,32 +226,33 @@ def commit_range(run_a: dict, run_b: dict) -> str:
 NOTHING_DIFFERS = "same code, engine versions and platform"
 
 
-def _same_code(run_a: dict, run_b: dict) -> bool:
+def _same_code(run_a: RunRecord, run_b: RunRecord) -> bool:
     """One commit, and the same code digest where both runs have one (a ``+dirty`` commit
     without digests is not known to be the same code)."""
-    a, b = run_a.get("git_commit"), run_b.get("git_commit")
+    a, b = run_a.git_commit, run_b.git_commit
     if not b or a != b:
         return False
-    da, db = ((r.get("settings") or {}).get("code_digest") for r in (run_a, run_b))
+    da, db = run_a.settings.code_digest, run_b.settings.code_digest
     if da and db:
         return da == db
     return not b.endswith("+dirty")
 
 
-def what_differs(run_a: dict, run_b: dict, family: str, deterministic: bool = True) -> str:
+def what_differs(run_a: RunRecord | dict, run_b: RunRecord | dict, family: str, deterministic: bool = True) -> str:
     """What differs between two runs that a cell of ``family`` depends on: the code, package
     versions (plugins' included), the platform; or that nothing does (``NOTHING_DIFFERS``; for a
     ``deterministic`` figure, that it is not)."""
+    run_a, run_b = RunRecord.of(run_a), RunRecord.of(run_b)
     out = []
     if not _same_code(run_a, run_b):
-        same_commit = run_a.get("git_commit") == run_b.get("git_commit") and run_b.get("git_commit")
+        same_commit = run_a.git_commit == run_b.git_commit and run_b.git_commit
         out.append(f"code {commit_range(run_a, run_b)}" + (", its uncommitted changes differ" if same_commit else ""))
-    va, vb = run_a.get("versions") or {}, run_b.get("versions") or {}
+    va, vb = run_a.versions, run_b.versions
     plugins = sorted(k for k in {*va, *vb} if k.startswith("plugin "))
     for pkg in (*COMMON_PACKAGES, *FAMILY_PACKAGES.get(family, ()), *plugins):
         if va.get(pkg) != vb.get(pkg):
             out.append(f"{pkg} {va.get(pkg)} -> {vb.get(pkg)}")
-    ma, mb = run_a.get("machine") or {}, run_b.get("machine") or {}
+    ma, mb = run_a.machine, run_b.machine
     plat = [k for k in PLATFORM_KEYS if ma.get(k) != mb.get(k)]
     if plat:
         out.append("platform " + ", ".join(f"{k} {ma.get(k)} -> {mb.get(k)}" for k in plat))
@@ -269,7 +271,7 @@ def _calibration_level(points: list[Point]) -> float | None:
 
 
 def explained_by_machine(before: list[Point], after: list[Point], level_before: float, level_after: float,
-                         noise: float, runs: dict, family: str) -> tuple[str, float | None]:
+                         noise: float, runs: dict[int, RunRecord], family: str) -> tuple[str, float | None]:
     """Whether a cost change from the points ``before`` to the points ``after`` (levels
     ``level_before`` -> ``level_after``) is the machine's (module docstring): (why, "" if it is
     not; the confidence left once the calibration's move is credited, None where nothing
@@ -338,8 +340,8 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
     left_out = (f"{len(other)} {suite} run(s) of measurement version {other_versions} left out: "
                 f"not comparable with version {measurement_version}") if not other.empty else ""
     same = same.tail(last or WINDOW)
-    run_rows = [r.to_dict() for _, r in same.iterrows()]
-    by_id = {int(r["run_id"]): r for r in run_rows}
+    run_rows = [RunRecord.of(r.to_dict()) for _, r in same.iterrows()]
+    by_id = {r.run_id: r for r in run_rows}
     cells = history.cells_of_runs(list(by_id), [measure] if measure else MEASURES, data_of=("cost",))
     for name, value in (("--scene", scene), ("--method", method)):
         column = name[2:]
@@ -363,7 +365,7 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
     return trend
 
 
-def _cell_history(rows: list[dict], runs: dict[int, dict], judged: bool) -> CellHistory:
+def _cell_history(rows: list[dict], runs: dict[int, RunRecord], judged: bool) -> CellHistory:
     """One cell's history from its stored rows, oldest run first."""
     first = rows[0]
     measure = first["measure"]
@@ -381,7 +383,7 @@ def _cell_history(rows: list[dict], runs: dict[int, dict], judged: bool) -> Cell
         if row["status"] != "ok":
             value = None
         cal = (row["data"] or {}).get("calibration") if measure == "cost" else None
-        points.append(Point(int(row["run_id"]), run.get("git_commit"), run.get("started"), value, spread,
+        points.append(Point(int(row["run_id"]), run.git_commit, run.started, value, spread,
                             row["status"], float(cal) if cal else None))
     if measure != "cost":
         unit = {"energy": "max |dE/E|", "error": "max global error", "order": "observed order",
