@@ -25,46 +25,11 @@ from . import charts
 from .drawing import Chart, draw_charts
 from .damping_section import damping_stability_section
 from .history_section import history_charts, history_section
+from .advice_section import frame_rates, advice_section
+from .run_section import appendix, footer
+from .text import Footnotes, fmt as _fmt, of_measure as _of
 
 CHECK, CROSS = "✓", "✗"
-
-#: What the At-Hz section says of a request no advice cell carried.
-REQUEST_UNKNOWN = {"energy_tol": None, "error_tol": None, "horizon": float("nan"), "max_substeps": "?"}
-
-
-_SUPERSCRIPTS = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
-
-
-class Footnotes:
-    """Why a figure is missing, said once below its table: ``mark(reason)`` is the dash with the
-    reason's number (one number a reason), ``lines()`` the notes."""
-
-    def __init__(self):
-        self.reasons: dict[str, int] = {}
-
-    def mark(self, reason: str | None, what: str = "–") -> str:
-        if not reason:
-            return what
-        n = self.reasons.setdefault(reason, len(self.reasons) + 1)
-        return what + str(n).translate(_SUPERSCRIPTS)
-
-    def lines(self) -> list[str]:
-        return [f"{str(n).translate(_SUPERSCRIPTS)} {reason}" + ("" if reason.endswith(".") else ".")
-                for reason, n in self.reasons.items()] + ([""] if self.reasons else [])
-
-
-def _fmt(x, spec=".3g", none="–"):
-    if x is None or (isinstance(x, float) and math.isnan(x)):
-        return none
-    if isinstance(x, float) and math.isinf(x):
-        return "unbounded"
-    return format(x, spec)
-
-
-def _of(cells: list[Cell], measure: str, *statuses: str) -> list[Cell]:
-    """The cells of one measure (of these statuses, if any given)."""
-    return [c for c in cells if c.measure == measure and (not statuses or c.status in statuses)]
-
 
 def homega_text(cell: Cell | None) -> str:
     if cell is None:
@@ -288,9 +253,9 @@ def brouwer_lines(scene: str, piv: dict) -> list[str]:
             text += (f"; its position error as t^{f.error_slope:.2f} ({f.error_ci95[0]:.2f}–{f.error_ci95[1]:.2f}, "
                      f"fitted to t = {f.error_fit_until:.3g}, below 0.1)")
         parts.append(text)
-    return [f"Brouwer's law (roundoff walks the energy error as t^0.5, the phase error as t^1.5; the initial "
-            f"state perturbed at 1e-15 per realization, the slope of the ensemble's RMS with a bootstrap "
-            f"interval): " + "; ".join(parts) + ".", ""]
+    return ["Brouwer's law (roundoff walks the energy error as t^0.5, the phase error as t^1.5; the initial "
+            "state perturbed at 1e-15 per realization, the slope of the ensemble's RMS with a bootstrap "
+            "interval): " + "; ".join(parts) + ".", ""]
 
 
 def _class_text(energy) -> str:
@@ -333,83 +298,6 @@ def findings(found, chart_names: dict | None = None) -> list[str]:
     return lines
 
 
-def _frame_rates(cells: list[Cell]) -> list[float]:
-    return sorted({float(c.figures.hz) for c in _of(cells, "advise", "ok") if c.figures.hz})
-
-
-def _per_frame(row: dict) -> str:
-    c = row["cost_per_frame_s"]
-    return "–" if c is None else f"{c * 1e6:.3g} µs"
-
-
-def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]:
-    """"At 60 Hz": per scene, the method that meets the suite's tolerances with the cheapest
-    frame (its fewest substeps), the runners-up, and how many methods meet none; from this
-    run's ``advise`` cells (``harness.measures.advise``), cost per frame = substeps x the cost cell's
-    CPU time per step."""
-    rows = [c for c in cells if c.measure == "advise" and c.figures.hz == hz]
-    if not rows:
-        return []
-    request = next((c.figures.request for c in rows if c.figures.request), None)
-    request = {**REQUEST_UNKNOWN, **(request or {})}
-    tol = []
-    if request["energy_tol"] is not None:
-        tol.append(f"energy error ≤ {request['energy_tol']:g}")
-    if request["error_tol"] is not None:
-        tol.append(f"position error ≤ {request['error_tol']:g}")
-    lines = [f"## At {hz:g} Hz", "",
-             f"Which method, with how many substeps a frame, keeps each scene stable and within "
-             f"{' and '.join(tol) or 'the tolerances'} over {request['horizon']:g} s at {hz:g} "
-             f"frames a second, for the least cost per frame (`harness advise`; substeps 1 to "
-             f"{request['max_substeps']}, cost = substeps × the cost cell's CPU time per step).", ""]
-    by_scene: dict = {}
-    for c in rows:
-        by_scene.setdefault(c.scene, []).append(c)
-    for scene, grp in by_scene.items():
-        meeting, failing, broken = [], [], []
-        for r in grp:
-            if r.status != "ok":
-                broken.append(f"`{r.method}` {r.status}")
-                continue
-            best = r.figures.best
-            if best is None:
-                failing.append((r.method, r.figures.reason or "–"))
-            else:
-                row = r.figures.rows[best]
-                meeting.append((row["cost_per_frame_s"] or math.inf, r.method, row))
-        meeting.sort(key=lambda m: (m[0], m[1]))
-        lines += [f"### `{scene}` at {hz:g} Hz", ""]
-        if meeting:
-            _, method, row = meeting[0]
-            lines.append(f"**Advised: `{method}`, {row['substeps']} substep{'s' if row['substeps'] > 1 else ''}, "
-                         f"{_per_frame(row)} per frame.**")
-        else:
-            lines.append("**No method meets the tolerances here.**")
-        lines += ["", "| rank | method | substeps | h·ω | energy error | class | position error | per frame | "
-                      "evals/frame |", "|---|---|---|---|---|---|---|---|---|"]
-        notes = Footnotes()
-        reasons = {r.method: r.figures.evals_reason for r in grp if r.status == "ok"}
-        for i, (_, method, row) in enumerate(meeting[:5], start=1):
-            evals = _fmt(row["evals_per_frame"], ".3g", notes.mark(
-                reasons.get(method) and f"`{method}` counts no force evaluations: {reasons[method]}"))
-            lines.append(f"| {i} | `{method}` | {row['substeps']} | {row['homega']:.3g} | {_fmt(row['energy_error'], '.2e')} | "
-                         f"{row['energy_class'] or '–'} | {_fmt(row['position_error'], '.2e')} | "
-                         f"{_per_frame(row)} | {evals} |")
-        if len(meeting) > 5:
-            lines.append(f"| | {len(meeting) - 5} more meet them | | | | | | | |")
-        lines.append("")
-        lines += notes.lines()
-        if failing:
-            lines.append("Cannot meet them: " + "; ".join(f"`{m}`: {why}" for m, why in sorted(failing)) + ".")
-            lines.append("")
-        if broken:
-            lines += ["Not advised (see Failures): " + ", ".join(broken) + ".", ""]
-        name = chart_names.get((scene, f"advise{hz:g}"))
-        if name:
-            lines += [f"![Error against cost per frame on {scene} at {hz:g} Hz]({name})", ""]
-    return lines
-
-
 def bounds_section(cells: list[Cell], judged: dict) -> list[str]:
     b = _of(cells, "bound")
     if not b:
@@ -424,101 +312,6 @@ def bounds_section(cells: list[Cell], judged: dict) -> list[str]:
     return lines + [""]
 
 
-def appendix(run: RunRecord, cells: list[Cell]) -> list[str]:
-    lines = ["## Appendix: versions and settings", "", "| package | version |", "|---|---|"]
-    for pkg, ver in sorted(run.versions.items()):
-        lines.append(f"| {pkg} | {ver or 'not installed'} |")
-    lines += ["", "Settings each engine adapter used (as the adapter recorded them):", ""]
-    seen = set()
-    engine_runs = sorted((c for c in _of(cells, "energy") if c.family != "ref"), key=lambda c: (c.method, c.scene))
-    for r in engine_runs:
-        settings = r.figures.settings
-        key = (r.method, r.scene)
-        if settings is None or key in seen:
-            continue
-        seen.add(key)
-        items = "; ".join(f"{k}={v}" for k, v in settings.items()) if isinstance(settings, dict) else str(settings)
-        lines.append(f"- `{r.method}` on `{r.scene}` ({r.figures.engine_version}): {items}")
-    if not seen:
-        lines.append("- none recorded: no engine run finished in this run")
-    settings = run.settings
-    suite = settings.suite
-    if suite:
-        lines += ["", "The suite's settings:", ""]
-        for scene, spec in suite["scenes"].items():
-            lines.append(f"- `{scene}`: " + "; ".join(f"{k}={v}" for k, v in spec.items()))
-        rest = {k: v for k, v in suite.items() if k not in ("name", "scenes")}
-        rest["cell_timeout"] = settings.cell_timeout if settings.cell_timeout is not None else rest["cell_timeout"]
-        if settings.plugins:
-            rest["plugins"] = ",".join(settings.plugins)
-        lines.append("- " + "; ".join(f"{k}={v}" for k, v in rest.items()))
-    skipped = settings.skipped
-    if skipped:
-        lines += ["", "Left out of the matrix:", ""]
-        lines += [f"- `{s['method']}` on `{s['scene']}`: {s['reason']}" for s in skipped]
-    return lines + [""]
-
-
-def footer(run: RunRecord, timing: RunTiming) -> list[str]:
-    lines = ["---", ""]
-    executor = timing.executor if timing.executor is not None else (run.settings.executor or "?")
-    lines.append(f"Run {run.run_id} ({run.suite} suite), started {run.started}, commit "
-                 f"`{run.git_commit or 'unknown'}`, measurement version {run.measurement_version}. "
-                 f"Cells ran on: {executor}.")
-    if timing.resumed:
-        r = timing.resumed
-        lines += ["", f"Resumed: this run was killed and continued {r.get('attempts', 1)} time(s); "
-                      f"{r.get('tasks_carried', 0)} task(s) carried as the killed attempt stored them, "
-                      f"{r.get('tasks_run', 0)} run by the last attempt. Its wall and CPU times below are the "
-                      f"last attempt's, its worker seconds every attempt's."]
-    if timing.total_s is not None:
-        lines += [""] + where_the_time_went(timing)
-    if timing.machine_busy is not None:
-        lines += ["", f"Other processes took {timing.machine_busy:.0%} of the machine's CPU while the cells ran "
-                      f"(/proc/stat, less the harness's own)."]
-    return lines + [""]
-
-
-def _by(d: dict, n: int = 8) -> str:
-    return ", ".join(f"{k} {v:.1f}s" for k, v in sorted(d.items(), key=lambda kv: -kv[1])[:n]) or "–"
-
-
-def _kernels_phrase(timing: RunTiming) -> str:
-    """How much of the workers' CPU compiled kernels, and how many came from the disk cache."""
-    compiled, loaded = timing.kernels_compiled, timing.kernels_loaded
-    if compiled is None:  # a run stored before kernels were cached
-        return (f", {timing.numba_compile_s:.1f}s of it numba compiling the timing kernels"
-                if timing.numba_compile_s else "")
-    if not compiled and not loaded:
-        return ""
-    return (f", {timing.numba_compile_s or 0.0:.1f}s of it numba compiling {compiled} (scheme, scene) "
-            f"kernels, {loaded} more loaded from the disk cache in {timing.kernel_load_s:.1f}s")
-
-
-def where_the_time_went(timing: RunTiming) -> list[str]:
-    """The footer's account of the run's time: wall against the CPU the workers spent, and
-    where the worker seconds went (by measure, by family, numba compilation, slowest tasks)."""
-    total, cells_s, jobs = timing.total_s or 0.0, timing.cells_s, timing.jobs
-    tasks = "?" if timing.tasks is None else timing.tasks
-    cpus = "?" if timing.cpus is None else timing.cpus
-    lines = [f"Wall time {total:.1f}s to this report, {cells_s:.1f}s of it running {tasks} tasks"
-             + (f" in {jobs} worker processes on {cpus} cores" if jobs else "") + "."]
-    cpu = timing.worker_cpu_s
-    if cpu is not None:
-        busy = f" (on average {cpu / cells_s:.2f} workers busy)" if cells_s > 0 else ""
-        lost = timing.tasks_without_cpu or 0
-        lines[-1] += (f" CPU time in the workers {cpu:.1f}s{busy}"
-                      + (f", not counting {lost} task(s) whose worker was lost" if lost else "")
-                      + _kernels_phrase(timing)
-                      + f"; in the main process {timing.main_cpu_s:.1f}s.")
-    lines += ["", f"Worker seconds by measure: {_by(timing.worker_seconds_by_measure)}.",
-              "", f"By family: {_by(timing.worker_seconds_by_family)}."]
-    if timing.slowest_tasks:
-        lines += ["", "Slowest tasks: " + ", ".join(f"{label} {sec:.1f}s" for label, sec in timing.slowest_tasks) + "."]
-    return lines
-
-
-# ----------------------------------------------------------------------------- the report
 def report_charts(run_id: int, cells: list[Cell], trend=None) -> tuple[list[Chart], dict]:
     """(every chart the report can show, to be drawn: ``reports.drawing``; {(scene, kind): chart
     name} of the per-scene ones, for the sections that show them)."""
@@ -533,7 +326,7 @@ def report_charts(run_id: int, cells: list[Cell], trend=None) -> tuple[list[Char
             todo.append(Chart(name, fn, (of_scene, scene), styles))
         names[(scene, "nominal")] = name = f"charts/run{run_id}-{scene}-nominal.png"
         todo.append(Chart(name, charts.nominal_chart, (of_scene, scene), styles))
-        for hz in _frame_rates(cells):
+        for hz in frame_rates(cells):
             names[(scene, f"advise{hz:g}")] = name = f"charts/run{run_id}-{scene}-advise{hz:g}hz.png"
             todo.append(Chart(name, charts.advice_chart, (of_scene, scene, hz), styles))
     names["damping"] = name = f"charts/run{run_id}-damping-stability.png"
@@ -566,7 +359,7 @@ def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None
     lines += ["## Per scene", "", COST_COLUMNS, ""]
     for scene in scenes:
         lines += scene_section(scene, piv, chart_names)
-    for hz in _frame_rates(cells):
+    for hz in frame_rates(cells):
         lines += advice_section(cells, hz, chart_names)
     lines += findings(judged.findings, chart_names)
     lines += failures(cells)
