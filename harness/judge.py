@@ -14,11 +14,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from records.cell import Cell, Claims, pivot
 from records.findings import MARK, Change, ClaimChecks, Finding, Judgement, Verdict
 
+from harness.engine_findings import blowups_at_nominal, engine_findings
 from harness.measures.workprecision import error_at_equal_cost as at_equal_cost
 
 #: A measured order within this of the declared order gets a check mark (the order tests' tolerance).
@@ -87,102 +86,6 @@ def verdict(cells: list[Cell], regressions=(), previous=None, trend=None) -> Ver
 
 
 # ----------------------------------------------------------------------------- the findings
-def engine_findings(piv: dict) -> list[Finding]:
-    """Engine behaviour a user would not expect, on any scene: a mode that integrates as another
-    scheme than its name suggests, or as explicit Euler, or as none; a blow-up or an energy gain
-    at the nominal timestep."""
-    out = []
-    for (scene, method), ms in sorted(piv.items()):
-        if method.startswith("ref:"):
-            continue
-        ident, energy = ms.get("identity"), ms.get("energy")
-        if ident is not None and ident.status == "ok":
-            f = ident.figures
-            matches, dev = f.all_matches, ident.value
-            expected = f.name_suggests
-            if expected and matches and f"ref:{expected}" not in matches:
-                said = " = ".join(f"`{m}`" for m in matches)
-                out.append(Finding(f"`{method}` on `{scene}` integrates as **{said}** (max deviation {dev:.1e}), "
-                                   f"not the {expected.replace('_', ' ')} its name suggests.", None, scene, method))
-            elif matches == ["ref:explicit_euler"]:
-                out.append(Finding(f"`{method}` on `{scene}` is **explicit Euler** (max deviation {dev:.1e}).",
-                                   None, scene, method))
-            elif not matches and f.note:
-                out.append(Finding(f"`{method}` on `{scene}`: {f.note}", None, scene, method))
-        if energy is not None and energy.status == "unstable" and energy.figures.failed_step:
-            out.append(Finding(f"`{method}` blows up on `{scene}` at the nominal timestep "
-                               f"(step {energy.figures.failed_step}).", None, scene, method))
-        elif energy is not None and energy.status == "ok" and energy.figures.energy_class == "grows":
-            out.append(Finding(f"`{method}` gains energy on `{scene}` at the nominal timestep "
-                               f"(max |ΔE/E| {energy.value:.2e}).", None, scene, method))
-    return out
-
-
-def brouwer_law(check: Check, scene: str, piv: dict) -> list[Finding]:
-    """A method's ensemble energy-error slope (``brouwer`` cells) against Brouwer's 0.5: its 95%
-    interval contains it."""
-    out = []
-    for m, r in _rows(piv, scene, check).items():
-        f = r.figures
-        if r.value is None or not f.ci95:
-            continue
-        lo, hi = f.ci95
-        out.append(Finding(f"`{scene}`: `{m}`'s energy error over {f.realizations} realizations and "
-                           f"{f.periods:.3g} periods grows as t^{r.value:.2f} (95% interval {lo:.2f}–{hi:.2f}), "
-                           f"Brouwer's law t^{check.expect:g} {MARK}.", bool(lo <= check.expect <= hi), scene, m))
-    return out
-
-
-def blowups_at_nominal(piv: dict) -> list[Finding]:
-    """A method that blows up within the stability measure's finite horizon at the suite's
-    nominal timestep, with its evidence: the step, its largest stable h·ω, and the same engine's
-    other modes on the same scene at that step (their nominal runs). Where a companion runs on
-    there, the engine and the scene's model are the same and only the integrator differs: the
-    cause is the mode; where none does, the model at this timestep (its stiffness or its
-    constraints) is what every mode fails on."""
-    out = []
-    for (scene, method), ms in sorted(piv.items()):
-        stab = ms.get("stability")
-        nominal = stab.figures.nominal if stab is not None and stab.status == "ok" else None
-        if not nominal or not nominal.get("failed_step"):
-            continue
-        step, family = nominal["failed_step"], method.split(":")[0]
-        t_fail = step * nominal["dt"]
-        companions = []
-        for (s2, m2), ms2 in sorted(piv.items()):
-            other = ms2.get("stability")
-            if s2 != scene or m2 == method or m2.split(":")[0] != family or other is None or not other.figures.nominal:
-                continue
-            n2 = other.figures.nominal
-            runs_on = not n2.get("failed_step") or n2["failed_step"] > step
-            series = n2.get("series") or {}
-            kept = ""
-            if runs_on and series.get("t"):
-                t, e = np.asarray(series["t"]), np.asarray(series["energy"], dtype=float)
-                e_at = float(np.interp(t_fail, t, e))
-                kept = f", energy {e_at:.3g} (started at {e[0]:.3g})"
-            companions.append((m2, runs_on, (f"runs on{kept}" if runs_on else f"blew up too, at step {n2['failed_step']}")))
-        limit = stab.value
-        own = (nominal.get("series") or {}).get("energy") or []
-        gained = f", its energy {own[0]:.3g} -> {own[-1]:.3g} before it" if len(own) > 1 else ""
-        text = (f"`{method}` on `{scene}` blows up at the nominal h·ω = {nominal['homega']:.3g} (dt = "
-                f"{nominal['dt']:.3g}) at step {step} of {nominal['steps']}{gained} "
-                f"({nominal.get('detail') or 'diverged'}); its largest stable h·ω there is {_g(limit, '.3g')}.")
-        if companions:
-            text += " At that step the same engine's other modes, on the same model: " + "; ".join(
-                f"`{m}` {what}" for m, _, what in companions) + "."
-            steady = [m for m, ok, _ in companions if ok]
-            if steady:
-                text += (f" Cause: the mode's integrator, not the scene's model ({', '.join(f'`{m}`' for m in steady)} "
-                         f"integrate the same model at the same dt). Use {'one of them' if len(steady) > 1 else 'it'}, "
-                         f"or h·ω <= {_g(limit, '.3g')} with `{method}`.")
-            else:
-                text += (f" Cause: the scene's model at this timestep (every mode of the engine fails on it): "
-                         f"h·ω <= {_g(limit, '.3g')}.")
-        out.append(Finding(text, None, scene, method))
-    return out
-
-
 @dataclass(frozen=True)
 class Check:
     """One row of a scene's findings table: the ``finding`` (a key of ``FINDINGS``), the
@@ -436,6 +339,21 @@ def cost_ratio(check: Check, scene: str, piv: dict) -> list[Finding]:
                 f"`{scene}`, cost: `{method}` takes {_value(rk) / _value(lf):.2f}x `{other}`'s time per step "
                 f"(compiled, {_value(rk) * 1e6:.3g} µs against {_value(lf) * 1e6:.3g} µs, min of repeats; spreads "
                 f"{rk.figures.spread or 0:.0%} and {lf.figures.spread or 0:.0%}) for {evals}.", None, scene, method))
+    return out
+
+
+def brouwer_law(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """A method's ensemble energy-error slope (``brouwer`` cells) against Brouwer's 0.5: its 95%
+    interval contains it."""
+    out = []
+    for m, r in _rows(piv, scene, check).items():
+        f = r.figures
+        if r.value is None or not f.ci95:
+            continue
+        lo, hi = f.ci95
+        out.append(Finding(f"`{scene}`: `{m}`'s energy error over {f.realizations} realizations and "
+                           f"{f.periods:.3g} periods grows as t^{r.value:.2f} (95% interval {lo:.2f}–{hi:.2f}), "
+                           f"Brouwer's law t^{check.expect:g} {MARK}.", bool(lo <= check.expect <= hi), scene, m))
     return out
 
 

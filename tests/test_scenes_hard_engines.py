@@ -355,7 +355,7 @@ def _stability_cell(method, failed=None, energy=(1.47, 1.4, 1.3)):
 
 
 def test_a_blow_up_at_the_nominal_timestep_is_a_finding_with_its_companions():
-    from harness.judge import blowups_at_nominal
+    from harness.engine_findings import blowups_at_nominal
     from records.cell import pivot
 
     cells = [_stability_cell("mujoco:implicit", failed=2434, energy=(1.47, 2.9, 105.0)),

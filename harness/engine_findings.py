@@ -1,0 +1,96 @@
+"""Engine behaviour a user would not expect, on any scene (``harness.judge`` lists these before
+each scene's own checks): a mode that integrates as another scheme than its name suggests, or as
+explicit Euler, or as none; an energy gain or a blow-up at the nominal timestep, and a blow-up
+within the stability measure's horizon set beside the same engine's other modes."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from records.findings import Finding
+
+
+def _g(x, spec=".3g") -> str:
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def engine_findings(piv: dict) -> list[Finding]:
+    """Engine behaviour a user would not expect, on any scene: a mode that integrates as another
+    scheme than its name suggests, or as explicit Euler, or as none; a blow-up or an energy gain
+    at the nominal timestep."""
+    out = []
+    for (scene, method), ms in sorted(piv.items()):
+        if method.startswith("ref:"):
+            continue
+        ident, energy = ms.get("identity"), ms.get("energy")
+        if ident is not None and ident.status == "ok":
+            f = ident.figures
+            matches, dev = f.all_matches, ident.value
+            expected = f.name_suggests
+            if expected and matches and f"ref:{expected}" not in matches:
+                said = " = ".join(f"`{m}`" for m in matches)
+                out.append(Finding(f"`{method}` on `{scene}` integrates as **{said}** (max deviation {dev:.1e}), "
+                                   f"not the {expected.replace('_', ' ')} its name suggests.", None, scene, method))
+            elif matches == ["ref:explicit_euler"]:
+                out.append(Finding(f"`{method}` on `{scene}` is **explicit Euler** (max deviation {dev:.1e}).",
+                                   None, scene, method))
+            elif not matches and f.note:
+                out.append(Finding(f"`{method}` on `{scene}`: {f.note}", None, scene, method))
+        if energy is not None and energy.status == "unstable" and energy.figures.failed_step:
+            out.append(Finding(f"`{method}` blows up on `{scene}` at the nominal timestep "
+                               f"(step {energy.figures.failed_step}).", None, scene, method))
+        elif energy is not None and energy.status == "ok" and energy.figures.energy_class == "grows":
+            out.append(Finding(f"`{method}` gains energy on `{scene}` at the nominal timestep "
+                               f"(max |ΔE/E| {energy.value:.2e}).", None, scene, method))
+    return out
+
+
+def blowups_at_nominal(piv: dict) -> list[Finding]:
+    """A method that blows up within the stability measure's finite horizon at the suite's
+    nominal timestep, with its evidence: the step, its largest stable h·ω, and the same engine's
+    other modes on the same scene at that step (their nominal runs). Where a companion runs on
+    there, the engine and the scene's model are the same and only the integrator differs: the
+    cause is the mode; where none does, the model at this timestep (its stiffness or its
+    constraints) is what every mode fails on."""
+    out = []
+    for (scene, method), ms in sorted(piv.items()):
+        stab = ms.get("stability")
+        nominal = stab.figures.nominal if stab is not None and stab.status == "ok" else None
+        if not nominal or not nominal.get("failed_step"):
+            continue
+        step, family = nominal["failed_step"], method.split(":")[0]
+        t_fail = step * nominal["dt"]
+        companions = []
+        for (s2, m2), ms2 in sorted(piv.items()):
+            other = ms2.get("stability")
+            if s2 != scene or m2 == method or m2.split(":")[0] != family or other is None or not other.figures.nominal:
+                continue
+            n2 = other.figures.nominal
+            runs_on = not n2.get("failed_step") or n2["failed_step"] > step
+            series = n2.get("series") or {}
+            kept = ""
+            if runs_on and series.get("t"):
+                t, e = np.asarray(series["t"]), np.asarray(series["energy"], dtype=float)
+                e_at = float(np.interp(t_fail, t, e))
+                kept = f", energy {e_at:.3g} (started at {e[0]:.3g})"
+            companions.append((m2, runs_on, (f"runs on{kept}" if runs_on else f"blew up too, at step {n2['failed_step']}")))
+        limit = stab.value
+        own = (nominal.get("series") or {}).get("energy") or []
+        gained = f", its energy {own[0]:.3g} -> {own[-1]:.3g} before it" if len(own) > 1 else ""
+        text = (f"`{method}` on `{scene}` blows up at the nominal h·ω = {nominal['homega']:.3g} (dt = "
+                f"{nominal['dt']:.3g}) at step {step} of {nominal['steps']}{gained} "
+                f"({nominal.get('detail') or 'diverged'}); its largest stable h·ω there is {_g(limit, '.3g')}.")
+        if companions:
+            text += " At that step the same engine's other modes, on the same model: " + "; ".join(
+                f"`{m}` {what}" for m, _, what in companions) + "."
+            steady = [m for m, ok, _ in companions if ok]
+            if steady:
+                text += (f" Cause: the mode's integrator, not the scene's model ({', '.join(f'`{m}`' for m in steady)} "
+                         f"integrate the same model at the same dt). Use {'one of them' if len(steady) > 1 else 'it'}, "
+                         f"or h·ω <= {_g(limit, '.3g')} with `{method}`.")
+            else:
+                text += (f" Cause: the scene's model at this timestep (every mode of the engine fails on it): "
+                         f"h·ω <= {_g(limit, '.3g')}.")
+        out.append(Finding(text, None, scene, method))
+    return out
