@@ -16,7 +16,7 @@ import pytest
 
 import reference
 from reference import METHODS, RefMethod, exact_compiled, exact_why, integrate, integrate_exact
-from reference import _kernels, _libm
+from reference import _codegen, _exactness, _libm
 from scenarios import SCENES, make_scene
 from scenarios.spring import Spring
 
@@ -117,7 +117,7 @@ def test_a_scene_overriding_its_force_on_the_instance_is_interpreted():
 
 def _why(src: str) -> tuple[str, set]:
     libm = set()
-    return _kernels.exact_operations(ast.parse(src).body[0], {"np": "np", "math": "math"}, {"helper"}, libm), libm
+    return _exactness.exact_operations(ast.parse(src).body[0], {"np": "np", "math": "math"}, {"helper"}, libm), libm
 
 
 @pytest.mark.parametrize("body, why", [
@@ -159,7 +159,7 @@ def test_libm_check_sees_a_one_ulp_difference(monkeypatch):
 
 
 def test_counted_copy_renames_each_kernel_call():
-    src = _kernels._Source()
+    src = _codegen._Source()
     src.add(METHODS["rk4"].step, "scheme_step", ("scene_accel",))
     src.add(make_scene("spring").accel, "scene_accel")
     src.add_counted("scheme_step", "scheme_step_counted", {"scene_accel": 0})
@@ -170,11 +170,11 @@ def test_counted_copy_renames_each_kernel_call():
 
 
 def test_a_kernel_passed_on_as_a_value_cannot_be_counted():
-    src = _kernels._Source()
+    src = _codegen._Source()
     src.functions["scheme_step"] = ast.unparse(ast.parse("def scheme_step(state, t, h, p):\n"
                                                          "    return helper_taking(scene_accel, state)\n"))
     src.origins["scheme_step"] = "test"
-    with pytest.raises(_kernels.SourceUnavailable, match="passes the kernel scene_accel on as a value"):
+    with pytest.raises(_codegen.SourceUnavailable, match="passes the kernel scene_accel on as a value"):
         src.add_counted("scheme_step", "scheme_step_counted", {"scene_accel": 0})
 
 

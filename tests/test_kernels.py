@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from reference import METHODS, integrate
-from reference import _kernels
+from reference import _codegen, _kernels
 from reference._compiled import _parts, run_compiled
 from reference._floors import FLOORS, run_floor
 from scenarios import SCENES, make_scene
@@ -160,8 +160,8 @@ def test_a_scheme_whose_source_cannot_be_copied_is_compiled_in_memory():
             return (q + h * v, v)
         '''), namespace)
     made = namespace["uses_a_dict"]
-    with pytest.raises(_kernels.SourceUnavailable):  # exec'd source has no file to copy from
-        _kernels.kernel_source(made, type(make_scene("spring")), 2)
+    with pytest.raises(_codegen.SourceUnavailable):  # exec'd source has no file to copy from
+        _codegen.kernel_source(made, type(make_scene("spring")), 2)
     kernels = _kernels.load(made, type(make_scene("spring")), 2)
     assert not kernels.cached and kernels.why_uncached
     q, _ = run_compiled(made, make_scene("spring"), 0.1, 50)

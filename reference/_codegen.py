@@ -1,0 +1,383 @@
+"""A (scheme, scene) pair's kernel file as source (``reference._kernels`` writes, caches and loads
+it): the pair's functions copied from their source files, the loops ``advance_n`` and
+``run_counted`` written around the unchanged step, and what the copy found (``KernelFile``)."""
+from __future__ import annotations
+
+import ast
+import builtins
+import inspect
+import math
+import sys
+import textwrap
+import types
+from dataclasses import dataclass
+
+import numpy as np
+
+from records.trajectory import DIVERGED
+
+from ._scheme import largest_magnitude
+
+from ._exactness import exact_operations
+
+#: Modules a copied function may name, and the import line that gives them.
+_MODULE_IMPORTS = {np: "import numpy as {name}", math: "import math as {name}"}
+#: Packages whose functions may be copied into a kernel file.
+_OWN_PACKAGES = ("reference", "scenarios")
+#: Functions the kernel file imports rather than copies (numba compiles them through the
+#: overloads registered below).
+_IMPORTED = {largest_magnitude: "from reference._scheme import largest_magnitude"}
+
+
+
+class SourceUnavailable(Exception):
+    """A function's source cannot be copied into a kernel file (the reason is the message)."""
+
+
+
+def _free_globals(tree: ast.FunctionDef) -> list[str]:
+    """Names a function reads that it does not bind (its parameters, assignments, loops)."""
+    bound = {a.arg for a in tree.args.args + tree.args.kwonlyargs + tree.args.posonlyargs}
+    loads = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            if isinstance(node.ctx, ast.Store):
+                bound.add(node.id)
+            elif node.id not in loads:
+                loads.append(node.id)
+    return [n for n in loads if n not in bound and not hasattr(builtins, n)]
+
+
+def _function_tree(fn, name: str) -> ast.FunctionDef:
+    try:
+        src = textwrap.dedent(inspect.getsource(fn))
+    except (OSError, TypeError) as exc:
+        raise SourceUnavailable(f"no source for {fn!r}: {exc}") from None
+    tree = ast.parse(src).body[0]
+    if not isinstance(tree, ast.FunctionDef):
+        raise SourceUnavailable(f"{fn!r} is not a plain function")
+    tree.decorator_list = []
+    tree.name = name
+    return tree
+
+
+class _Source:
+    """The text of one kernel file, built function by function."""
+
+    def __init__(self):
+        self.imports: dict[str, str] = {}
+        self.constants: dict[str, str] = {}
+        self.functions: dict[str, str] = {}
+        self.origins: dict[str, str] = {}
+        self._copied: dict[str, object] = {}
+        self._trees: dict[str, ast.FunctionDef] = {}
+
+    def add(self, fn, name: str, bind: tuple[str, ...] = ()) -> None:
+        """Copy ``fn`` as ``name``, with the globals it reads. ``bind`` names the kernels its
+        first parameters receive (``scene_accel``, ...): those parameters are dropped and the
+        kernels called as globals of the file, since numba caches no function that takes a
+        function as an argument or passes one on."""
+        if name in self._copied:
+            if self._copied[name] is not fn:
+                raise SourceUnavailable(f"two functions named {name}")
+            return
+        self._copied[name] = fn
+        tree = _function_tree(fn, name)
+        if bind:
+            params = tree.args.args[:len(bind)]
+            if len(params) < len(bind) or tree.args.posonlyargs:
+                raise SourceUnavailable(f"{fn.__qualname__} does not take the kernels {bind} first")
+            renames = {a.arg: kernel for a, kernel in zip(params, bind)}
+            tree.args.args = tree.args.args[len(bind):]
+            for node in ast.walk(tree):
+                if isinstance(node, ast.Name) and node.id in renames:
+                    if isinstance(node.ctx, ast.Store):
+                        raise SourceUnavailable(f"{fn.__qualname__} assigns to its kernel {node.id}")
+                    node.id = renames[node.id]
+        module = sys.modules.get(fn.__module__)
+        self.origins[name] = f"{fn.__module__}.{fn.__qualname__}"
+        for gname in _free_globals(tree):
+            if gname in bind:
+                continue
+            if gname not in fn.__globals__:
+                raise SourceUnavailable(f"{fn.__qualname__} reads an undefined global {gname}")
+            self._global(gname, fn.__globals__[gname], module)
+        self.functions[name] = ast.unparse(tree)
+        self._trees[name] = tree
+
+    def add_one_iteration(self, name: str, new_name: str, iterations: str) -> bool:
+        """Copy the already copied ``name`` as ``new_name`` for exactly one iteration: each loop
+        ``for _ in range(<iterations>)`` whose body ends ``if ...: break`` becomes one pass
+        without that exit (a break that ends the last pass changes nothing). Unlike a loop with
+        an exit, straight-line code vectorises over a batch. False if there is no such loop."""
+        tree = ast.parse(self.functions[name]).body[0]
+        found = False
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.For) and isinstance(node.iter, ast.Call)
+                    and getattr(node.iter.func, "id", None) == "range" and len(node.iter.args) == 1
+                    and getattr(node.iter.args[0], "id", None) == iterations and node.body
+                    and isinstance(node.body[-1], ast.If) and not node.body[-1].orelse
+                    and [type(b) for b in node.body[-1].body] == [ast.Break]):
+                node.body = node.body[:-1] or [ast.Pass()]
+                node.iter.args = [ast.Constant(1)]
+                found = True
+        if found:
+            tree.name = new_name
+            self.origins[new_name] = self.origins[name] + ", one iteration"
+            self.functions[new_name] = ast.unparse(ast.fix_missing_locations(tree))
+        return found
+
+    def add_counted(self, name: str, new_name: str, kernels: dict[str, int]) -> None:
+        """Copy the already copied ``name`` as ``new_name`` that counts its kernels' calls: a first
+        parameter ``_cnt`` (int64, one entry per kernel: ``kernels`` maps a kernel's name to its
+        entry) and every call ``K(...)`` of a kernel made ``K_counted(_cnt, ...)``. A kernel named
+        other than as the function of a call (passed on as a value) cannot be counted."""
+        tree = ast.parse(self.functions[name]).body[0]
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in kernels:
+                node.args.insert(0, ast.Name("_cnt", ast.Load()))
+                node.func.id += "_counted"
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Name) and node.id in kernels:
+                raise SourceUnavailable(f"{self.origins[name]} passes the kernel {node.id} on as a value: "
+                                        "its calls cannot be counted")
+        tree.args.args.insert(0, ast.arg("_cnt"))
+        tree.name = new_name
+        self.origins[new_name] = self.origins[name] + ", counted"
+        self.functions[new_name] = ast.unparse(ast.fix_missing_locations(tree))
+        self._trees[new_name] = tree
+        for kernel, entry in kernels.items():
+            wrapper = f"{kernel}_counted"
+            if wrapper in self.functions:
+                continue
+            params = ", ".join(a.arg for a in self._trees[kernel].args.args)
+            self.origins[wrapper] = f"{self.origins[kernel]}, counted in _cnt[{entry}]"
+            self.functions[wrapper] = (f"def {wrapper}(_cnt, {params}):\n    _cnt[{entry}] += 1\n"
+                                       f"    return {kernel}({params})")
+
+    def exact_why(self) -> tuple[str, tuple[str, ...]]:
+        """(why numba may compute other bits than numpy, or "", the libm functions the kernels
+        call) by ``exact_operations``, over every function copied."""
+        modules = {}
+        for alias, line in self.imports.items():
+            if line.startswith("import numpy"):
+                modules[alias] = "np"
+            elif line.startswith("import math"):
+                modules[alias] = "math"
+        libm = set()
+        for name, tree in self._trees.items():
+            why = exact_operations(tree, modules, set(self.functions) | set(self.imports), libm)
+            if why:
+                return f"{self.origins[name]}: {why}", ()
+        return "", tuple(sorted(libm))
+
+    def _global(self, name: str, value, module) -> None:
+        if isinstance(value, types.ModuleType):
+            for mod, line in _MODULE_IMPORTS.items():
+                if value is mod:
+                    self._put(self.imports, name, line.format(name=name))
+                    return
+            raise SourceUnavailable(f"module {value.__name__} (as {name}) cannot be named in a kernel")
+        if isinstance(value, (bool, int, float)):
+            self._put(self.constants, name, f"{name} = {value!r}")
+            return
+        if value in _IMPORTED:
+            self._put(self.imports, name, _IMPORTED[value])
+            return
+        if isinstance(value, types.FunctionType) and value.__module__.split(".")[0] in _OWN_PACKAGES:
+            self.add(value, name)
+            return
+        raise SourceUnavailable(f"global {name} = {value!r} cannot be copied into a kernel")
+
+    def _put(self, table: dict, name: str, line: str) -> None:
+        if table.get(name, line) != line:
+            raise SourceUnavailable(f"two different globals named {name}")
+        table[name] = line
+
+    def text(self, header: str, loop: str) -> str:
+        # error_model="numpy": a division by zero gives inf/nan, as on the interpreted (numpy)
+        # path, instead of raising, and the loops skip the zero checks (~15% of a spring step).
+        parts = [header, "import numba", *sorted(set(self.imports.values())), "",
+                 '_jit = numba.njit(cache=True, error_model="numpy")', ""]
+        parts += sorted(self.constants.values()) + [""]
+        for name, body in self.functions.items():
+            parts += [f"# from {self.origins[name]}", "@_jit", body, ""]
+        return "\n".join(parts + [loop])
+
+
+def _loop_source(kind: str, nstate: int, pointwise: bool, once: bool = False) -> str:
+    """``advance_n(state, t0, h, i0, n, p, k) -> state``: steps i0 .. i0 + n - 1 of a run
+    started at t0 (step i starts at t0 + i h, as in the interpreted driver, so a run cut into
+    pieces is the same run). ``k`` is the one integer a scheme takes besides the state: Newton
+    iterations allowed (implicit) or projection passes (constrained). The state passed in is
+    not modified. ``once``: the file has ``scheme_step_once``, the step for one Newton iteration."""
+    extra = "k, " if kind in ("implicit", "constrained") else ""
+    call = f"scheme_step({extra}{{x}}, {{t}}, h, p)"
+    if not pointwise:
+        return "\n".join([
+            "@_jit",
+            "def advance_n(state, t0, h, i0, n, p, k):",
+            "    for i in range(i0, i0 + n):",
+            "        state = " + call.format(x="state", t="t0 + i * h"),
+            "    return state", ""])
+    s = [f"s{j}" for j in range(nstate)]
+
+    def entries(r, b):
+        return "(" + ", ".join(f"{x}[{r}, {b}]" for x in s) + ",)"
+
+    def loops(step_call, indent):
+        body = ["if nb == 1:",
+                "    for r in range(ndof):",
+                f"        x = {entries('r', 0)}",
+                "        for i in range(i0, i0 + n):",
+                "            x = " + step_call.format(x="x", t="t0 + i * h"),
+                *[f"        {x}[r, 0] = x[{j}]" for j, x in enumerate(s)],
+                "else:",
+                "    for i in range(i0, i0 + n):",
+                "        t = t0 + i * h",
+                "        for r in range(ndof):",
+                "            for b in range(nb):",
+                "                x = " + step_call.format(x=entries("r", "b"), t="t"),
+                *[f"                {x}[r, b] = x[{j}]" for j, x in enumerate(s)]]
+        return [indent + line for line in body]
+
+    lines = ["@_jit", "def advance_n(state, t0, h, i0, n, p, k):"]
+    lines += [f"    {x} = state[{j}].copy()" for j, x in enumerate(s)]
+    lines += ["    ndof, nb = s0.shape"]
+    if once:
+        # One Newton iteration (every linear scene: exact) runs the step copied without the
+        # iteration loop's exit, which leaves the batch loop straight-line code that vectorises.
+        lines += ["    if k == 1:", *loops(call.replace("scheme_step(k, ", "scheme_step_once(1, "), "        "),
+                  "    else:", *loops(call, "        ")]
+    else:
+        lines += loops(call, "    ")
+    lines += ["    return (" + ", ".join(s) + ",)", ""]
+    return "\n".join(lines)
+
+
+def _counted_one_source(kind: str) -> str:
+    """``run_counted_one(x, t0, h, n, every, p, k, out_q, out_v, cnt) -> (recorded, failed)``:
+    ``run_counted`` on a pointwise scene with one entry (one DOF, batch one), its state ``x``
+    the floats ``start_counted`` returns for floats: the same operations on scalars, which
+    numba compiles in a fraction of the time it takes over array expressions."""
+    extra = "k, " if kind in ("implicit", "constrained") else ""
+    return "\n".join([
+        "@_jit",
+        "def run_counted_one(x, t0, h, n, every, p, k, out_q, out_v, cnt):",
+        "    qo, vo = observe(x, t0, h, p)",
+        "    out_q[0, 0, 0] = qo",
+        "    out_v[0, 0, 0] = vo",
+        "    j = 1",
+        "    for i in range(n):",
+        f"        x = scheme_step_counted(cnt, {extra}x, t0 + i * h, h, p)",
+        "        if not (abs(x[0]) <= _DIVERGED and abs(x[1]) <= _DIVERGED):",
+        "            return j, i + 1",
+        "        if (i + 1) % every == 0 or i + 1 == n:",
+        "            qo, vo = observe(x, t0 + (i + 1) * h, h, p)",
+        "            out_q[j, 0, 0] = qo",
+        "            out_v[j, 0, 0] = vo",
+        "            j += 1",
+        "    return j, 0",
+        ""])
+
+
+def _counted_source(kind: str) -> str:
+    """``run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt) -> (state, recorded,
+    failed)``: ``reference._integrate.integrate``'s loop, compiled. Steps 1 .. n of a run started
+    at t0 (step i + 1 starts at t0 + i h), each checked as ``records.trajectory.diverged``
+    checks it (a component not finite or beyond DIVERGED stops the run: ``failed`` is that
+    step, else 0); the observed state of step 0, every ``every`` steps and the last written to
+    ``out_q``/``out_v`` (kernel layout, one record per row; ``recorded`` rows written); the
+    force, solve and projection calls added to ``cnt``."""
+    extra = "k, " if kind in ("implicit", "constrained") else ""
+    return "\n".join([
+        f"_DIVERGED = {DIVERGED!r}",
+        "",
+        "",
+        "@_jit",
+        "def _within(x):",
+        "    for e in x.flat:",
+        "        if not abs(e) <= _DIVERGED:",
+        "            return False",
+        "    return True",
+        "",
+        "",
+        "@_jit",
+        "def run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt):",
+        "    qo, vo = observe(state, t0, h, p)",
+        "    out_q[0, :, :] = qo",
+        "    out_v[0, :, :] = vo",
+        "    j = 1",
+        "    for i in range(n):",
+        f"        state = scheme_step_counted(cnt, {extra}state, t0 + i * h, h, p)",
+        "        if not (_within(state[0]) and _within(state[1])):",
+        "            return state, j, i + 1",
+        "        if (i + 1) % every == 0 or i + 1 == n:",
+        "            qo, vo = observe(state, t0 + (i + 1) * h, h, p)",
+        "            out_q[j, :, :] = qo",
+        "            out_v[j, :, :] = vo",
+        "            j += 1",
+        "    return state, j, 0",
+        ""])
+
+
+#: The counters of ``run_counted``: the entry of ``cnt`` each kernel's calls are added to.
+COUNTED = {"scene_accel": 0, "scene_solve": 1, "scene_project": 2}
+
+
+@dataclass(frozen=True)
+class KernelFile:
+    """The text of a pair's kernel file and what it holds. ``exact_why``: why the file has no
+    ``run_counted``, or why it might compute other bits than the interpreted driver ("" where
+    it computes the same; ``exact_operations``); ``libm``: the library functions it calls."""
+
+    text: str
+    pointwise: bool
+    exact_why: str
+    libm: tuple[str, ...]
+
+
+def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
+    """(text of the kernel file, pointwise?) for a pair. Raises SourceUnavailable."""
+    f = kernel_file(scheme, scene_cls, nstate)
+    return f.text, f.pointwise
+
+
+def kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
+    """The kernel file of a pair (``KernelFile``). Raises SourceUnavailable."""
+    kind = ("constrained" if scheme.constrained else "implicit" if scheme.implicit
+            else "decay" if getattr(scheme, "decay", False) else "explicit")
+    pointwise = bool(getattr(scene_cls, "pointwise", False)) and not scheme.constrained
+    src = _Source()
+    kernels = {"explicit": ("scene_accel",), "implicit": ("scene_accel", "scene_solve"),
+               "constrained": ("scene_accel", "scene_project"),
+               "decay": ("scene_accel", "scene_damping_rate")}[kind]
+    src.add(scheme.step, "scheme_step", kernels)
+    src.add(scheme.start, "start", ("scene_accel",))
+    src.add(scheme.observe, "observe", ("scene_accel",))
+    src.add(scene_cls.accel, "scene_accel")
+    if kind == "implicit":
+        src.add(scene_cls.solve, "scene_solve")
+    if kind == "constrained":
+        src.add(scene_cls.project, "scene_project")
+    if kind == "decay":
+        src.add(scene_cls.damping_rate, "scene_damping_rate")
+    once = False
+    if kind == "implicit" and pointwise:
+        # The Newton parameter is the step's first after the two kernels.
+        params = src._trees["scheme_step"].args.args
+        once = bool(params) and src.add_one_iteration("scheme_step", "scheme_step_once", params[0].arg)
+    loops = _loop_source(kind, nstate, pointwise, once)
+    try:
+        called = {name: entry for name, entry in COUNTED.items() if name in kernels}
+        src.add_counted("scheme_step", "scheme_step_counted", called)
+        src.add_counted("start", "start_counted", {"scene_accel": COUNTED["scene_accel"]})
+        loops += "\n\n" + _counted_source(kind)
+        if pointwise:
+            loops += "\n\n" + _counted_one_source(kind)
+        exact_why, libm = src.exact_why()
+    except SourceUnavailable as exc:
+        exact_why, libm = str(exc), ()
+    header = (f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind}, '
+              f'{"pointwise" if pointwise else "array"} loop), generated by reference._kernels."""')
+    return KernelFile(src.text(header, loops), pointwise, exact_why, libm)
