@@ -52,8 +52,33 @@ class Model(Protocol):
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in the scene's coordinates, each (ndof,), copies."""
 
+
+class EngineModel:
+    """An engine model with every optional member of :class:`Model` declared, and its default.
+
+    An adapter's model subclasses this (or :class:`SteppedModel`) and overrides what its engine
+    offers; a plugin's model that declares only ``Model`` is completed by :func:`declared`, the
+    one place that looks for optional members. The rest of the harness reads the declarations:
+
+    * ``own_loop``: ``run(marks)`` is the engine's own loop (else the harness steps the model one
+      ``advance()`` at a time);
+    * ``settable``: ``set_state(q, v)`` puts the model in a state (scene coordinates) as if it had
+      been built there, so that one model can take one step from many states (``one_steps``).
+    """
+
+    settings: dict
+    own_loop: bool = False
+    settable: bool = False
+
+    def advance(self) -> None:  # pragma: no cover - every model defines it
+        raise NotImplementedError
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - every model defines it
+        raise NotImplementedError
+
     def trouble(self) -> str | None:
         """A divergence the engine itself reported during the last step (None if none)."""
+        return None
 
     def close(self) -> None:
         """Release the engine's resources."""
@@ -62,14 +87,49 @@ class Model(Protocol):
         """Advance through the engine's own loop from step ``marks[0]`` (the current step) to
         each later mark in turn, reading the state (scene coordinates) only there: ``(states at
         marks[1:], clean)``. ``clean`` is False, and the list may stop early, where the engine
-        reported trouble or a state diverged; the caller then replays the run step by step."""
+        reported trouble or a state diverged; the caller then replays the run step by step.
+        Only where ``own_loop``."""
+        raise NotImplementedError(f"{type(self).__name__} has no loop of its own (own_loop is False)")
 
     def evaluations(self) -> tuple[int | None, str]:
         """(force evaluations since the model was built, what was counted), or (None, why not)."""
+        return None, "the engine mode does not count them"
 
-    # Optional: ``set_state(q, v)`` puts the model in a state (scene coordinates) as if it
-    # had been built there, so that one model can take one step from many states
-    # (``EngineMode.one_steps``).
+    def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
+        """Only where ``settable``."""
+        raise NotImplementedError(f"{type(self).__name__} cannot be set to a state (settable is False)")
+
+
+class SteppedModel(EngineModel):
+    """A model whose engine loop is ``steps(n)``: n steps through the engine's own loop, nothing
+    read in between; ``run`` reads the state at each mark (:func:`run_by_steps`)."""
+
+    own_loop = True
+
+    def steps(self, n: int) -> None:  # pragma: no cover - every stepped model defines it
+        raise NotImplementedError
+
+    def run(self, marks: np.ndarray):
+        return run_by_steps(self, marks)
+
+
+class _Declared(EngineModel):
+    """A plugin's model that declares only part of :class:`EngineModel`, its optional members
+    set to their defaults (``declared``)."""
+
+    def __init__(self, inner):
+        self.inner = inner
+        self.settings = inner.settings
+        self.advance, self.state = inner.advance, inner.state
+        self.own_loop, self.settable = hasattr(inner, "run"), hasattr(inner, "set_state")
+        for name in ("trouble", "close", "run", "evaluations", "set_state"):
+            if hasattr(inner, name):
+                setattr(self, name, getattr(inner, name))
+
+
+def declared(model) -> EngineModel:
+    """``model`` with every optional member declared: itself if it is an :class:`EngineModel`."""
+    return model if isinstance(model, EngineModel) else _Declared(model)
 
 
 @contextlib.contextmanager
@@ -198,7 +258,7 @@ class EngineMode:
 
     def _build(self, engine, scene: Scene, dt: float, count: bool):
         # ``count`` is passed only when asked for, so that a plugin's build(engine, mode, scene, dt) still fits.
-        return self.build(engine, self.mode, scene, dt, **({"count": True} if count else {}))
+        return declared(self.build(engine, self.mode, scene, dt, **({"count": True} if count else {})))
 
     def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1, *, loop: str = "engine",
                  count: bool = False) -> Trajectory:
@@ -212,8 +272,8 @@ class EngineMode:
             raise ValueError(f"loop: {loop!r} is not one of {', '.join(self.LOOPS)}")
         engine, model = self._model(scene, dt, count)
         try:
-            # A plugin's model may offer only advance(): its own loop is then the per-step one.
-            if loop == "engine" and hasattr(model, "run"):
+            # A model with no loop of its own (a plugin's) is stepped one advance() at a time.
+            if loop == "engine" and model.own_loop:
                 traj = run_engine_loop(model, scene, self.id, dt, steps, every)
                 if traj is None:  # diverged or the engine warned: find the step as the harness always has
                     spent, model = model, None
@@ -223,8 +283,7 @@ class EngineMode:
                     traj.meta["loop"] = "engine, replayed step by step from the start (diverged or warned)"
             else:
                 traj = drive(model, scene, self.id, dt, steps, every)
-            evals, what = (model.evaluations() if hasattr(model, "evaluations")
-                           else (None, "the engine mode does not count them"))
+            evals, what = model.evaluations()
         finally:
             if model is not None:
                 model.close()
@@ -250,7 +309,7 @@ class EngineMode:
             every = max(int(steps), 1)
             t = now()
             traj = None
-            if loop == "engine" and hasattr(model, "run"):
+            if loop == "engine" and model.own_loop:
                 traj = run_engine_loop(model, scene, self.id, dt, steps, every)
                 if traj is None:
                     spent, model = model, None
@@ -271,7 +330,7 @@ class EngineMode:
         then each state needs a model built from it. Runs in this process, unvalidated."""
         engine, model = self._model(scene, dt)
         try:
-            if not hasattr(model, "set_state"):
+            if not model.settable:
                 return None
             n = scene.ndof
             out = []
@@ -377,6 +436,22 @@ def run_by_steps(model, marks: np.ndarray) -> tuple[list[tuple[np.ndarray, np.nd
         if model.trouble() is not None or diverged(q, v):
             return out, False
     return out, True
+
+
+def chain_force(k: float, c: float, x: np.ndarray, velocities: Callable[[], np.ndarray]) -> np.ndarray:
+    """The chain's force from Python, k (x_{i-1} - 2 x_i + x_{i+1}) with the walls at 0, plus the
+    dashpots' c (v_{i-1} - 2 v_i + v_{i+1}) where c != 0 (only then are the velocities read),
+    in the one order of operations every adapter that applies it keeps."""
+    f = (-2.0 * k) * x
+    f[1:] += k * x[:-1]
+    f[:-1] += k * x[1:]
+    if c != 0.0:
+        v = velocities()
+        g = (-2.0 * c) * v
+        g[1:] += c * v[:-1]
+        g[:-1] += c * v[1:]
+        f = f + g
+    return f
 
 
 def unwrap(previous: float, angle: float) -> float:

@@ -22,17 +22,19 @@ Force evaluations are MuJoCo's forward passes, counted by ``d.timer[mjTIMER_FORW
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Callable
+
 import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, import_engine
+from ._base import EngineMode, EngineModel, import_engine
 
 #: Our mode name -> MuJoCo's integrator name in MJCF.
 INTEGRATORS = {"euler": "Euler", "rk4": "RK4", "implicit": "implicit", "implicitfast": "implicitfast",
                "discrete": "discrete"}
 
-SCENES = ("spring", "damped_spring", "pendulum", "projectile", "chain", "rope")
 UNSUPPORTED = {
     "kepler": "MuJoCo has no central 1/r^2 force (an mjcb_passive callback would be our force, not MuJoCo's)",
 }
@@ -85,53 +87,109 @@ _ROPE_LINK = ('<body name="link{j}" pos="0 0 {z!r}">'
               '<inertial pos="0 0 {zl!r}" mass="{m!r}" diaginertia="1e-15 1e-15 1e-15"/>')
 
 
-def _xml(integrator: str, scene: Scene, dt: float) -> str:
+def _option(integrator: str, dt: float, g: float | None) -> str:
+    """The option element: gravity g along -z, or gravity disabled where the scene has none."""
+    if g is None:
+        return _OPTION.format(dt=dt, integrator=integrator, gz=0.0, gravity_flag=' gravity="disable"')
+    return _OPTION.format(dt=dt, integrator=integrator, gz=-g, gravity_flag="")
+
+
+def _spring_xml(integrator: str, scene: Scene, dt: float) -> str:
     p = scene.values
-    if scene.id == "chain":
-        option = _OPTION.format(dt=dt, integrator=integrator, gz=0.0, gravity_flag=' gravity="disable"')
-        # The dashpots sit where the springs do: the wall ones as the end joints' damping, the
-        # others as the tendons' damping.
-        n, k, c = p["N"], p["k"], p["c"]
-        bodies = "".join(_CHAIN_BODY.format(i=i, m=p["m"], k=k * ((i == 0) + (i == n - 1)),
-                                            c=c * ((i == 0) + (i == n - 1))) for i in range(n))
-        tendons = "".join(_CHAIN_TENDON.format(i=i, j=i + 1, k=k, c=c) for i in range(n - 1))
-        return _CHAIN.format(option=option, bodies=bodies, tendons=tendons)
-    if scene.id == "rope":
-        option = _OPTION.format(dt=dt, integrator=integrator, gz=-p["g"], gravity_flag="")
-        n, l = p["N"], p["l"]
-        links = "".join(_ROPE_LINK.format(j=j, z=0.0 if j == 1 else -l, zl=-l, m=p["m"]) for j in range(1, n + 1))
-        return f"<mujoco>{option}<worldbody>{links}{'</body>' * n}</worldbody></mujoco>"
-    if scene.id == "pendulum":
-        option = _OPTION.format(dt=dt, integrator=integrator, gz=-p["g"], gravity_flag="")
-        return _PENDULUM.format(option=option, z=-p["L"], m=p["m"])
-    if scene.id == "projectile":
-        option = _OPTION.format(dt=dt, integrator=integrator, gz=-p["g"], gravity_flag="")
-        # The scene's (x, y) with y up are MuJoCo's x and z (gravity along -z); drag is joint damping.
-        joints = "\n  ".join(_SLIDE.format(name=n, axis=a, k=0.0, c=p["c"])
-                             for n, a in (("x", "1 0 0"), ("y", "0 0 1")))
-        return _SLIDES.format(option=option, m=p["m"], joints=joints)
-    option = _OPTION.format(dt=dt, integrator=integrator, gz=0.0, gravity_flag=' gravity="disable"')
     joints = _SLIDE.format(name="x", axis="1 0 0", k=p["k"], c=p.get("c", 0.0))
-    return _SLIDES.format(option=option, m=p["m"], joints=joints)
+    return _SLIDES.format(option=_option(integrator, dt, None), m=p["m"], joints=joints)
 
 
-class _Model:
+def _projectile_xml(integrator: str, scene: Scene, dt: float) -> str:
+    p = scene.values
+    # The scene's (x, y) with y up are MuJoCo's x and z (gravity along -z); drag is joint damping.
+    joints = "\n  ".join(_SLIDE.format(name=n, axis=a, k=0.0, c=p["c"])
+                         for n, a in (("x", "1 0 0"), ("y", "0 0 1")))
+    return _SLIDES.format(option=_option(integrator, dt, p["g"]), m=p["m"], joints=joints)
+
+
+def _pendulum_xml(integrator: str, scene: Scene, dt: float) -> str:
+    p = scene.values
+    return _PENDULUM.format(option=_option(integrator, dt, p["g"]), z=-p["L"], m=p["m"])
+
+
+def _chain_xml(integrator: str, scene: Scene, dt: float) -> str:
+    p = scene.values
+    # The dashpots sit where the springs do: the wall ones as the end joints' damping, the
+    # others as the tendons' damping.
+    n, k, c = p["N"], p["k"], p["c"]
+    bodies = "".join(_CHAIN_BODY.format(i=i, m=p["m"], k=k * ((i == 0) + (i == n - 1)),
+                                        c=c * ((i == 0) + (i == n - 1))) for i in range(n))
+    tendons = "".join(_CHAIN_TENDON.format(i=i, j=i + 1, k=k, c=c) for i in range(n - 1))
+    return _CHAIN.format(option=_option(integrator, dt, None), bodies=bodies, tendons=tendons)
+
+
+def _rope_xml(integrator: str, scene: Scene, dt: float) -> str:
+    p = scene.values
+    n, l = p["N"], p["l"]
+    links = "".join(_ROPE_LINK.format(j=j, z=0.0 if j == 1 else -l, zl=-l, m=p["m"]) for j in range(1, n + 1))
+    return f"<mujoco>{_option(integrator, dt, p['g'])}<worldbody>{links}{'</body>' * n}</worldbody></mujoco>"
+
+
+def _joint_coordinates(scene: Scene, q: np.ndarray, v: np.ndarray):
+    """The scene's coordinates are MuJoCo's qpos and qvel."""
+    return q, v
+
+
+def _scene_coordinates(scene: Scene, qpos: np.ndarray, qvel: np.ndarray):
+    return qpos.copy(), qvel.copy()
+
+
+def _no_settings(m) -> dict:
+    return {}
+
+
+def _tendon_settings(m) -> dict:
+    return {"tendon_stiffness": [float(x) for x in m.tendon_stiffness],
+            "tendon_springlength": [float(x) for x in m.tendon_lengthspring[:, 0]],
+            "tendon_damping": [float(x) for x in m.tendon_damping]}
+
+
+def _link_settings(m) -> dict:
+    return {"body_mass": [float(x) for x in m.body_mass[1:]],
+            "body_inertia": [float(x) for x in m.body_inertia[1:].ravel()],
+            "link_lengths": [float(-z) for z in m.body_ipos[1:, 2]]}
+
+
+@dataclass(frozen=True)
+class Pose:
+    """How MuJoCo poses one scene: the MJCF, and what differs from the slide-joint default.
+
+    ``point_masses``: every body's inertia is zeroed after compiling (MuJoCo rejects a principal
+    inertia below 1e-15 at compile time), so that a hinge's joint mass is exactly m L^2.
+    ``tolerance``: ``opt.tolerance`` where MuJoCo's default is not tight enough (None: default).
+    ``to_joints``/``from_joints``: the scene's (q, v) to MuJoCo's (qpos, qvel) and back.
+    ``settings``: what the pose adds to the settings read back from the compiled model.
+    """
+
+    xml: Callable[[str, Scene, float], str]
+    point_masses: bool = False
+    tolerance: float | None = None
+    to_joints: Callable = _joint_coordinates
+    from_joints: Callable = _scene_coordinates
+    settings: Callable = _no_settings
+
+
+class _Model(EngineModel):
+    own_loop = settable = True
+
     def __init__(self, mujoco, mode: str, scene: Scene, dt: float):
         self.mj = mujoco
-        self.m = m = mujoco.MjModel.from_xml_string(_xml(INTEGRATORS[mode], scene, dt))
+        self.pose = pose = BUILDERS[scene.id]
+        self.m = m = mujoco.MjModel.from_xml_string(pose.xml(INTEGRATORS[mode], scene, dt))
         self.scene = scene
-        if scene.id in ("pendulum", "rope"):
+        if pose.point_masses:
             m.body_inertia[1:] = 0.0
-        if scene.id == "chain":
-            # The discrete integrator solves for the tendon springs iteratively; at the default
-            # tolerance (1e-8) it leaves 2.6e-8 (relative) of backward Euler's step unsolved,
-            # measured on the chain over 1000 steps; at 1e-14, 1.5e-15.
-            m.opt.tolerance = CHAIN_TOLERANCE
+        if pose.tolerance is not None:
+            m.opt.tolerance = pose.tolerance
         m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
         self.d = d = mujoco.MjData(m)
-        q0, v0 = scene.initial_state()
-        if scene.id == "rope":
-            q0, v0 = _rope_joint_state(scene, q0, v0)
+        q0, v0 = pose.to_joints(scene, *scene.initial_state())
         d.qpos[:] = q0
         d.qvel[:] = v0
         self._bad = [int(getattr(mujoco.mjtWarning, w)) for w in _BAD_STATE]
@@ -156,14 +214,7 @@ class _Model:
             "armature": [float(x) for x in m.dof_armature],
             "ngeom": int(m.ngeom),
         }
-        if scene.id == "chain":
-            self.settings.update({"tendon_stiffness": [float(x) for x in m.tendon_stiffness],
-                                  "tendon_springlength": [float(x) for x in m.tendon_lengthspring[:, 0]],
-                                  "tendon_damping": [float(x) for x in m.tendon_damping]})
-        if scene.id == "rope":
-            self.settings.update({"body_mass": [float(x) for x in m.body_mass[1:]],
-                                  "body_inertia": [float(x) for x in m.body_inertia[1:].ravel()],
-                                  "link_lengths": [float(-z) for z in m.body_ipos[1:, 2]]})
+        self.settings.update(pose.settings(m))
         self._forward = int(mujoco.mjtTimer.mjTIMER_FORWARD)
         self._forward_at_build = int(d.timer[self._forward].number)
         self._full = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
@@ -178,8 +229,7 @@ class _Model:
     def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
         """As if built at (q, v): every derived quantity and warm start cleared."""
         self.mj.mj_resetData(self.m, self.d)
-        if self.scene.id == "rope":
-            q, v = _rope_joint_state(self.scene, q, v)
+        q, v = self.pose.to_joints(self.scene, q, v)
         self.d.qpos[:] = q
         self.d.qvel[:] = v
         self.mj.mj_forward(self.m, self.d)  # as after building
@@ -195,11 +245,7 @@ class _Model:
         return self._scene_state(self.d.qpos, self.d.qvel)
 
     def _scene_state(self, qpos: np.ndarray, qvel: np.ndarray):
-        if self.scene.id == "rope":
-            # Relative joint angles -> absolute link angles -> the scene's Cartesian state.
-            theta, omega = np.cumsum(qpos), np.cumsum(qvel)
-            return self.scene.angles_to_state(np.concatenate([theta, omega]))
-        return qpos.copy(), qvel.copy()
+        return self.pose.from_joints(self.scene, qpos, qvel)
 
     def run(self, marks: np.ndarray):
         """``Model.run`` through ``mujoco.rollout``: spans of whole output intervals (at most
@@ -269,6 +315,28 @@ def _rope_joint_state(scene: Scene, q: np.ndarray, v: np.ndarray) -> tuple[np.nd
     theta = np.arctan2(dx, -dy)
     omega = (dx * dvy - dy * dvx) / (dx * dx + dy * dy)
     return np.diff(theta, prepend=0.0), np.diff(omega, prepend=0.0)
+
+
+def _rope_scene_state(scene: Scene, qpos: np.ndarray, qvel: np.ndarray):
+    """MuJoCo's relative joint angles -> absolute link angles -> the scene's Cartesian state."""
+    theta, omega = np.cumsum(qpos), np.cumsum(qvel)
+    return scene.angles_to_state(np.concatenate([theta, omega]))
+
+
+#: One pose per scene MuJoCo poses; a new scene is one entry here.
+BUILDERS: dict[str, Pose] = {
+    "spring": Pose(_spring_xml),
+    "damped_spring": Pose(_spring_xml),
+    "pendulum": Pose(_pendulum_xml, point_masses=True),
+    "projectile": Pose(_projectile_xml),
+    # The discrete integrator solves for the tendon springs iteratively; at the default
+    # tolerance (1e-8) it leaves 2.6e-8 (relative) of backward Euler's step unsolved,
+    # measured on the chain over 1000 steps; at 1e-14, 1.5e-15.
+    "chain": Pose(_chain_xml, tolerance=CHAIN_TOLERANCE, settings=_tendon_settings),
+    "rope": Pose(_rope_xml, point_masses=True, to_joints=_rope_joint_state, from_joints=_rope_scene_state,
+                 settings=_link_settings),
+}
+SCENES = tuple(BUILDERS)
 
 
 def build(mujoco, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:

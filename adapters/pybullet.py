@@ -27,18 +27,12 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, run_by_steps
+from ._base import EngineMode, SteppedModel, chain_force
 
-#: How the engine's own loop steps each scene (recorded with every run).
-ENGINE_LOOP = {
-    "pendulum": "stepSimulation only, between output points",
-    "chain": "from Python every step (Bullet has no spring between bodies): joint positions read, "
-             "joint forces set, stepSimulation",
-    "other": "from Python every step (Bullet has no spring or drag element): position (and velocity where "
-             "the scene has drag) read, applyExternalForce, stepSimulation",
-}
+#: How the engine's own loop steps a scene whose force is applied from Python (recorded with every run).
+ENGINE_LOOP_APPLIED = ("from Python every step (Bullet has no spring or drag element): position (and velocity where "
+                       "the scene has drag) read, applyExternalForce, stepSimulation")
 
-SCENES = ("spring", "damped_spring", "pendulum", "projectile", "chain")
 UNSUPPORTED = {
     "kepler": "not posed: Bullet has no 1/r^2 force, and one applied from Python would only repeat what "
               "the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
@@ -97,59 +91,26 @@ def applied_damping(p, linear_damping: float = 0.0, angular_damping: float = 0.0
         p.disconnect(physicsClientId=cid)
 
 
-class _Model:
+class _Bullet(SteppedModel):
+    """What every pose shares: its own client, the step, gravity, and the settings read back.
+    A pose builds its body (``_build``) and says how the scene's force is applied (``FORCE``),
+    how its loop steps (``ENGINE_LOOP``) and what its joints add to the settings."""
+
+    settable = True
+    FORCE = ""
+    ENGINE_LOOP = ENGINE_LOOP_APPLIED
+
     def __init__(self, p, scene: Scene, dt: float):
         self.p = p
         self.cid = cid = p.connect(p.DIRECT)
-        self.scene_id = scene.id
         values = scene.values
         self.k, self.c = values.get("k", 0.0), values.get("c", 0.0)
         p.setPhysicsEngineParameter(fixedTimeStep=dt, numSubSteps=0, physicsClientId=cid)
         p.setGravity(0.0, 0.0, -values.get("g", 0.0), physicsClientId=cid)
-        q0, v0 = scene.initial_state()
         free = dict(linearDamping=0.0, angularDamping=0.0, maxJointVelocity=math.inf,
                     activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
-        if scene.id == "pendulum":
-            # Fixed base at the pivot; one revolute link about y with the bob's mass at (0, 0, -L).
-            self.body = b = p.createMultiBody(
-                baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 0, 0],
-                linkMasses=[values["m"]], linkCollisionShapeIndices=[-1], linkVisualShapeIndices=[-1],
-                linkPositions=[[0, 0, 0]], linkOrientations=[[0, 0, 0, 1]],
-                linkInertialFramePositions=[[0, 0, -values["L"]]], linkInertialFrameOrientations=[[0, 0, 0, 1]],
-                linkParentIndices=[0], linkJointTypes=[p.JOINT_REVOLUTE], linkJointAxis=[[0, 1, 0]],
-                physicsClientId=cid)
-            p.changeDynamics(b, 0, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0],
-                             physicsClientId=cid, **free)
-            p.setJointMotorControl2(b, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
-            p.resetJointState(b, 0, float(q0[0]), float(v0[0]), physicsClientId=cid)
-            link = 0
-        elif scene.id == "chain":
-            # Fixed base; link i slides along x from the base's origin (its joint coordinate is the
-            # scene's q_i), its mass a point at the joint.
-            n = scene.ndof
-            self.joints = list(range(n))
-            self.body = b = p.createMultiBody(
-                baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 0, 0],
-                linkMasses=[values["m"]] * n, linkCollisionShapeIndices=[-1] * n, linkVisualShapeIndices=[-1] * n,
-                linkPositions=[[0, 0, 0]] * n, linkOrientations=[[0, 0, 0, 1]] * n,
-                linkInertialFramePositions=[[0, 0, 0]] * n, linkInertialFrameOrientations=[[0, 0, 0, 1]] * n,
-                linkParentIndices=[0] * n, linkJointTypes=[p.JOINT_PRISMATIC] * n, linkJointAxis=[[1, 0, 0]] * n,
-                physicsClientId=cid)
-            p.changeDynamics(b, -1, physicsClientId=cid, **free)
-            for j in self.joints:
-                p.changeDynamics(b, j, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0],
-                                 physicsClientId=cid, **free)
-                p.resetJointState(b, j, float(q0[j]), float(v0[j]), physicsClientId=cid)
-            p.setJointMotorControlArray(b, self.joints, p.VELOCITY_CONTROL, forces=[0.0] * n, physicsClientId=cid)
-            link = 0
-        else:
-            # Scene x (and y, up, for the projectile) are Bullet's x and z; gravity along -z.
-            pos = [q0[0], 0.0, q0[1] if scene.ndof == 2 else 0.0]
-            vel = [v0[0], 0.0, v0[1] if scene.ndof == 2 else 0.0]
-            self.body = b = p.createMultiBody(values["m"], -1, basePosition=pos, physicsClientId=cid)
-            p.changeDynamics(b, -1, physicsClientId=cid, **free)
-            p.resetBaseVelocity(b, vel, [0, 0, 0], physicsClientId=cid)
-            link = -1
+        link = self._build(scene, *scene.initial_state(), free)
+        b = self.body
         info = p.getDynamicsInfo(b, link, physicsClientId=cid)
         engine = p.getPhysicsEngineParameters(physicsClientId=cid)
         self.settings = {
@@ -167,116 +128,202 @@ class _Model:
             "maxJointVelocity": "inf",
             "sleeping": "disabled",
             "collision_shape": "none",
-            "force": ("none: gravity and the revolute joint" if scene.id == "pendulum"
-                      else "joint forces set each step (TORQUE_CONTROL), from the state before the step"
-                      if scene.id == "chain"
-                      else "applied each step at the centre of mass, from the state before the step"),
+            "force": self.FORCE,
+            "engine_loop": self.ENGINE_LOOP,
+            **self._joint_settings(),
         }
-        self.settings["engine_loop"] = ENGINE_LOOP.get(scene.id, ENGINE_LOOP["other"])
-        if scene.id == "pendulum":
-            joint = p.getJointInfo(b, 0, physicsClientId=cid)
-            self.settings.update({"joint": "revolute about y", "jointDamping": float(joint[6]),
-                                  "jointFriction": float(joint[7]), "velocity_motor_force": 0.0})
-        if scene.id == "chain":
-            infos = [p.getJointInfo(b, j, physicsClientId=cid) for j in self.joints]
-            self.settings.update({
-                "joint": "prismatic along x, one per mass, each a child of the fixed base",
-                "jointDamping": sorted({float(i[6]) for i in infos}),
-                "jointFriction": sorted({float(i[7]) for i in infos}),
-                "joint_limits": "none" if all(i[8] > i[9] for i in infos) else [[i[8], i[9]] for i in infos],
-                "velocity_motor_force": 0.0})
 
-    def advance(self) -> None:
-        p, cid, b = self.p, self.cid, self.body
-        if self.scene_id == "chain":
-            # The scene's force, k (q_{i-1} - 2 q_i + q_{i+1}) with the walls at 0, from the joint
-            # positions, and the dashpots' c (v_{i-1} - 2 v_i + v_{i+1}) from the joint velocities.
-            q, v = self._joint_state()
-            f = (-2.0 * self.k) * q
-            f[1:] += self.k * q[:-1]
-            f[:-1] += self.k * q[1:]
-            if self.c != 0.0:
-                g = (-2.0 * self.c) * v
-                g[1:] += self.c * v[:-1]
-                g[:-1] += self.c * v[1:]
-                f = f + g
-            p.setJointMotorControlArray(b, self.joints, p.TORQUE_CONTROL, forces=f.tolist(), physicsClientId=cid)
-        elif self.scene_id != "pendulum":
-            pos = p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]
-            vel = p.getBaseVelocity(b, physicsClientId=cid)[0]
-            # The scene's force: spring -k x - c v along x; drag -c v on both axes (gravity is Bullet's).
-            if self.scene_id == "projectile":
-                force = [-self.c * vel[0], 0.0, -self.c * vel[2]]
-            else:
-                force = [-self.k * pos[0] - self.c * vel[0], 0.0, 0.0]
-            p.applyExternalForce(b, -1, force, pos, p.WORLD_FRAME, physicsClientId=cid)
-        p.stepSimulation(physicsClientId=cid)
+    def _build(self, scene: Scene, q0: np.ndarray, v0: np.ndarray, free: dict) -> int:
+        """Create ``self.body`` at the initial state; the link whose dynamics are read back."""
+        raise NotImplementedError  # pragma: no cover - every pose defines it
+
+    def _joint_settings(self) -> dict:
+        return {}
 
     def steps(self, n: int) -> None:
         """n steps, nothing read but what the scene's force needs (module docstring)."""
-        p, cid, b, step = self.p, self.cid, self.body, self.p.stepSimulation
-        if self.scene_id == "pendulum":
-            for _ in range(n):
-                step(physicsClientId=cid)
-        elif self.scene_id in ("spring", "damped_spring") and self.c == 0.0:
-            # advance()'s force with c = 0 (the spring has no drag): -k x - 0 v is -k x.
-            k, base_position, apply, frame = self.k, p.getBasePositionAndOrientation, p.applyExternalForce, p.WORLD_FRAME
-            for _ in range(n):
-                pos = base_position(b, physicsClientId=cid)[0]
-                apply(b, -1, [-k * pos[0], 0.0, 0.0], pos, frame, physicsClientId=cid)
-                step(physicsClientId=cid)
-        else:
-            advance = self.advance
-            for _ in range(n):
-                advance()
-
-    def run(self, marks):
-        return run_by_steps(self, marks)
+        advance = self.advance
+        for _ in range(n):
+            advance()
 
     def evaluations(self):
         return None, "Bullet evaluates its forces inside stepSimulation and has no counter or callback for them"
-
-    def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
-        """As if built at (q, v)."""
-        p, cid, b = self.p, self.cid, self.body
-        if self.scene_id == "chain":
-            for j in self.joints:
-                p.resetJointState(b, j, float(q[j]), float(v[j]), physicsClientId=cid)
-        elif self.scene_id == "pendulum":
-            p.resetJointState(b, 0, float(q[0]), float(v[0]), physicsClientId=cid)
-        else:
-            two = len(q) == 2
-            p.resetBasePositionAndOrientation(b, [float(q[0]), 0.0, float(q[1]) if two else 0.0], [0, 0, 0, 1],
-                                              physicsClientId=cid)
-            p.resetBaseVelocity(b, [float(v[0]), 0.0, float(v[1]) if two else 0.0], [0, 0, 0], physicsClientId=cid)
-
-    def _joint_state(self):
-        states = self.p.getJointStates(self.body, self.joints, physicsClientId=self.cid)
-        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
-
-    def state(self):
-        p, cid, b = self.p, self.cid, self.body
-        if self.scene_id == "chain":
-            return self._joint_state()
-        if self.scene_id == "pendulum":
-            theta, omega = p.getJointState(b, 0, physicsClientId=cid)[:2]
-            return np.array([theta]), np.array([omega])
-        pos = p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]
-        vel = p.getBaseVelocity(b, physicsClientId=cid)[0]
-        if self.scene_id == "projectile":
-            return np.array([pos[0], pos[2]]), np.array([vel[0], vel[2]])
-        return np.array([pos[0]]), np.array([vel[0]])
-
-    def trouble(self) -> str | None:
-        return None
 
     def close(self) -> None:
         self.p.disconnect(physicsClientId=self.cid)
 
 
-def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
+class _Pendulum(_Bullet):
+    """Fixed base at the pivot; one revolute link about y with the bob's mass at (0, 0, -L)."""
+
+    FORCE = "none: gravity and the revolute joint"
+    ENGINE_LOOP = "stepSimulation only, between output points"
+
+    def _build(self, scene, q0, v0, free):
+        p, cid, values = self.p, self.cid, scene.values
+        self.body = b = p.createMultiBody(
+            baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 0, 0],
+            linkMasses=[values["m"]], linkCollisionShapeIndices=[-1], linkVisualShapeIndices=[-1],
+            linkPositions=[[0, 0, 0]], linkOrientations=[[0, 0, 0, 1]],
+            linkInertialFramePositions=[[0, 0, -values["L"]]], linkInertialFrameOrientations=[[0, 0, 0, 1]],
+            linkParentIndices=[0], linkJointTypes=[p.JOINT_REVOLUTE], linkJointAxis=[[0, 1, 0]],
+            physicsClientId=cid)
+        p.changeDynamics(b, 0, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0],
+                         physicsClientId=cid, **free)
+        p.setJointMotorControl2(b, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
+        p.resetJointState(b, 0, float(q0[0]), float(v0[0]), physicsClientId=cid)
+        return 0
+
+    def _joint_settings(self):
+        joint = self.p.getJointInfo(self.body, 0, physicsClientId=self.cid)
+        return {"joint": "revolute about y", "jointDamping": float(joint[6]),
+                "jointFriction": float(joint[7]), "velocity_motor_force": 0.0}
+
+    def advance(self) -> None:
+        self.p.stepSimulation(physicsClientId=self.cid)
+
+    def steps(self, n: int) -> None:
+        step, cid = self.p.stepSimulation, self.cid
+        for _ in range(n):
+            step(physicsClientId=cid)
+
+    def set_state(self, q, v) -> None:
+        self.p.resetJointState(self.body, 0, float(q[0]), float(v[0]), physicsClientId=self.cid)
+
+    def state(self):
+        theta, omega = self.p.getJointState(self.body, 0, physicsClientId=self.cid)[:2]
+        return np.array([theta]), np.array([omega])
+
+
+class _Chain(_Bullet):
+    """Fixed base; link i slides along x from the base's origin (its joint coordinate is the
+    scene's q_i), its mass a point at the joint."""
+
+    FORCE = "joint forces set each step (TORQUE_CONTROL), from the state before the step"
+    ENGINE_LOOP = ("from Python every step (Bullet has no spring between bodies): joint positions read, "
+                   "joint forces set, stepSimulation")
+
+    def _build(self, scene, q0, v0, free):
+        p, cid, values = self.p, self.cid, scene.values
+        n = scene.ndof
+        self.joints = list(range(n))
+        self.body = b = p.createMultiBody(
+            baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 0, 0],
+            linkMasses=[values["m"]] * n, linkCollisionShapeIndices=[-1] * n, linkVisualShapeIndices=[-1] * n,
+            linkPositions=[[0, 0, 0]] * n, linkOrientations=[[0, 0, 0, 1]] * n,
+            linkInertialFramePositions=[[0, 0, 0]] * n, linkInertialFrameOrientations=[[0, 0, 0, 1]] * n,
+            linkParentIndices=[0] * n, linkJointTypes=[p.JOINT_PRISMATIC] * n, linkJointAxis=[[1, 0, 0]] * n,
+            physicsClientId=cid)
+        p.changeDynamics(b, -1, physicsClientId=cid, **free)
+        for j in self.joints:
+            p.changeDynamics(b, j, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0],
+                             physicsClientId=cid, **free)
+            p.resetJointState(b, j, float(q0[j]), float(v0[j]), physicsClientId=cid)
+        p.setJointMotorControlArray(b, self.joints, p.VELOCITY_CONTROL, forces=[0.0] * n, physicsClientId=cid)
+        return 0
+
+    def _joint_settings(self):
+        infos = [self.p.getJointInfo(self.body, j, physicsClientId=self.cid) for j in self.joints]
+        return {"joint": "prismatic along x, one per mass, each a child of the fixed base",
+                "jointDamping": sorted({float(i[6]) for i in infos}),
+                "jointFriction": sorted({float(i[7]) for i in infos}),
+                "joint_limits": "none" if all(i[8] > i[9] for i in infos) else [[i[8], i[9]] for i in infos],
+                "velocity_motor_force": 0.0}
+
+    def advance(self) -> None:
+        p, cid = self.p, self.cid
+        # The scene's force, k (q_{i-1} - 2 q_i + q_{i+1}) with the walls at 0, from the joint
+        # positions, and the dashpots' c (v_{i-1} - 2 v_i + v_{i+1}) from the joint velocities.
+        q, v = self.state()
+        f = chain_force(self.k, self.c, q, lambda: v)
+        p.setJointMotorControlArray(self.body, self.joints, p.TORQUE_CONTROL, forces=f.tolist(), physicsClientId=cid)
+        p.stepSimulation(physicsClientId=cid)
+
+    def set_state(self, q, v) -> None:
+        for j in self.joints:
+            self.p.resetJointState(self.body, j, float(q[j]), float(v[j]), physicsClientId=self.cid)
+
+    def state(self):
+        states = self.p.getJointStates(self.body, self.joints, physicsClientId=self.cid)
+        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
+
+
+class _FreeBody(_Bullet):
+    """A free multibody with the scene's mass: scene x (and y, up, for the projectile) are
+    Bullet's x and z, gravity along -z; the scene's force applied at the centre of mass."""
+
+    FORCE = "applied each step at the centre of mass, from the state before the step"
+
+    def _build(self, scene, q0, v0, free):
+        p, cid = self.p, self.cid
+        pos = [q0[0], 0.0, q0[1] if scene.ndof == 2 else 0.0]
+        vel = [v0[0], 0.0, v0[1] if scene.ndof == 2 else 0.0]
+        self.body = b = p.createMultiBody(scene.values["m"], -1, basePosition=pos, physicsClientId=cid)
+        p.changeDynamics(b, -1, physicsClientId=cid, **free)
+        p.resetBaseVelocity(b, vel, [0, 0, 0], physicsClientId=cid)
+        return -1
+
+    def set_state(self, q, v) -> None:
+        p, cid, b = self.p, self.cid, self.body
+        two = len(q) == 2
+        p.resetBasePositionAndOrientation(b, [float(q[0]), 0.0, float(q[1]) if two else 0.0], [0, 0, 0, 1],
+                                          physicsClientId=cid)
+        p.resetBaseVelocity(b, [float(v[0]), 0.0, float(v[1]) if two else 0.0], [0, 0, 0], physicsClientId=cid)
+
+    def _force(self, pos, vel) -> list:
+        raise NotImplementedError  # pragma: no cover - every free pose defines it
+
+    def advance(self) -> None:
+        p, cid, b = self.p, self.cid, self.body
+        pos = p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]
+        vel = p.getBaseVelocity(b, physicsClientId=cid)[0]
+        p.applyExternalForce(b, -1, self._force(pos, vel), pos, p.WORLD_FRAME, physicsClientId=cid)
+        p.stepSimulation(physicsClientId=cid)
+
+
+class _Spring(_FreeBody):
+    def _force(self, pos, vel):
+        return [-self.k * pos[0] - self.c * vel[0], 0.0, 0.0]  # -k x - c v along x
+
+    def steps(self, n: int) -> None:
+        if self.c != 0.0:
+            return super().steps(n)
+        # advance()'s force with c = 0 (the spring has no drag): -k x - 0 v is -k x.
+        p, cid, b, step = self.p, self.cid, self.body, self.p.stepSimulation
+        k, base_position, apply, frame = self.k, p.getBasePositionAndOrientation, p.applyExternalForce, p.WORLD_FRAME
+        for _ in range(n):
+            pos = base_position(b, physicsClientId=cid)[0]
+            apply(b, -1, [-k * pos[0], 0.0, 0.0], pos, frame, physicsClientId=cid)
+            step(physicsClientId=cid)
+
+    def state(self):
+        p, cid, b = self.p, self.cid, self.body
+        pos = p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]
+        vel = p.getBaseVelocity(b, physicsClientId=cid)[0]
+        return np.array([pos[0]]), np.array([vel[0]])
+
+
+class _Projectile(_FreeBody):
+    def _force(self, pos, vel):
+        return [-self.c * vel[0], 0.0, -self.c * vel[2]]  # drag -c v on both axes; gravity is Bullet's
+
+    def state(self):
+        p, cid, b = self.p, self.cid, self.body
+        pos = p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]
+        vel = p.getBaseVelocity(b, physicsClientId=cid)[0]
+        return np.array([pos[0], pos[2]]), np.array([vel[0], vel[2]])
+
+
+#: One model per scene Bullet poses; a new scene is one entry here.
+BUILDERS: dict[str, type[_Bullet]] = {
+    "spring": _Spring, "damped_spring": _Spring, "pendulum": _Pendulum, "projectile": _Projectile, "chain": _Chain,
+}
+SCENES = tuple(BUILDERS)
+
+
+def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> _Bullet:
     """``count`` changes nothing: Bullet's force evaluations cannot be counted."""
-    return _Model(pybullet, scene, dt)
+    return BUILDERS[scene.id](pybullet, scene, dt)
 
 
 METHODS = {

@@ -41,7 +41,7 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, run_by_steps, unwrap
+from ._base import EngineMode, SteppedModel, chain_force, unwrap
 
 _FORCE_SCENES = ("spring", "damped_spring", "projectile", "chain")
 _FORCE_UNSUPPORTED = {
@@ -50,13 +50,10 @@ _FORCE_UNSUPPORTED = {
     "kepler": "not posed: Chipmunk has no gravity between bodies, and a 1/r^2 force from Python would only "
               "repeat what the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
 }
-_JOINT_UNSUPPORTED = {
-    "spring": "pin joints pose only the pendulum and the rope; see pymunk:spring_force",
-    "damped_spring": "pin joints pose only the pendulum and the rope; see pymunk:spring_force",
-    "projectile": "pin joints pose only the pendulum and the rope; see pymunk:applied_force",
-    "kepler": "pin joints pose only the pendulum and the rope",
-    "chain": "pin joints pose only the pendulum and the rope; see pymunk:damped_spring",
-}
+_PINS = "pin joints pose only the pendulum and the rope"
+_JOINT_UNSUPPORTED = {"kepler": _PINS, **{scene: f"{_PINS}; see pymunk:{mode}" for scene, mode in (
+    ("spring", "spring_force"), ("damped_spring", "spring_force"), ("projectile", "applied_force"),
+    ("chain", "damped_spring"))}}
 _SPRING_UNSUPPORTED = {
     "spring": "not posed: a DampedSpring to a static body integrates the 1-DOF spring as pymunk:spring_force "
               "does (position-first semi-implicit Euler, 5e-14 in docs/engines.md); Chipmunk's springs link bodies "
@@ -71,9 +68,8 @@ _SPACE_DAMPING_SCENES = ("damped_spring", "projectile")
 _SPACE_DAMPING_UNSUPPORTED = {
     "spring": "no damping to give space.damping: see pymunk:spring_force",
     "chain": "the chain's damping acts between neighbours; space.damping damps each body against the world",
-    "pendulum": "no damping in the pendulum",
-    "rope": "no damping in the rope",
-    "kepler": "no damping in the Kepler problem",
+    **{scene: f"no damping in the {name}" for scene, name in (
+        ("pendulum", "pendulum"), ("rope", "rope"), ("kepler", "Kepler problem"))},
 }
 
 #: Spacing of the damped_spring chain's bodies (and every spring's rest length), in units of
@@ -83,93 +79,39 @@ _SPACE_DAMPING_UNSUPPORTED = {
 SPRING_SPACING = 10.0
 
 
-class _Model:
+class _Space(SteppedModel):
+    """What every pose shares: the space, the counter, the step and the settings read back.
+    A pose adds its bodies and the mode's force or constraints (``_build``), and reads and sets
+    its state in the scene's coordinates."""
+
+    settable = True
+    #: The engine loop where the mode leaves Chipmunk to step alone (``space.step`` only).
+    QUIET_LOOP = "space.step only"
+
     def __init__(self, pymunk, mode: str, scene: Scene, dt: float, count: bool = False):
         self.dt = dt
         self.mode = mode
         self.force_calls = 0 if count and mode in ("spring_force", "applied_force") else None
-        self.scene_id = scene.id
         values = scene.values
         self.space = space = pymunk.Space()
         space.gravity = (0.0, -values.get("g", 0.0))
         space.damping = 1.0
         space.sleep_time_threshold = math.inf
-        self.joint = None
         self.constraints, self.bodies = [], []
         self.apply_before_step = None
-        if scene.id in ("chain", "rope"):
-            self._build_many(pymunk, mode, scene)
-            self._install_counter()
-            return
-        self.body = body = pymunk.Body(values["m"], math.inf)
-        self.bodies = [body]
-        q0, v0 = scene.initial_state()
-        if scene.id == "pendulum":
-            L, theta = values["L"], float(q0[0])
-            body.position = (L * math.sin(theta), -L * math.cos(theta))
-            body.velocity = (0.0, 0.0)
-            space.add(body)
-            self.joint = pymunk.PinJoint(space.static_body, body, (0.0, 0.0), (0.0, 0.0))
-            space.add(self.joint)
-            self.constraints = [self.joint]
-            self.theta = theta
-        else:
-            # The DampedSpring acts along the line from its wall: the body sits SPRING_SPACING
-            # from the wall, its displacement measured from there (as on the chain).
-            self.offset = np.array([SPRING_SPACING * max(abs(values["x0"]), 1.0)]) if mode == "damped_spring" \
-                else np.zeros(1)
-            body.position = (float(self.offset[0] + q0[0]), float(q0[1]) if scene.ndof == 2 else 0.0)
-            body.velocity = (float(v0[0]), float(v0[1]) if scene.ndof == 2 else 0.0)
-            space.add(body)
-        k, c = values.get("k", 0.0), values.get("c", 0.0)
-        if mode == "damped_spring":
-            rest = float(self.offset[0])
-            self.constraints = [pymunk.DampedSpring(space.static_body, body, (0.0, 0.0), (0.0, 0.0), rest, k, c)]
-            space.add(*self.constraints)
-        elif mode == "space_damping":
-            # Chipmunk keeps space.damping^h of the velocity each step: e^{-(c/m) h}.
-            space.damping = math.exp(-c / values["m"])
-            update_velocity = pymunk.Body.update_velocity
-
-            def velocity_func(b, gravity, damping, h):
-                b.force = (-k * b.position.x, -k * b.position.y)
-                update_velocity(b, gravity, damping, h)
-
-            body.velocity_func = velocity_func
-        elif mode == "spring_force":
-            update_velocity = pymunk.Body.update_velocity
-
-            def velocity_func(b, gravity, damping, h):
-                (x, y), (vx, vy) = b.position, b.velocity
-                b.force = (-k * x - c * vx, -k * y - c * vy)
-                update_velocity(b, gravity, damping, h)
-
-            body.velocity_func = velocity_func
-        elif mode == "applied_force":
-            def apply_before_step():
-                (x, y), (vx, vy) = body.position, body.velocity
-                body.force = (-k * x - c * vx, -k * y - c * vy)
-
-            self.apply_before_step = apply_before_step
-        self._record_settings(mode)
-        if mode == "damped_spring":
-            spring = self.constraints[0]
-            self.settings.update({"spring": "DampedSpring from a static wall to the body",
-                                  "rest_length": spring.rest_length,
-                                  "stiffness": spring.stiffness, "spring_damping": spring.damping})
-        if self.joint is not None:
-            self.settings["joint"] = "PinJoint, static pivot at the origin to the bob's centre"
-            self.settings.update(_joint_settings([self.joint]))
+        self._build(pymunk, mode, scene, values.get("k", 0.0), values.get("c", 0.0))
         self._install_counter()
+
+    def _build(self, pymunk, mode: str, scene: Scene, k: float, c: float) -> None:
+        raise NotImplementedError  # pragma: no cover - every pose defines it
 
     def _install_counter(self) -> None:
         """In a counting run, wrap the mode's Python force functions to count their calls."""
         self.settings["engine_loop"] = (
             "from Python every step: the force set on body.force, then space.step (the mode)"
             if self.mode == "applied_force" else
-            "space.step only, the bob's angle read between chunks of steps it cannot turn half a turn in" if self.scene_id == "pendulum" else
             "space.step only (the force is Chipmunk's velocity_func call)" if self.mode == "spring_force" else
-            "space.step only")
+            self.QUIET_LOOP)
         if self.force_calls is None:
             return
 
@@ -202,121 +144,7 @@ class _Model:
         if len(self.bodies) == 1:
             self.settings["mass"] = body.mass
 
-    def _build_many(self, pymunk, mode: str, scene: Scene) -> None:
-        """The chain (bodies on the x axis, displacements q_i) or the rope (bodies at the scene's
-        (x_i, y_i), pinned to the origin and to each other)."""
-        values, space = scene.values, self.space
-        q0, v0 = scene.initial_state()
-        n = values["N"]
-        self.bodies = bodies = [pymunk.Body(values["m"], math.inf) for _ in range(n)]
-        self.offset = np.zeros(n)
-        if mode == "damped_spring":
-            self.offset = SPRING_SPACING * max(abs(values["x0"]), 1.0) * np.arange(1, n + 1)
-        for i, b in enumerate(bodies):
-            if scene.id == "rope":
-                b.position = (float(q0[2 * i]), float(q0[2 * i + 1]))
-                b.velocity = (float(v0[2 * i]), float(v0[2 * i + 1]))
-            else:
-                b.position = (float(self.offset[i] + q0[i]), 0.0)
-                b.velocity = (float(v0[i]), 0.0)
-        space.add(*bodies)
-        k, c = values.get("k", 0.0), values.get("c", 0.0)
-        if mode == "pin_joint":
-            anchors = [space.static_body] + bodies
-            self.constraints = [pymunk.PinJoint(a, b, (0.0, 0.0), (0.0, 0.0)) for a, b in zip(anchors, bodies)]
-        elif mode == "damped_spring":
-            rest = SPRING_SPACING * max(abs(values["x0"]), 1.0)
-            wall = space.static_body
-            self.constraints = [pymunk.DampedSpring(wall, bodies[0], (0.0, 0.0), (0.0, 0.0), rest, k, c)]
-            self.constraints += [pymunk.DampedSpring(a, b, (0.0, 0.0), (0.0, 0.0), rest, k, c)
-                                 for a, b in zip(bodies[:-1], bodies[1:])]
-            self.constraints.append(pymunk.DampedSpring(bodies[-1], wall, (0.0, 0.0), ((n + 1) * rest, 0.0),
-                                                        rest, k, c))
-        elif mode == "spring_force":
-            update_velocity = pymunk.Body.update_velocity
-            # The dashpots read the velocities from before the step: the bodies' velocity_funcs run
-            # one after another, and a neighbour's would otherwise already be updated.
-            old_v = np.zeros(n)
-
-            def snapshot_velocities():
-                old_v[:] = [b.velocity.x for b in bodies]
-
-            if c != 0.0:
-                self.apply_before_step = snapshot_velocities
-
-            def velocity_func_for(i):
-                left = bodies[i - 1] if i > 0 else None
-                right = bodies[i + 1] if i < n - 1 else None
-
-                def velocity_func(b, gravity, damping, h):
-                    # Called after every body has moved: the neighbours' new positions.
-                    f = (-2.0 * k) * b.position.x
-                    if left is not None:
-                        f += k * left.position.x
-                    if right is not None:
-                        f += k * right.position.x
-                    if c != 0.0:
-                        d = (-2.0 * c) * old_v[i]
-                        if i > 0:
-                            d += c * old_v[i - 1]
-                        if i < n - 1:
-                            d += c * old_v[i + 1]
-                        f += d
-                    b.force = (f, 0.0)
-                    update_velocity(b, gravity, damping, h)
-
-                return velocity_func
-
-            for i, b in enumerate(bodies):
-                b.velocity_func = velocity_func_for(i)
-        elif mode == "applied_force":
-            def apply_before_step():
-                x = np.array([b.position.x for b in bodies])
-                f = (-2.0 * k) * x
-                f[1:] += k * x[:-1]
-                f[:-1] += k * x[1:]
-                if c != 0.0:
-                    v = np.array([b.velocity.x for b in bodies])
-                    g = (-2.0 * c) * v
-                    g[1:] += c * v[:-1]
-                    g[:-1] += c * v[1:]
-                    f = f + g
-                for b, fi in zip(bodies, f):
-                    b.force = (float(fi), 0.0)
-
-            self.apply_before_step = apply_before_step
-        if self.constraints:
-            space.add(*self.constraints)
-        self._record_settings(mode)
-        if mode == "pin_joint":
-            self.settings["joint"] = "PinJoint: static pivot at the origin to body 1, then body i to body i+1, centres"
-            self.settings.update(_joint_settings(self.constraints))
-        if mode == "damped_spring":
-            c = self.constraints
-            self.settings.update({"spring": "DampedSpring between neighbours and from the end bodies to static walls",
-                                  "rest_length": sorted({s.rest_length for s in c}),
-                                  "stiffness": sorted({s.stiffness for s in c}),
-                                  "spring_damping": sorted({s.damping for s in c}), "springs": len(c),
-                                  "spacing": float(c[0].rest_length)})
-
-    def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
-        """As if built at (q, v) (scene coordinates)."""
-        if self.scene_id == "chain":
-            for b, x, u, off in zip(self.bodies, q, v, self.offset):
-                b.position, b.velocity = (float(off + x), 0.0), (float(u), 0.0)
-        elif self.scene_id == "rope":
-            for i, b in enumerate(self.bodies):
-                b.position = (float(q[2 * i]), float(q[2 * i + 1]))
-                b.velocity = (float(v[2 * i]), float(v[2 * i + 1]))
-        elif self.scene_id == "pendulum":
-            L, theta, omega = self.joint.distance, float(q[0]), float(v[0])
-            self.body.position = (L * math.sin(theta), -L * math.cos(theta))
-            self.body.velocity = (L * omega * math.cos(theta), L * omega * math.sin(theta))
-            self.theta = theta
-        else:
-            two = len(q) == 2
-            self.body.position = (float(self.offset[0] + q[0]), float(q[1]) if two else 0.0)
-            self.body.velocity = (float(v[0]), float(v[1]) if two else 0.0)
+    def _zero_forces(self) -> None:
         for b in self.bodies:
             b.force = (0.0, 0.0)
 
@@ -333,16 +161,133 @@ class _Model:
             for _ in range(n):
                 apply()
                 step(dt)
-        elif self.scene_id == "pendulum":
-            self._pendulum_steps(n)
         else:
             for _ in range(n):
                 step(dt)
 
-    def run(self, marks):
-        return run_by_steps(self, marks)
+    def evaluations(self):
+        if self.force_calls is not None:
+            per = len(self.bodies) if self.mode == "spring_force" else 1
+            what = ("velocity_func calls / bodies" if self.mode == "spring_force"
+                    else "calls of the force set before each step")
+            return self.force_calls // per, f"force evaluations counted from Python ({what})"
+        if self.mode in ("spring_force", "applied_force"):
+            return None, "counted only in a counting run (the counter wraps the Python force function)"
+        return None, "Chipmunk's constraints compute their impulses inside space.step, with no counter or callback"
 
-    def _pendulum_steps(self, n: int) -> None:
+    def close(self) -> None:
+        # A sleeping body attached to a constraint can segfault at interpreter exit: take
+        # everything out of the space first.
+        if self.constraints:
+            self.space.remove(*self.constraints)
+        self.space.remove(*self.bodies)
+
+
+class _Body(_Space):
+    """The spring and the damped spring: one body on the x axis. The DampedSpring acts along the
+    line from its wall: under ``damped_spring`` the body sits SPRING_SPACING from the wall, its
+    displacement measured from there (as on the chain)."""
+
+    def _build(self, pymunk, mode, scene, k, c):
+        values, space = scene.values, self.space
+        self.body = body = pymunk.Body(values["m"], math.inf)
+        self.bodies = [body]
+        q0, v0 = scene.initial_state()
+        self.offset = np.array([SPRING_SPACING * max(abs(values["x0"]), 1.0)]) if mode == "damped_spring" \
+            else np.zeros(1)
+        self.set_state(q0, v0)
+        space.add(body)
+        update_velocity = pymunk.Body.update_velocity
+        if mode == "damped_spring":
+            rest = float(self.offset[0])
+            self.constraints = [pymunk.DampedSpring(space.static_body, body, (0.0, 0.0), (0.0, 0.0), rest, k, c)]
+            space.add(*self.constraints)
+        elif mode == "space_damping":
+            # Chipmunk keeps space.damping^h of the velocity each step: e^{-(c/m) h}.
+            space.damping = math.exp(-c / values["m"])
+
+            def velocity_func(b, gravity, damping, h):
+                b.force = (-k * b.position.x, -k * b.position.y)
+                update_velocity(b, gravity, damping, h)
+
+            body.velocity_func = velocity_func
+        elif mode == "spring_force":
+            def velocity_func(b, gravity, damping, h):
+                (x, y), (vx, vy) = b.position, b.velocity
+                b.force = (-k * x - c * vx, -k * y - c * vy)
+                update_velocity(b, gravity, damping, h)
+
+            body.velocity_func = velocity_func
+        elif mode == "applied_force":
+            def apply_before_step():
+                (x, y), (vx, vy) = body.position, body.velocity
+                body.force = (-k * x - c * vx, -k * y - c * vy)
+
+            self.apply_before_step = apply_before_step
+        self._record_settings(mode)
+        if mode == "damped_spring":
+            spring = self.constraints[0]
+            self.settings.update({"spring": "DampedSpring from a static wall to the body",
+                                  "rest_length": spring.rest_length,
+                                  "stiffness": spring.stiffness, "spring_damping": spring.damping})
+
+    def set_state(self, q, v) -> None:
+        """As if built at (q, v) (scene coordinates)."""
+        two = len(q) == 2
+        self.body.position = (float(self.offset[0] + q[0]), float(q[1]) if two else 0.0)
+        self.body.velocity = (float(v[0]), float(v[1]) if two else 0.0)
+        self._zero_forces()
+
+    def state(self):
+        (x, y), (vx, vy) = self.body.position, self.body.velocity
+        return np.array([x - self.offset[0]]), np.array([vx])
+
+
+class _Projectile(_Body):
+    """The projectile: one body at the scene's (x, y), y up, gravity along -y."""
+
+    def state(self):
+        (x, y), (vx, vy) = self.body.position, self.body.velocity
+        return np.array([x, y]), np.array([vx, vy])
+
+
+class _Pendulum(_Space):
+    """A body pinned to a static pivot at the origin, the scene's angle read from its position."""
+
+    QUIET_LOOP = "space.step only, the bob's angle read between chunks of steps it cannot turn half a turn in"
+
+    def _build(self, pymunk, mode, scene, k, c):
+        values, space = scene.values, self.space
+        self.body = body = pymunk.Body(values["m"], math.inf)
+        self.bodies = [body]
+        q0, v0 = scene.initial_state()
+        L, theta = values["L"], float(q0[0])
+        body.position = (L * math.sin(theta), -L * math.cos(theta))
+        body.velocity = (0.0, 0.0)
+        space.add(body)
+        self.joint = pymunk.PinJoint(space.static_body, body, (0.0, 0.0), (0.0, 0.0))
+        space.add(self.joint)
+        self.constraints = [self.joint]
+        self.theta = theta
+        self._record_settings(mode)
+        self.settings["joint"] = "PinJoint, static pivot at the origin to the bob's centre"
+        self.settings.update(_joint_settings([self.joint]))
+
+    def set_state(self, q, v) -> None:
+        L, theta, omega = self.joint.distance, float(q[0]), float(v[0])
+        self.body.position = (L * math.sin(theta), -L * math.cos(theta))
+        self.body.velocity = (L * omega * math.cos(theta), L * omega * math.sin(theta))
+        self.theta = theta
+        self._zero_forces()
+
+    def state(self):
+        (x, y), (vx, vy) = self.body.position, self.body.velocity
+        # The bob's angle from the downward vertical and its angular rate about the pivot.
+        theta = math.atan2(x, -y)
+        self.theta = unwrap(self.theta, theta) if math.isfinite(theta) else theta
+        return np.array([self.theta]), np.array([(x * vy - y * vx) / (x * x + y * y)])
+
+    def steps(self, n: int) -> None:
         """n steps of the pin-jointed pendulum, the angle followed between them in chunks.
 
         Chipmunk reports the bob's position, so the angle is known modulo 2 pi and its whole
@@ -369,42 +314,133 @@ class _Model:
             theta = unwrap(theta, angle) if math.isfinite(angle) else angle
         self.theta = theta
 
-    def evaluations(self):
-        if self.force_calls is not None:
-            per = len(self.bodies) if self.mode == "spring_force" else 1
-            what = ("velocity_func calls / bodies" if self.mode == "spring_force"
-                    else "calls of the force set before each step")
-            return self.force_calls // per, f"force evaluations counted from Python ({what})"
-        if self.mode in ("spring_force", "applied_force"):
-            return None, "counted only in a counting run (the counter wraps the Python force function)"
-        return None, "Chipmunk's constraints compute their impulses inside space.step, with no counter or callback"
+
+class _Chain(_Space):
+    """The chain: bodies on the x axis, displacements q_i (spaced SPRING_SPACING apart under
+    ``damped_spring``), the forces between neighbours as the mode writes them."""
+
+    def _build(self, pymunk, mode, scene, k, c):
+        values, space = scene.values, self.space
+        q0, v0 = scene.initial_state()
+        n = values["N"]
+        self.bodies = bodies = [pymunk.Body(values["m"], math.inf) for _ in range(n)]
+        self.offset = np.zeros(n)
+        if mode == "damped_spring":
+            self.offset = SPRING_SPACING * max(abs(values["x0"]), 1.0) * np.arange(1, n + 1)
+        for i, b in enumerate(bodies):
+            b.position = (float(self.offset[i] + q0[i]), 0.0)
+            b.velocity = (float(v0[i]), 0.0)
+        space.add(*bodies)
+        if mode == "damped_spring":
+            rest = SPRING_SPACING * max(abs(values["x0"]), 1.0)
+            wall = space.static_body
+            self.constraints = [pymunk.DampedSpring(wall, bodies[0], (0.0, 0.0), (0.0, 0.0), rest, k, c)]
+            self.constraints += [pymunk.DampedSpring(a, b, (0.0, 0.0), (0.0, 0.0), rest, k, c)
+                                 for a, b in zip(bodies[:-1], bodies[1:])]
+            self.constraints.append(pymunk.DampedSpring(bodies[-1], wall, (0.0, 0.0), ((n + 1) * rest, 0.0),
+                                                        rest, k, c))
+        elif mode == "spring_force":
+            self._spring_force(pymunk, bodies, n, k, c)
+        elif mode == "applied_force":
+            def apply_before_step():
+                x = np.array([b.position.x for b in bodies])
+                f = chain_force(k, c, x, lambda: np.array([b.velocity.x for b in bodies]))
+                for b, fi in zip(bodies, f):
+                    b.force = (float(fi), 0.0)
+
+            self.apply_before_step = apply_before_step
+        if self.constraints:
+            space.add(*self.constraints)
+        self._record_settings(mode)
+        if mode == "damped_spring":
+            c = self.constraints
+            self.settings.update({"spring": "DampedSpring between neighbours and from the end bodies to static walls",
+                                  "rest_length": sorted({s.rest_length for s in c}),
+                                  "stiffness": sorted({s.stiffness for s in c}),
+                                  "spring_damping": sorted({s.damping for s in c}), "springs": len(c),
+                                  "spacing": float(c[0].rest_length)})
+
+    def _spring_force(self, pymunk, bodies, n: int, k: float, c: float) -> None:
+        update_velocity = pymunk.Body.update_velocity
+        # The dashpots read the velocities from before the step: the bodies' velocity_funcs run
+        # one after another, and a neighbour's would otherwise already be updated.
+        old_v = np.zeros(n)
+
+        def snapshot_velocities():
+            old_v[:] = [b.velocity.x for b in bodies]
+
+        if c != 0.0:
+            self.apply_before_step = snapshot_velocities
+
+        def velocity_func_for(i):
+            left = bodies[i - 1] if i > 0 else None
+            right = bodies[i + 1] if i < n - 1 else None
+
+            def velocity_func(b, gravity, damping, h):
+                # Called after every body has moved: the neighbours' new positions.
+                f = (-2.0 * k) * b.position.x
+                if left is not None:
+                    f += k * left.position.x
+                if right is not None:
+                    f += k * right.position.x
+                if c != 0.0:
+                    d = (-2.0 * c) * old_v[i]
+                    if i > 0:
+                        d += c * old_v[i - 1]
+                    if i < n - 1:
+                        d += c * old_v[i + 1]
+                    f += d
+                b.force = (f, 0.0)
+                update_velocity(b, gravity, damping, h)
+
+            return velocity_func
+
+        for i, b in enumerate(bodies):
+            b.velocity_func = velocity_func_for(i)
+
+    def set_state(self, q, v) -> None:
+        for b, x, u, off in zip(self.bodies, q, v, self.offset):
+            b.position, b.velocity = (float(off + x), 0.0), (float(u), 0.0)
+        self._zero_forces()
 
     def state(self):
-        if self.scene_id == "chain":
-            q = np.array([b.position.x for b in self.bodies]) - self.offset
-            return q, np.array([b.velocity.x for b in self.bodies])
-        if self.scene_id == "rope":
-            return (np.array([c for b in self.bodies for c in b.position]),
-                    np.array([c for b in self.bodies for c in b.velocity]))
-        (x, y), (vx, vy) = self.body.position, self.body.velocity
-        if self.scene_id == "pendulum":
-            # The bob's angle from the downward vertical and its angular rate about the pivot.
-            theta = math.atan2(x, -y)
-            self.theta = unwrap(self.theta, theta) if math.isfinite(theta) else theta
-            return np.array([self.theta]), np.array([(x * vy - y * vx) / (x * x + y * y)])
-        if self.scene_id == "projectile":
-            return np.array([x, y]), np.array([vx, vy])
-        return np.array([x - self.offset[0]]), np.array([vx])
+        q = np.array([b.position.x for b in self.bodies]) - self.offset
+        return q, np.array([b.velocity.x for b in self.bodies])
 
-    def trouble(self) -> str | None:
-        return None
 
-    def close(self) -> None:
-        # A sleeping body attached to a constraint can segfault at interpreter exit: take
-        # everything out of the space first.
-        if self.constraints:
-            self.space.remove(*self.constraints)
-        self.space.remove(*self.bodies)
+class _Rope(_Space):
+    """The rope: bodies at the scene's (x_i, y_i), pinned to the origin and to each other."""
+
+    def _build(self, pymunk, mode, scene, k, c):
+        values, space = scene.values, self.space
+        q0, v0 = scene.initial_state()
+        self.bodies = bodies = [pymunk.Body(values["m"], math.inf) for _ in range(values["N"])]
+        self.set_state(q0, v0)
+        space.add(*bodies)
+        anchors = [space.static_body] + bodies
+        self.constraints = [pymunk.PinJoint(a, b, (0.0, 0.0), (0.0, 0.0)) for a, b in zip(anchors, bodies)]
+        space.add(*self.constraints)
+        self._record_settings(mode)
+        self.settings["joint"] = "PinJoint: static pivot at the origin to body 1, then body i to body i+1, centres"
+        self.settings.update(_joint_settings(self.constraints))
+
+    def set_state(self, q, v) -> None:
+        for i, b in enumerate(self.bodies):
+            b.position = (float(q[2 * i]), float(q[2 * i + 1]))
+            b.velocity = (float(v[2 * i]), float(v[2 * i + 1]))
+        self._zero_forces()
+
+    def state(self):
+        return (np.array([c for b in self.bodies for c in b.position]),
+                np.array([c for b in self.bodies for c in b.velocity]))
+
+
+#: One model per scene Chipmunk poses (each mode poses those its ``EngineMode`` lists); a new
+#: scene is one entry here.
+BUILDERS: dict[str, type[_Space]] = {
+    "spring": _Body, "damped_spring": _Body, "projectile": _Projectile, "pendulum": _Pendulum,
+    "chain": _Chain, "rope": _Rope,
+}
 
 
 def _joint_settings(joints) -> dict:
@@ -419,8 +455,8 @@ def _joint_settings(joints) -> dict:
             "max_force": one(j.max_force for j in joints)}
 
 
-def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
-    return _Model(pymunk, mode, scene, dt, count)
+def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _Space:
+    return BUILDERS[scene.id](pymunk, mode, scene, dt, count)
 
 
 def _mode(mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None) -> EngineMode:

@@ -32,9 +32,8 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, run_by_steps
+from ._base import EngineMode, SteppedModel
 
-SCENES = ("kepler", "solar_system")
 _NOT_GRAVITY = "not a gravitational N-body problem (an additional_forces callback would be our force, not REBOUND's)"
 UNSUPPORTED = {s: _NOT_GRAVITY for s in ("spring", "damped_spring", "pendulum", "projectile", "chain", "rope")}
 
@@ -65,30 +64,25 @@ MODELS = {
 }
 
 
-class _Model:
+class _Simulation(SteppedModel):
+    """What both poses share: the simulation's settings, the integrator, the counter and the
+    loop. A pose sets G and adds its particles (``_add``) and reads the state back."""
+
+    #: What the pose adds to the settings (kepler's: the keys its stored runs were recorded with).
+    EXTRA_SETTINGS: dict = {}
+
     def __init__(self, rebound, mode: str, scene: Scene, dt: float, count: bool = False):
         self.sim = sim = rebound.Simulation()
         self.adaptive = mode in ADAPTIVE
         self.dt, self.n = dt, 0
-        self.scene_id = scene.id
-        # solar_system packs p = (G, m_0, ..., m_5).
-        sim.G = scene.values["GM"] if scene.id == "kepler" else float(scene.pvec[0])
+        sim.G = self._G(scene)
         for name, value in SIM.items():
             setattr(sim, name, value)
         sim.integrator = mode
         for name, value in CONFIG[mode].items():
             setattr(sim.integrator, name, value)
         sim.dt = dt
-        q0, v0 = scene.initial_state()
-        if scene.id == "kepler":
-            sim.add(m=1.0)
-            sim.add(m=0.0, x=float(q0[0]), y=float(q0[1]), vx=float(v0[0]), vy=float(v0[1]))
-            masses = [1.0, 0.0]
-        else:
-            masses = [float(m) for m in scene.masses]
-            for i, m in enumerate(masses):
-                sim.add(m=m, x=float(q0[3 * i]), y=float(q0[3 * i + 1]), z=float(q0[3 * i + 2]),
-                        vx=float(v0[3 * i]), vy=float(v0[3 * i + 1]), vz=float(v0[3 * i + 2]))
+        masses = self._add(sim, scene, *scene.initial_state())
         # One (N, 6) buffer, filled in one call: each array handed to serialize_particle_data
         # costs ~5 us of ctypes conversion.
         self._data = np.zeros((sim.N, 6))
@@ -100,8 +94,7 @@ class _Model:
             "advance": ADVANCE["adaptive" if self.adaptive else "fixed"],
             **{name: _plain(getattr(sim.integrator, name)) for name in CONFIG[mode]},
         }
-        if scene.id == "kepler":  # the keys kepler's stored runs were recorded with
-            self.settings.update(central_mass=1.0, particle_mass=0.0)
+        self.settings.update(self.EXTRA_SETTINGS)
         self.force_passes = None
         if count:
             self.force_passes = 0
@@ -129,26 +122,55 @@ class _Model:
             self.n += n
             self.sim.steps(n)
 
-    def run(self, marks):
-        return run_by_steps(self, marks)
-
     def evaluations(self):
         if self.force_passes is None:
             return None, ("counted only in a counting run: REBOUND calls a no-op additional_forces callback "
                           "once per force evaluation, a Python call that would slow the timed loop")
         return self.force_passes, "REBOUND force evaluations (calls of a no-op sim.additional_forces callback)"
 
-    def state(self):
-        self.sim.serialize_particle_data(xyzvxvyvz=self._data)
-        if self.scene_id == "kepler":
-            return self._data[1, 0:2].copy(), self._data[1, 3:5].copy()
-        return self._data[:, :3].flatten(), self._data[:, 3:].flatten()
-
-    def trouble(self) -> str | None:
-        return None
-
     def close(self) -> None:
         self.settings["steps_done"] = int(self.sim.steps_done)
+
+
+class _Kepler(_Simulation):
+    """A central body of mass 1 with G = GM, and a massless test particle at the scene's state."""
+
+    EXTRA_SETTINGS = {"central_mass": 1.0, "particle_mass": 0.0}
+
+    def _G(self, scene: Scene) -> float:
+        return scene.values["GM"]
+
+    def _add(self, sim, scene: Scene, q0, v0) -> list[float]:
+        sim.add(m=1.0)
+        sim.add(m=0.0, x=float(q0[0]), y=float(q0[1]), vx=float(v0[0]), vy=float(v0[1]))
+        return [1.0, 0.0]
+
+    def state(self):
+        self.sim.serialize_particle_data(xyzvxvyvz=self._data)
+        return self._data[1, 0:2].copy(), self._data[1, 3:5].copy()
+
+
+class _SolarSystem(_Simulation):
+    """The scene's bodies, masses and G in its order and frame (module docstring)."""
+
+    def _G(self, scene: Scene) -> float:
+        return float(scene.pvec[0])  # the scene packs p = (G, m_0, ..., m_5)
+
+    def _add(self, sim, scene: Scene, q0, v0) -> list[float]:
+        masses = [float(m) for m in scene.masses]
+        for i, m in enumerate(masses):
+            sim.add(m=m, x=float(q0[3 * i]), y=float(q0[3 * i + 1]), z=float(q0[3 * i + 2]),
+                    vx=float(v0[3 * i]), vy=float(v0[3 * i + 1]), vz=float(v0[3 * i + 2]))
+        return masses
+
+    def state(self):
+        self.sim.serialize_particle_data(xyzvxvyvz=self._data)
+        return self._data[:, :3].flatten(), self._data[:, 3:].flatten()
+
+
+#: One model per scene REBOUND poses; a new scene is one entry here.
+BUILDERS: dict[str, type[_Simulation]] = {"kepler": _Kepler, "solar_system": _SolarSystem}
+SCENES = tuple(BUILDERS)
 
 
 def _plain(value):
@@ -160,8 +182,8 @@ def _plain(value):
     return str(value)
 
 
-def build(rebound, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
-    return _Model(rebound, mode, scene, dt, count)
+def build(rebound, mode: str, scene: Scene, dt: float, count: bool = False) -> _Simulation:
+    return BUILDERS[scene.id](rebound, mode, scene, dt, count)
 
 
 _DOCS = {

@@ -450,3 +450,69 @@ def test_the_engine_facts_the_code_cites_are_in_the_repository():
     tests = (root / "tests" / "test_adapters.py").read_text()
     named = re.findall(r"`(test_[a-z0-9_]+)`", doc)
     assert len(named) >= 6 and all(f"def {name}(" in tests for name in named), named
+
+
+# ------------------------------------------------------------------ a scene is one entry per engine
+ENGINE_MODULES = (adapters.mujoco, adapters.pybullet, adapters.pymunk, adapters.rebound)
+
+
+@pytest.mark.parametrize("module", ENGINE_MODULES, ids=lambda m: m.__name__)
+def test_every_scene_an_engine_poses_is_one_builder_entry(module):
+    """What a mode poses is read from its module's ``BUILDERS``: no scene a mode claims lacks
+    an entry, every entry is posed by some mode, and the model it builds declares the optional
+    members (``EngineModel``) rather than leaving them to be probed."""
+    modes = [m for m in adapters.ENGINE_METHODS.values() if m.build is module.build]
+    assert modes
+    claimed = {s for m in modes for s in m.scenes}
+    assert claimed == set(module.BUILDERS)
+    for scene_id in module.BUILDERS:
+        mode = next(m for m in modes if scene_id in m.scenes)
+        scene = make_scene(scene_id)
+        model = mode.build(adapters.import_engine(mode.module), mode.mode, scene, 1e-3)
+        try:
+            assert isinstance(model, adapters.EngineModel) and model.own_loop
+            q, v = model.state()
+            q0, v0 = scene.initial_state()
+            np.testing.assert_allclose(np.concatenate([q, v]), np.concatenate([q0, v0]), rtol=1e-12, atol=1e-12)
+        finally:
+            model.close()
+
+
+def test_no_adapter_branches_on_a_scene_id():
+    """A new scene is one ``BUILDERS`` entry per engine: the adapters compare no scene id
+    (``EngineMode.supports`` reads the declared list)."""
+    import re
+
+    pattern = re.compile(r"scene(_id|\.id)\s*(==|!=|in\b|not in\b)")
+    hits = [f"{path.name}:{n}" for path in Path(adapters.__file__).parent.glob("*.py")
+            for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
+    assert [h.split(":")[0] for h in hits] == ["_base.py"]  # supports(): scene.id in self.scenes
+
+
+def test_a_plugin_model_with_only_the_required_members_gets_the_declared_defaults():
+    class Minimal:
+        settings = {"plugin": True}
+
+        def __init__(self):
+            self.x = np.array([1.0])
+            self.v = np.array([0.0])
+
+        def advance(self):
+            self.v = self.v - 0.01 * self.x
+            self.x = self.x + 0.01 * self.v
+
+        def state(self):
+            return self.x.copy(), self.v.copy()
+
+    model = adapters.declared(Minimal())
+    assert (model.own_loop, model.settable, model.trouble()) == (False, False, None)
+    assert model.evaluations() == (None, "the engine mode does not count them")
+    model.close()
+    with pytest.raises(NotImplementedError, match="settable is False"):
+        model.set_state(np.zeros(1), np.zeros(1))
+    mode = adapters.EngineMode(engine="minimal", mode="semi_implicit", module="os", dist="integrator-harness",
+                               build=lambda engine, mode, scene, dt: Minimal(), scenes=("spring",), unsupported={},
+                               settings={})
+    traj = mode.simulate(make_scene("spring"), 0.01, 10, 5)
+    assert traj.status == "ok" and traj.meta["loop"].startswith("harness") and traj.force_evals is None
+    assert mode.one_steps(make_scene("spring"), 0.01, np.zeros((1, 2))) is None

@@ -6,6 +6,7 @@ carry them. Every tolerance says where it comes from; measured with mujoco 4.0.0
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -99,7 +100,8 @@ def test_mujoco_discrete_is_backward_euler_only_where_every_tendon_is_stretched(
     # The adapter's tolerance matters: at MuJoCo's default (1e-8) the same generic run is off
     # by 1e-8 of the state (measured 2.6e-8 at h w = 0.1), four decades above 1e-12.
     assert adapters.ENGINE_METHODS["mujoco:discrete"].simulate(chain, dt, 1, 1).meta["settings"]["tolerance"] == 1e-14
-    monkeypatch.setattr(adapters.mujoco, "CHAIN_TOLERANCE", 1e-8)
+    monkeypatch.setitem(adapters.mujoco.BUILDERS, "chain",
+                        dataclasses.replace(adapters.mujoco.BUILDERS["chain"], tolerance=1e-8))
     loose = relative_deviation(engine("mujoco:discrete", moved, 0.1 / chain.omega, 1000),
                                ref("implicit_euler", moved, 0.1 / chain.omega, 1000))
     assert loose > 1e-9
