@@ -176,6 +176,15 @@ class CostFigures(Figures):
     as_stepped_timing: str | None = None
     calibration: float | None = None          # the machine's calibration ratio, timed beside
     calibration_spread: float | None = None   # (harness.measures.calibration)
+    first_ratio: float | None = None          # a slowdown measured again in fresh processes
+    remeasured_ratios: list | None = None     # (harness.nightly.run.remeasure_slowdowns): the first
+    process_noise: float | None = None        # figure, the others, their noise (log units)
+
+    @property
+    def noise(self) -> float:
+        """The relative spread its point in a series carries: the ratio's where timed against
+        explicit Euler, else the seconds'."""
+        return (self.ratio_spread if self.ratio_spread is not None else self.spread) or 0.0
 
 
 @dataclass(frozen=True)
@@ -420,6 +429,12 @@ class Cell:
         data = row["data"]
         return cls.from_row({**{c: row[c] for c in CELL_COLUMNS if c != "data"},
                              "data": json.loads(data) if isinstance(data, str) and data else {}})
+
+
+def figures_of(row) -> Figures:
+    """The typed figures of a stored row (a tidy row or a DataFrame row: ``measure``, ``data``)."""
+    figures, _ = FIGURES.get(row["measure"], Figures).from_data(dict(row["data"] or {}))
+    return figures
 
 
 def pivot(cells: list[Cell]) -> dict:

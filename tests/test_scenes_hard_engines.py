@@ -254,14 +254,14 @@ def test_rope_constraint_drift_and_energy_change(rope):
 def tiny_suite(monkeypatch):
     """A suite of a 4-mass chain and a 3-link rope, run in this process (engines too)."""
     from harness.execution import isolation
-    from harness.nightly.suites import SUITES, SceneSpec, Suite
+    from harness.nightly.suites import SUITES, SceneExtras, SceneSpec, Suite
 
     suite = Suite("tiny", scenes={
         "chain": SceneSpec(params={"N": 4}, periods=10, order_points=6, order_span=4.0,
-                           extras={"damping": {"factor": 100.0},
-                                   "scaling": {"ns": (10, 100), "repeats": 1, "work_per_call": 20_000}}),
+                           extras=SceneExtras(damping_factor=100.0,
+                                              scaling={"ns": (10, 100), "repeats": 1, "work_per_call": 20_000})),
         "rope": SceneSpec(params={"N": 3}, periods=5, order_points=6, order_span=4.0, stability=False,
-                          extras={"constraint": {"iterations": (1, 4)}}),
+                          extras=SceneExtras(constraint_iterations=(1, 4))),
     }, cost_repeats=1, cost_steps=500, series_points=100, stability_steps=200, bounds=False)
     monkeypatch.setitem(SUITES, "tiny", suite)
     monkeypatch.setattr(isolation, "IN_WORKER", True)

@@ -37,6 +37,7 @@ import math
 import pandas as pd
 
 from records import InvalidInput
+from records.cell import figures_of
 
 from harness.history import bounds as bounds_mod
 from harness.history.regression import Regression
@@ -54,10 +55,6 @@ def _key(row) -> tuple:
 
 def _val(x):
     return None if x is None or (isinstance(x, float) and math.isnan(x)) else x
-
-
-def _ratio_spread(data: dict) -> float:
-    return data.get("ratio_spread", data.get("spread")) or 0.0
 
 
 def bound_violations(cells: pd.DataFrame, bounds: list[bounds_mod.Bound]) -> list[Regression]:
@@ -106,7 +103,7 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
             out.append(Regression("order", scene, method, measure, dt, va, vb,
                                   f"observed order {va:.2f} -> {vb:.2f} (drop > {ORDER_DROP})"))
         elif measure == "stability":
-            ua, ub = ra["data"].get("unbounded"), rb["data"].get("unbounded")
+            ua, ub = figures_of(ra).unbounded, figures_of(rb).unbounded
             if ua and not ub:
                 out.append(Regression("stability", scene, method, measure, dt, "unbounded", vb,
                                       f"was unbounded, now h*omega max = {vb:.4g}"))
@@ -114,13 +111,14 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
                 out.append(Regression("stability", scene, method, measure, dt, va, vb,
                                       f"largest stable h*omega {va:.4g} -> {vb:.4g} (drop > {STABILITY_DROP:.0%})"))
         elif measure == "cost":
-            ra_ratio, rb_ratio = ra["data"].get("ratio_to_explicit_euler"), rb["data"].get("ratio_to_explicit_euler")
+            fa, fb = figures_of(ra), figures_of(rb)
+            ra_ratio, rb_ratio = fa.ratio_to_explicit_euler, fb.ratio_to_explicit_euler
             if runs is not None and what_differs(*runs, rb["family"], deterministic=False) == NOTHING_DIFFERS:
                 continue
             if ra_ratio and rb_ratio:
-                cal_a, cal_b = ra["data"].get("calibration"), rb["data"].get("calibration")
+                cal_a, cal_b = fa.calibration, fb.calibration
                 moved = abs(cal_b / cal_a - 1.0) if cal_a and cal_b else 0.0
-                spread = _ratio_spread(ra["data"]) + _ratio_spread(rb["data"]) + PROCESS_SPREAD + moved
+                spread = fa.noise + fb.noise + PROCESS_SPREAD + moved
                 if rb_ratio > ra_ratio * (1 + spread):
                     out.append(Regression("slowdown", scene, method, measure, dt, ra_ratio, rb_ratio,
                                           f"cost ratio to explicit Euler {ra_ratio:.2f} -> {rb_ratio:.2f}, "

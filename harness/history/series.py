@@ -46,6 +46,7 @@ import pandas as pd
 from scipy.stats import norm
 
 from records import InvalidInput
+from records.cell import figures_of
 from records.run import RunRecord
 
 from harness.history import step_detect
@@ -292,12 +293,11 @@ def explained_by_machine(before: list[Point], after: list[Point], level_before: 
 
 def _cost_point(row) -> tuple[float | None, float, str]:
     """(value, relative spread, unit) of a cost cell: the ratio to explicit Euler where timed."""
-    d = row["data"] or {}
-    ratio = d.get("ratio_to_explicit_euler")
-    if ratio:
-        return float(ratio), float(d.get("ratio_spread") or 0.0), "x explicit Euler"
+    f = figures_of(row)
+    if f.ratio_to_explicit_euler:
+        return float(f.ratio_to_explicit_euler), float(f.ratio_spread or 0.0), "x explicit Euler"
     v = row["value"]
-    return (None if v is None or pd.isna(v) else float(v)), float(d.get("spread") or 0.0), "s/step"
+    return (None if v is None or pd.isna(v) else float(v)), float(f.spread or 0.0), "s/step"
 
 
 def _accuracy_point(row) -> float | None:
@@ -382,7 +382,7 @@ def _cell_history(rows: list[dict], runs: dict[int, RunRecord], judged: bool) ->
             value, spread = _accuracy_point(row), 0.0
         if row["status"] != "ok":
             value = None
-        cal = (row["data"] or {}).get("calibration") if measure == "cost" else None
+        cal = figures_of(row).calibration if measure == "cost" else None
         points.append(Point(int(row["run_id"]), run.git_commit, run.started, value, spread,
                             row["status"], float(cal) if cal else None))
     if measure != "cost":
@@ -403,8 +403,8 @@ def _cell_history(rows: list[dict], runs: dict[int, RunRecord], judged: bool) ->
         return cell
     # The newest night's figure measured again in fresh processes (harness.nightly.run) says how far
     # one process's figure sits from another's on this machine now: the least noise the cell has.
-    last = next((r for r in reversed(rows) if int(r["run_id"]) == ok[-1].run_id), {}) if ok else {}
-    floor = float(((last.get("data") or {}).get("process_noise")) or 0.0)
+    last = next((r for r in reversed(rows) if int(r["run_id"]) == ok[-1].run_id), None) if ok else None
+    floor = float(figures_of(last).process_noise or 0.0) if last is not None and measure == "cost" else 0.0
     fit = step_detect.detect_steps([p.value for p in ok], [p.spread for p in ok], noise_floor=floor)
     cell.fit = fit
     for k, st in enumerate(fit.steps):

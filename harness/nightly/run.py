@@ -20,12 +20,13 @@ import sys
 import time
 from collections import defaultdict
 from concurrent.futures import ThreadPoolExecutor, as_completed
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from records.cell import Cell
+from records.run import RunSettings, RunTiming
 from scenarios import SCENES, make_scene
 
 from harness.execution.environment import run_metadata
@@ -197,7 +198,7 @@ def previous_task_seconds(history: History, suite_name: str) -> dict[str, float]
     """Seconds each task took in the latest complete run of the suite (for ``schedule``)."""
     runs = history.runs()
     runs = runs[runs.suite == suite_name]
-    return dict(runs.timing.iloc[-1].get("task_s", {})) if not runs.empty else {}
+    return dict(RunTiming.of(runs.timing.iloc[-1]).task_s) if not runs.empty else {}
 
 
 def timing_summary(cells_by_task: dict[str, list[Cell]], stats: dict, wall_cells: float) -> dict:
@@ -319,7 +320,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
                     "measurement version": MEASUREMENT_VERSION, **{k: settings[k] for k in _RESUME_SETTINGS}}
         run_id, stored_settings = _resumable(history, suite_name, identity)
         carried = history.done_tasks(run_id)
-        attempts = [*stored_settings.get("resumed", []), {"at": now(), "tasks_carried": len(carried)}]
+        attempts = [*RunSettings.of(stored_settings).resumed, {"at": now(), "tasks_carried": len(carried)}]
         history.update_settings(run_id, {**stored_settings, "resumed": attempts})
     else:
         run_id = history.start_run(started=now(), suite=suite_name, git_commit=commit, versions=versions,
@@ -362,7 +363,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     timing["machine_busy"] = _others_share(busy0, busy1, t_cells, cells_by_task, stats, set(carried),
                                            time.process_time() - cpu_start)
     if resume:
-        timing["resumed"] = {"attempts": len(history.run(run_id)["settings"].get("resumed", [])),
+        timing["resumed"] = {"attempts": len(RunSettings.of(history.run(run_id)["settings"]).resumed),
                              "tasks_carried": len(carried), "tasks_run": len(to_run)}
     timing["total_s"] = time.perf_counter() - t_start  # up to the report: what its footer can say
     timing["main_cpu_s"] = time.process_time() - cpu_start
@@ -417,20 +418,19 @@ def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regres
         rows = stored[(stored.scene == t.scene) & (stored.method == t.method) & (stored.measure == "cost")]
         if rows.empty or rows.iloc[0]["status"] != "ok":
             continue
-        row = rows.iloc[0].to_dict()
-        data = dict(row["data"])
-        first = data.get("first_ratio", data.get("ratio_to_explicit_euler"))
+        cell = Cell.from_row(rows.iloc[0].to_dict())
+        f = cell.figures
+        first = f.first_ratio if f.first_ratio is not None else f.ratio_to_explicit_euler
         cells = [r[0] for r in results[i * REMEASURES:(i + 1) * REMEASURES] if isinstance(r, list) and r]
-        again_ratios = [c.to_row()["data"].get("ratio_to_explicit_euler") for c in cells if c.ok]
+        again_ratios = [c.figures.ratio_to_explicit_euler for c in cells if c.ok]
         ratios = [float(x) for x in (first, *again_ratios) if x]
         if first is None or len(ratios) < 2:
             continue
-        data.update(first_ratio=float(first), remeasured_ratios=ratios[1:],
-                    process_noise=math.log(max(ratios) / min(ratios)) / RANGE_IN_SIGMAS[len(ratios)],
-                    ratio_to_explicit_euler=float(np.median(ratios)),
-                    ratio_spread=max(float(data.get("ratio_spread") or 0.0),
-                                     (max(ratios) - min(ratios)) / min(ratios)))
-        history.add_cell(run_id, {**row, "data": data})
+        cell.figures = replace(f, first_ratio=float(first), remeasured_ratios=ratios[1:],
+                               process_noise=math.log(max(ratios) / min(ratios)) / RANGE_IN_SIGMAS[len(ratios)],
+                               ratio_to_explicit_euler=float(np.median(ratios)),
+                               ratio_spread=max(float(f.ratio_spread or 0.0), (max(ratios) - min(ratios)) / min(ratios)))
+        history.add_cell(run_id, cell)
         out[t.label] = ratios
     return out
 

@@ -2,22 +2,22 @@
 
 * ``constraint`` (every constrained scene, every method): ``harness.measures.constraint`` over the
   energy run (the same dt, steps and recording). For a scheme with projection passes
-  (``ref:verlet_constrained``) also at each pass count in ``extras["constraint"]["iterations"]``
+  (``ref:verlet_constrained``) also at each pass count in ``extras.constraint_iterations``
   (``ConstraintFigures.by_iterations``). Value: the largest relative stretch.
 * ``damping`` (scenes whose suite entry lists it in ``extras``: the chain; every method):
-  ``harness.measures.damping`` at ``extras["damping"]["factor"]`` (default 100) times the explicit
+  ``harness.measures.damping`` at ``extras.damping_factor`` (the suites' 100) times the explicit
   limit. Value: the energy kept after one step. As with ``stability``, a method found to
   grow there is a measured result (``DampingFigures.stable`` False, the run's own status in
   ``run_status``), not a failed cell; the status is ``crashed`` / ``timed_out`` only
   when the measurement itself did not finish.
 * ``stability_vs_damping`` (scenes whose suite entry lists it: the damped spring; every
-  method): ``harness.measures.stability_damping`` over ``extras["stability_vs_damping"]["zetas"]``, each
+  method): ``harness.measures.stability_damping`` over ``extras.stability_zetas``, each
   limit beside the theory of the method's own scheme, or for an engine mode of the scheme it
   was identified as (the task's claims). Value: the number of damping ratios whose measured
   limit agrees with that theory; a reference scheme's cell also carries its theory curve.
-* ``scaling`` (the chain, ``ref:implicit_euler``; ``extras["scaling"]``): compiled cost per
+* ``scaling`` (the chain, ``ref:implicit_euler``; ``extras.scaling``): compiled cost per
   step at each N of ``ns`` (``harness.measures.scaling``). Value: the log-log slope.
-* ``brouwer`` (Kepler and the solar system, the methods ``extras["brouwer"]`` names): the
+* ``brouwer`` (Kepler and the solar system, the methods ``extras.brouwer`` names): the
   energy error's RMS over an ensemble against time (``harness.measures.brouwer``). Value: its
   log-log slope, 0.5 by Brouwer's law where the error is roundoff.
 """
@@ -30,17 +30,12 @@ from records.cell import (BrouwerFigures, Cell, Claims, ConstraintFigures, Dampi
                           StabilityVsDampingFigures)
 
 from harness.nightly.cell_kit import energy_run, finite, guard, make_cell, plain
-from harness.nightly.suites import SceneExtras
-
-#: Methods the ``scaling`` cell is measured for unless the suite entry names others.
-SCALING_METHODS = ("ref:implicit_euler",)
-
 
 def measures_for(task, spec) -> list[str]:
     out = []
     if make_scene(task.scene, **task.params).constrained:
         out.append("constraint")
-    extras = _extras(spec)
+    extras = spec.extras
     if extras.damping_factor is not None:
         out.append("damping")
     if extras.stability_zetas is not None:
@@ -50,13 +45,6 @@ def measures_for(task, spec) -> list[str]:
     if extras.brouwer and task.method in extras.brouwer:
         out.append("brouwer")
     return out
-
-
-def _extras(spec) -> SceneExtras:
-    from harness.measures.damping import FACTOR
-    from harness.measures.stability_damping import ZETAS
-
-    return SceneExtras.of(spec.extras, damping_factor=FACTOR, zetas=ZETAS, scaling_methods=SCALING_METHODS)
 
 
 def scene_cells(task, method, scene, dt, spec, suite, claims: Claims | None = None) -> list[Cell]:
@@ -75,7 +63,7 @@ def _constraint(task, method, scene, dt, spec, suite) -> Cell:
     steps, every = energy_run(scene, dt, spec, suite)
     res = constraint_drift(method, scene, dt, steps, every=every, timeout=suite.cell_timeout)
     by_iterations = None
-    passes = _extras(spec).constraint_iterations
+    passes = spec.extras.constraint_iterations
     if passes and method.scheme is not None and method.scheme.constrained:
         by_iterations = []
         for k in passes:
@@ -91,7 +79,7 @@ def _constraint(task, method, scene, dt, spec, suite) -> Cell:
 def _damping(task, method, scene, spec, suite) -> Cell:
     from harness.measures.damping import damping_far_beyond_the_limit
 
-    factor = _extras(spec).damping_factor
+    factor = spec.extras.damping_factor
     res = damping_far_beyond_the_limit(method, scene, factor=factor, timeout=suite.cell_timeout)
     status = res["status"] if res["status"] in ("crashed", "timed_out") else "ok"
     detail = res["detail"]
@@ -105,7 +93,7 @@ def _damping(task, method, scene, spec, suite) -> Cell:
 def _stability_vs_damping(task, method, spec, claims: Claims) -> Cell:
     from harness.measures.stability_damping import CURVE_ZETAS, limit_vs_damping, theory_curve
 
-    zetas = _extras(spec).stability_zetas
+    zetas = spec.extras.stability_zetas
     res = limit_vs_damping(method, zetas, scheme=claims.scheme)
     curve = None
     if task.family == "ref" and res["scheme"]:
@@ -122,7 +110,7 @@ def _stability_vs_damping(task, method, spec, claims: Claims) -> Cell:
 def _scaling(task, spec) -> Cell:
     from harness.measures.scaling import implicit_cost_vs_n
 
-    settings = dict(_extras(spec).scaling)
+    settings = dict(spec.extras.scaling)
     frame = implicit_cost_vs_n(scheme=MethodId.parse(task.method).name, **settings)
     return make_cell(task, "scaling", "ok", frame.attrs["slope"], figures=ScalingFigures(**plain(
         {"rows": frame.to_dict("records"), "rvalue": frame.attrs["rvalue"], "intercept": frame.attrs["intercept"],
@@ -135,7 +123,7 @@ def _brouwer(task, method, scene, dt, spec) -> Cell:
     the horizon (its dt is the output interval), a fixed-step one steps at the nominal dt."""
     from harness.measures.brouwer import energy_walk
 
-    settings = _extras(spec).brouwer[task.method]
+    settings = spec.extras.brouwer[task.method]
     horizon = settings["horizon"] if "horizon" in settings else settings["periods"] * scene.period
     outputs = int(settings["outputs"])
     if method.adaptive:

@@ -11,33 +11,24 @@ cell measures how well the links hold beside it.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+
+
+#: The methods the scaling cell runs for, unless a suite names others.
+SCALING_METHODS = ("ref:implicit_euler",)
 
 
 @dataclass(frozen=True)
 class SceneExtras:
-    """A scene's own cells and their settings (``SceneSpec.extras``, as the suites write it), typed:
-    read here, in one place, by ``of``. None / empty: the scene has no such cell."""
+    """A scene's own cells and their settings (``SceneSpec.extras``; harness.nightly.scene_cells).
+    None / empty: the scene has no such cell."""
 
     constraint_iterations: tuple = ()          # projection passes the constraint cell repeats at
     damping_factor: float | None = None        # the damping cell: this many times the explicit limit
     stability_zetas: tuple | None = None       # the stability-vs-damping cell's damping ratios
     scaling: dict | None = None                # the scaling cell's settings (implicit_cost_vs_n's)
-    scaling_methods: tuple = ()                # the methods the scaling cell runs for
+    scaling_methods: tuple = SCALING_METHODS   # the methods the scaling cell runs for
     brouwer: dict | None = None                # the Brouwer ensemble's settings, by method (harness.measures.brouwer)
-
-    @classmethod
-    def of(cls, extras: dict, *, damping_factor: float, zetas: tuple, scaling_methods: tuple) -> "SceneExtras":
-        """``extras`` typed; the measures' defaults fill what a suite leaves out."""
-        damping = extras.get("damping")
-        svd = extras.get("stability_vs_damping")
-        scaling = extras.get("scaling")
-        return cls(constraint_iterations=tuple(extras.get("constraint", {}).get("iterations", ())),
-                   damping_factor=None if damping is None else damping.get("factor", damping_factor),
-                   stability_zetas=None if svd is None else tuple(svd.get("zetas", zetas)),
-                   scaling=None if scaling is None else {k: v for k, v in scaling.items() if k != "methods"},
-                   scaling_methods=() if scaling is None else tuple(scaling.get("methods", scaling_methods)),
-                   brouwer=extras.get("brouwer"))
 
 
 @dataclass(frozen=True)
@@ -51,7 +42,7 @@ class SceneSpec:
                                    # half an orbit from perihelion; one period took Kepler's first-order
                                    # sweeps 30x the steps, 1.47M for explicit Euler, for the same slope)
     stability: bool = True         # bisect the largest stable timestep
-    extras: dict = field(default_factory=dict)  # scene-specific cells and their settings (harness.nightly.scene_cells)
+    extras: SceneExtras = SceneExtras()  # scene-specific cells and their settings (harness.nightly.scene_cells)
     skip: tuple[str, ...] = ()     # methods left out on this scene in this suite (listed with the reason)
     # Where the issue fixes the study in the scene's own units, they override homega/periods:
     dt: float | None = None        # nominal timestep
@@ -89,11 +80,11 @@ class Suite:
 
 #: The chain's own cells: damping at 100x the explicit limit (the issue's "100x that dt") and
 #: backward Euler's cost against N over the issue's range (a lighter timing than the full suite's).
-CHAIN_EXTRAS = {"damping": {"factor": 100.0},
-                "scaling": {"ns": (10, 100, 1000, 10000), "repeats": 3, "work_per_call": 1_000_000}}
+CHAIN_EXTRAS = SceneExtras(damping_factor=100.0,
+                           scaling={"ns": (10, 100, 1000, 10000), "repeats": 3, "work_per_call": 1_000_000})
 #: The damped spring's own cell: the largest stable h*omega at each of the issue's damping ratios,
 #: beside linear-stability theory (harness.measures.stability_damping).
-DAMPED_SPRING_EXTRAS = {"stability_vs_damping": {"zetas": (0.0, 0.05, 0.1, 0.5, 1.0, 2.0)}}
+DAMPED_SPRING_EXTRAS = SceneExtras(stability_zetas=(0.0, 0.05, 0.1, 0.5, 1.0, 2.0))
 #: The schemes that differ from semi-implicit Euler only where the force depends on the
 #: velocity: the standard suite runs them on the damped spring and the projectile only.
 VELOCITY_SCHEMES = ("ref:semi_implicit_euler_velocity_implicit", "ref:position_first_euler_decay_after_kick",
@@ -132,7 +123,7 @@ KEPLER_BROUWER_FULL, _ = _brouwer(24)
 #: stop short of.
 ROPE_STABILITY_STEPS = 10_000
 #: The rope's constraint cell also runs ref:verlet_constrained at these projection passes.
-ROPE_EXTRAS = {"constraint": {"iterations": (1, 4, 16)}}
+ROPE_EXTRAS = SceneExtras(constraint_iterations=(1, 4, 16))
 #: The outer solar system in the standard suite: the schemes issue 6 names against REBOUND's
 #: modes (the full suite runs every method). Its largest stable dt is left to the full suite:
 #: each task's boundedness runs need the reference solve over 1000 steps of the largest dt
@@ -166,14 +157,14 @@ SUITES: dict[str, Suite] = {
             "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE),
             "pendulum": SceneSpec(periods=50, skip=VELOCITY_SCHEMES, advise=ADVISE),
             "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0, skip=VELOCITY_SCHEMES,
-                                extras={"brouwer": KEPLER_BROUWER}),
+                                extras=SceneExtras(brouwer=KEPLER_BROUWER)),
             "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True),
             "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS, skip=CHAIN_STANDARD_SKIP,
                                advise=ADVISE),
             "rope": SceneSpec(params={"N": 5}, periods=20, extras=ROPE_EXTRAS, stability_steps=ROPE_STABILITY_STEPS,
                               skip=ROPE_STANDARD_SKIP),
             "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
-                                      methods=SOLAR_METHODS, compiled=True, extras={"brouwer": SOLAR_BROUWER}),
+                                      methods=SOLAR_METHODS, compiled=True, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
         },
     ),
     "full": Suite(
@@ -183,14 +174,14 @@ SUITES: dict[str, Suite] = {
             "damped_spring": SceneSpec(periods=200, order_points=8, order_span=16.0, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE),
             "pendulum": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE),
             "kepler": SceneSpec(homega=0.02, periods=1000, order_points=8, order_span=16.0,
-                                extras={"brouwer": KEPLER_BROUWER_FULL}),
+                                extras=SceneExtras(brouwer=KEPLER_BROUWER_FULL)),
             "projectile": SceneSpec(homega=0.01, periods=0.2, order_points=8, order_span=16.0),
             "chain": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE,
-                               extras={**CHAIN_EXTRAS, "scaling": {"ns": (10, 100, 1000, 10000)}}),
+                               extras=replace(CHAIN_EXTRAS, scaling={"ns": (10, 100, 1000, 10000)})),
             "rope": SceneSpec(periods=200, order_points=8, order_span=16.0, extras=ROPE_EXTRAS,
                               stability_steps=ROPE_STABILITY_STEPS),
             "solar_system": SceneSpec(dt=10.0, horizon=1.0e7, order_points=8, order_span=16.0, compiled=True,
-                                      stability_hi=SOLAR_STABILITY_HI, extras={"brouwer": SOLAR_BROUWER}),
+                                      stability_hi=SOLAR_STABILITY_HI, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
         },
         cost_repeats=9, cost_steps=100_000, series_points=1000, stability_steps=5000, cell_timeout=900.0,
         stability_homega_max=1000.0, frame_rates=(60.0, 240.0, 1000.0),
