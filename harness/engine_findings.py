@@ -23,7 +23,7 @@ def engine_findings(piv: dict) -> list[Finding]:
     for (scene, method), ms in sorted(piv.items()):
         if method.startswith("ref:"):
             continue
-        ident, energy = ms.get("identity"), ms.get("energy")
+        ident, energy = ms.identity, ms.energy
         if ident is not None and ident.status == "ok":
             f = ident.figures
             matches, dev = f.all_matches, ident.value
@@ -55,32 +55,31 @@ def blowups_at_nominal(piv: dict) -> list[Finding]:
     constraints) is what every mode fails on."""
     out = []
     for (scene, method), ms in sorted(piv.items()):
-        stab = ms.get("stability")
+        stab = ms.stability
         nominal = stab.figures.nominal if stab is not None and stab.status == "ok" else None
-        if not nominal or not nominal.get("failed_step"):
+        if nominal is None or not nominal.failed_step:
             continue
-        step, family = nominal["failed_step"], method.split(":")[0]
-        t_fail = step * nominal["dt"]
+        step, family = nominal.failed_step, method.split(":")[0]
+        t_fail = step * nominal.dt
         companions = []
         for (s2, m2), ms2 in sorted(piv.items()):
-            other = ms2.get("stability")
+            other = ms2.stability
             if s2 != scene or m2 == method or m2.split(":")[0] != family or other is None or not other.figures.nominal:
                 continue
             n2 = other.figures.nominal
-            runs_on = not n2.get("failed_step") or n2["failed_step"] > step
-            series = n2.get("series") or {}
+            runs_on = not n2.failed_step or n2.failed_step > step
             kept = ""
-            if runs_on and series.get("t"):
-                t, e = np.asarray(series["t"]), np.asarray(series["energy"], dtype=float)
+            if runs_on and n2.has_series:
+                t, e = np.asarray(n2.series["t"]), np.asarray(n2.series["energy"], dtype=float)
                 e_at = float(np.interp(t_fail, t, e))
                 kept = f", energy {e_at:.3g} (started at {e[0]:.3g})"
-            companions.append((m2, runs_on, (f"runs on{kept}" if runs_on else f"blew up too, at step {n2['failed_step']}")))
+            companions.append((m2, runs_on, (f"runs on{kept}" if runs_on else f"blew up too, at step {n2.failed_step}")))
         limit = stab.value
-        own = (nominal.get("series") or {}).get("energy") or []
+        own = nominal.series["energy"] if nominal.has_series else []
         gained = f", its energy {own[0]:.3g} -> {own[-1]:.3g} before it" if len(own) > 1 else ""
-        text = (f"`{method}` on `{scene}` blows up at the nominal h·ω = {nominal['homega']:.3g} (dt = "
-                f"{nominal['dt']:.3g}) at step {step} of {nominal['steps']}{gained} "
-                f"({nominal.get('detail') or 'diverged'}); its largest stable h·ω there is {_g(limit, '.3g')}.")
+        text = (f"`{method}` on `{scene}` blows up at the nominal h·ω = {nominal.homega:.3g} (dt = "
+                f"{nominal.dt:.3g}) at step {step} of {nominal.steps}{gained} "
+                f"({nominal.detail or 'diverged'}); its largest stable h·ω there is {_g(limit, '.3g')}.")
         if companions:
             text += " At that step the same engine's other modes, on the same model: " + "; ".join(
                 f"`{m}` {what}" for m, _, what in companions) + "."

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from records.cell import Cell, Claims, pivot
+from records.cell import Cell, Claims, MethodCells, pivot
 from records.findings import MARK, Change, ClaimChecks, Finding, Judgement, Verdict
 
 from harness.engine_findings import blowups_at_nominal, engine_findings
@@ -175,12 +175,13 @@ def matches_only_from_a_generic_state(check: Check, scene: str, piv: dict) -> li
     """A mode that is its ``against`` scheme from a generic state but matches none from the
     scene's: its one-step map's highest mode beside the scheme's, and the energy each keeps."""
     (method,), (scheme,) = check.methods, check.against
-    ident, dd = piv.get((scene, method), {}).get("identity"), piv.get((scene, method), {}).get(check.measure)
-    be = piv.get((scene, scheme), {}).get(check.measure)
+    mine, theirs = piv.get((scene, method), MethodCells()), piv.get((scene, scheme), MethodCells())
+    ident, dd, be = mine.identity, mine.cell(check.measure), theirs.cell(check.measure)
     if not (ident is not None and ident.status == "ok" and ident.figures.match is None and dd is not None
             and dd.status == "ok" and be is not None and be.status == "ok"):
         return []
-    rho_d, rho_b = (dd.figures.highest or {}).get("rho"), (be.figures.highest or {}).get("rho")
+    rho_d = dd.figures.highest["rho"] if dd.figures.highest else None
+    rho_b = be.figures.highest["rho"] if be.figures.highest else None
     apart = abs(rho_d / rho_b - 1.0) if rho_d is not None and rho_b else None
     return [Finding(
         f"`{method}` on `{scene}` is {check.expect} only where every tendon is stretched: from a generic state its "
@@ -289,8 +290,8 @@ def energy_within(check: Check, scene: str, piv: dict) -> list[Finding]:
 def _sweep(piv: dict, scene: str, method: str) -> dict | None:
     """(cost per unit time, error) along a method's order sweep: the sweep's errors, the cost cell's
     seconds per step (a fixed-step method's cost per step does not depend on dt) over each dt."""
-    ms = piv.get((scene, method), {})
-    order, sps = ms.get("order"), _value(ms.get("cost"))
+    ms = piv.get((scene, method), MethodCells())
+    order, sps = ms.order, _value(ms.cost)
     if order is None or order.status != "ok" or not sps:
         return None
     pts = [p for p in order.figures.points or [] if p["error"] and p["dt"]]
@@ -329,7 +330,7 @@ def cost_ratio(check: Check, scene: str, piv: dict) -> list[Finding]:
     out = []
     for method in check.methods:
         for other in check.against:
-            rk, lf = piv.get((scene, method), {}).get("cost"), piv.get((scene, other), {}).get("cost")
+            rk, lf = piv.get((scene, method), MethodCells()).cost, piv.get((scene, other), MethodCells()).cost
             if not (_value(lf) and _value(rk)):
                 continue
             ev_lf, ev_rk = lf.figures.force_evals_per_step, rk.figures.force_evals_per_step

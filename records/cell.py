@@ -139,8 +139,29 @@ class OrderFigures(Figures):
 
 
 @dataclass(frozen=True)
+class NominalRun(Record):
+    """The stability measure's finite horizon run once more at the suite's nominal dt
+    (``harness.nightly.cells._nominal_run``): where it failed, and its energy against time
+    (``series``: t, energy, e0; absent where the run recorded no state)."""
+
+    dt: float | None = None
+    homega: float | None = None
+    steps: int | None = None
+    status: str | None = None
+    failed_step: int | None = None
+    detail: str | None = None
+    series: dict | None = None
+
+    @property
+    def has_series(self) -> bool:
+        return bool(self.series and len(self.series["t"]))
+
+
+@dataclass(frozen=True)
 class StabilityFigures(Figures):
     """``stability``: the largest stable h*omega (the value; inf where unbounded)."""
+
+    NESTED: ClassVar[dict[str, type]] = {"nominal": NominalRun}
 
     criterion: str | None = None
     criterion_rule: str | None = None
@@ -150,7 +171,7 @@ class StabilityFigures(Figures):
     unstable_everywhere: bool | None = None
     homega_searched: float | None = None
     rho_above_dt_max: float | None = None
-    nominal: dict | None = None              # the finite horizon's run at the suite's nominal dt (see cells)
+    nominal: NominalRun | None = None        # the finite horizon's run at the suite's nominal dt
 
 
 @dataclass(frozen=True)
@@ -437,10 +458,25 @@ def figures_of(row) -> Figures:
     return figures
 
 
-def pivot(cells: list[Cell]) -> dict:
-    """{(scene, method): {measure: cell}} for the scene x method cells (bounds excluded)."""
+class MethodCells(dict):
+    """{measure: cell} of one scene x method; the measures the findings read by name are
+    attributes (None where the method has no such cell)."""
+
+    def cell(self, measure: str) -> "Cell | None":
+        return self[measure] if measure in self else None
+
+    energy = property(lambda self: self.cell("energy"))
+    order = property(lambda self: self.cell("order"))
+    stability = property(lambda self: self.cell("stability"))
+    cost = property(lambda self: self.cell("cost"))
+    identity = property(lambda self: self.cell("identity"))
+    damping = property(lambda self: self.cell("damping"))
+
+
+def pivot(cells: list[Cell]) -> dict[tuple[str, str], MethodCells]:
+    """{(scene, method): MethodCells} for the scene x method cells (bounds excluded)."""
     out: dict = {}
     for c in cells:
         if c.measure != "bound":
-            out.setdefault((c.scene, c.method), {})[c.measure] = c
+            out.setdefault((c.scene, c.method), MethodCells())[c.measure] = c
     return out

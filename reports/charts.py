@@ -140,23 +140,23 @@ def nominal_chart(cells: list[Cell], scene: str, path: Path, styles: dict | None
     """Energy against time over the stability measure's finite horizon at the nominal timestep
     (the stability cells' ``nominal`` runs), one line per method, a blow-up marked where it
     happened: drawn where a method blew up within it (the evidence of the findings' line)."""
-    rows = [c for c in _ok(cells, "stability") if (c.figures.nominal or {}).get("series")]
-    if not any(c.figures.nominal.get("failed_step") for c in rows):
+    rows = [c for c in _ok(cells, "stability") if c.figures.nominal is not None and c.figures.nominal.has_series]
+    if not any(c.figures.nominal.failed_step for c in rows):
         return False
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for r in rows:
         n = r.figures.nominal
-        t, e = np.asarray(n["series"]["t"]), np.abs(np.asarray(n["series"]["energy"], dtype=float))
+        t, e = np.asarray(n.series["t"]), np.abs(np.asarray(n.series["energy"], dtype=float))
         st = _style(r.method, styles)
-        label = r.method + (f" (blew up at step {n['failed_step']})" if n.get("failed_step") else "")
+        label = r.method + (f" (blew up at step {n.failed_step})" if n.failed_step else "")
         ax.plot(t, np.clip(e, 1e-6, 1e6), label=label, markersize=4, markevery=max(1, len(t) // 10), **st)
-        if n.get("failed_step"):
+        if n.failed_step:
             ax.plot([t[-1]], [np.clip(e[-1], 1e-6, 1e6)], marker="x", color="tab:red", markersize=10,
                     linestyle="none")
     ax.set_yscale("log")
     ax.set_xlabel("t")
     ax.set_ylabel("|E(t)|")
-    dt = rows[0].figures.nominal["dt"]
+    dt = rows[0].figures.nominal.dt
     ax.set_title(f"{scene}: energy at the nominal dt = {dt:.3g} over the stability measure's horizon")
     _legend_outside(ax)
     return _save(fig, path)

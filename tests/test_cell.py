@@ -9,7 +9,7 @@ from dataclasses import fields
 
 import pytest
 
-from records.cell import CELL_COLUMNS, FIGURES, Cell, Claims, EnergyFigures, IdentityFigures
+from records.cell import CELL_COLUMNS, FIGURES, Cell, Claims, EnergyFigures, IdentityFigures, NominalRun
 
 from harness.history.storage import History
 
@@ -30,6 +30,9 @@ def _sample(kind: str, i: int):
         return {"key": i, "nested": [1.5, None]}
     if kind.startswith("Claims"):
         return CLAIMS
+    if kind.startswith("NominalRun"):
+        return NominalRun(dt=0.01 * i, homega=0.1, steps=10_000, status="unstable", failed_step=2434,
+                          detail="diverged", series={"t": [0.0, 1.0], "energy": [1.0, 2.0], "e0": 1.0})
     return {"any": i}
 
 

@@ -34,7 +34,7 @@ import numpy as np
 from scenarios import make_scene
 
 from records.cell import (AdviceFigures, BoundFigures, Cell, Claims, CostFigures, EnergyFigures, ErrorFigures,
-                          IdentityFigures, OrderFigures, StabilityFigures)
+                          IdentityFigures, NominalRun, OrderFigures, StabilityFigures)
 
 from harness.nightly.cell_kit import energy_run, finite, guard, guard_many, make_cell, nominal_dt, plain
 from harness.nightly.scene_cells import measures_for as scene_measures, scene_cells
@@ -231,7 +231,8 @@ def _stability(task, method, scene, suite, spec) -> Cell:
                                     homega_searched=plain((res["dt_searched_max"] or 0) * scene.omega))
     value = math.inf if verdict == "unbounded" else res["omega_dt_max"]
     if res["criterion"] == "finite_horizon":
-        figures = replace(figures, nominal=plain(_nominal_run(method, scene, nominal_dt(spec, scene), steps, suite)))
+        figures = replace(figures, nominal=NominalRun(**plain(_nominal_run(method, scene, nominal_dt(spec, scene),
+                                                                             steps, suite))))
     return make_cell(task, "stability", "ok", value, detail=res.get("detail", ""), figures=figures)
 
 
