@@ -37,7 +37,7 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene
-from records.trajectory import OK, UNSTABLE, divergence_detail, diverged
+from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged
 
 
 class Model(Protocol):
@@ -280,7 +280,7 @@ class EngineMode:
                     spent.close()
                     model = self._build(engine, scene, dt, count)
                     traj = drive(model, scene, self.id, dt, steps, every)
-                    traj.meta["loop"] = "engine, replayed step by step from the start (diverged or warned)"
+                    traj.meta.loop = "engine, replayed step by step from the start (diverged or warned)"
             else:
                 traj = drive(model, scene, self.id, dt, steps, every)
             evals, what = model.evaluations()
@@ -288,11 +288,12 @@ class EngineMode:
             if model is not None:
                 model.close()
         traj.force_evals = evals
-        traj.meta["force_evals_counted" if evals is not None else "force_evals_reason"] = what
-        traj.meta.update({
-            "backend": "engine", "engine": self.engine, "engine_version": engine_version(self.dist),
-            "settings": dict(model.settings),
-        })
+        if evals is not None:
+            traj.meta.force_evals_counted = what
+        else:
+            traj.meta.force_evals_reason = what
+        traj.meta.backend, traj.meta.engine, traj.meta.engine_version = "engine", self.engine, engine_version(self.dist)
+        traj.meta.settings = dict(model.settings)
         return traj
 
     def timed_run(self, scene: Scene, dt: float, steps: int, now: Callable[[], float],
@@ -381,7 +382,7 @@ def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every:
             rec_q.append(q)
             rec_v.append(v)
     traj = _trajectory(scene, method, dt, steps, every, rec_step, rec_q, rec_v, status, detail, failed)
-    traj.meta["loop"] = "harness: one advance() per step, state read after each"
+    traj.meta.loop = "harness: one advance() per step, state read after each"
     return traj
 
 
@@ -396,7 +397,7 @@ def _trajectory(scene: Scene, method: str, dt: float, steps: int, every: int, re
         scene=scene.id, method=method, dt=dt, steps=steps, every=every,
         step=step_arr, t=step_arr * dt, q=q_arr, v=v_arr, energy=energy,
         status=status, detail=detail, failed_step=failed,
-        meta={"steps_run": (failed - 1) if failed else steps, "params": dict(scene.values)},
+        meta=RunMeta(steps_run=(failed - 1) if failed else steps, params=dict(scene.values)),
     )
 
 
@@ -421,7 +422,7 @@ def run_engine_loop(model: Model, scene: Scene, method: str, dt: float, steps: i
         return None
     traj = _trajectory(scene, method, dt, steps, every, marks.tolist(), [q] + [s[0] for s in states],
                        [v] + [s[1] for s in states])
-    traj.meta["loop"] = "engine: the engine's own loop between output points, state read at output points only"
+    traj.meta.loop = "engine: the engine's own loop between output points, state read at output points only"
     return traj
 
 

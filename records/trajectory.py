@@ -5,7 +5,7 @@ with the same formula for every method.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 import pandas as pd
@@ -41,6 +41,31 @@ def divergence_detail(n: int, t: float) -> str:
 
 
 @dataclass
+class RunMeta:
+    """What a run recorded beside its states: each driver (``reference``'s interpreted and compiled
+    ones, ``adapters``' engine loops, the worker that ran it) sets the fields it knows; a field
+    it does not know is None."""
+
+    backend: str | None = None                # interpreted | compiled | compiled, counted | engine
+    steps_run: int | None = None              # steps taken before a blow-up (all of them where none)
+    params: dict = field(default_factory=dict)  # the scene's parameters
+    start_force_evals: int | None = None      # evaluations a multistep scheme's start took
+    force_evals_counted: str | None = None    # what was counted as a force evaluation
+    force_evals_reason: str | None = None     # why they are not counted, where they are not
+    iterations: int | None = None             # a constrained scheme's projection passes per step
+    projections: int | None = None            # projections counted
+    loop: str | None = None                   # how an engine mode was stepped (adapters._base)
+    engine: str | None = None
+    engine_version: str | None = None
+    settings: dict | None = None              # the engine's settings, read back from the model that ran
+    worker: dict | None = None                # the worker's failure, where the run was lost
+
+    def as_dict(self) -> dict:
+        """The fields that are set, as plain values (``Trajectory.summary``)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) is not None}
+
+
+@dataclass
 class Trajectory:
     """States recorded every ``every`` steps, API layout: ``q``/``v`` are (T, batch, ndof).
 
@@ -65,14 +90,14 @@ class Trajectory:
     failed_step: int | None = None
     force_evals: int | None = None
     solves: int | None = None
-    meta: dict = field(default_factory=dict)
+    meta: RunMeta = field(default_factory=RunMeta)
 
     @classmethod
     def failed(cls, scene: str, method: str, dt: float, steps: int, status: str, detail: str,
-               every: int = 1, ndof: int = 0, meta: dict | None = None) -> "Trajectory":
+               every: int = 1, ndof: int = 0, meta: RunMeta | None = None) -> "Trajectory":
         empty = np.zeros((0, 1, ndof))
         return cls(scene, method, dt, steps, every, np.zeros(0, dtype=int), np.zeros(0), empty, empty.copy(),
-                   np.zeros((0, 1)), status=status, detail=detail, meta=dict(meta or {}))
+                   np.zeros((0, 1)), status=status, detail=detail, meta=meta or RunMeta())
 
     @property
     def ok(self) -> bool:
@@ -104,5 +129,5 @@ class Trajectory:
         return {
             "scene": self.scene, "method": self.method, "dt": self.dt, "steps": self.steps,
             "status": self.status, "detail": self.detail, "failed_step": self.failed_step,
-            "force_evals": self.force_evals, "solves": self.solves, "meta": self.meta,
+            "force_evals": self.force_evals, "solves": self.solves, "meta": self.meta.as_dict(),
         }

@@ -17,7 +17,7 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene, no_velocity_dependence
-from records.trajectory import OK, UNSTABLE, divergence_detail, diverged
+from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged
 
 from . import _kernels
 from ._integrate import iterations_for, newton_max
@@ -154,10 +154,9 @@ def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int =
     status, detail = (UNSTABLE, divergence_detail(failed, failed * dt)) if failed else (OK, "")
     with np.errstate(over="ignore", invalid="ignore"):
         energy = scene.energy(q, v)
-    meta = {"backend": "compiled", "steps_run": (failed - 1) if failed else steps, "params": dict(scene.values),
-            "force_evals_reason": "compiled run: not counted (the interpreted driver counts them)"}
-    if scheme.constrained:
-        meta["iterations"] = iterations_for(scheme, iterations)
+    meta = RunMeta(backend="compiled", steps_run=(failed - 1) if failed else steps, params=dict(scene.values),
+                   force_evals_reason="compiled run: not counted (the interpreted driver counts them)",
+                   iterations=iterations_for(scheme, iterations) if scheme.constrained else None)
     return Trajectory(scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
                       step=recorded.astype(np.int64), t=recorded * dt, q=q, v=v, energy=energy,
                       status=status, detail=detail, failed_step=failed, meta=meta)
@@ -260,7 +259,7 @@ def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     stop, from the pair's ``run_counted`` kernel (``reference._kernels``; on a pointwise scene
     with one entry, ``run_counted_one``); None where the pair has none that computes the
     interpreted bits (:func:`exact_why` says why), for the caller to interpret instead.
-    ``meta["backend"]`` says "compiled, counted"."""
+    ``meta.backend`` says "compiled, counted"."""
     steps, every = int(steps), int(every)
     if every < 1 or steps < 0 or exact_why(scheme, scene):
         return None
@@ -277,11 +276,10 @@ def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     v_arr = np.ascontiguousarray(out_v[:recorded].transpose(0, 2, 1))
     with np.errstate(over="ignore", invalid="ignore"):
         energy = scene.energy(q_arr, v_arr)
-    meta = {"backend": "compiled, counted", "start_force_evals": start_evals,
-            "steps_run": (failed - 1) if failed else steps, "params": dict(scene.values)}
-    if scheme.constrained:
-        meta["iterations"] = k
-        meta["projections"] = int(cnt[2])
+    meta = RunMeta(backend="compiled, counted", start_force_evals=start_evals,
+                   steps_run=(failed - 1) if failed else steps, params=dict(scene.values),
+                   iterations=k if scheme.constrained else None,
+                   projections=int(cnt[2]) if scheme.constrained else None)
     return Trajectory(
         scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
         step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=energy,

@@ -10,7 +10,7 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene
-from records.trajectory import DIVERGED, OK, UNSTABLE, divergence_detail, diverged
+from records.trajectory import DIVERGED, OK, UNSTABLE, RunMeta, divergence_detail, diverged
 
 #: Newton iterations allowed per implicit step on a nonlinear scene.
 NEWTON_MAX = 50
@@ -98,9 +98,8 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
     p = scene.pvec
     accel, solve, project = Counted(scene.accel), Counted(scene.solve), Counted(scene.project)
-    meta = {}
-    if scheme.constrained:
-        meta["iterations"] = iterations_for(scheme, iterations)
+    meta = RunMeta(backend="interpreted", params=dict(scene.values),
+                   iterations=iterations_for(scheme, iterations) if scheme.constrained else None)
     advance = _advance(scheme, scene, dt, accel, solve, project, iterations)
     state = scheme.start(accel, q, v, t0, dt, p)
     start_evals = accel.calls
@@ -124,7 +123,10 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
                 break
             if n % every == 0 or n == steps:
                 record(n, state)
-    steps_run = (failed - 1) if failed else steps
+    meta.steps_run = (failed - 1) if failed else steps
+    meta.start_force_evals = start_evals
+    if scheme.constrained:
+        meta.projections = project.calls
     q_arr, v_arr = np.array(rec_q), np.array(rec_v)
     step_arr = np.array(rec_step, dtype=np.int64)
     with np.errstate(over="ignore", invalid="ignore"):  # the last states of a blow-up are finite but huge
@@ -134,7 +136,5 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
         step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=energy,
         status=status, detail=detail, failed_step=failed,
         force_evals=accel.calls, solves=solve.calls,
-        meta={"backend": "interpreted", "start_force_evals": start_evals, "steps_run": steps_run,
-              "params": dict(scene.values), **meta,
-              **({"projections": project.calls} if scheme.constrained else {})},
+        meta=meta,
     )

@@ -166,7 +166,7 @@ def test_pymunk_pin_joint_pendulum_loses_energy_through_its_error_correction():
     run = engine("pymunk:pin_joint", pendulum, 0.01, 10_000)
     assert run.ok
     assert run.energy[-1, 0] < run.energy[0, 0] - 5.0
-    assert run.meta["settings"]["error_bias"] > 0
+    assert run.meta.settings["error_bias"] > 0
 
 
 def kepler_and_dt():
@@ -193,7 +193,7 @@ def test_rebound_ias15_conserves_energy_over_1000_orbits():
     assert run.ok and run.t[-1] == pytest.approx(1000 * kepler.period, rel=1e-15)
     drift = np.max(np.abs(run.energy[:, 0] / run.energy[0, 0] - 1.0))
     assert drift <= IAS15_DRIFT
-    assert run.meta["settings"]["steps_done"] > 1000
+    assert run.meta.settings["steps_done"] > 1000
 
 
 @pytest.mark.parametrize("method_id", ["rebound:whfast", "rebound:saba"])
@@ -214,7 +214,7 @@ def test_mujoco_blow_up_is_unstable_not_a_silent_reset():
     run = engine("mujoco:euler", spring, 2.5, 100)
     assert (run.status, run.failed_step) == ("unstable", 18)
     assert "MuJoCo warned" in run.detail and "step 18" in run.detail
-    assert run.meta["settings"]["autoreset"] is False
+    assert run.meta.settings["autoreset"] is False
     scheme = ref("semi_implicit_euler", spring, 2.5, 17)
     np.testing.assert_array_equal(run.q, scheme.q)  # the diverging trajectory, no reset in it
     assert abs(run.q[-1, 0, 0]) > 1e9
@@ -227,7 +227,7 @@ def test_pybullet_blow_up_is_unstable_not_clamped():
     spring = make_scene("spring")
     run = engine("pybullet:semi_implicit", spring, 2.5, 1000)
     assert run.status == "unstable" and run.failed_step is not None
-    assert run.meta["settings"]["maxJointVelocity"] == "inf"
+    assert run.meta.settings["maxJointVelocity"] == "inf"
     scheme = ref("semi_implicit_euler", spring, 2.5, run.failed_step - 1)
     np.testing.assert_array_equal(run.q, scheme.q)
 
@@ -256,8 +256,8 @@ def test_every_engine_mode_declares_itself_and_records_version_and_settings(meth
     q0, v0 = scene.initial_state()
     np.testing.assert_array_equal(run.q[0, 0], q0)
     np.testing.assert_array_equal(run.v[0, 0], v0)
-    assert run.meta["engine_version"] == info["engine_version"]
-    assert run.meta["settings"] and json.dumps(run.meta["settings"])
+    assert run.meta.engine_version == info["engine_version"]
+    assert run.meta.settings and json.dumps(run.meta.settings)
 
 
 @pytest.mark.parametrize("method_id", [m for m in adapters.ENGINE_METHODS if not m.startswith("rebound:")])
@@ -303,7 +303,7 @@ def test_isolated_run_is_the_in_process_run():
     spring = make_scene("spring")
     isolated = runner.simulate(get_method("mujoco:rk4"), spring, 0.1, 1000, every=7)
     assert deviation(isolated, engine("mujoco:rk4", spring, 0.1, 1000, every=7)) == 0.0
-    assert isolated.meta["engine_version"] == adapters.ENGINE_METHODS["mujoco:rk4"].describe()["engine_version"]
+    assert isolated.meta.engine_version == adapters.ENGINE_METHODS["mujoco:rk4"].describe()["engine_version"]
 
 
 # ------------------------------------------------------------------ unavailable engines
@@ -514,5 +514,5 @@ def test_a_plugin_model_with_only_the_required_members_gets_the_declared_default
                                build=lambda engine, mode, scene, dt: Minimal(), scenes=("spring",), unsupported={},
                                settings={})
     traj = mode.simulate(make_scene("spring"), 0.01, 10, 5)
-    assert traj.status == "ok" and traj.meta["loop"].startswith("harness") and traj.force_evals is None
+    assert traj.status == "ok" and traj.meta.loop.startswith("harness") and traj.force_evals is None
     assert mode.one_steps(make_scene("spring"), 0.01, np.zeros((1, 2))) is None

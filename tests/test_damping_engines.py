@@ -111,7 +111,7 @@ def test_pybullet_damping_is_measured_where_the_engine_reports_minus_one():
     from adapters.pybullet import applied_damping
 
     run = adapters.ENGINE_METHODS["pybullet:semi_implicit"].simulate(make_scene("chain", N=3), 0.01, 3)
-    settings = run.meta["settings"]
+    settings = run.meta.settings
     assert settings["linearDamping_reported"] == settings["angularDamping_reported"] == -1.0
     measured = settings["damping_measured_per_step"]
     assert measured["linear"] == measured["angular"] == measured["joint"] == measured["kinetic_energy_change"] == 0.0

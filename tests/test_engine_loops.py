@@ -45,8 +45,8 @@ def test_engine_loop_is_the_per_step_path_bitwise(method_id, scene_id, run):
     homega, steps, every = RUNS[run]
     engine_loop, per_step = _both(method_id, scene_id, homega, steps, every)
     _assert_bitwise(engine_loop, per_step)
-    assert engine_loop.meta["loop"].startswith("engine")
-    assert per_step.meta["loop"].startswith("harness")
+    assert engine_loop.meta.loop.startswith("engine")
+    assert per_step.meta.loop.startswith("harness")
 
 
 def test_the_runs_cover_unstable_runs_of_every_engine_that_has_one():
@@ -57,7 +57,7 @@ def test_the_runs_cover_unstable_runs_of_every_engine_that_has_one():
                                 ("pymunk:applied_force", "chain"), ("pymunk:damped_spring", "chain")]:
         a, b = _both(method_id, scene_id, *RUNS["unstable"])
         assert a.status == "unstable" and a.failed_step is not None, (method_id, scene_id)
-        assert "replayed" in a.meta["loop"]
+        assert "replayed" in a.meta.loop
 
 
 def test_a_run_whose_output_interval_is_longer_than_one_rollout_span(monkeypatch):
@@ -103,7 +103,7 @@ def test_counted_force_evaluations_are_the_documented_ones(method_id, scene_id, 
     for loop in mode.LOOPS:
         counted = mode.simulate(scene, dt, steps, 10, loop=loop, count=True)
         assert counted.ok
-        assert counted.force_evals == per_step * steps, (loop, counted.meta.get("force_evals_counted"))
+        assert counted.force_evals == per_step * steps, (loop, counted.meta.force_evals_counted)
         # The counter changes nothing that is integrated.
         plain = mode.simulate(scene, dt, steps, 10, loop=loop)
         _assert_bitwise(counted, plain)
@@ -112,11 +112,11 @@ def test_counted_force_evaluations_are_the_documented_ones(method_id, scene_id, 
 def test_modes_that_cannot_count_say_why():
     spring, kepler = make_scene("spring"), make_scene("kepler")
     bullet = adapters.ENGINE_METHODS["pybullet:semi_implicit"].simulate(spring, 0.1, 10, count=True)
-    assert bullet.force_evals is None and "stepSimulation" in bullet.meta["force_evals_reason"]
+    assert bullet.force_evals is None and "stepSimulation" in bullet.meta.force_evals_reason
     chipmunk = adapters.ENGINE_METHODS["pymunk:pin_joint"].simulate(make_scene("pendulum"), 0.01, 10, count=True)
-    assert chipmunk.force_evals is None and "constraints" in chipmunk.meta["force_evals_reason"]
+    assert chipmunk.force_evals is None and "constraints" in chipmunk.meta.force_evals_reason
     uncounted = adapters.ENGINE_METHODS["rebound:leapfrog"].simulate(kepler, 0.01, 10)
-    assert uncounted.force_evals is None and "counting run" in uncounted.meta["force_evals_reason"]
+    assert uncounted.force_evals is None and "counting run" in uncounted.meta.force_evals_reason
     # MuJoCo's timers count in every run, the timed ones included.
     assert adapters.ENGINE_METHODS["mujoco:rk4"].simulate(spring, 0.1, 10).force_evals == 40
     assert math.isfinite(bullet.q[-1, 0, 0])

@@ -130,7 +130,7 @@ def test_real_engine_abort_pymunk_negative_mass_is_a_crashed_trajectory():
     run = simulate_isolated("pymunk:applied_force", spring, 0.1, 10, timeout=60)
     assert run.status == "crashed" and run.failed_step is None
     assert "SIGABRT" in run.detail and "Mass must be positive" in run.detail
-    assert run.meta["worker"]["signal"] == "SIGABRT" and run.meta["engine_version"] == "7.3.1"
+    assert run.meta.worker["signal"] == "SIGABRT" and run.meta.engine_version == "7.3.1"
     assert run.q.shape == (0, 1, 1)
     after = simulate_isolated("pymunk:applied_force", make_scene("spring"), 0.1, 10, timeout=60)
     assert after.ok and len(after.step) == 11
@@ -141,7 +141,7 @@ def test_slow_engine_run_is_a_timed_out_trajectory_then_the_harness_goes_on():
     run = simulate_isolated("rebound:ias15", kepler, 0.01, 10**8, timeout=1.0)
     assert run.status == "timed_out" and "worker killed" in run.detail
     after = simulate_isolated("rebound:whfast", kepler, 0.01, 100, timeout=60)
-    assert after.ok and after.meta["engine_version"]
+    assert after.ok and after.meta.engine_version
 
 
 def test_pool_reuses_its_worker_and_replaces_one_that_dies_or_hangs(tmp_path):

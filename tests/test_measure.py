@@ -58,7 +58,7 @@ class Delegate:
             return Trajectory.failed(scene.id, self.id, dt, steps, UNSTABLE, "told to fail", every, scene.ndof)
         traj = self.inner.simulate(scene, dt, steps, every)
         traj.method, traj.force_evals, traj.solves = self.id, None, None
-        traj.meta["force_evals_reason"] = "a delegate counts nothing"
+        traj.meta.force_evals_reason = "a delegate counts nothing"
         return traj
 
     def describe(self):

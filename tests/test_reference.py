@@ -186,7 +186,7 @@ def test_compiled_run_is_the_interpreted_run(scheme_id, dt, steps, every):
     np.testing.assert_array_equal(b.step, a.step)
     np.testing.assert_array_equal(b.q, a.q)
     np.testing.assert_array_equal(b.v, a.v)
-    assert b.force_evals is None and b.meta["backend"] == "compiled"
+    assert b.force_evals is None and b.meta.backend == "compiled"
 
 
 def test_blow_up_is_recorded_as_unstable_with_the_step():

@@ -209,7 +209,7 @@ def test_counted_force_evaluations_match_the_declared(scene_id, scheme_id, dt):
     else:
         assert tr.force_evals == scheme.force_evals * steps
     if scheme.constrained:
-        assert tr.meta["projections"] == steps and tr.meta["iterations"] == scheme.iterations
+        assert tr.meta.projections == steps and tr.meta.iterations == scheme.iterations
 
 
 # --------------------------------------------------------------------------- rope
@@ -266,7 +266,7 @@ def test_verlet_constrained_stretch_shrinks_with_iterations(rope):
     worst = []
     for k in (1, 4, 16):
         tr = integrate(scheme, rope, 1e-3, 500, iterations=k)
-        assert tr.status == "ok" and tr.meta["iterations"] == k
+        assert tr.status == "ok" and tr.meta.iterations == k
         worst.append(float(np.max(rope.constraint_error(tr.q[:, 0]))))
         assert worst[-1] <= STRETCH_BOUND / k
     assert worst[0] > worst[1] > worst[2]

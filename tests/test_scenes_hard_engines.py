@@ -99,7 +99,7 @@ def test_mujoco_discrete_is_backward_euler_only_where_every_tendon_is_stretched(
     assert relative_deviation(engine("mujoco:discrete", nudged, dt, 1), ref("implicit_euler", nudged, dt, 1)) <= 1e-13
     # The adapter's tolerance matters: at MuJoCo's default (1e-8) the same generic run is off
     # by 1e-8 of the state (measured 2.6e-8 at h w = 0.1), four decades above 1e-12.
-    assert adapters.ENGINE_METHODS["mujoco:discrete"].simulate(chain, dt, 1, 1).meta["settings"]["tolerance"] == 1e-14
+    assert adapters.ENGINE_METHODS["mujoco:discrete"].simulate(chain, dt, 1, 1).meta.settings["tolerance"] == 1e-14
     monkeypatch.setitem(adapters.mujoco.BUILDERS, "chain",
                         dataclasses.replace(adapters.mujoco.BUILDERS["chain"], tolerance=1e-8))
     loose = relative_deviation(engine("mujoco:discrete", moved, 0.1 / chain.omega, 1000),

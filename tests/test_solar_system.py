@@ -56,7 +56,7 @@ def test_rebound_poses_the_scene_itself(solar, mode):
     q0, v0 = solar.initial_state()
     np.testing.assert_array_equal(run.q[0, 0], q0)  # step 0 read back from the engine, bitwise
     np.testing.assert_array_equal(run.v[0, 0], v0)
-    s = run.meta["settings"]
+    s = run.meta.settings
     assert s["G"] == solar.pvec[0] == 2.95912208286e-4
     assert s["masses"] == solar.masses.tolist() and s["N"] == 6 and s["N_active"] == "all"
     assert s["move_to_com"] is False and s["additional_forces"] == "none"

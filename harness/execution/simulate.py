@@ -3,6 +3,7 @@ for engines (an engine abort, segfault or hang becomes a recorded result)."""
 from __future__ import annotations
 
 from records import Method, Trajectory
+from records.trajectory import RunMeta
 
 from scenarios import Scene
 
@@ -45,9 +46,10 @@ def simulate_isolated(method: Method | str, scene: Scene, dt: float, steps: int,
     limit = DEFAULT_TIMEOUT_S if timeout is None else timeout
     out = run_in_worker(_simulate, (method.id, scene, dt, steps, every), timeout=limit)
     if isinstance(out, WorkerFailure):
-        info = method.describe()  # a failed run, too, says which engine and settings
-        meta = {"backend": "engine", "engine": info.get("engine"), "engine_version": info.get("engine_version"),
-                "settings": info.get("settings"), "worker": out.as_dict(), "params": dict(scene.values)}
+        # A failed run, too, says which engine and settings (a plugin's method may leave them out).
+        info = {"engine": None, "engine_version": None, "settings": None, **method.describe()}
+        meta = RunMeta(backend="engine", engine=info["engine"], engine_version=info["engine_version"],
+                       settings=info["settings"], worker=out.as_dict(), params=dict(scene.values))
         return Trajectory.failed(scene.id, method.id, dt, steps, out.status, out.detail, every=every,
                                  ndof=scene.ndof, meta=meta)
     return out

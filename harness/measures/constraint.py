@@ -33,8 +33,8 @@ def constraint_drift(method, scene: Scene, dt: float, steps: int, *, every: int 
     out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
            "steps": int(steps), "every": int(every), "status": traj.status, "detail": traj.detail,
            "failed_step": traj.failed_step}
-    if "iterations" in traj.meta:
-        out["iterations"] = traj.meta["iterations"]
+    if traj.meta.iterations is not None:
+        out["iterations"] = traj.meta.iterations
     if traj.q.shape[0] == 0:
         return {**out, "max_stretch": None, "final_stretch": None, "energy_change": None, "max_energy_change": None}
     with np.errstate(all="ignore"):

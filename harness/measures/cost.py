@@ -106,7 +106,8 @@ def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_S
     """Force evaluations and solves per step, counted over ``steps`` steps."""
     method = resolve(method, scene)
     traj = step(method, scene, dt, steps, steps, timeout)
-    ran = traj.meta.get("steps_run", steps if traj.ok else (traj.failed_step or 1) - 1)
+    ran = traj.meta.steps_run if traj.meta.steps_run is not None else \
+        steps if traj.ok else (traj.failed_step or 1) - 1
     if traj.force_evals is None and ran > 0 and traj.status in ("ok", "unstable") and method.counting_run:
         counted = method.simulate(scene, dt, ran, ran, count=True)
         if counted.force_evals is not None:
@@ -114,10 +115,10 @@ def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_S
     out: dict = {"count_steps": int(ran), "count_status": traj.status}
     if traj.force_evals is None or ran <= 0:
         out.update(force_evals_per_step=None,
-                   force_evals_reason=traj.meta.get("force_evals_reason") or "the engine mode does not count them")
+                   force_evals_reason=traj.meta.force_evals_reason or "the engine mode does not count them")
     else:
         out["force_evals_per_step"] = traj.force_evals / ran
-        out["start_force_evals"] = traj.meta.get("start_force_evals")
+        out["start_force_evals"] = traj.meta.start_force_evals
     out["solves_per_step"] = None if traj.solves is None or ran <= 0 else traj.solves / ran
     scheme = method.scheme
     if scheme is not None:
@@ -163,7 +164,7 @@ class _Timing:
             warm = self._simulate(pilot)  # warm-up, and the pilot for the step count
             self.warmup_s = self.now() - t
             if loop == "engine":
-                self.engine_loop = (warm.meta.get("settings") or {}).get("engine_loop")
+                self.engine_loop = (warm.meta.settings or {}).get("engine_loop")  # where the engine says
             # The pilot: the warm-up's steps timed again with the model built off the clock (the
             # warm-up also builds it, which on MuJoCo's rope is most of 500 steps' time).
             self.n = pilot

@@ -86,7 +86,7 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     run = simulate(method, scene, dt, steps, 1, timeout=timeout)
     out = {"method": method.id, "scene": scene.id, "params": dict(scene.values), "dt": dt, "steps": steps,
            "status": run.status, "detail": run.detail,
-           "engine_version": run.meta.get("engine_version"), "settings": run.meta.get("settings")}
+           "engine_version": run.meta.engine_version, "settings": run.meta.settings}
     if run.status not in (OK, UNSTABLE):
         return {**out, "matches": [], "match": None, "max_deviation": None, "runner_up": None, "candidates": []}
     scale = max(1.0, float(np.max(np.abs(run.q), initial=0.0)), float(np.max(np.abs(run.v), initial=0.0)))

@@ -39,7 +39,7 @@ def rope_vs_iterations(iterations=(1, 2, 4, 8, 16, 32, 64), dt: float = 1e-3, t_
                "max_energy_change": float(np.max(np.abs(energy - e0)) / e0),
                "max_position_error": float(np.max(np.abs(q[sel] - q_ref))),
                "force_evals_per_step": tr.force_evals / steps,
-               "projections_per_step": tr.meta["projections"] / steps}
+               "projections_per_step": tr.meta.projections / steps}
         if timing:
             t = time_per_step(scheme, scene, dt, timing_steps, iterations=int(k))
             row["ns_per_step"] = t["s_per_step"] * 1e9

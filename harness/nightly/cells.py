@@ -184,7 +184,8 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
 
     steps, every = energy_run(scene, dt, spec, suite)
     traj = simulate(method, scene, dt, steps, every, timeout=suite.cell_timeout)
-    settings = {key: traj.meta.get(key) for key in ("settings", "engine_version", "backend")}
+    settings = {"settings": traj.meta.settings, "engine_version": traj.meta.engine_version,
+                "backend": traj.meta.backend}
     if traj.status not in ("ok", "unstable") or traj.q.shape[0] == 0:
         return [make_cell(task, "energy", traj.status, dt=dt, steps=steps, detail=traj.detail,
                           figures=EnergyFigures(**settings)),
