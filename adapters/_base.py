@@ -37,7 +37,7 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene
-from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged
+from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, output_marks, step_loop
 
 
 class Model(Protocol):
@@ -363,25 +363,24 @@ def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every:
     or where the engine reported a divergence, stops the
     run: status ``unstable`` with that step, the arrays ending at the last good recorded state.
     """
-    q, v = model.state()
-    rec_step, rec_q, rec_v = [0], [q], [v]
-    status, failed, detail = OK, None, ""
-    for n in range(1, steps + 1):
-        model.advance()
-        q, v = model.state()
+    now = list(model.state())  # (q, v) after the latest step
+    rec_step, rec_q, rec_v = [], [], []
+
+    def check(n: int) -> str:
+        now[:] = model.state()
         trouble = model.trouble()
-        if trouble is None and diverged(q, v):
-            status, failed, detail = UNSTABLE, n, divergence_detail(n, n * dt)
-            break
         if trouble is not None:
-            status, failed = UNSTABLE, n
-            detail = f"{trouble} at step {n} (t = {n * dt:g})"
-            break
-        if n % every == 0 or n == steps:
-            rec_step.append(n)
-            rec_q.append(q)
-            rec_v.append(v)
-    traj = _trajectory(scene, method, dt, steps, every, rec_step, rec_q, rec_v, status, detail, failed)
+            return f"{trouble} at step {n} (t = {n * dt:g})"
+        return divergence_detail(n, n * dt) if diverged(*now) else ""
+
+    def record(n: int) -> None:
+        rec_step.append(n)
+        rec_q.append(now[0])
+        rec_v.append(now[1])
+
+    failed, detail = step_loop(lambda n: model.advance(), check, record, steps, every)
+    traj = _trajectory(scene, method, dt, steps, every, rec_step, rec_q, rec_v, UNSTABLE if failed else OK,
+                       detail, failed)
     traj.meta.loop = "harness: one advance() per step, state read after each"
     return traj
 
@@ -399,11 +398,6 @@ def _trajectory(scene: Scene, method: str, dt: float, steps: int, every: int, re
         status=status, detail=detail, failed_step=failed,
         meta=RunMeta(steps_run=(failed - 1) if failed else steps, params=dict(scene.values)),
     )
-
-
-def output_marks(steps: int, every: int) -> np.ndarray:
-    """The recorded steps: 0, every ``every`` steps, and always the last."""
-    return np.unique(np.append(np.arange(0, int(steps) + 1, int(every)), int(steps))).astype(np.int64)
 
 
 def run_engine_loop(model: Model, scene: Scene, method: str, dt: float, steps: int,

@@ -6,6 +6,7 @@ with the same formula for every method.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
+from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -38,6 +39,30 @@ def diverged(q, v) -> bool:
 
 def divergence_detail(n: int, t: float) -> str:
     return f"state diverged (not finite or |state| > {DIVERGED:g}) at step {n} (t = {t:g})"
+
+
+def output_marks(steps: int, every: int) -> np.ndarray:
+    """The steps a run records: 0, every ``every`` steps, and always the last. Every driver records
+    these (``step_loop``; the engine loops and the compiled kernels read their states at them)."""
+    return np.unique(np.append(np.arange(0, int(steps) + 1, int(every), dtype=np.int64), int(steps)))
+
+
+def step_loop(advance: Callable[[int], None], check: Callable[[int], str], record: Callable[[int], None],
+              steps: int, every: int) -> tuple[int | None, str]:
+    """The run loop every step-by-step driver shares (``reference.integrate``, ``adapters.drive``;
+    the compiled templates in ``reference._codegen`` are written to it): record step 0, then for
+    n = 1 .. steps take the step (``advance(n)``), stop at the first whose ``check(n)`` gives a
+    reason (a diverged state, an engine's warning), and record step n where it is a mark of
+    :func:`output_marks`. Returns (the failed step, its reason), or (None, "")."""
+    record(0)
+    for n in range(1, steps + 1):
+        advance(n)
+        why = check(n)
+        if why:
+            return n, why
+        if n % every == 0 or n == steps:
+            record(n)
+    return None, ""
 
 
 @dataclass

@@ -17,7 +17,7 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene, no_velocity_dependence
-from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged
+from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, output_marks
 
 from . import _kernels
 from ._integrate import iterations_for, newton_max
@@ -98,11 +98,6 @@ def _within(state) -> bool:
     return not diverged(state[0], state[1])
 
 
-def _record_marks(steps: int, every: int) -> np.ndarray:
-    """The steps a run records, as ``integrate`` records them: 0, every ``every`` steps, the last."""
-    return np.unique(np.append(np.arange(0, steps + 1, every, dtype=np.int64), steps))
-
-
 def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, q0=None, v0=None,
                        iterations: int | None = None):
     """(steps recorded, q, v, failed step or None) of a compiled run, recorded as ``integrate``
@@ -117,7 +112,7 @@ def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, 
     parts = _parts(scheme, scene)
     p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
     state = parts.first_state(q, v, 0.0, h, p)
-    marks = _record_marks(steps, every)
+    marks = output_marks(steps, every)
     recorded, qs, vs = [0], [], []
 
     def record(n):
@@ -266,7 +261,7 @@ def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     kernels = _counted_parts(scheme, scene)[0]
     q, v = _kernel_layout(scene, q0, v0)
     p, k, h, t0 = scene.pvec, int(_k(scheme, scene, iterations)), float(dt), float(t0)
-    marks = _record_marks(steps, every)
+    marks = output_marks(steps, every)
     out_q, out_v = np.empty((len(marks),) + q.shape), np.empty((len(marks),) + v.shape)
     with np.errstate(all="ignore"):
         start_evals, recorded, failed, cnt = _counted_run(kernels, q, v, t0, h, steps, every, p, k, out_q, out_v)

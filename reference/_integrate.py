@@ -10,7 +10,7 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene
-from records.trajectory import DIVERGED, OK, UNSTABLE, RunMeta, divergence_detail, diverged
+from records.trajectory import DIVERGED, OK, UNSTABLE, RunMeta, divergence_detail, diverged, step_loop
 
 #: Newton iterations allowed per implicit step on a nonlinear scene.
 NEWTON_MAX = 50
@@ -112,17 +112,16 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
         rec_q.append(qo.T.copy())
         rec_v.append(vo.T.copy())
 
-    record(0, state)
-    status, failed, detail = OK, None, ""
+    def step(n):
+        nonlocal state
+        state = advance(state, t0 + (n - 1) * dt)
+
+    def check(n) -> str:
+        return divergence_detail(n, t0 + n * dt) if diverged(state[0], state[1]) else ""
+
     with np.errstate(all="ignore"):
-        for n in range(1, steps + 1):
-            state = advance(state, t0 + (n - 1) * dt)
-            if diverged(state[0], state[1]):
-                status, failed = UNSTABLE, n
-                detail = divergence_detail(n, t0 + n * dt)
-                break
-            if n % every == 0 or n == steps:
-                record(n, state)
+        failed, detail = step_loop(step, check, lambda n: record(n, state), steps, every)
+    status = UNSTABLE if failed else OK
     meta.steps_run = (failed - 1) if failed else steps
     meta.start_force_evals = start_evals
     if scheme.constrained:
