@@ -75,18 +75,18 @@ def spring():
 def test_largest_stable_dt_on_spring(spring, sid):
     res = stability.largest_stable_dt(f"ref:{sid}", spring)
     expected = REF_STABILITY[sid]
-    assert res["criterion"] == "spectral_radius"
+    assert res.criterion == "spectral_radius"
     if expected == NEVER_STABLE:
-        assert res["verdict"] == "unstable" and res["dt_max"] is None
-        assert res["spectral"]["rho"] > 1.0
+        assert res.verdict == "unstable" and res.dt_max is None
+        assert res.spectral["rho"] > 1.0
     elif expected == UNBOUNDED:
-        assert res["verdict"] == "unbounded" and res["dt_max"] is None
-        assert res["dt_searched_max"] == pytest.approx(stability.HOMEGA_HI)
+        assert res.verdict == "unbounded" and res.dt_max is None
+        assert res.dt_searched_max == pytest.approx(stability.HOMEGA_HI)
     else:
-        assert res["verdict"] == "limited"
-        assert res["omega_dt_max"] == pytest.approx(expected, rel=STABILITY_RTOL)
-        assert res["dt_max"] == res["omega_dt_max"] / spring.omega
-        assert res["spectral"]["rho"] <= 1.0 + stability.RHO_TOL < res["rho_above_dt_max"]
+        assert res.verdict == "limited"
+        assert res.omega_dt_max == pytest.approx(expected, rel=STABILITY_RTOL)
+        assert res.dt_max == res.omega_dt_max / spring.omega
+        assert res.spectral["rho"] <= 1.0 + stability.RHO_TOL < res.rho_above_dt_max
 
 
 def test_explicit_euler_is_unstable_at_every_dt_searched(spring):
@@ -95,9 +95,9 @@ def test_explicit_euler_is_unstable_at_every_dt_searched(spring):
     # so rho - 1 is good to ~1e-16/5e-9 = 2e-8 relative: 1e-6 leaves room.
     res = stability.largest_stable_dt("ref:explicit_euler", spring)
     lo = stability.HOMEGA_LO
-    assert res["spectral"]["omega_dt"] == pytest.approx(lo)
-    assert res["spectral"]["rho"] - 1.0 == pytest.approx(math.sqrt(1.0 + lo * lo) - 1.0, rel=1e-6)
-    assert res["spectral"]["rho"] - 1.0 > 1e3 * stability.RHO_TOL
+    assert res.spectral["omega_dt"] == pytest.approx(lo)
+    assert res.spectral["rho"] - 1.0 == pytest.approx(math.sqrt(1.0 + lo * lo) - 1.0, rel=1e-6)
+    assert res.spectral["rho"] - 1.0 > 1e3 * stability.RHO_TOL
 
 
 @pytest.mark.parametrize("sid, rho", [
@@ -130,27 +130,27 @@ def test_finite_horizon_understates_explicit_euler(spring):
     # there by a finite horizon, though rho > 1. Bisection stops at 1e-6 relative; 1e-5 here.
     n = 10_000
     res = stability.largest_stable_dt("ref:explicit_euler", spring, criterion="finite_horizon", steps=n, lo=1e-2)
-    assert res["verdict"] == "limited" and res["criterion"] == "finite_horizon"
-    assert res["omega_dt_max"] == pytest.approx(math.sqrt(stability.GROWTH ** (2.0 / n) - 1.0), rel=1e-5)
+    assert res.verdict == "limited" and res.criterion == "finite_horizon"
+    assert res.omega_dt_max == pytest.approx(math.sqrt(stability.GROWTH ** (2.0 / n) - 1.0), rel=1e-5)
     # The map at that dt, attached for a linear scene, shows what the horizon missed.
-    assert res["spectral"]["rho"] > 1.0 + stability.RHO_TOL
+    assert res.spectral["rho"] > 1.0 + stability.RHO_TOL
 
 
 def test_nonlinear_scene_uses_the_finite_horizon():
     pendulum = make_scene("pendulum")
     res = stability.largest_stable_dt("ref:leapfrog", pendulum, steps=500)
-    assert res["criterion"] == "finite_horizon" and res["verdict"] == "limited"
+    assert res.criterion == "finite_horizon" and res.verdict == "limited"
     # The pendulum is at most as stiff as its linearisation (|d a/d theta| <= g/L), whose
     # limit is h*omega = 2; at theta0 = 2 it loses boundedness well before.
-    assert 0.5 < res["omega_dt_max"] <= 2.0
+    assert 0.5 < res.omega_dt_max <= 2.0
 
 
 def test_stability_through_the_engine_interface(spring):
     # The delegate has no scheme: the map comes from stepping unit states via simulate,
     # the initial state set through the spring's x0/v0 parameters.
     res = stability.largest_stable_dt(Delegate("semi_implicit_euler"), spring)
-    assert res["criterion"] == "spectral_radius"
-    assert res["omega_dt_max"] == pytest.approx(2.0, rel=STABILITY_RTOL)
+    assert res.criterion == "spectral_radius"
+    assert res.omega_dt_max == pytest.approx(2.0, rel=STABILITY_RTOL)
 
 
 def test_started_at_uses_parameters_where_it_can(spring):

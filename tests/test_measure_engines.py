@@ -27,13 +27,13 @@ def test_engine_largest_stable_dt_on_spring(method_id):
     res = stability.largest_stable_dt(get_method(method_id), spring)
     # The spring's initial state is two parameters, so the one-step map is measurable
     # through a worker: the spectral criterion must be the one used.
-    assert res["criterion"] == "spectral_radius", res.get("note")
+    assert res.criterion == "spectral_radius", res.note
     expected = ENGINE_STABILITY[method_id]
     if expected == UNBOUNDED:
-        assert res["verdict"] == "unbounded"
+        assert res.verdict == "unbounded"
     else:
-        assert res["verdict"] == "limited"
-        assert res["omega_dt_max"] == pytest.approx(expected, rel=STABILITY_RTOL)
+        assert res.verdict == "limited"
+        assert res.omega_dt_max == pytest.approx(expected, rel=STABILITY_RTOL)
 
 
 @pytest.mark.parametrize("method_id, scene_id", list(ENGINE_ORDER))

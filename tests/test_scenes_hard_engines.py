@@ -148,10 +148,10 @@ def test_chain_largest_stable_dt_through_the_harness():
     fit by 2% (measured 0.0187), and the verdict carries that note."""
     small = make_scene("chain", N=4)
     res = stability.largest_stable_dt(get_method("mujoco:euler"), small)
-    assert res["criterion"] == "spectral_radius" and res["verdict"] == "limited"
-    assert res["omega_dt_max"] == pytest.approx(2.0, rel=2 * stability.BISECT_RTOL)
+    assert res.criterion == "spectral_radius" and res.verdict == "limited"
+    assert res.omega_dt_max == pytest.approx(2.0, rel=2 * stability.BISECT_RTOL)
     res = stability.largest_stable_dt(get_method("mujoco:discrete"), small)
-    assert res["verdict"] == "unbounded" and "not affine" in res["note"]
+    assert res.verdict == "unbounded" and "not affine" in res.note
 
 
 # ------------------------------------------------------------------ chain: damping at 100x
@@ -341,7 +341,7 @@ def test_mujoco_implicit_blows_up_on_the_rope_where_its_companions_run_on():
     assert implicit.status == "unstable" and implicit.failed_step == 2434
     for mode in ("mujoco:euler", "mujoco:implicitfast", "mujoco:rk4"):
         assert simulate(get_method(mode), scene, dt, 10_000, 100).status == "ok", mode
-    limit = largest_stable_dt(get_method("mujoco:implicit"), scene, steps=spec.stability_steps)["omega_dt_max"]
+    limit = largest_stable_dt(get_method("mujoco:implicit"), scene, steps=spec.stability_steps).omega_dt_max
     assert limit == pytest.approx(0.0342, rel=1e-2)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 
+from records.result import Result
 from scenarios import make_scene, parse_overrides
 
 from harness import validate
@@ -37,8 +38,9 @@ def timeout_of(args) -> float:
 
 
 def emit(result, as_json: bool, lines) -> int:
+    """Print a measure's result: its JSON form (a ``records.result.Result``'s ``as_dict``), or its lines."""
     if as_json:
-        json.dump(jsonable(result), sys.stdout, indent=1)
+        json.dump(jsonable(result.as_dict() if isinstance(result, Result) else result), sys.stdout, indent=1)
         sys.stdout.write("\n")
     else:
         for line in lines(result):

@@ -34,17 +34,17 @@ def run(args) -> int:
 
 
 def _lines(r):
-    if r["verdict"] == "limited":
-        head = f"dt_max {r['dt_max']:.6g} (h*omega {r['omega_dt_max']:.6g})"
-    elif r["verdict"] == "unbounded":
-        head = f"unbounded (stable up to h*omega {r['omega_dt_searched'][1]:g})"
+    if r.verdict == "limited":
+        head = f"dt_max {r.dt_max:.6g} (h*omega {r.omega_dt_max:.6g})"
+    elif r.verdict == "unbounded":
+        head = f"unbounded (stable up to h*omega {r.omega_dt_searched[1]:g})"
     else:
-        head = f"unstable for every dt searched (down to h*omega {r['omega_dt_searched'][0]:g})"
-    yield f"{r['method']} on {r['scene']}: {head}"
-    yield f"  criterion: {r['criterion_rule']}"
-    if r.get("note"):
-        yield f"  note: {r['note']}"
-    sp = r.get("spectral")
+        head = f"unstable for every dt searched (down to h*omega {r.omega_dt_searched[0]:g})"
+    yield f"{r.method} on {r.scene}: {head}"
+    yield f"  criterion: {r.criterion_rule}"
+    if r.note:
+        yield f"  note: {r.note}"
+    sp = r.spectral
     if sp:
         eig = ", ".join(f"{complex(e):.6g}" for e in sp["eigenvalues"])
         yield f"  one-step map at h*omega {sp['omega_dt']:.6g}: rho {fmt(sp['rho'], '.12g')}, eigenvalues {eig}"

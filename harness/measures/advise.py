@@ -121,7 +121,7 @@ def _limit(method, scene: Scene, request: Request, timeout) -> tuple[float | Non
     lo = min(1e-4, scene.omega / request.hz / request.max_substeps / 100.0)
     res = largest_stable_dt(method, scene, criterion="spectral_radius", lo=lo, hi=hi, rtol=LIMIT_RTOL,
                             timeout=timeout)
-    return res.get("omega_dt_max"), res["verdict"], hi
+    return res.omega_dt_max, res.verdict, hi
 
 
 def _energy_error(traj, scene: Scene) -> tuple[float | None, bool | None]:

@@ -39,10 +39,12 @@ already at ``lo``: explicit Euler's verdict on a spring, "unstable for every dt"
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from records import InvalidInput, Method
+from records.result import Result
 
 from scenarios import Scene
 
@@ -214,9 +216,34 @@ def growth(traj, scene: Scene) -> float:
     return size / true_size if true_size > 0 else math.inf
 
 
+@dataclass(frozen=True)
+class StabilityResult(Result):
+    """What :func:`largest_stable_dt` found (the fields as its docstring and the module's describe)."""
+
+    scene: str
+    params: dict
+    method: str
+    criterion: str                            # the criterion used (auto resolved)
+    criterion_rule: str
+    omega: float
+    dt_searched_min: float
+    dt_searched_max: float
+    omega_dt_searched: list
+    verdict: str                              # limited | unbounded | unstable
+    dt_max: float | None                      # None where unbounded or unstable
+    omega_dt_max: float | None
+    evaluations: int                          # stability tests run
+    detail: str = ""                          # why there is no limit, where there is none
+    note: str = ""                            # a doubt about the criterion, where there is one
+    horizon_steps: int | None = None          # the finite horizon's steps, where that criterion was used
+    first_unstable_omega_dt: float | None = None
+    rho_above_dt_max: float | None = None     # the spectral radius just above the limit (spectral criterion)
+    spectral: dict | None = None              # the one-step map at the dt the verdict rests on (linear scenes)
+
+
 def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: int = HORIZON_STEPS,
                       lo: float = HOMEGA_LO, hi: float = HOMEGA_HI, scan_ratio: float = SCAN_RATIO,
-                      rtol: float = BISECT_RTOL, timeout: float | None = None) -> dict:
+                      rtol: float = BISECT_RTOL, timeout: float | None = None) -> StabilityResult:
     """Largest stable dt of ``method`` on ``scene`` by the rule in the module docstring.
 
     ``criterion``: ``auto`` (spectral radius on linear scenes where the map can be
@@ -302,7 +329,7 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
     return _with_map(out, method, scene, good / omega, timeout)
 
 
-def _with_map(out: dict, method, scene: Scene, dt: float, timeout) -> dict:
+def _with_map(out: dict, method, scene: Scene, dt: float, timeout) -> StabilityResult:
     """Attach the one-step map at the dt the verdict rests on (dt_max; the smallest dt
     searched when unstable; the largest when unbounded). On a linear scene judged by the
     finite horizon it is attached too, where measurable: it shows what the horizon missed."""
@@ -315,4 +342,4 @@ def _with_map(out: dict, method, scene: Scene, dt: float, timeout) -> dict:
         else:
             out["spectral"] = {k: res[k] for k in ("dt", "omega_dt", "rho", "eigenvalues", "matrix", "offset",
                                                    "linearity_residual", "state")}
-    return out
+    return StabilityResult(**out)

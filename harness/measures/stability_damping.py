@@ -238,8 +238,8 @@ def limit_vs_damping(method, zetas=ZETAS, *, scheme: str | None = None, hi: floa
     for z in zetas:
         scene = make_scene("damped_spring", c=2.0 * float(z))
         res = largest_stable_dt(method, scene, criterion="spectral_radius", hi=hi, timeout=timeout)
-        verdict = res["verdict"]
-        measured = math.inf if verdict == "unbounded" else res.get("omega_dt_max")
+        verdict = res.verdict
+        measured = math.inf if verdict == "unbounded" else res.omega_dt_max
         th = theory_limit(sid, float(z)) if sid else {"homega_max": None, "source": None}
         theory = th["homega_max"]
         if theory is not None and math.isfinite(theory) and theory >= hi:

@@ -226,15 +226,15 @@ def _stability(task, method, scene, suite, spec) -> Cell:
     hi = spec.stability_hi if spec.stability_hi is not None else suite.stability_homega_max
     steps = spec.stability_steps if spec.stability_steps is not None else suite.stability_steps
     res = largest_stable_dt(method, scene, steps=steps, hi=hi)
-    verdict = res["verdict"]
-    figures = StabilityFigures.pick(plain(res), unbounded=verdict == "unbounded",
+    verdict = res.verdict
+    figures = StabilityFigures.pick(plain(res.as_dict()), unbounded=verdict == "unbounded",
                                     unstable_everywhere=verdict == "unstable",
-                                    homega_searched=plain((res["dt_searched_max"] or 0) * scene.omega))
-    value = math.inf if verdict == "unbounded" else res["omega_dt_max"]
-    if res["criterion"] == "finite_horizon":
+                                    homega_searched=plain((res.dt_searched_max or 0) * scene.omega))
+    value = math.inf if verdict == "unbounded" else res.omega_dt_max
+    if res.criterion == "finite_horizon":
         figures = replace(figures, nominal=NominalRun(**plain(_nominal_run(method, scene, nominal_dt(spec, scene),
                                                                              steps, suite))))
-    return make_cell(task, "stability", "ok", value, detail=res.get("detail", ""), figures=figures)
+    return make_cell(task, "stability", "ok", value, detail=res.detail, figures=figures)
 
 
 def _nominal_run(method, scene, dt: float, steps: int, suite) -> dict:
