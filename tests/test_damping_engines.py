@@ -55,19 +55,19 @@ CASES = [(scene, label, mode, scheme) for (scene, label), modes in IDENTITY.item
 def test_identify_names_the_scheme_each_mode_integrates_with_damping(scene_id, label, mode, scheme):
     scene = make_scene(scene_id, **PARAMS[label])
     res = identify(adapters.ENGINE_METHODS[mode], scene, steps=STEPS)
-    assert res["status"] == "ok", res["detail"]
-    scale = res["tolerance"] / MATCH_RTOL
+    assert res.status == "ok", res.detail
+    scale = res.tolerance / MATCH_RTOL
     if scheme is None:
-        assert res["matches"] == []
+        assert res.matches == []
         # ... and the mode says why in one line, which identify reports.
-        assert res["why_no_match"] and "\n" not in res["why_no_match"]
+        assert res.why_no_match and "\n" not in res.why_no_match
         # Not roundoff away from its closest scheme either: far above any tolerance.
-        assert res["max_deviation"] > 1e-6 * scale
+        assert res.max_deviation > 1e-6 * scale
     else:
-        assert scheme in res["matches"]
-        dev = next(c["max_deviation"] for c in res["candidates"] if c["method"] == scheme)
+        assert scheme in res.matches
+        dev = next(c.max_deviation for c in res.candidates if c.method == scheme)
         assert dev <= RTOL * scale
-        assert res["runner_up"]["max_deviation"] > 1e-6 * scale
+        assert res.runner_up.max_deviation > 1e-6 * scale
 
 
 def _one_step_mujoco(integrator, scene, q, v, h):

@@ -194,17 +194,17 @@ def test_identity_reuses_candidate_runs(monkeypatch):
     monkeypatch.setattr(RefMethod, "simulate", counting)
     scene = make_scene("spring")
     first = ident.identify("ref:semi_implicit_euler", scene, steps=50)
-    assert len(calls) == 1 + len(first["candidates"])
+    assert len(calls) == 1 + len(first.candidates)
     before = len(calls)
     second = ident.identify("ref:leapfrog", scene, steps=50)
     # Only its own method and semi-implicit Euler (the method before, not a candidate then) are run.
     assert sorted(calls[before:]) == ["ref:leapfrog", "ref:semi_implicit_euler"]
-    assert len(second["candidates"]) == len(first["candidates"])
+    assert len(second.candidates) == len(first.candidates)
     fresh = ident._CANDIDATES.clear() or ident.identify("ref:leapfrog", scene, steps=50)
-    assert fresh["candidates"] == second["candidates"]
+    assert fresh.candidates == second.candidates
     before = len(calls)
     ident.identify("ref:leapfrog", make_scene("spring", k=2.0), steps=50)  # another scene: run afresh
-    assert len(calls) - before == 1 + len(second["candidates"])
+    assert len(calls) - before == 1 + len(second.candidates)
 
 
 def untimed(x):

@@ -37,10 +37,10 @@ def run(args) -> int:
     check_supported(method, scene)
     result = identify(method, scene, dt, steps, timeout=timeout)
     if args.json:
-        print(json.dumps(_finite(result), indent=1))
+        print(json.dumps(_finite(result.as_dict()), indent=1))
     else:
         print(format_report(result))
-    return 0 if result["matches"] else 1
+    return 0 if result.matches else 1
 
 
 def _finite(x):

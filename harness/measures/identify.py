@@ -14,12 +14,14 @@ differs from another only in how it treats velocity-dependent forces
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from records import REFERENCE, MethodId, Trajectory
 
 from scenarios import Scene
+from records.result import Result
 from records.trajectory import OK, UNSTABLE
 
 from harness.measures.common import resolve
@@ -77,8 +79,44 @@ def candidate_run(ref, scene: Scene, dt: float, steps: int) -> Trajectory:
     return _CANDIDATES[key]
 
 
+@dataclass(frozen=True)
+class Candidate(Result):
+    """One reference scheme against the method: its largest deviation over the run."""
+
+    method: str
+    max_deviation: float
+    status: str
+    matches: bool
+
+
+@dataclass(frozen=True)
+class IdentityResult(Result):
+    """Which reference schemes ``method`` integrates on ``scene`` (``identify``)."""
+
+    method: str
+    scene: str
+    params: dict
+    dt: float
+    steps: int
+    status: str                                # the method's run
+    detail: str
+    engine_version: str | None
+    settings: dict | None
+    tolerance: float | None = None             # a deviation within it is a match
+    matches: list = field(default_factory=list)    # every scheme matched, closest first
+    match: str | None = None
+    max_deviation: float | None = None         # the closest scheme's
+    runner_up: Candidate | None = None         # the closest scheme that is not the answer
+    candidates: list = field(default_factory=list)  # every Candidate, closest first
+    why_no_match: str | None = None            # what the engine mode records, where nothing matches
+
+    @property
+    def closest(self) -> Candidate | None:
+        return self.candidates[0] if self.candidates else None
+
+
 def identify(method, scene: Scene, dt: float | None = None, steps: int | None = None,
-             timeout: float | None = None) -> dict:
+             timeout: float | None = None) -> IdentityResult:
     """Rank every reference scheme by its deviation from ``method`` on ``scene``."""
     method = resolve(method, scene)
     dt = default_dt(scene) if dt is None else dt
@@ -88,7 +126,7 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
            "status": run.status, "detail": run.detail,
            "engine_version": run.meta.engine_version, "settings": run.meta.settings}
     if run.status not in (OK, UNSTABLE):
-        return {**out, "matches": [], "match": None, "max_deviation": None, "runner_up": None, "candidates": []}
+        return IdentityResult(**out)
     scale = max(1.0, float(np.max(np.abs(run.q), initial=0.0)), float(np.max(np.abs(run.v), initial=0.0)))
     tolerance = MATCH_RTOL * scale
     candidates = []
@@ -99,48 +137,45 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
             continue  # here it is another scheme, update for update: that one is the candidate
         traj = candidate_run(ref, scene, dt, steps)
         dev = max_deviation(run, traj)
-        candidates.append({"method": mid, "max_deviation": dev, "status": traj.status,
-                           "matches": dev <= tolerance})
-    candidates.sort(key=lambda c: c["max_deviation"])
-    matches = [c["method"] for c in candidates if c["matches"]]
+        candidates.append(Candidate(mid, dev, traj.status, dev <= tolerance))
+    candidates.sort(key=lambda c: c.max_deviation)
+    matches = [c.method for c in candidates if c.matches]
     if not matches:
         # What the engine mode itself records, measured, about why nothing can match here.
         out["why_no_match"] = method.no_match.get(scene.id)
     best = candidates[0] if candidates else None
     # The runner-up is the closest scheme that is not the answer: the first non-match after
     # a match, the second-closest when nothing matches.
-    others = [c for c in candidates[0 if matches else 1:] if not c["matches"]]
-    return {**out, "tolerance": tolerance, "matches": matches,
-            "match": matches[0] if matches else None,
-            "max_deviation": best["max_deviation"] if best else None,
-            "runner_up": others[0] if others else None, "candidates": candidates}
+    others = [c for c in candidates[0 if matches else 1:] if not c.matches]
+    return IdentityResult(**out, tolerance=tolerance, matches=matches, match=matches[0] if matches else None,
+                          max_deviation=best.max_deviation if best else None,
+                          runner_up=others[0] if others else None, candidates=candidates)
 
 
-def format_report(result: dict) -> str:
+def format_report(result: IdentityResult) -> str:
     """The identification as text: the verdict first, then every candidate."""
-    family = MethodId.parse(result["method"]).family
-    version = f", {family} {result['engine_version']}" if result.get("engine_version") else ""
-    lines = [f"{result['method']} on {result['scene']}: dt = {result['dt']:.6g}, {result['steps']} steps{version}"]
-    if result["status"] not in (OK, UNSTABLE):
-        lines.append(f"  the run {result['status']}: {result['detail']}")
+    family = MethodId.parse(result.method).family
+    version = f", {family} {result.engine_version}" if result.engine_version else ""
+    lines = [f"{result.method} on {result.scene}: dt = {result.dt:.6g}, {result.steps} steps{version}"]
+    if result.status not in (OK, UNSTABLE):
+        lines.append(f"  the run {result.status}: {result.detail}")
         return "\n".join(lines)
-    if result["status"] == UNSTABLE:
-        lines.append(f"  (the run went unstable: {result['detail']}; compared up to there)")
-    if result["matches"]:
-        dev = result["max_deviation"]
+    if result.status == UNSTABLE:
+        lines.append(f"  (the run went unstable: {result.detail}; compared up to there)")
+    if result.matches:
+        dev = result.max_deviation
         kind = "bitwise" if dev == 0 else "roundoff"
-        lines.append(f"  matches {' = '.join(result['matches'])}: max |diff| = {dev:.3g} ({kind})")
+        lines.append(f"  matches {' = '.join(result.matches)}: max |diff| = {dev:.3g} ({kind})")
     else:
-        best = result["candidates"][0] if result["candidates"] else None
-        closest = f"; closest {best['method']} at max |diff| = {best['max_deviation']:.3g}" if best else ""
-        lines.append(f"  matches no reference scheme within {result['tolerance']:.3g}{closest}")
-        if result.get("why_no_match"):
-            lines.append(f"  why: {result['why_no_match']}")
-    if result["runner_up"] is not None:
-        lines.append(f"  runner-up {result['runner_up']['method']}: max |diff| = "
-                     f"{result['runner_up']['max_deviation']:.3g}")
+        best = result.closest
+        closest = f"; closest {best.method} at max |diff| = {best.max_deviation:.3g}" if best else ""
+        lines.append(f"  matches no reference scheme within {result.tolerance:.3g}{closest}")
+        if result.why_no_match:
+            lines.append(f"  why: {result.why_no_match}")
+    if result.runner_up is not None:
+        lines.append(f"  runner-up {result.runner_up.method}: max |diff| = {result.runner_up.max_deviation:.3g}")
     lines.append("  all schemes, max |diff| in (q, v) over every step:")
-    for c in result["candidates"]:
-        mark = "  <- match" if c["matches"] else ""
-        lines.append(f"    {c['method']:42s} {c['max_deviation']:10.3g}{mark}")
+    for c in result.candidates:
+        mark = "  <- match" if c.matches else ""
+        lines.append(f"    {c.method:42s} {c.max_deviation:10.3g}{mark}")
     return "\n".join(lines)

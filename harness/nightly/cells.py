@@ -303,29 +303,28 @@ def _identity(task, method, scene) -> Cell:
     from harness.measures.identify import identify
 
     res = identify(method, scene)
-    match = res["match"]
+    match = res.match
     mode = task.method.split(":", 1)[1]
     match_claims = Claims()
     if match and match.startswith("ref:"):
         from harness.methods import RefMethod
 
         match_claims = _claims(RefMethod(METHODS[match[4:]]), scene)
-    if res["status"] not in ("ok", "unstable"):
-        return make_cell(task, "identity", res["status"], detail=res["detail"])
-    runner = res["runner_up"] or {}
-    closest = (res["candidates"] or [{}])[0]
+    if res.status not in ("ok", "unstable"):
+        return make_cell(task, "identity", res.status, detail=res.detail)
+    runner, closest = res.runner_up, res.closest
     note = None
-    if match is None and closest:
-        note = (f"matches no reference scheme; closest `{closest.get('method')}` "
-                f"(max deviation {closest.get('max_deviation', float('nan')):.2e})")
-        if res.get("why_no_match"):
-            note += f": {res['why_no_match']}"
+    if match is None and closest is not None:
+        note = f"matches no reference scheme; closest `{closest.method}` (max deviation {closest.max_deviation:.2e})"
+        if res.why_no_match:
+            note += f": {res.why_no_match}"
     return make_cell(task, "identity", "ok",
-                     finite(res["max_deviation"] if match else closest.get("max_deviation")),
-                     res["dt"], res["steps"],
-                     figures=IdentityFigures(match=match, matches=list(res["matches"] or []),
-                                             closest=closest.get("method"), runner_up=runner.get("method"),
-                                             runner_up_deviation=finite(runner.get("max_deviation")),
+                     finite(res.max_deviation if match else closest.max_deviation if closest else None),
+                     res.dt, res.steps,
+                     figures=IdentityFigures(match=match, matches=list(res.matches),
+                                             closest=closest.method if closest else None,
+                                             runner_up=runner.method if runner else None,
+                                             runner_up_deviation=finite(runner.max_deviation) if runner else None,
                                              name_suggests=NAME_SUGGESTS.get(mode), match_claims=match_claims,
                                              note=note))
 
