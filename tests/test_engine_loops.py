@@ -129,15 +129,15 @@ def test_cost_of_an_engine_mode_has_two_figures_and_ratios_use_the_engines_own()
 
     spring = make_scene("spring")
     res = cost.cost_per_step("mujoco:euler", spring, 0.01, time_steps=500, repeats=2)
-    assert res["loop"] == "engine" and res["timing"].startswith("engine s/step")
-    stepped = res["as_stepped"]
+    assert res.loop == "engine" and res.timing.startswith("engine s/step")
+    stepped = res.as_stepped
     assert stepped["loop"] == "harness" and stepped["timing"].startswith("as stepped by the harness")
-    assert res["as_stepped_s_per_step"] == stepped["s_per_step"] == min(stepped["repeats_s_per_step"]) > 0
+    assert res.as_stepped_s_per_step == stepped["s_per_step"] == min(stepped["repeats_s_per_step"]) > 0
     assert len(stepped["repeats_s_per_step"]) == 2
     # The ratio to explicit Euler is the engine's own figure's, repeat by repeat.
-    ratios = np.array(res["repeats_s_per_step"]) / np.array(res["baseline"]["repeats_s_per_step"])
-    assert res["ratio_to_explicit_euler"] == pytest.approx(float(np.median(ratios)), rel=1e-12)
-    assert res["force_evals_per_step"] == 1.0
+    ratios = np.array(res.repeats_s_per_step) / np.array(res.baseline["repeats_s_per_step"])
+    assert res.ratio_to_explicit_euler == pytest.approx(float(np.median(ratios)), rel=1e-12)
+    assert res.force_evals_per_step == 1.0
 
 
 def test_a_force_applied_from_python_every_step_is_said_in_the_cost():

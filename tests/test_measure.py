@@ -289,14 +289,14 @@ def test_counted_evaluations_agree_with_declarations(sid):
 
 def test_wall_time_per_step_and_ratio(spring):
     res = cost.cost_per_step("ref:rk4", spring, 0.01, time_steps=20_000, repeats=3)
-    assert len(res["repeats_s_per_step"]) == 3
-    assert 0 < res["s_per_step"] == min(res["repeats_s_per_step"]) <= res["median_s_per_step"]
-    assert res["rel_spread"] >= 0 and res["baseline"]["method"] == "ref:explicit_euler"
+    assert len(res.repeats_s_per_step) == 3
+    assert 0 < res.s_per_step == min(res.repeats_s_per_step) <= res.median_s_per_step
+    assert res.rel_spread >= 0 and res.baseline["method"] == "ref:explicit_euler"
     # The ratio is the median of the interleaved pairs' ratios; its size is the machine's, so no
     # test asserts on it (test_injected_timings_make_the_ratio_and_its_spread below does).
-    ratios = np.array(res["repeats_s_per_step"]) / np.array(res["baseline"]["repeats_s_per_step"])
-    assert res["ratio_to_explicit_euler"] == pytest.approx(float(np.median(ratios)), rel=1e-12)
-    assert res["calibration"] > 0 and res["calibration_spread"] >= 0
+    ratios = np.array(res.repeats_s_per_step) / np.array(res.baseline["repeats_s_per_step"])
+    assert res.ratio_to_explicit_euler == pytest.approx(float(np.median(ratios)), rel=1e-12)
+    assert res.calibration > 0 and res.calibration_spread >= 0
 
 
 def test_injected_timings_make_the_ratio_and_its_spread(spring, tmp_path, monkeypatch):
@@ -308,12 +308,12 @@ def test_injected_timings_make_the_ratio_and_its_spread(spring, tmp_path, monkey
     path.write_text(json.dumps(injected))
     monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
     res = cost.cost_per_step("ref:rk4", spring, 0.01, time_steps=20_000, repeats=3)
-    assert res["repeats_s_per_step"] == pytest.approx([4e-8, 4.4e-8, 3.6e-8], rel=1e-15)
-    assert res["s_per_step"] == pytest.approx(3.6e-8, rel=1e-15) and res["clock"] == "injected"
-    assert "injected from $HARNESS_INJECT_TIMINGS, not measured" in res["timing"]
-    assert res["ratio_to_explicit_euler"] == pytest.approx(4.0, rel=1e-15) and res["ratio_spread"] == 0.0
-    assert res["calibration"] == pytest.approx(12.0, rel=1e-15)
-    assert res["calibration_spread"] == pytest.approx(1.1 / 0.9 - 1.0, rel=1e-12)
+    assert res.repeats_s_per_step == pytest.approx([4e-8, 4.4e-8, 3.6e-8], rel=1e-15)
+    assert res.s_per_step == pytest.approx(3.6e-8, rel=1e-15) and res.clock == "injected"
+    assert "injected from $HARNESS_INJECT_TIMINGS, not measured" in res.timing
+    assert res.ratio_to_explicit_euler == pytest.approx(4.0, rel=1e-15) and res.ratio_spread == 0.0
+    assert res.calibration == pytest.approx(12.0, rel=1e-15)
+    assert res.calibration_spread == pytest.approx(1.1 / 0.9 - 1.0, rel=1e-12)
     path.write_text("{}")
     with pytest.raises(InvalidInput, match=r"^HARNESS_INJECT_TIMINGS=.*not an injected-timings file"):
         cost.cost_per_step("ref:rk4", spring, 0.01, time_steps=20_000, repeats=3)
@@ -324,10 +324,10 @@ def test_a_slow_compiled_loop_is_timed_over_fewer_steps(spring, monkeypatch):
     # baseline timed beside it runs the same loop length.
     monkeypatch.setattr(cost, "REF_RUN_BUDGET_S", 1e-9)
     res = cost.cost_per_step("ref:rk4", spring, 0.01, repeats=2)
-    assert res["time_steps"] == cost.REF_MIN_STEPS == res["baseline"]["time_steps"]
+    assert res.time_steps == cost.REF_MIN_STEPS == res.baseline["time_steps"]
     monkeypatch.setattr(cost, "REF_RUN_BUDGET_S", 10.0)
     res = cost.cost_per_step("ref:rk4", spring, 0.01, repeats=1)
-    assert res["time_steps"] == cost.REF_TIME_STEPS == res["baseline"]["time_steps"]
+    assert res.time_steps == cost.REF_TIME_STEPS == res.baseline["time_steps"]
 
 
 def test_cost_through_the_engine_interface(spring):
@@ -337,7 +337,7 @@ def test_cost_through_the_engine_interface(spring):
     timing = cost.wall_time_per_step(method, spring, 0.01, steps=200, repeats=2)
     assert "in-process simulate" in timing["timing"] and timing["s_per_step"] > 0
     # A plugin's simulate has no per-step path to time beside it: one figure.
-    assert "as_stepped" not in cost.cost_per_step(method, spring, 0.01, time_steps=200, repeats=1)
+    assert cost.cost_per_step(method, spring, 0.01, time_steps=200, repeats=1).as_stepped is None
 
 
 # ------------------------------------------------------------------------------ error
@@ -439,6 +439,15 @@ def test_cli_cost_and_workprecision_json():
                          "--periods", "1", "--repeats", "1", "--json")
     res = json.loads(out)
     assert rc == 0 and len(res["rows"]) == 2 and set(res["chart"]) == {"ref:explicit_euler"}
+
+
+def test_cli_cost_on_a_scene_explicit_euler_cannot_pose_says_why_there_is_no_ratio():
+    """The rope is held by constraints: no explicit-Euler run to divide by. The text says why
+    (it raised KeyError on the missing baseline figure before)."""
+    rc, out, err = run_cli("cost", "rope", "--method", "ref:verlet_constrained", "--set", "N=3", "--dt", "0.001",
+                           "--time-steps", "200", "--repeats", "1")
+    assert rc == 0 and not err.strip(), err
+    assert "no ratio to ref:explicit_euler: scene rope is held together by constraints" in out
 
 
 def test_cli_text_output():

@@ -59,9 +59,9 @@ def test_engine_energy_classification_on_spring(method_id, expected):
 def test_engine_cost_is_measured_the_same_way():
     spring = make_scene("spring")
     res = cost.cost_per_step(get_method("mujoco:euler"), spring, 0.01, time_steps=500, repeats=2)
-    assert "in-process simulate through the engine's own loop" in res["timing"] and res["s_per_step"] > 0
-    assert res["force_evals_per_step"] is not None or res["force_evals_reason"]
-    assert res["ratio_to_explicit_euler"] > 0
+    assert "in-process simulate through the engine's own loop" in res.timing and res.s_per_step > 0
+    assert res.force_evals_per_step is not None or res.force_evals_reason
+    assert res.ratio_to_explicit_euler > 0
 
 
 @pytest.mark.parametrize("loop", ["engine", "harness"])

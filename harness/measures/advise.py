@@ -237,7 +237,7 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
     row = Row(substeps=s, h=h, homega=h * scene.omega, stable=False, status="skipped")
     if scene.linear and not out.limit_verdict.startswith("not measured"):
         stable, info = spectral_test(method, scene, h, timeout=timeout)
-        row.rho = info.get("rho")
+        row.rho = info["rho"]
         if not stable:
             row.why = (f"unstable: spectral radius {row.rho:.6g} > 1 at h*omega = {row.homega:.3g}"
                        if row.rho is not None else f"unstable: {info.get('reason')}")
@@ -274,7 +274,7 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
 def _energy_class(traj, scene: Scene) -> str | None:
     from harness.measures.energy import classify
 
-    return classify(traj.energy[:, 0], scene.exact_energy(traj.t), traj.t).get("classification")
+    return classify(traj.energy[:, 0], scene.exact_energy(traj.t), traj.t)["classification"]
 
 
 def _reason(advice: MethodAdvice, request: Request) -> str:

@@ -71,9 +71,12 @@ The rule, one way for each kind of method:
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from records import Method
+from records.result import Result
 
 import reference
 from reference import CLOCKS, step_timer, time_per_step
@@ -81,7 +84,7 @@ from reference import CLOCKS, step_timer, time_per_step
 from scenarios import Scene
 
 from harness.measures.common import resolve, step
-from harness.measures.injected import INJECT_VAR, injected_value, jitter, load_injected
+from harness.measures.injected import INJECT_VAR, calibration_injected, injected_value, jitter, load_injected
 
 COUNT_STEPS = 100
 REF_TIME_STEPS = 100_000
@@ -248,9 +251,53 @@ def wall_time_per_step(method, scene: Scene, dt: float, *, steps: int | None = N
     return timing.result(clock)
 
 
+@dataclass(frozen=True)
+class CostResult(Result):
+    """What :func:`cost_per_step` measured (module docstring): the counted evaluations, the
+    method's seconds per step on ``clock``, explicit Euler's beside it and their ratio, the
+    calibration timed in the same repeats, and for an engine mode its per-step path too."""
+
+    scene: str
+    params: dict
+    method: str
+    dt: float
+    omega_dt: float
+    count_steps: int                          # counted_evaluations'
+    count_status: str
+    force_evals_per_step: float | None
+    solves_per_step: float | None
+    timing: str                               # what was timed, and how
+    clock: str
+    time_steps: int
+    warmup_s: float
+    s_per_step: float                         # the fastest repeat
+    median_s_per_step: float
+    repeats_s_per_step: list
+    rel_spread: float | None
+    baseline: dict                            # explicit Euler's timing (or why there is none)
+    ratio_to_explicit_euler: float | None
+    ratio_spread: float | None = None
+    ratio_repeats: list | None = None
+    force_evals_reason: str | None = None     # why they are not counted, where they are not
+    start_force_evals: int | None = None
+    declared_force_evals: float | None = None
+    declared_implicit: bool | None = None
+    calibration: float | None = None          # harness.measures.calibration
+    calibration_spread: float | None = None
+    calibration_python_s_per_step: float | None = None
+    calibration_compiled_s_per_step: float | None = None
+    calibration_clock: str | None = None
+    setup_s: float | None = None              # an engine mode's: building the model, off the clock
+    time_steps_asked: int | None = None
+    loop: str | None = None
+    engine_loop: str | None = None            # how the engine's own loop steps, where it says
+    as_stepped: dict | None = None            # an engine mode stepped one call at a time from Python
+    as_stepped_s_per_step: float | None = None
+
+
 def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = None, repeats: int = REPEATS,
                   count_steps: int = COUNT_STEPS, timeout: float | None = None,
-                  baseline: dict | None = None, clock: str = "wall", injected: dict | None = None) -> dict:
+                  baseline: dict | None = None, clock: str = "wall", injected: dict | None = None) -> CostResult:
     """Counted evaluations, time per step and the ratio to explicit Euler (compiled) on
     the same scene and dt, the two and the calibration timed in interleaved repeats (module
     docstring). ``baseline`` reuses an explicit-Euler timing from the same run instead (no
@@ -271,11 +318,10 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
         _add_as_stepped(out, stepped, repeats, clock)
         out["baseline"] = baseline
         out["ratio_to_explicit_euler"] = out["s_per_step"] / baseline["s_per_step"]
-        out["ratio_spread"] = (out.get("rel_spread") or 0.0) + (baseline.get("rel_spread") or 0.0)
-        return out
+        out["ratio_spread"] = (out["rel_spread"] or 0.0) + (baseline["rel_spread"] or 0.0)
+        return CostResult(**out)
     timing = _Timing(method, scene, dt, time_steps, clock, injected=injected)
-    calibration = Calibration(clock, None if injected is None or not injected.get("calibration")
-                              else {**injected["calibration"], "jitter": injected.get("jitter")})
+    calibration = Calibration(clock, calibration_injected(injected))
     from harness.methods import get_method
 
     baseline_method = get_method(BASELINE)
@@ -289,7 +335,7 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
         _add_as_stepped(out, stepped, repeats, clock)
         out["baseline"] = {"method": BASELINE, "unsupported": why}
         out["ratio_to_explicit_euler"] = None
-        return out
+        return CostResult(**out)
     # A reference scheme and its baseline run the same compiled loop length: a shorter loop
     # carries more of the call's fixed cost per step (1.3x per step at 2,000 steps, measured).
     base_steps = timing.n if timing.scheme is not None else REF_TIME_STEPS
@@ -308,7 +354,7 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     out["ratio_repeats"] = ratios
     out["ratio_to_explicit_euler"] = float(np.median(ratios))
     out["ratio_spread"] = (max(ratios) - min(ratios)) / min(ratios)
-    return out
+    return CostResult(**out)
 
 
 def _add_as_stepped(out: dict, stepped: "_Timing | None", repeats: int, clock: str) -> None:

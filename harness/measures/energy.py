@@ -237,7 +237,7 @@ def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int 
 
         err = trajectory_error(traj, scene)
         out.update(state_error_max=err["error_max"], state_error_final=err["error_final"],
-                   state_error_source=err["source"], state_error_t_compared=err.get("t_compared"))
+                   state_error_source=err["source"], state_error_t_compared=err["t_compared"])
     if series:
         out["t"] = traj.t
         out["rel_error"] = rel

@@ -32,12 +32,20 @@ def load_injected(path=None) -> dict | None:
         raise InvalidInput(f"{INJECT_VAR}={path}: not an injected-timings file ({exc}); valid: JSON with "
                            f"s_per_step {{method id or '*': seconds}}, optional jitter [factors], calibration "
                            f"{{python, compiled}}") from None
-    return data
+    # What the file leaves out, in one place: no jitter (every repeat the same), no calibration pair.
+    return {"jitter": [1.0], "calibration": None, **data}
 
 
 def jitter(injected: dict, i: int) -> float:
-    factors = injected.get("jitter") or [1.0]
+    factors = injected["jitter"] or [1.0]
     return float(factors[i % len(factors)])
+
+
+def calibration_injected(injected: dict | None) -> dict | None:
+    """The calibration pair to record instead of the clock's, with the file's jitter (None: timed)."""
+    if injected is None or not injected["calibration"]:
+        return None
+    return {**injected["calibration"], "jitter": injected["jitter"]}
 
 
 def injected_value(injected: dict | None, method_id: str) -> float | None:

@@ -200,7 +200,7 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
         final_rel_error=figures["final_rel_error"], failed_step=traj.failed_step,
         series=series, numbers=plain(cls), events=plain(figures["events"]) or None, **settings))
     err = trajectory_error(traj, scene) if traj.ok else {}
-    error = make_cell(task, "error", traj.status, finite(err.get("error_max")), dt, steps, traj.detail,
+    error = make_cell(task, "error", traj.status, finite(err["error_max"]) if err else None, dt, steps, traj.detail,
                       ErrorFigures.pick(err))
     return [energy, error]
 
@@ -272,10 +272,11 @@ def _cost(task, method, scene, dt, suite) -> Cell:
                         injected=task.timings)
     # The baseline's figures and an engine mode's second figure (stepped one call at a time from
     # Python) are stored flat, under baseline_... and as_stepped_...
-    flat = {**res, **{f"baseline_{k}": v for k, v in res["baseline"].items()},
-            **{f"as_stepped_{k}": v for k, v in (res.get("as_stepped") or {}).items()}}
-    return make_cell(task, "cost", "ok", res.get("s_per_step"), dt, res.get("time_steps"), figures=CostFigures.pick(
-        flat, spread=res.get("rel_spread") or 0.0, ratio_spread=res.get("ratio_spread") or 0.0))
+    flat = {**{k: v for k, v in res.as_dict().items() if v is not None},
+            **{f"baseline_{k}": v for k, v in res.baseline.items()},
+            **{f"as_stepped_{k}": v for k, v in (res.as_stepped or {}).items()}}
+    return make_cell(task, "cost", "ok", res.s_per_step, dt, res.time_steps, figures=CostFigures.pick(
+        flat, spread=res.rel_spread or 0.0, ratio_spread=res.ratio_spread or 0.0))
 
 
 def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:

@@ -133,5 +133,5 @@ def _brouwer(task, method, scene, dt, spec) -> Cell:
         step_dt, every = dt, max(1, steps // outputs)
     res = energy_walk(method, scene, step_dt, steps, every, realizations=settings["realizations"])
     figures, extra = BrouwerFigures.from_data(plain(res))
-    return make_cell(task, "brouwer", "ok", finite(res.get("slope")), step_dt, steps, res.get("reason", ""),
+    return make_cell(task, "brouwer", "ok", finite(res["slope"]), step_dt, steps, figures.reason or "",
                      figures, extra)
