@@ -346,8 +346,8 @@ def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
 def kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
     """The kernel file of a pair (``KernelFile``). Raises SourceUnavailable."""
     kind = ("constrained" if scheme.constrained else "implicit" if scheme.implicit
-            else "decay" if getattr(scheme, "decay", False) else "explicit")
-    pointwise = bool(getattr(scene_cls, "pointwise", False)) and not scheme.constrained
+            else "decay" if scheme.decay else "explicit")
+    pointwise = scene_cls.pointwise and not scheme.constrained
     src = _Source()
     kernels = {"explicit": ("scene_accel",), "implicit": ("scene_accel", "scene_solve"),
                "constrained": ("scene_accel", "scene_project"),

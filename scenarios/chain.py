@@ -108,6 +108,7 @@ class Chain(DampedByC, Scene):
                         "c w_j / (2 k))", lo=0.0),
     }
     linear = True
+    has_modes = True
     accel = staticmethod(accel)
     solve = staticmethod(solve)
 

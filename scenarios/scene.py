@@ -159,6 +159,22 @@ class Scene:
         """How far states (API layout) are off the constraints; None for unconstrained scenes."""
         return None
 
+    def escaped(self, q: np.ndarray, v: np.ndarray) -> np.ndarray | None:
+        """Per state (rows of q, v), whether a body had left the system; None for a scene that
+        cannot tell (one without bodies that can leave)."""
+        return None
+
+    #: The scene has normal modes: ``mode_frequencies()`` and ``modal(q)`` (the chain).
+    has_modes: ClassVar[bool] = False
+
+    def mode_frequencies(self) -> np.ndarray:
+        """The normal modes' angular frequencies (where ``has_modes``)."""
+        raise NotImplementedError(f"scene {self.id} has no normal modes")
+
+    def modal(self, q: np.ndarray) -> np.ndarray:
+        """States in normal-mode coordinates (where ``has_modes``)."""
+        raise NotImplementedError(f"scene {self.id} has no normal modes")
+
     def events(self, step: np.ndarray, t: np.ndarray, q: np.ndarray, v: np.ndarray) -> list[dict]:
         """What happened to the bodies in a run's recorded states (API layout, one batch member):
         a body ejected, a close approach; each ``{"kind", "step", "t", "text", ...}``, oldest first.

@@ -75,7 +75,7 @@ def damping_far_beyond_the_limit(method, scene: Scene, *, factor: float = FACTOR
                                  timeout: float | None = None) -> dict:
     """Energy kept and per-mode damping at ``factor`` times the explicit limit (module docstring)."""
     method = resolve(method, scene)
-    if not (hasattr(scene, "modal") and hasattr(scene, "mode_frequencies")):
+    if not scene.has_modes:
         raise InvalidInput(f"scene {scene.id} has no normal modes to measure damping on (valid: chain)")
     if not (factor > 0.0 and math.isfinite(factor)):
         raise InvalidInput(f"factor={factor} is out of range (allowed: finite, > 0)")

@@ -87,11 +87,11 @@ def relative_error_defined(e_exact: np.ndarray) -> bool:
 def escaped_states(scene: Scene, traj: Trajectory) -> np.ndarray | None:
     """Per recorded state of batch member 0, whether a body had left the system (the scene's
     ``escaped``), or None for a scene that cannot tell."""
-    fn = getattr(scene, "escaped", None)
-    if fn is None or traj.q.shape[0] == 0:
+    if traj.q.shape[0] == 0:
         return None
     with np.errstate(all="ignore"):
-        return np.asarray(fn(traj.q[:, 0], traj.v[:, 0]), dtype=bool)
+        flags = scene.escaped(traj.q[:, 0], traj.v[:, 0])
+    return None if flags is None else np.asarray(flags, dtype=bool)
 
 
 #: The most steps a run is stepped again, recording every step, to place its events exactly.
