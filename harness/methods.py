@@ -10,13 +10,14 @@ their defaults here, once, where it is loaded (``as_method``).
 from __future__ import annotations
 
 import importlib
+from dataclasses import replace
 import os
 
 import adapters
 import reference
 from records import InvalidInput, Method, MethodId
 from records.method import OPTIONAL, REQUIRED
-from reference import RefMethod
+from reference import Exact, RefMethod
 from scenarios import Scene
 
 
@@ -90,7 +91,9 @@ def _with_options(method: Method, options: dict) -> Method:
         from harness import validate
 
         checked[name] = validate.count(f"option {name}", value, 1, MAX_ITERATIONS)
-    return RefMethod(method.scheme, checked) if checked else method
+    if not checked:
+        return method
+    return replace(method, options=checked) if isinstance(method, RefMethod) else RefMethod(method.scheme, checked)
 
 
 #: Environment variable naming plugin modules (``module[,module]``) that add methods.
@@ -157,10 +160,12 @@ def active_plugins() -> tuple[str, ...]:
     return tuple(dict.fromkeys((*plugin_names(), *_TASK_PLUGINS)))
 
 
-def all_methods() -> dict[str, object]:
+def all_methods(exact: Exact | None = None) -> dict[str, object]:
     """Every method id, reference schemes first, then engine modes (available or not), then
-    the methods of the plugin modules in ``$HARNESS_PLUGINS``."""
-    out: dict[str, Method] = {m.id: m for m in map(RefMethod, reference.METHODS.values())}
+    the methods of the plugin modules in ``$HARNESS_PLUGINS``. ``exact``: the reference schemes'
+    backend (``reference.Exact``: the exact compiled run where it computes the interpreted bits;
+    None: interpreted)."""
+    out: dict[str, Method] = {m.id: m for m in (RefMethod(s, exact=exact) for s in reference.METHODS.values())}
     out.update(adapters.ENGINE_METHODS)
     for mid, m in load_plugins(active_plugins()).items():
         if mid in out and out[mid] is not m:
@@ -169,9 +174,10 @@ def all_methods() -> dict[str, object]:
     return out
 
 
-def get_method(method_id: str, options: dict | None = None) -> Method:
-    """The method with that id; ``options`` (``{"iterations": 5}``) set a scheme's run-time options."""
-    methods = all_methods()
+def get_method(method_id: str, options: dict | None = None, exact: Exact | None = None) -> Method:
+    """The method with that id; ``options`` (``{"iterations": 5}``) set a scheme's run-time options;
+    ``exact`` its backend (``all_methods``)."""
+    methods = all_methods(exact)
     if method_id not in methods:
         raise InvalidInput(f"unknown method {method_id!r} (valid: {', '.join(methods)})")
     return _with_options(methods[method_id], options or {})

@@ -1,6 +1,6 @@
 """Reference integrators: ``METHODS[id]`` is a :class:`Scheme`; ``integrate`` steps one on a scene,
 ``integrate_compiled`` on its compiled kernel, ``integrate_exact`` on its compiled kernel where that
-computes ``integrate``'s bits (counted alike; ``exact_compiled()`` makes ``RefMethod`` take it);
+computes ``integrate``'s bits (counted alike; ``RefMethod(..., exact=Exact(...))`` takes it);
 ``RefMethod`` is a scheme as a method (``records.Method``).
 
 Timing, for the harness's cost measures and benches: ``step_timer`` / ``time_per_step`` time a
@@ -10,8 +10,7 @@ numba, on first use).
 """
 from __future__ import annotations
 
-from ._compiled import (CLOCKS, exact_compiled, exact_why, integrate_compiled, integrate_exact, prefer_exact,
-                        step_timer, time_per_step)
+from ._compiled import CLOCKS, Exact, exact_why, integrate_compiled, integrate_exact, step_timer, time_per_step
 from ._integrate import carried_map, integrate
 from ._kernels import STATS as KERNEL_STATS
 from ._scheme import Scheme
@@ -51,6 +50,6 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["METHODS", "Scheme", "RefMethod", "carried_map", "integrate", "integrate_compiled", "integrate_exact", "exact_compiled",
-           "exact_why", "prefer_exact", "CLOCKS", "step_timer",
+__all__ = ["METHODS", "Scheme", "RefMethod", "carried_map", "integrate", "integrate_compiled", "integrate_exact", "Exact",
+           "exact_why", "CLOCKS", "step_timer",
            "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

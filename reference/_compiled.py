@@ -9,8 +9,8 @@ pointwise scene, run as a loop of scalars without array temporaries.
 """
 from __future__ import annotations
 
-import contextlib
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -161,41 +161,29 @@ def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int =
 #: (scheme, scene class) -> (its kernels, why its counted run might not compute the interpreted
 #: bits, "" where it does), for this process.
 _COUNTED: dict[tuple, tuple] = {}
-#: Within ``exact_compiled``: whether ``RefMethod.simulate`` takes the exact compiled run, and the
-#: schemes whose counted kernels it may compile (None: any).
-_EXACT = {"on": False, "compile": None}
 NOT_YET = "its counted kernel is not compiled on this machine yet"
 
 
-@contextlib.contextmanager
-def exact_compiled(enabled: bool = True, compile_for: set[str] | None = None):
-    """Within it, a reference scheme's runs (``RefMethod.simulate``) step on
-    :func:`integrate_exact` wherever it computes the interpreted run's bits, and interpreted
-    elsewhere: the same numbers in a fraction of the time. ``compile_for``: the scheme ids
-    whose counted kernels may be compiled here (a few seconds each, once per machine); the
-    others take theirs only where an earlier run compiled them, and are interpreted until
-    then (the nightly's task for a scheme compiles its own, not the engine tasks that
-    compare with every scheme)."""
-    before = dict(_EXACT)
-    _EXACT.update(on=bool(enabled), compile=None if compile_for is None else set(compile_for))
-    try:
-        yield
-    finally:
-        _EXACT.update(before)
+@dataclass(frozen=True)
+class Exact:
+    """The reference backend that steps on :func:`integrate_exact` wherever it computes the
+    interpreted run's bits, and interpreted elsewhere: the same numbers in a fraction of the
+    time (``RefMethod(..., exact=Exact(...))``). ``compile_for``: the scheme ids whose counted
+    kernels may be compiled here (a few seconds each, once per machine; None: any); the others
+    take theirs only where an earlier run compiled them, and are interpreted until then (the
+    nightly's task for a scheme compiles its own, not the engine tasks that compare with every
+    scheme)."""
+
+    compile_for: frozenset | None = None
+
+    def may_compile(self, scheme) -> bool:
+        return self.compile_for is None or scheme.id in self.compile_for
 
 
-def prefer_exact() -> bool:
-    return _EXACT["on"]
-
-
-def _may_compile(scheme) -> bool:
-    return _EXACT["compile"] is None or scheme.id in _EXACT["compile"]
-
-
-def _counted_parts(scheme, scene: Scene) -> tuple:
+def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
     """(kernels, why not) of a pair, its counted run warmed (compiled, or loaded from the disk
     cache) where it is exact; NOT_YET, not remembered, where it would have to be compiled
-    and ``exact_compiled`` does not let this scheme compile."""
+    and ``may_compile`` is False (``Exact.may_compile``)."""
     key = (scheme, type(scene))
     if key in _COUNTED:
         return _COUNTED[key]
@@ -210,7 +198,7 @@ def _counted_parts(scheme, scene: Scene) -> tuple:
         why = next((f"numba's {f} gives other bits than numpy's on this machine"
                     for f in kernels.libm if not _libm.agrees(f)), "")
     if not why:
-        if not (_may_compile(scheme) or kernels.counted_compiled()):
+        if not (may_compile or kernels.counted_compiled()):
             return kernels, NOT_YET
         k = newton_max(scene) if scheme.implicit else (scheme.iterations or 0)
         out = np.empty((3,) + q.shape)
@@ -239,16 +227,17 @@ def _counted_run(kernels, q, v, t0, h, n, every, p, k, out_q, out_v) -> tuple[in
     return start_evals, int(recorded), int(failed), cnt
 
 
-def exact_why(scheme, scene: Scene) -> str:
-    """Why :func:`integrate_exact` does not run ``scheme`` on ``scene`` here ("" where it does)."""
+def exact_why(scheme, scene: Scene, may_compile: bool = True) -> str:
+    """Why :func:`integrate_exact` does not run ``scheme`` on ``scene`` here ("" where it does;
+    ``may_compile`` False: NOT_YET where its counted kernel would have to be compiled first)."""
     for name in ("accel", "solve", "project", "damping_rate"):
         if name in vars(scene):
             return f"scene {scene.id} overrides its {name} on the instance: the kernels are the class's"
-    return _counted_parts(scheme, scene)[1]
+    return _counted_parts(scheme, scene, may_compile)[1]
 
 
 def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1, q0=None, v0=None,
-                    t0: float = 0.0, iterations: int | None = None) -> Trajectory | None:
+                    t0: float = 0.0, iterations: int | None = None, may_compile: bool = True) -> Trajectory | None:
     """``reference.integrate`` compiled: the same trajectory, bit for bit, with the same force
     evaluations, solves and projections counted, the same recording and the same divergence
     stop, from the pair's ``run_counted`` kernel (``reference._kernels``; on a pointwise scene
@@ -256,9 +245,9 @@ def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     interpreted bits (:func:`exact_why` says why), for the caller to interpret instead.
     ``meta.backend`` says "compiled, counted"."""
     steps, every = int(steps), int(every)
-    if every < 1 or steps < 0 or exact_why(scheme, scene):
+    if every < 1 or steps < 0 or exact_why(scheme, scene, may_compile):
         return None
-    kernels = _counted_parts(scheme, scene)[0]
+    kernels = _counted_parts(scheme, scene, may_compile)[0]
     q, v = _kernel_layout(scene, q0, v0)
     p, k, h, t0 = scene.pvec, int(_k(scheme, scene, iterations)), float(dt), float(t0)
     marks = output_marks(steps, every)

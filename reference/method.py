@@ -2,14 +2,14 @@
 harness, beside the engine modes of ``adapters``."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from records import REFERENCE, MethodId, Trajectory
 from records.method import NO_REASONS
 
 from scenarios import Scene, no_solve
 
-from ._compiled import integrate_compiled, integrate_exact, prefer_exact
+from ._compiled import Exact, integrate_compiled, integrate_exact
 from ._integrate import integrate
 from ._scheme import Scheme
 
@@ -25,6 +25,9 @@ class RefMethod:
     #: Step on the compiled path (``reference.integrate_compiled``): the same states, for runs
     #: too long to interpret; force evaluations are then not counted.
     compiled: bool = field(default=False, compare=False)
+    #: Step on the exact compiled run where it computes the interpreted bits (``Exact``), else
+    #: interpreted; None: interpreted. The same states and counts either way, only faster.
+    exact: Exact | None = field(default=None, compare=False)
 
     # The capabilities of records.Method, declared: stepped in this process, at the dt it is
     # given, counted on every run, matching itself; no loop to choose, no engine model to reuse
@@ -60,13 +63,14 @@ class RefMethod:
         return True, ""
 
     def compiled_twin(self) -> "RefMethod":
-        return RefMethod(self.scheme, self.options, compiled=True)
+        return replace(self, compiled=True)
 
     def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
         if self.compiled:
             return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
-        if prefer_exact():  # within ``reference.exact_compiled()``: the same run, compiled where that is exact
-            traj = integrate_exact(self.scheme, scene, dt, steps, every, **self.options)
+        if self.exact is not None:  # the same run, compiled where that is exact
+            traj = integrate_exact(self.scheme, scene, dt, steps, every, **self.options,
+                                   may_compile=self.exact.may_compile(self.scheme))
             if traj is not None:
                 return traj
         return integrate(self.scheme, scene, dt, steps, every, **self.options)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import reference
-from reference import METHODS, RefMethod, exact_compiled, exact_why, integrate, integrate_exact
+from reference import METHODS, Exact, RefMethod, exact_why, integrate, integrate_exact
 from reference import _codegen, _exactness, _libm
 from scenarios import SCENES, make_scene
 from scenarios.spring import Spring
@@ -93,10 +93,10 @@ def test_a_pair_that_might_compute_other_bits_is_interpreted():
     scene = CubicSpring()
     assert exact_why(METHODS["leapfrog"], scene).endswith("cubic_accel: uses **")
     assert integrate_exact(METHODS["leapfrog"], scene, 0.1, 3) is None
-    with exact_compiled():
-        assert RefMethod(METHODS["leapfrog"]).simulate(scene, 0.1, 3).meta.backend == "interpreted"
-        assert RefMethod(METHODS["leapfrog"]).simulate(make_scene("spring"), 0.1, 3).meta.backend == \
-            "compiled, counted"
+    exact = RefMethod(METHODS["leapfrog"], exact=Exact())
+    assert exact.simulate(scene, 0.1, 3).meta.backend == "interpreted"
+    assert exact.simulate(make_scene("spring"), 0.1, 3).meta.backend == "compiled, counted"
+    # The backend is the method's, stated where it is made: a RefMethod without one interprets.
     assert RefMethod(METHODS["leapfrog"]).simulate(make_scene("spring"), 0.1, 3).meta.backend == "interpreted"
 
 
@@ -245,12 +245,14 @@ def test_only_the_schemes_let_compile_compile_their_counted_kernels(monkeypatch,
 
     monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))  # nothing compiled here yet
     monkeypatch.setattr(_compiled, "_COUNTED", {})
-    scene, method = make_scene("spring"), RefMethod(METHODS["semi_implicit_euler_position_first"])
-    with exact_compiled(compile_for={"leapfrog"}):
-        assert exact_why(method.scheme, scene) == _compiled.NOT_YET
-        assert method.simulate(scene, 0.1, 10).meta.backend == "interpreted"
-    with exact_compiled(compile_for={"semi_implicit_euler_position_first"}):
-        assert method.simulate(scene, 0.1, 10).meta.backend == "compiled, counted"
+    scene, scheme = make_scene("spring"), METHODS["semi_implicit_euler_position_first"]
+
+    def method(compile_for):
+        return RefMethod(scheme, exact=Exact(frozenset(compile_for)))
+
+    assert exact_why(scheme, scene, may_compile=False) == _compiled.NOT_YET
+    assert method({"leapfrog"}).simulate(scene, 0.1, 10).meta.backend == "interpreted"
+    assert method({"semi_implicit_euler_position_first"}).simulate(scene, 0.1, 10).meta.backend == \
+        "compiled, counted"
     monkeypatch.setattr(_compiled, "_COUNTED", {})  # another process: compiled before, so taken
-    with exact_compiled(compile_for=set()):
-        assert method.simulate(scene, 0.1, 10).meta.backend == "compiled, counted"
+    assert method(set()).simulate(scene, 0.1, 10).meta.backend == "compiled, counted"

@@ -66,12 +66,10 @@ CANDIDATES_KEPT = 64
 def candidate_run(ref, scene: Scene, dt: float, steps: int) -> Trajectory:
     """``ref.simulate(scene, dt, steps, 1)``, or the same run made before in this process: the key
     holds the scheme and its options, the scene's id, parameters and initial state, dt, steps
-    and the path reference runs take (``reference.exact_compiled``: the same bits either way)."""
-    from reference import prefer_exact
-
+    and the backend reference runs take (``reference.Exact``: the same bits either way)."""
     q0, v0 = scene.batch_state(1)
-    key = (ref.id, tuple(sorted(getattr(ref, "options", {}).items())), scene.id, tuple(sorted(scene.values.items())),
-           q0.tobytes(), v0.tobytes(), float(dt), int(steps), prefer_exact())
+    key = (ref.id, tuple(sorted(ref.options.items())), scene.id, tuple(sorted(scene.values.items())),
+           q0.tobytes(), v0.tobytes(), float(dt), int(steps), ref.exact is not None)
     if key not in _CANDIDATES:
         if len(_CANDIDATES) >= CANDIDATES_KEPT:
             del _CANDIDATES[next(iter(_CANDIDATES))]
@@ -116,8 +114,9 @@ class IdentityResult(Result):
 
 
 def identify(method, scene: Scene, dt: float | None = None, steps: int | None = None,
-             timeout: float | None = None) -> IdentityResult:
-    """Rank every reference scheme by its deviation from ``method`` on ``scene``."""
+             timeout: float | None = None, exact=None) -> IdentityResult:
+    """Rank every reference scheme by its deviation from ``method`` on ``scene``; ``exact``: the
+    candidates' backend (``reference.Exact``; None: interpreted)."""
     method = resolve(method, scene)
     dt = default_dt(scene) if dt is None else dt
     steps = default_steps() if steps is None else steps
@@ -130,7 +129,7 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     scale = max(1.0, float(np.max(np.abs(run.q), initial=0.0)), float(np.max(np.abs(run.v), initial=0.0)))
     tolerance = MATCH_RTOL * scale
     candidates = []
-    for mid, ref in all_methods().items():
+    for mid, ref in all_methods(exact).items():
         if ref.family != REFERENCE or mid == method.id or not ref.supports(scene)[0]:
             continue
         if not scene.velocity_dependent and ref.scheme.same_without_velocity:

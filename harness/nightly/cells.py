@@ -100,8 +100,8 @@ def _downsample(n: int, points: int) -> np.ndarray:
 def run_task(task) -> list[Cell]:
     """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message.
     Reference schemes step on the compiled path wherever it computes the interpreted run's
-    bits (``reference.exact_compiled``; the suite's ``exact_compiled``)."""
-    from reference import exact_compiled
+    bits (``reference.Exact``, where the suite's ``exact_compiled``)."""
+    from reference import Exact
 
     from harness.methods import use_plugins
 
@@ -111,12 +111,12 @@ def run_task(task) -> list[Cell]:
     if task.kind == "cost":  # a cell's cost measured again, in a fresh worker (the nightly's re-measure)
         return [guard(task, "cost", lambda: _cost_again(task))]
     suite = suite_of(task)
-    with exact_compiled(suite.exact_compiled, compile_for=compiles_for(task, suite)):
-        return _scene_task(task, suite)
+    exact = Exact(frozenset(compiles_for(task, suite))) if suite.exact_compiled else None
+    return _scene_task(task, suite, exact)
 
 
 def compiles_for(task, suite: Suite) -> set[str]:
-    """The reference schemes whose counted kernels a task compiles (``reference.exact_compiled``):
+    """The reference schemes whose counted kernels a task compiles (``reference.Exact``):
     a reference task its own scheme's; an engine task those of the schemes no task of the suite
     runs on its scene, which its identity compares with and nobody else would compile. Every
     other run takes the kernel its own task compiled, where it was compiled before (in a run
@@ -132,13 +132,13 @@ def compiles_for(task, suite: Suite) -> set[str]:
     return set(reference.METHODS) - run
 
 
-def _scene_task(task, suite: Suite) -> list[Cell]:
+def _scene_task(task, suite: Suite, exact=None) -> list[Cell]:
     from harness.execution.pool import report_partial
     from harness.methods import get_method
 
     spec = suite.scenes[task.scene]
     scene = make_scene(task.scene, **task.params)
-    method = get_method(task.method)
+    method = get_method(task.method, exact=exact)
     dt = nominal_dt(spec, scene)
     # Long runs of reference schemes on the compiled path (same states); counting stays interpreted.
     run_method = method.compiled_twin() if spec.compiled else method
@@ -154,7 +154,7 @@ def _scene_task(task, suite: Suite) -> list[Cell]:
 
     measures = measures_for(task, method)
     if "identity" in measures:
-        identity = guard(task, "identity", lambda: _identity(task, method, scene))
+        identity = guard(task, "identity", lambda: _identity(task, method, scene, exact))
         match_claims = identity.figures.match_claims
         if identity.ok and match_claims is not None and match_claims.known:
             claims = match_claims
@@ -298,12 +298,12 @@ def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
     return cells
 
 
-def _identity(task, method, scene) -> Cell:
+def _identity(task, method, scene, exact=None) -> Cell:
     from reference import METHODS
 
     from harness.measures.identify import identify
 
-    res = identify(method, scene)
+    res = identify(method, scene, exact=exact)
     match = res.match
     mode = task.method.split(":", 1)[1]
     match_claims = Claims()

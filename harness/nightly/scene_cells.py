@@ -67,7 +67,8 @@ def _constraint(task, method, scene, dt, spec, suite) -> Cell:
     if passes and method.scheme is not None and method.scheme.constrained:
         by_iterations = []
         for k in passes:
-            r = constraint_drift(get_method(task.method, {"iterations": k}), scene, dt, steps, every=every,
+            r = constraint_drift(get_method(task.method, {"iterations": k}, exact=method.exact), scene, dt, steps,
+                                 every=every,
                                  timeout=suite.cell_timeout)
             by_iterations.append({key: r[key] for key in ("iterations", "status", "max_stretch", "final_stretch",
                                                               "energy_change", "max_energy_change")})
