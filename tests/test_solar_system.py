@@ -10,6 +10,8 @@ explicit Euler grows). The nightly's standard suite runs the full 2e5 days.
 """
 from __future__ import annotations
 
+import json
+
 import dataclasses
 
 import numpy as np
@@ -182,6 +184,12 @@ STUDY = Suite("solar_test", scenes={"solar_system": SceneSpec(
     cost_repeats=3, cost_steps=2000, series_points=200, stability_steps=100, cell_timeout=120.0,
     bounds=False, identify=False)
 NIGHTLY_METHODS = ("ref:leapfrog", "ref:rk4", "rebound:leapfrog", "rebound:whfast", "rebound:ias15")
+#: The seconds per step the module's cost cells record instead of the clock's (``HARNESS_INJECT_TIMINGS``):
+#: the work-precision and cost-ratio findings are verdicts drawn from timings, so they read these, not
+#: a machine's load. The figures are the ones measured on this project's quiet 2-core machine (REBOUND's
+#: from docs/engines.md, the compiled reference kernels' from a standard nightly).
+INJECTED = {"s_per_step": {"ref:explicit_euler": 1.3e-7, "ref:leapfrog": 4.6e-7, "ref:rk4": 1.72e-6,
+                           "rebound:leapfrog": 1.9e-7, "rebound:whfast": 1.08e-6, "rebound:ias15": 3.3e-5}}
 
 
 @pytest.fixture(scope="module")
@@ -190,8 +198,11 @@ def nightly_cells(tmp_path_factory):
     history = History(tmp / "h.sqlite")
     run_id = history.start_run(started="now", suite="solar_test", git_commit=None, versions={}, machine={},
                                settings={})
+    timings = tmp / "timings.json"
+    timings.write_text(json.dumps(INJECTED))
     with pytest.MonkeyPatch.context() as mp:
         mp.setitem(SUITES, "solar_test", STUDY)
+        mp.setenv("HARNESS_INJECT_TIMINGS", str(timings))
         cells = {m: run_task(Task("cell", "solar_system", m, get_method(m).family, {}, "solar_test"))
                  for m in NIGHTLY_METHODS}
         for rows in cells.values():
@@ -251,10 +262,10 @@ def test_nightly_report_states_the_solar_findings(nightly_cells):
     assert any("`rebound:ias15` keeps max |ΔE/E|" in ln and ln.endswith("✓.") for ln in lines), lines
     assert any("times `rebound:leapfrog`'s" in ln and ln.endswith("✓.") for ln in lines), lines
     assert not any("✗" in ln for ln in lines), lines
-    cost = {m: next(c for c in rows if c.measure == "cost").value for m, rows in cells.items()}
-    # Direction only (timings are noisy): 4 force evaluations against 1; measured 3.6x to 7.7x
-    # across runs on this shared 2-core machine.
-    assert cost["ref:rk4"] > 1.5 * cost["ref:leapfrog"]
+    cost = {m: next(c for c in rows if c.measure == "cost") for m, rows in cells.items()}
+    # The cost cells record the injected seconds per step, and say so.
+    assert {c.figures.clock for c in cost.values()} == {"injected"}
+    assert cost["ref:rk4"].value == pytest.approx(INJECTED["s_per_step"]["ref:rk4"], rel=1e-12)
     assert any("`ref:rk4` takes" in ln for ln in lines)
     assert "`rebound:saba` timed_out" in with_failure
     assert "| `rebound:saba` | solar_system | **timed_out** |" in with_failure and "worker killed after 120 s" in with_failure
