@@ -240,9 +240,9 @@ class EngineMode:
         return True, ""
 
     def supports(self, scene: Scene) -> tuple[bool, str]:
-        if scene.id in self.scenes:
+        if scene.kind in self.scenes:
             return True, ""
-        return False, self.unsupported.get(scene.id, f"{self.id} has no model of scene {scene.id}")
+        return False, self.unsupported.get(scene.kind, f"{self.id} has no model of scene {scene.id}")
 
     def compiled_twin(self) -> "EngineMode":
         """Itself: an engine mode already runs the engine's own loop."""

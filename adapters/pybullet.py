@@ -323,7 +323,7 @@ SCENES = tuple(BUILDERS)
 
 def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> _Bullet:
     """``count`` changes nothing: Bullet's force evaluations cannot be counted."""
-    return BUILDERS[scene.id](pybullet, scene, dt)
+    return BUILDERS[scene.kind](pybullet, scene, dt)
 
 
 METHODS = {

@@ -1,0 +1,212 @@
+"""A model file as a scene (``scenarios/model.py``): bad input refused in one line, the scene's
+identity, features, variants, state and energy, and the truth checks against independent
+numbers (a linear model's stability limits from the generalised eigenvalues of (K, M); the
+unit spring as MJCF against the ``spring`` scene; observed orders on the double pendulum)."""
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pytest
+from scipy.linalg import eigh
+
+mujoco = pytest.importorskip("mujoco")
+
+from records import InvalidInput  # noqa: E402
+from scenarios import ModelScene, make_scene, variant  # noqa: E402
+from scenarios._model_reference import reference_grid  # noqa: E402
+
+from harness.measures.energy import energy_behaviour  # noqa: E402
+from harness.measures.order import observed_order  # noqa: E402
+from harness.measures.stability import largest_stable_dt  # noqa: E402
+from harness.methods import get_method  # noqa: E402
+
+
+def pybullet_data(rel: str) -> str:
+    pb = pytest.importorskip("pybullet_data")
+    return os.path.join(pb.getDataPath(), rel)
+
+
+#: Three nested slide joints along x with springs: M is the (constant) matrix of the summed
+#: masses below each joint, K = diag(stiffness); no gravity, nothing else. Linear exactly.
+LINEAR = """<mujoco model="linear3">
+  <option timestep="0.01" gravity="0 0 0"/>
+  <worldbody>
+    <body name="a"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+      <joint name="xa" type="slide" axis="1 0 0" stiffness="40"/>
+      <body name="b"><inertial pos="0 0 0" mass="0.5" diaginertia="1 1 1"/>
+        <joint name="xb" type="slide" axis="1 0 0" stiffness="90"/>
+        <body name="c"><inertial pos="0 0 0" mass="0.25" diaginertia="1 1 1"/>
+          <joint name="xc" type="slide" axis="1 0 0" stiffness="10"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <keyframe><key qpos="0.01 -0.005 0.002" qvel="0 0 0"/></keyframe>
+</mujoco>
+"""
+
+
+@pytest.fixture
+def linear_file(tmp_path):
+    path = tmp_path / "linear3.xml"
+    path.write_text(LINEAR)
+    return path
+
+
+def omega_max_from_eigenvalues(scene) -> float:
+    """sqrt of the largest generalised eigenvalue of (K, M), M read from MuJoCo (mj_fullM) at
+    the initial state, K the joints' stiffness: independent of the scene's own Jacobian."""
+    m = mujoco.MjModel.from_xml_path(scene.file.path)
+    d = mujoco.MjData(m)
+    d.qpos[:] = scene.initial_state()[0]
+    mujoco.mj_forward(m, d)
+    M = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, M)
+    K = np.diag(m.jnt_stiffness)
+    return float(math.sqrt(eigh(K, M, eigvals_only=True)[-1]))
+
+
+# ------------------------------------------------------------------ bad input
+@pytest.mark.parametrize("content, suffix, says", [
+    (None, ".xml", "no such file"),
+    ("<mujoco><worldbody>", ".xml", "malformed XML"),
+    ("<robot name='r'/>", ".xml", "root element <robot>"),
+    ("<mujoco/>", ".obj", "unknown format"),
+    ("<mujoco><worldbody><body><geom size='.1'/></body></worldbody></mujoco>", ".xml", "no degrees of freedom"),
+    ("""<robot name="r"><link name="base"/><link name="arm"><visual><geometry><mesh filename="nowhere.stl"/>
+        </geometry></visual><collision><geometry><mesh filename="nowhere.stl"/></geometry></collision>
+        <inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+        <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+        <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>""", ".urdf", "nowhere.stl"),
+])
+def test_bad_model_files_are_refused_in_one_line(tmp_path, content, suffix, says):
+    path = tmp_path / f"m{suffix}"
+    if content is not None:
+        path.write_text(content)
+    with pytest.raises(InvalidInput) as info:
+        ModelScene(path)
+    message = str(info.value)
+    assert says in message and "\n" not in message and str(path) in message
+
+
+def test_unknown_variant_and_bad_switch_are_refused(linear_file):
+    scene = ModelScene(linear_file)
+    with pytest.raises(InvalidInput, match="unknown variant 'loose'"):
+        variant(scene, "loose")
+    with pytest.raises(InvalidInput, match="contact=2 is out of range"):
+        ModelScene(linear_file, contact=2)
+
+
+# ------------------------------------------------------------------ identity, features, state
+def test_the_id_is_the_file_name_and_content_hash(tmp_path, linear_file):
+    a = ModelScene(linear_file)
+    assert a.id.startswith("model:linear3.xml@") and len(a.id.split("@")[1]) == 8
+    assert a.kind == "model"
+    linear_file.write_text(LINEAR.replace('stiffness="40"', 'stiffness="41"'))
+    b = ModelScene(linear_file)
+    assert b.id != a.id  # an edited model is a new series
+
+
+def test_features_found_and_switched_off_on_the_double_pendulum():
+    path = pybullet_data("mjcf/inverted_double_pendulum.xml")
+    written = ModelScene(path)
+    assert set(written.found) == {"contact", "damping", "actuators", "limits", "gravity"}
+    assert written.switched_off == []
+    cons = variant(written, "conservative")
+    assert cons.switched_off == ["contact", "damping", "actuators", "limits", "gravity"]
+    m = cons.engine_model()
+    bits = mujoco.mjtDisableBit
+    for bit in (bits.mjDSBL_CONTACT, bits.mjDSBL_ACTUATION, bits.mjDSBL_LIMIT, bits.mjDSBL_GRAVITY):
+        assert m.opt.disableflags & int(bit)
+    assert not np.any(m.dof_damping)
+    # The compiled file itself is untouched: the as-written variant still has its damping.
+    assert np.all(written.engine_model().dof_damping == 0.05)
+
+
+def test_the_initial_state_is_the_keyframe_or_a_seeded_perturbation(linear_file):
+    keyed = ModelScene(linear_file)
+    np.testing.assert_array_equal(keyed.initial_state()[0], [0.01, -0.005, 0.002])
+    path = pybullet_data("mjcf/inverted_double_pendulum.xml")
+    a, b, c = ModelScene(path, seed=3), ModelScene(path, seed=3), ModelScene(path, seed=4)
+    np.testing.assert_array_equal(np.concatenate(a.initial_state()), np.concatenate(b.initial_state()))
+    assert not np.array_equal(np.concatenate(a.initial_state()), np.concatenate(c.initial_state()))
+    assert "seed=3" in a.describe_state()
+
+
+def test_energy_is_computed_from_the_state_itself():
+    """Against MuJoCo's own d.energy after mj_forward on the same state (energy flag on): the
+    same numbers, where d.energy after a step would describe the state before it."""
+    scene = ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml"))
+    m = scene.engine_model()
+    m.opt.enableflags |= int(mujoco.mjtEnableBit.mjENBL_ENERGY)
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(1)
+    qs, vs = rng.normal(size=(5, m.nq)), rng.normal(size=(5, m.nv))
+    expected = []
+    for q, v in zip(qs, vs):
+        d.qpos[:], d.qvel[:] = q, v
+        mujoco.mj_forward(m, d)
+        expected.append(d.energy[0] + d.energy[1])
+    np.testing.assert_allclose(scene.energy(qs, vs), expected, rtol=1e-12)
+
+
+# ------------------------------------------------------------------ reference
+def test_the_reference_states_its_own_error():
+    scene = variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml")), "conservative")
+    grid = reference_grid(scene)
+    assert grid.converged and 0 < grid.error <= 1e-11
+    # Its estimate is an upper bound: the finest level against one more halving.
+    assert len(grid.history) >= 1 and grid.history[-1][1] == grid.error
+
+
+def test_an_error_below_the_reference_is_not_reported_as_a_number():
+    from harness.measures.error import global_error
+
+    scene = variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml"), perturb=0.01), "conservative")
+    res = global_error("mujoco:rk4", scene, 0.01, 100)
+    assert res["reference_error"] > 0 and res["below_reference"]
+    order = observed_order("mujoco:rk4", scene)
+    assert order["order"] is None and order["excluded"]
+    assert all("below the reference's accuracy" in p["reason"] or "roundoff" in p["reason"]
+               for p in order["excluded"])
+
+
+# ------------------------------------------------------------------ truth checks
+def test_omega_is_the_largest_natural_frequency_of_a_linear_model(linear_file):
+    scene = ModelScene(linear_file)
+    assert scene.omega == pytest.approx(omega_max_from_eigenvalues(scene), rel=1e-6)
+
+
+@pytest.mark.parametrize("mode, limit", [("euler", 2.0), ("implicitfast", 2.0), ("rk4", 2.0 * math.sqrt(2.0))])
+def test_linear_model_stability_limit_is_theory_over_omega_max(linear_file, mode, limit):
+    scene = ModelScene(linear_file)
+    w = omega_max_from_eigenvalues(scene)
+    res = largest_stable_dt(get_method(f"mujoco:{mode}"), scene, lo=0.25, hi=16.0, rtol=1e-4)
+    assert res.verdict == "limited"
+    assert res.dt_max == pytest.approx(limit / w, rel=0.01)
+
+
+@pytest.mark.parametrize("mode", ["euler", "rk4"])
+def test_the_unit_spring_as_a_file_gives_the_spring_scenes_figures(mode):
+    """scenarios/data/unit_spring.xml is the spring scene written as MJCF (k = m = x0 = 1, v0 = 0)."""
+    model, spring = make_scene("model"), make_scene("spring")
+    assert model.omega == pytest.approx(1.0, rel=1e-9)
+    method = get_method(f"mujoco:{mode}")
+    a = largest_stable_dt(method, model, lo=0.25, hi=16.0, rtol=1e-4)
+    b = largest_stable_dt(method, spring, lo=0.25, hi=16.0, rtol=1e-4)
+    assert a.omega_dt_max == pytest.approx(b.omega_dt_max, rel=1e-3)
+    oa, ob = observed_order(method, model), observed_order(method, spring)
+    assert oa["order"] == pytest.approx(ob["order"], abs=0.01)
+    ea = energy_behaviour(method, model, 0.1, 2000)
+    eb = energy_behaviour(method, spring, 0.1, 2000)
+    assert ea["classification"] == eb["classification"]
+    assert ea["max_rel_error"] == pytest.approx(eb["max_rel_error"], rel=1e-9)
+
+
+@pytest.mark.parametrize("mode, order", [("euler", 1.0), ("implicitfast", 1.0), ("rk4", 4.0)])
+def test_observed_orders_on_the_conservative_double_pendulum(mode, order):
+    scene = variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml")), "conservative")
+    res = observed_order(f"mujoco:{mode}", scene)
+    assert res["order"] == pytest.approx(order, abs=0.1)
