@@ -24,7 +24,15 @@ SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
 FILE_SCENES: dict[str, type[Scene]] = {ModelScene.id: ModelScene}
 
 
-def make_scene(scene_id: str, **overrides) -> Scene:
+def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
+    """The scene ``scene_id`` with these parameters; ``source``: the file of a scene built from
+    one (a model file), whose id must still be ``scene_id`` (the file unchanged)."""
+    if source is not None:
+        scene = ModelScene(source, **overrides)
+        if scene.id != scene_id:
+            raise InvalidInput(f"model file {source!r} is now {scene.id}, not {scene_id}: it changed since the "
+                               "run was planned")
+        return scene
     if scene_id in FILE_SCENES:
         return FILE_SCENES[scene_id](**overrides)
     try:

@@ -223,7 +223,7 @@ class ModelScene(Scene):
             path = DEFAULT_FILE
         self.file = path if isinstance(path, ModelFile) else read_model_file(path)
         super().__init__(**overrides)
-        self.id = f"model:{self.file.name}@{self.file.sha8}"
+        self.id = f"model:{self.file.name}@{self.file.sha8}{variant_suffix(self.values)}"
         written = compile_model(self.file)
         self.found = features_found(written)
         self._m = self._d = None
@@ -405,9 +405,22 @@ def _copy_model(m):
     return copy.copy(m)
 
 
-def variant(scene: ModelScene, name: str) -> ModelScene:
-    """The scene's file as the variant ``name`` (``VARIANTS``), the seed and perturbation kept."""
+def variant_suffix(values: dict) -> str:
+    """What a scene id adds for its variant: nothing as written, ``~conservative`` with every
+    feature off, else ``~off:`` and the features switched off."""
+    off = [name for name in FEATURES if values[name] == 0]
+    if not off:
+        return ""
+    return "~conservative" if len(off) == len(FEATURES) else "~off:" + "+".join(off)
+
+
+def variant(scene: ModelScene, name: str, keep=()) -> ModelScene:
+    """The scene's file as the variant ``name`` (``VARIANTS``), the seed and perturbation kept;
+    ``keep``: features the conservative variant leaves on."""
     if name not in VARIANTS:
         raise InvalidInput(f"unknown variant {name!r} (valid: {', '.join(VARIANTS)})")
-    values = {**scene.values, **{f: VARIANTS[name] for f in FEATURES}}
+    for f in keep:
+        if f not in FEATURES:
+            raise InvalidInput(f"unknown feature {f!r} (valid: {', '.join(FEATURES)})")
+    values = {**scene.values, **{f: 1 if f in keep else VARIANTS[name] for f in FEATURES}}
     return scene.copy_with(**values)

@@ -4,6 +4,7 @@ numbers (a linear model's stability limits from the generalised eigenvalues of (
 unit spring as MJCF against the ``spring`` scene; observed orders on the double pendulum)."""
 from __future__ import annotations
 
+import json
 import math
 import os
 
@@ -210,3 +211,60 @@ def test_observed_orders_on_the_conservative_double_pendulum(mode, order):
     scene = variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml")), "conservative")
     res = observed_order(f"mujoco:{mode}", scene)
     assert res["order"] == pytest.approx(order, abs=0.1)
+
+
+# ------------------------------------------------------------------ harness model
+def cli(*argv):
+    import io
+    from contextlib import redirect_stderr, redirect_stdout
+
+    from harness.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        try:
+            code = main(list(argv))
+        except SystemExit as exc:
+            code = exc.code
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.mark.parametrize("content, says", [
+    (None, "no such file"), ("<mujoco><worldbody>", "malformed XML"),
+    ("<mujoco><worldbody><body><geom size='.1'/></body></worldbody></mujoco>", "no degrees of freedom"),
+])
+def test_harness_model_refuses_bad_files_in_one_line_exit_2(tmp_path, content, says):
+    path = tmp_path / "bad.xml"
+    if content is not None:
+        path.write_text(content)
+    code, out, err = cli("model", str(path), "--out", str(tmp_path / "out"))
+    assert code == 2 and out == ""
+    assert says in err and err.count("\n") == 1 and "Traceback" not in err
+    assert not (tmp_path / "out").exists()  # refused before anything ran or was written
+
+
+@pytest.mark.parametrize("flag, value, says", [("--variant", "loose", "unknown --variant 'loose'"),
+                                               ("--keep", "wind", "unknown --keep 'wind'"),
+                                               ("--hz", "-1", "--hz=-1 is out of range")])
+def test_harness_model_refuses_bad_flags(tmp_path, linear_file, flag, value, says):
+    code, _, err = cli("model", str(linear_file), flag, value, "--out", str(tmp_path / "out"))
+    assert code == 2 and says in err and err.count("\n") == 1
+
+
+def test_harness_model_on_the_unit_spring_file(tmp_path):
+    """Every MuJoCo mode, both variants, the report written; the figures are the cells'."""
+    from scenarios.model import DEFAULT_FILE
+
+    out = tmp_path / "out"
+    code, text, _ = cli("model", DEFAULT_FILE, "--out", str(out), "--hz", "0", "--jobs", "1")
+    assert code == 0
+    assert "perturbs an integrator: nothing found" in text
+    assert "initial state: the model's first keyframe" in text
+    for mode in ("euler", "rk4", "implicit", "implicitfast", "discrete"):
+        assert f"| `mujoco:{mode}` | ok |" in text
+    assert (out / "report.md").is_file() and any((out / "charts").glob("*stability.png"))
+    code, js, _ = cli("model", DEFAULT_FILE, "--out", str(out), "--hz", "0", "--json", "--variant", "conservative")
+    data = json.loads(js)
+    stab = {c["method"]: c["value"] for c in data["cells"] if c["measure"] == "stability"}
+    assert stab["mujoco:euler"] == pytest.approx(2.0, rel=2e-3)  # the spring scene's 2 (h*omega)
+    assert stab["mujoco:rk4"] == pytest.approx(2 * math.sqrt(2), rel=2e-3)

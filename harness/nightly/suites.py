@@ -53,6 +53,7 @@ class SceneSpec:
     stability_steps: int | None = None  # the finite horizon's steps on this scene (None: the suite's)
     advise: dict | None = None     # the advice at the suite's frame rates (harness.measures.advise.Request fields
                                    # but hz: horizon, energy_tol, error_tol, max_substeps); None: none
+    source: str | None = None      # the file of a scene built from one (a model file: ``model_specs``)
 
 
 @dataclass(frozen=True)
