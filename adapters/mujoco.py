@@ -292,6 +292,17 @@ class _Model(EngineModel):
             return None
         return states[0]
 
+    def anatomy(self) -> dict:
+        """MuJoCo's coordinates (qpos, qvel): body masses summed, mj_fullM, each hinge or slide
+        joint's world axis (d.xaxis)."""
+        mj, m, d = self.mj, self.m, self.d
+        mj.mj_forward(m, d)
+        full = np.zeros((m.nv, m.nv))
+        mj.mj_fullM(m, d, full)
+        axes = [d.xaxis[j].tolist() for j in range(m.njnt)
+                if int(m.jnt_type[j]) in (int(mj.mjtJoint.mjJNT_HINGE), int(mj.mjtJoint.mjJNT_SLIDE))]
+        return {"total_mass": float(np.sum(m.body_mass)), "mass_matrix": full.tolist(), "joint_axes": axes}
+
     def evaluations(self):
         return (int(self.d.timer[self._forward].number) - self._forward_at_build,
                 "MuJoCo forward passes (d.timer[mjTIMER_FORWARD])")

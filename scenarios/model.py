@@ -190,10 +190,10 @@ def coordinate_names(m) -> tuple[str, ...]:
     names = []
     for j in range(m.njnt):
         base = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
-        kind = m.jnt_type[j]
-        if kind == mujoco.mjtJoint.mjJNT_FREE:
+        kind = int(m.jnt_type[j])
+        if kind == int(mujoco.mjtJoint.mjJNT_FREE):
             names += [f"{base}.{c}" for c in ("x", "y", "z", "qw", "qx", "qy", "qz")]
-        elif kind == mujoco.mjtJoint.mjJNT_BALL:
+        elif kind == int(mujoco.mjtJoint.mjJNT_BALL):
             names += [f"{base}.{c}" for c in ("qw", "qx", "qy", "qz")]
         else:
             names.append(base)
@@ -281,7 +281,8 @@ class ModelScene(Scene):
         q = m.qpos0.copy()
         mujoco.mj_integratePos(m, q, dq, 1.0)
         for j in range(m.njnt):
-            if m.jnt_limited[j] and m.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+            if m.jnt_limited[j] and int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE),
+                                                           int(mujoco.mjtJoint.mjJNT_SLIDE)):
                 lo, hi = m.jnt_range[j]
                 a = m.jnt_qposadr[j]
                 q[a] = min(max(q[a], lo + 0.1 * (hi - lo)), hi - 0.1 * (hi - lo))

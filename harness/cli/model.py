@@ -47,6 +47,7 @@ def _request(args) -> tuple[tuple[float, ...], dict | None]:
 
 
 def run(args) -> int:
+    from harness.measures.cross_engine import cross_engine
     from harness.nightly.models import model_scenes, model_suite
     from harness.nightly.run import run_nightly
 
@@ -67,15 +68,20 @@ def run(args) -> int:
         from harness.history.storage import History
 
         cells = History(db).cell_records(result["run_id"])
+    unloaded = {s.id: suite.scenes[s.id].cannot_load for s in scenes}
+    compared = [cross_engine(s) for s in scenes if s.conservative and not unloaded[s.id]]
     if args.json:
         from harness.measures.frames import jsonable
 
         print(json.dumps(jsonable({"model": scenes[0].describe(), "variants": [s.describe() for s in scenes],
+                                   "cannot_load": unloaded, "cross_engine": [c.as_dict() for c in compared],
                                    "report": str(result["report"]), "wall_s": result["timing"]["total_s"],
                                    "cells": [c.to_row() for c in cells]}), indent=1, default=str))
         return 0
     for line in header_lines(scenes):
         print(line)
+    for engine, why in next(iter(unloaded.values())).items():
+        print(f"{engine} cannot load it: {why}")
     from records.cell import pivot
     from reports.markdown import scene_section
     from reports.advice_section import advice_section
@@ -86,11 +92,26 @@ def run(args) -> int:
         print()
     for h in hz:
         print("\n".join(advice_section(cells, h, {})))
+    for c in compared:
+        for line in cross_engine_lines(c):
+            print(line)
     failed = [c for c in cells if c.status in ("crashed", "timed_out")]
     for c in failed:
         print(f"{c.method} on {c.scene}: {c.measure} {c.status}: {c.detail}")
     print(f"report: {result['report']} ({result['timing']['total_s']:.1f} s)")
     return 0
+
+
+def cross_engine_lines(c) -> list[str]:
+    a, b = c.methods
+    if c.difference is None:
+        return [f"{a} and {b} on {c.scene}: not compared ({c.detail})"]
+    head = (f"{a} and {b} on {c.scene}, {c.steps} steps of {c.dt:g} s from the same state: they differ by "
+            f"{c.difference:.3g} (relative); their own discretisation errors {c.errors[0]:.2g} and {c.errors[1]:.2g}, "
+            f"the reference's {c.reference_error:.2g}: ")
+    if not c.disagree:
+        return [head + "they agree within those"]
+    return [head + "they disagree beyond them. What each engine built differs:"] + [f"  {d}" for d in c.differences]
 
 
 def header_lines(scenes) -> list[str]:

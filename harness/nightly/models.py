@@ -43,17 +43,47 @@ def model_scenes(path, variants=tuple(VARIANTS), keep=(), **params) -> list[Mode
     return [variant(base, name, keep) for name in variants]
 
 
+def _loads_in_worker(method_id: str, scene: ModelScene) -> str:
+    from harness.methods import get_method
+
+    try:
+        get_method(method_id).anatomy(scene, scene.own_timestep)
+    except Exception as exc:  # the engine's own error, whatever its type: one line says why
+        return " ".join((str(exc) or type(exc).__name__).split())
+    return ""
+
+
+def cannot_load(scene: ModelScene) -> dict[str, str]:
+    """{engine: why} for each engine of MODEL_ENGINES that cannot build the scene (its loader's own
+    message), each tried in a worker process: a loader that crashes costs nothing but its line."""
+    from harness.execution import isolation
+    from harness.methods import all_methods
+
+    out = {}
+    for engine in MODEL_ENGINES:
+        mode = next((m for mid, m in all_methods().items() if mid.startswith(f"{engine}:")), None)
+        if mode is None or not mode.available()[0]:
+            continue
+        why = isolation.run_in_worker(_loads_in_worker, (mode.id, scene), timeout=120.0)
+        if isinstance(why, isolation.WorkerFailure):
+            why = f"the loader {why.status}: {why.detail}"
+        if why:
+            out[engine] = why
+    return out
+
+
 def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep=(),
                 **params) -> dict[str, SceneSpec]:
     """{scene id: its spec} for the file's variants. ``advise`` (Request fields but hz) asks for
-    the advice on the conservative variant."""
+    the advice on the conservative variant. Each engine's loader is tried first (``cannot_load``)."""
     specs = {}
     for scene in model_scenes(path, variants, keep, **params):
         dt = scene.own_timestep
         specs[scene.id] = SceneSpec(
             params=dict(scene.values), dt=dt, horizon=dt * MODEL_ENERGY_STEPS,
             stability_hi=dt * scene.omega * MODEL_STABILITY_FACTOR, stability_steps=MODEL_STABILITY_STEPS,
-            advise=advise if advise is not None and scene.conservative else None, source=scene.file.path)
+            advise=advise if advise is not None and scene.conservative else None, source=scene.file.path,
+            cannot_load=cannot_load(scene))
     return specs
 
 

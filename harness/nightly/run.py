@@ -86,6 +86,10 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
         scene = make_scene(scene_id, source=spec.source, **spec.params)
         for mid in chosen:
             m = methods[mid]
+            if m.family in spec.cannot_load:
+                skipped.append({"scene": scene_id, "method": mid,
+                                "reason": f"{m.family} cannot load the file: {spec.cannot_load[m.family]}"})
+                continue
             if mid in spec.skip:
                 skipped.append({"scene": scene_id, "method": mid, "reason": f"left out on {scene_id} in the "
                                 f"{suite.name} suite (harness/suites.py)"})

@@ -54,6 +54,7 @@ class SceneSpec:
     advise: dict | None = None     # the advice at the suite's frame rates (harness.measures.advise.Request fields
                                    # but hz: horizon, energy_tol, error_tol, max_substeps); None: none
     source: str | None = None      # the file of a scene built from one (a model file: ``model_specs``)
+    cannot_load: dict = field(default_factory=dict)  # engine -> why it cannot load the file (its own message)
 
 
 @dataclass(frozen=True)
