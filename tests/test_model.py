@@ -268,3 +268,101 @@ def test_harness_model_on_the_unit_spring_file(tmp_path):
     stab = {c["method"]: c["value"] for c in data["cells"] if c["measure"] == "stability"}
     assert stab["mujoco:euler"] == pytest.approx(2.0, rel=2e-3)  # the spring scene's 2 (h*omega)
     assert stab["mujoco:rk4"] == pytest.approx(2 * math.sqrt(2), rel=2e-3)
+
+
+# ------------------------------------------------------------------ the nightly
+def _models_suite(paths):
+    from harness.nightly.models import with_models
+    from harness.nightly.suites import Suite
+
+    base = Suite("models-test", {}, methods=("mujoco:euler", "mujoco:rk4", "pybullet:semi_implicit"),
+                 bounds=False, identify=False, cost_repeats=2, cost_steps=2000, stability_steps=200)
+    suite = with_models(base, paths)
+    # The engine modes of this test only (with_models gives a model every engine mode).
+    import dataclasses
+
+    return dataclasses.replace(suite, scenes={k: dataclasses.replace(v, methods=base.methods)
+                                              for k, v in suite.scenes.items()})
+
+
+def test_the_nightly_stores_reports_and_trends_two_model_files(tmp_path):
+    """Two files (an MJCF written here, pybullet_data's cartpole URDF), three runs: the model cells
+    are stored under the files' hashed ids, reported, compared run to run with no regression; an
+    edited file is a new series, never a regression of the old one."""
+    from harness.history.storage import History
+    from harness.nightly.run import run_nightly
+
+    spring = tmp_path / "spring.xml"
+    spring.write_text(open(os.path.join(os.path.dirname(__file__), "..", "scenarios", "data",
+                                        "unit_spring.xml")).read())
+    cart = pybullet_data("cartpole.urdf")
+    db, out = tmp_path / "h.sqlite", tmp_path / "out"
+    first = run_nightly(_models_suite([spring, cart]), out, db, jobs=2)
+    second = run_nightly(_models_suite([spring, cart]), out, db, jobs=2)
+    assert second["previous"] == first["run_id"] and second["regressions"] == []
+    cells = History(db).cells(second["run_id"])
+    scenes = set(cells.scene)
+    ids = {ModelScene(spring).id, ModelScene(cart).id}
+    assert ids <= scenes and {f"{i}~conservative" for i in ids} <= scenes
+    assert set(cells[cells.scene == ModelScene(cart).id].method) == {"mujoco:euler", "mujoco:rk4",
+                                                                      "pybullet:semi_implicit"}
+    report = (out / "report.md").read_text()
+    assert f"### `{ModelScene(cart).id}`" in report
+    spring.write_text(spring.read_text().replace('stiffness="1"', 'stiffness="4"'))
+    third = run_nightly(_models_suite([spring, cart]), out, db, jobs=2)
+    assert third["regressions"] == []  # the edited spring is a new series (its stability limit moved by 2x)
+    new_id = ModelScene(spring).id
+    assert new_id not in ids and new_id in set(History(db).cells(third["run_id"]).scene)
+
+
+def test_a_failed_model_run_touches_nothing_stored(tmp_path):
+    db = tmp_path / "h.sqlite"
+    db.write_bytes(b"")  # an existing history file, whatever it holds, must not change
+    before = db.stat().st_mtime_ns
+    code, _, err = cli("nightly", "--suite", "smoke", "--db", str(db), "--out", str(tmp_path / "out"),
+                       "--model", str(tmp_path / "missing.xml"))
+    assert code == 2 and "no such file" in err and err.count("\n") == 1
+    assert db.stat().st_mtime_ns == before and db.read_bytes() == b"" and not (tmp_path / "out").exists()
+
+
+def test_pyproject_lists_the_nightly_models(tmp_path):
+    from harness.nightly.models import configured_models
+
+    (tmp_path / "pyproject.toml").write_text('[tool.harness]\nmodels = ["robots/arm.urdf"]\n')
+    assert configured_models(tmp_path / "pyproject.toml") == [str(tmp_path / "robots" / "arm.urdf")]
+    (tmp_path / "pyproject.toml").write_text('[tool.harness]\nmodels = "arm.urdf"\n')
+    with pytest.raises(InvalidInput, match="models must be a list"):
+        configured_models(tmp_path / "pyproject.toml")
+
+
+# ------------------------------------------------------------------ pybullet and the cross-engine comparison
+def test_pybullet_runs_a_model_with_its_defaults_off_and_recorded():
+    scene = variant(ModelScene(pybullet_data("kuka_iiwa/model.urdf")), "conservative")
+    traj = get_method("pybullet:semi_implicit").simulate(scene, scene.own_timestep, 500, 100)
+    s = traj.meta.settings
+    assert traj.ok and s["jointDamping"] == [0.0] * 7 and s["jointDamping_read_from_file"] == [0.5] * 7
+    assert s["maxJointVelocity"] == "inf" and s["linearDamping"] == 0 and s["gravity"] == [0.0, 0.0, 0.0]
+    assert "URDF_USE_INERTIA_FROM_FILE" in s["loaded"]
+    # Damping really off (a call of its own): semi-implicit Euler keeps the energy within 1e-3 here.
+    e = traj.energy[:, 0]
+    assert np.max(np.abs(e - e[0])) / e[0] < 1e-3
+
+
+def test_an_engine_that_cannot_load_the_file_says_why_in_one_line():
+    from harness.nightly.models import cannot_load
+
+    why = cannot_load(make_scene("model"))  # the unit spring: a joint spring Bullet's loaders do not read
+    assert set(why) == {"pybullet"} and "stiffness" in why["pybullet"] and "\n" not in why["pybullet"]
+
+
+def test_cross_engine_agreement_and_what_differs():
+    from harness.measures.cross_engine import cross_engine
+
+    cart = cross_engine(variant(ModelScene(pybullet_data("cartpole.urdf")), "conservative"))
+    assert cart.disagree is False and cart.difference <= cart.errors[0] + cart.errors[1]
+    pend = cross_engine(variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml")), "conservative"))
+    assert pend.disagree is True
+    # The two built models, read independently: MuJoCo's mj_fullM against Bullet's calculateMassMatrix.
+    mj, pb = (np.array(a["mass_matrix"]) for a in pend.anatomies)
+    assert not np.allclose(mj, pb, rtol=1e-6)
+    assert any(d.startswith("mass matrix at the initial state") for d in pend.differences)
