@@ -333,9 +333,9 @@ class _ModelFile(SteppedModel):
         m = scene.engine_model()
         if m.nq != m.nv:
             raise ValueError("pybullet: a free or ball joint's quaternion is not mapped to Bullet's base state")
-        if np.any(m.jnt_stiffness) or m.ntendon:
-            raise ValueError("pybullet: Bullet's loaders read no joint springs (stiffness) or tendons, which the "
-                             "file has: its model would be another model")
+        if m.ntendon and (np.any(m.tendon_stiffness) or np.any(m.tendon_damping) or np.any(m.tendon_limited)):
+            raise ValueError("pybullet: Bullet has no tendons, and the file's tendons exert forces (stiffness, "
+                             "damping or limits): its model would be another model")
         path, off = scene.file.path, set(scene.switched_off)
         if scene.file.kind == "URDF":
             bodies = [p.loadURDF(path, useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)]
@@ -373,6 +373,11 @@ class _ModelFile(SteppedModel):
             raise ValueError(f"pybullet's model of the file has no joint named {missing[0]!r} "
                              f"({len(names)} movable joints, MuJoCo's {m.nv})")
         self.joints = [names[n] for n in scene.dof_names]
+        # Bullet's loaders read no joint stiffness: each spring is a torque -k (q - q_spring)
+        # applied from Python before every step (TORQUE_CONTROL, the velocity motors at zero force).
+        jnt = [int(m.dof_jntid[i]) for i in range(m.nv)]
+        self.springs = [(self.joints[i], float(m.jnt_stiffness[jnt[i]]), float(m.qpos_spring[m.jnt_qposadr[jnt[i]]]))
+                        for i in range(m.nv) if m.jnt_stiffness[jnt[i]] != 0.0]
         self.set_state(*scene.initial_state())
         infos = [p.getJointInfo(b, j, physicsClientId=cid) for b, j in self.joints]
         self.settings = {
@@ -386,7 +391,10 @@ class _ModelFile(SteppedModel):
             "limits": "none" if "limits" in off else [[float(i[8]), float(i[9])] for i in infos],
             "contact": "filtered out (group 0, mask 0)" if "contact" in off else "Bullet's",
             "not_modelled_by_bullet": [f for f in ("actuators", "equality", "armature") if f in scene.found],
-            "engine_loop": "stepSimulation only, between output points"}
+            "joint_springs": (f"{len(self.springs)} applied from Python before each step: TORQUE_CONTROL torque "
+                              "-k (q - q_spring), k and q_spring as MuJoCo compiled them") if self.springs else "none",
+            "engine_loop": ("joint springs' torques applied from Python, then stepSimulation, every step"
+                            if self.springs else "stepSimulation only, between output points")}
 
     def set_state(self, q, v) -> None:
         for (b, j), x, u in zip(self.joints, q, v):
@@ -397,9 +405,17 @@ class _ModelFile(SteppedModel):
         return np.array([x for x, _ in s]), np.array([u for _, u in s])
 
     def advance(self) -> None:
-        self.p.stepSimulation(physicsClientId=self.cid)
+        p, cid = self.p, self.cid
+        for (b, j), k, ref in self.springs:
+            q = p.getJointState(b, j, physicsClientId=cid)[0]
+            p.setJointMotorControl2(b, j, p.TORQUE_CONTROL, force=-k * (q - ref), physicsClientId=cid)
+        p.stepSimulation(physicsClientId=cid)
 
     def steps(self, n: int) -> None:
+        if self.springs:
+            for _ in range(n):
+                self.advance()
+            return
         step, cid = self.p.stepSimulation, self.cid
         for _ in range(n):
             step(physicsClientId=cid)

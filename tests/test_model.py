@@ -348,11 +348,25 @@ def test_pybullet_runs_a_model_with_its_defaults_off_and_recorded():
     assert np.max(np.abs(e - e[0])) / e[0] < 1e-3
 
 
-def test_an_engine_that_cannot_load_the_file_says_why_in_one_line():
+def test_an_engine_that_cannot_load_the_file_says_why_in_one_line(tmp_path):
     from harness.nightly.models import cannot_load
 
-    why = cannot_load(make_scene("model"))  # the unit spring: a joint spring Bullet's loaders do not read
-    assert set(why) == {"pybullet"} and "stiffness" in why["pybullet"] and "\n" not in why["pybullet"]
+    path = tmp_path / "tendon.xml"  # two slides coupled by a tendon spring: Bullet has no tendons
+    path.write_text(LINEAR.replace("</worldbody>", '</worldbody><tendon><fixed stiffness="5"><joint joint="xa" '
+                                   'coef="1"/><joint joint="xc" coef="-1"/></fixed></tendon>'))
+    why = cannot_load(ModelScene(path))
+    assert set(why) == {"pybullet"} and "tendons" in why["pybullet"] and "\n" not in why["pybullet"]
+    assert cannot_load(make_scene("model")) == {}  # a joint spring Bullet applies as a torque from Python
+
+
+def test_pybullet_applies_the_files_joint_springs_as_mujoco_integrates_them():
+    """The unit spring file: Bullet (the spring a TORQUE_CONTROL torque from Python) and MuJoCo's
+    Euler are both semi-implicit Euler on m x'' = -k x: the same trajectory to roundoff."""
+    scene = make_scene("model")
+    a = get_method("pybullet:semi_implicit").simulate(scene, 0.1, 1000, 100)
+    b = get_method("mujoco:euler").simulate(scene, 0.1, 1000, 100)
+    assert a.ok and b.ok
+    np.testing.assert_allclose(a.q, b.q, atol=1e-12)
 
 
 def test_cross_engine_agreement_and_what_differs():
@@ -366,3 +380,25 @@ def test_cross_engine_agreement_and_what_differs():
     mj, pb = (np.array(a["mass_matrix"]) for a in pend.anatomies)
     assert not np.allclose(mj, pb, rtol=1e-6)
     assert any(d.startswith("mass matrix at the initial state") for d in pend.differences)
+
+
+def test_a_model_unstable_at_its_own_timestep_is_a_recorded_result(tmp_path):
+    """k = 1e6 at the file's dt = 0.01: h*omega = 10, past every explicit limit. The energy run
+    ends ``unstable`` where it blew up, and the stability cell's limit lies below the nominal step."""
+    from harness.history.storage import History
+    from harness.nightly.run import run_nightly
+
+    stiff = tmp_path / "stiff.xml"
+    stiff.write_text(open(os.path.join(os.path.dirname(__file__), "..", "scenarios", "data", "unit_spring.xml"))
+                     .read().replace('stiffness="1"', 'stiffness="1e6"'))
+    res = run_nightly(_models_suite([stiff]), tmp_path / "out", tmp_path / "h.sqlite", jobs=2)
+    cells = History(tmp_path / "h.sqlite").cell_records(res["run_id"])
+    sid = ModelScene(stiff).id
+    energy = {c.method: c for c in cells if c.scene == sid and c.measure == "energy"}
+    stab = {c.method: c for c in cells if c.scene == sid and c.measure == "stability"}
+    for mode in ("mujoco:euler", "pybullet:semi_implicit"):
+        assert energy[mode].status == "unstable" and energy[mode].figures.failed_step is not None
+        # h*omega 2 (semi-implicit Euler), below the nominal 10; to 0.5%: the energy criterion (1e3 x)
+        # is met a little below 2, where the bounded swing 1/(1 - (h omega / 2)^2) passes 1e3
+        assert stab[mode].value == pytest.approx(2.0, rel=5e-3)
+    assert energy["mujoco:rk4"].status == "unstable"
