@@ -7,7 +7,7 @@ from .scene import Param, Scene, no_solve, no_velocity_dependence
 from .chain import Chain
 from .damped_spring import DampedSpring
 from .kepler import Kepler
-from .model import FEATURES, VARIANTS, ModelScene, read_model_file, variant
+from .model import FEATURES, SUFFIXES, VARIANTS, ModelScene, read_model_file, variant
 from .pendulum import Pendulum
 from .projectile import Projectile
 from .rope import Rope
@@ -35,6 +35,8 @@ def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
         return scene
     if scene_id in FILE_SCENES:
         return FILE_SCENES[scene_id](**overrides)
+    if scene_id.lower().endswith(tuple(SUFFIXES)):  # a model file's path: every command takes one
+        return ModelScene(scene_id, **overrides)
     try:
         cls = SCENES[scene_id]
     except KeyError:

@@ -402,3 +402,14 @@ def test_a_model_unstable_at_its_own_timestep_is_a_recorded_result(tmp_path):
         # is met a little below 2, where the bounded swing 1/(1 - (h omega / 2)^2) passes 1e3
         assert stab[mode].value == pytest.approx(2.0, rel=5e-3)
     assert energy["mujoco:rk4"].status == "unstable"
+
+
+def test_every_measure_command_takes_a_model_file():
+    from scenarios.model import DEFAULT_FILE
+
+    code, out, _ = cli("energy", DEFAULT_FILE, "--method", "mujoco:rk4", "--dt", "0.1", "--steps", "100", "--json")
+    assert code == 0
+    res = json.loads(out)
+    assert res["scene"] == make_scene("model").id and res["status"] == "ok"
+    code, _, err = cli("energy", DEFAULT_FILE, "--method", "ref:rk4", "--dt", "0.1", "--steps", "10")
+    assert code == 2 and "no force kernel" in err

@@ -131,7 +131,9 @@ def configured_models(pyproject: Path | str = "pyproject.toml") -> list[str]:
         data = tomllib.loads(pyproject.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise InvalidInput(f"{pyproject}: [tool.harness] cannot be read ({exc})") from None
-    models = data.get("tool", {}).get("harness", {}).get("models", [])
+    tool = data["tool"] if "tool" in data else {}
+    section = tool["harness"] if "harness" in tool else {}
+    models = section["models"] if "models" in section else []
     if not isinstance(models, list) or not all(isinstance(m, str) for m in models):
         raise InvalidInput(f"{pyproject}: [tool.harness] models must be a list of file paths (got {models!r})")
     return [os.path.join(pyproject.parent, m) for m in models]
