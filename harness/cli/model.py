@@ -47,7 +47,6 @@ def _request(args) -> tuple[tuple[float, ...], dict | None]:
 
 
 def run(args) -> int:
-    from harness.measures.cross_engine import cross_engine
     from harness.nightly.models import model_scenes, model_suite
     from harness.nightly.run import run_nightly
 
@@ -69,7 +68,12 @@ def run(args) -> int:
 
         cells = History(db).cell_records(result["run_id"])
     unloaded = {s.id: suite.scenes[s.id].cannot_load for s in scenes}
-    compared = [cross_engine(s) for s in scenes if s.conservative and not unloaded[s.id]]
+    compared = [_compared(s) for s in scenes if s.conservative and not unloaded[s.id]]
+    extra = [f"- {engine} cannot load `{s.id}`: {why}" for s in scenes for engine, why in unloaded[s.id].items()]
+    extra += [f"- {line}" for c in compared for line in cross_engine_lines(c)]
+    if extra:  # the report gains what the nightly's cells do not hold: the loaders' refusals, the engines compared
+        with open(result["report"], "a") as fh:
+            fh.write("\n## Model: the engines\n\n" + "\n".join(extra) + "\n")
     if args.json:
         from harness.measures.frames import jsonable
 
@@ -78,7 +82,7 @@ def run(args) -> int:
                                    "report": str(result["report"]), "wall_s": result["timing"]["total_s"],
                                    "cells": [c.to_row() for c in cells]}), indent=1, default=str))
         return 0
-    for line in header_lines(scenes):
+    for line in header_lines(scenes, cells):
         print(line)
     for engine, why in next(iter(unloaded.values())).items():
         print(f"{engine} cannot load it: {why}")
@@ -102,6 +106,18 @@ def run(args) -> int:
     return 0
 
 
+def _compared(scene):
+    """``cross_engine`` on ``scene`` in a worker process (its runs, reference and anatomies with it)."""
+    from harness.execution import isolation
+    from harness.measures.cross_engine import CrossEngineResult, cross_engine
+
+    out = isolation.run_in_worker(cross_engine, (scene,), timeout=600.0)
+    if isinstance(out, isolation.WorkerFailure):
+        return CrossEngineResult(scene.id, dict(scene.values), ["mujoco:euler", "pybullet:semi_implicit"],
+                                 scene.own_timestep, 0, [out.status], detail=f"{out.status}: {out.detail}")
+    return out
+
+
 def cross_engine_lines(c) -> list[str]:
     a, b = c.methods
     if c.difference is None:
@@ -114,20 +130,22 @@ def cross_engine_lines(c) -> list[str]:
     return [head + "they disagree beyond them. What each engine built differs:"] + [f"  {d}" for d in c.differences]
 
 
-def header_lines(scenes) -> list[str]:
+def header_lines(scenes, cells) -> list[str]:
     first = scenes[0]
     found = first.found
     lines = [f"model {first.file.path} ({first.file.kind}, sha256 {first.file.sha256[:16]}...): "
              f"{first.nv} dof, own timestep {first.own_timestep:g} s",
              "perturbs an integrator: " + ("; ".join(f"{k} ({v})" for k, v in found.items()) or "nothing found")]
     for s in scenes:
-        from scenarios._model_reference import reference_grid
-
-        grid = reference_grid(s)
         off = ", ".join(s.switched_off) or "nothing"
+        # The reference's own error, as the error cells of this run recorded it (computed in the workers).
+        ref = sorted({c.figures.reference_error for c in cells if c.scene == s.id and c.measure == "error"
+                      and c.status == "ok" and c.figures.reference_error is not None})
+        said = f"estimated error {ref[0]:.2g}" if ref else "not reached (no error cell finished)"
         lines += [f"{s.id}: switched off {off}; omega {s.omega:.4g} rad/s (nominal h*omega "
                   f"{s.own_timestep * s.omega:.3g})",
                   f"  initial state: {s.describe_state()}",
-                  f"  reference over {grid.T:.3g} s (one period): {grid.describe()}"]
+                  f"  reference: MuJoCo RK4 over one period ({s.reference_horizon:.3g} s), its step halved until two "
+                  f"halvings agree to 1e-11: {said}"]
     return lines
 
