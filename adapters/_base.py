@@ -95,6 +95,12 @@ class EngineModel:
         """(force evaluations since the model was built, what was counted), or (None, why not)."""
         return None, "the engine mode does not count them"
 
+    def anatomy(self) -> dict | None:
+        """What the engine built, at the model's current state, where it says: ``total_mass``,
+        ``mass_matrix`` (generalised, the scene's coordinates) and ``joint_axes`` (world frame,
+        one per coordinate); None where it does not (what a cross-engine comparison reads)."""
+        return None
+
     def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
         """Only where ``settable``."""
         raise NotImplementedError(f"{type(self).__name__} cannot be set to a state (settable is False)")
@@ -240,9 +246,9 @@ class EngineMode:
         return True, ""
 
     def supports(self, scene: Scene) -> tuple[bool, str]:
-        if scene.id in self.scenes:
+        if scene.kind in self.scenes:
             return True, ""
-        return False, self.unsupported.get(scene.id, f"{self.id} has no model of scene {scene.id}")
+        return False, self.unsupported.get(scene.kind, f"{self.id} has no model of scene {scene.id}")
 
     def compiled_twin(self) -> "EngineMode":
         """Itself: an engine mode already runs the engine's own loop."""
@@ -346,6 +352,15 @@ class EngineMode:
                 else:
                     out.append((np.concatenate([q, v]), ""))
             return out
+        finally:
+            model.close()
+
+    def anatomy(self, scene: Scene, dt: float) -> dict | None:
+        """``EngineModel.anatomy`` of the model built for ``scene`` at its initial state (in this
+        process: the harness calls it inside a worker)."""
+        _, model = self._model(scene, dt)
+        try:
+            return model.anatomy()
         finally:
             model.close()
 

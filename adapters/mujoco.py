@@ -167,12 +167,15 @@ class Pose:
     ``settings``: what the pose adds to the settings read back from the compiled model.
     """
 
-    xml: Callable[[str, Scene, float], str]
+    xml: Callable[[str, Scene, float], str] | None
     point_masses: bool = False
     tolerance: float | None = None
     to_joints: Callable = _joint_coordinates
     from_joints: Callable = _scene_coordinates
     settings: Callable = _no_settings
+    #: A scene that brings its own compiled model (a model file): ``(mujoco, integrator, scene,
+    #: dt) -> MjModel`` in place of ``xml``.
+    compiled: Callable | None = None
 
 
 class _Model(EngineModel):
@@ -180,8 +183,11 @@ class _Model(EngineModel):
 
     def __init__(self, mujoco, mode: str, scene: Scene, dt: float):
         self.mj = mujoco
-        self.pose = pose = BUILDERS[scene.id]
-        self.m = m = mujoco.MjModel.from_xml_string(pose.xml(INTEGRATORS[mode], scene, dt))
+        self.pose = pose = BUILDERS[scene.kind]
+        if pose.compiled is not None:
+            self.m = m = pose.compiled(mujoco, INTEGRATORS[mode], scene, dt)
+        else:
+            self.m = m = mujoco.MjModel.from_xml_string(pose.xml(INTEGRATORS[mode], scene, dt))
         self.scene = scene
         if pose.point_masses:
             m.body_inertia[1:] = 0.0
@@ -286,6 +292,17 @@ class _Model(EngineModel):
             return None
         return states[0]
 
+    def anatomy(self) -> dict:
+        """MuJoCo's coordinates (qpos, qvel): body masses summed, mj_fullM, each hinge or slide
+        joint's world axis (d.xaxis)."""
+        mj, m, d = self.mj, self.m, self.d
+        mj.mj_forward(m, d)
+        full = np.zeros((m.nv, m.nv))
+        mj.mj_fullM(m, d, full)
+        axes = [d.xaxis[j].tolist() for j in range(m.njnt)
+                if int(m.jnt_type[j]) in (int(mj.mjtJoint.mjJNT_HINGE), int(mj.mjtJoint.mjJNT_SLIDE))]
+        return {"total_mass": float(np.sum(m.body_mass)), "mass_matrix": full.tolist(), "joint_axes": axes}
+
     def evaluations(self):
         return (int(self.d.timer[self._forward].number) - self._forward_at_build,
                 "MuJoCo forward passes (d.timer[mjTIMER_FORWARD])")
@@ -323,6 +340,21 @@ def _rope_scene_state(scene: Scene, qpos: np.ndarray, qvel: np.ndarray):
     return scene.angles_to_state(np.concatenate([theta, omega]))
 
 
+def _model_file(mujoco, integrator: str, scene: Scene, dt: float):
+    """A model file's variant as the scene compiled it (its features switched off through
+    MuJoCo's disable flags and model fields), with this mode's integrator and dt."""
+    m = scene.engine_model()
+    m.opt.integrator = int(getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}"))
+    m.opt.timestep = dt
+    return m
+
+
+def _model_settings(m) -> dict:
+    return {"nq": int(m.nq), "nv": int(m.nv), "nu": int(m.nu), "total_mass": float(sum(m.body_mass)),
+            "frictionloss": [float(x) for x in m.dof_frictionloss], "solver": int(m.opt.solver),
+            "dof_damping_zeroed": not bool(np.any(m.dof_damping))}
+
+
 #: One pose per scene MuJoCo poses; a new scene is one entry here.
 BUILDERS: dict[str, Pose] = {
     "spring": Pose(_spring_xml),
@@ -335,6 +367,7 @@ BUILDERS: dict[str, Pose] = {
     "chain": Pose(_chain_xml, tolerance=CHAIN_TOLERANCE, settings=_tendon_settings),
     "rope": Pose(_rope_xml, point_masses=True, to_joints=_rope_joint_state, from_joints=_rope_scene_state,
                  settings=_link_settings),
+    "model": Pose(None, settings=_model_settings, compiled=_model_file),
 }
 SCENES = tuple(BUILDERS)
 

@@ -314,16 +314,154 @@ class _Projectile(_FreeBody):
         return np.array([pos[0], pos[2]]), np.array([vel[0], vel[2]])
 
 
+class _ModelFile(SteppedModel):
+    """A model file loaded by Bullet (``loadMJCF``, or ``loadURDF`` with URDF_USE_INERTIA_FROM_FILE
+    and a fixed base, as MuJoCo compiles a URDF), its state in the scene's (MuJoCo's) coordinates:
+    each MuJoCo hinge or slide joint is the Bullet joint of the same name. Bullet's own perturbing
+    defaults are off in every variant (damping 0.04, the velocity clamp, sleeping, the joints'
+    velocity motors); the variant's switches are Bullet's dynamics settings: contact (collision
+    filter masks 0), joint damping (0), limits (lower > upper: none), gravity (0). A root that
+    MuJoCo fixes to the world (no free joint) is fixed here too (base mass 0)."""
+
+    settable = True
+
+    def __init__(self, p, scene: Scene, dt: float):
+        import mujoco
+
+        self.p, self.scene = p, scene
+        self.cid = cid = p.connect(p.DIRECT)
+        m = scene.engine_model()
+        if m.nq != m.nv:
+            raise ValueError("pybullet: a free or ball joint's quaternion is not mapped to Bullet's base state")
+        if m.ntendon and (np.any(m.tendon_stiffness) or np.any(m.tendon_damping) or np.any(m.tendon_limited)):
+            raise ValueError("pybullet: Bullet has no tendons, and the file's tendons exert forces (stiffness, "
+                             "damping or limits): its model would be another model")
+        path, off = scene.file.path, set(scene.switched_off)
+        if scene.file.kind == "URDF":
+            bodies = [p.loadURDF(path, useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)]
+        else:
+            bodies = list(p.loadMJCF(path, physicsClientId=cid))
+        p.setPhysicsEngineParameter(fixedTimeStep=dt, numSubSteps=0, physicsClientId=cid)
+        gravity = [0.0, 0.0, 0.0] if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY) else list(m.opt.gravity)
+        p.setGravity(*gravity, physicsClientId=cid)
+        names = {}
+        for b in bodies:
+            if p.getDynamicsInfo(b, -1, physicsClientId=cid)[0] > 0:
+                p.changeDynamics(b, -1, mass=0.0, physicsClientId=cid)  # MuJoCo's root is fixed (nq == nv)
+            for j in range(-1, p.getNumJoints(b, physicsClientId=cid)):
+                kw = dict(linearDamping=0.0, angularDamping=0.0, maxJointVelocity=math.inf,
+                          activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+                if j >= 0:
+                    info = p.getJointInfo(b, j, physicsClientId=cid)
+                    if info[2] in (p.JOINT_REVOLUTE, p.JOINT_PRISMATIC):
+                        names[info[1].decode()] = (b, j)
+                        p.setJointMotorControl2(b, j, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
+                p.changeDynamics(b, j, physicsClientId=cid, **kw)
+                # A separate call: jointDamping=0 given with maxJointVelocity in one changeDynamics
+                # call left a URDF's joint damping (0.5) applied (measured on kuka_iiwa, pybullet 3.2.7).
+                joint = {}
+                if j >= 0 and "damping" in off:
+                    joint["jointDamping"] = 0.0
+                if j >= 0 and "limits" in off:
+                    joint.update(jointLowerLimit=1.0, jointUpperLimit=-1.0)
+                if joint:
+                    p.changeDynamics(b, j, physicsClientId=cid, **joint)
+                if "contact" in off:
+                    p.setCollisionFilterGroupMask(b, j, 0, 0, physicsClientId=cid)
+        missing = [n for n in scene.dof_names if n not in names]
+        if missing:
+            raise ValueError(f"pybullet's model of the file has no joint named {missing[0]!r} "
+                             f"({len(names)} movable joints, MuJoCo's {m.nv})")
+        self.joints = [names[n] for n in scene.dof_names]
+        # Bullet's loaders read no joint stiffness: each spring is a torque -k (q - q_spring)
+        # applied from Python before every step (TORQUE_CONTROL, the velocity motors at zero force).
+        jnt = [int(m.dof_jntid[i]) for i in range(m.nv)]
+        self.springs = [(self.joints[i], float(m.jnt_stiffness[jnt[i]]), float(m.qpos_spring[m.jnt_qposadr[jnt[i]]]))
+                        for i in range(m.nv) if m.jnt_stiffness[jnt[i]] != 0.0]
+        self.set_state(*scene.initial_state())
+        infos = [p.getJointInfo(b, j, physicsClientId=cid) for b, j in self.joints]
+        self.settings = {
+            "loaded": "loadURDF(useFixedBase=True, URDF_USE_INERTIA_FROM_FILE)" if scene.file.kind == "URDF"
+            else "loadMJCF", "fixedTimeStep": dt, "numSubSteps": 0, "gravity": [float(g) for g in gravity],
+            "linearDamping": 0, "angularDamping": 0, "maxJointVelocity": "inf", "sleeping": "disabled",
+            "joint_motor": "zero force", "switched_off": sorted(off),
+            "jointDamping": [0.0] * len(infos) if "damping" in off else [float(i[6]) for i in infos],
+            "jointDamping_read_from_file": [float(i[6]) for i in infos],  # getJointInfo keeps it after the change
+            "jointFriction": [float(i[7]) for i in infos],
+            "limits": "none" if "limits" in off else [[float(i[8]), float(i[9])] for i in infos],
+            "contact": "filtered out (group 0, mask 0)" if "contact" in off else "Bullet's",
+            "not_modelled_by_bullet": [f for f in ("actuators", "equality", "armature") if f in scene.found],
+            "joint_springs": (f"{len(self.springs)} applied from Python before each step: TORQUE_CONTROL torque "
+                              "-k (q - q_spring), k and q_spring as MuJoCo compiled them") if self.springs else "none",
+            "engine_loop": ("joint springs' torques applied from Python, then stepSimulation, every step"
+                            if self.springs else "stepSimulation only, between output points")}
+
+    def set_state(self, q, v) -> None:
+        for (b, j), x, u in zip(self.joints, q, v):
+            self.p.resetJointState(b, j, float(x), float(u), physicsClientId=self.cid)
+
+    def state(self):
+        s = [self.p.getJointState(b, j, physicsClientId=self.cid)[:2] for b, j in self.joints]
+        return np.array([x for x, _ in s]), np.array([u for _, u in s])
+
+    def advance(self) -> None:
+        p, cid = self.p, self.cid
+        for (b, j), k, ref in self.springs:
+            q = p.getJointState(b, j, physicsClientId=cid)[0]
+            p.setJointMotorControl2(b, j, p.TORQUE_CONTROL, force=-k * (q - ref), physicsClientId=cid)
+        p.stepSimulation(physicsClientId=cid)
+
+    def steps(self, n: int) -> None:
+        if self.springs:
+            for _ in range(n):
+                self.advance()
+            return
+        step, cid = self.p.stepSimulation, self.cid
+        for _ in range(n):
+            step(physicsClientId=cid)
+
+    def evaluations(self):
+        return None, "Bullet evaluates its forces inside stepSimulation and has no counter or callback for them"
+
+    def anatomy(self) -> dict:
+        """Every link's mass summed, ``calculateMassMatrix`` (where one multibody holds every mapped
+        joint), each joint's axis in the world frame (its link's world orientation applied)."""
+        p, cid = self.p, self.cid
+        bodies = sorted({b for b, _ in self.joints})
+        mass = sum(p.getDynamicsInfo(b, j, physicsClientId=cid)[0] for b in bodies
+                   for j in range(-1, p.getNumJoints(b, physicsClientId=cid)))
+        axes = []
+        for b, j in self.joints:
+            orn = p.getLinkState(b, j, computeForwardKinematics=True, physicsClientId=cid)[5]
+            rot = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3)
+            axes.append((rot @ np.array(p.getJointInfo(b, j, physicsClientId=cid)[13])).tolist())
+        matrix = None
+        if len(bodies) == 1:
+            b = bodies[0]
+            movable = [j for j in range(p.getNumJoints(b, physicsClientId=cid))
+                       if p.getJointInfo(b, j, physicsClientId=cid)[2] in (p.JOINT_REVOLUTE, p.JOINT_PRISMATIC)]
+            q = [p.getJointState(b, j, physicsClientId=cid)[0] for j in movable]
+            full = np.array(p.calculateMassMatrix(b, q, physicsClientId=cid))
+            at = {j: full.shape[0] - len(movable) + i for i, j in enumerate(movable)}  # a floating base's 6 first
+            idx = [at[j] for _, j in self.joints]
+            matrix = full[np.ix_(idx, idx)].tolist()
+        return {"total_mass": float(mass), "mass_matrix": matrix, "joint_axes": axes}
+
+    def close(self) -> None:
+        self.p.disconnect(physicsClientId=self.cid)
+
+
 #: One model per scene Bullet poses; a new scene is one entry here.
-BUILDERS: dict[str, type[_Bullet]] = {
+BUILDERS: dict[str, type] = {
     "spring": _Spring, "damped_spring": _Spring, "pendulum": _Pendulum, "projectile": _Projectile, "chain": _Chain,
+    "model": _ModelFile,
 }
 SCENES = tuple(BUILDERS)
 
 
 def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> _Bullet:
     """``count`` changes nothing: Bullet's force evaluations cannot be counted."""
-    return BUILDERS[scene.id](pybullet, scene, dt)
+    return BUILDERS[scene.kind](pybullet, scene, dt)
 
 
 METHODS = {

@@ -456,7 +456,7 @@ def _joint_settings(joints) -> dict:
 
 
 def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _Space:
-    return BUILDERS[scene.id](pymunk, mode, scene, dt, count)
+    return BUILDERS[scene.kind](pymunk, mode, scene, dt, count)
 
 
 def _mode(mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None) -> EngineMode:

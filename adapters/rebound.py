@@ -90,7 +90,7 @@ class _Simulation(SteppedModel):
             "integrator": str(sim.integrator), "dt": float(sim.dt), "G": float(sim.G),
             **{name: _plain(getattr(sim, name)) for name in SIM},
             "N": int(sim.N), "N_active": "all" if sim.N_active in (-1, 2 ** 64 - 1) else int(sim.N_active),
-            "masses": masses, "additional_forces": "none", "move_to_com": False, "model": MODELS[scene.id],
+            "masses": masses, "additional_forces": "none", "move_to_com": False, "model": MODELS[scene.kind],
             "advance": ADVANCE["adaptive" if self.adaptive else "fixed"],
             **{name: _plain(getattr(sim.integrator, name)) for name in CONFIG[mode]},
         }
@@ -183,7 +183,7 @@ def _plain(value):
 
 
 def build(rebound, mode: str, scene: Scene, dt: float, count: bool = False) -> _Simulation:
-    return BUILDERS[scene.id](rebound, mode, scene, dt, count)
+    return BUILDERS[scene.kind](rebound, mode, scene, dt, count)
 
 
 _DOCS = {

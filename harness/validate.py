@@ -43,4 +43,4 @@ def choice(name: str, value: str, choices) -> str:
 def scene_values(scene) -> None:
     """Check a scene's current parameter values against its declared ranges once more: a
     scene's ``values`` is a plain dict, and an engine must never see what the scene refuses."""
-    type(scene)(**scene.values)
+    scene.copy_with(**scene.values)

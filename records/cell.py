@@ -126,6 +126,8 @@ class ErrorFigures(Figures):
     t_compared: float | None = None
     horizon: float | None = None
     t_final: float | None = None
+    reference_error: float | None = None     # the true state's own estimated error (0: exact)
+    below_reference: bool | None = None      # the error is at or below it: no number (the value None)
 
 
 @dataclass(frozen=True)

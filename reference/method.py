@@ -49,6 +49,9 @@ class RefMethod:
         return True, ""
 
     def supports(self, scene: Scene) -> tuple[bool, str]:
+        if not scene.has_kernels:
+            return False, (f"scene {scene.id} has no force kernel for a reference scheme to step: "
+                           "its physics is the engine's (a model file); engine modes run it")
         if self.scheme.constrained and not scene.constrained:
             return False, (f"scene {scene.id} has no constraints to project "
                            f"(without them {self.id} is plain ref:verlet)")

@@ -211,6 +211,7 @@ def stability_chart(cells: list[Cell], scene: str, path: Path, styles: dict | No
     if not rows:
         return False
     fig, ax = plt.subplots(figsize=(8, 0.35 * len(rows) + 1.2))
+    small = [r.value for r in rows if r.value is not None and 0 < r.value < 10 and not math.isnan(r.value)]
     for i, r in enumerate(rows):
         f = r.figures
         if f.unstable_everywhere:
@@ -227,7 +228,17 @@ def stability_chart(cells: list[Cell], scene: str, path: Path, styles: dict | No
             ax.text(v, i, f" {v:.4g}", va="center", fontsize=7)
     ax.set_yticks(range(len(rows)))
     ax.set_yticklabels([r.method for r in rows], fontsize=7)
-    ax.set_xscale("symlog", linthresh=10)
+    # The nominal timestep (a model file's own opt.timestep) where the finite-horizon search ran
+    # at one: a bar short of this line is a mode unstable at the step the model is run with.
+    nominal = {r.figures.nominal.homega for r in rows if r.figures.nominal is not None}
+    if len(nominal) == 1:
+        x = nominal.pop()
+        ax.axvline(x, color="crimson", linestyle=":", linewidth=1.2)
+        ax.text(x, len(rows) - 0.4, f" nominal h·ω {x:.3g}", color="crimson", fontsize=7, va="bottom")
+        linthresh = min([10.0, x] + small)  # values far below 10 (a model's h·ω) stay visible
+    else:
+        linthresh = 10.0
+    ax.set_xscale("symlog", linthresh=linthresh)
     ax.set_xlabel("largest stable h·ω")
     ax.set_title(f"{scene}: stability limit (each method in its report colour; engine modes edged dashed)")
     return _save(fig, path)

@@ -182,6 +182,16 @@ def _energy_text(energy) -> str:
     return _fmt(energy.value, ".2e")
 
 
+def _error_text(error) -> str:
+    if error is None:
+        return "–"
+    if error.status != "ok":
+        return error.status
+    if error.figures.below_reference:
+        return f"< {_fmt(error.figures.reference_error, '.1e')} (below the reference's accuracy)"
+    return _fmt(error.value, ".2e")
+
+
 def _micro(seconds):
     return None if seconds is None else seconds * 1e6
 
@@ -213,7 +223,7 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
             f"`{method}`", status,
             _energy_text(energy),
             _class_text(energy),
-            _fmt(error.value, ".2e") if error is not None and error.status == "ok" else (error.status if error is not None else "–"),
+            _error_text(error),
             _order_text(order),
             homega_text(stab),
             _fmt(cost.figures.force_evals_per_step, ".3g", notes.mark(

@@ -7,6 +7,7 @@ from .scene import Param, Scene, no_solve, no_velocity_dependence
 from .chain import Chain
 from .damped_spring import DampedSpring
 from .kepler import Kepler
+from .model import FEATURES, SUFFIXES, VARIANTS, ModelScene, read_model_file, variant
 from .pendulum import Pendulum
 from .projectile import Projectile
 from .rope import Rope
@@ -18,11 +19,29 @@ SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
 )}
 
 
-def make_scene(scene_id: str, **overrides) -> Scene:
+#: Scenes built from a file (``harness model PATH``): not in SCENES, whose every scene is
+#: built from its parameters alone. ``make_scene("model")`` is the shipped unit-spring file.
+FILE_SCENES: dict[str, type[Scene]] = {ModelScene.id: ModelScene}
+
+
+def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
+    """The scene ``scene_id`` with these parameters; ``source``: the file of a scene built from
+    one (a model file), whose id must still be ``scene_id`` (the file unchanged)."""
+    if source is not None:
+        scene = ModelScene(source, **overrides)
+        if scene.id != scene_id:
+            raise InvalidInput(f"model file {source!r} is now {scene.id}, not {scene_id}: it changed since the "
+                               "run was planned")
+        return scene
+    if scene_id in FILE_SCENES:
+        return FILE_SCENES[scene_id](**overrides)
+    if scene_id.lower().endswith(tuple(SUFFIXES)):  # a model file's path: every command takes one
+        return ModelScene(scene_id, **overrides)
     try:
         cls = SCENES[scene_id]
     except KeyError:
-        raise InvalidInput(f"unknown scene {scene_id!r} (valid: {', '.join(SCENES)})") from None
+        raise InvalidInput(f"unknown scene {scene_id!r} (valid: {', '.join(SCENES)}; a model file: "
+                           "harness model PATH)") from None
     return cls(**overrides)
 
 
@@ -37,5 +56,5 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-__all__ = ["SCENES", "Scene", "Param", "make_scene", "parse_overrides",
+__all__ = ["SCENES", "FILE_SCENES", "ModelScene", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
            "no_solve", "no_velocity_dependence"]

@@ -155,6 +155,31 @@ class Scene:
     #: How far ``reference_solution`` is accurate well below any scheme's error (inf: exact).
     reference_horizon: ClassVar[float] = float("inf")
 
+    def reference_error(self, t: np.ndarray) -> float | None:
+        """The estimated relative error of ``reference_solution`` at times t, in the error
+        measure's norm, where the scene's reference states its own (a refined engine run);
+        None: the measure's rule (0 for an exact solution, its stated floor for a solve)."""
+        return None
+
+    #: Where set, a run whose energy rose past this many times the scene's energy scale has
+    #: blown up (``runaway``), whatever its size: a stability criterion of its own.
+    runaway_limit: ClassVar[float | None] = None
+
+    def runaway(self, energy: np.ndarray) -> float:
+        """How many times its scale the energy of a run (recorded energies, first the initial
+        one) rose above its start; only where ``runaway_limit`` is set."""
+        raise NotImplementedError(f"scene {self.id} judges stability by size alone")
+
+    @property
+    def kind(self) -> str:
+        """The registry id engines pose the scene by: the class's ``id``. A scene built from a
+        file has an id of its own per file (its content hash) and the kind of its class."""
+        return type(self).id
+
+    def copy_with(self, **values) -> "Scene":
+        """The same scene with these parameter values (validated)."""
+        return type(self)(**values)
+
     def constraint_error(self, q: np.ndarray) -> np.ndarray | None:
         """How far states (API layout) are off the constraints; None for unconstrained scenes."""
         return None
@@ -163,6 +188,10 @@ class Scene:
         """Per state (rows of q, v), whether a body had left the system; None for a scene that
         cannot tell (one without bodies that can leave)."""
         return None
+
+    #: The scene's physics is its own kernels (``accel``, ...), which reference schemes step;
+    #: False for a model file, whose physics is the engine's.
+    has_kernels: ClassVar[bool] = True
 
     #: The scene has normal modes: ``mode_frequencies()`` and ``modal(q)`` (the chain).
     has_modes: ClassVar[bool] = False

@@ -483,10 +483,10 @@ def test_no_adapter_branches_on_a_scene_id():
     (``EngineMode.supports`` reads the declared list)."""
     import re
 
-    pattern = re.compile(r"scene(_id|\.id)\s*(==|!=|in\b|not in\b)")
+    pattern = re.compile(r"scene(_id|\.id|\.kind)\s*(==|!=|in\b|not in\b)")
     hits = [f"{path.name}:{n}" for path in Path(adapters.__file__).parent.glob("*.py")
             for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
-    assert [h.split(":")[0] for h in hits] == ["_base.py"]  # supports(): scene.id in self.scenes
+    assert [h.split(":")[0] for h in hits] == ["_base.py"]  # supports(): scene.kind in self.scenes
 
 
 def test_a_plugin_model_with_only_the_required_members_gets_the_declared_defaults():

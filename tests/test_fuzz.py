@@ -198,6 +198,14 @@ def argv_for(draw, command: str, paths: dict) -> tuple[list[str], bool]:
                       "--cell-timeout": bad, "--bounds": st.sampled_from([str(paths["truncated_csv"]),
                                                                           str(paths["garbage"])])}
         return ["nightly", *_poisoned(draw, spec, poisonable)], True
+    if command == "model":
+        # The file is never a model (a history, garbage, a missing .xml): refused whatever the flags.
+        path = draw(st.one_of(files(paths), st.just(str(paths["directory"] / "nope.xml"))))
+        spec = {"--variant": st.one_of(st.sampled_from(["as_written", "conservative"]), name),
+                "--keep": st.one_of(st.sampled_from(["contact", "gravity"]), name), "--seed": small_count,
+                "--perturb": hostile_number, "--hz": hostile_number, "--energy-tol": hostile_number,
+                "--jobs": small_count, "--db": db, "--out": st.just(str(paths["directory"] / "out"))}
+        return ["model", path, *flags(draw, spec), *(["--json"] if draw(st.booleans()) else [])], True
     if command == "bench":
         return ["bench", "--methods", draw(st.sampled_from(["ref:nope", "", "mujoco:", "x"])),
                 *(["--engines"] if draw(st.booleans()) else [])], True
@@ -225,7 +233,7 @@ def _fuzz(command: str, paths: dict, data) -> None:
 
 def test_every_command_is_fuzzed():
     assert set(COMMANDS) == {"run", "list", "bench", "identify", "energy", "order", "stability", "cost",
-                             "workprecision", "advise", "nightly", "compare", "history", "bounds"}
+                             "workprecision", "advise", "model", "nightly", "compare", "history", "bounds"}
 
 
 @pytest.mark.parametrize("command", COMMANDS)

@@ -12,7 +12,7 @@ import sys
 
 from records import InvalidInput
 
-COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision", "advise",
+COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision", "advise", "model",
             "nightly", "compare", "history", "bounds"]
 
 

@@ -30,6 +30,9 @@ def add_parser(sub):
                    help="continue the suite's latest run, left incomplete by a kill (SIGKILL, OOM, a lost machine), "
                         "from the tasks it stored; refused when that run is complete or was measured otherwise "
                         "(another commit, versions, platform or settings)")
+    p.add_argument("--model", action="append", metavar="PATH",
+                   help="a model file (MJCF .xml or URDF .urdf) whose variants join the suite as scenes (repeatable; "
+                        "beside those [tool.harness] models lists in ./pyproject.toml)")
     p.add_argument("--json", action="store_true", help="print the run summary as JSON")
     return p
 
@@ -37,7 +40,12 @@ def add_parser(sub):
 def run(args) -> int:
     from harness.history import bounds as bounds_mod
 
+    from harness.nightly.models import configured_models, with_models
+
     suite = validate.choice("--suite", args.suite, list(SUITES))
+    models = configured_models() + list(args.model or [])
+    if models:  # every file read and checked (and each engine's loader tried) before the history is opened
+        suite = with_models(SUITES[suite], models)
     jobs = validate.count("--jobs", args.jobs, 1, 1024) if args.jobs is not None else None
     cell_timeout = validate.positive_finite("--cell-timeout", args.cell_timeout) if args.cell_timeout is not None else None
     bounds_path = Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH

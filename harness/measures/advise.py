@@ -143,12 +143,6 @@ def _position_error(traj, scene: Scene) -> float | None:
     return float(np.max(err)) if err.size and np.all(np.isfinite(err)) else None
 
 
-def _growth(traj, scene: Scene) -> float:
-    from harness.measures.stability import growth
-
-    return growth(traj, scene)
-
-
 def _pct(x: float) -> str:
     return f"{x:.3g}" if x < 1e-3 else f"{100 * x:.3g}%"
 
@@ -231,7 +225,7 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
     """One substep count measured: stability first (no run for a step known unstable), then the
     horizon run's energy, position error and counted evaluations, judged against the request."""
     from harness.execution.simulate import simulate
-    from harness.measures.stability import GROWTH, spectral_test
+    from harness.measures.stability import blew_up, spectral_test
 
     h = 1.0 / (request.hz * s)
     row = Row(substeps=s, h=h, homega=h * scene.omega, stable=False, status="skipped")
@@ -248,10 +242,10 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
     if traj.status in ("crashed", "timed_out"):
         row.why = f"{traj.status}: {traj.detail}"
         return row
-    g = _growth(traj, scene) if traj.ok else math.inf
-    if not traj.ok or not g <= GROWTH:
+    blown, _, what = blew_up(traj, scene) if traj.ok else (True, math.inf, "")
+    if blown:
         row.why = (f"unstable: blew up at step {traj.failed_step} of {steps} (h*omega = {row.homega:.3g})"
-                   if not traj.ok else f"unstable: grew to {g:.3g}x the true solution's size")
+                   if not traj.ok else f"unstable: {what}")
         return row
     row.stable = True
     row.energy_error, row.energy_gained = _energy_error(traj, scene)

@@ -113,9 +113,23 @@ def trajectory_error(traj: Trajectory, scene: Scene) -> dict:
     scale = float(np.max(np.linalg.norm(y_true, axis=-1)))
     with np.errstate(all="ignore"):
         err = np.linalg.norm(y - y_true, axis=-1) / scale
-    return {"error_max": float(np.max(err)), "error_final": float(err[-1]), "t_final": float(traj.t[-1]),
+    accuracy = reference_accuracy(scene, t, source)
+    error_max = float(np.max(err))
+    return {"error_max": error_max, "error_final": float(err[-1]), "t_final": float(traj.t[-1]),
             "t_compared": float(t[-1]), "horizon": None if horizon == float("inf") else horizon,
-            "compared_all": bool(keep.all()), "scale": scale, "source": source, "series": err, "series_t": t}
+            "compared_all": bool(keep.all()), "scale": scale, "source": source, "series": err, "series_t": t,
+            "reference_error": accuracy, "below_reference": bool(error_max <= accuracy)}
+
+
+def reference_accuracy(scene: Scene, t, source: str) -> float:
+    """The relative error of the true state ``true_state`` gave at times t: 0 for the exact
+    solution, the reference's own estimate where the scene states one (``Scene.reference_error``:
+    a model file's refined RK4 run), else REFERENCE_FLOOR. An error at or below it is below the
+    reference's accuracy: not a number to report."""
+    if source == "exact":
+        return 0.0
+    own = scene.reference_error(t)
+    return REFERENCE_FLOOR if own is None else float(own)
 
 
 def global_error(method, scene: Scene, dt: float, steps: int, *, timeout: float | None = None,
@@ -137,5 +151,5 @@ def global_error(method, scene: Scene, dt: float, steps: int, *, timeout: float 
             out["error_series"] = err["series"]
         out.update({k: v for k, v in err.items() if k not in ("series", "series_t")})
     else:
-        out.update({"error_max": None, "error_final": None, "source": None})
+        out.update({"error_max": None, "error_final": None, "source": None, "reference_error": None})
     return out

@@ -38,7 +38,7 @@ from records import InvalidInput
 from scenarios import Scene
 
 from harness.measures.common import declared_order, require_fixed_step, resolve
-from harness.measures.error import REFERENCE_FLOOR, global_error
+from harness.measures.error import global_error
 
 #: Target error at the largest dt, by the method's order.
 TOP_ERROR = {1: 3e-2, 2: 2e-3, 3: 1e-4}
@@ -119,14 +119,15 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
         point = {"dt": dt, "omega_dt": dt * scene.omega, "steps": steps, "error": err,
                  "status": res["status"], "force_evals": res["force_evals"]}
         floor = ROUNDOFF_FACTOR * EPS * steps
-        if res["source"] not in (None, "exact"):
-            floor = max(floor, REFERENCE_FLOOR)
+        accuracy = res["reference_error"] or 0.0
         if not res["status"] == "ok" or err is None or not math.isfinite(err):
             point["reason"] = f"unstable ({res['status']})"
         elif err >= EXCLUDE_ERROR:
             point["reason"] = f"past stability: error {err:.3g} >= {EXCLUDE_ERROR:g}"
         elif err <= floor:
             point["reason"] = f"roundoff floor: error {err:.3g} <= {floor:.3g}"
+        elif err <= accuracy:
+            point["reason"] = f"roundoff floor: below the reference's accuracy ({accuracy:.3g})"
         (excluded if "reason" in point else used).append(point)
     out = {"scene": scene.id, "params": dict(scene.values), "method": method.id,
            "order_declared": declared_order(method, scene), "horizon": horizon, "periods": periods,

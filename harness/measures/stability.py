@@ -203,8 +203,29 @@ def finite_horizon_test(method, scene: Scene, dt: float, *, steps: int = HORIZON
     traj = step(method, scene, dt, steps, 1, timeout)
     if not traj.ok:
         return False, {"status": traj.status, "failed_step": traj.failed_step}
+    blown, g, _ = blew_up(traj, scene)
+    return not blown, {"growth": g}
+
+
+def blew_up(traj, scene: Scene) -> tuple[bool, float, str]:
+    """Whether a finished run blew up, by the scene's rule: (blown, the figure judged, what it
+    says). A scene that declares ``runaway_limit`` (a model file, whose true solution is no
+    closed form) is judged by how far its energy rose (``Scene.runaway``); every other by its
+    size against the true solution's (``growth``, at most GROWTH)."""
+    if scene.runaway_limit is not None:
+        r = scene.runaway(traj.energy[:, 0])
+        return not r <= scene.runaway_limit, r, f"energy rose {r:.3g}x its initial scale"
     g = growth(traj, scene)
-    return bool(g <= GROWTH), {"growth": g}
+    return not g <= GROWTH, g, f"grew to {g:.3g}x the true solution's size"
+
+
+def horizon_rule(scene: Scene, steps: int) -> str:
+    """The finite-horizon criterion in words, for ``scene``."""
+    if scene.runaway_limit is not None:
+        return (f"finite horizon: {steps} steps finish (no non-finite state, no engine warning) and the energy "
+                f"rises at most {scene.runaway_limit:g} x its initial scale (kinetic + |potential|)")
+    return (f"finite horizon: {steps} steps finish and max ||(q, v/omega)|| <= {GROWTH:g} x "
+            "the true solution's")
 
 
 def growth(traj, scene: Scene) -> float:
@@ -280,8 +301,7 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
     else:
         def test(dt):
             return finite_horizon_test(method, scene, dt, steps=steps, timeout=timeout)
-        described = (f"finite horizon: {steps} steps finish and max ||(q, v/omega)|| <= {GROWTH:g} x "
-                     "the true solution's")
+        described = horizon_rule(scene, steps)
 
     evaluations = []
 

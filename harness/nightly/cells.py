@@ -71,9 +71,11 @@ def measures_for(task, method=None) -> list[str]:
         out = [m for m in out if m not in ("order", "stability")]
     if suite.scenes[task.scene].advise is not None and "order" in out:  # fixed-step methods only
         out.append("advise")
-    if task.family != "ref" and suite.identify and not make_scene(task.scene, **task.params).constrained:
+    scene = make_scene(task.scene, source=task.source, **task.params)
+    if task.family != "ref" and suite.identify and not scene.constrained and scene.has_kernels:
         # A constrained scene's only reference scheme projects positions; no engine integrates
         # that (MuJoCo's rope is reduced coordinates, pymunk's impulses): nothing to identify.
+        # Nor on a model file, which no reference scheme steps.
         out.insert(0, "identity")
     return out + scene_measures(task, suite.scenes[task.scene])
 
@@ -137,7 +139,7 @@ def _scene_task(task, suite: Suite, exact=None) -> list[Cell]:
     from harness.methods import get_method
 
     spec = suite.scenes[task.scene]
-    scene = make_scene(task.scene, **task.params)
+    scene = make_scene(task.scene, source=task.source, **task.params)
     method = get_method(task.method, exact=exact)
     dt = nominal_dt(spec, scene)
     # Long runs of reference schemes on the compiled path (same states); counting stays interpreted.
@@ -200,8 +202,10 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
         final_rel_error=figures["final_rel_error"], failed_step=traj.failed_step,
         series=series, numbers=plain(cls), events=plain(figures["events"]) or None, **settings))
     err = trajectory_error(traj, scene) if traj.ok else {}
-    error = make_cell(task, "error", traj.status, finite(err["error_max"]) if err else None, dt, steps, traj.detail,
-                      ErrorFigures.pick(err))
+    value, detail = (finite(err["error_max"]) if err else None), traj.detail
+    if err and err["below_reference"]:
+        value, detail = None, f"below the reference's accuracy ({err['reference_error']:.2g})"
+    error = make_cell(task, "error", traj.status, value, dt, steps, detail, ErrorFigures.pick(err))
     return [energy, error]
 
 
@@ -225,7 +229,8 @@ def _stability(task, method, scene, suite, spec) -> Cell:
 
     hi = spec.stability_hi if spec.stability_hi is not None else suite.stability_homega_max
     steps = spec.stability_steps if spec.stability_steps is not None else suite.stability_steps
-    res = largest_stable_dt(method, scene, steps=steps, hi=hi)
+    search = {k: v for k, v in (("lo", spec.stability_lo), ("rtol", spec.stability_rtol)) if v is not None}
+    res = largest_stable_dt(method, scene, steps=steps, hi=hi, **search)
     verdict = res.verdict
     figures = StabilityFigures.pick(plain(res.as_dict()), unbounded=verdict == "unbounded",
                                     unstable_everywhere=verdict == "unstable",
@@ -259,7 +264,7 @@ def _cost_again(task) -> Cell:
     from harness.methods import get_method
 
     suite = suite_of(task)
-    scene = make_scene(task.scene, **task.params)
+    scene = make_scene(task.scene, source=task.source, **task.params)
     return _cost(task, get_method(task.method), scene, nominal_dt(suite.scenes[task.scene], scene), suite)
 
 

@@ -57,6 +57,7 @@ class Task:
     bound: float | None = None
     plugins: tuple[str, ...] = ()  # plugin modules the worker loads before it looks the method up
     timings: dict | None = None    # injected timings (``harness.measures.cost``), the clock's if None
+    source: str | None = None      # the file of a scene built from one (a model file)
 
     @property
     def label(self) -> str:
@@ -82,9 +83,13 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
     chosen = tuple(dict.fromkeys((*listed, *load_plugins(plugins))))
     tasks, skipped = [], []
     for scene_id, spec in suite.scenes.items():
-        scene = make_scene(scene_id, **spec.params)
+        scene = make_scene(scene_id, source=spec.source, **spec.params)
         for mid in chosen:
             m = methods[mid]
+            if m.family in spec.cannot_load:
+                skipped.append({"scene": scene_id, "method": mid,
+                                "reason": f"{m.family} cannot load the file: {spec.cannot_load[m.family]}"})
+                continue
             if mid in spec.skip:
                 skipped.append({"scene": scene_id, "method": mid, "reason": f"left out on {scene_id} in the "
                                 f"{suite.name} suite (harness/suites.py)"})
@@ -98,7 +103,7 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
                 skipped.append({"scene": scene_id, "method": mid, "reason": why})
                 continue
             tasks.append(Task("cell", scene_id, mid, m.family, dict(spec.params), suite, plugins=plugins,
-                              timings=timings))
+                              timings=timings, source=spec.source))
     if suite.bounds:
         for b in bounds_mod.load(bounds_path):
             m = methods.get(b.method)

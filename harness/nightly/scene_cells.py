@@ -33,7 +33,7 @@ from harness.nightly.cell_kit import energy_run, finite, guard, make_cell, plain
 
 def measures_for(task, spec) -> list[str]:
     out = []
-    if make_scene(task.scene, **task.params).constrained:
+    if make_scene(task.scene, source=task.source, **task.params).constrained:
         out.append("constraint")
     extras = spec.extras
     if extras.damping_factor is not None:

@@ -51,8 +51,12 @@ class SceneSpec:
     compiled: bool = False         # reference schemes step compiled (runs too long to interpret)
     stability_hi: float | None = None   # largest h*omega the stability search tries (None: its default)
     stability_steps: int | None = None  # the finite horizon's steps on this scene (None: the suite's)
+    stability_lo: float | None = None   # smallest h*omega the stability search tries (None: its default)
+    stability_rtol: float | None = None  # the bisection's relative width (None: its default)
     advise: dict | None = None     # the advice at the suite's frame rates (harness.measures.advise.Request fields
                                    # but hz: horizon, energy_tol, error_tol, max_substeps); None: none
+    source: str | None = None      # the file of a scene built from one (a model file: ``model_specs``)
+    cannot_load: dict = field(default_factory=dict)  # engine -> why it cannot load the file (its own message)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,151 @@
+"""``harness model PATH``: every measure on a model file (MJCF ``.xml`` or URDF ``.urdf``), in
+every engine mode that loads it, as written and conservative (``scenarios.model``).
+
+The file's variants run as the nightly runs a suite (``harness.nightly.models.model_suite``):
+the same cells, tables and charts, written to ``--out`` (``report.md``, ``charts/``). The history
+is a temporary file unless ``--db`` names one, so a model run stores nothing unless asked to.
+Printed: what the model has that perturbs an integrator, what each variant switched off, its
+initial state and reference, each variant's table, and the advice (``--hz``)."""
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+from scenarios import FEATURES, VARIANTS
+
+from harness import validate
+
+
+def add_parser(sub):
+    p = sub.add_parser("model", help="every measure on your own MJCF or URDF model, in MuJoCo and pybullet")
+    p.add_argument("path", help="the model file: MJCF (.xml) or URDF (.urdf)")
+    p.add_argument("--variant", action="append", metavar="NAME",
+                   help=f"which variants to measure (repeatable; default both: {', '.join(VARIANTS)})")
+    p.add_argument("--keep", action="append", metavar="FEATURE",
+                   help=f"keep this feature on in the conservative variant (repeatable; one of {', '.join(FEATURES)})")
+    p.add_argument("--seed", default="0", help="seed of the initial perturbation (a model with no keyframe)")
+    p.add_argument("--perturb", default=None, help="its standard deviation (qpos and qvel; default 0.5)")
+    p.add_argument("--hz", action="append", metavar="HZ",
+                   help="frame rate of the advice on the conservative variant (repeatable; default 60; 0: none)")
+    p.add_argument("--energy-tol", default="1e-3", help="the advice's energy tolerance")
+    p.add_argument("--out", default=None, help="report directory (default results/model/<file name>)")
+    p.add_argument("--db", default=None, help="SQLite history to store the run in (default: none kept)")
+    p.add_argument("--jobs", default="2", help="worker processes")
+    p.add_argument("--json", action="store_true", help="print the model, its variants and every cell as JSON")
+    return p
+
+
+def _request(args) -> tuple[tuple[float, ...], dict | None]:
+    hz = [validate.positive_finite("--hz", h) if str(h) not in ("0", "0.0") else 0.0 for h in (args.hz or ["60"])]
+    hz = tuple(h for h in hz if h > 0.0)
+    if not hz:
+        return (), None
+    tol = validate.positive_finite("--energy-tol", args.energy_tol)
+    return hz, {"energy_tol": tol, "horizon": 10.0, "max_substeps": 16}
+
+
+def run(args) -> int:
+    from harness.nightly.models import model_scenes, model_suite
+    from harness.nightly.run import run_nightly
+
+    variants = [validate.choice("--variant", v, list(VARIANTS)) for v in (args.variant or list(VARIANTS))]
+    keep = [validate.choice("--keep", k, list(FEATURES)) for k in (args.keep or [])]
+    params = {"seed": validate.count("--seed", args.seed, 0, 2**32 - 1)}
+    if args.perturb is not None:
+        params["perturb"] = args.perturb
+    jobs = validate.count("--jobs", args.jobs, 1, 64)
+    hz, request = _request(args)
+    variants = tuple(dict.fromkeys(variants))
+    scenes = model_scenes(args.path, variants, keep=keep, **params)  # the file checked first: InvalidInput
+    out = Path(args.out) if args.out else Path("results/model") / scenes[0].file.name
+    suite = model_suite([args.path], variants, request, hz, keep=keep, **params)
+    with tempfile.TemporaryDirectory() as tmp:
+        db = Path(args.db) if args.db else Path(tmp) / "model.sqlite"
+        result = run_nightly(suite, out, db, jobs, progress_stream=sys.stderr)
+        from harness.history.storage import History
+
+        cells = History(db).cell_records(result["run_id"])
+    unloaded = {s.id: suite.scenes[s.id].cannot_load for s in scenes}
+    compared = [_compared(s) for s in scenes if s.conservative and not unloaded[s.id]]
+    extra = [f"- {engine} cannot load `{s.id}`: {why}" for s in scenes for engine, why in unloaded[s.id].items()]
+    extra += [f"- {line}" for c in compared for line in cross_engine_lines(c)]
+    if extra:  # the report gains what the nightly's cells do not hold: the loaders' refusals, the engines compared
+        with open(result["report"], "a") as fh:
+            fh.write("\n## Model: the engines\n\n" + "\n".join(extra) + "\n")
+    if args.json:
+        from harness.measures.frames import jsonable
+
+        print(json.dumps(jsonable({"model": scenes[0].describe(), "variants": [s.describe() for s in scenes],
+                                   "cannot_load": unloaded, "cross_engine": [c.as_dict() for c in compared],
+                                   "report": str(result["report"]), "wall_s": result["timing"]["total_s"],
+                                   "cells": [c.to_row() for c in cells]}), indent=1, default=str))
+        return 0
+    for line in header_lines(scenes, cells):
+        print(line)
+    for engine, why in next(iter(unloaded.values())).items():
+        print(f"{engine} cannot load it: {why}")
+    from records.cell import pivot
+    from reports.markdown import scene_section
+    from reports.advice_section import advice_section
+
+    piv = pivot(cells)
+    for scene in scenes:
+        print("\n".join(line for line in scene_section(scene.id, piv, {}) if line != ""))
+        print()
+    for h in hz:
+        print("\n".join(advice_section(cells, h, {})))
+    for c in compared:
+        for line in cross_engine_lines(c):
+            print(line)
+    failed = [c for c in cells if c.status in ("crashed", "timed_out")]
+    for c in failed:
+        print(f"{c.method} on {c.scene}: {c.measure} {c.status}: {c.detail}")
+    print(f"report: {result['report']} ({result['timing']['total_s']:.1f} s)")
+    return 0
+
+
+def _compared(scene):
+    """``cross_engine`` on ``scene`` in a worker process (its runs, reference and anatomies with it)."""
+    from harness.execution import isolation
+    from harness.measures.cross_engine import CrossEngineResult, cross_engine
+
+    out = isolation.run_in_worker(cross_engine, (scene,), timeout=600.0)
+    if isinstance(out, isolation.WorkerFailure):
+        return CrossEngineResult(scene.id, dict(scene.values), ["mujoco:euler", "pybullet:semi_implicit"],
+                                 scene.own_timestep, 0, [out.status], detail=f"{out.status}: {out.detail}")
+    return out
+
+
+def cross_engine_lines(c) -> list[str]:
+    a, b = c.methods
+    if c.difference is None:
+        return [f"{a} and {b} on {c.scene}: not compared ({c.detail})"]
+    head = (f"{a} and {b} on {c.scene}, {c.steps} steps of {c.dt:g} s from the same state: they differ by "
+            f"{c.difference:.3g} (relative); their own discretisation errors {c.errors[0]:.2g} and {c.errors[1]:.2g}, "
+            f"the reference's {c.reference_error:.2g}: ")
+    if not c.disagree:
+        return [head + "they agree within those"]
+    return [head + "they disagree beyond them. What each engine built differs:"] + [f"  {d}" for d in c.differences]
+
+
+def header_lines(scenes, cells) -> list[str]:
+    first = scenes[0]
+    found = first.found
+    lines = [f"model {first.file.path} ({first.file.kind}, sha256 {first.file.sha256[:16]}...): "
+             f"{first.nv} dof, own timestep {first.own_timestep:g} s",
+             "perturbs an integrator: " + ("; ".join(f"{k} ({v})" for k, v in found.items()) or "nothing found")]
+    for s in scenes:
+        off = ", ".join(s.switched_off) or "nothing"
+        # The reference's own error, as the error cells of this run recorded it (computed in the workers).
+        ref = sorted({c.figures.reference_error for c in cells if c.scene == s.id and c.measure == "error"
+                      and c.status == "ok" and c.figures.reference_error is not None})
+        said = f"estimated error {ref[0]:.2g}" if ref else "not reached (no error cell finished)"
+        lines += [f"{s.id}: switched off {off}; omega {s.omega:.4g} rad/s (nominal h*omega "
+                  f"{s.own_timestep * s.omega:.3g})",
+                  f"  initial state: {s.describe_state()}",
+                  f"  reference: MuJoCo RK4 over one period ({s.reference_horizon:.3g} s), its step halved until two "
+                  f"halvings agree to 1e-11: {said}"]
+    return lines
+

@@ -1,0 +1,139 @@
+"""Model files in the nightly and in ``harness model``: each file's variants are scenes of the
+suite (``SceneSpec.source``), measured by the same cells as every built-in scene and stored under
+their own ids, which carry the file's content hash: an edited model is a new series.
+
+A model's study is fixed in its own units: the nominal timestep is the model's own
+(``opt.timestep`` in the file), the energy run MODEL_ENERGY_STEPS of it, the stability search
+up to MODEL_STABILITY_FACTOR times it, its finite horizon MODEL_STABILITY_STEPS steps. The
+conservative variant (every perturbing feature off) is where energy means something; the
+advice, where asked for, is given on it.
+
+The models a project checks every night are listed in its ``pyproject.toml``::
+
+    [tool.harness]
+    models = ["robots/arm.urdf", "characters/ragdoll.xml"]
+
+(paths relative to the ``pyproject.toml``), and ``harness nightly --model PATH`` adds more.
+"""
+from __future__ import annotations
+
+import os
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+from records import InvalidInput
+from scenarios import VARIANTS, ModelScene, variant
+
+from harness.nightly.suites import SceneSpec, Suite
+
+MODEL_ENERGY_STEPS = 2000
+MODEL_STABILITY_FACTOR = 1024.0
+MODEL_STABILITY_STEPS = 1000
+#: The stability search starts this many times below the model's own timestep, and bisects to
+#: this relative width (1e-4: a limit to 0.01%, where the built-in scenes' 1e-6 takes 7 more runs).
+MODEL_STABILITY_BELOW = 64.0
+MODEL_STABILITY_RTOL = 1e-4
+#: The engines that load a model file.
+MODEL_ENGINES = ("mujoco", "pybullet")
+#: The advice's horizon on a model, in the model's own timesteps.
+MODEL_ADVICE_STEPS = 600
+
+
+def model_scenes(path, variants=tuple(VARIANTS), keep=(), **params) -> list[ModelScene]:
+    """The file's variants as scenes (each checked: InvalidInput before anything runs); ``keep``:
+    features the conservative variant leaves on."""
+    base = ModelScene(path, **params)
+    return [variant(base, name, keep) for name in variants]
+
+
+def _loads_in_worker(method_id: str, scene: ModelScene) -> str:
+    from harness.methods import get_method
+
+    try:
+        get_method(method_id).anatomy(scene, scene.own_timestep)
+    except Exception as exc:  # the engine's own error, whatever its type: one line says why
+        return " ".join((str(exc) or type(exc).__name__).split())
+    return ""
+
+
+def cannot_load(scene: ModelScene) -> dict[str, str]:
+    """{engine: why} for each engine of MODEL_ENGINES that cannot build the scene (its loader's own
+    message), each tried in a worker process: a loader that crashes costs nothing but its line."""
+    from harness.execution import isolation
+    from harness.methods import all_methods
+
+    out = {}
+    for engine in MODEL_ENGINES:
+        mode = next((m for mid, m in all_methods().items() if mid.startswith(f"{engine}:")), None)
+        if mode is None or not mode.available()[0]:
+            continue
+        why = isolation.run_in_worker(_loads_in_worker, (mode.id, scene), timeout=120.0)
+        if isinstance(why, isolation.WorkerFailure):
+            why = f"the loader {why.status}: {why.detail}"
+        if why:
+            out[engine] = why
+    return out
+
+
+def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep=(),
+                **params) -> dict[str, SceneSpec]:
+    """{scene id: its spec} for the file's variants. ``advise`` (Request fields but hz) asks for
+    the advice on the conservative variant. Each engine's loader is tried first (``cannot_load``)."""
+    specs = {}
+    for scene in model_scenes(path, variants, keep, **params):
+        dt = scene.own_timestep
+        specs[scene.id] = SceneSpec(
+            params=dict(scene.values), dt=dt, horizon=dt * MODEL_ENERGY_STEPS,
+            stability_hi=dt * scene.omega * MODEL_STABILITY_FACTOR, stability_steps=MODEL_STABILITY_STEPS,
+            stability_lo=dt * scene.omega / MODEL_STABILITY_BELOW, stability_rtol=MODEL_STABILITY_RTOL,
+            advise=advise if advise is not None and scene.conservative else None, source=scene.file.path,
+            cannot_load=cannot_load(scene))
+    return specs
+
+
+def engine_modes() -> tuple[str, ...]:
+    """The engine modes that run a model, in MODEL_ENGINES' reverse order: a run with no history
+    to schedule by starts Bullet's first, whose loop (Python, springs applied) is the longest."""
+    from harness.methods import all_methods
+
+    return tuple(mid for engine in reversed(MODEL_ENGINES) for mid in all_methods()
+                 if mid.split(":", 1)[0] == engine)
+
+
+def with_models(suite: Suite, paths, **params) -> Suite:
+    """``suite`` with the files' variants added as scenes (engine modes only run them: a
+    reference scheme has no force kernel to step on a model)."""
+    scenes = dict(suite.scenes)
+    for path in paths:
+        for sid, spec in model_specs(path, **params).items():
+            scenes[sid] = replace(spec, methods=engine_modes())
+    return replace(suite, scenes=scenes)
+
+
+def model_suite(paths, variants=tuple(VARIANTS), advise: dict | None = None, frame_rates=(), keep=(),
+                **params) -> Suite:
+    """The suite ``harness model`` runs: the files' variants, every engine mode that loads them."""
+    frame_rates = tuple(frame_rates) if advise is not None else ()
+    scenes = {}
+    for path in paths:
+        scenes.update(model_specs(path, variants, advise if frame_rates else None, keep, **params))
+    return Suite("model", scenes, methods=engine_modes(), cost_repeats=3, bounds=False, identify=False,
+                 frame_rates=tuple(frame_rates))
+
+
+def configured_models(pyproject: Path | str = "pyproject.toml") -> list[str]:
+    """The model files ``[tool.harness] models`` lists (relative to the file), or none."""
+    pyproject = Path(pyproject)
+    if not pyproject.is_file():
+        return []
+    try:
+        data = tomllib.loads(pyproject.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InvalidInput(f"{pyproject}: [tool.harness] cannot be read ({exc})") from None
+    tool = data["tool"] if "tool" in data else {}
+    section = tool["harness"] if "harness" in tool else {}
+    models = section["models"] if "models" in section else []
+    if not isinstance(models, list) or not all(isinstance(m, str) for m in models):
+        raise InvalidInput(f"{pyproject}: [tool.harness] models must be a list of file paths (got {models!r})")
+    return [os.path.join(pyproject.parent, m) for m in models]
