@@ -288,7 +288,7 @@ def test_issue_scene_coverage():
     supported = {mid: {s for s in SCENES if m.supports(make_scene(s))[0]} for mid, m in adapters.ENGINE_METHODS.items()}
     four = {"spring", "damped_spring", "pendulum", "projectile"}
     for mode in ("euler", "rk4", "implicit", "implicitfast", "discrete"):
-        assert supported[f"mujoco:{mode}"] == four | {"chain", "rope"}  # issue 6: slide joints + tendons, hinges
+        assert supported[f"mujoco:{mode}"] == four | {"chain", "rope", "cloth"}  # slide joints + tendons, hinges
     assert supported["pybullet:semi_implicit"] == four | {"chain"}
     assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring",
                                                                                      "projectile", "chain"}
