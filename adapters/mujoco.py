@@ -372,6 +372,7 @@ BUILDERS: dict[str, Pose] = {
                  settings=_link_settings),
     # As the chain's: the discrete integrator's iterative solve at 1e-14, not the default 1e-8.
     "cloth": Pose(_cloth_xml, tolerance=CHAIN_TOLERANCE, settings=_tendon_settings),
+    "net": Pose(_cloth_xml, tolerance=CHAIN_TOLERANCE, settings=_tendon_settings),
 }
 SCENES = tuple(BUILDERS)
 
@@ -416,10 +417,10 @@ _NO_MATCH = {
                               "the tendon dashpots' coupling of neighbours stays explicit"},
     "discrete": {"chain": "a tendon exactly at its rest length (most of them in the chain's initial state) is "
                           "left out of the implicit step",
-                 "cloth": "one linear solve with the tendons' stiffness k J^T J alone, (M + h^2 k J^T J) dv = "
+                 **{scene: "one linear solve with the tendons' stiffness k J^T J alone, (M + h^2 k J^T J) dv = "
                           "h (f - h k J^T J v): linearly implicit Euler without the springs' geometric stiffness "
                           "k (1 - L/|d|)(I - u u^T) (measured 3e-16 from a generic state); and every tendon of the "
-                          "flat sheet starts exactly at its rest length, where it is left out"},
+                          "flat sheet starts exactly at its rest length, where it is left out" for scene in ("cloth", "net")}},
 }
 
 METHODS = {

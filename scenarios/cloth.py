@@ -10,9 +10,10 @@ Grid node (i, j) (row i = 0..n-1, column j = 0..m-1) starts at x = j s, y = -i s
 * bending, ``k_bend``: (i, j)-(i, j+2) and (i, j)-(i+2, j), rest length 2 s.
 
 Every mass is ``mass``/(n m); gravity g acts along the last axis (-z in 3-D, where the sheet
-is released horizontal; -y in the planar variant ``dim`` = 2, a net hanging in its plane).
+is released horizontal; -y in the planar variant, the scene ``net``: the same grid hanging in
+its plane, for 2-D engines).
 A pinned node is not a degree of freedom: it stays at its start. DOF: the free nodes in row
-order, d = ``dim`` coordinates each.
+order, d = ``dim`` coordinates each (3; the net 2).
 
 Energy = kinetic + springs + gravity, the height measured from the foot of the sheet hung
 straight down at its rest lengths (-(n-1) s), so that E0 > 0 and a relative energy error reads.
@@ -297,9 +298,9 @@ class Cloth(Scene):
         "k_bend": Param(5.0, "bending (two apart) spring stiffness, 0: none", lo=0.0),
         "g": Param(9.81, "gravitational acceleration (along the last axis, downwards)", lo=0.0),
         "pins": Param(0, "0: the two top corners pinned; 1: the whole top edge", lo=0.0, hi=1.0, integer=True),
-        "dim": Param(3, "3: the sheet released horizontal; 2: the planar net hanging in its plane",
-                     lo=2.0, hi=3.0, integer=True),
     }
+    #: Coordinates per mass (the kernels read it as the last entry of ``pvec``).
+    dim = 3
     accel = staticmethod(accel)
     solve = staticmethod(solve)
     reference_horizon = 2.0
@@ -307,7 +308,11 @@ class Cloth(Scene):
     # ------------------------------------------------------------ the grid
     @property
     def grid(self) -> tuple[int, int, int]:
-        return int(self.values["n"]), int(self.values["m"]), int(self.values["dim"])
+        return int(self.values["n"]), int(self.values["m"]), int(self.dim)
+
+    @property
+    def pvec(self) -> np.ndarray:
+        return np.append(super().pvec, float(self.dim))
 
     @property
     def node_mass(self) -> float:
@@ -455,3 +460,13 @@ class Cloth(Scene):
         """(q, v) at times t, shape (len(t), ndof), from the DOP853 run (cached)."""
         y = self._reference(rtol)(t)
         return y[:, :self.ndof], y[:, self.ndof:]
+
+
+class Net(Cloth):
+    """The cloth's planar variant: the same grid, springs and pins in the vertical plane, gravity
+    along -y, 2 coordinates a mass (a net hanging in its plane, released at its rest lengths)."""
+
+    id = "net"
+    title = ("planar mass-spring net, n x m masses, springs with rest lengths, gravity in the plane, pinned top "
+             "corners; nonlinear; reference by DOP853")
+    dim = 2

@@ -26,7 +26,7 @@ def perturbed(scene, size=0.01, seed=1):
 
 
 @pytest.mark.parametrize("bad", [{"n": 1}, {"m": 101}, {"n": 2.5}, {"k": 0}, {"k_shear": -1}, {"mass": 0},
-                                 {"pins": 2}, {"dim": 1}, {"dim": 4}, {"s": 0}, {"g": -1}])
+                                 {"pins": 2}, {"s": 0}, {"g": -1}])
 def test_parameter_validation(bad, capsys):
     with pytest.raises(InvalidInput) as err:
         make_scene("cloth", **bad)
@@ -36,12 +36,13 @@ def test_parameter_validation(bad, capsys):
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
-@pytest.mark.parametrize("params", [{}, {"dim": 2}, {"pins": 1}, {"n": 3, "m": 5, "k_bend": 0.0}])
-def test_accel_kernel_is_the_vectorised_spring_force(params):
+@pytest.mark.parametrize("scene_id, params", [("cloth", {}), ("net", {}), ("cloth", {"pins": 1}),
+                                              ("cloth", {"n": 3, "m": 5, "k_bend": 0.0})])
+def test_accel_kernel_is_the_vectorised_spring_force(scene_id, params):
     """The kernel's loops against the reference's numpy right-hand side (another spelling of the
     same springs, summed in another order): equal to roundoff of the largest term (|a| ~ 1e3,
     eps 2.2e-16 times a few hundred terms)."""
-    scene = make_scene("cloth", **params)
+    scene = make_scene(scene_id, **params)
     q, v = perturbed(scene)
     a = scene.accel(q[:, None], v[:, None], 0.0, scene.pvec)[:, 0]
     rhs = scene._rhs()(0.0, np.concatenate([q, v]))
@@ -55,7 +56,7 @@ def test_energy_at_rest_and_free_nodes():
     # Two pinned corners leave 18 free masses of 2/20, all at height (n - 1) s = 0.8 above the foot.
     assert scene.ndof == 18 * 3 and len(scene.free_nodes()) == 18
     assert scene.energy(q0, v0) == pytest.approx(18 * 0.1 * 3.0 * 0.8, rel=1e-14)
-    edge = make_scene("cloth", n=5, m=4, pins=1, dim=2)
+    edge = make_scene("net", n=5, m=4, pins=1)
     assert edge.ndof == 16 * 2 and edge.dof_names[:2] == ("x1_0", "y1_0")
 
 
