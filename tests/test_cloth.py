@@ -214,3 +214,30 @@ def test_implicit_cost_grows_about_linearly_with_the_cloth():
                          work_per_call=100_000, min_steps=5)
     assert (frame["ndof"] > cloth_module.DIRECT_MAX_DOF).all()
     assert 0.7 <= frame.attrs["slope"] <= 1.3, frame.to_string()
+
+
+def test_the_one_frame_finding_names_survivors_and_the_substeps_of_the_rest():
+    """The judge's cloth finding from stability cells (values made up, as the judge's tests do):
+    a frame of 1/60 against each measured dt_max; ✓ only where no explicit scheme survives."""
+    from harness import judge
+    from records.cell import FIGURES, Cell, pivot
+
+    def stab(method, value, **figures):
+        return Cell(scene="cloth", method=method, family=method.split(":")[0], measure="stability", status="ok",
+                    value=value, dt=0.1, steps=100, figures=FIGURES["stability"](**figures))
+
+    omega = 172.0
+    cells = [stab("ref:implicit_euler", math.inf, verdict="unbounded", unbounded=True),
+             stab("ref:rk4", 2.82, verdict="limited", dt_max=2.82 / omega),
+             stab("ref:semi_implicit_euler", 1.57, verdict="limited", dt_max=1.57 / omega),
+             stab("ref:explicit_euler", None, verdict="unstable", unstable_everywhere=True)]
+    check = judge.Check("survives_one_frame", "stability", expect=60.0)
+    (finding,) = judge.survives_one_frame(check, "cloth", pivot(cells))
+    assert finding.ok is True
+    assert "`ref:implicit_euler`" in finding.text.split(";")[0]
+    assert "`ref:rk4` 2 (h·ω_max 2.82)" in finding.text and "`ref:semi_implicit_euler` 2 " in finding.text
+    assert "`ref:explicit_euler` unstable at every h" in finding.text
+    # An explicit scheme stable at one step a frame would be a ✗ (here: a softer cloth).
+    soft = cells[:1] + [stab("ref:rk4", 2.82, verdict="limited", dt_max=2.82 / 100.0)]
+    (finding,) = judge.survives_one_frame(check, "cloth", pivot(soft))
+    assert finding.ok is False
