@@ -38,6 +38,9 @@ UNSUPPORTED = {
               "the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
     "rope": "not posed: the rope's engine models are MuJoCo's hinge chain and pymunk's pin joints; a Bullet "
             "revolute chain is the reduced-coordinate model MuJoCo already poses",
+    "cloth": "not posed yet: Bullet's mass-spring soft body (loadSoftBody with useMassSpring on the sheet's mesh) "
+             "is its model, and its deformable solver's scheme, limit and perturbing settings are not measured here",
+    "net": "the planar net is the cloth's variant for 2-D engines; Bullet's model would be the cloth's soft body",
 }
 
 

@@ -1,37 +1,29 @@
 """pymunk (Chipmunk2D): the ways users write a scene, one method each.
 
-* ``pymunk:spring_force`` - the force computed inside ``body.velocity_func``, the way Chipmunk
-  means forces to be applied: Chipmunk moves positions first, then velocities, so the force
-  sees the new position (position-first semi-implicit Euler). On the chain each body's
-  function reads its neighbours' positions, all already moved.
-* ``pymunk:applied_force`` - the force set on ``body.force`` before each ``space.step``, the way
-  many users write it: the force sees the old position, so this is explicit Euler.
-* ``pymunk:damped_spring`` - Chipmunk's own spring constraint, ``DampedSpring``: on the chain
-  between neighbours and from each end body to a static wall (damping 0), on the damped spring
-  from a static wall to the body with the scene's damping c, which Chipmunk applies as an exact
-  decay e^{-c h/m} of the velocity after the spring's kick.
-* ``pymunk:space_damping`` - the damping (the damped spring's dashpot, the projectile's drag)
-  as Chipmunk's global ``space.damping`` = e^{-c/m} (the velocity fraction kept per second),
-  the rest of the force in ``body.velocity_func``: Chipmunk decays the old velocity by
-  ``damping^h`` and then adds the kick, an exact decay before a position-first kick.
-* ``pymunk:pin_joint`` - the pendulum and the rope as users build them: ``PinJoint``s (from a
-  static pivot to the first body, then between neighbours) with the joints' default error
-  correction (which bleeds energy) and gravity.
+* ``pymunk:spring_force`` - the force computed inside ``body.velocity_func``, as Chipmunk means
+  forces to be applied: positions move first, so the force sees the new position (position-first
+  semi-implicit Euler; on the chain each body reads its neighbours' moved positions).
+* ``pymunk:applied_force`` - the force set on ``body.force`` before each ``space.step``, as many
+  users write it: the force sees the old position (explicit Euler).
+* ``pymunk:damped_spring`` - Chipmunk's own ``DampedSpring``: on the chain between neighbours and
+  to static walls (damping 0), on the planar net one per spring (pins on the static body), on
+  the damped spring with the scene's c, applied as an exact decay e^{-c h/m} after the kick.
+* ``pymunk:space_damping`` - the damping as Chipmunk's global ``space.damping`` = e^{-c/m}, the
+  rest of the force in ``body.velocity_func``: an exact decay before a position-first kick.
+* ``pymunk:pin_joint`` - the pendulum and the rope on ``PinJoint``s with the joints' default
+  error correction (which bleeds energy) and gravity.
 
 Minimal models: bodies with the scene's exact mass and infinite moment (no rotation to couple),
 no shapes, ``space.damping`` 1, sleeping off; gravity only where the scene has it, along -y.
 Every setting is read back into the result.
 
 Chipmunk has no loop of its own to call: the engine's loop (``steps(n)``) is a Python loop of
-``space.step`` alone (the force, where the mode computes it, is a Python ``velocity_func``
-that Chipmunk calls inside the step), except ``applied_force``, whose force is set from Python
-before each step (that is the mode), and the pin-jointed pendulum, whose angle is followed in
-chunks of steps short enough that it cannot turn half a turn unseen (Chipmunk reports the bob's
-position, so the angle's whole turns must be followed).
-The state is read only at output points. Force evaluations are counted, in a counting run, by
-wrapping the Python force functions (``velocity_func`` calls per step divided by the bodies, or
-the force set before each step); Chipmunk's own constraints (DampedSpring, PinJoint) compute
-their impulses inside the step with no counter or callback, so they are not counted.
+``space.step`` alone (a mode's force is a Python ``velocity_func`` Chipmunk calls inside the step),
+except ``applied_force``, whose force is set from Python before each step (that is the mode), and
+the pin-jointed pendulum, whose angle is followed in chunks of steps too short for a half turn
+unseen. The state is read only at output points. Force evaluations are counted, in a counting
+run, by wrapping the Python force functions; Chipmunk's own constraints (DampedSpring, PinJoint)
+compute their impulses inside the step with no counter or callback, so they are not counted.
 """
 from __future__ import annotations
 
@@ -43,34 +35,8 @@ from scenarios import Scene
 
 from ._base import EngineMode, SteppedModel, chain_force, unwrap
 
-_FORCE_SCENES = ("spring", "damped_spring", "projectile", "chain")
-_FORCE_UNSUPPORTED = {
-    "pendulum": "a pendulum in Chipmunk is a joint, not a force: see pymunk:pin_joint",
-    "rope": "a rope in Chipmunk is pin joints, not forces: see pymunk:pin_joint",
-    "kepler": "not posed: Chipmunk has no gravity between bodies, and a 1/r^2 force from Python would only "
-              "repeat what the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
-}
-_PINS = "pin joints pose only the pendulum and the rope"
-_JOINT_UNSUPPORTED = {"kepler": _PINS, **{scene: f"{_PINS}; see pymunk:{mode}" for scene, mode in (
-    ("spring", "spring_force"), ("damped_spring", "spring_force"), ("projectile", "applied_force"),
-    ("chain", "damped_spring"))}}
-_SPRING_UNSUPPORTED = {
-    "spring": "not posed: a DampedSpring to a static body integrates the 1-DOF spring as pymunk:spring_force "
-              "does (position-first semi-implicit Euler, 5e-14 in docs/engines.md); Chipmunk's springs link bodies "
-              "on the chain, and damp on the damped spring",
-    "pendulum": "a pendulum in Chipmunk is a joint: see pymunk:pin_joint",
-    "rope": "a rope in Chipmunk is pin joints: see pymunk:pin_joint",
-    "projectile": "no spring in the projectile: see pymunk:applied_force",
-    "kepler": "no spring in the Kepler problem",
-}
-
-_SPACE_DAMPING_SCENES = ("damped_spring", "projectile")
-_SPACE_DAMPING_UNSUPPORTED = {
-    "spring": "no damping to give space.damping: see pymunk:spring_force",
-    "chain": "the chain's damping acts between neighbours; space.damping damps each body against the world",
-    **{scene: f"no damping in the {name}" for scene, name in (
-        ("pendulum", "pendulum"), ("rope", "rope"), ("kepler", "Kepler problem"))},
-}
+from ._pymunk_scenes import (_FORCE_SCENES, _FORCE_UNSUPPORTED, _JOINT_UNSUPPORTED, _SPACE_DAMPING_SCENES,
+                             _SPACE_DAMPING_UNSUPPORTED, _SPRING_UNSUPPORTED)
 
 #: Spacing of the damped_spring chain's bodies (and every spring's rest length), in units of
 #: max(|x0|, 1): a Chipmunk spring acts along the line between its bodies, so neighbours must
@@ -435,11 +401,29 @@ class _Rope(_Space):
                 np.array([c for b in self.bodies for c in b.velocity]))
 
 
+class _Net(_Rope):
+    """The net: a body per free mass, a DampedSpring (damping 0) per spring, pins on the static body."""
+
+    def _build(self, pymunk, mode, scene, k, c):
+        m, start = scene.grid[1], scene.rest_positions()
+        self.bodies = [pymunk.Body(scene.node_mass, math.inf) for _ in scene.free_nodes()]
+        self.set_state(*scene.initial_state())
+        body = dict(zip((i * m + j for i, j in scene.free_nodes()), self.bodies))
+        ends = {node: (body[node], (0.0, 0.0)) if node in body else (self.space.static_body, tuple(start[node]))
+                for node in range(len(start))}
+        self.constraints = [pymunk.DampedSpring(ends[a][0], ends[b][0], ends[a][1], ends[b][1], rest, stiff, 0.0)
+                            for a, b, stiff, rest in zip(*scene.springs())]
+        self.space.add(*self.bodies, *self.constraints)
+        self._record_settings(mode)
+        self.settings.update(spring="DampedSpring per spring, damping 0; pins on the static body",
+                             springs=len(self.constraints), spring_damping=sorted({s.damping for s in self.constraints}))
+
+
 #: One model per scene Chipmunk poses (each mode poses those its ``EngineMode`` lists); a new
 #: scene is one entry here.
 BUILDERS: dict[str, type[_Space]] = {
     "spring": _Body, "damped_spring": _Body, "projectile": _Projectile, "pendulum": _Pendulum,
-    "chain": _Chain, "rope": _Rope,
+    "chain": _Chain, "rope": _Rope, "net": _Net,
 }
 
 
@@ -476,7 +460,7 @@ METHODS = {m.id: m for m in (
           Measured: equals ref:explicit_euler bitwise on the spring and the chain: energy x(1 + h^2) per
           step on the spring, unstable at every dt on the chain.""",
           {"force": "body.force before each step"}),
-    _mode("damped_spring", ("damped_spring", "chain"), _SPRING_UNSUPPORTED,
+    _mode("damped_spring", ("damped_spring", "chain", "net"), _SPRING_UNSUPPORTED,
           """position-first semi-implicit Euler, damping as an exact decay after the kick (Chipmunk's DampedSpring)
           Measured: equals ref:semi_implicit_euler_position_first on the chain to roundoff of the
           bodies' spaced positions (9e-11 absolute on velocities of ~120 over 1000 steps), and

@@ -35,7 +35,8 @@ from scenarios import Scene
 from ._base import EngineMode, SteppedModel
 
 _NOT_GRAVITY = "not a gravitational N-body problem (an additional_forces callback would be our force, not REBOUND's)"
-UNSUPPORTED = {s: _NOT_GRAVITY for s in ("spring", "damped_spring", "pendulum", "projectile", "chain", "rope")}
+UNSUPPORTED = {s: _NOT_GRAVITY for s in ("spring", "damped_spring", "pendulum", "projectile", "chain", "rope",
+                                                    "cloth", "net")}
 
 #: Integrator settings set explicitly, so that a new REBOUND default cannot change what runs.
 #: Each is REBOUND 5.2.2's default.

@@ -144,6 +144,30 @@ def stability_limits(check: Check, scene: str, piv: dict) -> list[Finding]:
                     scene=scene)]
 
 
+def survives_one_frame(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """At ``expect`` frames a second, which methods are stable at one step a frame (their measured
+    largest stable dt at least the frame), and how many substeps each other one needs
+    (ceil(frame / dt_max)): the reference schemes that survive are implicit ones only."""
+    from reference import METHODS
+
+    frame = 1.0 / float(check.expect)
+    survive, need = [], []
+    for m, r in _rows(piv, scene, check).items():
+        f = r.figures
+        if f.unbounded or (f.dt_max is not None and f.dt_max >= frame):
+            survive.append(m)
+        elif f.unstable_everywhere:
+            need.append(f"`{m}` unstable at every h")
+        elif f.dt_max:
+            need.append(f"`{m}` {math.ceil(frame / f.dt_max)} (h·ω_max {r.value:.3g})")
+    if not survive and not need:
+        return []
+    explicit = [m for m in survive if m.startswith("ref:") and not METHODS[m[4:]].implicit]
+    return [Finding(f"`{scene}` at {check.expect:g} Hz: stable at one step a frame: {_names(survive) or 'none'} "
+                    f"{MARK}; substeps a frame each other method needs to be stable (measured limit): "
+                    + ", ".join(need) + ".", not explicit, scene)]
+
+
 def damping_beyond_the_limit(check: Check, scene: str, piv: dict) -> list[Finding]:
     """What each method stable far beyond the explicit limit keeps of the energy, per mode; which grow."""
     damp = _rows(piv, scene, check)
@@ -271,7 +295,7 @@ def integrates_as(check: Check, scene: str, piv: dict) -> list[Finding]:
         match, dev = ident.figures.match, _value(ident)
         how = "bitwise" if dev == 0 else f"to {dev:.1e}"
         out.append(Finding(
-            f"`{scene}`: `{m}` integrates as `{match}` ({how} over {int(ident.steps)} steps of {ident.dt:.4g} days) "
+            f"`{scene}`: `{m}` integrates as `{match}` ({how} over {int(ident.steps)} steps of dt = {ident.dt:.4g}) "
             f"{MARK}; runner-up `{ident.figures.runner_up}` at {ident.figures.runner_up_deviation or math.nan:.1e}.",
             match == check.expect, scene, m))
     return out
@@ -360,7 +384,7 @@ def brouwer_law(check: Check, scene: str, piv: dict) -> list[Finding]:
 
 #: The findings a scene's table may name.
 FINDINGS = {f.__name__: f for f in (stability_limits, damping_beyond_the_limit, matches_only_from_a_generic_state,
-                                     cost_against_size, constraint_drift, energy_classes, energy_not_bounded,
+                                     cost_against_size, constraint_drift, survives_one_frame, energy_classes, energy_not_bounded,
                                      integrates_as, energy_within, error_at_equal_cost, cost_ratio, brouwer_law)}
 
 #: The schemes the outer solar system's energy finding calls symplectic.
@@ -382,6 +406,18 @@ SCENE_CHECKS: dict[str, tuple[Check, ...]] = {
     ),
     "rope": (
         Check("constraint_drift", "constraint"),
+    ),
+    "cloth": (
+        Check("stability_limits", "stability"),
+        Check("survives_one_frame", "stability", expect=60.0),
+        Check("integrates_as", "identity", methods=("mujoco:euler", "mujoco:implicit", "mujoco:implicitfast"),
+              expect="ref:semi_implicit_euler"),
+        Check("integrates_as", "identity", methods=("mujoco:rk4",), expect="ref:rk4"),
+    ),
+    "net": (
+        Check("stability_limits", "stability"),
+        Check("integrates_as", "identity", methods=("pymunk:damped_spring",),
+              expect="ref:semi_implicit_euler_position_first"),
     ),
     "kepler": (
         Check("brouwer_law", "brouwer", methods=("rebound:ias15",), expect=0.5),

@@ -20,6 +20,7 @@ from .schemes.forest_ruth import forest_ruth
 from .schemes.implicit_euler import implicit_euler
 from .schemes.implicit_midpoint import implicit_midpoint
 from .schemes.leapfrog import leapfrog
+from .schemes.linearly_implicit_euler import linearly_implicit_euler
 from .schemes.position_first_euler_decay import (position_first_euler_decay_after_kick,
                                                  position_first_euler_decay_before_kick)
 from .schemes.rk4 import rk4
@@ -34,7 +35,7 @@ METHODS: dict[str, Scheme] = {s.id: s for s in (
     explicit_euler, semi_implicit_euler, semi_implicit_euler_position_first, verlet, velocity_verlet,
     leapfrog, rk4, implicit_euler, implicit_midpoint, forest_ruth, verlet_constrained,
     semi_implicit_euler_velocity_implicit, position_first_euler_decay_after_kick,
-    position_first_euler_decay_before_kick,
+    position_first_euler_decay_before_kick, linearly_implicit_euler,
 )}
 
 #: Public names of ``_floors``, imported on first use: the floors compile with numba, which a

@@ -110,6 +110,14 @@ def implicit_euler(s, h, k, m):
 
 
 @_jit
+def linearly_implicit_euler(s, h, k, m):
+    # One solve of (1 + h^2 k/m) v_{n+1} = v_n + h a(x_n, 0).
+    x, v = s
+    w = (v + h * (-k * x / m)) / (1.0 + h * h * (k / m))
+    return (x + h * w, w)
+
+
+@_jit
 def implicit_midpoint(s, h, k, m):
     x, v = s
     dw = (h * (-k * (x + 0.5 * h * v) / m)) / (1.0 + 0.25 * h * h * (k / m))
@@ -174,6 +182,7 @@ FLOORS = {
     "rk4": (rk4, _start_qv, _observe_qv),
     "forest_ruth": (forest_ruth, _start_qv, _observe_qv),
     "implicit_euler": (implicit_euler, _start_qv, _observe_qv),
+    "linearly_implicit_euler": (linearly_implicit_euler, _start_qv, _observe_qv),
     "implicit_midpoint": (implicit_midpoint, _start_qv, _observe_qv),
     "semi_implicit_euler_velocity_implicit": (semi_implicit_euler_velocity_implicit, _start_qv, _observe_qv),
     "position_first_euler_decay_after_kick": (position_first_euler_decay_after_kick, _start_qv, _observe_qv),

@@ -5,6 +5,7 @@ from records import InvalidInput
 
 from .scene import Param, Scene, no_solve, no_velocity_dependence
 from .chain import Chain
+from .cloth import Cloth, Net
 from .damped_spring import DampedSpring
 from .kepler import Kepler
 from .model import FEATURES, SUFFIXES, VARIANTS, ModelScene, read_model_file, variant
@@ -15,7 +16,7 @@ from .solar_system import SolarSystem
 from .spring import Spring
 
 SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
-    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope, SolarSystem,
+    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope, SolarSystem, Cloth, Net,
 )}
 
 

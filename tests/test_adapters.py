@@ -288,11 +288,11 @@ def test_issue_scene_coverage():
     supported = {mid: {s for s in SCENES if m.supports(make_scene(s))[0]} for mid, m in adapters.ENGINE_METHODS.items()}
     four = {"spring", "damped_spring", "pendulum", "projectile"}
     for mode in ("euler", "rk4", "implicit", "implicitfast", "discrete"):
-        assert supported[f"mujoco:{mode}"] == four | {"chain", "rope"}  # issue 6: slide joints + tendons, hinges
+        assert supported[f"mujoco:{mode}"] == four | {"chain", "rope", "cloth", "net"}  # slide joints + tendons, hinges
     assert supported["pybullet:semi_implicit"] == four | {"chain"}
     assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring",
                                                                                      "projectile", "chain"}
-    assert supported["pymunk:damped_spring"] == {"damped_spring", "chain"}  # issue 12: Chipmunk's own damping
+    assert supported["pymunk:damped_spring"] == {"damped_spring", "chain", "net"}  # issue 12: Chipmunk's own damping
     assert supported["pymunk:space_damping"] == {"damped_spring", "projectile"}
     assert supported["pymunk:pin_joint"] == {"pendulum", "rope"}
     for mode in ("leapfrog", "whfast", "ias15", "saba"):

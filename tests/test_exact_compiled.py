@@ -22,7 +22,7 @@ from reference import _codegen, _exactness, _libm
 from scenarios import SCENES, make_scene
 from scenarios.spring import Spring
 
-SIZES = {"chain": {"N": 8}, "rope": {"N": 5}}
+SIZES = {"chain": {"N": 8}, "rope": {"N": 5}, "cloth": {"n": 3, "m": 3}, "net": {"n": 3, "m": 3}}
 
 
 def assert_same_run(a, b):

@@ -74,9 +74,13 @@ def test_counted_force_evaluations_equal_declared_on_linear_scenes(scheme_id, sc
 def test_implicit_schemes_on_nonlinear_scenes_count_one_evaluation_per_newton_iteration(scheme_id, scene_id):
     steps = 50
     tr = run(scheme_id, scene=make_scene(scene_id), dt=0.01, steps=steps)
-    # Each Newton iteration is one evaluation and one solve; Newton needs more than one here.
+    # Each Newton iteration is one evaluation and one solve; Newton needs more than one here,
+    # except in the linearly implicit step, which is one solve by construction.
     assert tr.force_evals == tr.solves
-    assert steps < tr.force_evals <= 50 * steps
+    if scheme_id == "linearly_implicit_euler":
+        assert tr.force_evals == steps
+    else:
+        assert steps < tr.force_evals <= 50 * steps
 
 
 def test_every_scheme_declares_its_metadata_and_formulas():
@@ -161,7 +165,8 @@ COMPILED_CASES = ([(s, "kepler") for s in FREE] + [("verlet_constrained", "rope"
 
 @pytest.mark.parametrize("scheme_id,scene_id", COMPILED_CASES)
 def test_compiled_path_matches_interpreted_path(scheme_id, scene_id):
-    scene = make_scene(scene_id)
+    # The cloth at 3 x 3: an interpreted banded solve of the default 8 x 8 takes ~0.1 s.
+    scene = make_scene(scene_id, **({"n": 3, "m": 3} if scene_id == "cloth" else {}))
     scheme = METHODS[scheme_id]
     ref = integrate(scheme, scene, 0.01, 200, every=200)
     q, v = run_compiled(scheme, scene, 0.01, 200)

@@ -28,6 +28,8 @@ REF_STABILITY = {
     "semi_implicit_euler_velocity_implicit": 2.0,
     "position_first_euler_decay_after_kick": 2.0,
     "position_first_euler_decay_before_kick": 2.0,
+    # On a linear scene backward Euler itself (to roundoff): never unstable.
+    "linearly_implicit_euler": UNBOUNDED,
 }
 ENGINE_STABILITY = {
     "mujoco:euler": 2.0,
@@ -55,6 +57,7 @@ REF_ORDER = {
     "semi_implicit_euler_velocity_implicit": 1,
     "position_first_euler_decay_after_kick": 1,
     "position_first_euler_decay_before_kick": 1,
+    "linearly_implicit_euler": 1,
 }
 #: (method, scene) -> order. The engines' scenes: the spring for MuJoCo and pybullet,
 #: the Kepler orbit for REBOUND's leapfrog (docs/engines.md: 2nd order on it).
@@ -78,6 +81,7 @@ REF_ENERGY = {
     "leapfrog": "bounded",
     "rk4": "decays",
     "implicit_euler": "decays",
+    "linearly_implicit_euler": "decays",
 }
 
 #: Counted (force evaluations, solves) per step on the spring (issue 4: "1, 1, 1, 4,
@@ -88,4 +92,5 @@ REF_EVALS = {
     "verlet": (1, 0),
     "rk4": (4, 0),
     "implicit_euler": (1, 1),
+    "linearly_implicit_euler": (1, 1),
 }

@@ -43,7 +43,7 @@ def run(args) -> int:
     for sid, s in cat["scenes"].items():
         params = ", ".join(f"{k}={v['value']:g} {v['allowed']}" for k, v in s["params"].items()) or "none"
         print(f"  {sid:16s} {s['title']}")
-        print(f"  {'':16s} omega={s['omega']:.4g}  params: {params}")
+        print(f"  {'':16s} omega={s['omega']:.4g} (h*omega at 60 Hz: {s['omega'] / 60.0:.3g})  params: {params}")
     print("\nMethods")
     for mid, m in cat["methods"].items():
         if is_reference(mid):

@@ -146,6 +146,8 @@ MATRICES = {
     "forest_ruth": _forest_ruth,
     "rk4": _rk4,
     "implicit_euler": _implicit_euler,
+    # On a linear scene the linearly implicit step is backward Euler (tests/test_cloth.py).
+    "linearly_implicit_euler": _implicit_euler,
     "implicit_midpoint": _implicit_midpoint,
 }
 
@@ -168,6 +170,7 @@ CLOSED_FORM = {
     "verlet": _semi_implicit_limit,
     "semi_implicit_euler_velocity_implicit": lambda z: 2.0 * (math.sqrt(1.0 + z * z) + z),
     "implicit_euler": lambda z: math.inf,
+    "linearly_implicit_euler": lambda z: math.inf,
     "implicit_midpoint": lambda z: math.inf,
 }
 

@@ -1,0 +1,21 @@
+from .._scheme import scheme
+
+
+@scheme(order=1, force_evals=1, symplectic=False, implicit=True, energy_claim="decays", homega_max=float("inf"))
+def linearly_implicit_euler(accel, solve, newton_max, state, t, h, p):
+    """Linearly implicit backward Euler (Baraff and Witkin's cloth step): backward Euler with the
+    force linearised at the start of the step, so one linear solve and no iteration.
+
+        (I - h da/dv - h^2 da/dx) v_{n+1} = v_n + h a(x_n, 0, t_n)    (Jacobians at x_n, v_n)
+        x_{n+1} = x_n + h v_{n+1}
+
+    which is their dv = (I - h da/dv - h^2 da/dx)^-1 h (a(x_n, v_n) + h da/dx v_n) for a force
+    affine in the velocity (a(x_n, v_n) - da/dv v_n = a(x_n, 0)). On a linear scene it is backward
+    Euler exactly, to roundoff (the same solve, its right-hand side summed in another order).
+    First order; one force evaluation and one solve a step whatever the scene (``newton_max``
+    unused); never explodes on a linear scene, damps everything.
+    """
+    q, v = state
+    # v - v: the zero velocity (not 0.0 * v, which is -0.0 where v < 0), on arrays and floats alike.
+    w = solve(q, v, t, p, h, h * h, v + h * accel(q, v - v, t, p))
+    return (q + h * w, w)
