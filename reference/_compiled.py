@@ -205,7 +205,7 @@ def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
         with np.errstate(all="ignore"):  # two steps, in the variant batch-one runs take
             _kernels.warm(kernels, lambda: _counted_run(kernels, q, v, 0.0, 0.01 / scene.omega, 2, 1, scene.pvec,
                                                         int(k), out, out.copy()),
-                          kernels.counted_dispatchers())
+                          kernels.counted_dispatchers(), counted=True)
         kernels.mark_counted()
     _COUNTED[key] = (kernels, why)
     return _COUNTED[key]

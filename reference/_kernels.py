@@ -74,16 +74,25 @@ def cache_dir() -> Path:
 
 @dataclass
 class Stats:
-    """What this process compiled and what it loaded from the disk cache."""
+    """What this process compiled and what it loaded from the disk cache, in CPU seconds of
+    this process: ``compiled`` / ``loaded`` count the first calls of a pair's entry points
+    (``warm``; ``counted_*`` the counted accuracy loops among them), ``numba_s`` every numba
+    compilation however it was reached (a variant compiled on a later call, a floor), from
+    numba's own compile events."""
 
     compiled: int = 0
     compile_s: float = 0.0
     loaded: int = 0
     load_s: float = 0.0
+    counted_compiled: int = 0
+    counted_compile_s: float = 0.0
+    numba_s: float = 0.0
 
     def snapshot(self) -> dict:
         return {"kernels_compiled": self.compiled, "compile_s": self.compile_s,
-                "kernels_loaded": self.loaded, "load_s": self.load_s}
+                "kernels_loaded": self.loaded, "load_s": self.load_s,
+                "counted_compiled": self.counted_compiled, "counted_compile_s": self.counted_compile_s,
+                "numba_s": self.numba_s}
 
 
 STATS = Stats()
@@ -110,6 +119,28 @@ def _register_overloads() -> None:
         return None
 
     _OVERLOADS.append(_largest_magnitude)
+    _listen_to_compiles()
+
+
+def _listen_to_compiles() -> None:
+    """Add every numba compilation of this process to ``STATS.numba_s`` (the outermost only:
+    a kernel's callees compile inside it)."""
+    from numba.core import event
+
+    class _Compiles(event.Listener):
+        depth, t0 = 0, 0.0
+
+        def on_start(self, ev):
+            if self.depth == 0:
+                self.t0 = time.process_time()
+            self.depth += 1
+
+        def on_end(self, ev):
+            self.depth -= 1
+            if self.depth == 0:
+                STATS.numba_s += time.process_time() - self.t0
+
+    event.register("numba:compile", _Compiles())
 
 
 # ------------------------------------------------------------------ files
@@ -272,11 +303,12 @@ def _in_memory(scheme, scene_cls, why: str) -> Kernels:
     return Kernels(start, advance_n, observe, False, None, why)
 
 
-def warm(kernels: Kernels, call, dispatchers: list | None = None) -> float:
+def warm(kernels: Kernels, call, dispatchers: list | None = None, counted: bool = False) -> float:
     """Run ``call()`` (the first call of the pair's kernels, which compiles them or loads them
     from the cache), account it in ``STATS`` and return its seconds, CPU seconds of this
     process (numba compiles in this thread; a core shared with other work does not inflate them).
-    ``dispatchers``: the functions ``call`` compiles (default: the timing loop's)."""
+    ``dispatchers``: the functions ``call`` compiles (default: the timing loop's); ``counted``:
+    they are the counted accuracy loop's."""
     t = time.process_time()
     call()
     seconds = time.process_time() - t
@@ -287,4 +319,7 @@ def warm(kernels: Kernels, call, dispatchers: list | None = None) -> float:
     else:
         STATS.compiled += 1
         STATS.compile_s += seconds
+        if counted:
+            STATS.counted_compiled += 1
+            STATS.counted_compile_s += seconds
     return seconds
