@@ -66,15 +66,27 @@ def compiled_as(scheme, scene_cls):
     return scheme
 
 
+def _nstate(scheme, scene: Scene) -> int:
+    q, v = _kernel_layout(scene, None, None)
+    with np.errstate(all="ignore"):
+        return len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))
+
+
 def _parts(scheme, scene: Scene) -> _Compiled:
     key = (scheme, type(scene))
     if key not in _DRIVERS:
         scheme = compiled_as(scheme, type(scene))
-        q, v = _kernel_layout(scene, None, None)
-        with np.errstate(all="ignore"):
-            nstate = len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))
-        _DRIVERS[key] = _Compiled(_kernels.load(scheme, type(scene), nstate), scheme, scene)
+        _DRIVERS[key] = _Compiled(_kernels.load(scheme, type(scene), _nstate(scheme, scene)), scheme, scene)
     return _DRIVERS[key]
+
+
+def cache_state(scheme, scene: Scene) -> tuple[_kernels.Cached, _kernels.Cached]:
+    """What this machine's disk cache holds of a pair before anything loads it
+    (``_kernels.Cached``): of the file its timing loop comes from (``compiled_as``), and of the
+    file its counted run comes from; nothing is written or compiled."""
+    timing = compiled_as(scheme, type(scene))
+    return (_kernels.cached(timing, type(scene), _nstate(timing, scene)),
+            _kernels.cached(scheme, type(scene), _nstate(scheme, scene)))
 
 
 def driver(scheme, scene: Scene):
@@ -188,9 +200,7 @@ def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
     if key in _COUNTED:
         return _COUNTED[key]
     q, v = _kernel_layout(scene, None, None)
-    with np.errstate(all="ignore"):
-        nstate = len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))
-    kernels = _kernels.load(scheme, type(scene), nstate)
+    kernels = _kernels.load(scheme, type(scene), _nstate(scheme, scene))
     why = kernels.exact_why
     if not why:
         from . import _libm

@@ -116,20 +116,16 @@ def run_task(task) -> list[Cell]:
 
 
 def compiles_for(task, suite: Suite) -> set[str]:
-    """The reference schemes whose counted kernels a task compiles (``reference.Exact``):
-    a reference task its own scheme's; an engine task those of the schemes no task of the suite
-    runs on its scene, which its identity compares with and nobody else would compile. Every
-    other run takes the kernel its own task compiled, where it was compiled before (in a run
-    after a kernel changed, the engine tasks interpret what is not yet compiled, instead of
-    compiling a dozen candidates within their time limit)."""
-    import reference
-
-    if task.family == "ref":
-        return {task.method.split(":", 1)[1]}
-    spec = suite.scenes[task.scene]
-    run = [m for m in (suite.methods or [f"ref:{s}" for s in reference.METHODS]) if m.startswith("ref:")]
-    run = {m[4:] for m in run if m not in spec.skip and (spec.methods is None or m in spec.methods)}
-    return set(reference.METHODS) - run
+    """The reference schemes whose counted kernels a task compiles (``reference.Exact``): a
+    reference task its own scheme's, where its accuracy runs are stepped counted (not a scene
+    whose runs step the compiled loop, where only the cost cell's 100 steps are counted) and the
+    run's plan lets it (``Task.compile_counted``: the pair is in the disk cache already, so the
+    compile is kept for later runs; ``harness.nightly.kernels``). Every other run takes a counted
+    kernel compiled before, and is interpreted otherwise: an engine task's identity runs its
+    candidates 1,000 steps, interpreted in a fraction of the 0.3-3 CPU-s a compile costs."""
+    if task.family != "ref" or suite.scenes[task.scene].compiled or not task.compile_counted:
+        return set()
+    return {task.method.split(":", 1)[1]}
 
 
 def _scene_task(task, suite: Suite, exact=None) -> list[Cell]:
