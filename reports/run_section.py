@@ -103,8 +103,8 @@ def kernel_cache(timing: RunTiming) -> list[str]:
         line += (f" Before the run: about {plan['timing'] + plan['counted']} kernels to compile "
                  f"({plan['timing']} timing loops, {plan['counted']} counted accuracy loops)")
         if plan["interpreted"]:
-            line += (f"; {plan['interpreted']} reference tasks interpreted their accuracy runs, their pairs new to "
-                     f"the cache (the same figures, bit for bit; compiled from the next run on)")
+            line += (f"; {plan['interpreted']} reference tasks, their pairs new to the cache, interpreted their "
+                     f"accuracy runs until that cost what compiling would (the same figures, bit for bit)")
         line += f"; cache `{plan['cache']}`."
     return ["", line.strip()]
 

@@ -5,11 +5,15 @@ timing loop ``advance_n``, which every cost cell needs (its figure is the compil
 the counted run, which only speeds up the accuracy runs (``reference.Exact``: the interpreted
 bits, counted alike). Compiling a counted run costs 0.3-0.5 CPU-s on a pointwise scene and 2-3
 on an array scene (this project's 2-core machine), about what interpreting one task's accuracy
-runs costs; it pays off only where the disk cache keeps it for later runs. So a reference task
-compiles its counted run where the disk cache already holds the pair's kernel file (the pair ran
-on this machine before, and its cache was kept: a CI runner that restores ``$HARNESS_CACHE``,
-a developer's machine) and interprets its accuracy runs where it does not (the first run on a
-fresh machine, or a runner that keeps nothing). The numbers are the same either way, bit for bit.
+runs costs; it pays off at once only where the task's runs are long, and otherwise only where
+the disk cache keeps it for later runs. So a reference task whose pair is already in the disk
+cache (the pair ran on this machine before and its cache was kept: a CI runner that restores
+``$HARNESS_CACHE``, a developer's machine) compiles its counted run at once, as before; one whose
+pair is new to the cache (the first run on a fresh machine, or a runner that keeps nothing)
+interprets its accuracy runs until interpreting has cost as much as compiling would, then
+compiles (``reference.Exact.after_interpreting``, the ski-rental rule: at most twice the cheaper
+of the two). The next run finds the pair in the cache and compiles what is left. The numbers are
+the same either way, bit for bit.
 
 ``plan`` says, before the run, how many loops it will compile ("cold cache: about N kernels to
 compile"): the timing loops of the reference tasks' pairs and of explicit Euler on every scene
@@ -27,8 +31,9 @@ BASELINE = "explicit_euler"
 
 @dataclass(frozen=True)
 class KernelPlan:
-    """The loops a run will compile (``timing``, ``counted``), the reference tasks whose accuracy
-    runs are interpreted because their pair is new to the cache, and the cache's folder."""
+    """The loops a run will compile (``timing``, ``counted``), the reference tasks whose pair is
+    new to the cache (their accuracy runs interpreted until that costs what compiling would:
+    their counted loops are not counted in ``counted``), and the cache's folder."""
 
     timing: int = 0
     counted: int = 0
@@ -50,8 +55,8 @@ class KernelPlan:
         else:
             what = "kernel cache warm: nothing to compile"
         if self.interpreted:
-            what += (f"; {self.interpreted} reference tasks interpret their accuracy runs (pair new to the "
-                     f"cache; compiled from the next run on)")
+            what += (f"; {self.interpreted} reference tasks new to the cache interpret their accuracy runs "
+                     f"until that costs what compiling would")
         return f"{what}; kernel cache {self.cache}"
 
 
