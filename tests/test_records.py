@@ -225,9 +225,9 @@ def test_a_nightly_task_resolves_its_method_once(monkeypatch):
     looked_up = []
     real = registry.get_method
 
-    def counting(method_id, options=None):
+    def counting(method_id, *args, **kwargs):
         looked_up.append(method_id)
-        return real(method_id, options)
+        return real(method_id, *args, **kwargs)
 
     monkeypatch.setattr(registry, "get_method", counting)
     monkeypatch.setattr(isolation, "IN_WORKER", True)  # as in a nightly worker
