@@ -64,7 +64,6 @@ def plan(tasks: list, suite) -> tuple[list, KernelPlan]:
     """The tasks, each reference task told whether to compile its counted run
     (``Task.compile_counted``), and what the run will compile (``KernelPlan``)."""
     import reference
-    from reference._kernels import cache_dir
 
     timing: dict[str, bool] = {}  # kernel file -> its timing loop is to compile
     scenes: dict[tuple, object] = {}
@@ -96,4 +95,4 @@ def plan(tasks: list, suite) -> tuple[list, KernelPlan]:
         out.append(task)
     if timing:
         state(BASELINE, make_scene("spring"))  # the calibration's loop
-    return out, KernelPlan(sum(timing.values()), counted, interpreted, str(cache_dir()))
+    return out, KernelPlan(sum(timing.values()), counted, interpreted, str(reference.kernel_cache_dir()))
