@@ -173,6 +173,8 @@ def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int =
 #: (scheme, scene class) -> (its kernels, why its counted run might not compute the interpreted
 #: bits, "" where it does), for this process.
 _COUNTED: dict[tuple, tuple] = {}
+#: (scheme, scene class) -> its kernel file, loaded (not compiled), for this process.
+_LOADED: dict[tuple, _kernels.Kernels] = {}
 NOT_YET = "its counted kernel is not compiled on this machine yet"
 
 
@@ -228,7 +230,9 @@ def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
     if key in _COUNTED:
         return _COUNTED[key]
     q, v = _kernel_layout(scene, None, None)
-    kernels = _kernels.load(scheme, type(scene), _nstate(scheme, scene))
+    if key not in _LOADED:  # written and imported once: a NOT_YET pair is asked again at every run
+        _LOADED[key] = _kernels.load(scheme, type(scene), _nstate(scheme, scene))
+    kernels = _LOADED[key]
     why = kernels.exact_why
     if not why:
         from . import _libm
