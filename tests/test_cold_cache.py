@@ -100,4 +100,7 @@ def test_what_a_cache_would_have_saved():
                                "cache would have saved about 39 CPU-s")
     # None loaded to measure a load by: the stated 0.02 s.
     assert RunTiming(numba_compile_s=10.0, kernels_compiled=100).cache_would_save_s == pytest.approx(8.0)
-    assert KernelPlan(0, 0, 0, "/c").line() == "kernel cache warm: nothing to compile; kernel cache /c"
+    assert KernelPlan(0, 0, 0, "/c", 5).line() == "kernel cache warm: nothing to compile; kernel cache /c"
+    # Some of the run's timing loops cached: not a cold cache.
+    assert KernelPlan(1, 2, 0, "/c", 5).line().startswith("kernel cache: about 3 kernels to compile (1 timing")
+    assert KernelPlan(5, 0, 3, "/c", 5).line().startswith("cold cache: about 5 kernels to compile (5 timing")
