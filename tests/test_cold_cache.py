@@ -8,8 +8,9 @@ run finds the pair and compiles whatever is left; the one after loads everything
 are as deterministic as the accuracy figures; what differs between the runs is only how they ran
 (which backend stepped the accuracy runs, the kernels compiled or loaded, the seconds).
 """
-import io
 import json
+import subprocess
+import sys
 from dataclasses import replace
 
 import pytest
@@ -17,15 +18,20 @@ import pytest
 from harness.history.storage import History
 from harness.nightly.kernels import KernelPlan
 from harness.nightly.progress import compile_line
-from harness.nightly.run import run_nightly
 from records.run import RunTiming
-from tests.test_resume import CLOCKED, SUITE, TIMINGS, cells_of
+from tests.test_resume import CLOCKED, ROOT, SUITE, TIMINGS, cells_of, env
 
 #: How a run ran, beside what it measured: the backend of the accuracy runs.
 HOW = CLOCKED | {"backend"}
 #: The resume tests' suite less a scheme and an engine mode, and its bound: one reference task (its
 #: energy, error, order, cost, advice and stability cells), one engine task (its identity too).
 COLD = replace(SUITE, name="cold-smoke", methods=("ref:rk4", "mujoco:euler"), bounds=False)
+
+
+#: One nightly of ``COLD`` in a process of its own, so that its worker processes start with this
+#: test's ``HARNESS_CACHE`` (a forkserver another test started keeps the environment it had).
+NIGHTLY = ("import sys; from pathlib import Path; from harness.nightly.run import run_nightly; "
+           "from tests.test_cold_cache import COLD; run_nightly(COLD, Path(sys.argv[1]), Path(sys.argv[2]), jobs=2)")
 
 
 @pytest.fixture(scope="module")
@@ -35,16 +41,15 @@ def three_runs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("cold")
     timings = tmp / "timings.json"
     timings.write_text(json.dumps(TIMINGS))
+    db = tmp / "h.sqlite"
     out = {}
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("HARNESS_INJECT_TIMINGS", str(timings))
-        mp.setenv("HARNESS_CACHE", str(tmp / "cache"))
-        for run in (1, 2, 3):
-            stream = io.StringIO()
-            res = run_nightly(COLD, tmp / "out", tmp / "h.sqlite", jobs=2, progress_stream=stream)
-            assert res["run_id"] == run
-            out[run] = (cells_of(tmp / "h.sqlite", run), RunTiming.of(res["timing"]), stream.getvalue(),
-                        History(tmp / "h.sqlite").cells(run))
+    for run in (1, 2, 3):
+        done = subprocess.run([sys.executable, "-c", NIGHTLY, str(tmp / "out"), str(db)], cwd=ROOT, text=True,
+                              env=env(HARNESS_INJECT_TIMINGS=str(timings), HARNESS_CACHE=str(tmp / "cache")),
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+        history = History(db)
+        out[run] = (cells_of(db, run), RunTiming.of(history.run(run)["timing"]), done.stderr, history.cells(run))
     return out
 
 
