@@ -80,7 +80,7 @@ def _kernels_phrase(timing: RunTiming) -> str:
         split = (f": {compiled - timing.counted_compiled} timing loops, {timing.counted_compiled} counted accuracy "
                  f"loops in {timing.counted_compile_s or 0.0:.1f}s")
     return (f", {timing.numba_compile_s or 0.0:.1f}s of it numba compiling {compiled} (scheme, scene) "
-            f"kernels" + (f" ({share:.0%} of it{split})" if share is not None else "")
+            f"kernels" + (f" ({share:.0%} of it{split})" if share is not None and compiled else "")
             + f", {loaded} more loaded from the disk cache in {timing.kernel_load_s:.1f}s")
 
 
