@@ -84,6 +84,10 @@ class RunTiming:
     kernels_compiled: int | None = None
     kernels_loaded: int | None = None
     kernel_load_s: float = 0.0
+    counted_compiled: int | None = None  # of kernels_compiled, counted accuracy loops (the rest timing loops)
+    counted_compile_s: float | None = None
+    numba_s: float | None = None         # every numba compilation in the workers (numba's compile events)
+    kernel_plan: dict | None = None      # what the run expected to compile (harness.nightly.kernels.KernelPlan)
     worker_seconds_by_measure: dict = field(default_factory=dict)
     worker_seconds_by_family: dict = field(default_factory=dict)
     slowest_tasks: list = field(default_factory=list)
@@ -97,3 +101,21 @@ class RunTiming:
     @classmethod
     def of(cls, timing) -> "RunTiming":
         return timing if isinstance(timing, cls) else cls(**_known(cls, timing))
+
+    #: CPU seconds to load a kernel from the disk cache, where the run loaded none to measure it
+    #: (a warm standard nightly: 227 kernels in 4.7 s on this project's 2-core machine).
+    LOAD_S = 0.02
+
+    @property
+    def compile_share(self) -> float | None:
+        """The share of the workers' CPU spent compiling kernels (None where either is unknown)."""
+        if not self.worker_cpu_s or self.numba_compile_s is None:
+            return None
+        return self.numba_compile_s / self.worker_cpu_s
+
+    @property
+    def cache_would_save_s(self) -> float:
+        """CPU seconds a disk cache holding every kernel compiled here would have saved: their
+        compile time less loading them (at this run's seconds a load, else ``LOAD_S``)."""
+        per_load = self.kernel_load_s / self.kernels_loaded if self.kernels_loaded else self.LOAD_S
+        return max(0.0, (self.numba_compile_s or 0.0) - (self.kernels_compiled or 0) * per_load)

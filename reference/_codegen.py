@@ -288,7 +288,9 @@ def _counted_source(kind: str) -> str:
     checks it (a component not finite or beyond DIVERGED stops the run: ``failed`` is that
     step, else 0); the observed state of step 0, every ``every`` steps and the last written to
     ``out_q``/``out_v`` (kernel layout, one record per row; ``recorded`` rows written); the
-    force, solve and projection calls added to ``cnt``."""
+    force, solve and projection calls added to ``cnt``. A record is copied entry by entry
+    (``_put``): a slice assignment would compile numba's broadcasting and its error message, a
+    second or more of every worker's first counted kernel, for the same copy."""
     extra = "k, " if kind in ("implicit", "constrained") else ""
     return "\n".join([
         f"_DIVERGED = {DIVERGED!r}",
@@ -303,10 +305,17 @@ def _counted_source(kind: str) -> str:
         "",
         "",
         "@_jit",
+        "def _put(out, j, x):",
+        "    for r in range(x.shape[0]):",
+        "        for b in range(x.shape[1]):",
+        "            out[j, r, b] = x[r, b]",
+        "",
+        "",
+        "@_jit",
         "def run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt):",
         "    qo, vo = observe(state, t0, h, p)",
-        "    out_q[0, :, :] = qo",
-        "    out_v[0, :, :] = vo",
+        "    _put(out_q, 0, qo)",
+        "    _put(out_v, 0, vo)",
         "    j = 1",
         "    for i in range(n):",
         f"        state = scheme_step_counted(cnt, {extra}state, t0 + i * h, h, p)",
@@ -314,8 +323,8 @@ def _counted_source(kind: str) -> str:
         "            return state, j, i + 1",
         "        if (i + 1) % every == 0 or i + 1 == n:",
         "            qo, vo = observe(state, t0 + (i + 1) * h, h, p)",
-        "            out_q[j, :, :] = qo",
-        "            out_v[j, :, :] = vo",
+        "            _put(out_q, j, qo)",
+        "            _put(out_v, j, vo)",
         "            j += 1",
         "    return state, j, 0",
         ""])

@@ -66,15 +66,27 @@ def compiled_as(scheme, scene_cls):
     return scheme
 
 
+def _nstate(scheme, scene: Scene) -> int:
+    q, v = _kernel_layout(scene, None, None)
+    with np.errstate(all="ignore"):
+        return len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))
+
+
 def _parts(scheme, scene: Scene) -> _Compiled:
     key = (scheme, type(scene))
     if key not in _DRIVERS:
         scheme = compiled_as(scheme, type(scene))
-        q, v = _kernel_layout(scene, None, None)
-        with np.errstate(all="ignore"):
-            nstate = len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))
-        _DRIVERS[key] = _Compiled(_kernels.load(scheme, type(scene), nstate), scheme, scene)
+        _DRIVERS[key] = _Compiled(_kernels.load(scheme, type(scene), _nstate(scheme, scene)), scheme, scene)
     return _DRIVERS[key]
+
+
+def cache_state(scheme, scene: Scene) -> tuple[_kernels.Cached, _kernels.Cached]:
+    """What this machine's disk cache holds of a pair before anything loads it
+    (``_kernels.Cached``): of the file its timing loop comes from (``compiled_as``), and of the
+    file its counted run comes from; nothing is written or compiled."""
+    timing = compiled_as(scheme, type(scene))
+    return (_kernels.cached(timing, type(scene), _nstate(timing, scene)),
+            _kernels.cached(scheme, type(scene), _nstate(scheme, scene)))
 
 
 def driver(scheme, scene: Scene):
@@ -161,7 +173,23 @@ def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int =
 #: (scheme, scene class) -> (its kernels, why its counted run might not compute the interpreted
 #: bits, "" where it does), for this process.
 _COUNTED: dict[tuple, tuple] = {}
+#: (scheme, scene class) -> its kernel file, loaded (not compiled), for this process.
+_LOADED: dict[tuple, _kernels.Kernels] = {}
 NOT_YET = "its counted kernel is not compiled on this machine yet"
+
+
+#: (scheme, scene class) -> CPU seconds this process spent interpreting the pair's runs where its
+#: counted kernel was not compiled (``Exact.interpreted``).
+_INTERPRETED: dict[tuple, float] = {}
+#: CPU seconds compiling a pair's counted run takes, by its loop (``reference._kernels``), measured
+#: on this project's 2-core machine: 0.3-0.5 on a pointwise scene, 2.3-3 on an array scene
+#: (RK4 on the chain of 8 3.0, leapfrog 2.5, explicit Euler on Kepler 2.3).
+COUNTED_COMPILE_S = {"pointwise": 0.4, "array": 2.5}
+
+
+def counted_compile_s(scheme, scene: Scene) -> float:
+    """What compiling the pair's counted run is expected to cost, CPU seconds."""
+    return COUNTED_COMPILE_S["pointwise" if type(scene).pointwise and not scheme.constrained else "array"]
 
 
 @dataclass(frozen=True)
@@ -172,12 +200,26 @@ class Exact:
     kernels may be compiled here (a few seconds each, once per machine; None: any); the others
     take theirs only where an earlier run compiled them, and are interpreted until then (the
     nightly's task for a scheme compiles its own, not the engine tasks that compare with every
-    scheme)."""
+    scheme). ``after_interpreting``: those of them that compile only once this process has spent
+    as long interpreting the pair's runs as compiling would take (``counted_compile_s``): a pair
+    new to the disk cache, whose compile may never be used again (a machine that keeps no cache),
+    costs at most twice the cheaper of the two (the ski-rental rule)."""
 
     compile_for: frozenset | None = None
+    after_interpreting: frozenset = frozenset()
 
-    def may_compile(self, scheme) -> bool:
-        return self.compile_for is None or scheme.id in self.compile_for
+    def may_compile(self, scheme, scene: Scene | None = None) -> bool:
+        if not (self.compile_for is None or scheme.id in self.compile_for):
+            return False
+        if scheme.id not in self.after_interpreting or scene is None:
+            return True
+        return _INTERPRETED.get((scheme, type(scene)), 0.0) >= counted_compile_s(scheme, scene)
+
+    @staticmethod
+    def interpreted(scheme, scene: Scene, seconds: float) -> None:
+        """Count ``seconds`` of CPU spent interpreting a run of the pair (``may_compile``)."""
+        key = (scheme, type(scene))
+        _INTERPRETED[key] = _INTERPRETED.get(key, 0.0) + seconds
 
 
 def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
@@ -188,9 +230,9 @@ def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
     if key in _COUNTED:
         return _COUNTED[key]
     q, v = _kernel_layout(scene, None, None)
-    with np.errstate(all="ignore"):
-        nstate = len(scheme.start(scene.accel, q, v, 0.0, 0.01, scene.pvec))
-    kernels = _kernels.load(scheme, type(scene), nstate)
+    if key not in _LOADED:  # written and imported once: a NOT_YET pair is asked again at every run
+        _LOADED[key] = _kernels.load(scheme, type(scene), _nstate(scheme, scene))
+    kernels = _LOADED[key]
     why = kernels.exact_why
     if not why:
         from . import _libm
@@ -205,7 +247,7 @@ def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
         with np.errstate(all="ignore"):  # two steps, in the variant batch-one runs take
             _kernels.warm(kernels, lambda: _counted_run(kernels, q, v, 0.0, 0.01 / scene.omega, 2, 1, scene.pvec,
                                                         int(k), out, out.copy()),
-                          kernels.counted_dispatchers())
+                          kernels.counted_dispatchers(), counted=True)
         kernels.mark_counted()
     _COUNTED[key] = (kernels, why)
     return _COUNTED[key]

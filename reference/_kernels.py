@@ -74,16 +74,25 @@ def cache_dir() -> Path:
 
 @dataclass
 class Stats:
-    """What this process compiled and what it loaded from the disk cache."""
+    """What this process compiled and what it loaded from the disk cache, in CPU seconds of
+    this process: ``compiled`` / ``loaded`` count the first calls of a pair's entry points
+    (``warm``; ``counted_*`` the counted accuracy loops among them), ``numba_s`` every numba
+    compilation however it was reached (a variant compiled on a later call, a floor), from
+    numba's own compile events."""
 
     compiled: int = 0
     compile_s: float = 0.0
     loaded: int = 0
     load_s: float = 0.0
+    counted_compiled: int = 0
+    counted_compile_s: float = 0.0
+    numba_s: float = 0.0
 
     def snapshot(self) -> dict:
         return {"kernels_compiled": self.compiled, "compile_s": self.compile_s,
-                "kernels_loaded": self.loaded, "load_s": self.load_s}
+                "kernels_loaded": self.loaded, "load_s": self.load_s,
+                "counted_compiled": self.counted_compiled, "counted_compile_s": self.counted_compile_s,
+                "numba_s": self.numba_s}
 
 
 STATS = Stats()
@@ -110,6 +119,28 @@ def _register_overloads() -> None:
         return None
 
     _OVERLOADS.append(_largest_magnitude)
+    _listen_to_compiles()
+
+
+def _listen_to_compiles() -> None:
+    """Add every numba compilation of this process to ``STATS.numba_s`` (the outermost only:
+    a kernel's callees compile inside it)."""
+    from numba.core import event
+
+    class _Compiles(event.Listener):
+        depth, t0 = 0, 0.0
+
+        def on_start(self, ev):
+            if self.depth == 0:
+                self.t0 = time.process_time()
+            self.depth += 1
+
+        def on_end(self, ev):
+            self.depth -= 1
+            if self.depth == 0:
+                STATS.numba_s += time.process_time() - self.t0
+
+    event.register("numba:compile", _Compiles())
 
 
 # ------------------------------------------------------------------ files
@@ -208,6 +239,35 @@ class Kernels:
             mark.touch()
 
 
+def _path(scheme, scene_cls, f) -> Path:
+    return cache_dir() / f"k_{scheme.id}_{scene_cls.__name__.lower()}_{_key(f.text)}.py"
+
+
+@dataclass(frozen=True)
+class Cached:
+    """What the disk cache holds of a pair, before anything here loads it: its kernel file (the
+    pair was run on this machine before), its timing loop compiled (numba's index of
+    ``advance_n``), its counted loop compiled (``Kernels.mark_counted``). All False for a pair
+    compiled in memory, which nothing caches."""
+
+    file: bool = False
+    timing: bool = False
+    counted: bool = False
+    #: The kernel file's name (two schemes that compile as one share it); "" in memory.
+    name: str = ""
+
+
+def cached(scheme, scene_cls, nstate: int) -> Cached:
+    try:
+        path = _path(scheme, scene_cls, kernel_file(scheme, scene_cls, nstate))
+    except SourceUnavailable:
+        return Cached()
+    if not path.exists():
+        return Cached(name=path.name)
+    return Cached(True, any((path.parent / "__pycache__").glob(f"{path.stem}.advance_n-*.nbi")),
+                  path.with_suffix(".counted").exists(), path.name)
+
+
 def load(scheme, scene_cls, nstate: int) -> Kernels:
     """The kernels of a pair from its kernel file (written first if missing). Not yet
     compiled: the first call compiles, or loads numba's cache of the file."""
@@ -216,9 +276,8 @@ def load(scheme, scene_cls, nstate: int) -> Kernels:
         f = kernel_file(scheme, scene_cls, nstate)
     except SourceUnavailable as exc:
         return _in_memory(scheme, scene_cls, str(exc))
-    key = _key(f.text)
-    stem = f"k_{scheme.id}_{scene_cls.__name__.lower()}_{key}"
-    path = cache_dir() / f"{stem}.py"
+    path = _path(scheme, scene_cls, f)
+    stem = path.stem
     _write_once(path, f.text)
     module = _import_file(f"_harness_kernels.{stem}", path)
     return Kernels(module.start, module.advance_n, module.observe, f.pointwise, path,
@@ -272,19 +331,28 @@ def _in_memory(scheme, scene_cls, why: str) -> Kernels:
     return Kernels(start, advance_n, observe, False, None, why)
 
 
-def warm(kernels: Kernels, call, dispatchers: list | None = None) -> float:
+def warm(kernels: Kernels, call, dispatchers: list | None = None, counted: bool = False) -> float:
     """Run ``call()`` (the first call of the pair's kernels, which compiles them or loads them
     from the cache), account it in ``STATS`` and return its seconds, CPU seconds of this
     process (numba compiles in this thread; a core shared with other work does not inflate them).
-    ``dispatchers``: the functions ``call`` compiles (default: the timing loop's)."""
+    ``dispatchers``: the functions ``call`` compiles (default: the timing loop's); ``counted``:
+    they are the counted accuracy loop's."""
+    dispatchers = dispatchers or kernels.dispatchers()
+
+    def misses():  # a dispatcher another path compiled before (``observe``) brings its own misses
+        return sum(sum(d.stats.cache_misses.values()) for d in dispatchers)
+
+    before = misses()
     t = time.process_time()
     call()
     seconds = time.process_time() - t
-    misses = sum(sum(d.stats.cache_misses.values()) for d in dispatchers or kernels.dispatchers())
-    if kernels.cached and misses == 0:
+    if kernels.cached and misses() == before:
         STATS.loaded += 1
         STATS.load_s += seconds
     else:
         STATS.compiled += 1
         STATS.compile_s += seconds
+        if counted:
+            STATS.counted_compiled += 1
+            STATS.counted_compile_s += seconds
     return seconds

@@ -2,6 +2,7 @@
 harness, beside the engine modes of ``adapters``."""
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 
 from records import REFERENCE, MethodId, Trajectory
@@ -73,9 +74,13 @@ class RefMethod:
             return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
         if self.exact is not None:  # the same run, compiled where that is exact
             traj = integrate_exact(self.scheme, scene, dt, steps, every, **self.options,
-                                   may_compile=self.exact.may_compile(self.scheme))
+                                   may_compile=self.exact.may_compile(self.scheme, scene))
             if traj is not None:
                 return traj
+            t = time.process_time()
+            traj = integrate(self.scheme, scene, dt, steps, every, **self.options)
+            self.exact.interpreted(self.scheme, scene, time.process_time() - t)
+            return traj
         return integrate(self.scheme, scene, dt, steps, every, **self.options)
 
     def describe(self) -> dict:

@@ -55,7 +55,7 @@ def footer(run: RunRecord, timing: RunTiming) -> list[str]:
                       f"{r.get('tasks_run', 0)} run by the last attempt. Its wall and CPU times below are the "
                       f"last attempt's, its worker seconds every attempt's."]
     if timing.total_s is not None:
-        lines += [""] + where_the_time_went(timing)
+        lines += [""] + where_the_time_went(timing) + kernel_cache(timing)
     if timing.machine_busy is not None:
         lines += ["", f"Other processes took {timing.machine_busy:.0%} of the machine's CPU while the cells ran "
                       f"(/proc/stat, less the harness's own)."]
@@ -74,8 +74,39 @@ def _kernels_phrase(timing: RunTiming) -> str:
                 if timing.numba_compile_s else "")
     if not compiled and not loaded:
         return ""
+    share = timing.compile_share
+    split = ""
+    if timing.counted_compiled is not None and compiled:
+        split = (f": {compiled - timing.counted_compiled} timing loops, {timing.counted_compiled} counted accuracy "
+                 f"loops in {timing.counted_compile_s or 0.0:.1f}s")
     return (f", {timing.numba_compile_s or 0.0:.1f}s of it numba compiling {compiled} (scheme, scene) "
-            f"kernels, {loaded} more loaded from the disk cache in {timing.kernel_load_s:.1f}s")
+            f"kernels" + (f" ({share:.0%} of it{split})" if share is not None and compiled else "")
+            + f", {loaded} more loaded from the disk cache in {timing.kernel_load_s:.1f}s")
+
+
+def kernel_cache(timing: RunTiming) -> list[str]:
+    """What compiling cost this run and what a kept kernel cache would have saved; what the run
+    expected to compile before it started."""
+    plan = timing.kernel_plan
+    if not timing.kernels_compiled and not plan:
+        return []
+    line = ""
+    if timing.kernels_compiled:
+        workers = timing.worker_cpu_s / timing.cells_s if timing.worker_cpu_s and timing.cells_s else 1.0
+        saved = timing.cache_would_save_s
+        line = (f"Kernel cache: a cache holding the {timing.kernels_compiled} kernels compiled here would have "
+                f"saved about {saved:.0f} CPU-s (about {saved / max(workers, 1.0):.0f}s of wall at "
+                f"{workers:.2f} workers busy).")
+        if timing.numba_s and timing.numba_s > 1.05 * (timing.numba_compile_s or 0.0):
+            line += f" numba's own compile events add up to {timing.numba_s:.1f}s in all."
+    if plan:
+        line += (f" Before the run: about {plan['timing'] + plan['counted']} kernels to compile "
+                 f"({plan['timing']} timing loops, {plan['counted']} counted accuracy loops)")
+        if plan["interpreted"]:
+            line += (f"; {plan['interpreted']} reference tasks, their pairs new to the cache, interpreted their "
+                     f"accuracy runs until that cost what compiling would (the same figures, bit for bit)")
+        line += f"; cache `{plan['cache']}`."
+    return ["", line.strip()]
 
 
 def where_the_time_went(timing: RunTiming) -> list[str]:

@@ -63,7 +63,7 @@ def _kernels_since(before: dict, cell: Cell) -> None:
 
     now = STATS.snapshot()
     delta = {k: now[k] - before[k] for k in now}
-    if delta["kernels_compiled"] or delta["kernels_loaded"]:
+    if delta["kernels_compiled"] or delta["kernels_loaded"] or delta["numba_s"] > 0:
         cell.kernels = delta
 
 

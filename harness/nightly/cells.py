@@ -113,25 +113,22 @@ def run_task(task) -> list[Cell]:
     if task.kind == "cost":  # a cell's cost measured again, in a fresh worker (the nightly's re-measure)
         return [guard(task, "cost", lambda: _cost_again(task))]
     suite = suite_of(task)
-    exact = Exact(frozenset(compiles_for(task, suite))) if suite.exact_compiled else None
+    own = frozenset(compiles_for(task, suite))
+    exact = Exact(own, frozenset() if task.compile_counted else own) if suite.exact_compiled else None
     return _scene_task(task, suite, exact)
 
 
 def compiles_for(task, suite: Suite) -> set[str]:
-    """The reference schemes whose counted kernels a task compiles (``reference.Exact``):
-    a reference task its own scheme's; an engine task those of the schemes no task of the suite
-    runs on its scene, which its identity compares with and nobody else would compile. Every
-    other run takes the kernel its own task compiled, where it was compiled before (in a run
-    after a kernel changed, the engine tasks interpret what is not yet compiled, instead of
-    compiling a dozen candidates within their time limit)."""
-    import reference
-
-    if task.family == "ref":
-        return {task.method.split(":", 1)[1]}
-    spec = suite.scenes[task.scene]
-    run = [m for m in (suite.methods or [f"ref:{s}" for s in reference.METHODS]) if m.startswith("ref:")]
-    run = {m[4:] for m in run if m not in spec.skip and (spec.methods is None or m in spec.methods)}
-    return set(reference.METHODS) - run
+    """The reference schemes whose counted kernels a task compiles (``reference.Exact``): a
+    reference task its own scheme's, where its accuracy runs are stepped counted (not a scene
+    whose runs step the compiled loop, where only the cost cell's 100 steps are counted); where
+    the pair is new to the disk cache (``Task.compile_counted`` False: ``harness.nightly.kernels``)
+    only once interpreting them has cost as much as compiling would. Every other run takes a
+    counted kernel compiled before, and is interpreted otherwise: an engine task's identity runs
+    its candidates 1,000 steps, interpreted in a fraction of the 0.3-3 CPU-s a compile costs."""
+    if task.family != "ref" or suite.scenes[task.scene].compiled:
+        return set()
+    return {task.method.split(":", 1)[1]}
 
 
 def _scene_task(task, suite: Suite, exact=None) -> list[Cell]:

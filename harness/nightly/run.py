@@ -35,6 +35,7 @@ from harness.history.compare import compare_runs
 from harness.history.series import load as load_trend
 from harness.methods import active_plugins, all_methods, load_plugins
 from harness.history.storage import MEASUREMENT_VERSION, History
+from harness.nightly.progress import Progress, compile_line
 from harness.nightly.suites import SUITES, Suite
 
 DEFAULT_DB = Path("results/history.sqlite")
@@ -58,6 +59,7 @@ class Task:
     plugins: tuple[str, ...] = ()  # plugin modules the worker loads before it looks the method up
     timings: dict | None = None    # injected timings (``harness.measures.cost``), the clock's if None
     source: str | None = None      # the file of a scene built from one (a model file)
+    compile_counted: bool = True   # a reference task compiles its counted run (harness.nightly.kernels.plan)
 
     @property
     def label(self) -> str:
@@ -168,31 +170,6 @@ def make_executor(jobs: int | None, scheduler: str | None):
     return LocalExecutor(jobs or os.cpu_count() or 1)
 
 
-# ----------------------------------------------------------------------------- progress
-class Progress:
-    """A bar on a terminal, plain lines otherwise (logs, CI)."""
-
-    def __init__(self, total: int, stream=None):
-        # Looked up at call time: a stream bound at import can be closed by then (pytest capture).
-        stream = stream or sys.stderr
-        self.total, self.done, self.stream = total, 0, stream
-        self.tty = hasattr(stream, "isatty") and stream.isatty()
-        self.t0 = time.perf_counter()
-
-    def update(self, task: Task, status: str, seconds: float):
-        self.done += 1
-        if self.tty:
-            width = 30
-            filled = int(width * self.done / max(self.total, 1))
-            self.stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {self.done}/{self.total} "
-                              f"{time.perf_counter() - self.t0:6.1f}s {task.scene} {task.method}"[:110].ljust(110))
-            if self.done == self.total:
-                self.stream.write("\n")
-        else:
-            self.stream.write(f"[{self.done}/{self.total}] {task.label}: {status} ({seconds:.1f}s)\n")
-        self.stream.flush()
-
-
 # ----------------------------------------------------------------------------- metadata
 def now() -> str:
     return dt_.datetime.now(dt_.timezone.utc).isoformat(timespec="seconds")
@@ -228,7 +205,8 @@ def timing_summary(cells_by_task: dict[str, list[Cell]], stats: dict, wall_cells
     return {"cells_s": wall_cells, "worker_seconds_by_measure": dict(by_measure),
             "worker_seconds_by_family": dict(by_family), "numba_compile_s": kernels["compile_s"],
             "kernels_compiled": int(kernels["kernels_compiled"]), "kernels_loaded": int(kernels["kernels_loaded"]),
-            "kernel_load_s": kernels["load_s"],
+            "kernel_load_s": kernels["load_s"], "counted_compiled": int(kernels["counted_compiled"]),
+            "counted_compile_s": kernels["counted_compile_s"], "numba_s": kernels["numba_s"],
             "task_s": task_s, "task_cpu_s": task_cpu, "slowest_tasks": slowest,
             "worker_cpu_s": sum(known) if known else None,
             "tasks_without_cpu": len(task_cpu) - len(known)}
@@ -301,6 +279,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     from harness.execution.environment import code_digest, machine_busy_s, plugin_versions
     from harness.measures.injected import INJECT_VAR, load_injected
     from harness.nightly.cells import failed_cells
+    from harness.nightly.kernels import plan as kernel_plan
 
     suite = SUITES[suite] if isinstance(suite, str) else suite
     suite_name = suite.name
@@ -332,6 +311,10 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
                                    machine=machine, settings=settings)
     to_run = schedule([t for t in tasks if t.label not in carried], previous_task_seconds(history, suite_name))
     progress = Progress(len(to_run), progress_stream)
+    plan = None
+    if isinstance(executor, LocalExecutor):  # a cluster's workers keep caches of their own
+        to_run, plan = kernel_plan(to_run, suite)
+        progress.say(plan.line())
     cells_by_task: dict[str, list[Cell]] = {}
     busy0, t_cells = machine_busy_s(), time.perf_counter()
     try:
@@ -342,7 +325,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
                                    getattr(stats, "cpu_s", None))
             cells_by_task[task.label] = cells
             worst = next((c.status for c in cells if c.status != "ok"), "ok")
-            progress.update(task, worst, sum(c.wall_s or 0.0 for c in cells))
+            progress.update(task, worst, sum(c.wall_s or 0.0 for c in cells), cells)
     finally:
         executor.close()
     t_cells = time.perf_counter() - t_cells
@@ -365,6 +348,8 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
               "cpus": os.cpu_count(), "workers_started": getattr(executor, "workers_started", None),
               **timing_summary(cells_by_task, stats, t_cells)}
     timing["remeasured"] = remeasured
+    timing["kernel_plan"] = asdict(plan) if plan is not None else None
+    progress.say(compile_line(RunTiming.of(timing)))
     timing["machine_busy"] = _others_share(busy0, busy1, t_cells, cells_by_task, stats, set(carried),
                                            time.process_time() - cpu_start)
     if resume:

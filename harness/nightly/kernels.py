@@ -1,0 +1,101 @@
+"""What a nightly run will compile, known before it starts, and which counted loops are worth it.
+
+A reference scheme's pair (scheme, scene) has two compiled loops (``reference._kernels``): the
+timing loop ``advance_n``, which every cost cell needs (its figure is the compiled kernel's), and
+the counted run, which only speeds up the accuracy runs (``reference.Exact``: the interpreted
+bits, counted alike). Compiling a counted run costs 0.3-0.5 CPU-s on a pointwise scene and 2-3
+on an array scene (this project's 2-core machine), about what interpreting one task's accuracy
+runs costs; it pays off at once only where the task's runs are long, and otherwise only where
+the disk cache keeps it for later runs. So a reference task whose pair is already in the disk
+cache (the pair ran on this machine before and its cache was kept: a CI runner that restores
+``$HARNESS_CACHE``, a developer's machine) compiles its counted run at once, as before; one whose
+pair is new to the cache (the first run on a fresh machine, or a runner that keeps nothing)
+interprets its accuracy runs until interpreting has cost as much as compiling would, then
+compiles (``reference.Exact.after_interpreting``, the ski-rental rule: at most twice the cheaper
+of the two). The next run finds the pair in the cache and compiles what is left. The numbers are
+the same either way, bit for bit.
+
+``plan`` says, before the run, how many loops it will compile ("cold cache: about N kernels to
+compile"): the timing loops of the reference tasks' pairs and of explicit Euler on every scene
+(each cost cell's baseline, and the calibration's on the unit spring), and the counted runs the
+tasks will compile, each counted once where the cache lacks it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from scenarios import make_scene
+
+BASELINE = "explicit_euler"
+
+
+@dataclass(frozen=True)
+class KernelPlan:
+    """The loops a run will compile (``timing``, ``counted``), the reference tasks whose pair is
+    new to the cache (their accuracy runs interpreted until that costs what compiling would:
+    their counted loops are not counted in ``counted``), and the cache's folder."""
+
+    timing: int = 0
+    counted: int = 0
+    interpreted: int = 0
+    cache: str = ""
+    timing_loops: int = 0  # the timing loops the run needs, cached or not
+
+    @property
+    def kernels(self) -> int:
+        return self.timing + self.counted
+
+    def line(self) -> str:
+        """The line the nightly prints before it starts."""
+        if self.timing:
+            what = (f"{'cold cache' if self.timing == self.timing_loops else 'kernel cache'}: about {self.kernels} "
+                    f"kernels to compile ({self.timing} timing loops, {self.counted} counted accuracy loops)")
+        elif self.counted:
+            what = (f"kernel cache: {self.counted} counted accuracy loops to compile (their pairs ran here "
+                    f"before), every timing loop cached")
+        else:
+            what = "kernel cache warm: nothing to compile"
+        if self.interpreted:
+            what += (f"; {self.interpreted} reference tasks new to the cache interpret their accuracy runs "
+                     f"until that costs what compiling would")
+        return f"{what}; kernel cache {self.cache}"
+
+
+def plan(tasks: list, suite) -> tuple[list, KernelPlan]:
+    """The tasks, each reference task told whether to compile its counted run
+    (``Task.compile_counted``), and what the run will compile (``KernelPlan``)."""
+    import reference
+
+    timing: dict[str, bool] = {}  # kernel file -> its timing loop is to compile
+    baseline = reference.RefMethod(reference.METHODS[BASELINE])
+    scenes: dict[tuple, object] = {}
+    counted, interpreted, out = 0, 0, []
+
+    def scene_of(task):
+        key = (task.scene, tuple(sorted((task.params or {}).items())))
+        if key not in scenes:
+            scenes[key] = make_scene(task.scene, **(task.params or {}))
+        return scenes[key]
+
+    def state(scheme_id, scene):
+        loop, run = reference.cache_state(reference.METHODS[scheme_id], scene)
+        timing.setdefault(loop.name, not loop.timing)
+        return run
+
+    for task in tasks:
+        if task.kind != "cell":
+            out.append(task)
+            continue
+        scene = scene_of(task)
+        if baseline.supports(scene)[0]:  # explicit Euler cannot pose a constrained scene: no ratio there
+            state(BASELINE, scene)
+        if task.family == "ref":
+            own = state(task.method.split(":", 1)[1], scene)
+            task = replace(task, compile_counted=own.file)
+            if suite.exact_compiled and not suite.scenes[task.scene].compiled:
+                interpreted += not own.file
+                counted += own.file and not own.counted
+        out.append(task)
+    if timing:
+        state(BASELINE, make_scene("spring"))  # the calibration's loop
+    return out, KernelPlan(sum(timing.values()), counted, interpreted, str(reference.kernel_cache_dir()), len(timing))
