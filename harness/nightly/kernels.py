@@ -72,9 +72,9 @@ def plan(tasks: list, suite) -> tuple[list, KernelPlan]:
     counted, interpreted, out = 0, 0, []
 
     def scene_of(task):
-        key = (task.scene, tuple(sorted((task.params or {}).items())))
+        key = (task.scene, task.source, tuple(sorted((task.params or {}).items())))
         if key not in scenes:
-            scenes[key] = make_scene(task.scene, **(task.params or {}))
+            scenes[key] = make_scene(task.scene, source=task.source, **(task.params or {}))
         return scenes[key]
 
     def state(scheme_id, scene):
@@ -87,6 +87,9 @@ def plan(tasks: list, suite) -> tuple[list, KernelPlan]:
             out.append(task)
             continue
         scene = scene_of(task)
+        if not scene.has_kernels:  # a model file: only its engines step it, nothing compiles
+            out.append(task)
+            continue
         if baseline.supports(scene)[0]:  # explicit Euler cannot pose a constrained scene: no ratio there
             state(BASELINE, scene)
         if task.family == "ref":

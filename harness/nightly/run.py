@@ -398,7 +398,8 @@ def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regres
     todo = [by_cell[(r.scene, r.method)] for r in flagged if (r.scene, r.method) in by_cell]
     if not todo:
         return {}
-    again = [Task("cost", t.scene, t.method, t.family, t.params, t.suite, plugins=t.plugins, timings=t.timings)
+    again = [Task("cost", t.scene, t.method, t.family, t.params, t.suite, plugins=t.plugins, timings=t.timings,
+                  source=t.source)
              for t in todo for _ in range(REMEASURES)]
     with ThreadPoolExecutor(max(1, jobs or 1)) as threads:
         results = list(threads.map(lambda t: run_in_worker(run_task, (t,), timeout=timeout), again))
