@@ -214,10 +214,14 @@ def _order(task, method, scene, spec) -> Cell:
     status, detail = "ok", ""
     if order is None or not np.isfinite(order):
         status, detail = "unstable", "too few usable points"
-        if not res["points"] and excluded and all(p["reason"].startswith("roundoff floor") for p in excluded):
+        if len(res["points"]) < 2 and excluded and all(p["reason"].startswith("roundoff floor") for p in excluded):
             # Nothing failed: the method is more accurate than the floor at every dt of the sweep
-            # (SABA(10,6,4) on the solar system), so it has no measurable order here.
+            # (SABA(10,6,4) on the solar system), or at all but the one largest, which alone gives no
+            # slope (RK4 on the standard cloth), so it has no measurable order here.
             status, detail = "ok", "no order: every error at or below the roundoff/reference floor"
+            if res["points"]:
+                detail = (f"no order: {len(excluded)} of {len(excluded) + len(res['points'])} errors at or below "
+                          "the roundoff/reference floor, and one point gives no slope")
     return make_cell(task, "order", status, finite(order), detail=detail, figures=OrderFigures.pick(plain(res)))
 
 
