@@ -92,6 +92,32 @@ def _coordinate(q, b, i, j, c, f, p):
     return 0.0
 
 
+def _spring(i, j, o, p):
+    """The o-th spring leaving mass (i, j): (free index of each end, k, rest length, the other
+    end's i and j); k = 0 where there is none (off the grid, no stiffness, both ends pinned)."""
+    n, m = int(p[0]), int(p[1])
+    di, dj, k, rest = _spring_kind(o, p)
+    i2 = i + di
+    j2 = j + dj
+    if k == 0.0 or i2 >= n or j2 < 0 or j2 >= m:
+        return -1, -1, 0.0, rest, i2, j2
+    fa = _free(i, j, m, p[8])
+    fb = _free(i2, j2, m, p[8])
+    if fa < 0 and fb < 0:
+        return fa, fb, 0.0, rest, i2, j2
+    return fa, fb, k, rest, i2, j2
+
+
+def _difference(q, b, p, i, j, fa, i2, j2, fb, out):
+    """The end-to-end vector of a spring into out (its first d entries); returns its length."""
+    d = int(p[9])
+    length2 = 0.0
+    for c in range(d):
+        out[c] = _coordinate(q, b, i2, j2, c, fb, p) - _coordinate(q, b, i, j, c, fa, p)
+        length2 = length2 + out[c] * out[c]
+    return np.sqrt(length2)
+
+
 def accel(q, v, t, p):
     """Spring forces over the masses, plus gravity on the last axis; O(N) per batch member.
     Loops written out (sums in a fixed order) so that numba computes numpy's bits."""
@@ -103,21 +129,11 @@ def accel(q, v, t, p):
     for b in range(nb):
         for i in range(n):
             for j in range(m):
-                fa = _free(i, j, m, p[8])
                 for o in range(6):
-                    di, dj, k, rest = _spring_kind(o, p)
-                    i2 = i + di
-                    j2 = j + dj
-                    if k == 0.0 or i2 >= n or j2 < 0 or j2 >= m:
+                    fa, fb, k, rest, i2, j2 = _spring(i, j, o, p)
+                    if k == 0.0:
                         continue
-                    fb = _free(i2, j2, m, p[8])
-                    if fa < 0 and fb < 0:
-                        continue
-                    length2 = 0.0
-                    for c in range(d):
-                        dx[c] = _coordinate(q, b, i2, j2, c, fb, p) - _coordinate(q, b, i, j, c, fa, p)
-                        length2 = length2 + dx[c] * dx[c]
-                    length = np.sqrt(length2)
+                    length = _difference(q, b, p, i, j, fa, i2, j2, fb, dx)
                     s = (k * (length - rest) / length) / mass
                     for c in range(d):
                         if fa >= 0:
@@ -137,21 +153,11 @@ def _blocks(q, b, p, ends, blocks):
     count = 0
     for i in range(n):
         for j in range(m):
-            fa = _free(i, j, m, p[8])
             for o in range(6):
-                di, dj, k, rest = _spring_kind(o, p)
-                i2 = i + di
-                j2 = j + dj
-                if k == 0.0 or i2 >= n or j2 < 0 or j2 >= m:
+                fa, fb, k, rest, i2, j2 = _spring(i, j, o, p)
+                if k == 0.0:
                     continue
-                fb = _free(i2, j2, m, p[8])
-                if fa < 0 and fb < 0:
-                    continue
-                length2 = 0.0
-                for c in range(d):
-                    u[c] = _coordinate(q, b, i2, j2, c, fb, p) - _coordinate(q, b, i, j, c, fa, p)
-                    length2 = length2 + u[c] * u[c]
-                length = np.sqrt(length2)
+                length = _difference(q, b, p, i, j, fa, i2, j2, fb, u)
                 for c in range(d):
                     u[c] = u[c] / length
                 ratio = rest / length
@@ -337,16 +343,13 @@ class Cloth(Scene):
         """(a, b, k, L): every spring's end nodes (row-order grid indices), stiffness and rest
         length, in the kernels' order; springs between two pinned nodes left out."""
         n, m, _ = self.grid
-        p, pins = self.pvec, float(self.values["pins"])
+        p = self.pvec
         out = []
         for i in range(n):
             for j in range(m):
                 for o in range(6):
-                    di, dj, k, rest = _spring_kind(o, p)
-                    i2, j2 = i + di, j + dj
-                    if k == 0.0 or i2 >= n or j2 < 0 or j2 >= m:
-                        continue
-                    if _free(i, j, m, pins) < 0 and _free(i2, j2, m, pins) < 0:
+                    _, _, k, rest, i2, j2 = _spring(i, j, o, p)
+                    if k == 0.0:
                         continue
                     out.append((i * m + j, i2 * m + j2, float(k), float(rest)))
         a, b, k, rest = (np.array(c) for c in zip(*out))
