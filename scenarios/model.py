@@ -217,6 +217,7 @@ class ModelScene(Scene):
     }
     runaway_limit = ENERGY_GROWTH
     has_kernels = False
+    reference_engine = "mujoco"
 
     def __init__(self, path=None, **overrides):
         if path is None:

@@ -155,6 +155,12 @@ class Scene:
     #: How far ``reference_solution`` is accurate well below any scheme's error (inf: exact).
     reference_horizon: ClassVar[float] = float("inf")
 
+    #: The engine family whose own run is ``reference_solution`` (a model file's: MuJoCo's RK4);
+    #: a method of another family integrates the engine's model of the file, not that one, and
+    #: is measured against its own refined run instead (``harness.measures.error``). None: the
+    #: reference is the scene's own model, the same for every method.
+    reference_engine: ClassVar[str | None] = None
+
     def reference_error(self, t: np.ndarray) -> float | None:
         """The estimated relative error of ``reference_solution`` at times t, in the error
         measure's norm, where the scene's reference states its own (a refined engine run);

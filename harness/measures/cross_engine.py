@@ -27,7 +27,7 @@ from records.result import Result
 from scenarios import Scene
 
 from harness.measures.common import declared_order, resolve, scaled_state, step
-from harness.measures.error import trajectory_error, true_state
+from harness.measures.error import richardson, trajectory_error, true_state
 
 #: Relative difference above which a built quantity is said to differ (a few thousand eps:
 #: two engines' sums of the same inertias in another order agree far closer).
@@ -109,12 +109,9 @@ def cross_engine(scene: Scene, a: str = "mujoco:euler", b: str = "pybullet:semi_
     def y(r):
         return scaled_state(scene, r.q[:, 0], r.v[:, 0])
 
-    def gap(y1, y2):
-        return float(np.max(np.linalg.norm(y1 - y2, axis=-1))) / scale
-
-    diff = gap(y(runs[0]), y(runs[1]))
+    diff = float(np.max(np.linalg.norm(y(runs[0]) - y(runs[1]), axis=-1))) / scale
     orders = [declared_order(m, scene) or 1 for m in (ma, mb)]
-    errs = [gap(y(r), y(h)) / (1.0 - 2.0 ** -p) for r, h, p in zip(runs, halved, orders)]
+    errs = [richardson(scene, r, h, p, scale)[0] for r, h, p in zip(runs, halved, orders)]
     disagree = diff > errs[0] + errs[1] + ref
     anatomies = [anatomy(m.id, scene, dt) for m in (ma, mb)]
     differences = []

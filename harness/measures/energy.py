@@ -233,9 +233,9 @@ def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int 
     out.update(figures)
     out["short_horizon"] = out["periods"] < MIN_PERIODS
     if state_error and traj.ok:
-        from harness.measures.error import trajectory_error
+        from harness.measures.error import run_error
 
-        err = trajectory_error(traj, scene)
+        err = run_error(method, scene, traj, timeout)
         out.update(state_error_max=err["error_max"], state_error_final=err["error_final"],
                    state_error_source=err["source"], state_error_t_compared=err["t_compared"])
     if series:

@@ -19,6 +19,17 @@ run). Otherwise scipy's DOP853 at ``rtol = 1e-13`` (``atol`` 1e-15 of the initia
 size) on the scene's force kernel, computed once per (scene, parameters, times) and cached
 for the process. A reference is trusted to about 1e-11 relative, so smaller errors are not
 measured (``order`` leaves them out).
+
+Where the scene's reference is one engine's own run (``Scene.reference_engine``: a model
+file's MuJoCo RK4) and the method is another engine's (pybullet on the same file), the method
+integrates that engine's model of the file, and its distance from MuJoCo's run is mostly the
+difference of the two models (``cross_engine`` measures it), not its discretisation error. Its
+error is then measured against its **own refined run**, the same mode at dt/2 over the same
+steps (``own_run_error``): Richardson's estimate ``||y(dt) - y(dt/2)|| / (1 - 2^-p)`` (p the
+mode's declared order, 1 where it declares none), relative to the largest size of the refined
+run; ``source`` says so. The order measured from these estimates is the slope of the halving
+differences, which falls as dt^p for a method of order p whatever p was assumed (the factor
+is a constant).
 """
 from __future__ import annotations
 
@@ -121,6 +132,65 @@ def trajectory_error(traj: Trajectory, scene: Scene) -> dict:
             "reference_error": accuracy, "below_reference": bool(error_max <= accuracy)}
 
 
+def measured_against_own_run(method, scene: Scene) -> bool:
+    """Whether ``method`` is measured against its own refined run on ``scene`` (the rule above)."""
+    return scene.reference_engine is not None and method.family != scene.reference_engine
+
+
+def richardson(scene: Scene, coarse: Trajectory, fine: Trajectory, order: int, scale: float | None = None):
+    """(estimate, difference series, scale): the error of ``coarse`` from the same method's run at
+    half its step (``fine``, recorded at the same times), ``||y_c - y_f|| / (1 - 2^-p)`` relative to
+    ``scale`` (default: the largest size of the fine run)."""
+    yc = scaled_state(scene, coarse.q[:, 0, :], coarse.v[:, 0, :])
+    yf = scaled_state(scene, fine.q[:, 0, :], fine.v[:, 0, :])
+    if scale is None:
+        scale = float(np.max(np.linalg.norm(yf, axis=-1)))
+    with np.errstate(all="ignore"):
+        series = np.linalg.norm(yc - yf, axis=-1) / scale / (1.0 - 2.0 ** -order)
+    return float(np.max(series)), series, scale
+
+
+def own_run_error(method, scene: Scene, traj: Trajectory, timeout: float | None = None) -> dict:
+    """The error of ``traj`` (a run of ``method``) against the method's own run at half its step,
+    over the scene's reference horizon, with the fields of ``trajectory_error``; None fields
+    where the refined run did not finish."""
+    from harness.measures.common import declared_order
+
+    dt = float(traj.dt)
+    every = int(round((traj.t[1] - traj.t[0]) / dt)) if len(traj.t) > 1 else 1
+    horizon = trusted_until(scene)
+    keep = traj.t <= horizon
+    steps = int(round(float(traj.t[keep][-1]) / dt))
+    order = declared_order(method, scene) or 1
+    source = f"own run at dt/2 (Richardson, order {order}): {scene.reference_engine}'s reference is another model"
+    none = {"error_max": None, "error_final": None, "t_compared": None, "scale": None, "source": source,
+            "reference_error": None, "below_reference": False}
+    fine = step(method, scene, dt / 2, 2 * steps, 2 * every, timeout)
+    n = int(keep.sum())
+    if not fine.ok or fine.q.shape[0] < n:
+        return {**none, "detail": f"the refined run {fine.status}: {fine.detail}"}
+    error_max, series, scale = richardson(scene, _head(traj, n), _head(fine, n), order)
+    return {"error_max": error_max, "error_final": float(series[-1]), "t_final": float(traj.t[-1]),
+            "t_compared": float(traj.t[n - 1]), "horizon": None if horizon == float("inf") else horizon,
+            "compared_all": bool(keep.all()), "scale": scale, "source": source, "series": series,
+            "series_t": traj.t[:n], "reference_error": error_max * 2.0 ** -order, "below_reference": False}
+
+
+def _head(traj: Trajectory, n: int):
+    """The first n recorded states of a trajectory, as (q, v) holders for ``richardson``."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(q=traj.q[:n], v=traj.v[:n])
+
+
+def run_error(method, scene: Scene, traj: Trajectory, timeout: float | None = None) -> dict:
+    """The global error of ``traj``, a finished run of ``method``: against the scene's truth
+    (``trajectory_error``), or the method's own refined run where the rule above says so."""
+    if measured_against_own_run(method, scene):
+        return own_run_error(method, scene, traj, timeout)
+    return trajectory_error(traj, scene)
+
+
 def reference_accuracy(scene: Scene, t, source: str) -> float:
     """The relative error of the true state ``true_state`` gave at times t: 0 for the exact
     solution, the reference's own estimate where the scene states one (``Scene.reference_error``:
@@ -145,7 +215,7 @@ def global_error(method, scene: Scene, dt: float, steps: int, *, timeout: float 
            "steps": int(steps), "status": traj.status, "detail": traj.detail,
            "force_evals": traj.force_evals, "solves": traj.solves}
     if traj.ok:
-        err = trajectory_error(traj, scene)
+        err = run_error(method, scene, traj, timeout)
         if series:
             out["t"] = err["series_t"]
             out["error_series"] = err["series"]

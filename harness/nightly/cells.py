@@ -178,7 +178,7 @@ ENERGY_RUN_FIGURES = ("max_rel_error", "final_rel_error", "rel_error_defined", "
 
 def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
     from harness.measures.energy import energy_figures
-    from harness.measures.error import trajectory_error
+    from harness.measures.error import run_error
     from harness.execution.simulate import simulate
 
     steps, every = energy_run(scene, dt, spec, suite)
@@ -198,7 +198,7 @@ def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
         cls, energy_class=cls["classification"], rel_error_defined=figures["rel_error_defined"],
         final_rel_error=figures["final_rel_error"], failed_step=traj.failed_step,
         series=series, numbers=plain(cls), events=plain(figures["events"]) or None, **settings))
-    err = trajectory_error(traj, scene) if traj.ok else {}
+    err = run_error(method, scene, traj, suite.cell_timeout) if traj.ok else {}
     value, detail = (finite(err["error_max"]) if err else None), traj.detail
     if err and err["below_reference"]:
         value, detail = None, f"below the reference's accuracy ({err['reference_error']:.2g})"
