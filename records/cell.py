@@ -332,12 +332,27 @@ class BrouwerFigures(Figures):
     reason: str | None = None
 
 
+@dataclass(frozen=True)
+class CrossEngineFigures(Figures):
+    """``cross_engine`` (a model file's conservative variant): two engine modes stepped from the
+    same state (``harness.measures.cross_engine``; the value: how far apart, relative), each one's
+    own discretisation error, the reference's, whether they disagree beyond those, and then what
+    differs in the models the two engines built."""
+
+    methods: list | None = None
+    statuses: list | None = None
+    errors: list | None = None
+    reference_error: float | None = None
+    disagree: bool | None = None
+    differences: list | None = None
+
+
 FIGURES: dict[str, type[Figures]] = {
     "energy": EnergyFigures, "error": ErrorFigures, "order": OrderFigures, "stability": StabilityFigures,
     "cost": CostFigures, "identity": IdentityFigures, "advise": AdviceFigures, "bound": BoundFigures,
     "constraint": ConstraintFigures, "damping": DampingFigures, "stability_vs_damping": StabilityVsDampingFigures,
     "scaling": ScalingFigures,
-    "brouwer": BrouwerFigures,
+    "brouwer": BrouwerFigures, "cross_engine": CrossEngineFigures,
 }
 
 

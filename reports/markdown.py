@@ -237,6 +237,9 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
     lines.append("")
     lines += notes.lines()
     lines += brouwer_lines(scene, piv)
+    for (s, _), ms in sorted(piv.items()):
+        if s == scene and "cross_engine" in ms:
+            lines += ["Two engines from the same state: " + " ".join(cross_engine_lines(ms["cross_engine"])), ""]
     for kind, title in (("energy", "Energy against time"), ("workprecision", "Work-precision: error against cost"),
                         ("stability", "Largest stable h·ω")):
         name = chart_names.get((scene, kind))
@@ -266,6 +269,21 @@ def brouwer_lines(scene: str, piv: dict) -> list[str]:
     return ["Brouwer's law (roundoff walks the energy error as t^0.5, the phase error as t^1.5; the initial "
             "state perturbed at 1e-15 per realization, the slope of the ensemble's RMS with a bootstrap "
             "interval): " + "; ".join(parts) + ".", ""]
+
+
+def cross_engine_lines(c) -> list[str]:
+    """A ``cross_engine`` cell in words: how far apart the two modes are against what their own
+    errors account for, then each quantity that differs in the models the engines built."""
+    f = c.figures
+    a, b = f.methods or ("?", "?")
+    if c.value is None:
+        return [f"{a} and {b} on {c.scene}: not compared ({c.status}: {c.detail})"]
+    head = (f"{a} and {b} on {c.scene}, {c.steps} steps of {c.dt:g} s from the same state: they differ by "
+            f"{c.value:.3g} (relative); their own discretisation errors {f.errors[0]:.2g} and {f.errors[1]:.2g}, "
+            f"the reference's {f.reference_error:.2g}: ")
+    if not f.disagree:
+        return [head + "they agree within those."]
+    return [head + "they disagree beyond them. What each engine built differs:"] + [f"  {d};" for d in f.differences]
 
 
 def _class_text(energy) -> str:

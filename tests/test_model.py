@@ -308,6 +308,14 @@ def test_the_nightly_stores_reports_and_trends_two_model_files(tmp_path):
                                                                       "pybullet:semi_implicit"}
     report = (out / "report.md").read_text()
     assert f"### `{ModelScene(cart).id}`" in report
+    # The engines compared from the same state: a stored cell on each conservative variant (both
+    # files are one model in both engines: the spring's semi-implicit Euler, the cartpole's).
+    cross = cells[cells.measure == "cross_engine"]
+    # The spring file has nothing to switch off: as written, it is conservative too; the cartpole's is not.
+    assert set(cross.scene) == {f"{i}~conservative" for i in ids} | {ModelScene(spring).id}
+    assert set(cross.method) == {"pybullet:semi_implicit"}
+    assert (cross.status == "ok").all() and cross.detail.str.startswith("agree within").all()
+    assert report.count("Two engines from the same state: mujoco:euler and pybullet:semi_implicit") == 3
     spring.write_text(spring.read_text().replace('stiffness="1"', 'stiffness="4"'))
     third = run_nightly(_models_suite([spring, cart]), out, db, jobs=2)
     assert third["regressions"] == []  # the edited spring is a new series (its stability limit moved by 2x)
@@ -413,3 +421,29 @@ def test_every_measure_command_takes_a_model_file():
     assert res["scene"] == make_scene("model").id and res["status"] == "ok"
     code, _, err = cli("energy", DEFAULT_FILE, "--method", "ref:rk4", "--dt", "0.1", "--steps", "10")
     assert code == 2 and "no force kernel" in err
+
+
+def test_pybullet_is_measured_against_its_own_refined_run():
+    """On a model file the reference is MuJoCo's RK4 on MuJoCo's model; Bullet builds its own, so
+    its error is Richardson's estimate from its own run at dt/2. On the unit spring file, where
+    Bullet integrates m x'' = -k x by semi-implicit Euler, the estimate is checked against the
+    exact error of the same scheme on the `spring` scene (an independent closed form); on the
+    conservative double pendulum its observed order is 1."""
+    from harness.measures.error import global_error
+    from harness.measures.order import observed_order
+
+    scene = make_scene("model")
+    dt, steps = 0.01, 628
+    own = global_error("pybullet:semi_implicit", scene, dt, steps)
+    assert own["source"].startswith("own run at dt/2") and own["below_reference"] is False
+    exact = global_error("ref:semi_implicit_euler", make_scene("spring"), dt, steps)
+    assert exact["source"] == "exact"
+    # Richardson is exact up to the next order: relative difference O(h omega).
+    assert own["error_max"] == pytest.approx(exact["error_max"], rel=0.05)
+    assert own["reference_error"] == pytest.approx(own["error_max"] / 2)
+    # MuJoCo's own modes keep MuJoCo's reference.
+    assert global_error("mujoco:euler", scene, dt, 100)["source"].endswith("reference_solution")
+
+    pend = variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml")), "conservative")
+    res = observed_order("pybullet:semi_implicit", pend)
+    assert res["order"] == pytest.approx(1.0, abs=0.1)

@@ -68,17 +68,16 @@ def run(args) -> int:
 
         cells = History(db).cell_records(result["run_id"])
     unloaded = {s.id: suite.scenes[s.id].cannot_load for s in scenes}
-    compared = [_compared(s) for s in scenes if s.conservative and not unloaded[s.id]]
+    compared = [c for c in cells if c.measure == "cross_engine"]
     extra = [f"- {engine} cannot load `{s.id}`: {why}" for s in scenes for engine, why in unloaded[s.id].items()]
-    extra += [f"- {line}" for c in compared for line in cross_engine_lines(c)]
-    if extra:  # the report gains what the nightly's cells do not hold: the loaders' refusals, the engines compared
+    if extra:  # the report gains what the nightly's cells do not hold: the loaders' refusals
         with open(result["report"], "a") as fh:
             fh.write("\n## Model: the engines\n\n" + "\n".join(extra) + "\n")
     if args.json:
         from harness.measures.frames import jsonable
 
         print(json.dumps(jsonable({"model": scenes[0].describe(), "variants": [s.describe() for s in scenes],
-                                   "cannot_load": unloaded, "cross_engine": [c.as_dict() for c in compared],
+                                   "cannot_load": unloaded, "cross_engine": [c.to_row() for c in compared],
                                    "report": str(result["report"]), "wall_s": result["timing"]["total_s"],
                                    "cells": [c.to_row() for c in cells]}), indent=1, default=str))
         return 0
@@ -96,38 +95,11 @@ def run(args) -> int:
         print()
     for h in hz:
         print("\n".join(advice_section(cells, h, {})))
-    for c in compared:
-        for line in cross_engine_lines(c):
-            print(line)
     failed = [c for c in cells if c.status in ("crashed", "timed_out")]
     for c in failed:
         print(f"{c.method} on {c.scene}: {c.measure} {c.status}: {c.detail}")
     print(f"report: {result['report']} ({result['timing']['total_s']:.1f} s)")
     return 0
-
-
-def _compared(scene):
-    """``cross_engine`` on ``scene`` in a worker process (its runs, reference and anatomies with it)."""
-    from harness.execution import isolation
-    from harness.measures.cross_engine import CrossEngineResult, cross_engine
-
-    out = isolation.run_in_worker(cross_engine, (scene,), timeout=600.0)
-    if isinstance(out, isolation.WorkerFailure):
-        return CrossEngineResult(scene.id, dict(scene.values), ["mujoco:euler", "pybullet:semi_implicit"],
-                                 scene.own_timestep, 0, [out.status], detail=f"{out.status}: {out.detail}")
-    return out
-
-
-def cross_engine_lines(c) -> list[str]:
-    a, b = c.methods
-    if c.difference is None:
-        return [f"{a} and {b} on {c.scene}: not compared ({c.detail})"]
-    head = (f"{a} and {b} on {c.scene}, {c.steps} steps of {c.dt:g} s from the same state: they differ by "
-            f"{c.difference:.3g} (relative); their own discretisation errors {c.errors[0]:.2g} and {c.errors[1]:.2g}, "
-            f"the reference's {c.reference_error:.2g}: ")
-    if not c.disagree:
-        return [head + "they agree within those"]
-    return [head + "they disagree beyond them. What each engine built differs:"] + [f"  {d}" for d in c.differences]
 
 
 def header_lines(scenes, cells) -> list[str]:
@@ -146,6 +118,7 @@ def header_lines(scenes, cells) -> list[str]:
                   f"{s.own_timestep * s.omega:.3g})",
                   f"  initial state: {s.describe_state()}",
                   f"  reference: MuJoCo RK4 over one period ({s.reference_horizon:.3g} s), its step halved until two "
-                  f"halvings agree to 1e-11: {said}"]
+                  f"halvings agree to 1e-11: {said}; another engine's modes, which build their own model of "
+                  f"the file, against their own run at half the step (Richardson)"]
     return lines
 

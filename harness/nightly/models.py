@@ -25,7 +25,7 @@ from pathlib import Path
 from records import InvalidInput
 from scenarios import VARIANTS, ModelScene, variant
 
-from harness.nightly.suites import SceneSpec, Suite
+from harness.nightly.suites import SceneExtras, SceneSpec, Suite
 
 MODEL_ENERGY_STEPS = 2000
 MODEL_STABILITY_FACTOR = 1024.0
@@ -36,6 +36,8 @@ MODEL_STABILITY_BELOW = 64.0
 MODEL_STABILITY_RTOL = 1e-4
 #: The engines that load a model file.
 MODEL_ENGINES = ("mujoco", "pybullet")
+#: The two modes the cross-engine cell steps from the same state, where both engines load the file.
+CROSS_ENGINE = ("mujoco:euler", "pybullet:semi_implicit")
 #: The advice's horizon on a model, in the model's own timesteps.
 MODEL_ADVICE_STEPS = 600
 
@@ -83,12 +85,14 @@ def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep
     specs = {}
     for scene in model_scenes(path, variants, keep, **params):
         dt = scene.own_timestep
+        unloaded = cannot_load(scene)
+        both = scene.conservative and not any(m.split(":")[0] in unloaded for m in CROSS_ENGINE)
         specs[scene.id] = SceneSpec(
             params=dict(scene.values), dt=dt, horizon=dt * MODEL_ENERGY_STEPS,
             stability_hi=dt * scene.omega * MODEL_STABILITY_FACTOR, stability_steps=MODEL_STABILITY_STEPS,
             stability_lo=dt * scene.omega / MODEL_STABILITY_BELOW, stability_rtol=MODEL_STABILITY_RTOL,
             advise=advise if advise is not None and scene.conservative else None, source=scene.file.path,
-            cannot_load=cannot_load(scene))
+            cannot_load=unloaded, extras=SceneExtras(cross_engine=CROSS_ENGINE if both else ()))
     return specs
 
 

@@ -20,14 +20,18 @@
 * ``brouwer`` (Kepler and the solar system, the methods ``extras.brouwer`` names): the
   energy error's RMS over an ensemble against time (``harness.measures.brouwer``). Value: its
   log-log slope, 0.5 by Brouwer's law where the error is roundoff.
+* ``cross_engine`` (a model file's conservative variant where both engines load it; the task of
+  the second of ``extras.cross_engine``): the two modes from the same state at the model's own
+  timestep (``harness.measures.cross_engine``). Value: their difference, relative; the figures
+  say whether it is more than their own errors account for, and what the two built models differ in.
 """
 from __future__ import annotations
 
 from records import MethodId, scheme_name
 from scenarios import make_scene
 
-from records.cell import (BrouwerFigures, Cell, Claims, ConstraintFigures, DampingFigures, ScalingFigures,
-                          StabilityVsDampingFigures)
+from records.cell import (BrouwerFigures, Cell, Claims, ConstraintFigures, CrossEngineFigures, DampingFigures,
+                          ScalingFigures, StabilityVsDampingFigures)
 
 from harness.nightly.cell_kit import energy_run, finite, guard, make_cell, plain
 
@@ -44,6 +48,8 @@ def measures_for(task, spec) -> list[str]:
         out.append("scaling")
     if extras.brouwer and task.method in extras.brouwer:
         out.append("brouwer")
+    if extras.cross_engine and task.method == extras.cross_engine[1]:
+        out.append("cross_engine")
     return out
 
 
@@ -52,7 +58,8 @@ def scene_cells(task, method, scene, dt, spec, suite, claims: Claims | None = No
                 "damping": lambda: _damping(task, method, scene, spec, suite),
                 "stability_vs_damping": lambda: _stability_vs_damping(task, method, spec, claims or Claims()),
                 "scaling": lambda: _scaling(task, spec),
-                "brouwer": lambda: _brouwer(task, method, scene, dt, spec)}
+                "brouwer": lambda: _brouwer(task, method, scene, dt, spec),
+                "cross_engine": lambda: _cross_engine(task, scene, spec, suite)}
     return [guard(task, m, builders[m]) for m in measures_for(task, spec)]
 
 
@@ -136,3 +143,17 @@ def _brouwer(task, method, scene, dt, spec) -> Cell:
     figures, extra = BrouwerFigures.from_data(plain(res))
     return make_cell(task, "brouwer", "ok", finite(res["slope"]), step_dt, steps, figures.reason or "",
                      figures, extra)
+
+
+def _cross_engine(task, scene, spec, suite) -> Cell:
+    from harness.measures.cross_engine import cross_engine
+
+    a, b = spec.extras.cross_engine
+    res = cross_engine(scene, a, b, timeout=suite.cell_timeout)
+    figures = CrossEngineFigures.pick(plain(res.as_dict()))
+    if res.difference is None:  # a run did not finish: its own status, and where and why
+        status = next((s for s in res.statuses if s != "ok"), "unstable")
+        return make_cell(task, "cross_engine", status, None, res.dt, res.steps, res.detail, figures)
+    detail = ("disagree beyond their own errors: " + "; ".join(res.differences) if res.disagree
+              else "agree within their own errors")
+    return make_cell(task, "cross_engine", "ok", finite(res.difference), res.dt, res.steps, detail, figures)

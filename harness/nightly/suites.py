@@ -29,6 +29,8 @@ class SceneExtras:
     scaling: dict | None = None                # the scaling cell's settings (implicit_cost_vs_n's)
     scaling_methods: tuple = SCALING_METHODS   # the methods the scaling cell runs for
     brouwer: dict | None = None                # the Brouwer ensemble's settings, by method (harness.measures.brouwer)
+    cross_engine: tuple = ()                   # two engine modes compared from the same state (a model file's
+                                               # conservative variant): the cell is the second mode's task's
 
 
 @dataclass(frozen=True)
