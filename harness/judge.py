@@ -55,7 +55,7 @@ def claim_checks(cells: dict) -> ClaimChecks:
     if cost is not None and cost.status == "ok":
         n = cost.figures.force_evals_per_step
         evals = n is not None and claims.force_evals is not None and abs(n - claims.force_evals) < EVALS_TOL
-    if order is not None and order.status == "ok":
+    if order is not None and order.status == "ok" and order.value is not None:  # None: no order measurable
         order_ok = claims.order is not None and abs(order.value - claims.order) <= ORDER_TOL
     if energy is not None and energy.figures.energy_class:
         energy_ok = claims.energy == energy.figures.energy_class

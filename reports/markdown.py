@@ -129,7 +129,9 @@ def tradeoff_table(piv: dict, judged: dict, scene: str = "spring") -> list[str]:
             ratio_txt = _fmt(cost.figures.ratio_to_explicit_euler, ".2f")
         else:
             evals_txt = ratio_txt = cost.status if cost is not None else "–"
-        if order is not None and order.status == "ok":
+        if order is not None and order.status == "ok" and order.value is None:
+            order_txt = f"no order (errors at the floor) [{_claim(claims, 'order')}]"
+        elif order is not None and order.status == "ok":
             order_txt = f"{order.value:.2f} [{_claim(claims, 'order')}] {mark(ok.order)}"
         else:
             order_txt = order.status if order is not None else "–"

@@ -261,3 +261,12 @@ def test_rk4_on_the_standard_cloth_has_no_order_below_the_floor_not_an_unstable_
     assert cell.detail.startswith("no order: ") and "one point gives no slope" in cell.detail
     points, excluded = cell.figures.points, cell.figures.excluded
     assert len(points) == 1 and excluded and all(p["reason"].startswith("roundoff floor") for p in excluded)
+    # Judged and reported as no order, not compared with the claim (a None value once stopped the nightly's judge).
+    from harness.judge import claim_checks, judge
+    from reports.markdown import scene_section, tradeoff_table
+
+    assert claim_checks({"order": cell}).order is None
+    piv = {("cloth", "ref:rk4"): {"order": cell}}
+    judged = judge([cell])
+    assert "| no order (errors at the floor) [" in "\n".join(tradeoff_table(piv, judged.claims, "cloth"))
+    assert "| `ref:rk4` | ok |" in "\n".join(scene_section("cloth", piv, {}))
