@@ -37,7 +37,8 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene
-from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, output_marks, step_loop
+from records.trajectory import (OK, UNSTABLE, RunMeta, any_diverged, divergence_detail, diverged, output_marks,
+                               step_loop)
 
 
 class Model(Protocol):
@@ -402,8 +403,8 @@ def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every:
 
 def _trajectory(scene: Scene, method: str, dt: float, steps: int, every: int, rec_step, rec_q, rec_v,
                 status: str = OK, detail: str = "", failed: int | None = None) -> Trajectory:
-    q_arr = np.array(rec_q)[:, None, :]
-    v_arr = np.array(rec_v)[:, None, :]
+    q_arr = np.asarray(rec_q)[:, None, :]
+    v_arr = np.asarray(rec_v)[:, None, :]
     step_arr = np.array(rec_step, dtype=np.int64)
     with np.errstate(all="ignore"):
         energy = scene.energy(q_arr, v_arr)
@@ -427,10 +428,12 @@ def run_engine_loop(model: Model, scene: Scene, method: str, dt: float, steps: i
     if diverged(q, v):
         return None
     states, clean = model.run(marks)
-    if not clean or len(states) != len(marks) - 1 or any(diverged(q, v) for q, v in states):
+    if not clean or len(states) != len(marks) - 1:
         return None
-    traj = _trajectory(scene, method, dt, steps, every, marks.tolist(), [q] + [s[0] for s in states],
-                       [v] + [s[1] for s in states])
+    rec_q, rec_v = np.array([q] + [s[0] for s in states]), np.array([v] + [s[1] for s in states])
+    if any_diverged(rec_q, rec_v):
+        return None
+    traj = _trajectory(scene, method, dt, steps, every, marks.tolist(), rec_q, rec_v)
     traj.meta.loop = "engine: the engine's own loop between output points, state read at output points only"
     return traj
 

@@ -37,6 +37,11 @@ def diverged(q, v) -> bool:
     return not (np.abs(q).max(initial=0.0) <= DIVERGED and np.abs(v).max(initial=0.0) <= DIVERGED)
 
 
+def any_diverged(q, v) -> bool:
+    """``diverged`` of any row of the states q, v (arrays of shape (k, n)): one numpy pass."""
+    return not (np.abs(q).max(initial=0.0) <= DIVERGED and np.abs(v).max(initial=0.0) <= DIVERGED)
+
+
 def divergence_detail(n: int, t: float) -> str:
     return f"state diverged (not finite or |state| > {DIVERGED:g}) at step {n} (t = {t:g})"
 
