@@ -203,6 +203,8 @@ class EngineMode:
     nothing is measured against dt (observed order, largest stable dt).
     ``no_match``: for a scene where the mode, measured, integrates no reference scheme, why
     (one line); ``harness identify`` prints it when nothing matches.
+    ``refuses``: for a scene the mode poses only in some of its parameters, a function of the
+    scene that says why these cannot be posed (None where they can): ``supports`` refuses them.
     """
 
     engine: str
@@ -216,6 +218,7 @@ class EngineMode:
     doc: str = field(default="", compare=False)
     adaptive: bool = False
     no_match: Mapping[str, str] = field(default_factory=dict, compare=False)
+    refuses: Mapping[str, Callable[[Scene], str | None]] = field(default_factory=dict, compare=False)
     #: Its force evaluations are counted only in a counting run (``simulate(..., count=True)``:
     #: the counter is a Python callback that would slow the timed loop; REBOUND, pymunk).
     counting_run: bool = False
@@ -248,7 +251,9 @@ class EngineMode:
 
     def supports(self, scene: Scene) -> tuple[bool, str]:
         if scene.kind in self.scenes:
-            return True, ""
+            refusal = self.refuses.get(scene.kind)
+            why = refusal(scene) if refusal is not None else None
+            return (False, why) if why else (True, "")
         return False, self.unsupported.get(scene.kind, f"{self.id} has no model of scene {scene.id}")
 
     def compiled_twin(self) -> "EngineMode":

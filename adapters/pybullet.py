@@ -1,8 +1,9 @@
 """pybullet (Bullet, double precision): ``pybullet:semi_implicit`` on the spring, the damped
 spring, the projectile (a free multibody with a force applied each step, as users write it),
-the pendulum (a revolute joint, the reduced-coordinate way) and the spring chain (a fixed base
+the pendulum (a revolute joint, the reduced-coordinate way), the spring chain (a fixed base
 with one prismatic link per mass, every link a child of the base, the spring forces applied
-as joint forces each step: Bullet has no spring between bodies).
+as joint forces each step: Bullet has no spring between bodies) and the triangulated cloth (a
+mass-spring soft body in Bullet's deformable world, ``adapters._pybullet_cloth``).
 
 Defaults that silently change the physics are switched off and recorded (docs/engines.md):
 linear/angular damping 0.04 -> 0, the velocity clamp (100, and any finite clamp would hide a
@@ -28,6 +29,7 @@ import numpy as np
 from scenarios import Scene
 
 from ._base import EngineMode, SteppedModel, chain_force
+from ._pybullet_cloth import SoftBodyCloth, refusal
 
 #: How the engine's own loop steps a scene whose force is applied from Python (recorded with every run).
 ENGINE_LOOP_APPLIED = ("from Python every step (Bullet has no spring or drag element): position (and velocity where "
@@ -38,9 +40,8 @@ UNSUPPORTED = {
               "the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
     "rope": "not posed: the rope's engine models are MuJoCo's hinge chain and pymunk's pin joints; a Bullet "
             "revolute chain is the reduced-coordinate model MuJoCo already poses",
-    "cloth": "not posed yet: Bullet's mass-spring soft body (loadSoftBody with useMassSpring on the sheet's mesh) "
-             "is its model, and its deformable solver's scheme, limit and perturbing settings are not measured here",
-    "net": "the planar net is the cloth's variant for 2-D engines; Bullet's model would be the cloth's soft body",
+    "net": "the planar net is the cloth's variant for 2-D engines; Bullet poses the 3-D sheet, the scene cloth "
+           "with shear=1, k_shear=k, k_bend=0, as a mass-spring soft body",
 }
 
 
@@ -457,7 +458,7 @@ class _ModelFile(SteppedModel):
 #: One model per scene Bullet poses; a new scene is one entry here.
 BUILDERS: dict[str, type] = {
     "spring": _Spring, "damped_spring": _Spring, "pendulum": _Pendulum, "projectile": _Projectile, "chain": _Chain,
-    "model": _ModelFile,
+    "model": _ModelFile, "cloth": SoftBodyCloth,
 }
 SCENES = tuple(BUILDERS)
 
@@ -470,10 +471,12 @@ def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> 
 METHODS = {
     "pybullet:semi_implicit": EngineMode(
         engine="pybullet", mode="semi_implicit", module="pybullet", dist="pybullet", build=build,
-        scenes=SCENES, unsupported=UNSUPPORTED,
+        scenes=SCENES, unsupported=UNSUPPORTED, refuses={"cloth": refusal},
         doc="""semi-implicit Euler (velocity first), forces applied before each step
             Measured: equals ref:semi_implicit_euler bitwise on the spring, the damped spring, the
-            projectile and the prismatic spring chain; the revolute pendulum to ~1e-12 over 10^4 steps.""",
+            projectile and the prismatic spring chain; the revolute pendulum to ~1e-12 over 10^4 steps;
+            the cloth's mass-spring soft body (shear=1, k_shear=k, k_bend=0) to roundoff: the deformable
+            solver applies the spring forces explicitly and solves for their damping alone (here 0).""",
         settings={"numSubSteps": 0, "linearDamping": 0, "angularDamping": 0, "maxJointVelocity": "inf",
                   "sleeping": "disabled", "collision_shape": "none", "joint_motor": "zero force",
                   "gravity": "scene's g along -z, else 0"},

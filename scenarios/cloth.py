@@ -6,7 +6,8 @@ Grid node (i, j) (row i = 0..n-1, column j = 0..m-1) starts at x = j s, y = -i s
 3-D). Springs, each f = k (|d| - L) d/|d| on its ends:
 
 * structural, stiffness ``k``: (i, j)-(i, j+1) and (i, j)-(i+1, j), rest length s;
-* shear, ``k_shear``: (i, j)-(i+1, j+1) and (i, j)-(i+1, j-1), rest length s sqrt(2);
+* shear, ``k_shear``: (i, j)-(i+1, j+1) and (i, j)-(i+1, j-1), rest length s sqrt(2); with
+  ``shear`` = 1 the first alone (the sheet triangulated along it, as a triangle mesh's edges);
 * bending, ``k_bend``: (i, j)-(i, j+2) and (i, j)-(i+2, j), rest length 2 s.
 
 Every mass is ``mass``/(n m); gravity g acts along the last axis (-z in 3-D, where the sheet
@@ -84,7 +85,7 @@ def _spring_kind(o, p):
 def _coordinate(q, b, i, j, c, f, p):
     """Coordinate c of node (i, j) (free index f) of batch member b: its start where pinned."""
     if f >= 0:
-        return q[f * int(p[9]) + c, b]
+        return q[f * int(p[-1]) + c, b]
     if c == 0:
         return j * p[2]
     if c == 1:
@@ -94,12 +95,13 @@ def _coordinate(q, b, i, j, c, f, p):
 
 def _spring(i, j, o, p):
     """The o-th spring leaving mass (i, j): (free index of each end, k, rest length, the other
-    end's i and j); k = 0 where there is none (off the grid, no stiffness, both ends pinned)."""
+    end's i and j); k = 0 where there is none (off the grid, no stiffness, both ends pinned, the
+    second diagonal where shear = 1)."""
     n, m = int(p[0]), int(p[1])
     di, dj, k, rest = _spring_kind(o, p)
     i2 = i + di
     j2 = j + dj
-    if k == 0.0 or i2 >= n or j2 < 0 or j2 >= m:
+    if k == 0.0 or i2 >= n or j2 < 0 or j2 >= m or (o == 3 and p[9] == 1.0):
         return -1, -1, 0.0, rest, i2, j2
     fa = _free(i, j, m, p[8])
     fb = _free(i2, j2, m, p[8])
@@ -110,7 +112,7 @@ def _spring(i, j, o, p):
 
 def _difference(q, b, p, i, j, fa, i2, j2, fb, out):
     """The end-to-end vector of a spring into out (its first d entries); returns its length."""
-    d = int(p[9])
+    d = int(p[-1])
     length2 = 0.0
     for c in range(d):
         out[c] = _coordinate(q, b, i2, j2, c, fb, p) - _coordinate(q, b, i, j, c, fa, p)
@@ -121,7 +123,7 @@ def _difference(q, b, p, i, j, fa, i2, j2, fb, out):
 def accel(q, v, t, p):
     """Spring forces over the masses, plus gravity on the last axis; O(N) per batch member.
     Loops written out (sums in a fixed order) so that numba computes numpy's bits."""
-    n, m, d = int(p[0]), int(p[1]), int(p[9])
+    n, m, d = int(p[0]), int(p[1]), int(p[-1])
     mass = p[3] / (n * m)
     nb = q.shape[1]
     a = np.zeros_like(q)
@@ -148,7 +150,7 @@ def accel(q, v, t, p):
 def _blocks(q, b, p, ends, blocks):
     """Each spring's free end indices (-1: pinned) into ends and its stiffness block
     k [(1 - L/|d|) I + (L/|d|) u u^T] (d x d) into blocks, at batch member b; returns how many."""
-    n, m, d = int(p[0]), int(p[1]), int(p[9])
+    n, m, d = int(p[0]), int(p[1]), int(p[-1])
     u = np.empty(3)
     count = 0
     for i in range(n):
@@ -276,7 +278,7 @@ def _banded(ends, blocks, count, d, m, r, b, scale, out):
 def solve(q, v, t, p, alpha, beta, r):
     """(I - alpha da/dv - beta da/dq) x = r with da/dv = 0 and da/dq = -K/m at q: the banded
     factorisation for at most DIRECT_MAX_DOF unknowns, conjugate gradients above."""
-    n, m, d = int(p[0]), int(p[1]), int(p[9])
+    n, m, d = int(p[0]), int(p[1]), int(p[-1])
     scale = beta / (p[3] / (n * m))
     out = np.empty_like(r)
     ends = np.empty((6 * n * m, 2), dtype=np.int64)
@@ -304,8 +306,10 @@ class Cloth(Scene):
         "k_bend": Param(5.0, "bending (two apart) spring stiffness, 0: none", lo=0.0),
         "g": Param(9.81, "gravitational acceleration (along the last axis, downwards)", lo=0.0),
         "pins": Param(0, "0: the two top corners pinned; 1: the whole top edge", lo=0.0, hi=1.0, integer=True),
+        "shear": Param(2, "shear diagonals per square: 2 both; 1 (i, j)-(i+1, j+1) alone (a triangulated sheet)",
+                       lo=1.0, hi=2.0, integer=True),
     }
-    #: Coordinates per mass (the kernels read it as the last entry of ``pvec``).
+    #: Coordinates per mass (the kernels read it as the last entry of ``pvec``, ``p[-1]``).
     dim = 3
     accel = staticmethod(accel)
     solve = staticmethod(solve)

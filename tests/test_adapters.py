@@ -271,6 +271,8 @@ def test_one_model_set_to_each_state_steps_as_a_fresh_one(method_id):
     rng = np.random.default_rng(0)
     for sid in method.scenes:
         scene = make_scene(sid, **({"N": 4} if sid in ("chain", "rope") else {}))
+        if not method.supports(scene)[0]:
+            continue  # posed in other parameters only: pybullet's cloth, whose soft body cannot be set to a state
         n = scene.ndof
         if scene.linear:
             states = np.vstack([np.zeros(2 * n), np.eye(2 * n), rng.standard_normal((2, 2 * n))])
@@ -468,6 +470,9 @@ def test_every_scene_an_engine_poses_is_one_builder_entry(module):
     for scene_id in module.BUILDERS:
         mode = next(m for m in modes if scene_id in m.scenes)
         scene = make_scene(scene_id)
+        if not mode.supports(scene)[0]:  # posed in other parameters only: the triangulated cloth in Bullet
+            scene = make_scene(scene_id, shear=1, k_shear=scene.values["k"], k_bend=0.0)
+            assert mode.supports(scene)[0]
         model = mode.build(adapters.import_engine(mode.module), mode.mode, scene, 1e-3)
         try:
             assert isinstance(model, adapters.EngineModel) and model.own_loop
