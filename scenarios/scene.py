@@ -193,6 +193,10 @@ class Scene:
     #: False for a model file, whose physics is the engine's.
     has_kernels: ClassVar[bool] = True
 
+    #: Where set, the scene is another force model posed on a built-in scene's grid (an engine's
+    #: own model): what it is not, which every output about it says (``cloth_flex``).
+    model_note: ClassVar[str | None] = None
+
     #: The scene has normal modes: ``mode_frequencies()`` and ``modal(q)`` (the chain).
     has_modes: ClassVar[bool] = False
 
