@@ -183,3 +183,26 @@ def test_implicit_mode_is_refused_in_one_line_before_stepping(capsys):
     assert main(["energy", "cloth_flex", "--method", "mujoco:implicitfast", "--dt", "1e-3", "--steps", "2"]) == 2
     err = capsys.readouterr().err.strip()
     assert "does not support scene cloth_flex" in err and "\n" not in err
+
+
+# ------------------------------------------------------------------ the nightly
+def test_nightly_cells_and_report_say_it_is_not_the_same_model(flex):
+    """A nightly task on the flex: every cell carries the note, through the stored row and back,
+    and the report's scene section prints it under the heading."""
+    from harness.nightly.cells import run_task
+    from harness.nightly.run import Task
+    from harness.nightly.suites import SceneSpec, Suite
+    from records.cell import Cell, pivot
+    from reports.markdown import scene_section
+
+    spec = SceneSpec(params=SMALL, periods=2, stability=False, order_points=6, order_periods=2.0)
+    suite = Suite("flex", scenes={"cloth_flex": spec}, methods=("mujoco:euler",), cost_repeats=1, cost_steps=200,
+                  identify=False, bounds=False)
+    cells = run_task(Task("cell", "cloth_flex", "mujoco:euler", "mujoco", params=SMALL, suite=suite))
+    assert {c.measure for c in cells} >= {"energy", "error", "order", "cost"}
+    assert all(c.model_note == flex.model_note for c in cells)
+    assert [Cell.from_db_row(c.to_db_row()).model_note for c in cells] == [flex.model_note] * len(cells)
+    order = next(c for c in cells if c.measure == "order")
+    assert order.ok and 0.9 <= order.value <= 1.1
+    lines = scene_section("cloth_flex", pivot(cells), {})
+    assert lines[0] == "### `cloth_flex`" and lines[2] == f"**{flex.model_note}.**"
