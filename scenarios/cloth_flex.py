@@ -259,6 +259,6 @@ class ClothFlex(Cloth):
 
     def describe(self) -> dict:
         out = super().describe()
-        out.update(model_note=self.model_note, young=self.young, poisson=0.0, thickness=1.0, elastic2d="stretch",
+        out.update(young=self.young, poisson=0.0, thickness=1.0, elastic2d="stretch",
                    young_rule="young such that the flex's omega_max at rest equals the spring cloth's")
         return out

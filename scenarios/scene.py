@@ -269,6 +269,7 @@ class Scene:
             "has_exact": has_exact,
             "has_reference": has_exact or type(self).reference_solution is not Scene.reference_solution,
             "reference_horizon": None if self.reference_horizon == math.inf else self.reference_horizon,
+            "model_note": self.model_note,
             "params": {name: {"value": self.values[name], "default": spec.default,
                               "allowed": spec.allowed(), "doc": spec.doc}
                        for name, spec in self.params.items()},
