@@ -380,8 +380,8 @@ def _rope_scene_state(scene: Scene, qpos: np.ndarray, qvel: np.ndarray):
 
 
 def _model_file(mujoco, integrator: str, scene: Scene, dt: float):
-    """A model file's variant as the scene compiled it (its features switched off through
-    MuJoCo's disable flags and model fields), with this mode's integrator and dt."""
+    """The scene's own compiled model (a model file's variant, its features switched off through
+    MuJoCo's disable flags and model fields; the flex cloth), with this mode's integrator and dt."""
     m = scene.engine_model()
     m.opt.integrator = int(getattr(mujoco.mjtIntegrator, f"mjINT_{integrator.upper()}"))
     m.opt.timestep = dt
@@ -392,6 +392,24 @@ def _model_settings(m) -> dict:
     return {"nq": int(m.nq), "nv": int(m.nv), "nu": int(m.nu), "total_mass": float(sum(m.body_mass)),
             "frictionloss": [float(x) for x in m.dof_frictionloss], "solver": int(m.opt.solver),
             "dof_damping_zeroed": not bool(np.any(m.dof_damping))}
+
+
+def _engine_state(scene: Scene, q: np.ndarray, v: np.ndarray):
+    return scene.engine_state(q, v)
+
+
+def _engine_scene_state(scene: Scene, qpos: np.ndarray, qvel: np.ndarray):
+    return scene.scene_state(qpos, qvel)
+
+
+def _flex_settings(m) -> dict:
+    return {"flex_vertices": int(m.flex_vertnum[0]), "flex_triangles": int(m.flex_elemnum[0]),
+            "pinned_vertices": int(np.count_nonzero(m.flex_vertbodyid == 0)), "total_mass": float(sum(m.body_mass)),
+            "stretch": bool(m.flex_stiffness[m.flex_stiffnessadr[0]] != 0), "bending": bool(m.flex_bendingadr[0] >= 0),
+            "edge_stiffness": float(m.flex_edgestiffness[0]), "edge_damping": float(m.flex_edgedamping[0]),
+            "elasticity_damping": float(m.flex_damping[0]), "edge_equality": int(m.flex_edgeequality[0]),
+            "contype": int(m.flex_contype[0]), "conaffinity": int(m.flex_conaffinity[0]),
+            "selfcollide": int(m.flex_selfcollide[0])}
 
 
 #: One pose per scene MuJoCo poses; a new scene is one entry here.
@@ -410,8 +428,16 @@ BUILDERS: dict[str, Pose] = {
     "cloth": Pose(_cloth_xml, tolerance=CHAIN_TOLERANCE, settings=_tendon_settings),
     "net": Pose(_cloth_xml, tolerance=CHAIN_TOLERANCE, settings=_tendon_settings),
     "model": Pose(None, settings=_model_settings, compiled=_model_file),
+    "cloth_flex": Pose(None, compiled=_model_file, to_joints=_engine_state, from_joints=_engine_scene_state,
+                       settings=_flex_settings),
 }
 SCENES = tuple(BUILDERS)
+
+#: Scenes a mode cannot step, measured: mujoco 4.0.0 stops mj_step (FatalError, mj_checkDiscrete)
+#: on a flex with elasticity under implicit and implicitfast (tests/test_cloth_flex.py).
+_FLEX_REFUSED = ("MuJoCo refuses it: 'flex elasticity is no longer integrated implicitly under integrator='implicit' "
+                 "and 'implicitfast': set integrator='discrete', or 'Euler' with a small timestep' (mujoco 4.0.0)")
+_REFUSED = {"implicit": {"cloth_flex": _FLEX_REFUSED}, "implicitfast": {"cloth_flex": _FLEX_REFUSED}}
 
 
 def build(mujoco, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
@@ -463,7 +489,8 @@ _NO_MATCH = {
 METHODS = {
     f"mujoco:{mode}": EngineMode(
         engine="mujoco", mode=mode, module="mujoco", dist="mujoco", build=build,
-        scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], no_match=_NO_MATCH.get(mode, {}),
+        scenes=tuple(x for x in SCENES if x not in _REFUSED.get(mode, {})),
+        unsupported={**UNSUPPORTED, **_REFUSED.get(mode, {})}, doc=_DOCS[mode], no_match=_NO_MATCH.get(mode, {}),
         settings={"integrator": name, "autoreset": "disabled", "contact": "disabled",
                   "constraint": "disabled", "gravity": "scene's g along -z, else disabled",
                   "armature": 0, "warnings": "collected, never printed or logged"},

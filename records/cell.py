@@ -402,6 +402,7 @@ class Cell:
     claims: Claims | None = None
     kernels: dict | None = None              # compiled kernels this cell's measure compiled or loaded
     extra: dict = field(default_factory=dict)
+    model_note: str | None = None            # the scene is another force model on a built-in grid (Scene.model_note)
 
     def __post_init__(self):
         if self.figures is None:
@@ -422,6 +423,8 @@ class Cell:
             out["kernels"] = dict(self.kernels)
         if self.params:
             out["params"] = dict(self.params)
+        if self.model_note:
+            out["model_note"] = self.model_note
         return out
 
     @staticmethod
@@ -430,8 +433,9 @@ class Cell:
         claims = data.pop("claims", None)
         kernels = data.pop("kernels", None)
         params = data.pop("params", None) or {}
+        note = data.pop("model_note", None)
         figures, extra = FIGURES.get(measure, Figures).from_data(data)
-        return {"figures": figures, "extra": extra, "kernels": kernels, "params": dict(params),
+        return {"figures": figures, "extra": extra, "kernels": kernels, "params": dict(params), "model_note": note,
                 "claims": Claims.from_data(claims)[0] if isinstance(claims, dict) else None}
 
     # ------------------------------------------------------------------ the tidy DataFrame row

@@ -207,7 +207,9 @@ COST_COLUMNS = ("CPU µs/step: a reference scheme's compiled loop, an engine mod
 
 
 def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
-    lines = [f"### `{scene}`", "",
+    notes_of_model = sorted({c.model_note for (s, _), ms in piv.items() if s == scene for c in ms.values()
+                             if c.model_note})
+    lines = [f"### `{scene}`", "", *(f"**{note}.**" for note in notes_of_model), *([""] if notes_of_model else []),
              "| method | status | max \\|ΔE/E\\| | energy | max global error | order | largest stable h·ω | "
              "evals/step | CPU µs/step | as stepped µs/step | time ratio |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]

@@ -6,6 +6,7 @@ from records import InvalidInput
 from .scene import Param, Scene, no_solve, no_velocity_dependence
 from .chain import Chain
 from .cloth import Cloth, Net
+from .cloth_flex import ClothFlex
 from .damped_spring import DampedSpring
 from .kepler import Kepler
 from .model import FEATURES, SUFFIXES, VARIANTS, ModelScene, read_model_file, variant
@@ -24,6 +25,11 @@ SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
 #: built from its parameters alone. ``make_scene("model")`` is the shipped unit-spring file.
 FILE_SCENES: dict[str, type[Scene]] = {ModelScene.id: ModelScene}
 
+#: Scenes whose force is one engine's own model posed on a built-in scene's grid (``cloth_flex``:
+#: MuJoCo's flexcomp membrane on the cloth's): not in SCENES, whose every scene has kernels the
+#: reference schemes step; each carries a ``model_note`` saying what it is not.
+ENGINE_SCENES: dict[str, type[Scene]] = {ClothFlex.id: ClothFlex}
+
 
 def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
     """The scene ``scene_id`` with these parameters; ``source``: the file of a scene built from
@@ -36,12 +42,14 @@ def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
         return scene
     if scene_id in FILE_SCENES:
         return FILE_SCENES[scene_id](**overrides)
+    if scene_id in ENGINE_SCENES:
+        return ENGINE_SCENES[scene_id](**overrides)
     if scene_id.lower().endswith(tuple(SUFFIXES)):  # a model file's path: every command takes one
         return ModelScene(scene_id, **overrides)
     try:
         cls = SCENES[scene_id]
     except KeyError:
-        raise InvalidInput(f"unknown scene {scene_id!r} (valid: {', '.join(SCENES)}; a model file: "
+        raise InvalidInput(f"unknown scene {scene_id!r} (valid: {', '.join([*SCENES, *ENGINE_SCENES])}; a model file: "
                            "harness model PATH)") from None
     return cls(**overrides)
 
@@ -57,5 +65,5 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-__all__ = ["SCENES", "FILE_SCENES", "ModelScene", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
+__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ModelScene", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
            "no_solve", "no_velocity_dependence"]

@@ -11,6 +11,11 @@ moves the point of the switch by the step). The finer level is the reference and
 difference its **estimated error** (for a smooth model RK4's error falls 16-fold per halving,
 so the finer level is better than that: the estimate is an upper bound).
 
+The scene supplies ``engine_model()`` (a fresh compiled model), ``engine_state(q, v)`` (its
+coordinates -> MuJoCo's qpos, qvel) and ``scene_state(qpos, qvel)`` (back): the identity for a
+model file, a map of the flex's vertices for ``cloth_flex``; states are compared and returned
+in the scene's coordinates.
+
 A state at a time between grid points is one RK4 step of the remaining length from the grid
 point before it (a shorter step than the grid's, so no less accurate). Grids are cached per
 process, by scene id (file hash), variant and T.
@@ -64,7 +69,7 @@ def _run(scene, m, d, h: float, n: int):
     spec = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
     nstate = mujoco.mj_stateSize(m, spec)
     mujoco.mj_resetData(m, d)
-    q0, v0 = scene.initial_state()
+    q0, v0 = scene.engine_state(*scene.initial_state())
     d.qpos[:] = q0
     d.qvel[:] = v0
     mujoco.mj_forward(m, d)
@@ -80,7 +85,7 @@ def _run(scene, m, d, h: float, n: int):
     if not np.all(np.isfinite(states)):
         return None
     nq, nv = m.nq, m.nv
-    return states, states[:, 1:1 + nq].copy(), states[:, 1 + nq:1 + nq + nv].copy()
+    return (states, *scene.scene_state(states[:, 1:1 + nq], states[:, 1 + nq:1 + nq + nv]))
 
 
 def _scaled(scene, q, v):
@@ -164,5 +169,5 @@ def reference_at(scene, t) -> tuple[np.ndarray, np.ndarray]:
         mujoco.mj_setState(m, d, grid.state[n], spec)
         m.opt.timestep = rest
         mujoco.mj_step(m, d)
-        q[i], v[i] = d.qpos, d.qvel
+        q[i], v[i] = scene.scene_state(d.qpos, d.qvel)
     return q, v

@@ -255,6 +255,13 @@ class ModelScene(Scene):
         switch_off(m, [name for name in FEATURES if self.values[name] == 0])
         return m
 
+    def engine_state(self, q, v):
+        """The scene's coordinates are MuJoCo's (qpos, qvel)."""
+        return q, v
+
+    def scene_state(self, qpos, qvel):
+        return np.array(qpos, dtype=float), np.array(qvel, dtype=float)
+
     def _model(self):
         if self._m is None:
             import mujoco

@@ -199,6 +199,10 @@ class Scene:
     #: False for a model file, whose physics is the engine's.
     has_kernels: ClassVar[bool] = True
 
+    #: Where set, the scene is another force model posed on a built-in scene's grid (an engine's
+    #: own model): what it is not, which every output about it says (``cloth_flex``).
+    model_note: ClassVar[str | None] = None
+
     #: The scene has normal modes: ``mode_frequencies()`` and ``modal(q)`` (the chain).
     has_modes: ClassVar[bool] = False
 
@@ -271,6 +275,7 @@ class Scene:
             "has_exact": has_exact,
             "has_reference": has_exact or type(self).reference_solution is not Scene.reference_solution,
             "reference_horizon": None if self.reference_horizon == math.inf else self.reference_horizon,
+            "model_note": self.model_note,
             "params": {name: {"value": self.values[name], "default": spec.default,
                               "allowed": spec.allowed(), "doc": spec.doc}
                        for name, spec in self.params.items()},

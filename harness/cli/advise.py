@@ -39,7 +39,7 @@ def run(args) -> int:
     patterns = [p.strip() for item in args.methods or () for p in item.split(",") if p.strip()]
     scene = make_scene(args.scene, **parse_overrides(args.set))
     result = advise(scene, request, patterns or None, jobs=jobs, timeout=timeout)
-    return emit(result.as_dict() if args.json else result, args.json, _lines)
+    return emit(result.as_dict() if args.json else result, args.json, _lines, scene)
 
 
 def _us(x) -> str:

@@ -29,7 +29,7 @@ def run(args) -> int:
     method = method_for(args.method, scene)
     res = cost_per_step(method, scene, dt, time_steps=time_steps, repeats=repeats, count_steps=count_steps,
                         timeout=timeout)
-    return emit(res, args.json, _lines)
+    return emit(res, args.json, _lines, scene)
 
 
 def _lines(r):

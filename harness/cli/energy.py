@@ -25,7 +25,7 @@ def run(args) -> int:
     scene = scene_of(args)
     method = method_for(args.method, scene)
     res = energy_behaviour(method, scene, dt, steps, every=every, timeout=timeout, series=args.series)
-    return emit(res, args.json, _lines)
+    return emit(res, args.json, _lines, scene)
 
 
 def _lines(r):

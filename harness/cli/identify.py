@@ -37,8 +37,11 @@ def run(args) -> int:
     check_supported(method, scene)
     result = identify(method, scene, dt, steps, timeout=timeout)
     if args.json:
-        print(json.dumps(_finite(result.as_dict()), indent=1))
+        out = result.as_dict()
+        print(json.dumps(_finite({"model_note": scene.model_note, **out} if scene.model_note else out), indent=1))
     else:
+        if scene.model_note:
+            print(f"{scene.id}: {scene.model_note}")
         print(format_report(result))
     return 0 if result.matches else 1
 

@@ -5,7 +5,7 @@ import json
 
 from records import is_reference
 
-from scenarios import SCENES
+from scenarios import ENGINE_SCENES, SCENES
 
 from harness.methods import all_methods
 
@@ -17,7 +17,9 @@ def add_parser(sub):
 
 
 def catalogue() -> dict:
-    scenes = {sid: cls().describe() for sid, cls in SCENES.items()}
+    """Every scene and method; an engine's own model on a built-in grid (``ENGINE_SCENES``) is listed
+    with its note, and the modes that pose it name it in their ``supported_scenes``."""
+    scenes = {sid: cls().describe() for sid, cls in {**SCENES, **ENGINE_SCENES}.items()}
     methods = {}
     for mid, m in all_methods().items():
         ok, why = m.available()
@@ -43,6 +45,8 @@ def run(args) -> int:
     for sid, s in cat["scenes"].items():
         params = ", ".join(f"{k}={v['value']:g} {v['allowed']}" for k, v in s["params"].items()) or "none"
         print(f"  {sid:16s} {s['title']}")
+        if s["model_note"]:
+            print(f"  {'':16s} {s['model_note']}")
         print(f"  {'':16s} omega={s['omega']:.4g} (h*omega at 60 Hz: {s['omega'] / 60.0:.3g})  params: {params}")
     print("\nMethods")
     for mid, m in cat["methods"].items():

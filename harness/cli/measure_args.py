@@ -37,12 +37,20 @@ def timeout_of(args) -> float:
     return validate.positive_finite("--timeout", args.timeout)
 
 
-def emit(result, as_json: bool, lines) -> int:
-    """Print a measure's result: its JSON form (a ``records.result.Result``'s ``as_dict``), or its lines."""
+def emit(result, as_json: bool, lines, scene=None) -> int:
+    """Print a measure's result: its JSON form (a ``records.result.Result``'s ``as_dict``), or its lines.
+    Where ``scene`` is another force model on a built-in scene's grid (``Scene.model_note``), the
+    note comes first (the JSON's ``model_note``)."""
+    note = scene.model_note if scene is not None else None
     if as_json:
-        json.dump(jsonable(result.as_dict() if isinstance(result, Result) else result), sys.stdout, indent=1)
+        out = result.as_dict() if isinstance(result, Result) else result
+        if note:
+            out = {"model_note": note, **out}
+        json.dump(jsonable(out), sys.stdout, indent=1)
         sys.stdout.write("\n")
     else:
+        if note:
+            print(f"{scene.id}: {note}")
         for line in lines(result):
             print(line)
     return 0

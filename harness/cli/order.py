@@ -35,7 +35,7 @@ def run(args) -> int:
     method = method_for(args.method, scene)
     res = observed_order(method, scene, points=points, span=span, periods=periods, order=hint, dts=dts,
                          timeout=timeout)
-    return emit(res, args.json, _lines)
+    return emit(res, args.json, _lines, scene)
 
 
 def _lines(r):

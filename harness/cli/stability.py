@@ -30,7 +30,7 @@ def run(args) -> int:
     scene = scene_of(args)
     method = method_for(args.method, scene)
     res = largest_stable_dt(method, scene, criterion=criterion, steps=steps, lo=lo, hi=hi, timeout=timeout)
-    return emit(res, args.json, _lines)
+    return emit(res, args.json, _lines, scene)
 
 
 def _lines(r):

@@ -33,7 +33,7 @@ def run(args) -> int:
     rows = work_precision(methods, scene, points=points, homega_max=homega_max, periods=periods,
                           repeats=repeats, timeout=timeout)
     return emit({"scene": scene.id, "params": dict(scene.values), "rows": rows, "chart": chart_ready(rows)},
-                args.json, _lines)
+                args.json, _lines, scene)
 
 
 def _lines(r):

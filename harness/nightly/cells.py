@@ -148,6 +148,7 @@ def _scene_task(task, suite: Suite, exact=None) -> list[Cell]:
         for c in new:
             if c.claims is None:
                 c.claims = claims
+            c.model_note = scene.model_note
             cells.append(c)
             report_partial(c)
 
