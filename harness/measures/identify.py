@@ -64,17 +64,75 @@ CANDIDATES_KEPT = 64
 
 
 def candidate_run(ref, scene: Scene, dt: float, steps: int) -> Trajectory:
-    """``ref.simulate(scene, dt, steps, 1)``, or the same run made before in this process: the key
-    holds the scheme and its options, the scene's id, parameters and initial state, dt, steps
-    and the backend reference runs take (``reference.Exact``: the same bits either way)."""
+    """``ref.simulate(scene, dt, steps, 1)``, or the same run made before in this process, or
+    by any process of this code on this machine (``_stored``): the key holds the scheme and its
+    options, the scene's id, parameters and initial state, dt, steps and the backend reference
+    runs take (``reference.Exact``: the same bits either way)."""
     q0, v0 = scene.batch_state(1)
     key = (ref.id, tuple(sorted(ref.options.items())), scene.id, tuple(sorted(scene.values.items())),
            q0.tobytes(), v0.tobytes(), float(dt), int(steps), ref.exact is not None)
     if key not in _CANDIDATES:
         if len(_CANDIDATES) >= CANDIDATES_KEPT:
             del _CANDIDATES[next(iter(_CANDIDATES))]
-        _CANDIDATES[key] = ref.simulate(scene, dt, steps, 1)
+        _CANDIDATES[key] = _stored(key, lambda: ref.simulate(scene, dt, steps, 1))
     return _CANDIDATES[key]
+
+
+def _code_digest() -> str:
+    """A hash of everything a reference run's bits depend on: the source of the packages that
+    compute it (the schemes, the scenes' forces, the step loop), numpy's and Python's versions."""
+    global _DIGEST
+    if _DIGEST is None:
+        import hashlib
+        import sys
+        from pathlib import Path
+
+        import records
+        import reference
+        import scenarios
+
+        h = hashlib.sha256(f"{np.__version__} {sys.version}".encode())
+        for package in (records, reference, scenarios):
+            root = Path(package.__file__).parent
+            for path in sorted(root.rglob("*.py")):
+                h.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
+        _DIGEST = h.hexdigest()
+    return _DIGEST
+
+
+_DIGEST: str | None = None
+
+
+def _stored(key: tuple, run) -> Trajectory:
+    """The candidate run of ``key`` from the disk cache (``$HARNESS_CACHE/candidates``, beside the
+    kernels), else ``run()`` stored there. The file's name hashes the key with ``_code_digest``, so
+    a run of other code is never read: an edit to a scheme or a scene is a new file. Written to a
+    temporary name and renamed, so a reader never sees half a file; one that cannot be read or
+    written costs only the run."""
+    import hashlib
+    import os
+    import pickle
+
+    from reference import kernel_cache_dir
+
+    folder = kernel_cache_dir().parent / "candidates"
+    name = hashlib.sha256(repr(key).encode() + _code_digest().encode()).hexdigest()[:32]
+    path = folder / f"{name}.pickle"
+    try:
+        with open(path, "rb") as fh:
+            return pickle.load(fh)
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ImportError):
+        pass
+    traj = run()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        with open(tmp, "wb") as fh:
+            pickle.dump(traj, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(tmp, path)
+    except OSError:
+        pass
+    return traj
 
 
 @dataclass(frozen=True)
