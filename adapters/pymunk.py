@@ -65,6 +65,7 @@ class _Space(SteppedModel):
         space.sleep_time_threshold = math.inf
         self.constraints, self.bodies = [], []
         self.apply_before_step = None
+        self._batch = None
         self._build(pymunk, mode, scene, values.get("k", 0.0), values.get("c", 0.0))
         self._install_counter()
 
@@ -109,6 +110,28 @@ class _Space(SteppedModel):
         }
         if len(self.bodies) == 1:
             self.settings["mass"] = body.mass
+
+    def _bodies_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every body's position and velocity, rows in ``self.bodies`` order (shape (n, 2) each):
+        one Chipmunk call (``pymunk.batch``) where the space lists these bodies first and in this
+        order (the static body follows them), checked by their ids the first time; property by
+        property otherwise. The same doubles either way: the batch copies Chipmunk's own."""
+        if self._batch is None:
+            from pymunk import batch
+
+            ids = batch.Buffer()
+            batch.get_space_bodies(self.space, batch.BodyFields.BODY_ID, ids)
+            n = len(self.bodies)
+            same = np.frombuffer(ids.int_buf(), dtype=np.uintp)[:n].tolist() == [b.id for b in self.bodies]
+            self._batch = (batch, batch.Buffer(), batch.BodyFields.POSITION | batch.BodyFields.VELOCITY) if same else ()
+        if not self._batch:
+            return (np.array([tuple(b.position) for b in self.bodies]).reshape(-1, 2),
+                    np.array([tuple(b.velocity) for b in self.bodies]).reshape(-1, 2))
+        batch, buf, fields = self._batch
+        buf.clear()
+        batch.get_space_bodies(self.space, fields, buf)
+        rows = np.frombuffer(buf.float_buf(), dtype=float).reshape(-1, 4)[:len(self.bodies)]
+        return rows[:, :2].copy(), rows[:, 2:].copy()
 
     def _zero_forces(self) -> None:
         for b in self.bodies:
@@ -370,8 +393,8 @@ class _Chain(_Space):
         self._zero_forces()
 
     def state(self):
-        q = np.array([b.position.x for b in self.bodies]) - self.offset
-        return q, np.array([b.velocity.x for b in self.bodies])
+        x, u = self._bodies_state()
+        return x[:, 0] - self.offset, u[:, 0].copy()
 
 
 class _Rope(_Space):
@@ -397,8 +420,8 @@ class _Rope(_Space):
         self._zero_forces()
 
     def state(self):
-        return (np.array([c for b in self.bodies for c in b.position]),
-                np.array([c for b in self.bodies for c in b.velocity]))
+        x, u = self._bodies_state()
+        return x.reshape(-1), u.reshape(-1)
 
 
 class _Net(_Rope):

@@ -237,3 +237,21 @@ def test_every_engine_mode_has_a_bench_scene():
     for mode in engine_modes():
         assert bench_scene(mode).id in mode.scenes, mode.id
     assert bench_scene(adapters.ENGINE_METHODS["pymunk:space_damping"]).id == "damped_spring"
+
+
+@pytest.mark.parametrize("scene_id, params, mode", [("rope", {"N": 5}, "pin_joint"), ("chain", {"N": 8}, "spring_force"),
+                                                    ("chain", {"N": 8}, "damped_spring"), ("net", {"n": 3, "m": 4}, "damped_spring")])
+def test_pymunk_reads_every_body_in_one_call_the_same_doubles(scene_id, params, mode):
+    """A multi-body pose reads its bodies through pymunk.batch (one Chipmunk call a state, where the
+    per-step reads were most of a stability search's time): the doubles the properties give."""
+    import pymunk
+
+    from adapters.pymunk import BUILDERS
+    from scenarios import make_scene
+
+    model = BUILDERS[scene_id](pymunk, mode, make_scene(scene_id, **params), 0.01)
+    model.steps(7)
+    x, u = model._bodies_state()
+    assert model._batch  # the batch path, not the fallback
+    assert x.tobytes() == np.array([tuple(b.position) for b in model.bodies]).tobytes()
+    assert u.tobytes() == np.array([tuple(b.velocity) for b in model.bodies]).tobytes()
