@@ -353,7 +353,25 @@ def kernel_source(scheme, scene_cls, nstate: int) -> tuple[str, bool]:
 
 
 def kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
-    """The kernel file of a pair (``KernelFile``). Raises SourceUnavailable."""
+    """The kernel file of a pair (``KernelFile``), generated once per process (the functions'
+    source does not change while it runs; the nightly's plan asks for every pair's before its
+    workers load them). Raises SourceUnavailable."""
+    key = (scheme, scene_cls, nstate)
+    if key not in _FILES:
+        try:
+            _FILES[key] = _kernel_file(scheme, scene_cls, nstate)
+        except SourceUnavailable as exc:
+            _FILES[key] = exc
+    made = _FILES[key]
+    if isinstance(made, SourceUnavailable):
+        raise made
+    return made
+
+
+_FILES: dict[tuple, "KernelFile | SourceUnavailable"] = {}
+
+
+def _kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
     kind = ("constrained" if scheme.constrained else "implicit" if scheme.implicit
             else "decay" if scheme.decay else "explicit")
     pointwise = scene_cls.pointwise and not scheme.constrained

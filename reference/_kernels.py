@@ -264,8 +264,27 @@ def cached(scheme, scene_cls, nstate: int) -> Cached:
         return Cached()
     if not path.exists():
         return Cached(name=path.name)
-    return Cached(True, any((path.parent / "__pycache__").glob(f"{path.stem}.advance_n-*.nbi")),
+    return Cached(True, path.stem in _timing_compiled(path.parent / "__pycache__"),
                   path.with_suffix(".counted").exists(), path.name)
+
+
+def _timing_compiled(folder: Path) -> set[str]:
+    """The kernel files (stems) whose timing loop numba has cached in ``folder``: an index
+    ``<stem>.advance_n-<line>.py<version>.nbi``. The folder is listed once while it is
+    unchanged (its mtime), not globbed pair by pair: it holds thousands of files."""
+    try:
+        stamp = folder.stat().st_mtime_ns
+    except OSError:
+        return set()
+    have = _LISTINGS.get(folder)
+    if have is None or have[0] != stamp:
+        stems = {name.split(".advance_n-", 1)[0] for name in os.listdir(folder)
+                 if ".advance_n-" in name and name.endswith(".nbi")}
+        have = _LISTINGS[folder] = (stamp, stems)
+    return have[1]
+
+
+_LISTINGS: dict[Path, tuple[int, set[str]]] = {}
 
 
 def load(scheme, scene_cls, nstate: int) -> Kernels:
