@@ -270,3 +270,31 @@ def test_rk4_on_the_standard_cloth_has_no_order_below_the_floor_not_an_unstable_
     judged = judge([cell])
     assert "| no order (errors at the floor) [" in "\n".join(tradeoff_table(piv, judged.claims, "cloth"))
     assert "| `ref:rk4` | ok |" in "\n".join(scene_section("cloth", piv, {}))
+
+
+def test_the_full_suites_cloth_has_a_scaling_cell_and_finding():
+    """The cloth's cost against its size is a nightly cell of the full suite (16 x 16 to 32 x 32,
+    the implicit schemes), judged as the chain's is; run here at small sizes."""
+    import dataclasses
+
+    from harness.judge import judge
+    from harness.methods import get_method
+    from harness.nightly.run import Task
+    from harness.nightly.scene_cells import measures_for, scene_cells
+    from harness.nightly.suites import SUITES
+    from harness.measures.scaling import cloth_sizes
+    from scenarios import make_scene
+
+    spec = SUITES["full"].scenes["cloth"]
+    assert [s["n"] for s in spec.extras.scaling["sizes"]] == [16, 24, 32]
+    small = dataclasses.replace(spec, extras=dataclasses.replace(
+        spec.extras, scaling={"sizes": tuple(cloth_sizes((4, 6, 8))), "repeats": 1, "work_per_call": 20_000}))
+    cells = []
+    for method in ("ref:implicit_euler", "ref:linearly_implicit_euler", "ref:rk4"):
+        task = Task("cell", "cloth", method, "ref", {}, "full")
+        assert ("scaling" in measures_for(task, small)) == (method != "ref:rk4")
+        cells += scene_cells(task, get_method(method), make_scene("cloth"), 1e-3, small, SUITES["full"])
+    assert [c.measure for c in cells] == ["scaling", "scaling"] and all(c.status == "ok" for c in cells)
+    assert [row["ndof"] for row in cells[0].figures.rows] == [3 * (16 - 2), 3 * (36 - 2), 3 * (64 - 2)]
+    found = " ".join(f.text for f in judge(cells).findings)
+    assert "`ref:implicit_euler` on `cloth`: cost per step grows as N^" in found and "conjugate gradients" in found

@@ -259,7 +259,8 @@ def tiny_suite(monkeypatch):
     suite = Suite("tiny", scenes={
         "chain": SceneSpec(params={"N": 4}, periods=10, order_points=6, order_span=4.0,
                            extras=SceneExtras(damping_factor=100.0,
-                                              scaling={"ns": (10, 100), "repeats": 1, "work_per_call": 20_000})),
+                                              scaling={"sizes": ({"N": 10}, {"N": 100}), "repeats": 1,
+                                                       "work_per_call": 20_000})),
         "rope": SceneSpec(params={"N": 3}, periods=5, order_points=6, order_span=4.0, stability=False,
                           extras=SceneExtras(constraint_iterations=(1, 4))),
     }, cost_repeats=1, cost_steps=500, series_points=100, stability_steps=200, bounds=False)

@@ -15,8 +15,10 @@
   limit beside the theory of the method's own scheme, or for an engine mode of the scheme it
   was identified as (the task's claims). Value: the number of damping ratios whose measured
   limit agrees with that theory; a reference scheme's cell also carries its theory curve.
-* ``scaling`` (the chain, ``ref:implicit_euler``; ``extras.scaling``): compiled cost per
-  step at each N of ``ns`` (``harness.measures.scaling``). Value: the log-log slope.
+* ``scaling`` (``extras.scaling``, for ``extras.scaling_methods``: the chain's backward Euler,
+  the full suite's cloth's implicit schemes): compiled cost per step at each size of ``sizes``
+  (the scene's parameters at each size; ``harness.measures.scaling.cost_vs_size``). Value: the
+  log-log slope against the number of unknowns.
 * ``brouwer`` (Kepler and the solar system, the methods ``extras.brouwer`` names): the
   energy error's RMS over an ensemble against time (``harness.measures.brouwer``). Value: its
   log-log slope, 0.5 by Brouwer's law where the error is roundoff.
@@ -116,10 +118,12 @@ def _stability_vs_damping(task, method, spec, claims: Claims) -> Cell:
 
 
 def _scaling(task, spec) -> Cell:
-    from harness.measures.scaling import implicit_cost_vs_n
+    from harness.measures.scaling import cost_vs_size
 
     settings = dict(spec.extras.scaling)
-    frame = implicit_cost_vs_n(scheme=MethodId.parse(task.method).name, **settings)
+    sizes = [dict(size) for size in settings.pop("sizes")]
+    frame = cost_vs_size(task.scene, sizes, scheme=MethodId.parse(task.method).name, **settings)
+    settings["sizes"] = sizes
     return make_cell(task, "scaling", "ok", frame.attrs["slope"], figures=ScalingFigures(**plain(
         {"rows": frame.to_dict("records"), "rvalue": frame.attrs["rvalue"], "intercept": frame.attrs["intercept"],
          "settings": settings})))

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from harness.measures.scaling import cloth_sizes
+
 
 #: The methods the scaling cell runs for, unless a suite names others.
 SCALING_METHODS = ("ref:implicit_euler",)
@@ -26,7 +28,8 @@ class SceneExtras:
     constraint_iterations: tuple = ()          # projection passes the constraint cell repeats at
     damping_factor: float | None = None        # the damping cell: this many times the explicit limit
     stability_zetas: tuple | None = None       # the stability-vs-damping cell's damping ratios
-    scaling: dict | None = None                # the scaling cell's settings (implicit_cost_vs_n's)
+    scaling: dict | None = None                # the scaling cell's settings: ``sizes`` (the scene's parameters
+                                               # at each size) and cost_vs_size's repeats, work_per_call
     scaling_methods: tuple = SCALING_METHODS   # the methods the scaling cell runs for
     brouwer: dict | None = None                # the Brouwer ensemble's settings, by method (harness.measures.brouwer)
     cross_engine: tuple = ()                   # two engine modes compared from the same state (a model file's
@@ -86,8 +89,14 @@ class Suite:
 
 #: The chain's own cells: damping at 100x the explicit limit (the issue's "100x that dt") and
 #: backward Euler's cost against N over the issue's range (a lighter timing than the full suite's).
+CHAIN_SIZES = tuple({"N": n} for n in (10, 100, 1000, 10000))
 CHAIN_EXTRAS = SceneExtras(damping_factor=100.0,
-                           scaling={"ns": (10, 100, 1000, 10000), "repeats": 3, "work_per_call": 1_000_000})
+                           scaling={"sizes": CHAIN_SIZES, "repeats": 3, "work_per_call": 1_000_000})
+#: The full suite's cloth: the implicit schemes' cost against the number of masses, square sheets
+#: of 16 x 16 to 32 x 32 at the default node mass (conjugate gradients from 600 unknowns on).
+CLOTH_SCALING_METHODS = ("ref:implicit_euler", "ref:linearly_implicit_euler")
+CLOTH_FULL_EXTRAS = SceneExtras(scaling={"sizes": tuple(cloth_sizes((16, 24, 32))), "repeats": 3},
+                                scaling_methods=CLOTH_SCALING_METHODS)
 #: The damped spring's own cell: the largest stable h*omega at each of the issue's damping ratios,
 #: beside linear-stability theory (harness.measures.stability_damping).
 DAMPED_SPRING_EXTRAS = SceneExtras(stability_zetas=(0.0, 0.05, 0.1, 0.5, 1.0, 2.0))
@@ -194,12 +203,13 @@ SUITES: dict[str, Suite] = {
                                 extras=SceneExtras(brouwer=KEPLER_BROUWER_FULL)),
             "projectile": SceneSpec(homega=0.01, periods=0.2, order_points=8, order_span=16.0),
             "chain": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE,
-                               extras=replace(CHAIN_EXTRAS, scaling={"ns": (10, 100, 1000, 10000)})),
+                               extras=replace(CHAIN_EXTRAS, scaling={"sizes": CHAIN_SIZES})),
             "rope": SceneSpec(periods=200, order_points=8, order_span=16.0, extras=ROPE_EXTRAS,
                               stability_steps=ROPE_STABILITY_STEPS),
             "solar_system": SceneSpec(dt=10.0, horizon=1.0e7, order_points=8, order_span=16.0, compiled=True,
                                       stability_hi=SOLAR_STABILITY_HI, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
-            "cloth": SceneSpec(periods=50, order_points=8, order_span=16.0, advise=CLOTH_ADVISE),
+            "cloth": SceneSpec(periods=50, order_points=8, order_span=16.0, advise=CLOTH_ADVISE,
+                               extras=CLOTH_FULL_EXTRAS),
             "net": SceneSpec(params={"n": 4, "m": 4}, periods=50, order_points=8, order_span=16.0),
             # MuJoCo's flexcomp membrane on the cloth's grid: not the same model, measured against its own
             # refined RK4 run; left out of the standard suite (one task took 40 s, the stability search of
