@@ -243,7 +243,9 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
     lines += brouwer_lines(scene, piv)
     for (s, _), ms in sorted(piv.items()):
         if s == scene and "cross_engine" in ms:
-            lines += ["Two engines from the same state: " + " ".join(cross_engine_lines(ms["cross_engine"])), ""]
+            head, *differences = cross_engine_lines(ms["cross_engine"])
+            lines += [f"Two engines from the same state: {head}", ""]
+            lines += [f"- {d}" for d in differences] + ([""] if differences else [])
     for kind, title in (("energy", "Energy against time"), ("workprecision", "Work-precision: error against cost"),
                         ("stability", "Largest stable h·ω")):
         name = chart_names.get((scene, kind))
@@ -277,7 +279,7 @@ def brouwer_lines(scene: str, piv: dict) -> list[str]:
 
 def cross_engine_lines(c) -> list[str]:
     """A ``cross_engine`` cell in words: how far apart the two modes are against what their own
-    errors account for, then each quantity that differs in the models the engines built."""
+    errors account for, then one line per quantity that differs in the models the engines built."""
     f = c.figures
     a, b = f.methods or ("?", "?")
     if c.value is None:
@@ -287,7 +289,7 @@ def cross_engine_lines(c) -> list[str]:
             f"the reference's {f.reference_error:.2g}: ")
     if not f.disagree:
         return [head + "they agree within those."]
-    return [head + "they disagree beyond them. What each engine built differs:"] + [f"  {d};" for d in f.differences]
+    return [head + "they disagree beyond them. What each engine built differs:"] + list(f.differences)
 
 
 def _class_text(energy) -> str:
