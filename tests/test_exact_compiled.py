@@ -180,9 +180,10 @@ def test_a_kernel_passed_on_as_a_value_cannot_be_counted():
         src.add_counted("scheme_step", "scheme_step_counted", {"scene_accel": 0})
 
 
-def test_identity_reuses_candidate_runs(monkeypatch):
+def test_identity_reuses_candidate_runs(monkeypatch, tmp_path):
     from harness.measures import identify as ident
 
+    monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))  # no candidate run stored on disk before
     ident._CANDIDATES.clear()
     calls = []
     real = RefMethod.simulate
