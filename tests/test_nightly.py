@@ -506,3 +506,23 @@ def test_each_command_says_what_the_nightlys_cell_says(first_run, method, capsys
     assert cost["force_evals_per_step"] == cells["cost"].figures.force_evals_per_step
     assert cost["s_per_step"] == cells["cost"].value and cost["clock"] == "injected"
     assert cost["ratio_to_explicit_euler"] == cells["cost"].figures.ratio_to_explicit_euler
+
+
+def test_the_standard_suite_bisects_stability_to_its_own_width(monkeypatch):
+    """The standard suite's stability cells bisect to STANDARD_STABILITY_RTOL (a scene's own width
+    wins, as a model file's 1e-4 does); the measure's default stays 1e-6 elsewhere."""
+    from harness.measures import stability
+    from harness.methods import get_method
+    from harness.nightly import cells
+    from harness.nightly.run import Task
+    from harness.nightly.suites import STANDARD_STABILITY_RTOL, SUITES
+    from scenarios import make_scene
+
+    seen = []
+    real = stability.largest_stable_dt
+    monkeypatch.setattr(stability, "largest_stable_dt", lambda *a, **k: seen.append(k.get("rtol")) or real(*a, **k))
+    suite, spec = SUITES["standard"], SUITES["standard"].scenes["spring"]
+    task = Task("cell", "spring", "ref:leapfrog", "ref", {}, "standard")
+    cell = cells._stability(task, get_method("ref:leapfrog"), make_scene("spring"), suite, spec)
+    assert seen == [STANDARD_STABILITY_RTOL] == [1e-4] and SUITES["full"].stability_rtol is None
+    assert cell.value == pytest.approx(2.0, rel=2e-4)  # leapfrog's h*omega = 2, to the bisection's width

@@ -231,7 +231,8 @@ def _stability(task, method, scene, suite, spec) -> Cell:
 
     hi = spec.stability_hi if spec.stability_hi is not None else suite.stability_homega_max
     steps = spec.stability_steps if spec.stability_steps is not None else suite.stability_steps
-    search = {k: v for k, v in (("lo", spec.stability_lo), ("rtol", spec.stability_rtol)) if v is not None}
+    rtol = spec.stability_rtol if spec.stability_rtol is not None else suite.stability_rtol
+    search = {k: v for k, v in (("lo", spec.stability_lo), ("rtol", rtol)) if v is not None}
     res = largest_stable_dt(method, scene, steps=steps, hi=hi, **search)
     verdict = res.verdict
     figures = StabilityFigures.pick(plain(res.as_dict()), unbounded=verdict == "unbounded",

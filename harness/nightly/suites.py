@@ -74,6 +74,8 @@ class Suite:
                                              # compiled, 2,000 for an engine mode)
     series_points: int = 400                 # energy-series samples kept per cell for the charts
     stability_steps: int = 1000              # horizon of the boundedness test
+    stability_rtol: float | None = None      # the stability bisection's relative width (None: the measure's 1e-6;
+                                             # a scene's own ``SceneSpec.stability_rtol`` wins)
     stability_homega_max: float = 100.0      # top of the stability search, in h*omega: beyond it a method is
                                              # "unbounded (searched to ...)". An adaptive engine mode (REBOUND's
                                              # ias15: dt is its output interval) is stable at every dt and its
@@ -163,6 +165,12 @@ CLOTH_STANDARD_SKIP = VELOCITY_SCHEMES + CHAIN_STANDARD_SKIP
 #: it), the energy within 10% (the implicit schemes damp: that is what is asked of them here).
 CLOTH_ADVISE = {"horizon": 2.0, "energy_tol": 0.1, "max_substeps": 16}
 
+#: The standard suite bisects each largest stable timestep to 1e-4 relative, not the measure's
+#: 1e-6: the report gives four digits, the judge's theory check allows 0.5% and a regression is a
+#: 1% drop, and the seven bisection runs it saves a search were a fifth of the stability cells'
+#: CPU (the rope's 10,000-step runs most).
+STANDARD_STABILITY_RTOL = 1e-4
+
 #: The advice a game or animation programmer asks for: 10 s at the suite's frame rates, the
 #: energy within 0.1% of the largest exact energy, up to 16 substeps a frame.
 ADVISE = {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 16}
@@ -192,6 +200,7 @@ SUITES: dict[str, Suite] = {
                                       methods=SOLAR_METHODS, compiled=True, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
             "cloth": SceneSpec(params={"n": 4, "m": 4, "k": 1000.0}, periods=20, skip=CLOTH_STANDARD_SKIP, advise=CLOTH_ADVISE),
         },
+        stability_rtol=STANDARD_STABILITY_RTOL,
     ),
     "full": Suite(
         "full",
