@@ -34,6 +34,7 @@ import numpy as np
 from scenarios import Scene
 
 from ._base import EngineMode, SteppedModel, chain_force, unwrap
+from ._pymunk_state import BodyReader
 
 from ._pymunk_scenes import (_FORCE_SCENES, _FORCE_UNSUPPORTED, _JOINT_UNSUPPORTED, _SPACE_DAMPING_SCENES,
                              _SPACE_DAMPING_UNSUPPORTED, _SPRING_UNSUPPORTED)
@@ -112,26 +113,10 @@ class _Space(SteppedModel):
             self.settings["mass"] = body.mass
 
     def _bodies_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """Every body's position and velocity, rows in ``self.bodies`` order (shape (n, 2) each):
-        one Chipmunk call (``pymunk.batch``) where the space lists these bodies first and in this
-        order (the static body follows them), checked by their ids the first time; property by
-        property otherwise. The same doubles either way: the batch copies Chipmunk's own."""
+        """Every body's (position, velocity) rows, in one Chipmunk call where it can (``BodyReader``)."""
         if self._batch is None:
-            from pymunk import batch
-
-            ids = batch.Buffer()
-            batch.get_space_bodies(self.space, batch.BodyFields.BODY_ID, ids)
-            n = len(self.bodies)
-            same = np.frombuffer(ids.int_buf(), dtype=np.uintp)[:n].tolist() == [b.id for b in self.bodies]
-            self._batch = (batch, batch.Buffer(), batch.BodyFields.POSITION | batch.BodyFields.VELOCITY) if same else ()
-        if not self._batch:
-            return (np.array([tuple(b.position) for b in self.bodies]).reshape(-1, 2),
-                    np.array([tuple(b.velocity) for b in self.bodies]).reshape(-1, 2))
-        batch, buf, fields = self._batch
-        buf.clear()
-        batch.get_space_bodies(self.space, fields, buf)
-        rows = np.frombuffer(buf.float_buf(), dtype=float).reshape(-1, 4)[:len(self.bodies)]
-        return rows[:, :2].copy(), rows[:, 2:].copy()
+            self._batch = BodyReader(self.space, self.bodies)
+        return self._batch.read()
 
     def _zero_forces(self) -> None:
         for b in self.bodies:

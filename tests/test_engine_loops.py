@@ -252,6 +252,6 @@ def test_pymunk_reads_every_body_in_one_call_the_same_doubles(scene_id, params, 
     model = BUILDERS[scene_id](pymunk, mode, make_scene(scene_id, **params), 0.01)
     model.steps(7)
     x, u = model._bodies_state()
-    assert model._batch  # the batch path, not the fallback
+    assert model._batch.batched  # the batch path, not the fallback
     assert x.tobytes() == np.array([tuple(b.position) for b in model.bodies]).tobytes()
     assert u.tobytes() == np.array([tuple(b.velocity) for b in model.bodies]).tobytes()
