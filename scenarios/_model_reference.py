@@ -171,3 +171,16 @@ def reference_at(scene, t) -> tuple[np.ndarray, np.ndarray]:
         mujoco.mj_step(m, d)
         q[i], v[i] = scene.scene_state(d.qpos, d.qvel)
     return q, v
+
+
+class RefinedRunReference:
+    """A scene whose reference is MuJoCo's own RK4, halved until two halvings agree (a model file,
+    MuJoCo's flex cloth): mixed in before the ``Scene`` class it completes."""
+
+    reference_engine = "mujoco"
+
+    def reference_solution(self, t):
+        return reference_at(self, t)
+
+    def reference_error(self, t) -> float | None:
+        return reference_grid(self).error

@@ -39,6 +39,7 @@ import math
 import numpy as np
 from scipy.sparse import csr_matrix
 
+from ._model_reference import RefinedRunReference
 from .cloth import Cloth
 from .scene import no_solve
 
@@ -67,7 +68,7 @@ _FLEX = """<mujoco><option timestep="{dt!r}" integrator="{integrator}" gravity="
 </flexcomp></worldbody></mujoco>"""
 
 
-class ClothFlex(Cloth):
+class ClothFlex(RefinedRunReference, Cloth):
     id = "cloth_flex"
     title = ("MuJoCo flexcomp membrane on the cloth's grid (same n, m, s, mass, pins, g): NOT the same model as "
              "cloth's springs; reference: its own RK4, step halved until two halvings agree")
@@ -246,16 +247,6 @@ class ClothFlex(Cloth):
     @property
     def reference_horizon(self) -> float:
         return REFERENCE_PERIODS * 2.0 * math.pi / self.omega
-
-    def reference_solution(self, t):
-        from ._model_reference import reference_at
-
-        return reference_at(self, t)
-
-    def reference_error(self, t) -> float | None:
-        from ._model_reference import reference_grid
-
-        return reference_grid(self).error
 
     def describe(self) -> dict:
         out = super().describe()

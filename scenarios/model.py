@@ -36,6 +36,7 @@ import numpy as np
 
 from records import InvalidInput
 
+from ._model_reference import RefinedRunReference
 from .scene import Param, Scene
 
 #: The model features that change an integrator's behaviour, in the order reports list them.
@@ -204,7 +205,7 @@ def _switch(doc: str) -> Param:
     return Param(1, f"{doc}: 1 as written, 0 switched off", lo=0.0, hi=1.0, integer=True)
 
 
-class ModelScene(Scene):
+class ModelScene(RefinedRunReference, Scene):
     """A model file as a scene (module docstring). ``ModelScene(path, **params)``."""
 
     id = "model"
@@ -217,7 +218,6 @@ class ModelScene(Scene):
     }
     runaway_limit = ENERGY_GROWTH
     has_kernels = False
-    reference_engine = "mujoco"
 
     def __init__(self, path=None, **overrides):
         if path is None:
@@ -386,16 +386,6 @@ class ModelScene(Scene):
     def reference_horizon(self) -> float:
         """One characteristic period: how far the halved RK4 run is used as the truth."""
         return self.period
-
-    def reference_solution(self, t):
-        from ._model_reference import reference_at
-
-        return reference_at(self, t)
-
-    def reference_error(self, t) -> float | None:
-        from ._model_reference import reference_grid
-
-        return reference_grid(self).error
 
     def describe(self) -> dict:
         out = super().describe()

@@ -137,12 +137,14 @@ def measured_against_own_run(method, scene: Scene) -> bool:
     return scene.reference_engine is not None and method.family != scene.reference_engine
 
 
-def richardson(scene: Scene, coarse: Trajectory, fine: Trajectory, order: int, scale: float | None = None):
+def richardson(scene: Scene, coarse: Trajectory, fine: Trajectory, order: int, scale: float | None = None,
+               n: int | None = None):
     """(estimate, difference series, scale): the error of ``coarse`` from the same method's run at
-    half its step (``fine``, recorded at the same times), ``||y_c - y_f|| / (1 - 2^-p)`` relative to
-    ``scale`` (default: the largest size of the fine run)."""
-    yc = scaled_state(scene, coarse.q[:, 0, :], coarse.v[:, 0, :])
-    yf = scaled_state(scene, fine.q[:, 0, :], fine.v[:, 0, :])
+    half its step (``fine``, recorded at the same times), over their first ``n`` records (default
+    all), ``||y_c - y_f|| / (1 - 2^-p)`` relative to ``scale`` (default: the largest size of the
+    fine run)."""
+    yc = scaled_state(scene, coarse.q[:n, 0, :], coarse.v[:n, 0, :])
+    yf = scaled_state(scene, fine.q[:n, 0, :], fine.v[:n, 0, :])
     if scale is None:
         scale = float(np.max(np.linalg.norm(yf, axis=-1)))
     with np.errstate(all="ignore"):
@@ -169,18 +171,11 @@ def own_run_error(method, scene: Scene, traj: Trajectory, timeout: float | None 
     n = int(keep.sum())
     if not fine.ok or fine.q.shape[0] < n:
         return {**none, "detail": f"the refined run {fine.status}: {fine.detail}"}
-    error_max, series, scale = richardson(scene, _head(traj, n), _head(fine, n), order)
+    error_max, series, scale = richardson(scene, traj, fine, order, n=n)
     return {"error_max": error_max, "error_final": float(series[-1]), "t_final": float(traj.t[-1]),
             "t_compared": float(traj.t[n - 1]), "horizon": None if horizon == float("inf") else horizon,
             "compared_all": bool(keep.all()), "scale": scale, "source": source, "series": series,
             "series_t": traj.t[:n], "reference_error": error_max * 2.0 ** -order, "below_reference": False}
-
-
-def _head(traj: Trajectory, n: int):
-    """The first n recorded states of a trajectory, as (q, v) holders for ``richardson``."""
-    from types import SimpleNamespace
-
-    return SimpleNamespace(q=traj.q[:n], v=traj.v[:n])
 
 
 def run_error(method, scene: Scene, traj: Trajectory, timeout: float | None = None) -> dict:
