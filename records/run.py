@@ -7,6 +7,10 @@ from __future__ import annotations
 
 from dataclasses import MISSING, dataclass, field, fields
 
+#: The key of ``RunRecord.versions`` under which a run records the LLVM level its kernels compiled
+#: at (``reference._numba_config``), beside numba's version: a kernel's speed depends on both.
+NUMBA_OPT_KEY = "numba opt level"
+
 
 def _known(cls, d: dict | None) -> dict:
     """The entries of ``d`` that are fields of ``cls``, less a None where the field's default is

@@ -182,9 +182,11 @@ NOT_YET = "its counted kernel is not compiled on this machine yet"
 #: counted kernel was not compiled (``Exact.interpreted``).
 _INTERPRETED: dict[tuple, float] = {}
 #: CPU seconds compiling a pair's counted run takes, by its loop (``reference._kernels``), measured
-#: on this project's 2-core machine: 0.3-0.5 on a pointwise scene, 2.3-3 on an array scene
-#: (RK4 on the chain of 8 3.0, leapfrog 2.5, explicit Euler on Kepler 2.3).
-COUNTED_COMPILE_S = {"pointwise": 0.4, "array": 2.5}
+#: on this project's 2-core machine at the kernels' optimisation level (``reference._numba_config``):
+#: 0.45-0.55 on a pointwise scene, 1.2-2.1 on an array scene (explicit Euler on Kepler 1.2, leapfrog
+#: on the chain of 8 1.3, RK4 there 1.7, Verlet on the projectile 1.7, semi-implicit Euler on the
+#: cloth 2.1; implicit midpoint on Kepler, with its solve, 3.8).
+COUNTED_COMPILE_S = {"pointwise": 0.5, "array": 1.5}
 
 
 def counted_compile_s(scheme, scene: Scene) -> float:

@@ -21,6 +21,9 @@ import time
 import numba
 import numpy as np
 
+from . import _numba_config
+
+_numba_config.configure()  # before the first floor compiles: at the kernels' level
 _jit = numba.njit(error_model="numpy")
 
 #: Forest-Ruth's theta = 1/(2 - 2^(1/3)), written out again here on purpose.

@@ -59,6 +59,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _numba_config
 from ._codegen import SourceUnavailable, kernel_file
 from ._scheme import largest_magnitude
 
@@ -107,6 +108,7 @@ def _register_overloads() -> None:
     Registered before the first kernel compiles, not on import (numba takes ~0.5 s to import)."""
     if _OVERLOADS:
         return
+    _numba_config.configure()
     from numba.core import types as nbtypes
     from numba.extending import overload
 
@@ -146,12 +148,13 @@ def _listen_to_compiles() -> None:
 # ------------------------------------------------------------------ files
 def _key(text: str) -> str:
     """Hash of the kernel file's text, of this module (the overloads the text compiles
-    through) and of numba's and Python's versions."""
+    through), of numba's and Python's versions and of the optimisation level it compiles at
+    (``reference._numba_config``: numba's cache of a file does not record it)."""
     import numba
 
     h = hashlib.sha256(text.encode())
     h.update(Path(__file__).read_bytes())
-    h.update(f"numba {numba.__version__} python {sys.version}".encode())
+    h.update(f"numba {numba.__version__} opt {_numba_config.opt_level()} python {sys.version}".encode())
     return h.hexdigest()[:16]
 
 

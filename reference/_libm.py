@@ -17,6 +17,11 @@ from functools import cache
 import numba
 import numpy as np
 
+from . import _numba_config
+
+_numba_config.configure()  # the check compiles at the kernels' level, as they call these functions
+
+
 def _arguments(name: str) -> np.ndarray:
     """Where the check evaluates: a dense sweep of a few periods, wide random arguments, tiny
     ones and the special values (exp: within its finite range and across all of it)."""

@@ -193,3 +193,40 @@ def test_a_velocity_scheme_compiles_as_its_twin_where_no_force_depends_on_veloci
         ref = integrate(scheme, scene, 0.05, 400, every=400)
         np.testing.assert_array_equal(q, ref.q[-1])
         np.testing.assert_array_equal(v, ref.v[-1])
+
+
+#: A pair's timing loop compiled in a fresh process, at numba's level for this process.
+_OPT_SCRIPT = """
+import json
+from numba.core import config
+from harness.execution.environment import run_metadata
+from reference import METHODS, kernel_opt_level
+from reference._compiled import _parts, run_compiled
+from scenarios import make_scene
+kepler = make_scene("kepler")
+q, v = run_compiled(METHODS["leapfrog"], kepler, 0.01, 500)
+print(json.dumps({"q": q.tolist(), "v": v.tolist(), "level": int(config.OPT), "said": kernel_opt_level(),
+                  "recorded": run_metadata()[1]["numba opt level"],
+                  "path": str(_parts(METHODS["leapfrog"], kepler).kernels.path)}))
+"""
+
+
+def test_kernels_compile_at_level_2_unless_numba_opt_says_otherwise_and_the_level_keys_the_file(tmp_path):
+    """The harness compiles at LLVM level 2 (``reference._numba_config``), a run records the
+    level, and ``$NUMBA_OPT`` overrides it; a kernel compiled at one level is never loaded at
+    another (numba's cache does not record the level: the file's key does), and the array loop
+    computes the same bits at both."""
+    def run(**env):
+        full = {k: v for k, v in os.environ.items() if k != "NUMBA_OPT"}
+        full.update(HARNESS_CACHE=str(tmp_path), PYTHONPATH=str(ROOT), **env)
+        out = subprocess.run([sys.executable, "-c", _OPT_SCRIPT], cwd=ROOT, env=full, capture_output=True,
+                             text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        return json.loads(out.stdout.splitlines()[-1])
+
+    default, three = run(), run(NUMBA_OPT="3")
+    assert (default["level"], default["said"], default["recorded"]) == (2, "2", "2")
+    assert (three["level"], three["said"], three["recorded"]) == (3, "3", "3")
+    assert default["path"] != three["path"]
+    assert len(list((tmp_path / "kernels").glob("k_leapfrog_kepler_*.py"))) == 2
+    assert default["q"] == three["q"] and default["v"] == three["v"]

@@ -11,6 +11,8 @@ import subprocess
 from importlib import metadata
 from pathlib import Path
 
+from records.run import NUMBA_OPT_KEY
+
 #: Packages whose version the numbers depend on: a Dask worker must run the client's.
 COMPUTING_PACKAGES = ("numpy", "scipy", "numba", "mujoco", "pybullet", "pymunk", "rebound")
 
@@ -22,6 +24,12 @@ RECORDED_PACKAGES = ("integrator-harness", "numpy", "scipy", "numba", "pandas", 
 CODE_PACKAGES = ("records", "scenarios", "reference", "adapters", "harness")
 
 _ROOT = Path(__file__).resolve().parents[2]
+
+
+def _numba_opt() -> dict[str, str]:
+    from reference import kernel_opt_level
+
+    return {NUMBA_OPT_KEY: kernel_opt_level()}
 
 
 def versions(packages=RECORDED_PACKAGES) -> dict[str, str | None]:
@@ -51,7 +59,7 @@ def environment() -> dict:
     from harness.history.storage import MEASUREMENT_VERSION
 
     return {"python": ".".join(platform.python_version_tuple()[:2]), "measurement version": MEASUREMENT_VERSION,
-            "code digest": code_digest(), **versions(COMPUTING_PACKAGES),
+            "code digest": code_digest(), **versions(COMPUTING_PACKAGES), **_numba_opt(),
             "daemon": multiprocessing.current_process().daemon}
 
 
@@ -69,7 +77,7 @@ def run_metadata() -> tuple[str | None, dict, dict]:
         commit = None
     machine = {"node": platform.node(), "system": platform.system(), "release": platform.release(),
                "machine": platform.machine(), "processor": platform.processor(), "cpus": os.cpu_count()}
-    return commit, {"python": platform.python_version(), **versions()}, machine
+    return commit, {"python": platform.python_version(), **versions(), **_numba_opt()}, machine
 
 
 def plugin_versions(modules) -> dict[str, str | None]:

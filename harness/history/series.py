@@ -47,7 +47,7 @@ from scipy.stats import norm
 
 from records import InvalidInput
 from records.cell import figures_of
-from records.run import RunRecord
+from records.run import NUMBA_OPT_KEY, RunRecord
 
 from harness.history import step_detect
 from harness.history.regression import Regression
@@ -63,7 +63,7 @@ MIN_RUNS = 3
 WINDOW = 60
 #: Packages whose version a cell's figures depend on, by method family (all cells: these and Python).
 FAMILY_PACKAGES = {"mujoco": ("mujoco",), "pybullet": ("pybullet",), "pymunk": ("pymunk",), "rebound": ("rebound",)}
-COMMON_PACKAGES = ("python", "numpy", "scipy", "numba")
+COMMON_PACKAGES = ("python", "numpy", "scipy", "numba", NUMBA_OPT_KEY)
 PLATFORM_KEYS = ("system", "machine", "processor")
 
 
