@@ -178,15 +178,20 @@ _LOADED: dict[tuple, _kernels.Kernels] = {}
 NOT_YET = "its counted kernel is not compiled on this machine yet"
 
 
-#: (scheme, scene class) -> CPU seconds this process spent interpreting the pair's runs where its
-#: counted kernel was not compiled (``Exact.interpreted``).
-_INTERPRETED: dict[tuple, float] = {}
+#: (scheme, scene class) -> [CPU seconds, steps] this process spent interpreting the pair's runs
+#: where its counted kernel was not compiled (``Exact.interpreted``): what the pair has cost so far,
+#: and its rate, seconds per step.
+_INTERPRETED: dict[tuple, list] = {}
 #: CPU seconds compiling a pair's counted run takes, by its loop (``reference._kernels``), measured
 #: on this project's 2-core machine at the kernels' optimisation level (``reference._numba_config``):
 #: 0.45-0.55 on a pointwise scene, 1.2-2.1 on an array scene (explicit Euler on Kepler 1.2, leapfrog
 #: on the chain of 8 1.3, RK4 there 1.7, Verlet on the projectile 1.7, semi-implicit Euler on the
 #: cloth 2.1; implicit midpoint on Kepler, with its solve, 3.8).
 COUNTED_COMPILE_S = {"pointwise": 0.5, "array": 1.5}
+#: Steps of the interpreted run that measures a pair's rate before its first run is decided
+#: (``Exact.wants_rate``): its seconds per step come within about 30% of a long run's, for a few
+#: milliseconds (a few hundred on the cloth, whose interpreted step takes 1.5-3 ms).
+PROBE_STEPS = 32
 
 
 def counted_compile_s(scheme, scene: Scene) -> float:
@@ -202,26 +207,43 @@ class Exact:
     kernels may be compiled here (a few seconds each, once per machine; None: any); the others
     take theirs only where an earlier run compiled them, and are interpreted until then (the
     nightly's task for a scheme compiles its own, not the engine tasks that compare with every
-    scheme). ``after_interpreting``: those of them that compile only once this process has spent
-    as long interpreting the pair's runs as compiling would take (``counted_compile_s``): a pair
-    new to the disk cache, whose compile may never be used again (a machine that keeps no cache),
-    costs at most twice the cheaper of the two (the ski-rental rule)."""
+    scheme). ``after_interpreting``: those of them whose pair is new to the disk cache, and
+    whose compile may never be used again (a machine that keeps no cache): such a pair compiles
+    before the run that would bring what interpreting it has cost, with that run, to what
+    compiling would cost (``counted_compile_s``), the run's cost predicted from the pair's rate
+    so far (a short run measures it first: ``wants_rate``). So it costs at most about twice the
+    cheaper of the two (the ski-rental rule), and compiles at once where its first run alone
+    would cost more interpreted than compiling."""
 
     compile_for: frozenset | None = None
     after_interpreting: frozenset = frozenset()
 
-    def may_compile(self, scheme, scene: Scene | None = None) -> bool:
+    def _deferred(self, scheme, scene: Scene | None) -> bool:
+        return (scene is not None and scheme.id in self.after_interpreting
+                and (self.compile_for is None or scheme.id in self.compile_for))
+
+    def may_compile(self, scheme, scene: Scene | None = None, steps: int = 0) -> bool:
+        """Whether the pair's counted run may compile before a run of ``steps`` steps."""
         if not (self.compile_for is None or scheme.id in self.compile_for):
             return False
-        if scheme.id not in self.after_interpreting or scene is None:
+        if not self._deferred(scheme, scene):
             return True
-        return _INTERPRETED.get((scheme, type(scene)), 0.0) >= counted_compile_s(scheme, scene)
+        spent, done = _INTERPRETED.get((scheme, type(scene)), (0.0, 0))
+        ahead = spent / done * steps if done else 0.0
+        return spent + ahead >= counted_compile_s(scheme, scene)
+
+    def wants_rate(self, scheme, scene: Scene) -> bool:
+        """Whether the pair's next run is to be decided (``may_compile``) with no rate yet: its
+        compile is deferred, it has neither run interpreted nor compiled its counted run here."""
+        key = (scheme, type(scene))
+        return self._deferred(scheme, scene) and key not in _INTERPRETED and key not in _COUNTED
 
     @staticmethod
-    def interpreted(scheme, scene: Scene, seconds: float) -> None:
-        """Count ``seconds`` of CPU spent interpreting a run of the pair (``may_compile``)."""
-        key = (scheme, type(scene))
-        _INTERPRETED[key] = _INTERPRETED.get(key, 0.0) + seconds
+    def interpreted(scheme, scene: Scene, seconds: float, steps: int = 0) -> None:
+        """Count ``seconds`` of CPU spent interpreting ``steps`` steps of the pair (``may_compile``)."""
+        spent = _INTERPRETED.setdefault((scheme, type(scene)), [0.0, 0])
+        spent[0] += seconds
+        spent[1] += steps
 
 
 def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:

@@ -10,7 +10,7 @@ from records.method import NO_REASONS
 
 from scenarios import Scene, no_solve
 
-from ._compiled import Exact, integrate_compiled, integrate_exact
+from ._compiled import PROBE_STEPS, Exact, integrate_compiled, integrate_exact
 from ._integrate import integrate
 from ._scheme import Scheme
 
@@ -73,15 +73,22 @@ class RefMethod:
         if self.compiled:
             return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
         if self.exact is not None:  # the same run, compiled where that is exact
+            if self.exact.wants_rate(self.scheme, scene):  # what a step costs interpreted, to decide
+                probe = min(int(steps), PROBE_STEPS)
+                self._interpreted(scene, dt, probe, max(1, probe))
             traj = integrate_exact(self.scheme, scene, dt, steps, every, **self.options,
-                                   may_compile=self.exact.may_compile(self.scheme, scene))
+                                   may_compile=self.exact.may_compile(self.scheme, scene, steps))
             if traj is not None:
                 return traj
-            t = time.process_time()
-            traj = integrate(self.scheme, scene, dt, steps, every, **self.options)
-            self.exact.interpreted(self.scheme, scene, time.process_time() - t)
-            return traj
+            return self._interpreted(scene, dt, steps, every)
         return integrate(self.scheme, scene, dt, steps, every, **self.options)
+
+    def _interpreted(self, scene: Scene, dt: float, steps: int, every: int) -> Trajectory:
+        """``integrate``, its CPU seconds and steps counted against the pair (``Exact.interpreted``)."""
+        t = time.process_time()
+        traj = integrate(self.scheme, scene, dt, steps, every, **self.options)
+        self.exact.interpreted(self.scheme, scene, time.process_time() - t, max(1, traj.meta.steps_run or steps))
+        return traj
 
     def describe(self) -> dict:
         return {"id": self.id, "family": self.family,

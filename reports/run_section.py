@@ -104,7 +104,7 @@ def kernel_cache(timing: RunTiming) -> list[str]:
                  f"({plan['timing']} timing loops, {plan['counted']} counted accuracy loops)")
         if plan["interpreted"]:
             line += (f"; {plan['interpreted']} reference tasks, their pairs new to the cache, interpreted their "
-                     f"accuracy runs until that cost what compiling would (the same figures, bit for bit)")
+                     f"accuracy runs while that cost less than compiling would (the same figures, bit for bit)")
         line += f"; cache `{plan['cache']}`."
     return ["", line.strip()]
 

@@ -3,7 +3,7 @@ one store the same accuracy cells, bit for bit; the run says beforehand what it 
 afterwards what compiling took and what a kept cache would have saved.
 
 On an empty cache a reference task interprets its accuracy runs (its pair is new to the cache:
-``harness.nightly.kernels``) until that has cost what compiling its counted loop would; the next
+``harness.nightly.kernels``) while that costs less than compiling its counted loop would; the next
 run finds the pair and compiles whatever is left; the one after loads everything. Timings are injected (``HARNESS_INJECT_TIMINGS``), so that the cost cells
 are as deterministic as the accuracy figures; what differs between the runs is only how they ran
 (which backend stepped the accuracy runs, the kernels compiled or loaded, the seconds).

@@ -257,3 +257,41 @@ def test_only_the_schemes_let_compile_compile_their_counted_kernels(monkeypatch,
         "compiled, counted"
     monkeypatch.setattr(_compiled, "_COUNTED", {})  # another process: compiled before, so taken
     assert method(set()).simulate(scene, 0.1, 10).meta.backend == "compiled, counted"
+
+
+def test_a_pair_new_to_the_cache_compiles_before_the_run_that_would_bring_it_to_compilings_cost(monkeypatch,
+                                                                                                  tmp_path):
+    """The ski-rental rule with a look-ahead (``Exact.after_interpreting``): a pair whose compile is
+    deferred is measured first (a short interpreted run gives its rate), then compiles before the
+    run whose predicted interpreted cost, added to what it has cost so far, reaches what compiling
+    costs; a scheme not deferred compiles at once, one not allowed to never. The rates are set
+    here, not measured, so the decisions do not depend on the machine's speed."""
+    from reference import _compiled
+
+    monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))
+    monkeypatch.setattr(_compiled, "_COUNTED", {})
+    monkeypatch.setattr(_compiled, "_INTERPRETED", {})
+    scene, scheme = make_scene("spring"), METHODS["leapfrog"]
+    deferred = Exact(frozenset({"leapfrog"}), frozenset({"leapfrog"}))
+    compile_s = _compiled.counted_compile_s(scheme, scene)
+    assert compile_s == _compiled.COUNTED_COMPILE_S["pointwise"]
+
+    assert deferred.wants_rate(scheme, scene) and not deferred.may_compile(scheme, scene, 10**9)  # no rate yet
+    Exact.interpreted(scheme, scene, 0.1 * compile_s, 100)  # 0.1 of compiling's cost for 100 steps
+    assert not deferred.wants_rate(scheme, scene)
+    assert not deferred.may_compile(scheme, scene, 800)  # 0.1 + 0.8 of it: interpret
+    assert deferred.may_compile(scheme, scene, 900)  # 0.1 + 0.9: compile first
+    assert Exact(frozenset({"leapfrog"})).may_compile(scheme, scene, 1)  # not deferred
+    assert not Exact(frozenset({"rk4"}), frozenset({"leapfrog"})).may_compile(scheme, scene, 10**9)
+
+    # Through the method: the first run is preceded by a rate measurement of PROBE_STEPS steps, and
+    # a run predicted to cost far more than compiling compiles; one predicted cheap is interpreted.
+    monkeypatch.setattr(_compiled, "_INTERPRETED", {})
+    method = RefMethod(scheme, exact=deferred)
+    short = method.simulate(scene, 0.1, 5)
+    assert short.meta.backend == "interpreted"
+    assert _compiled._INTERPRETED[(scheme, Spring)][1] == 5 + 5  # the probe (min(5, PROBE_STEPS)) and the run
+    _compiled._INTERPRETED[(scheme, Spring)][:] = [0.01 * compile_s, 10]  # a rate of 1e-3 of compiling per step
+    assert method.simulate(scene, 0.1, 20).meta.backend == "interpreted"
+    assert method.simulate(scene, 0.1, 5000).meta.backend == "compiled, counted"
+    assert_same_run(integrate(scheme, scene, 0.1, 5000), method.simulate(scene, 0.1, 5000))

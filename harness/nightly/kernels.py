@@ -10,10 +10,12 @@ the disk cache keeps it for later runs. So a reference task whose pair is alread
 cache (the pair ran on this machine before and its cache was kept: a CI runner that restores
 ``$HARNESS_CACHE``, a developer's machine) compiles its counted run at once, as before; one whose
 pair is new to the cache (the first run on a fresh machine, or a runner that keeps nothing)
-interprets its accuracy runs until interpreting has cost as much as compiling would, then
-compiles (``reference.Exact.after_interpreting``, the ski-rental rule: at most twice the cheaper
-of the two). The next run finds the pair in the cache and compiles what is left. The numbers are
-the same either way, bit for bit.
+interprets its accuracy runs, and compiles before the run that would bring what interpreting has
+cost, with that run, to what compiling would (``reference.Exact.after_interpreting``: the
+ski-rental rule, at most about twice the cheaper of the two, with the next run's cost predicted
+from the pair's rate so far, so that one long run is not interpreted past the point). The next
+run finds the pair in the cache and compiles what is left. The numbers are the same either way,
+bit for bit.
 
 ``plan`` says, before the run, how many loops it will compile ("cold cache: about N kernels to
 compile"): the timing loops of the reference tasks' pairs and of explicit Euler on every scene
@@ -32,7 +34,7 @@ BASELINE = "explicit_euler"
 @dataclass(frozen=True)
 class KernelPlan:
     """The loops a run will compile (``timing``, ``counted``), the reference tasks whose pair is
-    new to the cache (their accuracy runs interpreted until that costs what compiling would:
+    new to the cache (their accuracy runs interpreted while that costs less than compiling would:
     their counted loops are not counted in ``counted``), and the cache's folder."""
 
     timing: int = 0
@@ -57,7 +59,7 @@ class KernelPlan:
             what = "kernel cache warm: nothing to compile"
         if self.interpreted:
             what += (f"; {self.interpreted} reference tasks new to the cache interpret their accuracy runs "
-                     f"until that costs what compiling would")
+                     f"while that costs less than compiling would")
         return f"{what}; kernel cache {self.cache}"
 
 
