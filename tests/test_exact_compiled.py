@@ -268,9 +268,9 @@ def test_a_pair_new_to_the_cache_compiles_before_the_run_that_would_bring_it_to_
     here, not measured, so the decisions do not depend on the machine's speed."""
     from reference import _compiled
 
-    monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))
-    monkeypatch.setattr(_compiled, "_COUNTED", {})
-    monkeypatch.setattr(_compiled, "_INTERPRETED", {})
+    monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))  # a cache that has never seen the pair ...
+    for table in ("_COUNTED", "_LOADED", "_INTERPRETED"):  # ... nor has this process
+        monkeypatch.setattr(_compiled, table, {})
     scene, scheme = make_scene("spring"), METHODS["leapfrog"]
     deferred = Exact(frozenset({"leapfrog"}), frozenset({"leapfrog"}))
     compile_s = _compiled.counted_compile_s(scheme, scene)
