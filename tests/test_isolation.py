@@ -174,3 +174,42 @@ def test_pool_reuses_its_worker_and_replaces_one_that_dies_or_hangs(tmp_path):
         result, stats = pool.call_with_stats(divmod, (7, 2), timeout=60)
         assert result == (3, 1) and stats.cpu_s is not None and stats.worker_pid not in (pid, pid2)
         assert pool.started == 3
+
+
+#: A process that starts a pool worker, prints the worker's folder and waits to be killed.
+_KILLED_CALLER = """
+import os, time
+from harness.execution.pool import WorkerPool
+pool = WorkerPool(1)
+pool.call(os.getpid, timeout=60)
+print(next(iter(pool._all)).workdir, flush=True)
+time.sleep(600)
+"""
+
+
+def test_a_pool_worker_whose_caller_is_killed_removes_its_folder_and_one_let_go_too(tmp_path):
+    """A nightly killed with SIGKILL (a lost machine, the OOM killer) leaves no worker folder behind
+    in the temporary directory: its workers see the pipe close, end and take their folders with
+    them; a pool closed as usual removes them as well."""
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    with WorkerPool(1) as pool:
+        pool.call(os.getpid, timeout=60)
+        closed = Path(next(iter(pool._all)).workdir)
+        assert closed.is_dir()
+    assert not closed.exists()
+
+    root = Path(__file__).resolve().parents[1]
+    caller = subprocess.Popen([sys.executable, "-c", _KILLED_CALLER], cwd=root, stdout=subprocess.PIPE, text=True,
+                              env={**os.environ, "PYTHONPATH": str(root)})
+    folder = Path(caller.stdout.readline().strip())
+    assert folder.is_dir() and folder.name.startswith("harness-worker-")
+    caller.send_signal(signal.SIGKILL)
+    caller.wait(timeout=60)
+    deadline = time.monotonic() + 60  # the worker sees EOF at once; a loaded machine may take a while
+    while folder.exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not folder.exists()

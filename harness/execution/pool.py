@@ -33,8 +33,17 @@ def report_partial(obj) -> None:
 
 
 def _serve(conn, workdir: str) -> None:
-    """A pool worker's loop: receive ``(fn, args, kwargs)``, answer with the result and the
-    CPU seconds the call took; ``None`` or a closed pipe ends it."""
+    """A pool worker: receive ``(fn, args, kwargs)``, answer with the result and the CPU seconds
+    the call took; ``None`` or a closed pipe ends it. Its folder goes with it: a worker that ends
+    here was let go, or its caller is gone (a nightly killed with SIGKILL) and nothing will read
+    the folder again; one that dies of a signal leaves it for the caller to read and remove."""
+    try:
+        _serve_calls(conn, workdir)
+    finally:
+        shutil.rmtree(workdir, ignore_errors=True)
+
+
+def _serve_calls(conn, workdir: str) -> None:
     global _PARTIAL_TO
     isolation.IN_WORKER = True
     os.chdir(workdir)
