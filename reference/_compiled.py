@@ -218,16 +218,16 @@ class Exact:
     compile_for: frozenset | None = None
     after_interpreting: frozenset = frozenset()
 
+    def _allowed(self, scheme) -> bool:
+        return self.compile_for is None or scheme.id in self.compile_for
+
     def _deferred(self, scheme, scene: Scene | None) -> bool:
-        return (scene is not None and scheme.id in self.after_interpreting
-                and (self.compile_for is None or scheme.id in self.compile_for))
+        return scene is not None and scheme.id in self.after_interpreting and self._allowed(scheme)
 
     def may_compile(self, scheme, scene: Scene | None = None, steps: int = 0) -> bool:
         """Whether the pair's counted run may compile before a run of ``steps`` steps."""
-        if not (self.compile_for is None or scheme.id in self.compile_for):
-            return False
         if not self._deferred(scheme, scene):
-            return True
+            return self._allowed(scheme)
         spent, done = _INTERPRETED.get((scheme, type(scene)), (0.0, 0))
         ahead = spent / done * steps if done else 0.0
         return spent + ahead >= counted_compile_s(scheme, scene)

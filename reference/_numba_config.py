@@ -20,6 +20,7 @@ it, and each run records it (``harness.execution.environment``).
 from __future__ import annotations
 
 import os
+from functools import cache
 
 KERNEL_OPT = 2
 
@@ -30,16 +31,11 @@ def opt_level() -> str:
     return os.environ.get("NUMBA_OPT") or str(KERNEL_OPT)
 
 
-_DONE: list = []
-
-
+@cache
 def configure() -> None:
     """Set numba's optimisation level to :data:`KERNEL_OPT` where ``$NUMBA_OPT`` does not set it;
     called before the harness's first compilation in a process (numba reads the level as each
-    function compiles)."""
-    if _DONE:
-        return
-    _DONE.append(True)
+    function compiles), once."""
     if "NUMBA_OPT" in os.environ:
         return
     from numba.core import config
