@@ -25,10 +25,16 @@ from functools import cache
 KERNEL_OPT = 2
 
 
+#: The values numba takes for ``$NUMBA_OPT``; on any other it warns and keeps its default, 3.
+NUMBA_LEVELS = ("0", "1", "2", "3", "max")
+
+
 def opt_level() -> str:
-    """The level the harness's loops compile at in this process: ``$NUMBA_OPT`` where set, else
-    :data:`KERNEL_OPT` (as text: numba also takes "max")."""
-    return os.environ.get("NUMBA_OPT") or str(KERNEL_OPT)
+    """The level the harness's loops compile at in this process, as numba reads it: ``$NUMBA_OPT``
+    where set (numba's default "3" where numba cannot read it), else :data:`KERNEL_OPT`."""
+    if "NUMBA_OPT" not in os.environ:
+        return str(KERNEL_OPT)
+    return os.environ["NUMBA_OPT"] if os.environ["NUMBA_OPT"] in NUMBA_LEVELS else "3"
 
 
 @cache

@@ -230,3 +230,15 @@ def test_kernels_compile_at_level_2_unless_numba_opt_says_otherwise_and_the_leve
     assert default["path"] != three["path"]
     assert len(list((tmp_path / "kernels").glob("k_leapfrog_kepler_*.py"))) == 2
     assert default["q"] == three["q"] and default["v"] == three["v"]
+
+
+def test_the_recorded_level_is_the_one_numba_reads(monkeypatch):
+    """numba takes 0-3 and "max" for ``$NUMBA_OPT`` and keeps its default, 3, on anything else (with a
+    warning): the level the kernel files are keyed by and a run records is that one."""
+    from reference import _numba_config
+
+    monkeypatch.delenv("NUMBA_OPT", raising=False)
+    assert _numba_config.opt_level() == "2"
+    for value, level in (("0", "0"), ("max", "max"), ("banana", "3"), ("", "3")):
+        monkeypatch.setenv("NUMBA_OPT", value)
+        assert _numba_config.opt_level() == level
