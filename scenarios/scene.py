@@ -195,6 +195,13 @@ class Scene:
         cannot tell (one without bodies that can leave)."""
         return None
 
+    def mass_matrix_variation(self, q: np.ndarray) -> float | None:
+        """How much the mass matrix M(q) changes over the configurations ``q`` (rows, API layout):
+        max |eig(M(q_0)^-1 M(q)) - 1|, the largest relative change of the kinetic energy of one
+        velocity (``scenarios._mass_matrix``). None: not measured; a built-in scene's mass matrix
+        is constant in its own coordinates (particles in Cartesian coordinates, one hinge)."""
+        return None
+
     #: The scene's physics is its own kernels (``accel``, ...), which reference schemes step;
     #: False for a model file, whose physics is the engine's.
     has_kernels: ClassVar[bool] = True
