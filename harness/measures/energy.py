@@ -191,7 +191,8 @@ def energy_figures(traj: Trajectory, scene: Scene, method=None, timeout: float |
     nightly's energy cell: ``max_rel_error`` and ``final_rel_error`` (|dE/E|; None where the run
     did not finish, where the exact energy crosses zero, rule 0, a number without a meaning,
     or where not finite), ``rel_error_defined``, the classification and the numbers behind it,
-    and the run's ``events``. Returns (figures, the dE/E series)."""
+    the run's ``events`` and, where the scene measures it, ``mass_matrix_varies`` (how much M(q)
+    changes over the run's configurations). Returns (figures, the dE/E series)."""
     e_exact, rel = relative_error_series(traj, scene)
     defined = relative_error_defined(e_exact)
     out: dict = {"rel_error_defined": defined, "max_rel_error": None, "final_rel_error": None}
@@ -203,8 +204,22 @@ def energy_figures(traj: Trajectory, scene: Scene, method=None, timeout: float |
                             escaped=escaped_states(scene, traj)))
     else:  # a crash or a timeout says nothing about the energy
         out.update(classification=None, rule=f"run {traj.status}: not classified")
+    variation = mass_matrix_varies(traj, scene)
+    if variation is not None:
+        out["mass_matrix_varies"] = variation
     out["events"] = run_events(scene, traj, method, timeout)
     return out, rel
+
+
+def mass_matrix_varies(traj: Trajectory, scene: Scene) -> float | None:
+    """The scene's ``mass_matrix_variation`` over the run's recorded configurations, where the
+    run finished and the scene is conservative (a dissipating model's class is the model's, not
+    the method's); None where the scene does not measure it. Where M(q) varies, a scheme that is
+    semi-implicit in the velocity (MuJoCo's Euler) is not symplectic and its energy may drift
+    although its scheme claims a bounded error (docs/findings.md): the figure that says why."""
+    if not traj.ok or not scene.conservative or traj.q.shape[0] < 2:
+        return None
+    return scene.mass_matrix_variation(traj.q[:, 0])
 
 
 def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int = 1,
