@@ -288,6 +288,30 @@ def energy_not_bounded(check: Check, scene: str, piv: dict) -> list[Finding]:
     return out
 
 
+def not_symplectic_where_mass_varies(check: Check, scene: str, piv: dict) -> list[Finding]:
+    """A mode that is semi-implicit Euler in the generalized velocity (``methods``) whose energy
+    class is not the one its scheme (``against``) claims, on a scene whose mass matrix varies over
+    the run's configurations by more than ``tolerance`` (the energy cell's recorded
+    ``mass_matrix_varies``): why. v+ = v + h M(q)^-1 f, q+ = q + h v+ is symplectic Euler in
+    (q, p = M v) only where M is constant; where M(q) varies its Jacobian in (q, p) has a
+    determinant other than 1 and the energy drifts at a rate proportional to h (docs/findings.md)."""
+    from reference import METHODS
+
+    (scheme,) = check.against
+    claim = METHODS[scheme.split(":", 1)[1]].energy_claim
+    out = []
+    for m, r in _rows(piv, scene, check).items():
+        cls, varies = r.figures.energy_class, (r.figures.numbers or {}).get("mass_matrix_varies")
+        if cls is None or cls == claim or varies is None or varies <= check.tolerance:
+            continue
+        out.append(Finding(
+            f"`{m}` on `{scene}`: energy {cls} (max |ΔE/E| {_g(_value(r), '.2g')}), not {claim} as `{scheme}` "
+            f"claims: semi-implicit in generalized velocity, not momentum (v+ = v + h M(q)⁻¹f, q+ = q + h v+): not "
+            f"symplectic where M(q) varies; M varies by {varies:.1%} over the run's configurations (largest "
+            f"relative change of v'Mv).", None, scene, m))
+    return out
+
+
 def integrates_as(check: Check, scene: str, piv: dict) -> list[Finding]:
     """An engine mode identified as the ``expect``ed reference scheme."""
     out = []
@@ -385,7 +409,8 @@ def brouwer_law(check: Check, scene: str, piv: dict) -> list[Finding]:
 #: The findings a scene's table may name.
 FINDINGS = {f.__name__: f for f in (stability_limits, damping_beyond_the_limit, matches_only_from_a_generic_state,
                                      cost_against_size, constraint_drift, survives_one_frame, energy_classes, energy_not_bounded,
-                                     integrates_as, energy_within, error_at_equal_cost, cost_ratio, brouwer_law)}
+                                     integrates_as, energy_within, error_at_equal_cost, cost_ratio, brouwer_law,
+                                     not_symplectic_where_mass_varies)}
 
 #: The schemes the outer solar system's energy finding calls symplectic.
 SOLAR_SYMPLECTIC = ("ref:semi_implicit_euler", "ref:leapfrog", "ref:velocity_verlet", "ref:forest_ruth",
@@ -393,7 +418,16 @@ SOLAR_SYMPLECTIC = ("ref:semi_implicit_euler", "ref:leapfrog", "ref:velocity_ver
 #: The drift the issue allows IAS15 over the run.
 IAS15_LIMIT = 1e-13
 
-#: Each scene's findings, in the order the report lists them.
+#: The engine modes that are semi-implicit Euler in the generalized velocity, v+ = v + h M(q)^-1 f,
+#: q+ = q + h v+ (docs/engines.md; implicit and implicitfast differ only in velocity-dependent forces).
+SEMI_IMPLICIT_IN_VELOCITY = ("mujoco:euler", "mujoco:implicit", "mujoco:implicitfast", "pybullet:semi_implicit")
+#: A mass matrix that changes by less than this (relative, over a run's configurations) is
+#: constant: MuJoCo's mass matrix at two configurations of a constant-M model differs by roundoff
+#: (0 measured on slide joints), and a relative change of 1e-9 moves no energy class.
+MASS_MATRIX_TOL = 1e-9
+
+#: Each scene's findings, in the order the report lists them. A key that ends in ":" holds the
+#: checks of every scene whose id starts with it (``model:``: every model file).
 SCENE_CHECKS: dict[str, tuple[Check, ...]] = {
     "chain": (
         Check("stability_limits", "stability"),
@@ -434,14 +468,26 @@ SCENE_CHECKS: dict[str, tuple[Check, ...]] = {
               tolerance=1.0),
         Check("cost_ratio", "cost", methods=("ref:rk4",), against=("ref:leapfrog",)),
     ),
+    "model:": (
+        Check("not_symplectic_where_mass_varies", "energy", methods=SEMI_IMPLICIT_IN_VELOCITY,
+              against=("ref:semi_implicit_euler",), tolerance=MASS_MATRIX_TOL),
+    ),
 }
 
 
+def checks_of(scene: str) -> tuple[Check, ...]:
+    """A scene's findings table: its own, then those of every id prefix it starts with."""
+    return SCENE_CHECKS.get(scene, ()) + tuple(
+        check for key, checks in SCENE_CHECKS.items() if key.endswith(":") and scene.startswith(key)
+        for check in checks)
+
+
 def scene_findings(piv: dict) -> list[Finding]:
-    """The checks of every scene present in this run, each table row in turn."""
+    """The checks of every scene present in this run, each table row in turn: the scenes in
+    ``SCENE_CHECKS``'s order, then the scenes matched by an id prefix, sorted."""
     present = {s for s, _ in piv}
-    return [f for scene, checks in SCENE_CHECKS.items() if scene in present
-            for check in checks for f in FINDINGS[check.finding](check, scene, piv)]
+    order = [s for s in SCENE_CHECKS if s in present] + sorted(s for s in present if s not in SCENE_CHECKS)
+    return [f for scene in order for check in checks_of(scene) for f in FINDINGS[check.finding](check, scene, piv)]
 
 
 # ----------------------------------------------------------------------------- the run
