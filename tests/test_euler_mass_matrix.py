@@ -149,7 +149,7 @@ def test_mujoco_euler_drifts_out_of_its_band_where_the_mass_matrix_varies():
 
 
 def test_mujoco_euler_stays_in_its_band_where_the_mass_matrix_is_constant():
-    """The frozen chain, same frequencies, same h, same initial energy, 10 s (19 periods of the
+    """The frozen chain, same frequencies, same h, same initial energy, 10 s (18 periods of the
     slowest mode): within the band at every recorded step."""
     xml, lower, w = frozen()
     b = band(H * w.max())
