@@ -331,15 +331,44 @@ class _Model(EngineModel):
         return states[0]
 
     def anatomy(self) -> dict:
-        """MuJoCo's coordinates (qpos, qvel): body masses summed, mj_fullM, each hinge or slide
-        joint's world axis (d.xaxis)."""
+        """What MuJoCo built, read from the compiled model at the initial state
+        (``harness.measures.cross_engine`` says the schema): each moving body's mass and principal
+        inertia, each hinge or slide joint's type, world axis, stiffness, spring reference,
+        damping, armature, limits (None where off) and friction loss, and ``mj_fullM``."""
         mj, m, d = self.mj, self.m, self.d
         mj.mj_forward(m, d)
         full = np.zeros((m.nv, m.nv))
         mj.mj_fullM(m, d, full)
-        axes = [d.xaxis[j].tolist() for j in range(m.njnt)
-                if int(m.jnt_type[j]) in (int(mj.mjtJoint.mjJNT_HINGE), int(mj.mjtJoint.mjJNT_SLIDE))]
-        return {"total_mass": float(np.sum(m.body_mass)), "mass_matrix": full.tolist(), "joint_axes": axes}
+        limits_on = not m.opt.disableflags & int(mj.mjtDisableBit.mjDSBL_LIMIT)
+        bodies = {}
+        turning = {int(mj.mjtJoint.mjJNT_HINGE), int(mj.mjtJoint.mjJNT_BALL), int(mj.mjtJoint.mjJNT_FREE)}
+        for b in range(1, m.nbody):
+            if int(m.body_weldid[b]) == 0:
+                continue  # welded to the world: no part of the dynamics
+            name = mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b) or f"body{b}"
+            chain, rotates = b, False
+            while chain > 0 and not rotates:  # a joint that turns it, on the path to the world
+                rotates = any(int(m.jnt_type[j]) in turning
+                              for j in range(m.body_jntadr[chain], m.body_jntadr[chain] + m.body_jntnum[chain]))
+                chain = int(m.body_parentid[chain])
+            bodies[name] = {"mass": float(m.body_mass[b]), "inertia": sorted(float(x) for x in m.body_inertia[b]),
+                            "rotates": rotates}
+        joints, axes = {}, []
+        kinds = {int(mj.mjtJoint.mjJNT_HINGE): "hinge", int(mj.mjtJoint.mjJNT_SLIDE): "slide"}
+        for j in range(m.njnt):
+            kind = kinds.get(int(m.jnt_type[j]))
+            if kind is None:
+                continue
+            dof = int(m.jnt_dofadr[j])
+            name = mj.mj_id2name(m, mj.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
+            axes.append(d.xaxis[j].tolist())
+            joints[name] = {
+                "type": kind, "axis": d.xaxis[j].tolist(), "stiffness": float(m.jnt_stiffness[j]),
+                "spring_ref": float(m.qpos_spring[m.jnt_qposadr[j]]), "damping": float(m.dof_damping[dof]),
+                "armature": float(m.dof_armature[dof]), "frictionloss": float(m.dof_frictionloss[dof]),
+                "limits": [float(x) for x in m.jnt_range[j]] if limits_on and m.jnt_limited[j] else None}
+        return {"engine": "mujoco", "total_mass": float(np.sum(m.body_mass)), "mass_matrix": full.tolist(),
+                "joint_axes": axes, "bodies": bodies, "joints": joints, "notes": []}
 
     def evaluations(self):
         return (int(self.d.timer[self._forward].number) - self._forward_at_build,

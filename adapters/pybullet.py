@@ -333,11 +333,13 @@ class _ModelFile(SteppedModel):
         import mujoco
 
         self.p, self.scene = p, scene
+        # A file only Bullet loads (scenarios.BulletModelScene) has no MuJoCo model: Bullet's joints
+        # are the coordinates, gravity is the scene's, and no spring is applied.
+        m = None if getattr(scene, "bullet_only", False) else scene.engine_model()
         self.cid = cid = p.connect(p.DIRECT)
-        m = scene.engine_model()
-        if m.nq != m.nv:
+        if m is not None and m.nq != m.nv:
             raise ValueError("pybullet: a free or ball joint's quaternion is not mapped to Bullet's base state")
-        if m.ntendon and (np.any(m.tendon_stiffness) or np.any(m.tendon_damping) or np.any(m.tendon_limited)):
+        if m is not None and m.ntendon and (np.any(m.tendon_stiffness) or np.any(m.tendon_damping) or np.any(m.tendon_limited)):
             raise ValueError("pybullet: Bullet has no tendons, and the file's tendons exert forces (stiffness, "
                              "damping or limits): its model would be another model")
         path, off = scene.file.path, set(scene.switched_off)
@@ -346,7 +348,11 @@ class _ModelFile(SteppedModel):
         else:
             bodies = list(p.loadMJCF(path, physicsClientId=cid))
         p.setPhysicsEngineParameter(fixedTimeStep=dt, numSubSteps=0, physicsClientId=cid)
-        gravity = [0.0, 0.0, 0.0] if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY) else list(m.opt.gravity)
+        if m is None:
+            gravity = scene.gravity_vector()
+        else:
+            gravity = ([0.0, 0.0, 0.0] if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+                       else list(m.opt.gravity))
         p.setGravity(*gravity, physicsClientId=cid)
         names = {}
         for b in bodies:
@@ -375,13 +381,17 @@ class _ModelFile(SteppedModel):
         missing = [n for n in scene.dof_names if n not in names]
         if missing:
             raise ValueError(f"pybullet's model of the file has no joint named {missing[0]!r} "
-                             f"({len(names)} movable joints, MuJoCo's {m.nv})")
+                             f"({len(names)} movable joints, the scene's {len(scene.dof_names)})")
         self.joints = [names[n] for n in scene.dof_names]
+        self._mujoco_bodies = {"bodies": set(), "joint_body": {}} if m is None else {
+            "bodies": {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(1, m.nbody)} - {None},
+            "joint_body": {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j):
+                           mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.jnt_bodyid[j])) for j in range(m.njnt)}}
         # Bullet's loaders read no joint stiffness: each spring is a torque -k (q - q_spring)
         # applied from Python before every step (TORQUE_CONTROL, the velocity motors at zero force).
-        jnt = [int(m.dof_jntid[i]) for i in range(m.nv)]
+        jnt = [] if m is None else [int(m.dof_jntid[i]) for i in range(m.nv)]
         self.springs = [(self.joints[i], float(m.jnt_stiffness[jnt[i]]), float(m.qpos_spring[m.jnt_qposadr[jnt[i]]]))
-                        for i in range(m.nv) if m.jnt_stiffness[jnt[i]] != 0.0]
+                        for i in range(len(jnt)) if m.jnt_stiffness[jnt[i]] != 0.0]
         self.set_state(*scene.initial_state())
         infos = [p.getJointInfo(b, j, physicsClientId=cid) for b, j in self.joints]
         self.settings = {
@@ -428,17 +438,58 @@ class _ModelFile(SteppedModel):
         return None, "Bullet evaluates its forces inside stepSimulation and has no counter or callback for them"
 
     def anatomy(self) -> dict:
-        """Every link's mass summed, ``calculateMassMatrix`` (where one multibody holds every mapped
-        joint), each joint's axis in the world frame (its link's world orientation applied)."""
+        """What Bullet built (``harness.measures.cross_engine`` says the schema), read back from
+        Bullet: each link's mass and principal inertia, summed into the MuJoCo body it stands for
+        (a link of the body's name, or the link Bullet's loader adds for one of the body's joints),
+        each mapped joint's type, world axis, damping, limits and friction as Bullet holds them,
+        armature 0 (Bullet has none), the stiffness the harness applies as a torque (Bullet's
+        loaders read none), and ``calculateMassMatrix`` where one multibody holds every joint."""
         p, cid = self.p, self.cid
         bodies = sorted({b for b, _ in self.joints})
         mass = sum(p.getDynamicsInfo(b, j, physicsClientId=cid)[0] for b in bodies
                    for j in range(-1, p.getNumJoints(b, physicsClientId=cid)))
-        axes = []
-        for b, j in self.joints:
+        owner = self._mujoco_bodies
+        links: dict[str, list] = {}
+        notes = []
+        for b in bodies:
+            for j in range(p.getNumJoints(b, physicsClientId=cid)):
+                info = p.getJointInfo(b, j, physicsClientId=cid)
+                dyn = p.getDynamicsInfo(b, j, physicsClientId=cid)
+                link, joint = info[12].decode(), info[1].decode()
+                name = link if link in owner["bodies"] else owner["joint_body"].get(joint)
+                if name is None:
+                    if dyn[0] > 0:
+                        notes.append(f"pybullet: link {link} ({dyn[0]:.6g} kg) stands for no body of MuJoCo's model")
+                    continue
+                links.setdefault(name, []).append((float(dyn[0]), sorted(float(x) for x in dyn[2])))
+        built = {}
+        for name, parts in links.items():
+            heavy = [inertia for m, inertia in parts if m > 0]
+            built[name] = {"mass": sum(m for m, _ in parts), "inertia": heavy[0] if len(heavy) == 1 else None}
+        if self.scene.file.kind == "MJCF":
+            notes.append("pybullet: Bullet's MJCF loader takes a geom's mass from its volume and density "
+                         "(a geom's mass attribute is not read) and reads no joint stiffness or armature")
+        springs = {jb: (k, ref) for jb, k, ref in self.springs}
+        if self.springs:
+            sprung = ", ".join(f"{name} (k {k:.6g})" for name, jb in zip(self.scene.dof_names, self.joints)
+                               for k, _ in [springs[jb]] if jb in springs)
+            notes.append(f"pybullet: Bullet's model has no joint stiffness; the harness applies it on {sprung} as a "
+                         "torque -k (q - q_spring) before each step, k and q_spring as MuJoCo compiled them")
+        off = set(self.scene.switched_off)
+        kinds = {p.JOINT_REVOLUTE: "hinge", p.JOINT_PRISMATIC: "slide"}
+        joints, axes = {}, []
+        for name, (b, j) in zip(self.scene.dof_names, self.joints):
+            info = p.getJointInfo(b, j, physicsClientId=cid)
             orn = p.getLinkState(b, j, computeForwardKinematics=True, physicsClientId=cid)[5]
             rot = np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3)
-            axes.append((rot @ np.array(p.getJointInfo(b, j, physicsClientId=cid)[13])).tolist())
+            axis = (rot @ np.array(info[13])).tolist()
+            axes.append(axis)
+            k, ref = springs.get((b, j), (0.0, 0.0))
+            lo, hi = float(info[8]), float(info[9])
+            joints[name] = {
+                "type": kinds.get(info[2], str(info[2])), "axis": axis, "stiffness": k, "spring_ref": ref,
+                "damping": 0.0 if "damping" in off else float(info[6]), "armature": 0.0,
+                "frictionloss": float(info[7]), "limits": None if "limits" in off or lo > hi else [lo, hi]}
         matrix = None
         if len(bodies) == 1:
             b = bodies[0]
@@ -449,7 +500,8 @@ class _ModelFile(SteppedModel):
             at = {j: full.shape[0] - len(movable) + i for i, j in enumerate(movable)}  # a floating base's 6 first
             idx = [at[j] for _, j in self.joints]
             matrix = full[np.ix_(idx, idx)].tolist()
-        return {"total_mass": float(mass), "mass_matrix": matrix, "joint_axes": axes}
+        return {"engine": "pybullet", "total_mass": float(mass), "mass_matrix": matrix, "joint_axes": axes,
+                "bodies": built, "joints": joints, "notes": notes}
 
     def close(self) -> None:
         self.p.disconnect(physicsClientId=self.cid)

@@ -318,17 +318,23 @@ class BrouwerFigures(Figures):
 
 @dataclass(frozen=True)
 class CrossEngineFigures(Figures):
-    """``cross_engine`` (a model file's conservative variant): two engine modes stepped from the
-    same state (``harness.measures.cross_engine``; the value: how far apart, relative), each one's
-    own discretisation error, the reference's, whether they disagree beyond those, and then what
-    differs in the models the two engines built."""
+    """``cross_engine`` (a model file's conservative variant): two engine modes run from the same
+    state at a step where each one's own error is at most a tenth of what is reported
+    (``harness.measures.cross_engine``; the value: how far apart, relative), the verdict (agree,
+    differ, models differ, not resolved), each step tried, and every quantity that differs in the
+    models the two engines built, read back from each engine."""
 
     methods: list | None = None
     statuses: list | None = None
     errors: list | None = None
     reference_error: float | None = None
+    verdict: str | None = None
     disagree: bool | None = None
+    resolved: bool | None = None
+    horizon: float | None = None
+    levels: list | None = None
     differences: list | None = None
+    notes: list | None = None
 
 
 FIGURES: dict[str, type[Figures]] = {

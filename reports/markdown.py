@@ -278,18 +278,20 @@ def brouwer_lines(scene: str, piv: dict) -> list[str]:
 
 
 def cross_engine_lines(c) -> list[str]:
-    """A ``cross_engine`` cell in words: how far apart the two modes are against what their own
-    errors account for, then one line per quantity that differs in the models the engines built."""
+    """A ``cross_engine`` cell in words: its verdict with the figures behind it, then one line per
+    quantity that differs in the models the engines built, then how an engine came by a quantity
+    the harness supplies."""
     f = c.figures
     a, b = f.methods or ("?", "?")
-    if c.value is None:
+    if c.status != "ok":
         return [f"{a} and {b} on {c.scene}: not compared ({c.status}: {c.detail})"]
-    head = (f"{a} and {b} on {c.scene}, {c.steps} steps of {c.dt:g} s from the same state: they differ by "
-            f"{c.value:.3g} (relative); their own discretisation errors {f.errors[0]:.2g} and {f.errors[1]:.2g}, "
-            f"the reference's {f.reference_error:.2g}: ")
-    if not f.disagree:
-        return [head + "they agree within those."]
-    return [head + "they disagree beyond them. What each engine built differs:"] + list(f.differences)
+    if f.verdict is None:  # a cell stored before the verdict was recorded
+        return [f"{a} and {b} on {c.scene}: {c.detail}"]
+    head = c.detail
+    differences, notes = list(f.differences or []), list(f.notes or [])
+    if differences:
+        head += ". What each engine built differs:"
+    return [head] + differences + notes
 
 
 def _class_text(energy) -> str:

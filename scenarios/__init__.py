@@ -10,6 +10,7 @@ from .cloth_flex import ClothFlex
 from .damped_spring import DampedSpring
 from .kepler import Kepler
 from .model import FEATURES, SUFFIXES, VARIANTS, ModelScene, read_model_file, variant
+from ._bullet_model import BulletModelScene, open_model
 from .pendulum import Pendulum
 from .projectile import Projectile
 from .rope import Rope
@@ -35,7 +36,7 @@ def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
     """The scene ``scene_id`` with these parameters; ``source``: the file of a scene built from
     one (a model file), whose id must still be ``scene_id`` (the file unchanged)."""
     if source is not None:
-        scene = ModelScene(source, **overrides)
+        scene = open_model(source, **overrides)
         if scene.id != scene_id:
             raise InvalidInput(f"model file {source!r} is now {scene.id}, not {scene_id}: it changed since the "
                                "run was planned")
@@ -45,7 +46,7 @@ def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
     if scene_id in ENGINE_SCENES:
         return ENGINE_SCENES[scene_id](**overrides)
     if scene_id.lower().endswith(tuple(SUFFIXES)):  # a model file's path: every command takes one
-        return ModelScene(scene_id, **overrides)
+        return open_model(scene_id, **overrides)
     try:
         cls = SCENES[scene_id]
     except KeyError:
@@ -65,5 +66,5 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ModelScene", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
+__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ModelScene", "BulletModelScene", "open_model", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
            "no_solve", "no_velocity_dependence"]

@@ -9,8 +9,11 @@ characteristic frequency and reference come from the model as MuJoCo compiles it
   fluid drag, friction loss, actuators, joint limits, equality constraints, armature, gravity.
   Each is a parameter, 1 (kept, as written) or 0 (switched off through MuJoCo's own disable
   flags and model fields, ``switch_off``); ``VARIANTS`` names the two the harness measures: the
-  model as written and the conservative one with every feature off. Joint and tendon springs
-  stay: they are conservative.
+  model as written, and the **conservative** one, which switches off exactly what dissipates or
+  injects energy (``DISSIPATIVE``: contacts, damping, friction loss, actuators, limits, equality
+  constraints) and keeps every conservative term: inertia, armature (rotor inertia: removing it
+  changes the model's frequencies, not its energy balance), joint and tendon springs, and
+  gravity, which stays a choice the user makes (``harness model --off gravity``).
 * **Initial state**: the model's first keyframe where it has one; else its reference pose
   ``qpos0`` moved by ``dq ~ N(0, perturb^2)`` per degree of freedom (``mj_integratePos``, limited
   joints kept inside their range) and ``qvel ~ N(0, perturb^2)``, drawn from
@@ -36,6 +39,7 @@ import numpy as np
 
 from records import InvalidInput
 
+from ._mass_matrix import mass_matrix_variation as _mass_matrix_variation
 from ._model_reference import RefinedRunReference
 from .scene import Param, Scene
 
@@ -51,8 +55,13 @@ FEATURES = {
     "gravity": "gravity (mjDSBL_GRAVITY)",
 }
 
-#: The two variants measured: every feature as written (1), or switched off (0).
-VARIANTS = {"as_written": 1, "conservative": 0}
+#: The features that dissipate or inject energy: what the conservative variant switches off.
+DISSIPATIVE = ("contact", "damping", "frictionloss", "actuators", "limits", "equality")
+#: The features that are conservative: kept in the conservative variant unless the user says otherwise.
+CONSERVATIVE_TERMS = ("armature", "gravity")
+
+#: The two variants measured, each by the features it switches off.
+VARIANTS = {"as_written": (), "conservative": DISSIPATIVE}
 
 SUFFIXES = {".xml": "MJCF", ".urdf": "URDF"}
 #: The model of ``ModelScene()``: the built-in unit spring as an MJCF file.
@@ -372,10 +381,30 @@ class ModelScene(RefinedRunReference, Scene):
             self._omega = max(w, OMEGA_FLOOR)
         return self._omega
 
+    def mass_matrix_variation(self, q) -> float | None:
+        """How much MuJoCo's M(q) changes over the configurations ``q`` (``scenarios._mass_matrix``)."""
+        return _mass_matrix_variation(self, q)
+
+    @property
+    def slowest_omega(self) -> float:
+        """The smallest |eigenvalue| of the Jacobian above 1e-6 of the largest (a rigid-body mode
+        has none), at least OMEGA_FLOOR: the model's slowest natural frequency (rad/s)."""
+        with np.errstate(all="ignore"):
+            eig = np.abs(np.linalg.eigvals(self.jacobian()))
+        if not np.all(np.isfinite(eig)):
+            return OMEGA_FLOOR
+        moving = eig[eig > 1e-6 * max(float(np.max(eig)), OMEGA_FLOOR)]
+        return max(float(np.min(moving)) if moving.size else OMEGA_FLOOR, OMEGA_FLOOR)
+
     @property
     def conservative(self) -> bool:
-        return all(self.values[name] == 0 for name in ("contact", "damping", "frictionloss", "actuators")
-                   if name in self.found)
+        """Nothing that dissipates or injects energy is on (``DISSIPATIVE``)."""
+        return all(self.values[name] == 0 for name in DISSIPATIVE if name in self.found)
+
+    @property
+    def kept(self) -> list[str]:
+        """The conservative features present in the model that this variant keeps."""
+        return [name for name in CONSERVATIVE_TERMS if name in self.found and self.values[name] == 1]
 
     @property
     def velocity_dependent(self) -> bool:
@@ -390,7 +419,8 @@ class ModelScene(RefinedRunReference, Scene):
     def describe(self) -> dict:
         out = super().describe()
         out.update(file=self.file.path, format=self.file.kind, sha256=self.file.sha256,
-                   features=dict(self.found), switched_off=self.switched_off, initial_state=self.describe_state(),
+                   features=dict(self.found), switched_off=self.switched_off, kept=self.kept,
+                   initial_state=self.describe_state(),
                    own_timestep=self.own_timestep, nv=self.nv)
         return out
 
@@ -405,21 +435,26 @@ def _copy_model(m):
 
 
 def variant_suffix(values: dict) -> str:
-    """What a scene id adds for its variant: nothing as written, ``~conservative`` with every
-    feature off, else ``~off:`` and the features switched off."""
+    """What a scene id adds for its variant: nothing as written; ``~conservative`` with exactly
+    ``DISSIPATIVE`` off, ``~conservative-gravity`` (and so on) where a conservative term is off
+    too; else ``~off:`` and the features switched off."""
     off = [name for name in FEATURES if values[name] == 0]
     if not off:
         return ""
-    return "~conservative" if len(off) == len(FEATURES) else "~off:" + "+".join(off)
+    if set(DISSIPATIVE) <= set(off):
+        return "~conservative" + "".join(f"-{name}" for name in off if name not in DISSIPATIVE)
+    return "~off:" + "+".join(off)
 
 
-def variant(scene: ModelScene, name: str, keep=()) -> ModelScene:
+def variant(scene: ModelScene, name: str, keep=(), off=()) -> ModelScene:
     """The scene's file as the variant ``name`` (``VARIANTS``), the seed and perturbation kept;
-    ``keep``: features the conservative variant leaves on."""
+    ``keep``: features the variant leaves on after all; ``off``: features it switches off as well
+    (gravity, armature)."""
     if name not in VARIANTS:
         raise InvalidInput(f"unknown variant {name!r} (valid: {', '.join(VARIANTS)})")
-    for f in keep:
+    for f in (*keep, *off):
         if f not in FEATURES:
             raise InvalidInput(f"unknown feature {f!r} (valid: {', '.join(FEATURES)})")
-    values = {**scene.values, **{f: 1 if f in keep else VARIANTS[name] for f in FEATURES}}
+    switched = (set(VARIANTS[name]) | set(off)) - set(keep)
+    values = {**scene.values, **{f: 0 if f in switched else 1 for f in FEATURES}}
     return scene.copy_with(**values)

@@ -161,6 +161,10 @@ class Scene:
     #: reference is the scene's own model, the same for every method.
     reference_engine: ClassVar[str | None] = None
 
+    #: Every method is measured against its own refined run (a model file that only one engine
+    #: loads: there is no other engine's reference to trust).
+    own_run_reference: ClassVar[bool] = False
+
     def reference_error(self, t: np.ndarray) -> float | None:
         """The estimated relative error of ``reference_solution`` at times t, in the error
         measure's norm, where the scene's reference states its own (a refined engine run);

@@ -116,7 +116,12 @@ def test_features_found_and_switched_off_on_the_double_pendulum():
     assert set(written.found) == {"contact", "damping", "actuators", "limits", "gravity"}
     assert written.switched_off == []
     cons = variant(written, "conservative")
+    # What dissipates or injects energy goes; gravity, a conservative force, stays unless asked.
+    assert cons.switched_off == ["contact", "damping", "actuators", "limits"] and cons.kept == ["gravity"]
+    assert not cons.engine_model().opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+    cons = variant(written, "conservative", off=("gravity",))
     assert cons.switched_off == ["contact", "damping", "actuators", "limits", "gravity"]
+    assert cons.id.endswith("~conservative-gravity")
     m = cons.engine_model()
     bits = mujoco.mjtDisableBit
     for bit in (bits.mjDSBL_CONTACT, bits.mjDSBL_ACTUATION, bits.mjDSBL_LIMIT, bits.mjDSBL_GRAVITY):
@@ -165,7 +170,8 @@ def test_the_reference_states_its_own_error():
 def test_an_error_below_the_reference_is_not_reported_as_a_number():
     from harness.measures.error import global_error
 
-    scene = variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml"), perturb=0.01), "conservative")
+    scene = variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml"), perturb=0.01), "conservative",
+                    off=("gravity",))
     res = global_error("mujoco:rk4", scene, 0.01, 100)
     assert res["reference_error"] > 0 and res["below_reference"]
     order = observed_order("mujoco:rk4", scene)
@@ -314,7 +320,8 @@ def test_the_nightly_stores_reports_and_trends_two_model_files(tmp_path):
     # The spring file has nothing to switch off: as written, it is conservative too; the cartpole's is not.
     assert set(cross.scene) == {f"{i}~conservative" for i in ids} | {ModelScene(spring).id}
     assert set(cross.method) == {"pybullet:semi_implicit"}
-    assert (cross.status == "ok").all() and cross.detail.str.startswith("agree within").all()
+    assert (cross.status == "ok").all()
+    assert cross.detail.str.startswith("mujoco:euler and pybullet:semi_implicit agree within").all()
     assert report.count("Two engines from the same state: mujoco:euler and pybullet:semi_implicit") == 3
     spring.write_text(spring.read_text().replace('stiffness="1"', 'stiffness="4"'))
     third = run_nightly(_models_suite([spring, cart]), out, db, jobs=2)
@@ -345,7 +352,7 @@ def test_pyproject_lists_the_nightly_models(tmp_path):
 
 # ------------------------------------------------------------------ pybullet and the cross-engine comparison
 def test_pybullet_runs_a_model_with_its_defaults_off_and_recorded():
-    scene = variant(ModelScene(pybullet_data("kuka_iiwa/model.urdf")), "conservative")
+    scene = variant(ModelScene(pybullet_data("kuka_iiwa/model.urdf")), "conservative", off=("gravity",))
     traj = get_method("pybullet:semi_implicit").simulate(scene, scene.own_timestep, 500, 100)
     s = traj.meta.settings
     assert traj.ok and s["jointDamping"] == [0.0] * 7 and s["jointDamping_read_from_file"] == [0.5] * 7
@@ -381,13 +388,14 @@ def test_cross_engine_agreement_and_what_differs():
     from harness.measures.cross_engine import cross_engine
 
     cart = cross_engine(variant(ModelScene(pybullet_data("cartpole.urdf")), "conservative"))
-    assert cart.disagree is False and cart.difference <= cart.errors[0] + cart.errors[1]
+    assert cart.verdict == "agree" and cart.differences == [] and cart.difference <= min(cart.errors)
     pend = cross_engine(variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml")), "conservative"))
-    assert pend.disagree is True
+    assert pend.verdict == "differ" and pend.disagree is True
+    assert max(pend.errors) <= 0.1 * pend.difference
     # The two built models, read independently: MuJoCo's mj_fullM against Bullet's calculateMassMatrix.
     mj, pb = (np.array(a["mass_matrix"]) for a in pend.anatomies)
     assert not np.allclose(mj, pb, rtol=1e-6)
-    assert any(d.startswith("mass matrix at the initial state") for d in pend.differences)
+    assert any(d.startswith("pybullet: mass matrix at the initial state") for d in pend.differences)
 
 
 def test_a_model_unstable_at_its_own_timestep_is_a_recorded_result(tmp_path):

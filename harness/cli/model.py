@@ -25,6 +25,9 @@ def add_parser(sub):
                    help=f"which variants to measure (repeatable; default both: {', '.join(VARIANTS)})")
     p.add_argument("--keep", action="append", metavar="FEATURE",
                    help=f"keep this feature on in the conservative variant (repeatable; one of {', '.join(FEATURES)})")
+    p.add_argument("--off", action="append", metavar="FEATURE",
+                   help=f"switch this feature off in every variant, e.g. gravity or armature (repeatable; one of "
+                        f"{', '.join(FEATURES)})")
     p.add_argument("--seed", default="0", help="seed of the initial perturbation (a model with no keyframe)")
     p.add_argument("--perturb", default=None, help="its standard deviation (qpos and qvel; default 0.5)")
     p.add_argument("--hz", action="append", metavar="HZ",
@@ -52,15 +55,16 @@ def run(args) -> int:
 
     variants = [validate.choice("--variant", v, list(VARIANTS)) for v in (args.variant or list(VARIANTS))]
     keep = [validate.choice("--keep", k, list(FEATURES)) for k in (args.keep or [])]
+    off = [validate.choice("--off", k, list(FEATURES)) for k in (args.off or [])]
     params = {"seed": validate.count("--seed", args.seed, 0, 2**32 - 1)}
     if args.perturb is not None:
         params["perturb"] = args.perturb
     jobs = validate.count("--jobs", args.jobs, 1, 64)
     hz, request = _request(args)
     variants = tuple(dict.fromkeys(variants))
-    scenes = model_scenes(args.path, variants, keep=keep, **params)  # the file checked first: InvalidInput
+    scenes = model_scenes(args.path, variants, keep=keep, off=off, **params)  # the file checked first: InvalidInput
     out = Path(args.out) if args.out else Path("results/model") / scenes[0].file.name
-    suite = model_suite([args.path], variants, request, hz, keep=keep, **params)
+    suite = model_suite([args.path], variants, request, hz, keep=keep, off=off, **params)
     with tempfile.TemporaryDirectory() as tmp:
         db = Path(args.db) if args.db else Path(tmp) / "model.sqlite"
         result = run_nightly(suite, out, db, jobs, progress_stream=sys.stderr)
@@ -89,9 +93,14 @@ def run(args) -> int:
     from reports.markdown import scene_section
     from reports.advice_section import advice_section
 
+    from harness.judge import judge
+    from reports.markdown import finding_line
+
     piv = pivot(cells)
+    found = judge(cells).findings
     for scene in scenes:
         print("\n".join(line for line in scene_section(scene.id, piv, {}) if line != ""))
+        print("\n".join(f"- {finding_line(f)}" for f in found if f.scene == scene.id))
         print()
     for h in hz:
         print("\n".join(advice_section(cells, h, {})))
@@ -110,13 +119,19 @@ def header_lines(scenes, cells) -> list[str]:
              "perturbs an integrator: " + ("; ".join(f"{k} ({v})" for k, v in found.items()) or "nothing found")]
     for s in scenes:
         off = ", ".join(s.switched_off) or "nothing"
+        kept = ", ".join(s.kept) or "nothing of armature or gravity (the model has neither)"
         # The reference's own error, as the error cells of this run recorded it (computed in the workers).
         ref = sorted({c.figures.reference_error for c in cells if c.scene == s.id and c.measure == "error"
                       and c.status == "ok" and c.figures.reference_error is not None})
         said = f"estimated error {ref[0]:.2g}" if ref else "not reached (no error cell finished)"
-        lines += [f"{s.id}: switched off {off}; omega {s.omega:.4g} rad/s (nominal h*omega "
-                  f"{s.own_timestep * s.omega:.3g})",
-                  f"  initial state: {s.describe_state()}",
+        lines += [f"{s.id}: switched off {off}; kept {kept}; omega {s.omega:.4g} rad/s (nominal h*omega "
+                  f"{s.own_timestep * s.omega:.3g}), slowest mode {s.slowest_omega:.4g} rad/s",
+                  f"  initial state: {s.describe_state()}"]
+        if s.own_run_reference:
+            lines.append(f"  reference: none of another engine ({s.mujoco_refusal}); Bullet builds the scene, and "
+                         f"each of its modes is measured against its own run at half the step (Richardson)")
+            continue
+        lines += [
                   f"  reference: MuJoCo RK4 over one period ({s.reference_horizon:.3g} s), its step halved until two "
                   f"halvings agree to 1e-11: {said}; another engine's modes, which build their own model of "
                   f"the file, against their own run at half the step (Richardson)"]

@@ -36,7 +36,10 @@ from records.cell import CELL_COLUMNS as _CELL_COLUMNS, Cell, to_json
 #: 5: the standard suite bisects the largest stable timestep to 1e-4 relative (was the measure's
 #: 1e-6: every stability cell moves within 1e-4); an engine's error and order on a model file
 #: that another engine's run is the reference of are against its own run at dt/2 (Richardson).
-MEASUREMENT_VERSION = 5
+#: 6: a model file's conservative variant keeps armature and gravity (it switches off only what
+#: dissipates or injects energy); the cross-engine cell compares at a resolved step over one
+#: period of the slowest mode and names every built quantity that differs.
+MEASUREMENT_VERSION = 6
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (

@@ -136,6 +136,8 @@ def _energy_error(traj, scene: Scene) -> tuple[float | None, bool | None]:
 
 
 def _position_error(traj, scene: Scene) -> float | None:
+    if scene.own_run_reference:
+        return None  # no reference to hold the run against (a file only one engine loads)
     keep = traj.t <= trusted_until(scene)
     q_true, _, _ = true_state(scene, traj.t[keep])
     with np.errstate(all="ignore"):

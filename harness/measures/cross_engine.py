@@ -1,23 +1,37 @@
-"""Do two engines agree on a model? Two engine modes of the same scheme run from the same state
-on the same scene (a model file's conservative variant), compared in the error measure's norm.
+"""Do two engines agree on a model? Two engine modes run from the same state on the same scene
+(a model file's variant), compared where the comparison means something, and what each engine
+built, read back from the engine, compared quantity by quantity.
 
-The rule:
+**The trajectories.** Both modes run over a horizon T of at least one period of the model's
+slowest mode (``2 pi / slowest_omega``, and at least the scene's reference horizon), recorded at
+OUTPUTS common times. ``difference`` is max over those times of ||y_a - y_b|| / max ||y_a||,
+y = (q, v/omega) (the error measure's norm). Each mode's own discretisation error at h is its
+Richardson estimate against its own run at h/2, ``||y(h) - y(h/2)|| / (1 - 2^-p)`` (p the mode's
+declared order, 1 where it declares none). Starting at h omega <= H0_OMEGA, h is halved until
+both own errors are at most RESOLVE_FRACTION of the difference reported: of ``difference``
+where the two differ by more than AGREE_RTOL, of AGREE_RTOL where they are closer (an agreement
+is reported as "within AGREE_RTOL"). A step that would need more than MAX_STEPS steps ends the
+search: the comparison is **not resolved**, with the figures of the finest step tried. Each
+level's (h, difference, errors) is kept (``levels``).
 
-* ``difference``: max over the recorded steps of ||y_a - y_b|| / max ||y_ref||, y = (q, v/omega),
-  over the scene's reference horizon (``harness.measures.error``);
-* each engine's own estimate of its discretisation error, from its own refined run (the same
-  engine at dt/2, Richardson for the mode's order p, 1 for the semi-implicit modes compared):
-  ``||y(dt) - y(dt/2)|| / (1 - 2^-p)``, ``errors``; MuJoCo's halved-RK4 reference's own
-  estimated error beside them, ``reference_error``;
-* they **disagree** where ``difference > error_a + error_b + reference_error``: more than the two
-  discretisations can account for (the triangle inequality), so the engines integrate
-  different models. Then what each engine built is compared at the initial state
-  (``EngineModel.anatomy``): total mass, the mass matrix, the joint axes in the world frame, each
-  listed where it differs by more than ANATOMY_RTOL (relative), with both values.
+**The built models** (``EngineModel.anatomy``, read from each engine's own model, never from
+the file): per moving body its mass and principal moments of inertia (where a joint turns it);
+per hinge or slide joint
+its type, world axis, stiffness, spring reference, damping, armature, limits and friction loss;
+the mass matrix at the initial state. Each quantity that differs by more than ANATOMY_RTOL
+(relative) is one line of ``differences`` ("pybullet: body b2 mass 0.556 kg, mujoco 0.5 kg");
+how an engine came by a quantity the harness supplies (Bullet's joint springs) is a line of
+``notes``.
+
+**The verdict**: ``differ`` (resolved, the trajectories further apart than AGREE_RTOL),
+``agree`` (resolved within AGREE_RTOL and no built quantity differs), ``models differ``
+(resolved within AGREE_RTOL although a built quantity differs: the difference is below what
+this horizon shows, never called agreement), or ``not resolved``.
 """
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,11 +41,23 @@ from records.result import Result
 from scenarios import Scene
 
 from harness.measures.common import declared_order, resolve, scaled_state, step
-from harness.measures.error import richardson, trajectory_error, true_state
+from harness.measures.error import richardson
 
 #: Relative difference above which a built quantity is said to differ (a few thousand eps:
 #: two engines' sums of the same inertias in another order agree far closer).
 ANATOMY_RTOL = 1e-9
+#: Each engine's own error must be at most this fraction of the difference reported.
+RESOLVE_FRACTION = 0.1
+#: Two trajectories closer than this (relative) are reported as agreeing within it.
+AGREE_RTOL = 1e-2
+#: h omega of the first step tried.
+H0_OMEGA = 0.5
+#: Recorded times per run (the runs at h and h/2 share them).
+OUTPUTS = 64
+#: The most steps one run of the search may take: beyond it the comparison is not resolved.
+MAX_STEPS = 2 ** 17
+#: Verdicts, in the order a report explains them.
+VERDICTS = ("agree", "differ", "models differ", "not resolved")
 
 
 @dataclass(frozen=True)
@@ -42,11 +68,16 @@ class CrossEngineResult(Result):
     dt: float
     steps: int
     statuses: list
+    horizon: float | None = None
     difference: float | None = None
-    errors: list | None = None               # each run against the reference
-    reference_error: float | None = None
+    errors: list | None = None               # each mode's own error at dt (Richardson)
+    reference_error: float | None = None     # kept for stored cells; the rule above needs none
+    verdict: str | None = None
     disagree: bool | None = None
+    resolved: bool | None = None
+    levels: list | None = None               # [h, difference, error_a, error_b] per step tried
     differences: list | None = None          # what differs in the built models, one line each
+    notes: list | None = None
     anatomies: list | None = None
     detail: str = ""
 
@@ -66,58 +97,166 @@ def anatomy(method_id: str, scene: Scene, dt: float, timeout: float = 60.0) -> d
     return None if isinstance(out, isolation.WorkerFailure) else out
 
 
+def _differs(x: float, y: float) -> bool:
+    return abs(x - y) > ANATOMY_RTOL * max(abs(x), abs(y))
+
+
+def _g(x) -> str:
+    return "none" if x is None else f"{x:.6g}" if isinstance(x, float) else str(x)
+
+
 def anatomy_differences(a: dict, b: dict, names: tuple[str, str], coords) -> list[str]:
-    """One line per built quantity that differs between the two engines' models."""
+    """One line per built quantity that differs between the two engines' models, said from the
+    second engine's side ("pybullet: joint j2 has no stiffness (mujoco 25)")."""
+    ea, eb = names[0].split(":")[0], names[1].split(":")[0]
     out = []
-    rel = abs(a["total_mass"] - b["total_mass"]) / max(abs(a["total_mass"]), 1e-300)
-    if rel > ANATOMY_RTOL:
-        out.append(f"total mass: {names[0]} {a['total_mass']:.9g}, {names[1]} {b['total_mass']:.9g}")
-    if a["mass_matrix"] is not None and b["mass_matrix"] is not None:
+    ba, bb = a.get("bodies") or {}, b.get("bodies") or {}
+    for body, xa in ba.items():
+        xb = bb.get(body)
+        if xb is None:
+            out.append(f"{eb}: body {body} is not in its model ({ea}: {xa['mass']:.9g} kg)")
+            continue
+        if _differs(xa["mass"], xb["mass"]):
+            out.append(f"{eb}: body {body} mass {xb['mass']:.9g} kg, {ea} {xa['mass']:.9g} kg")
+        # A body that only translates (no joint turns it) has no inertia in its dynamics.
+        if xa.get("rotates", True) and xa["inertia"] is not None and xb["inertia"] is not None and any(
+                _differs(u, w) for u, w in zip(xa["inertia"], xb["inertia"])):
+            out.append(f"{eb}: body {body} principal inertia {[round(x, 9) for x in xb['inertia']]}, "
+                       f"{ea} {[round(x, 9) for x in xa['inertia']]} kg m^2")
+    for body, xb in bb.items():
+        if body not in ba and xb["mass"] > 0:
+            out.append(f"{eb}: body {body} ({xb['mass']:.6g} kg) is not in {ea}'s model")
+    ja, jb = a.get("joints") or {}, b.get("joints") or {}
+    for joint, xa in ja.items():
+        xb = jb.get(joint)
+        if xb is None:
+            out.append(f"{eb}: joint {joint} is not in its model")
+            continue
+        if xa["type"] != xb["type"]:
+            out.append(f"{eb}: joint {joint} is a {xb['type']} joint, {ea}'s a {xa['type']} joint")
+        ua, ub = np.array(xa["axis"]), np.array(xb["axis"])
+        cos = float(np.dot(ua, ub) / (np.linalg.norm(ua) * np.linalg.norm(ub)))
+        if not abs(cos - 1.0) <= ANATOMY_RTOL:
+            out.append(f"{eb}: joint {joint} axis (world) {np.round(ub, 6).tolist()}, {ea} "
+                       f"{np.round(ua, 6).tolist()} ({math.degrees(math.acos(max(-1.0, min(1.0, cos)))):.3g} deg apart)")
+        for key, what in (("stiffness", "stiffness"), ("spring_ref", "spring reference"), ("damping", "damping"),
+                          ("armature", "armature"), ("frictionloss", "friction loss")):
+            u, w = float(xa[key]), float(xb[key])
+            if not _differs(u, w):
+                continue
+            if w == 0.0 and key != "spring_ref":
+                out.append(f"{eb}: joint {joint} has no {what} ({ea} {u:.6g})")
+            else:
+                out.append(f"{eb}: joint {joint} {what} {w:.6g}, {ea} {u:.6g}")
+        la, lb = xa["limits"], xb["limits"]
+        if (la is None) != (lb is None) or la is not None and any(_differs(u, w) for u, w in zip(la, lb)):
+            out.append(f"{eb}: joint {joint} limits {_g(lb)}, {ea} {_g(la)}")
+    for joint in jb:
+        if joint not in ja:
+            out.append(f"{eb}: joint {joint} is not in {ea}'s model")
+    if a.get("mass_matrix") is not None and b.get("mass_matrix") is not None:
         ma, mb = np.array(a["mass_matrix"]), np.array(b["mass_matrix"])
         d = np.abs(ma - mb) / max(float(np.max(np.abs(ma))), 1e-300)
         if d.size and float(np.max(d)) > ANATOMY_RTOL:
             i, j = np.unravel_index(int(np.argmax(d)), d.shape)
-            out.append(f"mass matrix at the initial state: max relative difference {float(np.max(d)):.3g}, at "
-                       f"({coords[i]}, {coords[j]}): {names[0]} {ma[i, j]:.6g}, {names[1]} {mb[i, j]:.6g}")
-    for name, xa, xb in zip(coords, a["joint_axes"], b["joint_axes"]):
-        xa, xb = np.array(xa), np.array(xb)
-        cos = float(np.dot(xa, xb) / (np.linalg.norm(xa) * np.linalg.norm(xb)))
-        if not abs(cos - 1.0) <= ANATOMY_RTOL:
-            out.append(f"joint axis of {name} (world): {names[0]} {np.round(xa, 6).tolist()}, "
-                       f"{names[1]} {np.round(xb, 6).tolist()} ({math.degrees(math.acos(max(-1.0, min(1.0, cos)))):.3g} deg apart)")
+            out.append(f"{eb}: mass matrix at the initial state differs by up to {float(np.max(d)):.3g} (relative to "
+                       f"its largest entry), at ({coords[i]}, {coords[j]}): {mb[i, j]:.6g}, {ea} {ma[i, j]:.6g}")
+    elif _differs(a["total_mass"], b["total_mass"]):
+        out.append(f"{eb}: total mass {b['total_mass']:.9g} kg, {ea} {a['total_mass']:.9g} kg")
     return out
 
 
+def horizon(scene: Scene) -> float:
+    """One period of the scene's slowest mode, at least its reference horizon."""
+    slowest = float(getattr(scene, "slowest_omega", scene.omega))
+    return max(float(scene.reference_horizon), 2.0 * math.pi / slowest)
+
+
+def _pair(ma, mb, scene, T: float, n: int, timeout):
+    every = max(1, n // OUTPUTS)
+    return [step(m, scene, T / n, n, every, timeout) for m in (ma, mb)]
+
+
 def cross_engine(scene: Scene, a: str = "mujoco:euler", b: str = "pybullet:semi_implicit",
-                 dt: float | None = None, steps: int | None = None, timeout: float | None = None) -> CrossEngineResult:
-    """Compare modes ``a`` and ``b`` on ``scene`` by the rule in the module docstring; ``dt``: the
-    scene's own timestep by default, ``steps``: over its reference horizon."""
+                 timeout: float | None = None, max_steps: int = MAX_STEPS,
+                 budget_s: float | None = None) -> CrossEngineResult:
+    """Compare modes ``a`` and ``b`` on ``scene`` by the rule in the module docstring.
+    ``budget_s``: wall seconds the step search may spend before it stops unresolved."""
     ma, mb = resolve(a, scene), resolve(b, scene)
-    dt = float(dt if dt is not None else scene.own_timestep)
-    steps = int(steps if steps is not None else max(1, round(scene.reference_horizon / dt)))
-    runs = [step(m, scene, dt, steps, 1, timeout) for m in (ma, mb)]
-    halved = [step(m, scene, dt / 2, 2 * steps, 2, timeout) for m in (ma, mb)]
-    base = {"scene": scene.id, "params": dict(scene.values), "methods": [ma.id, mb.id], "dt": dt, "steps": steps,
-            "statuses": [r.status for r in runs]}
-    if not all(r.ok for r in runs + halved):
-        return CrossEngineResult(**base, detail="; ".join(f"{r.method} {r.status}: {r.detail}"
-                                                          for r in runs + halved if not r.ok))
-    ref = trajectory_error(runs[0], scene)["reference_error"]
-    q_true, v_true, _ = true_state(scene, runs[0].t)
-    scale = float(np.max(np.linalg.norm(scaled_state(scene, q_true, v_true), axis=-1)))
-
-    def y(r):
-        return scaled_state(scene, r.q[:, 0], r.v[:, 0])
-
-    diff = float(np.max(np.linalg.norm(y(runs[0]) - y(runs[1]), axis=-1))) / scale
+    T = horizon(scene)
+    n = OUTPUTS
+    while T / n * scene.omega > H0_OMEGA:
+        n *= 2
+    base = {"scene": scene.id, "params": dict(scene.values), "methods": [ma.id, mb.id], "horizon": T}
+    anatomies = [anatomy(m.id, scene, T / n) for m in (ma, mb)]
+    differences = notes = None
+    if all(x is not None for x in anatomies):
+        differences = anatomy_differences(*anatomies, (ma.id, mb.id), scene.dof_names)
+        notes = [line for x in anatomies for line in x.get("notes", [])]
+    started = time.monotonic()
     orders = [declared_order(m, scene) or 1 for m in (ma, mb)]
-    errs = [richardson(scene, r, h, p, scale)[0] for r, h, p in zip(runs, halved, orders)]
-    disagree = diff > errs[0] + errs[1] + ref
-    anatomies = [anatomy(m.id, scene, dt) for m in (ma, mb)]
-    differences = []
-    if disagree and all(x is not None for x in anatomies):
-        differences = anatomy_differences(*anatomies, (ma.id, mb.id), scene.dof_names) or [
-            "total mass, mass matrix and joint axes agree: the engines differ in the forces "
-            "(what each reads of the file's damping, friction, springs) or in how they step"]
-    return CrossEngineResult(**base, difference=diff, errors=errs, reference_error=ref,
-                             disagree=bool(disagree), differences=differences, anatomies=anatomies)
+    coarse, levels, result = None, [], None
+    while n <= max_steps:
+        runs = _pair(ma, mb, scene, T, n, timeout)
+        if not all(r.ok for r in runs):
+            if any(r.status not in ("unstable",) for r in runs) or 2 * n > max_steps:
+                return CrossEngineResult(**base, dt=T / n, steps=n, statuses=[r.status for r in runs],
+                                         differences=differences, notes=notes, anatomies=anatomies, levels=levels,
+                                         detail="; ".join(f"{r.method} {r.status}: {r.detail}"
+                                                          for r in runs if not r.ok))
+            coarse, n = None, 2 * n  # unstable at this step: the comparison starts finer
+            continue
+        if coarse is not None:
+            h = T / (n // 2)
+            ya = scaled_state(scene, coarse[0].q[:, 0], coarse[0].v[:, 0])
+            yb = scaled_state(scene, coarse[1].q[:, 0], coarse[1].v[:, 0])
+            scale = float(np.max(np.linalg.norm(ya, axis=-1))) or 1.0
+            diff = float(np.max(np.linalg.norm(ya - yb, axis=-1))) / scale
+            errs = [richardson(scene, c, f, p, scale)[0] for c, f, p in zip(coarse, runs, orders)]
+            levels.append([h, diff, *errs])
+            result = (h, n // 2, diff, errs)
+            if max(errs) <= RESOLVE_FRACTION * max(diff, AGREE_RTOL):
+                break
+        coarse = runs
+        if budget_s is not None and time.monotonic() - started > budget_s:
+            break
+        n *= 2
+    if result is None:
+        return CrossEngineResult(**base, dt=T / n, steps=n, statuses=["ok", "ok"], differences=differences,
+                                 notes=notes, anatomies=anatomies, levels=levels, resolved=False,
+                                 verdict="not resolved", detail=f"no step of at most {max_steps} steps over "
+                                                                f"{T:.3g} s ran in both engines")
+    h, steps, diff, errs = result
+    resolved = max(errs) <= RESOLVE_FRACTION * max(diff, AGREE_RTOL)
+    same = differences == [] if differences is not None else False
+    if not resolved:
+        verdict = "not resolved"
+    elif diff > AGREE_RTOL:
+        verdict = "differ"
+    else:
+        verdict = "agree" if same else "models differ"
+    return CrossEngineResult(**base, dt=h, steps=steps, statuses=["ok", "ok"], difference=diff, errors=errs,
+                             verdict=verdict, disagree=verdict in ("differ", "models differ"), resolved=resolved,
+                             levels=levels, differences=differences, notes=notes, anatomies=anatomies)
+
+
+def verdict_text(verdict: str | None, methods, difference, errors, dt, steps, horizon_s, differences) -> str:
+    """The verdict in one sentence with its figures (the cell's detail, the report's head line)."""
+    a, b = methods or ("?", "?")
+    if difference is None or verdict is None:
+        return f"{a} and {b}: not compared"
+    figures = (f"{steps} steps of {dt:.3g} s over {horizon_s:.3g} s from the same state: difference {difference:.3g} "
+               f"(relative), their own errors {errors[0]:.2g} and {errors[1]:.2g}")
+    built = ("the built models agree" if differences == [] else
+             f"the built models differ in {len(differences)} quantities" if differences else
+             "the built models were not read")
+    if verdict == "differ":
+        return f"{a} and {b} differ: {figures}, each at most {RESOLVE_FRACTION:g} of it; {built}"
+    if verdict == "agree":
+        return (f"{a} and {b} agree within {AGREE_RTOL:g}: {figures}, each at most {RESOLVE_FRACTION:g} of "
+                f"{AGREE_RTOL:g}; {built}")
+    if verdict == "models differ":
+        return (f"{a} and {b} stay within {AGREE_RTOL:g} of each other over this horizon ({figures}), but they "
+                f"are not the same model: {built}")
+    return (f"{a} and {b}: not resolved: at the finest step tried, {figures}; an agreement or a difference needs "
+            f"each own error at most {RESOLVE_FRACTION:g} of the difference (or of {AGREE_RTOL:g})")

@@ -134,6 +134,8 @@ def trajectory_error(traj: Trajectory, scene: Scene) -> dict:
 
 def measured_against_own_run(method, scene: Scene) -> bool:
     """Whether ``method`` is measured against its own refined run on ``scene`` (the rule above)."""
+    if scene.own_run_reference:
+        return True
     return scene.reference_engine is not None and method.family != scene.reference_engine
 
 
@@ -164,7 +166,9 @@ def own_run_error(method, scene: Scene, traj: Trajectory, timeout: float | None 
     keep = traj.t <= horizon
     steps = int(round(float(traj.t[keep][-1]) / dt))
     order = declared_order(method, scene) or 1
-    source = f"own run at dt/2 (Richardson, order {order}): {scene.reference_engine}'s reference is another model"
+    why = ("no other engine's reference: only pybullet loads the file" if scene.own_run_reference else
+           f"{scene.reference_engine}'s reference is another model")
+    source = f"own run at dt/2 (Richardson, order {order}): {why}"
     none = {"error_max": None, "error_final": None, "t_compared": None, "scale": None, "source": source,
             "reference_error": None, "below_reference": False}
     fine = step(method, scene, dt / 2, 2 * steps, 2 * every, timeout)

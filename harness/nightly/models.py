@@ -5,8 +5,8 @@ their own ids, which carry the file's content hash: an edited model is a new ser
 A model's study is fixed in its own units: the nominal timestep is the model's own
 (``opt.timestep`` in the file), the energy run MODEL_ENERGY_STEPS of it, the stability search
 up to MODEL_STABILITY_FACTOR times it, its finite horizon MODEL_STABILITY_STEPS steps. The
-conservative variant (every perturbing feature off) is where energy means something; the
-advice, where asked for, is given on it.
+conservative variant (what dissipates or injects energy off, every conservative term kept:
+``scenarios.model``) is where energy means something; the advice, where asked for, is given on it.
 
 The models a project checks every night are listed in its ``pyproject.toml``::
 
@@ -23,7 +23,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from records import InvalidInput
-from scenarios import VARIANTS, ModelScene, variant
+from scenarios import VARIANTS, ModelScene, open_model, variant
 
 from harness.nightly.suites import SceneExtras, SceneSpec, Suite
 
@@ -42,11 +42,11 @@ CROSS_ENGINE = ("mujoco:euler", "pybullet:semi_implicit")
 MODEL_ADVICE_STEPS = 600
 
 
-def model_scenes(path, variants=tuple(VARIANTS), keep=(), **params) -> list[ModelScene]:
+def model_scenes(path, variants=tuple(VARIANTS), keep=(), off=(), **params) -> list[ModelScene]:
     """The file's variants as scenes (each checked: InvalidInput before anything runs); ``keep``:
-    features the conservative variant leaves on."""
-    base = ModelScene(path, **params)
-    return [variant(base, name, keep) for name in variants]
+    features the conservative variant leaves on, ``off``: features every variant switches off."""
+    base = open_model(path, **params)
+    return [variant(base, name, keep, off) for name in variants]
 
 
 def _loads_in_worker(method_id: str, scene: ModelScene) -> str:
@@ -78,12 +78,12 @@ def cannot_load(scene: ModelScene) -> dict[str, str]:
     return out
 
 
-def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep=(),
+def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep=(), off=(),
                 **params) -> dict[str, SceneSpec]:
     """{scene id: its spec} for the file's variants. ``advise`` (Request fields but hz) asks for
     the advice on the conservative variant. Each engine's loader is tried first (``cannot_load``)."""
     specs = {}
-    for scene in model_scenes(path, variants, keep, **params):
+    for scene in model_scenes(path, variants, keep, off, **params):
         dt = scene.own_timestep
         unloaded = cannot_load(scene)
         both = scene.conservative and not any(m.split(":")[0] in unloaded for m in CROSS_ENGINE)
@@ -115,13 +115,13 @@ def with_models(suite: Suite, paths, **params) -> Suite:
     return replace(suite, scenes=scenes)
 
 
-def model_suite(paths, variants=tuple(VARIANTS), advise: dict | None = None, frame_rates=(), keep=(),
+def model_suite(paths, variants=tuple(VARIANTS), advise: dict | None = None, frame_rates=(), keep=(), off=(),
                 **params) -> Suite:
     """The suite ``harness model`` runs: the files' variants, every engine mode that loads them."""
     frame_rates = tuple(frame_rates) if advise is not None else ()
     scenes = {}
     for path in paths:
-        scenes.update(model_specs(path, variants, advise if frame_rates else None, keep, **params))
+        scenes.update(model_specs(path, variants, advise if frame_rates else None, keep, off, **params))
     return Suite("model", scenes, methods=engine_modes(), cost_repeats=3, bounds=False, identify=False,
                  frame_rates=tuple(frame_rates))
 

@@ -23,8 +23,9 @@
   energy error's RMS over an ensemble against time (``harness.measures.brouwer``). Value: its
   log-log slope, 0.5 by Brouwer's law where the error is roundoff.
 * ``cross_engine`` (a model file's conservative variant where both engines load it; the task of
-  the second of ``extras.cross_engine``): the two modes from the same state at the model's own
-  timestep (``harness.measures.cross_engine``). Value: their difference, relative; the figures
+  the second of ``extras.cross_engine``): the two modes from the same state at a step where each
+  one's own error is at most a tenth of what is reported, over one period of the model's
+  slowest mode (``harness.measures.cross_engine``). Value: their difference, relative; the figures
   say whether it is more than their own errors account for, and what the two built models differ in.
 """
 from __future__ import annotations
@@ -150,14 +151,15 @@ def _brouwer(task, method, scene, dt, spec) -> Cell:
 
 
 def _cross_engine(task, scene, spec, suite) -> Cell:
-    from harness.measures.cross_engine import cross_engine
+    from harness.measures.cross_engine import cross_engine, verdict_text
 
     a, b = spec.extras.cross_engine
     res = cross_engine(scene, a, b, timeout=suite.cell_timeout)
     figures = CrossEngineFigures.pick(plain(res.as_dict()))
     if res.difference is None:  # a run did not finish: its own status, and where and why
-        status = next((s for s in res.statuses if s != "ok"), "unstable")
-        return make_cell(task, "cross_engine", status, None, res.dt, res.steps, res.detail, figures)
-    detail = ("disagree beyond their own errors: " + "; ".join(res.differences) if res.disagree
-              else "agree within their own errors")
+        status = next((s for s in res.statuses if s != "ok"), "ok")
+        detail = res.detail if status != "ok" else f"not resolved: {res.detail}"
+        return make_cell(task, "cross_engine", status, None, res.dt, res.steps, detail, figures)
+    detail = verdict_text(res.verdict, res.methods, res.difference, res.errors, res.dt, res.steps, res.horizon,
+                          res.differences)
     return make_cell(task, "cross_engine", "ok", finite(res.difference), res.dt, res.steps, detail, figures)
