@@ -5,7 +5,7 @@ computes ``integrate``'s bits (counted alike; ``RefMethod(..., exact=Exact(...))
 
 Timing, for the harness's cost measures and benches: ``step_timer`` / ``time_per_step`` time a
 scheme's compiled kernel on ``CLOCKS[name]``, ``KERNEL_STATS`` counts the kernels compiled and
-loaded in this process, ``kernel_opt_level()`` the LLVM level they compile at, ``cache_state`` says what the disk cache (``kernel_cache_dir()``) holds of a pair before a run; ``FLOORS`` / ``floor_timer`` are the hand-written floors (imported, with
+loaded in this process, ``kernel_opt_level()`` the LLVM level they compile at, ``compile_notices(tell)`` says each compile before it starts, ``cache_state`` says what the disk cache (``kernel_cache_dir()``) holds of a pair before a run; ``FLOORS`` / ``floor_timer`` are the hand-written floors (imported, with
 numba, on first use).
 """
 from __future__ import annotations
@@ -14,6 +14,7 @@ from ._compiled import CLOCKS, Exact, cache_state, exact_why, integrate_compiled
 from ._integrate import carried_map, integrate
 from ._kernels import STATS as KERNEL_STATS
 from ._kernels import cache_dir as kernel_cache_dir
+from ._kernels import compile_notices
 from ._numba_config import opt_level as kernel_opt_level
 from ._scheme import Scheme
 from .method import RefMethod
@@ -54,5 +55,5 @@ def __getattr__(name: str):
 
 
 __all__ = ["METHODS", "Scheme", "RefMethod", "carried_map", "integrate", "integrate_compiled", "integrate_exact", "Exact",
-           "exact_why", "cache_state", "kernel_cache_dir", "kernel_opt_level", "CLOCKS", "step_timer",
+           "exact_why", "cache_state", "compile_notices", "kernel_cache_dir", "kernel_opt_level", "CLOCKS", "step_timer",
            "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

@@ -37,7 +37,8 @@ class _Compiled:
         self.advance_n = kernels.advance_n
         q, v = _kernel_layout(scene, None, None)
         h, p, k = 0.01 / scene.omega, scene.pvec, _k(scheme, scene, None)
-        self.warmup_s = _kernels.warm(kernels, lambda: self.drive(q, v, 0.0, h, 2, p, k))
+        self.warmup_s = _kernels.warm(kernels, lambda: self.drive(q, v, 0.0, h, 2, p, k),
+                                      label=f"{scheme.id} on {scene.id}")
 
     def first_state(self, q, v, t0, h, p):
         return self.kernels.start(q, v, t0, h, p)
@@ -217,12 +218,20 @@ class Exact:
 
     compile_for: frozenset | None = None
     after_interpreting: frozenset = frozenset()
+    #: Also defer every pair that is new to the disk cache, asked pair by pair when it first runs
+    #: here (the nightly's rule, ``harness.nightly.kernels.plan``, for a command that cannot know
+    #: its pairs before it starts: ``harness identify`` steps every scheme).
+    new_to_cache: bool = False
+    #: Steps of the interpreted run that measures a deferred pair's rate (``wants_rate``).
+    probe_steps: int = PROBE_STEPS
 
     def _allowed(self, scheme) -> bool:
         return self.compile_for is None or scheme.id in self.compile_for
 
     def _deferred(self, scheme, scene: Scene | None) -> bool:
-        return scene is not None and scheme.id in self.after_interpreting and self._allowed(scheme)
+        if scene is None or not self._allowed(scheme):
+            return False
+        return scheme.id in self.after_interpreting or (self.new_to_cache and _new_to_cache(scheme, scene))
 
     def may_compile(self, scheme, scene: Scene | None = None, steps: int = 0) -> bool:
         """Whether the pair's counted run may compile before a run of ``steps`` steps."""
@@ -244,6 +253,19 @@ class Exact:
         spent = _INTERPRETED.setdefault((scheme, type(scene)), [0.0, 0])
         spent[0] += seconds
         spent[1] += steps
+
+
+#: (scheme, scene class) -> whether its kernel file was missing from the disk cache when this
+#: process first asked (``Exact.new_to_cache``): an interpreted run writes the file, which must not
+#: turn the pair into one "in the cache" halfway through a command.
+_NEW: dict[tuple, bool] = {}
+
+
+def _new_to_cache(scheme, scene: Scene) -> bool:
+    key = (scheme, type(scene))
+    if key not in _NEW:
+        _NEW[key] = not cache_state(scheme, scene)[1].file
+    return _NEW[key]
 
 
 def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
@@ -271,7 +293,7 @@ def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
         with np.errstate(all="ignore"):  # two steps, in the variant batch-one runs take
             _kernels.warm(kernels, lambda: _counted_run(kernels, q, v, 0.0, 0.01 / scene.omega, 2, 1, scene.pvec,
                                                         int(k), out, out.copy()),
-                          kernels.counted_dispatchers(), counted=True)
+                          kernels.counted_dispatchers(), counted=True, label=f"{scheme.id} on {scene.id}")
         kernels.mark_counted()
     _COUNTED[key] = (kernels, why)
     return _COUNTED[key]

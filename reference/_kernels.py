@@ -54,6 +54,7 @@ import os
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -353,13 +354,45 @@ def _in_memory(scheme, scene_cls, why: str) -> Kernels:
     return Kernels(start, advance_n, observe, False, None, why)
 
 
-def warm(kernels: Kernels, call, dispatchers: list | None = None, counted: bool = False) -> float:
+#: Told a line before a pair's loop compiles in this process (not where it loads from the disk
+#: cache): a command's progress (``compile_notices``).
+_NOTICES: list = []
+
+
+@contextmanager
+def compile_notices(tell):
+    """Within the block, ``tell(line)`` is called before each loop this process compiles (a
+    compile takes seconds, a load from the disk cache does not), naming the pair."""
+    _NOTICES.append(tell)
+    try:
+        yield tell
+    finally:
+        _NOTICES.remove(tell)
+
+
+def _will_compile(kernels: Kernels, counted: bool) -> bool:
+    """Whether warming the pair's loop compiles it, from what the disk cache holds (``cached``)."""
+    if not kernels.cached:
+        return True
+    if counted:
+        return not kernels.counted_compiled()
+    return kernels.path.stem not in _timing_compiled(kernels.path.parent / "__pycache__")
+
+
+def warm(kernels: Kernels, call, dispatchers: list | None = None, counted: bool = False, label: str = "") -> float:
     """Run ``call()`` (the first call of the pair's kernels, which compiles them or loads them
     from the cache), account it in ``STATS`` and return its seconds, CPU seconds of this
     process (numba compiles in this thread; a core shared with other work does not inflate them).
     ``dispatchers``: the functions ``call`` compiles (default: the timing loop's); ``counted``:
-    they are the counted accuracy loop's."""
+    they are the counted accuracy loop's; ``label``: the pair, for ``compile_notices``."""
     dispatchers = dispatchers or kernels.dispatchers()
+    if _NOTICES and _will_compile(kernels, counted):
+        where = "once on this machine, then loaded from the kernel cache" if kernels.cached else \
+            f"in memory, not cached: {kernels.why_uncached}"
+        line = (f"compiling the {'counted accuracy' if counted else 'timing'} loop of "
+                f"{label or (kernels.path.stem if kernels.path else 'a pair')} ({where})")
+        for tell in list(_NOTICES):
+            tell(line)
 
     def misses():  # a dispatcher another path compiled before (``observe``) brings its own misses
         return sum(sum(d.stats.cache_misses.values()) for d in dispatchers)

@@ -10,7 +10,7 @@ from records.method import NO_REASONS
 
 from scenarios import Scene, no_solve
 
-from ._compiled import PROBE_STEPS, Exact, integrate_compiled, integrate_exact
+from ._compiled import Exact, integrate_compiled, integrate_exact
 from ._integrate import integrate
 from ._scheme import Scheme
 
@@ -74,7 +74,7 @@ class RefMethod:
             return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
         if self.exact is not None:  # the same run, compiled where that is exact
             if self.exact.wants_rate(self.scheme, scene):  # what a step costs interpreted, to decide
-                probe = min(int(steps), PROBE_STEPS)
+                probe = min(int(steps), self.exact.probe_steps)
                 self._interpreted(scene, dt, probe, max(1, probe))
             traj = integrate_exact(self.scheme, scene, dt, steps, every, **self.options,
                                    may_compile=self.exact.may_compile(self.scheme, scene, steps))
