@@ -104,3 +104,24 @@ def plan(tasks: list, suite) -> tuple[list, KernelPlan]:
     if timing:
         state(BASELINE, make_scene("spring"))  # the calibration's loop
     return out, KernelPlan(sum(timing.values()), counted, interpreted, str(reference.kernel_cache_dir()), len(timing))
+
+
+#: Steps of the interpreted run that measures the rate of a command's pair new to the cache
+#: (``reference.Exact.probe_steps``), fewer than a task's: a command steps schemes whose every
+#: interpreted step solves a system the size of the scene (every implicit scheme on the
+#: default cloth, in ``harness identify``), where the task's probe alone would cost more than
+#: compiling does; four steps still spread the first call's own cost.
+COMMAND_PROBE_STEPS = 4
+
+
+def command_backend():
+    """The reference backend of a single-scene command (``harness stability``, ``identify``,
+    ...): the exact compiled run the nightly's cells take (``reference.Exact``: the interpreted
+    bits, every force evaluation counted alike), by the rule of a nightly reference task (``plan``
+    and ``cells.run_task``) for every scheme it steps: a pair the disk cache holds compiles (or
+    loads) its counted run at once, one new to it is interpreted while that costs less than
+    compiling would. The pairs are asked as they first run (a command does not know them all
+    before it starts)."""
+    import reference
+
+    return reference.Exact(new_to_cache=True, probe_steps=COMMAND_PROBE_STEPS)
