@@ -321,18 +321,22 @@ class CostResult(Result):
 
 def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = None, repeats: int = REPEATS,
                   count_steps: int = COUNT_STEPS, timeout: float | None = None,
-                  baseline: dict | None = None, clock: str = "wall", injected: dict | None = None) -> CostResult:
+                  baseline: dict | None = None, clock: str = "wall", injected: dict | None = None,
+                  progress=None) -> CostResult:
     """Counted evaluations, time per step and the ratio to explicit Euler (compiled) on
     the same scene and dt, the two and the calibration timed in interleaved repeats (module
     docstring). ``baseline`` reuses an explicit-Euler timing from the same run instead (no
     calibration then); ``injected``: timings to record instead of the clock's (default: the
-    ``HARNESS_INJECT_TIMINGS`` file, if set)."""
+    ``HARNESS_INJECT_TIMINGS`` file, if set); ``progress``: told a line before the counted run
+    and each repeat (a command's progress)."""
     from harness.measures.calibration import Calibration
 
     method = resolve(method, scene)
+    say = progress or (lambda line: None)
     injected = injected if injected is not None else load_injected()
     out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
            "omega_dt": float(dt) * scene.omega}
+    say(f"cost: counting force evaluations over {count_steps} steps of {method.id}")
     out.update(counted_evaluations(method, scene, dt, steps=count_steps, timeout=timeout))
     stepped = (_Timing(method, scene, dt, time_steps, clock, "harness", injected=injected)
                if _steppable_per_step(method) else None)
@@ -364,7 +368,8 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     # carries more of the call's fixed cost per step (1.3x per step at 2,000 steps, measured).
     base_steps = timing.n if timing.scheme is not None else REF_TIME_STEPS
     base = _Timing(baseline_method, scene, dt, base_steps, clock, budget=timing.scheme is None, injected=injected)
-    for _ in range(repeats):
+    for i in range(repeats):
+        say(f"cost: timed repeat {i + 1} of {repeats}, {method.id} and {BASELINE} interleaved")
         timing.repeat()
         base.repeat()
         calibration.repeat()

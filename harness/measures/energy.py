@@ -223,7 +223,8 @@ def mass_matrix_varies(traj: Trajectory, scene: Scene) -> float | None:
 
 
 def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int = 1,
-                     timeout: float | None = None, series: bool = False, state_error: bool = True) -> dict:
+                     timeout: float | None = None, series: bool = False, state_error: bool = True,
+                     progress=None) -> dict:
     """Step ``method`` and measure its energy behaviour against the exact energy.
 
     Returns the run's status and ``energy_figures``'s (``max_rel_error``, ``final_rel_error``,
@@ -234,8 +235,11 @@ def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int 
     solution (``harness.measures.error``: ||(q, v/omega) - true|| relative to the true state's size, so
     a phase error counts in full): ``state_error_max``, ``state_error_final`` and where it
     comes from. Energy alone overstates accuracy: implicit midpoint keeps a spring's energy to
-    roundoff while its phase drifts by h^2/12 a unit of time (``state_error`` False skips it)."""
+    roundoff while its phase drifts by h^2/12 a unit of time (``state_error`` False skips it).
+    ``progress``: told a line before the run and before the state error (a command's progress)."""
     method = resolve(method, scene)
+    say = progress or (lambda line: None)
+    say(f"energy: stepping {method.id}, {steps} steps at dt {dt:.6g}")
     traj = step(method, scene, dt, steps, every, timeout)
     out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
            "steps": int(steps), "every": int(every), "omega_dt": float(dt) * scene.omega,
@@ -250,6 +254,7 @@ def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int 
     if state_error and traj.ok:
         from harness.measures.error import run_error
 
+        say("energy: the state error against the exact or reference solution")
         err = run_error(method, scene, traj, timeout)
         out.update(state_error_max=err["error_max"], state_error_final=err["error_final"],
                    state_error_source=err["source"], state_error_t_compared=err["t_compared"])

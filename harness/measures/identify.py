@@ -172,12 +172,16 @@ class IdentityResult(Result):
 
 
 def identify(method, scene: Scene, dt: float | None = None, steps: int | None = None,
-             timeout: float | None = None, exact=None) -> IdentityResult:
+             timeout: float | None = None, exact=None, progress=None) -> IdentityResult:
     """Rank every reference scheme by its deviation from ``method`` on ``scene``; ``exact``: the
-    candidates' backend (``reference.Exact``; None: interpreted)."""
+    candidates' backend (``reference.Exact``; None: interpreted); ``progress``: told a line
+    before each run (a command's progress)."""
     method = resolve(method, scene)
     dt = default_dt(scene) if dt is None else dt
     steps = default_steps() if steps is None else steps
+    say = progress or (lambda line: None)
+    where = " in a worker process" if method.isolated else ""
+    say(f"identify: stepping {method.id}, {steps} steps at dt {dt:.6g}{where}")
     run = simulate(method, scene, dt, steps, 1, timeout=timeout)
     out = {"method": method.id, "scene": scene.id, "params": dict(scene.values), "dt": dt, "steps": steps,
            "status": run.status, "detail": run.detail,
@@ -187,11 +191,12 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     scale = max(1.0, float(np.max(np.abs(run.q), initial=0.0)), float(np.max(np.abs(run.v), initial=0.0)))
     tolerance = MATCH_RTOL * scale
     candidates = []
-    for mid, ref in all_methods(exact).items():
-        if ref.family != REFERENCE or mid == method.id or not ref.supports(scene)[0]:
-            continue
-        if not scene.velocity_dependent and ref.scheme.same_without_velocity:
-            continue  # here it is another scheme, update for update: that one is the candidate
+    refs = [(mid, ref) for mid, ref in all_methods(exact).items()
+            if ref.family == REFERENCE and mid != method.id and ref.supports(scene)[0]
+            # one that is here another scheme, update for update: that one is the candidate
+            and (scene.velocity_dependent or not ref.scheme.same_without_velocity)]
+    for i, (mid, ref) in enumerate(refs, 1):
+        say(f"identify: candidate {mid}, {i} of {len(refs)}")
         traj = candidate_run(ref, scene, dt, steps)
         dev = max_deviation(run, traj)
         candidates.append(Candidate(mid, dev, traj.status, dev <= tolerance))

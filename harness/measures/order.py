@@ -61,8 +61,9 @@ def _horizon_steps(scene: Scene, dt: float, horizon: float) -> tuple[float, int]
 
 
 def choose_timesteps(method, scene: Scene, *, points: int = 8, span: float = 8.0, periods: float = 0.5,
-                     order: int | None = None, timeout: float | None = None) -> dict:
-    """The dt sweep by the rule in the module docstring, with the pilot runs that chose it."""
+                     order: int | None = None, timeout: float | None = None, progress=None) -> dict:
+    """The dt sweep by the rule in the module docstring, with the pilot runs that chose it;
+    ``progress``: told a line before each pilot run."""
     method = resolve(method, scene)
     # The sweep is chosen by the scheme's order for position-only forces (a lower order declared
     # for velocity-dependent ones only judges the result): the timesteps stay those of every
@@ -75,6 +76,8 @@ def choose_timesteps(method, scene: Scene, *, points: int = 8, span: float = 8.0
     dt = PILOT_HOMEGA / scene.omega
     for _ in range(12):
         dt, steps = _horizon_steps(scene, dt, horizon)
+        if progress is not None:
+            progress(f"order: pilot run {len(pilots) + 1} of at most 12 (dt {dt:.6g}, {steps} steps)")
         res = global_error(method, scene, dt, steps, timeout=timeout)
         err = res["error_max"]
         pilots.append({"dt": dt, "steps": steps, "error": err, "status": res["status"]})
@@ -94,11 +97,12 @@ def choose_timesteps(method, scene: Scene, *, points: int = 8, span: float = 8.0
 
 
 def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, periods: float = 0.5,
-                   order: int | None = None, dts=None, timeout: float | None = None) -> dict:
+                   order: int | None = None, dts=None, timeout: float | None = None, progress=None) -> dict:
     """Observed order of ``method`` on ``scene``: slope, the points used and those left out.
 
     ``order`` only steers the dt range (default: the declared order); ``dts`` fixes the
-    timesteps instead (each still adjusted to fit the horizon)."""
+    timesteps instead (each still adjusted to fit the horizon); ``progress``: told a line
+    before each run (a command's progress)."""
     method = resolve(method, scene)
     require_fixed_step(method, "the observed order")
     if points < MIN_POINTS:
@@ -109,11 +113,13 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
     choice: dict = {}
     if dts is None:
         choice = choose_timesteps(method, scene, points=points, span=span, periods=periods, order=order,
-                                  timeout=timeout)
+                                  timeout=timeout, progress=progress)
         dts = choice["dts"] or []
     used, excluded = [], []
-    for dt in sorted(float(x) for x in dts):
+    for i, dt in enumerate(sorted(float(x) for x in dts), 1):
         dt, steps = _horizon_steps(scene, dt, horizon)
+        if progress is not None:
+            progress(f"order: point {i} of {len(dts)} (dt {dt:.6g}, {steps} steps)")
         res = global_error(method, scene, dt, steps, timeout=timeout)
         err = res["error_max"]
         point = {"dt": dt, "omega_dt": dt * scene.omega, "steps": steps, "error": err,

@@ -264,13 +264,15 @@ class StabilityResult(Result):
 
 def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: int = HORIZON_STEPS,
                       lo: float = HOMEGA_LO, hi: float = HOMEGA_HI, scan_ratio: float = SCAN_RATIO,
-                      rtol: float = BISECT_RTOL, timeout: float | None = None) -> StabilityResult:
+                      rtol: float = BISECT_RTOL, timeout: float | None = None,
+                      progress=None) -> StabilityResult:
     """Largest stable dt of ``method`` on ``scene`` by the rule in the module docstring.
 
     ``criterion``: ``auto`` (spectral radius on linear scenes where the map can be
     measured, else finite horizon), ``spectral_radius`` or ``finite_horizon``; ``lo``,
     ``hi`` are h*omega bounds of the search. For linear scenes the result also carries
-    the one-step map at ``dt_max``."""
+    the one-step map at ``dt_max``. ``progress``: told a line before each test (a command's
+    progress), with how many the search will run."""
     method = resolve(method, scene)
     require_fixed_step(method, "the largest stable timestep")
     if criterion not in CRITERIA:
@@ -304,8 +306,12 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
         described = horizon_rule(scene, steps)
 
     evaluations = []
+    scan_runs = 1 + math.ceil(math.log(hi / lo) / math.log(scan_ratio) - 1e-9)
+    runs = f"{steps} steps" if use == "finite_horizon" else "one step from each unit state"
 
-    def stable(homega):
+    def stable(homega, doing, of):
+        if progress is not None:
+            progress(f"stability: {doing}: run {len(evaluations) + 1} of {of} ({runs} at h*omega {homega:.6g})")
         ok, info = test(homega / omega)
         evaluations.append({"omega_dt": homega, "stable": ok, **info})
         return ok
@@ -317,7 +323,8 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
         out["note"] = note
     if use == "finite_horizon":
         out["horizon_steps"] = steps
-    if not stable(lo):
+    scanning = f"scanning h*omega from {lo:g} up to {hi:g} by x{scan_ratio:g}"
+    if not stable(lo, scanning, f"at most {scan_runs}"):
         out.update(verdict="unstable", dt_max=None, omega_dt_max=None,
                    detail=f"unstable already at the smallest h*omega searched ({lo:g}): unstable for every dt")
         out["evaluations"] = len(evaluations)
@@ -326,7 +333,7 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
     x = lo
     while x < hi:
         x = min(x * scan_ratio, hi)
-        if stable(x):
+        if stable(x, scanning, f"at most {scan_runs}"):
             good = x
         else:
             bad = x
@@ -338,7 +345,10 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
         return _with_map(out, method, scene, hi / omega, timeout)
     while bad / good - 1.0 > rtol:
         mid = math.sqrt(good * bad)
-        if stable(mid):
+        # Each geometric midpoint halves log(bad / good): the runs left until it is within rtol.
+        left = max(1, math.ceil(math.log2(math.log(bad / good) / math.log1p(rtol))))
+        if stable(mid, f"bisecting h*omega in [{good:.6g}, {bad:.6g}] to {rtol:g} relative",
+                  f"~{len(evaluations) + left}"):
             good = mid
         else:
             bad = mid

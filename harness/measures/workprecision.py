@@ -46,13 +46,17 @@ def sweep(scene: Scene, *, points: int = POINTS, homega_max: float = HOMEGA_MAX,
 
 def work_precision(methods, scene: Scene, *, points: int = POINTS, homega_max: float = HOMEGA_MAX,
                    periods: float = PERIODS, repeats: int = REPEATS, timeout: float | None = None,
-                   time_steps: int | None = None) -> list[dict]:
-    """Rows of (method, dt, error, cost) for each method (ids or objects) on ``scene``."""
+                   time_steps: int | None = None, progress=None) -> list[dict]:
+    """Rows of (method, dt, error, cost) for each method (ids or objects) on ``scene``;
+    ``progress``: told a line before each point (a command's progress)."""
     resolved = [resolve(m, scene) for m in methods]
     rows = []
-    for method in resolved:
+    for j, method in enumerate(resolved, 1):
         isref = method.scheme is not None
-        for dt, steps in sweep(scene, points=points, homega_max=homega_max, periods=periods):
+        for i, (dt, steps) in enumerate(sweep(scene, points=points, homega_max=homega_max, periods=periods), 1):
+            if progress is not None:
+                progress(f"workprecision: {method.id} (method {j} of {len(resolved)}), point {i} of {points} "
+                         f"(h*omega {dt * scene.omega:.4g}, {steps} steps)")
             res = global_error(method, scene, dt, steps, timeout=timeout)
             row = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": dt,
                    "omega_dt": dt * scene.omega, "steps": steps, "horizon": periods * scene.period,
