@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from harness import validate
 from harness.measures.cost import COUNT_STEPS, REPEATS, cost_per_step
-from harness.cli.measure_args import add_common, emit, fmt, method_for, scene_of, timeout_of
+from harness.cli.measure_args import add_common, emit, fmt, method_for, progress, scene_of, timeout_of
 
 
 def add_parser(sub):
@@ -27,8 +27,9 @@ def run(args) -> int:
     timeout = timeout_of(args)
     scene = scene_of(args)
     method = method_for(args.method, scene)
-    res = cost_per_step(method, scene, dt, time_steps=time_steps, repeats=repeats, count_steps=count_steps,
-                        timeout=timeout)
+    with progress() as say:
+        res = cost_per_step(method, scene, dt, time_steps=time_steps, repeats=repeats, count_steps=count_steps,
+                            timeout=timeout, progress=say)
     return emit(res, args.json, _lines, scene)
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from harness import validate
 from harness.measures.energy import energy_behaviour
-from harness.cli.measure_args import add_common, emit, fmt, method_for, scene_of, timeout_of
+from harness.cli.measure_args import add_common, emit, fmt, method_for, progress, scene_of, timeout_of
 
 
 def add_parser(sub):
@@ -24,7 +24,9 @@ def run(args) -> int:
     timeout = timeout_of(args)
     scene = scene_of(args)
     method = method_for(args.method, scene)
-    res = energy_behaviour(method, scene, dt, steps, every=every, timeout=timeout, series=args.series)
+    with progress() as say:
+        res = energy_behaviour(method, scene, dt, steps, every=every, timeout=timeout, series=args.series,
+                               progress=say)
     return emit(res, args.json, _lines, scene)
 
 

@@ -11,8 +11,8 @@ import math
 from scenarios import make_scene, parse_overrides
 
 from harness import validate
+from harness.cli.measure_args import backend, method_for, progress
 from harness.measures.identify import format_report, identify
-from harness.methods import check_supported, get_method
 
 
 def add_parser(sub):
@@ -33,9 +33,9 @@ def run(args) -> int:
     steps = None if args.steps is None else validate.count("--steps", args.steps, 1)
     timeout = validate.positive_finite("--timeout", args.timeout)
     scene = make_scene(args.scene, **parse_overrides(args.set))
-    method = get_method(args.method)
-    check_supported(method, scene)
-    result = identify(method, scene, dt, steps, timeout=timeout)
+    method = method_for(args.method, scene)
+    with progress() as say:  # the candidates step on the nightly's compiled path, as the method does
+        result = identify(method, scene, dt, steps, timeout=timeout, exact=backend(), progress=say)
     if args.json:
         out = result.as_dict()
         print(json.dumps(_finite({"model_note": scene.model_note, **out} if scene.model_note else out), indent=1))

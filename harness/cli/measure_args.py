@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+from contextlib import contextmanager
 
 from records.result import Result
 from scenarios import make_scene, parse_overrides
@@ -27,10 +28,32 @@ def scene_of(args):
     return make_scene(args.scene, **parse_overrides(args.set))
 
 
-def method_for(method_id: str, scene):
-    method = get_method(method_id)
+def backend():
+    """The reference schemes' backend in every single-scene command: the nightly's compiled path
+    (``harness.nightly.kernels.command_backend``)."""
+    from harness.nightly.kernels import command_backend
+
+    return command_backend()
+
+
+def method_for(method_id: str, scene, options: dict | None = None):
+    """The method, on the nightly's compiled path where it is a reference scheme (``backend``),
+    checked against ``scene``."""
+    method = get_method(method_id, options, exact=backend())
     check_supported(method, scene)
     return method
+
+
+@contextmanager
+def progress():
+    """The command's progress on stderr (``harness.nightly.progress.Lines``: nothing within its
+    first seconds), every kernel compile named before it starts: a callable taking a line."""
+    from reference import compile_notices
+
+    from harness.nightly.progress import Lines
+
+    with Lines() as say, compile_notices(say):
+        yield say
 
 
 def timeout_of(args) -> float:

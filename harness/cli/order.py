@@ -6,7 +6,7 @@ from records import InvalidInput
 
 from harness import validate
 from harness.measures.order import MIN_POINTS, observed_order
-from harness.cli.measure_args import add_common, emit, fmt, method_for, scene_of, timeout_of
+from harness.cli.measure_args import add_common, emit, fmt, method_for, progress, scene_of, timeout_of
 
 
 def add_parser(sub):
@@ -33,8 +33,9 @@ def run(args) -> int:
     timeout = timeout_of(args)
     scene = scene_of(args)
     method = method_for(args.method, scene)
-    res = observed_order(method, scene, points=points, span=span, periods=periods, order=hint, dts=dts,
-                         timeout=timeout)
+    with progress() as say:
+        res = observed_order(method, scene, points=points, span=span, periods=periods, order=hint, dts=dts,
+                             timeout=timeout, progress=say)
     return emit(res, args.json, _lines, scene)
 
 

@@ -9,7 +9,8 @@ import numpy as np
 from scenarios import make_scene, parse_overrides
 
 from harness import validate
-from harness.methods import check_supported, get_method, parse_options
+from harness.cli.measure_args import method_for, progress
+from harness.methods import parse_options
 from harness.execution.simulate import simulate
 
 FORMATS = ("table", "csv", "json")
@@ -38,9 +39,10 @@ def run(args) -> int:
     every = validate.count("--every", args.every, 1)
     timeout = validate.positive_finite("--timeout", args.timeout)
     scene = make_scene(args.scene, **parse_overrides(args.set))
-    method = get_method(args.method, parse_options(args.opt))
-    check_supported(method, scene)
-    traj = simulate(method, scene, dt, steps, every, timeout=timeout)
+    method = method_for(args.method, scene, parse_options(args.opt))
+    with progress() as say:
+        say(f"run: stepping {method.id}, {steps} steps at dt {dt:g}")
+        traj = simulate(method, scene, dt, steps, every, timeout=timeout)
     frame = traj.to_frame()
     out = sys.stdout
     if fmt == "csv":

@@ -1,12 +1,15 @@
 """``harness stability SCENE --method M``: largest stable dt (and h*omega) by bisection, with
-the spectral radius of the one-step map on linear scenes."""
+the spectral radius of the one-step map on linear scenes. Reference schemes step on the
+nightly's compiled path; ``--steps``, ``--hi`` and ``--rtol`` ask a suite's question (the
+standard suite: ``--steps 1000 --hi 100 --rtol 1e-4``) and get the nightly cell's numbers."""
 from __future__ import annotations
 
 from records import InvalidInput
 
 from harness import validate
-from harness.measures.stability import CRITERIA, HOMEGA_HI, HOMEGA_LO, HORIZON_STEPS, largest_stable_dt
-from harness.cli.measure_args import add_common, emit, fmt, method_for, scene_of, timeout_of
+from harness.measures.stability import (BISECT_RTOL, CRITERIA, HOMEGA_HI, HOMEGA_LO, HORIZON_STEPS, SCAN_RATIO,
+                                        largest_stable_dt)
+from harness.cli.measure_args import add_common, emit, fmt, method_for, progress, scene_of, timeout_of
 
 
 def add_parser(sub):
@@ -16,6 +19,7 @@ def add_parser(sub):
     p.add_argument("--steps", default=str(HORIZON_STEPS), help="horizon of the finite-horizon criterion")
     p.add_argument("--lo", default=repr(HOMEGA_LO), help="smallest h*omega searched")
     p.add_argument("--hi", default=repr(HOMEGA_HI), help="largest h*omega searched")
+    p.add_argument("--rtol", default=repr(BISECT_RTOL), help="relative width the bisection stops at")
     return p
 
 
@@ -26,10 +30,15 @@ def run(args) -> int:
     hi = validate.positive_finite("--hi", args.hi)
     if hi <= lo:
         raise InvalidInput(f"--hi={args.hi} is out of range (allowed: > --lo = {lo:g})")
+    rtol = validate.positive_finite("--rtol", args.rtol)
+    if rtol >= SCAN_RATIO - 1.0:
+        raise InvalidInput(f"--rtol={args.rtol} is out of range (allowed: > 0, < {SCAN_RATIO - 1.0:g})")
     timeout = timeout_of(args)
     scene = scene_of(args)
     method = method_for(args.method, scene)
-    res = largest_stable_dt(method, scene, criterion=criterion, steps=steps, lo=lo, hi=hi, timeout=timeout)
+    with progress() as say:
+        res = largest_stable_dt(method, scene, criterion=criterion, steps=steps, lo=lo, hi=hi, rtol=rtol,
+                                timeout=timeout, progress=say)
     return emit(res, args.json, _lines, scene)
 
 

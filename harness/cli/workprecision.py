@@ -5,7 +5,7 @@ from __future__ import annotations
 from harness import validate
 from harness.methods import all_methods
 from harness.measures.workprecision import HOMEGA_MAX, PERIODS, POINTS, REPEATS, chart_ready, work_precision
-from harness.cli.measure_args import add_common, emit, fmt, method_for, scene_of, timeout_of
+from harness.cli.measure_args import add_common, backend, emit, fmt, method_for, progress, scene_of, timeout_of
 
 
 def add_parser(sub):
@@ -29,9 +29,10 @@ def run(args) -> int:
     if args.method:
         methods = [method_for(m, scene) for m in args.method]
     else:
-        methods = [m for m in all_methods().values() if m.available()[0] and m.supports(scene)[0]]
-    rows = work_precision(methods, scene, points=points, homega_max=homega_max, periods=periods,
-                          repeats=repeats, timeout=timeout)
+        methods = [m for m in all_methods(backend()).values() if m.available()[0] and m.supports(scene)[0]]
+    with progress() as say:
+        rows = work_precision(methods, scene, points=points, homega_max=homega_max, periods=periods,
+                              repeats=repeats, timeout=timeout, progress=say)
     return emit({"scene": scene.id, "params": dict(scene.values), "rows": rows, "chart": chart_ready(rows)},
                 args.json, _lines, scene)
 

@@ -193,7 +193,7 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     candidates = []
     refs = [(mid, ref) for mid, ref in all_methods(exact).items()
             if ref.family == REFERENCE and mid != method.id and ref.supports(scene)[0]
-            # one that is here another scheme, update for update: that one is the candidate
+            # a scheme that is here another, update for update (same_without_velocity): that one is the candidate
             and (scene.velocity_dependent or not ref.scheme.same_without_velocity)]
     for i, (mid, ref) in enumerate(refs, 1):
         say(f"identify: candidate {mid}, {i} of {len(refs)}")
