@@ -471,8 +471,8 @@ class _ModelFile(SteppedModel):
                          "(a geom's mass attribute is not read) and reads no joint stiffness or armature")
         springs = {jb: (k, ref) for jb, k, ref in self.springs}
         if self.springs:
-            sprung = ", ".join(f"{name} (k {k:.6g})" for name, jb in zip(self.scene.dof_names, self.joints)
-                               for k, _ in [springs[jb]] if jb in springs)
+            sprung = ", ".join(f"{name} (k {springs[jb][0]:.6g})" for name, jb in zip(self.scene.dof_names, self.joints)
+                               if jb in springs)
             notes.append(f"pybullet: Bullet's model has no joint stiffness; the harness applies it on {sprung} as a "
                          "torque -k (q - q_spring) before each step, k and q_spring as MuJoCo compiled them")
         off = set(self.scene.switched_off)

@@ -99,6 +99,17 @@ def test_the_chains_differences_name_every_body_mass_inertia_missing_armature_an
                                           res.horizon, res.differences)
 
 
+def test_a_joint_without_stiffness_is_left_out_of_the_applied_springs(tmp_path):
+    path = tmp_path / "chain.xml"
+    path.write_text(CHAIN.replace('stiffness="10"', 'stiffness="0"'))
+    from harness.methods import get_method
+
+    built = get_method("pybullet:semi_implicit").anatomy(variant(ModelScene(path), "conservative"), 0.002)
+    springs = next(n for n in built["notes"] if "has no joint stiffness" in n)
+    assert "j1 (k 40), j2 (k 25) as a torque" in springs
+    assert [built["joints"][j]["stiffness"] for j in ("j1", "j2", "j3")] == [40.0, 25.0, 0.0]
+
+
 def test_a_urdf_both_engines_build_alike_agrees_with_a_difference_below_both_errors(hanging):
     scene = variant(ModelScene(hanging, perturb=0.01), "conservative")
     res = ce.cross_engine(scene)

@@ -199,7 +199,7 @@ def cross_engine(scene: Scene, a: str = "mujoco:euler", b: str = "pybullet:semi_
     while n <= max_steps:
         runs = _pair(ma, mb, scene, T, n, timeout)
         if not all(r.ok for r in runs):
-            if any(r.status not in ("unstable",) for r in runs) or 2 * n > max_steps:
+            if any(r.status not in ("ok", "unstable") for r in runs) or 2 * n > max_steps:
                 return CrossEngineResult(**base, dt=T / n, steps=n, statuses=[r.status for r in runs],
                                          differences=differences, notes=notes, anatomies=anatomies, levels=levels,
                                          detail="; ".join(f"{r.method} {r.status}: {r.detail}"
