@@ -98,6 +98,7 @@ class Lines:
         self.said = 0  # lines written
         self._held = ""
         self._loud = self.quiet_s <= 0
+        self._closed = False
         self._lock = threading.Lock()
         self._timer = None
         if not self._loud and self.quiet_s < float("inf"):
@@ -107,15 +108,18 @@ class Lines:
 
     def __call__(self, line: str) -> None:
         with self._lock:
-            if not self._loud and self.clock() - self.t0 >= self.quiet_s:
-                self._loud = True
+            if not (self._loud or self._closed) and self.clock() - self.t0 >= self.quiet_s:
+                self._loud, self._held = True, ""  # this line is newer than the one held
             if self._loud:
                 self._write(line)
             else:
                 self._held = line
 
     def _wake(self) -> None:
+        """The threshold passed (the timer; it waits while a compile holds the interpreter)."""
         with self._lock:
+            if self._loud or self._closed:
+                return
             self._loud = True
             if self._held:
                 self._write(self._held)
@@ -134,7 +138,7 @@ class Lines:
         with self._lock:
             if self._timer is not None:
                 self._timer.cancel()
-            self._loud, self._held = False, ""
+            self._closed, self._loud, self._held = True, False, ""
             if self.tty and self.said:
                 self.stream.write("\r" + " " * 110 + "\r")
                 self.stream.flush()
