@@ -390,7 +390,8 @@ def test_runner_validates_before_the_engine_sees_anything():
 
 # ------------------------------------------------------------------ engine noise
 def harness_subprocess(*argv, cwd):
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    # stderr is read whole: no progress lines, however long a loaded machine takes
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "HARNESS_PROGRESS_AFTER": "inf"}
     return subprocess.run([sys.executable, "-m", "harness", *argv], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=120)
 
