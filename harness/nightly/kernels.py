@@ -21,6 +21,9 @@ bit for bit.
 compile"): the timing loops of the reference tasks' pairs and of explicit Euler on every scene
 (each cost cell's baseline, and the calibration's on the unit spring), and the counted runs the
 tasks will compile, each counted once where the cache lacks it.
+
+``command_backend`` is the same rule for a single-scene command (``harness stability``,
+``identify``, ...), asked pair by pair as each first runs.
 """
 from __future__ import annotations
 
