@@ -84,8 +84,8 @@ class _Simulation(SteppedModel):
             setattr(sim.integrator, name, value)
         sim.dt = dt
         masses = self._add(sim, scene, *scene.initial_state())
-        # One (N, 6) buffer, filled in one call: each array handed to serialize_particle_data
-        # costs ~5 us of ctypes conversion.
+        # One (N, 6) buffer, filled in one call: every array handed to serialize_particle_data
+        # pays a ctypes conversion of its own, so one array for all particles pays it once.
         self._data = np.zeros((sim.N, 6))
         self.settings = {
             "integrator": str(sim.integrator), "dt": float(sim.dt), "G": float(sim.G),

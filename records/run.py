@@ -107,7 +107,7 @@ class RunTiming:
         return timing if isinstance(timing, cls) else cls(**_known(cls, timing))
 
     #: CPU seconds to load a kernel from the disk cache, where the run loaded none to measure it
-    #: (a warm standard nightly: 227 kernels in 4.7 s on this project's 2-core machine).
+    #: (an estimate from a warm standard nightly's loads: docs/performance.md).
     LOAD_S = 0.02
 
     @property

@@ -289,8 +289,8 @@ def _counted_source(kind: str) -> str:
     step, else 0); the observed state of step 0, every ``every`` steps and the last written to
     ``out_q``/``out_v`` (kernel layout, one record per row; ``recorded`` rows written); the
     force, solve and projection calls added to ``cnt``. A record is copied entry by entry
-    (``_put``): a slice assignment would compile numba's broadcasting and its error message, a
-    second or more of every worker's first counted kernel, for the same copy."""
+    (``_put``): a slice assignment would compile numba's broadcasting and its error message into
+    every worker's first counted kernel, a compile cost for the same copy."""
     extra = "k, " if kind in ("implicit", "constrained") else ""
     return "\n".join([
         f"_DIVERGED = {DIVERGED!r}",

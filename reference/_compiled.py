@@ -4,7 +4,7 @@ Used for timing (``harness bench``, the cost measurement), so that the measured 
 the scheme's and not the interpreter's, and for runs too long to interpret
 (:func:`integrate_compiled`). The kernels of a (scheme, scene) pair come from
 ``reference._kernels``: generated from the scheme's and scene's source, cached on disk (a
-pair compiles once per machine and source, 1-15 s, then loads in milliseconds) and, on a
+pair compiles once per machine and source, then loads at a small fraction of that cost) and, on a
 pointwise scene, run as a loop of scalars without array temporaries.
 """
 from __future__ import annotations
@@ -183,15 +183,13 @@ NOT_YET = "its counted kernel is not compiled on this machine yet"
 #: where its counted kernel was not compiled (``Exact.interpreted``): what the pair has cost so far,
 #: and its rate, seconds per step.
 _INTERPRETED: dict[tuple, list] = {}
-#: CPU seconds compiling a pair's counted run takes, by its loop (``reference._kernels``), measured
-#: on this project's 2-core machine at the kernels' optimisation level (``reference._numba_config``):
-#: 0.45-0.55 on a pointwise scene, 1.2-2.1 on an array scene (explicit Euler on Kepler 1.2, leapfrog
-#: on the chain of 8 1.3, RK4 there 1.7, Verlet on the projectile 1.7, semi-implicit Euler on the
-#: cloth 2.1; implicit midpoint on Kepler, with its solve, 3.8).
+#: CPU seconds compiling a pair's counted run is expected to take, by its loop (``reference._kernels``),
+#: at the kernels' optimisation level (``reference._numba_config``): estimates from measured compiles
+#: (docs/performance.md), an array loop about three times a pointwise one.
 COUNTED_COMPILE_S = {"pointwise": 0.5, "array": 1.5}
 #: Steps of the interpreted run that measures a pair's rate before its first run is decided
-#: (``Exact.wants_rate``): its seconds per step come within about 30% of a long run's, for a few
-#: milliseconds (a few hundred on the cloth, whose interpreted step takes 1.5-3 ms).
+#: (``Exact.wants_rate``): its seconds per step come within about 30% of a long run's, at a small
+#: share of a run's cost (a larger one on the cloth, whose interpreted step is the slowest).
 PROBE_STEPS = 32
 
 

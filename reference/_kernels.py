@@ -106,7 +106,8 @@ _OVERLOADS: list = []
 def _register_overloads() -> None:
     """``largest_magnitude`` inside compiled code: ``abs`` of a float (the pointwise loop),
     ``max(abs)`` of an array (the array loop), as the interpreted function computes it.
-    Registered before the first kernel compiles, not on import (numba takes ~0.5 s to import)."""
+    Registered before the first kernel compiles, not on import (a process that compiles nothing
+    need not import numba)."""
     if _OVERLOADS:
         return
     _numba_config.configure()

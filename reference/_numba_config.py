@@ -2,14 +2,9 @@
 
 numba optimises at ``NUMBA_OPT`` = 3 unless told otherwise. The harness builds its kernels, its
 floors and its checks at :data:`KERNEL_OPT` = 2 instead, unless the environment sets ``NUMBA_OPT``
-itself (then that level, recorded alike). Measured on this project's 2-core machine, the standard
-suite's 84 timing loops each compiled in a fresh process and then timed in one process (min of
-15 calls, CPU clock):
-
-* compiling them took 87 CPU-s at level 2 against 150 at level 3 (the array loops 0.4-0.7 of
-  level 3's time, the pointwise ones 0.9-1.0);
-* they ran as fast: time per step 0.98 of level 3's, geometric mean over the 84 (the cloth's
-  array loops 0.84, the rest 0.92-1.05, within the machine's run-to-run spread).
+itself (then that level, recorded alike). Level 2 was chosen by measuring the standard suite's
+timing loops at both levels (docs/performance.md): they compile in a little over half the CPU
+time of level 3 and run as fast, within the machine's run-to-run spread.
 
 Neither level lets LLVM reorder or contract floating-point operations (numba asks for no
 fast-math), so a loop computes the same bits at either: the accuracy figures do not depend on

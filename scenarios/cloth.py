@@ -31,10 +31,9 @@ initial state, the frequency that sets every explicit scheme's step limit.
 Implicit schemes solve (I + (beta/m) K) x = r (``solve``; the force does not depend on the
 velocity): a banded LDL^T factorisation (bandwidth d (2m + 1), O(N m^2)) for at most
 ``DIRECT_MAX_DOF`` unknowns, else conjugate gradients, one pass over the springs' blocks per
-iteration (O(N) each, and a number of iterations set by h omega, not by N). The crossing,
-measured compiled at h = 1/60 on square sheets of constant mass per node: LDL^T 0.37 ms against
-CG 0.83 ms at 8 x 8 (186 unknowns), 2.0 against 2.7 ms at 12 x 12, 6.4 against 5.4 ms at 16 x 16,
-94 against 24 ms at 32 x 32.
+iteration (O(N) each, and a number of iterations set by h omega, not by N). ``DIRECT_MAX_DOF``
+sits where the two cost the same per step, compiled at h = 1/60 on square sheets of constant mass
+per node: between 12 x 12 and 16 x 16 (docs/performance.md).
 """
 import math
 

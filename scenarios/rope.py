@@ -52,8 +52,8 @@ def project(q, p, iterations):
 
     The batch loop is written out (innermost, over the contiguous axis) rather than as
     whole-batch row expressions: a link update is ten scalar operations, and row expressions
-    allocate a temporary for each, which at batch 1 made a compiled pass 7x slower (2.5 us
-    against 0.35 us per pass of 10 links) and the interpreted one 3x slower."""
+    allocate a temporary for each, which at batch 1 made a compiled pass 7x slower and the
+    interpreted one 3x slower (docs/performance.md)."""
     l = p[1]
     n = q.shape[0] // 2
     nb = q.shape[1]

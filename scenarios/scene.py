@@ -7,7 +7,7 @@ Two array layouts, one rule each:
 * **Kernel layout** (the force and solve kernels the integrators call):
   component-major, ``q.shape == (ndof, batch)``.  The inner loop then runs over the
   batch and vectorises; with ``(batch, 1)`` numba's loops have an inner extent of 1
-  (measured 4.4 ns against 0.45 ns per spring-step for a batch of 1000).
+  (about ten times slower per spring-step for a batch of 1000: docs/performance.md).
 
 Kernels are plain numpy functions of ``(q, v, t, p)`` where ``p`` is the scene's packed
 parameter vector (``Scene.pvec``), so the same source runs interpreted (with force

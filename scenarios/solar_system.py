@@ -43,9 +43,9 @@ def load_bodies() -> tuple[tuple[str, ...], np.ndarray, np.ndarray, np.ndarray]:
 def accel(q, v, t, p):
     # p = (G, m_0, ..., m_{n-1}); body i occupies rows 3i, 3i+1, 3i+2. Scalar updates in a loop
     # over the batch, not whole-row array expressions: the same operations in the same order
-    # (bitwise the same accelerations), but numba compiles it in 1.7 s instead of 11 s and runs
-    # it in 0.25 us instead of 7.3 us (row expressions allocate a temporary per operation), and
-    # interpreted it takes 103 us instead of 492 us (measured, batch 1).
+    # (bitwise the same accelerations), but row expressions allocate a temporary per operation,
+    # which made the row form several times slower to compile, to run compiled and to run
+    # interpreted (docs/performance.md).
     g = p[0]
     n = q.shape[0] // 3
     a = np.zeros_like(q)

@@ -1,6 +1,7 @@
 """Imported once by the worker forkserver (see ``isolation.PRELOAD``): every installed engine,
 with its import-time output silenced, so that each worker forked from the server starts with
-the engines loaded (importing MuJoCo alone takes about 0.3 s)."""
+the engines loaded (an engine's import is a noticeable share of a short task; the server pays it
+once)."""
 import contextlib
 
 from adapters import ENGINE_METHODS, import_engine

@@ -419,7 +419,7 @@ def _advise_in_worker(method_id: str, scene: Scene, request: Request, timeout, p
     use_plugins(plugins)
     # A reference scheme's runs on its exact compiled path where that computes the interpreted
     # bits (as the nightly's advice cells): the same figures; backward Euler's Newton iterations
-    # over the cloth's solve, interpreted, passed the 120 s limit at 4 x 4.
+    # over the cloth's solve, interpreted, do not finish within the command's limit at 4 x 4.
     method = get_method(method_id, exact=Exact())
     return advise_method(method, scene, request, timeout=timeout, injected=injected)
 

@@ -17,16 +17,16 @@ The rule, one way for each kind of method:
   (100,000) steps; the figure is the **minimum** over repeats (the least-disturbed run, as
   timeit and asv take it). A kernel so slow that a run would take longer than
   REF_RUN_BUDGET_S (0.02 s, judged from a pilot run of REF_PILOT_STEPS, 2,000) runs fewer
-  steps, at least REF_MIN_STEPS (5,000): Kepler's implicit midpoint at 1.2 us a step, or the
-  solar system's RK4, say in 20 ms what 100,000 steps say in 0.12-0.4 s, since the call's fixed
-  cost (about 1 us) is then 5e-5 of a run and the clock reads to the nanosecond.
+  steps, at least REF_MIN_STEPS (5,000): a slow kernel (Kepler's implicit midpoint, the solar
+  system's RK4) says in one budget's run what 100,000 steps would say, since the call's fixed
+  cost is then a negligible share of a run and the clock reads to the nanosecond.
 * **Wall time per step**, engine modes, two figures, each ``method.simulate`` timed in this
   process (no worker): one warm-up call of up to ENGINE_PILOT_STEPS (500) steps, then
   ``repeats`` timed runs of N steps and of 0 steps; the figure is ``(min t(N) - min t(0)) / N``.
   An engine mode's runs are timed with its model built off the clock (``EngineMode.timed_run``):
   on a shared core, building the model jitters by more than a short run of the engine's own
-  loop takes (1,000 WHFast steps on the solar system, 1.5 ms, came out at -0.6 us a step with
-  the building subtracted, measured). A plugin's whole ``simulate`` is timed and t(0) takes the
+  loop takes (1,000 WHFast steps on the solar system came out at a negative time per step with
+  the building subtracted). A plugin's whole ``simulate`` is timed and t(0) takes the
   building out.
 
   - ``s_per_step``, **engine s/step**: the engine's own loop (``loop="engine"``:
@@ -44,9 +44,8 @@ The rule, one way for each kind of method:
   finds the failing step, is no cost of a step.
   A model so slow that N steps would take longer than ENGINE_RUN_BUDGET_S (0.1 s, judged
   from a pilot of the warm-up's steps, the model built off the clock) is timed over fewer steps, at least ENGINE_MIN_STEPS (200): a 32-body
-  chain stepped from Python costs ~100 us a step, and 10,000 steps x 6 runs would take
-  half a minute to say what 0.1 s says (the CPU clock reads to the microsecond, a run of
-  0.1 s to 1e-5 of itself; the spread between repeats is the machine's, 1-5%).
+  chain stepped from Python would spend 10,000 steps x 6 runs saying what one budget's run
+  says (the CPU clock reads to the microsecond, a run of that budget to 1e-5 of itself; the spread between repeats is the machine's, 1-5%).
 * **Clock**: wall time (``time.perf_counter``) by default; ``clock="cpu"`` reads the CPU
   time of the process (``time.process_time``) instead, which other processes sharing the
   core do not inflate (the nightly runs its cells side by side on shared cores). The
@@ -56,9 +55,9 @@ The rule, one way for each kind of method:
 * **Ratio to explicit Euler**: ``ref:explicit_euler`` timed by the compiled rule above
   on the same scene at the same dt in the same call, on the same clock, its repeats
   interleaved with the method's (method, baseline, method, baseline, ...): a machine that
-  slows for a while slows both of a pair. Measured on this project's shared 2-core machine,
-  a worker's compiled explicit Euler ran at 80 ns a step and, for seconds on end, at
-  140-150 ns, on the CPU clock too. The ratio is the median of the pairs' ratios, its
+  slows for a while slows both of a pair. On a shared machine a worker's compiled explicit
+  Euler can run nearly twice as slow for seconds on end, on the CPU clock too
+  (docs/performance.md). The ratio is the median of the pairs' ratios, its
   ``ratio_spread`` (max - min) / min of them.
 * **Calibration**: a fixed workload pair (``harness.measures.calibration``: explicit Euler in a
   plain Python loop over its compiled kernel) timed in the same interleaved repeats, so that
@@ -219,7 +218,7 @@ class _Timing:
         adds time, so that run took at least a 0-step run's time plus its steps'; a 0-step minimum
         above it means every 0-step run was slowed, which on a loaded machine happens where the
         timed run is a few steps long (MuJoCo's Euler on a spring past its limit diverges at step
-        27, so 26 steps, 0.2 ms, are timed against a 0.04 ms setup), and would make the cost per
+        27, so 26 steps are timed against a setup a fifth as long), and would make the cost per
         step negative. Up to ``SETUP_RETRIES`` more; where none resolves it, the runs are taken
         whole (``setup_unresolved``): an upper bound, said in the timing."""
         if self.scheme is not None or self.injected_value is not None or not self.times:

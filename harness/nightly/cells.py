@@ -12,10 +12,9 @@ constraint drift, damping far beyond the explicit limit, cost against size). A b
 measures one reviewed energy bound exactly as the file states it.
 
 Cost is timed on the worker's CPU clock, not the wall clock: the nightly runs its cells in
-parallel on shared cores, where a repeat's wall time includes waiting for a core. Measured
-on this project's 2-core machine under a load of 7, pymunk's step read 30-73 us of wall
-time and 9.2-13 us of CPU time; the compiled explicit-Euler step 93-990 ns wall, 93-108 ns
-CPU. On an idle core the two clocks agree (the steps run in one thread).
+parallel on shared cores, where a repeat's wall time includes waiting for a core. Under load a
+step's wall time spreads over several times its idle figure while its CPU time stays within
+tens of percent of it (docs/performance.md). On an idle core the two clocks agree (the steps run in one thread).
 
 A task's cells are sent back one by one as they are measured
 (``pool.report_partial``), so a task that later crashes or hangs keeps them.
@@ -43,7 +42,7 @@ from harness.nightly.suites import SUITES, Suite
 #: The measures of a scene x method task, in the order they run (identity first for an engine
 #: mode: the scheme it is identified as gives the claims its other cells are judged by). The
 #: stability search runs last: its cost is the least bounded (a finite-horizon test against a
-#: reference solve took 24 s at h*omega = 1 on the solar system), and a task that times out
+#: reference solve can be the longest run of a task: docs/performance.md), and a task that times out
 #: in it keeps every cell before it.
 MEASURES = ("energy", "error", "order", "cost", "stability")
 
@@ -125,7 +124,7 @@ def compiles_for(task, suite: Suite) -> set[str]:
     the pair is new to the disk cache (``Task.compile_counted`` False: ``harness.nightly.kernels``)
     only once interpreting them has cost as much as compiling would. Every other run takes a
     counted kernel compiled before, and is interpreted otherwise: an engine task's identity runs
-    its candidates 1,000 steps, interpreted in a fraction of the 0.3-3 CPU-s a compile costs."""
+    its candidates 1,000 steps, interpreted in a fraction of what a compile costs."""
     if task.family != "ref" or suite.scenes[task.scene].compiled:
         return set()
     return {task.method.split(":", 1)[1]}

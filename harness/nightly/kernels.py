@@ -3,9 +3,9 @@
 A reference scheme's pair (scheme, scene) has two compiled loops (``reference._kernels``): the
 timing loop ``advance_n``, which every cost cell needs (its figure is the compiled kernel's), and
 the counted run, which only speeds up the accuracy runs (``reference.Exact``: the interpreted
-bits, counted alike). Compiling a counted run costs about 0.5 CPU-s on a pointwise scene and 1.2-2
-on an array scene (this project's 2-core machine), about what interpreting one task's accuracy
-runs costs; it pays off at once only where the task's runs are long, and otherwise only where
+bits, counted alike). Compiling a counted run costs about what interpreting one task's accuracy
+runs costs (``reference._compiled.COUNTED_COMPILE_S``; an array scene's loop about three times a
+pointwise one's); it pays off at once only where the task's runs are long, and otherwise only where
 the disk cache keeps it for later runs. So a reference task whose pair is already in the disk
 cache (the pair ran on this machine before and its cache was kept: a CI runner that restores
 ``$HARNESS_CACHE``, a developer's machine) compiles its counted run at once, as before; one whose

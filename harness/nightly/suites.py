@@ -2,7 +2,8 @@
 
 A scene's nominal timestep is given as h*omega (so one number means the same thing on a
 spring and on a stiff chain); horizons are in the scene's periods. ``smoke`` runs in seconds
-(for the tests), ``standard`` is what ``make nightly`` runs (<= 5 minutes on 2 cores),
+(for the tests), ``standard`` is what ``make nightly`` runs (sized for a 2-core machine; its
+times are in docs/performance.md),
 ``full`` uses longer horizons and finer sweeps (and the chain and rope at the issue's sizes:
 N = 32 and N = 10, the scenes' defaults; the standard suite runs N = 8 and N = 5).
 The rope's largest stable timestep is searched by the finite horizon (10,000 steps, long enough
@@ -79,8 +80,8 @@ class Suite:
     stability_homega_max: float = 100.0      # top of the stability search, in h*omega: beyond it a method is
                                              # "unbounded (searched to ...)". An adaptive engine mode (REBOUND's
                                              # ias15: dt is its output interval) is stable at every dt and its
-                                             # finite-horizon test costs in proportion to dt: 4.6 s at 100 on
-                                             # Kepler, so a search to 1e4 would take about 15 minutes.
+                                             # finite-horizon test costs in proportion to dt, so a search to
+                                             # 1e4 would cost a hundred times the search to 100.
     cell_timeout: float = 120.0              # seconds a task (one scene x method, all its measures) may take
     bounds: bool = True                      # measure the reviewed energy bounds
     frame_rates: tuple[float, ...] = (60.0,)  # frame rates of the advice cells (scenes with ``advise``)
@@ -108,7 +109,7 @@ VELOCITY_SCHEMES = ("ref:semi_implicit_euler_velocity_implicit", "ref:position_f
                     "ref:position_first_euler_decay_before_kick")
 
 #: Reference schemes the standard suite leaves out on the chain, to stay in its budget: each
-#: costs its (scheme, scene) numba compile, 5-10 s of CPU. It keeps explicit Euler (the cost
+#: costs a (scheme, scene) numba compile of its own. It keeps explicit Euler (the cost
 #: baseline), semi-implicit Euler and leapfrog (limit h*omega = 2), RK4 (2 sqrt 2), implicit
 #: Euler and implicit midpoint, and every engine mode; the full suite runs all ten schemes.
 CHAIN_STANDARD_SKIP = ("ref:semi_implicit_euler_position_first", "ref:verlet", "ref:velocity_verlet",
@@ -124,8 +125,9 @@ ROPE_STANDARD_SKIP = ("mujoco:discrete",)
 #: interval that is a whole number of orbits samples its bounded energy oscillation at one phase,
 #: whose slow slide reads as growth; on Kepler its phase error is fitted below 0.1, in the first
 #: few hundred orbits). The walk needs a long run to be established (10,000 orbits on
-#: Kepler; over 3,000 it reads t^0.38). Measured here: IAS15 on Kepler, 12 realizations, 31 s
-#: (the full suite's 24, 63 s); on the outer solar system over 2e6 days, 24, 10 s.
+#: Kepler; over 3,000 it reads t^0.38). The standard suite runs 12 realizations of IAS15 on
+#: Kepler, the full suite 24, since the ensemble's cost grows with its size; the outer solar
+#: system runs 24 over 2e6 days in both.
 def _brouwer(kepler_realizations: int) -> tuple[dict, dict]:
     return ({"rebound:ias15": {"realizations": kepler_realizations, "periods": 10_000, "outputs": 100},
              "rebound:leapfrog": {"realizations": 8, "periods": 1000, "outputs": 331}},
@@ -221,8 +223,8 @@ SUITES: dict[str, Suite] = {
                                extras=CLOTH_FULL_EXTRAS),
             "net": SceneSpec(params={"n": 4, "m": 4}, periods=50, order_points=8, order_span=16.0),
             # MuJoCo's flexcomp membrane on the cloth's grid: not the same model, measured against its own
-            # refined RK4 run; left out of the standard suite (one task took 40 s, the stability search of
-            # mujoco:discrete to h*omega 80 the most of it). Its order over two periods: over half of one
+            # refined RK4 run; left out of the standard suite (its long task, the stability search of
+            # mujoco:discrete to h*omega 80, would be the suite's longest). Its order over two periods: over half of one
             # RK4's errors fall under its reference's 1e-11.
             "cloth_flex": SceneSpec(params={"n": 4, "m": 4, "k": 1000.0}, periods=50, order_points=8, order_span=16.0,
                                     order_periods=2.0),
