@@ -24,6 +24,7 @@ import dask_faults
 from harness.execution import distributed
 from harness.cli import main
 from harness.execution.isolation import ORPHAN_GRACE_S, WorkerFailure, run_in_worker
+from harness.nightly.cells import run_task
 from harness.nightly.run import Task, build_tasks
 from harness.history.storage import History
 from harness.nightly.suites import SUITES
@@ -290,7 +291,7 @@ def test_a_hung_cell_in_a_dask_worker_is_timed_out_and_never_outlives_its_worker
     ORPHAN_GRACE_S after its limit instead of hanging on for good."""
     bound = Task("bound", "spring", "ref:semi_implicit_euler", "ref", {}, "smoke", 0.1, 1000, 1.0)
     with dask.config.set({"distributed.worker.daemon": dask.config.get("distributed.worker.daemon")}):
-        executor = distributed.DaskExecutor("local:1")
+        executor = distributed.DaskExecutor("local:1", run_task=run_task)
         try:
             assert executor.describe().endswith("(1 worker process, 1 thread each; a cell whose worker dies "
                                                 "is retried once)")

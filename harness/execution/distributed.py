@@ -114,9 +114,9 @@ def resolve_scheduler(option: str | None, jobs_given: bool) -> tuple[str, str] |
 
 
 # ----------------------------------------------------------------------------- worker side
-def run_cell_task(task, timeout):
-    """Runs in the Dask worker: the task in an isolated child process, as a local run does."""
-    from harness.nightly.cells import run_task
+def run_cell_task(task, timeout, run_task):
+    """Runs in the Dask worker: ``run_task(task)`` (the nightly's ``harness.nightly.cells.run_task``,
+    pickled by name) in an isolated child process, as a local run does."""
     from harness.execution.isolation import run_in_worker
 
     return run_in_worker(run_task, (task,), timeout=timeout)
@@ -141,9 +141,11 @@ def _one_line(exc: BaseException) -> str:
 
 
 class DaskExecutor:
-    """Runs nightly tasks on a Dask cluster; the same ``describe/run/close`` as ``LocalExecutor``."""
+    """Runs nightly tasks on a Dask cluster; the same ``describe/run/close`` as ``LocalExecutor``.
+    ``run_task`` is what a worker runs for one task (the nightly passes ``harness.nightly.cells.run_task``:
+    this layer runs tasks, it does not know what they measure)."""
 
-    def __init__(self, spec: str, source: str = "--scheduler"):
+    def __init__(self, spec: str, source: str = "--scheduler", *, run_task):
         try:
             import dask
             from dask.distributed import Client, LocalCluster
@@ -151,7 +153,7 @@ class DaskExecutor:
             raise InvalidInput(f"{source} needs the [distributed] extra (pip install "
                                f"'integrator-harness[distributed]'): {exc}") from None
         kind, arg = parse_scheduler(spec, source)
-        self.spec, self.source = spec, source
+        self.spec, self.source, self.run_task = spec, source, run_task
         self.cluster = self.client = None
         try:
             if kind == "local":
@@ -246,7 +248,8 @@ class DaskExecutor:
             # At most one task per worker thread, so a dying worker is charged only its own cell.
             while queue and len(in_flight) < max(slots, 1):
                 i, task = queue.pop()
-                fut = self.client.submit(run_cell_task, task, timeout, pure=False, key=f"{task.label} [{token}-{i}]")
+                fut = self.client.submit(run_cell_task, task, timeout, self.run_task, pure=False,
+                                         key=f"{task.label} [{token}-{i}]")
                 in_flight[fut] = task
             try:
                 done = wait(list(in_flight), timeout=POLL_S, return_when="FIRST_COMPLETED").done

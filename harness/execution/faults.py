@@ -5,8 +5,9 @@ kill the process, its whole process group where it leads one (its workers with i
 what an OOM killer or a lost machine does, with no handler run and nothing flushed. The points:
 
 * ``store``: inside a task's store, its cells written and their transaction not yet committed
-  (``harness.history.storage.History.add_task_cells``);
-* ``report``: the report's charts drawn, its markdown not yet written (``reports.markdown``).
+  (the nightly passes ``checkpoint("store")`` as ``History.add_task_cells``'s ``before_commit``);
+* ``report``: the report's charts drawn, its markdown not yet written (``reports.markdown``'s
+  ``before_write``).
 
 A kill during a task needs no point: the tests kill the process group from outside once the
 first cells are stored. Unset (every real run), ``checkpoint`` is one dictionary lookup.

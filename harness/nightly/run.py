@@ -30,6 +30,7 @@ from records.run import RunSettings, RunTiming
 from scenarios import SCENES, make_scene
 
 from harness.execution.environment import run_metadata
+from harness.execution.faults import checkpoint
 from harness.history import bounds as bounds_mod
 from harness.history.compare import compare_runs
 from harness.history.series import load as load_trend
@@ -163,10 +164,11 @@ def make_executor(jobs: int | None, scheduler: str | None):
     """A Dask cluster for ``--scheduler`` (else ``$HARNESS_SCHEDULER``, unless ``--jobs`` was given),
     local worker processes otherwise; see ``harness.execution.distributed``."""
     from harness.execution.distributed import DaskExecutor, resolve_scheduler
+    from harness.nightly.cells import run_task
 
     chosen = resolve_scheduler(scheduler, jobs is not None)
     if chosen:
-        return DaskExecutor(*chosen)
+        return DaskExecutor(*chosen, run_task=run_task)
     return LocalExecutor(jobs or os.cpu_count() or 1)
 
 
@@ -216,7 +218,6 @@ def report_run(history: History, run_id: int, out: Path, regressions=(), previou
                trend=None, jobs: int | None = None) -> Path:
     """The run's stored cells judged (``harness.judge``) and written as its report (``reports.markdown``),
     its charts drawn by ``jobs`` processes (default: one a core)."""
-    from harness.execution.faults import checkpoint
     from harness.judge import judge
     from reports.markdown import write_report
 
@@ -322,7 +323,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
             cells = result if isinstance(result, list) else failed_cells(task, result)
             stats = getattr(executor, "task_stats", {}).get(task.label)
             history.add_task_cells(run_id, task.label, cells, getattr(stats, "wall_s", None),
-                                   getattr(stats, "cpu_s", None))
+                                   getattr(stats, "cpu_s", None), before_commit=lambda: checkpoint("store"))
             cells_by_task[task.label] = cells
             worst = next((c.status for c in cells if c.status != "ok"), "ok")
             progress.update(task, worst, sum(c.wall_s or 0.0 for c in cells), cells)
