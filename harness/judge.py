@@ -488,9 +488,13 @@ def checks_of(scene: str) -> tuple[Check, ...]:
 def scene_findings(piv: dict) -> list[Finding]:
     """The checks of every scene present in this run, each table row in turn: the scenes in
     ``SCENE_CHECKS``'s order, then the scenes matched by an id prefix, sorted."""
+    from records.measures import measures
+
     present = {s for s, _ in piv}
     order = [s for s in SCENE_CHECKS if s in present] + sorted(s for s in present if s not in SCENE_CHECKS)
-    return [f for scene in order for check in checks_of(scene) for f in FINDINGS[check.finding](check, scene, piv)]
+    out = [f for scene in order for check in checks_of(scene) for f in FINDINGS[check.finding](check, scene, piv)]
+    # What a registered measure draws from its own cells (records.measures.Measure.findings).
+    return out + [f for scene in order for m in measures() if m.findings is not None for f in m.findings(scene, piv)]
 
 
 # ----------------------------------------------------------------------------- the run

@@ -16,6 +16,7 @@ import os
 import adapters
 import reference
 from records import InvalidInput, Method, MethodId
+from records.measures import register as register_measure, unregister as unregister_measure
 from records.method import OPTIONAL, REQUIRED
 from reference import Exact, RefMethod
 from scenarios import Scene
@@ -100,6 +101,7 @@ def _with_options(method: Method, options: dict) -> Method:
 PLUGINS_ENV = "HARNESS_PLUGINS"
 
 _PLUGIN_METHODS: dict[str, dict] = {}   # module name -> the methods it registered, completed (as_method)
+_PLUGIN_MEASURES: dict[str, tuple] = {}  # module name -> the names of the measures it registered
 _TASK_PLUGINS: tuple[str, ...] = ()     # in a worker: the plugins its current task names
 
 
@@ -115,7 +117,9 @@ def load_plugins(names) -> dict[str, object]:
     A plugin module defines ``METHODS``, a dict from method id (``family:mode``) to a method
     object: an ``adapters.EngineMode``, or anything with ``id``, ``available()``,
     ``supports(scene)``, ``simulate(scene, dt, steps, every)`` and ``describe()``, whose other
-    capabilities (``records.Method``) are then given their defaults here (:func:`as_method`).
+    capabilities (``records.Method``) are then given their defaults here (:func:`as_method`). It may
+    also, or instead, define ``MEASURES``, a list of ``records.measures.Measure``: each is
+    registered, so every task, the history, the judge and the report take it.
     ``isolated = True`` steps it in a worker process, so an abort or a hang in it becomes a
     recorded result."""
     out: dict[str, object] = {}
@@ -126,14 +130,20 @@ def load_plugins(names) -> dict[str, object]:
             except ImportError as exc:
                 raise InvalidInput(f"{PLUGINS_ENV}: plugin module {name!r} cannot be imported ({exc})") from None
             methods = getattr(module, "METHODS", None)
+            declared = getattr(module, "MEASURES", None)
+            if methods is None and declared is not None:
+                methods = {}
             if not isinstance(methods, dict):
                 raise InvalidInput(f"{PLUGINS_ENV}: plugin module {name!r} defines no METHODS dict "
-                                   "(method id -> method object)")
+                                   "(method id -> method object) and no MEASURES list")
+            _PLUGIN_MEASURES[name] = tuple(m.name for m in declared or ())
             for mid, m in methods.items():
                 if getattr(m, "id", None) != mid or _plugin_family(mid) is None:
                     raise InvalidInput(f"{PLUGINS_ENV}: plugin {name!r} registers {mid!r} for a method whose id is "
                                        f"{getattr(m, 'id', None)!r} (ids are family:mode, the family not 'ref')")
             _PLUGIN_METHODS[name] = {mid: as_method(m) for mid, m in methods.items()}
+        for measure in getattr(importlib.import_module(name), "MEASURES", None) or ():
+            register_measure(measure)  # records.measures.Measure: registering it again changes nothing
         out.update(_PLUGIN_METHODS[name])
     return out
 
@@ -153,6 +163,10 @@ def use_plugins(names) -> None:
     global _TASK_PLUGINS
     load_plugins(names)
     _TASK_PLUGINS = tuple(names)
+    for module, declared in _PLUGIN_MEASURES.items():  # a previous task's plugin measures go with it
+        if module not in active_plugins():
+            for measure in declared:
+                unregister_measure(measure)
 
 
 def active_plugins() -> tuple[str, ...]:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from records.cell import Cell, Claims, pivot
 from records.findings import MARK, ClaimChecks, Finding, Judgement, Verdict
+from records.measures import columns, measures
 from records.run import RunRecord, RunTiming
 
 from . import charts
@@ -174,7 +175,7 @@ def identity_table(piv: dict) -> list[str]:
     return lines + [""]
 
 
-def _energy_text(energy) -> str:
+def energy_text(energy) -> str:
     if energy is None:
         return "–"
     if energy.status != "ok":
@@ -184,7 +185,7 @@ def _energy_text(energy) -> str:
     return _fmt(energy.value, ".2e")
 
 
-def _error_text(error) -> str:
+def error_text(error) -> str:
     if error is None:
         return "–"
     if error.status != "ok":
@@ -206,51 +207,62 @@ COST_COLUMNS = ("CPU µs/step: a reference scheme's compiled loop, an engine mod
                 "read and checked and its forces applied from Python after every step.")
 
 
+def evals_text(cost, mark) -> str:
+    if cost is None or cost.status != "ok":
+        return "–"
+    f = cost.figures
+    return _fmt(f.force_evals_per_step, ".3g", mark(
+        f.force_evals_reason and f"`{cost.method}` counts no force evaluations: {f.force_evals_reason}"))
+
+
+def cpu_text(cost, mark) -> str:
+    if cost is None:
+        return "–"
+    return _fmt(cost.value * 1e6, ".3g") if cost.status == "ok" else cost.status
+
+
+def as_stepped_text(cost, mark) -> str:
+    return _fmt(_micro(cost.figures.as_stepped_s_per_step), ".3g") if cost is not None and cost.status == "ok" else "–"
+
+
+def ratio_text(cost, mark) -> str:
+    return _fmt(cost.figures.ratio_to_explicit_euler, ".2f") if cost is not None and cost.status == "ok" else "–"
+
+
 def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
+    """A scene's table (a row per method: its status, then every registered measure's columns,
+    ``records.measures``), the lines each measure prints under it, and its charts."""
     notes_of_model = sorted({c.model_note for (s, _), ms in piv.items() if s == scene for c in ms.values()
                              if c.model_note})
+    cols = columns()
     lines = [f"### `{scene}`", "", *(f"**{note}.**" for note in notes_of_model), *([""] if notes_of_model else []),
-             "| method | status | max \\|ΔE/E\\| | energy | max global error | order | largest stable h·ω | "
-             "evals/step | CPU µs/step | as stepped µs/step | time ratio |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| method | status | " + " | ".join(c.header for c in cols) + " |",
+             "|---|---|" + "---|" * len(cols)]
     notes = Footnotes()
     for (s, method), ms in sorted(piv.items()):
         if s != scene:
             continue
-        energy, error, order, stab, cost = (ms.get(m) for m in ("energy", "error", "order", "stability", "cost"))
+        energy = ms.get("energy")
         statuses = sorted({r.status for r in ms.values() if r.status != "ok"})
         status = ", ".join(statuses) if statuses else "ok"
         if energy is not None and energy.status == "unstable" and energy.figures.failed_step:
             status += f" (energy run: step {energy.figures.failed_step})"
-        timed = cost is not None and cost.status == "ok"
-        cells = [
-            f"`{method}`", status,
-            _energy_text(energy),
-            _class_text(energy),
-            _error_text(error),
-            _order_text(order),
-            homega_text(stab),
-            _fmt(cost.figures.force_evals_per_step, ".3g", notes.mark(
-                cost.figures.force_evals_reason and f"`{method}` counts no force evaluations: "
-                                                    f"{cost.figures.force_evals_reason}")) if timed else "–",
-            _fmt(cost.value * 1e6, ".3g") if timed else (cost.status if cost is not None else "–"),
-            _fmt(_micro(cost.figures.as_stepped_s_per_step), ".3g") if timed else "–",
-            _fmt(cost.figures.ratio_to_explicit_euler, ".2f") if timed else "–",
-        ]
+        cells = [f"`{method}`", status, *(c.text(ms, notes.mark) for c in cols)]
         lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
     lines += notes.lines()
-    lines += brouwer_lines(scene, piv)
-    for (s, _), ms in sorted(piv.items()):
-        if s == scene and "cross_engine" in ms:
-            head, *differences = cross_engine_lines(ms["cross_engine"])
-            lines += [f"Two engines from the same state: {head}", ""]
-            lines += [f"- {d}" for d in differences] + ([""] if differences else [])
+    for m in measures():
+        if m.section is not None:
+            lines += m.section(scene, piv)
     for kind, title in (("energy", "Energy against time"), ("workprecision", "Work-precision: error against cost"),
                         ("stability", "Largest stable h·ω")):
         name = chart_names.get((scene, kind))
         if name:
             lines += [f"![{title} on {scene}]({name})", ""]
+    for m in measures():
+        name = chart_names.get((scene, f"measure:{m.name}"))
+        if name:
+            lines += [f"![{m.name} on {scene}]({name})", ""]
     return lines
 
 
@@ -294,7 +306,7 @@ def cross_engine_lines(c) -> list[str]:
     return [head] + differences + notes
 
 
-def _class_text(energy) -> str:
+def class_text(energy) -> str:
     """The energy class, with what the bodies did where a class alone misleads (an orbit that
     spirals in and is thrown out "grows"): the run's events (``Scene.events``)."""
     if energy is None:
@@ -304,7 +316,7 @@ def _class_text(energy) -> str:
     return cls + (f" ({'; '.join(ev['text'] for ev in events)})" if events else "")
 
 
-def _order_text(order) -> str:
+def order_text(order) -> str:
     """The measured order; where the scheme declares a lower order for this scene's
     velocity-dependent force, that declaration beside it, so a first-order result reads as
     the scheme's and not as a failure."""
@@ -365,6 +377,10 @@ def report_charts(run_id: int, cells: list[Cell], trend=None) -> tuple[list[Char
         for hz in frame_rates(cells):
             names[(scene, f"advise{hz:g}")] = name = f"charts/run{run_id}-{scene}-advise{hz:g}hz.png"
             todo.append(Chart(name, charts.advice_chart, (of_scene, scene, hz), styles))
+        for m in measures():  # a registered measure's own chart, where its cells are on the scene
+            if m.chart is not None and any(c.measure == m.name for c in of_scene):
+                names[(scene, f"measure:{m.name}")] = name = f"charts/run{run_id}-{scene}-{m.name}.png"
+                todo.append(Chart(name, m.chart, (of_scene, scene)))
     names["damping"] = name = f"charts/run{run_id}-damping-stability.png"
     todo.append(Chart(name, charts.damping_stability_chart, (cells,), styles))
     return todo + history_charts(trend, run_id), names

@@ -9,7 +9,9 @@ from pathlib import Path
 from records import InvalidInput
 
 from harness import validate
-from harness.history.series import MEASURES, WINDOW, load
+from records.measures import trended
+
+from harness.history.series import WINDOW, load
 from harness.nightly.run import DEFAULT_DB
 from harness.history.storage import MEASUREMENT_VERSION, History
 
@@ -18,7 +20,7 @@ def add_parser(sub):
     p = sub.add_parser("history", help="a cell's series across stored runs, and the steps detected in it")
     p.add_argument("--scene", default=None)
     p.add_argument("--method", default=None)
-    p.add_argument("--measure", default=None, help=f"one of: {', '.join(MEASURES)}")
+    p.add_argument("--measure", default=None, help="one of the trended measures (harness list)")
     p.add_argument("--last", default=None, help=f"the last N complete runs (default: {WINDOW})")
     p.add_argument("--suite", default=None, help="the suite (default: the latest complete run's)")
     p.add_argument("--measurement-version", default=None,
@@ -39,7 +41,7 @@ def run(args) -> int:
     version = (validate.count("--measurement-version", args.measurement_version, 1)
                if args.measurement_version is not None else MEASUREMENT_VERSION)
     if args.measure is not None:
-        validate.choice("--measure", args.measure, MEASURES)
+        validate.choice("--measure", args.measure, list(trended()))
     if not Path(args.db).exists():
         raise InvalidInput(f"--db={args.db}: no such history (run `harness nightly` first)")
     trend = load(History(args.db), suite=args.suite, measurement_version=version, last=last, scene=args.scene,

@@ -7,6 +7,8 @@ from records import is_reference
 
 from scenarios import ENGINE_SCENES, SCENES
 
+from records.measures import measures
+
 from harness.methods import all_methods
 
 
@@ -33,7 +35,9 @@ def catalogue() -> dict:
             support[sid] = True if sup else reason
         entry["scenes"] = support
         methods[mid] = entry
-    return {"scenes": scenes, "methods": methods}
+    listed = {m.name: {"doc": m.doc, "figures": m.figures.__name__, "made_by": m.made_by, "trend": m.trend,
+                       "columns": [c.header for c in m.columns]} for m in measures()}
+    return {"scenes": scenes, "methods": methods, "measures": listed}
 
 
 def run(args) -> int:
@@ -48,6 +52,9 @@ def run(args) -> int:
         if s["model_note"]:
             print(f"  {'':16s} {s['model_note']}")
         print(f"  {'':16s} omega={s['omega']:.4g} (h*omega at 60 Hz: {s['omega'] / 60.0:.3g})  params: {params}")
+    print("\nMeasures")
+    for name, m in cat["measures"].items():
+        print(f"  {name:22s} {m['doc']}" + (f" (made by the {m['made_by']} run)" if m["made_by"] else ""))
     print("\nMethods")
     for mid, m in cat["methods"].items():
         if is_reference(mid):

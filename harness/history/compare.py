@@ -1,6 +1,8 @@
 """What got worse between two stored runs.
 
-Cells are matched on (scene, method, measure, dt). A regression is, in run B against run A:
+Cells are matched on (scene, method, measure, dt). Each measure declares its own rule with it
+(``records.measures.Measure.regression``; the built-in ones in ``harness.nightly.cells``), and this
+module applies whichever is declared. A regression is, in run B against run A:
 
 * ``energy bound``: a ``bound`` cell whose max |dE/E| is above the reviewed bound (read from
   the bounds file at comparison time, so a tightened bound is checked against stored runs);
@@ -38,7 +40,7 @@ import math
 import pandas as pd
 
 from records import InvalidInput
-from records.cell import figures_of
+from records.measures import get
 
 from harness.history import bounds as bounds_mod
 from harness.history.regression import Regression
@@ -102,33 +104,15 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
             continue
         if ra["status"] != "ok" or rb["status"] != "ok":
             continue
-        va, vb = _val(ra["value"]), _val(rb["value"])
-        if measure == "order" and va is not None and vb is not None and vb < va - ORDER_DROP:
-            out.append(Regression("order", scene, method, measure, dt, va, vb,
-                                  f"observed order {va:.2f} -> {vb:.2f} (drop > {ORDER_DROP})"))
-        elif measure == "stability":
-            ua, ub = figures_of(ra).unbounded, figures_of(rb).unbounded
-            if ua and not ub:
-                out.append(Regression("stability", scene, method, measure, dt, "unbounded", vb,
-                                      f"was unbounded, now h*omega max = {vb:.4g}"))
-            elif va is not None and vb is not None and math.isfinite(va) and vb < va * (1 - STABILITY_DROP):
-                out.append(Regression("stability", scene, method, measure, dt, va, vb,
-                                      f"largest stable h*omega {va:.4g} -> {vb:.4g} (drop > {STABILITY_DROP:.0%})"))
-        elif measure == "cost":
-            fa, fb = figures_of(ra), figures_of(rb)
-            ra_ratio, rb_ratio = fa.ratio_to_explicit_euler, fb.ratio_to_explicit_euler
-            if runs is not None and what_differs(*runs, rb["family"], deterministic=False) == NOTHING_DIFFERS:
-                continue
-            if ra_ratio and rb_ratio:
-                cal_a, cal_b = fa.calibration, fb.calibration
-                moved = abs(cal_b / cal_a - 1.0) if cal_a and cal_b else 0.0
-                spread = fa.noise + fb.noise + PROCESS_SPREAD + moved
-                if rb_ratio > ra_ratio * (1 + spread):
-                    out.append(Regression("slowdown", scene, method, measure, dt, ra_ratio, rb_ratio,
-                                          f"cost ratio to explicit Euler {ra_ratio:.2f} -> {rb_ratio:.2f}, "
-                                          f"beyond the noise allowed ({spread:.0%}: the repeats' spreads, "
-                                          f"{PROCESS_SPREAD:.0%} from process to process"
-                                          + (f" and the calibration's move, {moved:.0%}" if moved else "") + ")"))
+        declared = get(measure)  # the measure's own regression rule (records.measures), if it has one
+        if declared is None or declared.regression is None:
+            continue
+        context = {"machine_only": lambda rb=rb: runs is not None and what_differs(
+            *runs, rb["family"], deterministic=False) == NOTHING_DIFFERS}
+        found = declared.regression({**ra, "value": _val(ra["value"])}, {**rb, "value": _val(rb["value"])}, context)
+        if found is not None:
+            kind, before, after, detail = found
+            out.append(Regression(kind, scene, method, measure, dt, before, after, detail))
     return out
 
 

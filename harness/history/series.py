@@ -47,16 +47,14 @@ from scipy.stats import norm
 
 from records import InvalidInput
 from records.cell import figures_of
+from records.measures import get, trended
 from records.run import NUMBA_OPT_KEY, RunRecord
 
 from harness.history import step_detect
 from harness.history.regression import Regression
 from harness.history.storage import MEASUREMENT_VERSION, History
 
-MEASURES = ("energy", "error", "order", "stability", "cost")
-DETERMINISTIC = ("energy", "error", "order", "stability")
 #: Which way is worse, by measure.
-HIGHER_IS_WORSE = {"energy": True, "error": True, "order": False, "stability": False, "cost": True}
 #: Complete runs of a suite from which cost is judged over the history.
 MIN_RUNS = 3
 #: Runs judged by default: about two months of nights.
@@ -189,7 +187,7 @@ class Trend:
     def latest_changes(self) -> list[tuple[CellHistory, Change]]:
         """Changes of accuracy figures that arrived with the latest run."""
         last = self.run_ids[-1] if self.runs else None
-        return [(c, ch) for c in self.cells if c.measure in DETERMINISTIC for ch in c.changes if ch.run_id == last]
+        return [(c, ch) for c in self.cells if get(c.measure).deterministic for ch in c.changes if ch.run_id == last]
 
     def as_dict(self) -> dict:
         return {"db": self.path, "suite": self.suite, "measurement_version": self.measurement_version,
@@ -313,8 +311,8 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
     """The trend of a suite's cells up to ``run_id`` (default: the latest complete run; a run still
     being written, the nightly's own, is included when named). Filters name stored scenes, methods
     and a measure of ``MEASURES``; anything else is an ``InvalidInput`` naming the valid ones."""
-    if measure is not None and measure not in MEASURES:
-        raise InvalidInput(f"unknown --measure {measure!r} (valid: {', '.join(MEASURES)})")
+    if measure is not None and measure not in trended():
+        raise InvalidInput(f"unknown --measure {measure!r} (valid: {', '.join(trended())})")
     runs = history.runs(complete_only=False)
     chosen = runs[(runs.complete == 1) | (runs.run_id == (run_id if run_id is not None else -1))]
     if run_id is not None:
@@ -342,7 +340,7 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
     same = same.tail(last or WINDOW)
     run_rows = [RunRecord.of(r.to_dict()) for _, r in same.iterrows()]
     by_id = {r.run_id: r for r in run_rows}
-    cells = history.cells_of_runs(list(by_id), [measure] if measure else MEASURES, data_of=("cost",))
+    cells = history.cells_of_runs(list(by_id), [measure] if measure else list(trended()), data_of=("cost",))
     for name, value in (("--scene", scene), ("--method", method)):
         column = name[2:]
         if value is not None:
@@ -361,7 +359,7 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
         groups.setdefault(key, []).append(row)
     for rows in groups.values():
         trend.cells.append(_cell_history(rows, by_id, judged=trend.judged))
-    trend.cells.sort(key=lambda c: (c.scene, c.method, MEASURES.index(c.measure)))
+    trend.cells.sort(key=lambda c: (c.scene, c.method, trended().index(c.measure)))
     return trend
 
 
@@ -385,13 +383,13 @@ def _cell_history(rows: list[dict], runs: dict[int, RunRecord], judged: bool) ->
         cal = figures_of(row).calibration if measure == "cost" else None
         points.append(Point(int(row["run_id"]), run.git_commit, run.started, value, spread,
                             row["status"], float(cal) if cal else None))
+    declared = get(measure)  # unit, direction and determinism: the measure's declaration
     if measure != "cost":
-        unit = {"energy": "max |dE/E|", "error": "max global error", "order": "observed order",
-                "stability": "largest stable h*omega"}[measure]
+        unit = declared.trend
     cell = CellHistory(first["scene"], first["method"], first["family"], measure, dt, unit, points)
     ok = cell.ok_points()
-    worse_up = HIGHER_IS_WORSE[measure]
-    if measure in DETERMINISTIC:
+    worse_up = declared.higher_is_worse
+    if declared.deterministic:
         for a, b in zip(ok, ok[1:]):
             if not _same(a.value, b.value):
                 ra, rb = runs[a.run_id], runs[b.run_id]

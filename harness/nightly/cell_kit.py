@@ -6,10 +6,32 @@ JSON-able. Both modules import this one; it imports neither.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from records.cell import Cell
+from records.cell import Cell, Claims
+
+
+@dataclass
+class TaskContext:
+    """What a measure's ``run`` and ``applies`` see of one scene x method task
+    (``records.measures.Measure``): the task, its suite and scene spec, the scene and the method
+    (``run_method``: the compiled twin where the scene's long runs take it), the nominal dt, the
+    reference schemes' backend, the claims the cells are judged by (an identity run may replace
+    them) and the cells measured so far, by measure."""
+
+    task: Any
+    suite: Any
+    spec: Any
+    scene: Any
+    method: Any = None
+    run_method: Any = None
+    dt: float | None = None
+    exact: Any = None
+    claims: Claims = field(default_factory=Claims)
+    cells: dict = field(default_factory=dict)
 
 
 def make_cell(task, measure, status="ok", value=None, dt=None, steps=None, detail="", figures=None, extra=None,

@@ -33,18 +33,13 @@ import numpy as np
 from scenarios import make_scene
 
 from records.cell import (AdviceFigures, BoundFigures, Cell, Claims, CostFigures, EnergyFigures, ErrorFigures,
-                          IdentityFigures, NominalRun, OrderFigures, StabilityFigures)
+                          IdentityFigures, NominalRun, OrderFigures, StabilityFigures, figures_of)
 
-from harness.nightly.cell_kit import energy_run, finite, guard, guard_many, make_cell, nominal_dt, plain
-from harness.nightly.scene_cells import measures_for as scene_measures, scene_cells
+from records.measures import Column, Measure, measures, register
+
+from harness.nightly.cell_kit import TaskContext, energy_run, finite, guard, guard_many, make_cell, nominal_dt, plain
+from harness.history.compare import ORDER_DROP, PROCESS_SPREAD, STABILITY_DROP
 from harness.nightly.suites import SUITES, Suite
-
-#: The measures of a scene x method task, in the order they run (identity first for an engine
-#: mode: the scheme it is identified as gives the claims its other cells are judged by). The
-#: stability search runs last: its cost is the least bounded (a finite-horizon test against a
-#: reference solve can be the longest run of a task: docs/performance.md), and a task that times out
-#: in it keeps every cell before it.
-MEASURES = ("energy", "error", "order", "cost", "stability")
 
 #: The scheme an engine mode's name suggests, for the findings ("implicit" that is not).
 #: A bare "euler" suggests no one scheme (MuJoCo documents its Euler as semi-implicit).
@@ -57,26 +52,29 @@ def suite_of(task) -> Suite:
     return task.suite if isinstance(task.suite, Suite) else SUITES[task.suite]
 
 
-def measures_for(task, method=None) -> list[str]:
-    """The task's measures, in the order ``run_task`` measures them."""
+def context(task, method=None, exact=None) -> TaskContext:
+    """The task's ``TaskContext`` before any cell is measured."""
     from harness.methods import get_method
 
     suite = suite_of(task)
-    out = list(MEASURES)
-    if not suite.scenes[task.scene].stability:
-        out.remove("stability")
-    if (method or get_method(task.method)).adaptive:
-        # It picks its own steps (dt is the output interval): nothing to measure against dt.
-        out = [m for m in out if m not in ("order", "stability")]
-    if suite.scenes[task.scene].advise is not None and "order" in out:  # fixed-step methods only
-        out.append("advise")
+    spec = suite.scenes[task.scene]
     scene = make_scene(task.scene, source=task.source, **task.params)
-    if task.family != "ref" and suite.identify and not scene.constrained and scene.has_kernels:
-        # A constrained scene's only reference scheme projects positions; no engine integrates
-        # that (MuJoCo's rope is reduced coordinates, pymunk's impulses): nothing to identify.
-        # Nor on a model file, which no reference scheme steps.
-        out.insert(0, "identity")
-    return out + scene_measures(task, suite.scenes[task.scene])
+    method = method or get_method(task.method, exact=exact)
+    dt = nominal_dt(spec, scene)
+    # Long runs of reference schemes on the compiled path (same states); counting stays interpreted.
+    run_method = method.compiled_twin() if spec.compiled else method
+    return TaskContext(task, suite, spec, scene, method, run_method, dt, exact, _claims(method, scene))
+
+
+def _applies(measure, ctx) -> bool:
+    return measure.run is not None and (measure.applies is None or bool(measure.applies(ctx)))
+
+
+def measures_for(task, method=None) -> list[str]:
+    """The task's measures, in the order ``run_task`` measures them: the registry's
+    (``records.measures``), each where it applies."""
+    ctx = context(task, method)
+    return [name for m in measures() if _applies(m, ctx) for name in m.cells]
 
 
 def _claims(method, scene=None) -> Claims:
@@ -131,43 +129,23 @@ def compiles_for(task, suite: Suite) -> set[str]:
 
 
 def _scene_task(task, suite: Suite, exact=None) -> list[Cell]:
+    """Every registered measure that applies to the task, in registry order, each cell sent back
+    as it is measured (a crash in one measure is its cell, and the rest go on)."""
     from harness.execution.pool import report_partial
-    from harness.methods import get_method
 
-    spec = suite.scenes[task.scene]
-    scene = make_scene(task.scene, source=task.source, **task.params)
-    method = get_method(task.method, exact=exact)
-    dt = nominal_dt(spec, scene)
-    # Long runs of reference schemes on the compiled path (same states); counting stays interpreted.
-    run_method = method.compiled_twin() if spec.compiled else method
-    claims = _claims(method, scene)
+    ctx = context(task, exact=exact)
     cells = []
-
-    def keep(*new):
+    for measure in measures():
+        if not _applies(measure, ctx):
+            continue
+        new = guard_many(task, measure.cells, lambda: measure.run(ctx))
         for c in new:
             if c.claims is None:
-                c.claims = claims
-            c.model_note = scene.model_note
+                c.claims = ctx.claims
+            c.model_note = ctx.scene.model_note
             cells.append(c)
+            ctx.cells.setdefault(c.measure, c)
             report_partial(c)
-
-    measures = measures_for(task, method)
-    if "identity" in measures:
-        identity = guard(task, "identity", lambda: _identity(task, method, scene, exact))
-        match_claims = identity.figures.match_claims
-        if identity.ok and match_claims is not None and match_claims.known:
-            claims = match_claims
-        keep(identity)
-    keep(*guard_many(task, ("energy", "error"), lambda: _energy_and_error(task, run_method, scene, dt, spec, suite)))
-    if "order" in measures:
-        keep(guard(task, "order", lambda: _order(task, run_method, scene, spec)))
-    cost = guard(task, "cost", lambda: _cost(task, method, scene, dt, suite))
-    keep(cost)
-    if "advise" in measures:
-        keep(*guard_many(task, ("advise",), lambda: _advise(task, method, scene, spec, suite, cost)))
-    if "stability" in measures:
-        keep(guard(task, "stability", lambda: _stability(task, run_method, scene, suite, spec)))
-    keep(*scene_cells(task, method, scene, dt, spec, suite, claims))
     return cells
 
 
@@ -363,3 +341,122 @@ def failed_cells(task, failure) -> list[Cell]:
                              figures=BoundFigures(bound=task.bound) if bound else None,
                              wall=max(wall, 0.0) if i == 0 else 0.0))
     return out
+
+
+# ----------------------------------------------------------------------------- the measures
+def _order_drop(ra, rb, ctx):
+    va, vb = ra["value"], rb["value"]
+    if va is not None and vb is not None and vb < va - ORDER_DROP:
+        return "order", va, vb, f"observed order {va:.2f} -> {vb:.2f} (drop > {ORDER_DROP})"
+    return None
+
+
+def _stability_drop(ra, rb, ctx):
+    va, vb = ra["value"], rb["value"]
+    if figures_of(ra).unbounded and not figures_of(rb).unbounded:
+        return "stability", "unbounded", vb, f"was unbounded, now h*omega max = {vb:.4g}"
+    if va is not None and vb is not None and math.isfinite(va) and vb < va * (1 - STABILITY_DROP):
+        return "stability", va, vb, f"largest stable h*omega {va:.4g} -> {vb:.4g} (drop > {STABILITY_DROP:.0%})"
+    return None
+
+
+def _slowdown(ra, rb, ctx):
+    """The cost ratio to explicit Euler beyond the noise (``harness.history.compare``); never where
+    nothing the cell depends on differs between the runs (``ctx["machine_only"]()``: the machine's)."""
+    if ctx["machine_only"]():
+        return None
+    fa, fb = figures_of(ra), figures_of(rb)
+    ra_ratio, rb_ratio = fa.ratio_to_explicit_euler, fb.ratio_to_explicit_euler
+    if not (ra_ratio and rb_ratio):
+        return None
+    cal_a, cal_b = fa.calibration, fb.calibration
+    moved = abs(cal_b / cal_a - 1.0) if cal_a and cal_b else 0.0
+    spread = fa.noise + fb.noise + PROCESS_SPREAD + moved
+    if rb_ratio > ra_ratio * (1 + spread):
+        return "slowdown", ra_ratio, rb_ratio, (
+            f"cost ratio to explicit Euler {ra_ratio:.2f} -> {rb_ratio:.2f}, beyond the noise allowed ({spread:.0%}: "
+            f"the repeats' spreads, {PROCESS_SPREAD:.0%} from process to process"
+            + (f" and the calibration's move, {moved:.0%}" if moved else "") + ")")
+    return None
+
+
+def _identity_run(ctx) -> list[Cell]:
+    cell = _identity(ctx.task, ctx.method, ctx.scene, ctx.exact)
+    match_claims = cell.figures.match_claims
+    if cell.ok and match_claims is not None and match_claims.known:
+        ctx.claims = match_claims  # the scheme it integrates: what its other cells are judged by
+    return [cell]
+
+
+def _identifies(ctx) -> bool:
+    # A constrained scene's only reference scheme projects positions; no engine integrates that
+    # (MuJoCo's rope is reduced coordinates, pymunk's impulses): nothing to identify. Nor on a
+    # model file, which no reference scheme steps.
+    return (ctx.task.family != "ref" and ctx.suite.identify and not ctx.scene.constrained
+            and ctx.scene.has_kernels)
+
+
+def _fixed_step(ctx) -> bool:
+    return not ctx.method.adaptive  # an adaptive method picks its own steps: nothing to measure against dt
+
+
+def _text(name: str, measure: str):
+    """A column's text: the report's function ``name`` of the row's ``measure`` cell (imported
+    when a report is written, not in a worker)."""
+    def text(ms, mark):
+        from reports import markdown
+
+        return getattr(markdown, name)(ms.get(measure))
+    return text
+
+
+def _cost_text(name: str):
+    def text(ms, mark):
+        from reports import markdown
+
+        return getattr(markdown, name)(ms.get("cost"), mark)
+    return text
+
+
+_COLUMNS = {
+    "energy": (Column("max \\|ΔE/E\\|", _text("energy_text", "energy"), 10),
+               Column("energy", _text("class_text", "energy"), 11)),
+    "error": (Column("max global error", _text("error_text", "error"), 20),),
+    "order": (Column("order", _text("order_text", "order"), 30),),
+    "stability": (Column("largest stable h·ω", _text("homega_text", "stability"), 40),),
+    "cost": (Column("evals/step", _cost_text("evals_text"), 50), Column("CPU µs/step", _cost_text("cpu_text"), 51),
+             Column("as stepped µs/step", _cost_text("as_stepped_text"), 52),
+             Column("time ratio", _cost_text("ratio_text"), 53)),
+}
+
+
+def _columns(kind):
+    return _COLUMNS[kind]
+
+
+register(builtin=True, measure=Measure(
+    "identity", IdentityFigures, "which reference scheme an engine mode integrates (the claims its cells are "
+    "judged by)", run=_identity_run, applies=_identifies))
+register(builtin=True, measure=Measure(
+    "energy", EnergyFigures, "max |dE/E| over the energy run and its class (bounded, drifts, grows, decays)",
+    run=lambda ctx: _energy_and_error(ctx.task, ctx.run_method, ctx.scene, ctx.dt, ctx.spec, ctx.suite),
+    makes=("energy", "error"), columns=_columns("energy"), trend="max |dE/E|"))
+register(builtin=True, measure=Measure("error", ErrorFigures, "max global error over the energy run", made_by="energy",
+                 columns=_columns("error"), trend="max global error"))
+register(builtin=True, measure=Measure(
+    "order", OrderFigures, "observed order of the dt sweep (its points draw the work-precision chart)",
+    run=lambda ctx: [_order(ctx.task, ctx.run_method, ctx.scene, ctx.spec)], applies=_fixed_step,
+    regression=_order_drop, columns=_columns("order"), trend="observed order", higher_is_worse=False))
+register(builtin=True, measure=Measure(
+    "cost", CostFigures, "force evaluations and CPU time per step, with explicit Euler's timed beside it",
+    run=lambda ctx: [_cost(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.suite)], regression=_slowdown,
+    columns=_columns("cost"), trend="ratio to explicit Euler", deterministic=False))
+register(builtin=True, measure=Measure(
+    "advise", AdviceFigures, "the fewest substeps a frame that meet the tolerances, and their cost per frame",
+    run=lambda ctx: _advise(ctx.task, ctx.method, ctx.scene, ctx.spec, ctx.suite, ctx.cells["cost"]),
+    applies=lambda ctx: ctx.spec.advise is not None and _fixed_step(ctx)))
+register(builtin=True, measure=Measure(
+    "stability", StabilityFigures, "largest stable h*omega (spectral radius on linear scenes, else a finite "
+    "horizon)", run=lambda ctx: [_stability(ctx.task, ctx.run_method, ctx.scene, ctx.suite, ctx.spec)],
+    applies=lambda ctx: ctx.spec.stability and _fixed_step(ctx), regression=_stability_drop,
+    columns=_columns("stability"), trend="largest stable h*omega", higher_is_worse=False))

@@ -36,34 +36,70 @@ from scenarios import make_scene
 from records.cell import (BrouwerFigures, Cell, Claims, ConstraintFigures, CrossEngineFigures, DampingFigures,
                           ScalingFigures, StabilityVsDampingFigures)
 
-from harness.nightly.cell_kit import energy_run, finite, guard, make_cell, plain
+from records.measures import Measure, register
+
+from harness.nightly import cells as _cells  # noqa: F401 (the task's own measures register first)
+from harness.nightly.cell_kit import TaskContext, energy_run, finite, guard, make_cell, plain
+
+def _extras(ctx):
+    return ctx.spec.extras
+
+
+#: The measures a scene adds of its own, each where its scene spec asks for it.
+SCENE_MEASURES = (
+    Measure("constraint", ConstraintFigures, "constraint drift: how far the run leaves the constraints",
+            run=lambda ctx: [_constraint(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec, ctx.suite)],
+            applies=lambda ctx: ctx.scene.constrained),
+    Measure("damping", DampingFigures, "damping far beyond the explicit limit: where an implicit scheme damps",
+            run=lambda ctx: [_damping(ctx.task, ctx.method, ctx.scene, ctx.spec, ctx.suite)],
+            applies=lambda ctx: _extras(ctx).damping_factor is not None),
+    Measure("stability_vs_damping", StabilityVsDampingFigures, "the largest stable h*omega against the damping ratio",
+            run=lambda ctx: [_stability_vs_damping(ctx.task, ctx.method, ctx.spec, ctx.claims)],
+            applies=lambda ctx: _extras(ctx).stability_zetas is not None),
+    Measure("scaling", ScalingFigures, "cost per step against the scene's size (the log-log slope)",
+            run=lambda ctx: [_scaling(ctx.task, ctx.spec)],
+            applies=lambda ctx: _extras(ctx).scaling is not None and ctx.task.method in _extras(ctx).scaling_methods),
+    Measure("brouwer", BrouwerFigures, "Brouwer's law: the roundoff walk of the energy error over an ensemble",
+            run=lambda ctx: [_brouwer(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec)],
+            applies=lambda ctx: bool(_extras(ctx).brouwer) and ctx.task.method in _extras(ctx).brouwer,
+            section=lambda scene, piv: _report().brouwer_lines(scene, piv)),
+    Measure("cross_engine", CrossEngineFigures, "two engines from the same state on a model file, at a resolved "
+            "step, and what their built models differ in", run=lambda ctx: [_cross_engine(ctx.task, ctx.scene,
+                                                                                          ctx.spec, ctx.suite)],
+            applies=lambda ctx: bool(_extras(ctx).cross_engine) and ctx.task.method == _extras(ctx).cross_engine[1],
+            section=lambda scene, piv: _cross_engine_section(scene, piv)),
+)
+for _m in SCENE_MEASURES:
+    register(_m, builtin=True)
+
+
+def _report():
+    from reports import markdown
+
+    return markdown
+
+
+def _cross_engine_section(scene: str, piv: dict) -> list[str]:
+    lines = []
+    for (s, _), ms in sorted(piv.items()):
+        if s == scene and "cross_engine" in ms:
+            head, *differences = _report().cross_engine_lines(ms["cross_engine"])
+            lines += [f"Two engines from the same state: {head}", ""]
+            lines += [f"- {d}" for d in differences] + ([""] if differences else [])
+    return lines
+
 
 def measures_for(task, spec) -> list[str]:
-    out = []
-    if make_scene(task.scene, source=task.source, **task.params).constrained:
-        out.append("constraint")
-    extras = spec.extras
-    if extras.damping_factor is not None:
-        out.append("damping")
-    if extras.stability_zetas is not None:
-        out.append("stability_vs_damping")
-    if extras.scaling is not None and task.method in extras.scaling_methods:
-        out.append("scaling")
-    if extras.brouwer and task.method in extras.brouwer:
-        out.append("brouwer")
-    if extras.cross_engine and task.method == extras.cross_engine[1]:
-        out.append("cross_engine")
-    return out
+    """The scene's own measures of ``task`` (``SCENE_MEASURES``, each where it applies)."""
+    ctx = TaskContext(task, None, spec, make_scene(task.scene, source=task.source, **task.params))
+    return [m.name for m in SCENE_MEASURES if m.applies(ctx)]
 
 
 def scene_cells(task, method, scene, dt, spec, suite, claims: Claims | None = None) -> list[Cell]:
-    builders = {"constraint": lambda: _constraint(task, method, scene, dt, spec, suite),
-                "damping": lambda: _damping(task, method, scene, spec, suite),
-                "stability_vs_damping": lambda: _stability_vs_damping(task, method, spec, claims or Claims()),
-                "scaling": lambda: _scaling(task, spec),
-                "brouwer": lambda: _brouwer(task, method, scene, dt, spec),
-                "cross_engine": lambda: _cross_engine(task, scene, spec, suite)}
-    return [guard(task, m, builders[m]) for m in measures_for(task, spec)]
+    """The scene's own cells of ``task``, outside a nightly task (the nightly's task runs every
+    registered measure: ``harness.nightly.cells``)."""
+    ctx = TaskContext(task, suite, spec, scene, method, method, dt, None, claims or Claims())
+    return [guard(task, m.name, lambda: m.run(ctx)[0]) for m in SCENE_MEASURES if m.applies(ctx)]
 
 
 def _constraint(task, method, scene, dt, spec, suite) -> Cell:
