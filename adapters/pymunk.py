@@ -34,10 +34,71 @@ import numpy as np
 from scenarios import Scene
 
 from ._base import EngineMode, SteppedModel, chain_force, unwrap
-from ._pymunk_state import BodyReader
 
-from ._pymunk_scenes import (_FORCE_SCENES, _FORCE_UNSUPPORTED, _JOINT_UNSUPPORTED, _SPACE_DAMPING_SCENES,
-                             _SPACE_DAMPING_UNSUPPORTED, _SPRING_UNSUPPORTED)
+# ----------------------------------------------------------------------------- which scenes each mode poses
+# Which scenes each pymunk mode poses, and why not the others: the reasons ``harness list`` and
+# every refusal print.
+_FORCE_SCENES = ("spring", "damped_spring", "projectile", "chain")
+_SHEET = "Chipmunk is 2-D: the cloth is posed in its plane as the scene net (pymunk:damped_spring)"
+_NET = "the net's springs as Chipmunk's own DampedSprings: see pymunk:damped_spring"
+_FORCE_UNSUPPORTED = {"cloth": _SHEET, "net": _NET,
+    "pendulum": "a pendulum in Chipmunk is a joint, not a force: see pymunk:pin_joint",
+    "rope": "a rope in Chipmunk is pin joints, not forces: see pymunk:pin_joint",
+    "kepler": "not posed: Chipmunk has no gravity between bodies, and a 1/r^2 force from Python would only "
+              "repeat what the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
+}
+_PINS = "pin joints pose only the pendulum and the rope"
+_JOINT_UNSUPPORTED = {"kepler": _PINS, "cloth": _SHEET, "net": _NET,
+                      **{scene: f"{_PINS}; see pymunk:{mode}" for scene, mode in (
+    ("spring", "spring_force"), ("damped_spring", "spring_force"), ("projectile", "applied_force"),
+    ("chain", "damped_spring"))}}
+_SPRING_UNSUPPORTED = {"cloth": _SHEET,
+    "spring": "not posed: a DampedSpring to a static body integrates the 1-DOF spring as pymunk:spring_force "
+              "does (position-first semi-implicit Euler, 5e-14 in docs/engines.md); Chipmunk's springs link bodies "
+              "on the chain, and damp on the damped spring",
+    "pendulum": "a pendulum in Chipmunk is a joint: see pymunk:pin_joint",
+    "rope": "a rope in Chipmunk is pin joints: see pymunk:pin_joint",
+    "projectile": "no spring in the projectile: see pymunk:applied_force",
+    "kepler": "no spring in the Kepler problem",
+}
+
+_SPACE_DAMPING_SCENES = ("damped_spring", "projectile")
+_SPACE_DAMPING_UNSUPPORTED = {"cloth": _SHEET, "net": "no damping in the net",
+    "spring": "no damping to give space.damping: see pymunk:spring_force",
+    "chain": "the chain's damping acts between neighbours; space.damping damps each body against the world",
+    **{scene: f"no damping in the {name}" for scene, name in (
+        ("pendulum", "pendulum"), ("rope", "rope"), ("kepler", "Kepler problem"))},
+}
+
+
+# ----------------------------------------------------------------------------- reading the bodies
+# Reading a pymunk space's bodies in one Chipmunk call (``pymunk.batch``), for the poses with many
+# bodies: read property by property, the reads were most of a stability search's work on the rope.
+class BodyReader:
+    """Every body's position and velocity, rows in ``bodies`` order (shape (n, 2) each): one
+    Chipmunk call where the space lists these bodies first and in this order (the static body
+    follows them), checked by their ids once; property by property otherwise. The same doubles
+    either way: the batch copies Chipmunk's own."""
+
+    def __init__(self, space, bodies):
+        from pymunk import batch
+
+        self.space, self.bodies, self.batch = space, bodies, batch
+        ids = batch.Buffer()
+        batch.get_space_bodies(space, batch.BodyFields.BODY_ID, ids)
+        n = len(bodies)
+        self.batched = np.frombuffer(ids.int_buf(), dtype=np.uintp)[:n].tolist() == [b.id for b in bodies]
+        self.buffer = batch.Buffer()
+        self.fields = batch.BodyFields.POSITION | batch.BodyFields.VELOCITY
+
+    def read(self) -> tuple[np.ndarray, np.ndarray]:
+        if not self.batched:
+            return (np.array([tuple(b.position) for b in self.bodies]).reshape(-1, 2),
+                    np.array([tuple(b.velocity) for b in self.bodies]).reshape(-1, 2))
+        self.buffer.clear()
+        self.batch.get_space_bodies(self.space, self.fields, self.buffer)
+        rows = np.frombuffer(self.buffer.float_buf(), dtype=float).reshape(-1, 4)[:len(self.bodies)]
+        return rows[:, :2].copy(), rows[:, 2:].copy()
 
 #: Spacing of the damped_spring chain's bodies (and every spring's rest length), in units of
 #: max(|x0|, 1): a Chipmunk spring acts along the line between its bodies, so neighbours must
