@@ -28,6 +28,7 @@ import importlib
 import importlib.metadata
 import math
 import os
+import re
 import sys
 from dataclasses import dataclass, field
 from typing import Callable, Mapping, Protocol
@@ -184,10 +185,60 @@ def import_engine(name: str):
 
 
 def engine_version(dist: str) -> str | None:
+    """The installed version of ``dist``: the first one on ``sys.path``, so an engine environment
+    put ahead of the venv (``harness.execution.engine_env``) names its own release."""
     try:
         return importlib.metadata.version(dist)
     except importlib.metadata.PackageNotFoundError:
         return None
+
+
+_VERSION = re.compile(r"^v?(\d+(?:\.\d+)*)(?:[.-]?(a|b|rc)(\d+))?(?:[.-]?post(\d+))?(?:[.-]?dev(\d+))?$")
+
+
+def version_key(version: str) -> tuple:
+    """A sort key of a release number (PEP 440's final, pre-, post- and dev-releases: what a
+    registry lists): ``2.3.1.post1`` after ``2.3.1``, ``3.0.0rc1`` before ``3.0.0``, trailing
+    zeros ignored (``4.0`` == ``4.0.0``). ValueError for anything else."""
+    match = _VERSION.match(version.strip())
+    if match is None:
+        raise ValueError(f"{version!r} is not a release number")
+    release, pre, pre_n, post, dev = match.groups()
+    parts = [int(x) for x in release.split(".")]
+    while len(parts) > 1 and parts[-1] == 0:
+        parts.pop()
+    pre_key = ({"a": 0, "b": 1, "rc": 2}[pre], int(pre_n)) if pre else (3, 0)
+    return (tuple(parts), pre_key, int(post) if post else -1, int(dev) if dev else 1 << 30)
+
+
+@dataclass(frozen=True)
+class EngineVersions:
+    """The engine releases an adapter supports (``low`` inclusive up to ``below`` exclusive, None:
+    no upper bound) and those it was measured on (``tested``). Between releases the adapter asks
+    the engine what it has (a member of an enum, a binding's signature), not its version."""
+
+    low: str
+    below: str | None = None
+    tested: tuple[str, ...] = ()
+
+    def __contains__(self, version: str) -> bool:
+        key = version_key(version)
+        return key >= version_key(self.low) and (self.below is None or key < version_key(self.below))
+
+    def __str__(self) -> str:
+        return f">={self.low}" + (f",<{self.below}" if self.below else "")
+
+    def outside(self, dist: str, version: str | None) -> str | None:
+        """Why ``version`` of ``dist`` cannot be used (one line naming the range), None where it can."""
+        if version is None:
+            return None
+        try:
+            if version in self:
+                return None
+        except ValueError:
+            pass
+        tested = f"; tested on {', '.join(self.tested)}" if self.tested else ""
+        return f"{dist} {version} is outside the versions its adapter supports ({dist}{self}{tested})"
 
 
 @dataclass(frozen=True)
@@ -222,6 +273,13 @@ class EngineMode:
     #: Its force evaluations are counted only in a counting run (``simulate(..., count=True)``:
     #: the counter is a Python callback that would slow the timed loop; REBOUND, pymunk).
     counting_run: bool = False
+    #: The engine releases the adapter supports (None: any); one outside them makes every mode of
+    #: the engine unavailable with one line naming the range (``check_version``).
+    versions: EngineVersions | None = field(default=None, compare=False)
+    #: Whether the imported engine has this mode (a capability asked of the engine, e.g. an
+    #: integrator enum's member); None: every supported release has it. A release without it
+    #: leaves the mode unavailable with "not in <dist> <version>", never a crash.
+    present: Callable[[object], bool] | None = field(default=None, compare=False)
 
     isolated = True
     scheme = None
@@ -242,12 +300,22 @@ class EngineMode:
         return self.doc.strip().splitlines()[0] if self.doc else self.id
 
     def available(self) -> tuple[bool, str]:
+        # The version first: a release outside the range may not even import cleanly.
+        outside = self.version_problem()
+        if outside:
+            return False, outside
         try:
-            import_engine(self.module)
+            engine = import_engine(self.module)
         except Exception as exc:  # ImportError, or a broken install (OSError from a shared library)
             return False, (f"{self.module} cannot be imported ({type(exc).__name__}: {exc}); "
                            f"install it with: pip install 'integrator-harness[{self.engine}]'")
+        if self.present is not None and not self.present(engine):
+            return False, f"not in {self.dist} {engine_version(self.dist)}"
         return True, ""
+
+    def version_problem(self) -> str | None:
+        """One line naming the supported range where the installed engine is outside it, else None."""
+        return self.versions.outside(self.dist, engine_version(self.dist)) if self.versions else None
 
     def supports(self, scene: Scene) -> tuple[bool, str]:
         if scene.kind in self.scenes:
@@ -373,6 +441,7 @@ class EngineMode:
     def describe(self) -> dict:
         return {"id": self.id, "family": self.engine, "engine": self.engine, "mode": self.mode,
                 "summary": self.summary, "engine_version": engine_version(self.dist),
+                "engine_versions": str(self.versions) if self.versions else None,
                 "settings": dict(self.settings), "supported_scenes": list(self.scenes), "adaptive": self.adaptive,
                 "doc": " ".join(self.doc.split())}
 

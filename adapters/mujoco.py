@@ -19,17 +19,31 @@ read from its state array. A rollout stops stepping at the first warning; any wa
 span sends the run back to the per-step path, which stops it at that step as before.
 Force evaluations are MuJoCo's forward passes, counted by ``d.timer[mjTIMER_FORWARD]``
 (RK4: 4 a step; every other integrator: 1).
+
+Releases: ``VERSIONS`` (from 2.3.7). Where the bindings differ between releases the model asks
+the imported module what it has, never its version number: ``mj_fullM``'s arguments (``(m, dst,
+M)`` with ``d.qM`` up to 3.3, ``(m, d, dst)`` after), the ``rollout.Rollout`` class with
+``control_spec`` (without it the run is stepped one ``mj_step`` at a time: the same bits), the
+disable flags ``mjDSBL_AUTORESET`` and ``mjDSBL_EULERDAMP`` (where autoreset cannot be disabled
+a bad-state warning still ends the run at its step), and ``mjINT_DISCRETE`` for the discrete mode.
 """
 from __future__ import annotations
 
+import functools
+import inspect
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from scenarios import Scene
+from scenarios._mass_matrix import full_mass_matrix
 
-from ._base import EngineMode, EngineModel, import_engine
+from ._base import EngineMode, EngineModel, EngineVersions, import_engine
+
+#: The releases this adapter supports and was measured on: 2.3.7 is the oldest whose Python
+#: bindings have everything the models use (mjtState, rollout's state layout, the warning hook).
+VERSIONS = EngineVersions(low="2.3.7", below="5", tested=("2.3.7", "3.0.0", "3.3.7", "4.0.0"))
 
 #: Our mode name -> MuJoCo's integrator name in MJCF.
 INTEGRATORS = {"euler": "Euler", "rk4": "RK4", "implicit": "implicit", "implicitfast": "implicitfast",
@@ -85,6 +99,39 @@ _CHAIN = "<mujoco>{option}<worldbody>{bodies}</worldbody><tendon>{tendons}</tend
 _ROPE_LINK = ('<body name="link{j}" pos="0 0 {z!r}">'
               '<joint name="phi{j}" type="hinge" axis="0 -1 0" pos="0 0 0" stiffness="0" damping="0" armature="0"/>'
               '<inertial pos="0 0 {zl!r}" mass="{m!r}" diaginertia="1e-15 1e-15 1e-15"/>')
+
+
+@functools.lru_cache(maxsize=None)
+def _rollout_class(mj):
+    """``mujoco.rollout.Rollout`` where it exists with the arguments ``_Model._roll`` passes
+    (``control_spec``, ``initial_warmstart``, ``skip_checks``), else None: older releases have only
+    a ``rollout()`` function with another state layout, and their runs are stepped one
+    ``mj_step`` at a time (the same bits, ``tests/test_engine_loops.py``)."""
+    try:
+        module = import_engine(f"{mj.__name__}.rollout")
+    except ImportError:
+        return None
+    cls = getattr(module, "Rollout", None)
+    if cls is None:
+        return None
+    try:
+        names = inspect.signature(cls.rollout).parameters
+    except (TypeError, ValueError):
+        return None
+    return cls if {"control_spec", "initial_warmstart", "skip_checks", "state"} <= set(names) else None
+
+
+def has_integrator(name: str) -> Callable[[object], bool]:
+    """Whether the imported MuJoCo has integrator ``name`` (MJCF spelling) in ``mjtIntegrator``."""
+    def present(mj) -> bool:
+        return hasattr(mj.mjtIntegrator, f"mjINT_{name.upper()}")
+    return present
+
+
+def _disable_bit(mj, name: str) -> int:
+    """The bit of disable flag ``mjDSBL_<name>``, 0 where this release has no such flag."""
+    member = getattr(mj.mjtDisableBit, f"mjDSBL_{name}", None)
+    return 0 if member is None else int(member)
 
 
 def _option(integrator: str, dt: float, g: float | None) -> str:
@@ -219,6 +266,8 @@ class _Model(EngineModel):
 
     def __init__(self, mujoco, mode: str, scene: Scene, dt: float):
         self.mj = mujoco
+        # The engine's own loop where this release's rollout takes what ``_roll`` passes.
+        self.own_loop = _rollout_class(mujoco) is not None
         self.pose = pose = BUILDERS[scene.kind]
         if pose.compiled is not None:
             self.m = m = pose.compiled(mujoco, INTEGRATORS[mode], scene, dt)
@@ -229,7 +278,8 @@ class _Model(EngineModel):
             m.body_inertia[1:] = 0.0
         if pose.tolerance is not None:
             m.opt.tolerance = pose.tolerance
-        m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+        # Where a release cannot disable autoreset, its bad-state warning still ends the run (trouble()).
+        m.opt.disableflags |= _disable_bit(mujoco, "AUTORESET")
         self.d = d = mujoco.MjData(m)
         q0, v0 = pose.to_joints(scene, *scene.initial_state())
         d.qpos[:] = q0
@@ -237,8 +287,7 @@ class _Model(EngineModel):
         self._bad = [int(getattr(mujoco.mjtWarning, w)) for w in _BAD_STATE]
         self._counts = self._bad_counts()
         mujoco.mj_forward(m, d)
-        full = np.zeros((m.nv, m.nv))
-        mujoco.mj_fullM(m, d, full)
+        full = full_mass_matrix(mujoco, m, d)
         disabled = [name for name, bit in mujoco.mjtDisableBit.__members__.items()
                     if name != "mjNDISABLE" and m.opt.disableflags & int(bit)]
         self.settings = {
@@ -263,6 +312,7 @@ class _Model(EngineModel):
         self._nstate = mujoco.mj_stateSize(m, self._full)
         self._span = max(1, ROLLOUT_SPAN_VALUES // self._nstate)
         self._rollout = None
+        self.settings["engine_loop"] = "rollout" if self.own_loop else "mj_step (this release has no Rollout class)"
         # Last, so that nothing can fail between installing the handler and close() restoring it.
         self.warnings: list[str] = []
         self._previous_handler = mujoco.get_mju_user_warning()
@@ -295,7 +345,7 @@ class _Model(EngineModel):
         call from the data's current full physics state and warm start; the output states are
         rows of the state array MuJoCo records (time, qpos, qvel, ...)."""
         if self._rollout is None:
-            self._rollout = import_engine("mujoco.rollout").Rollout(nthread=0)
+            self._rollout = _rollout_class(self.mj)(nthread=0)
         nq, nv = self.m.nq, self.m.nv
         out = []
         at, i = int(marks[0]), 1
@@ -337,8 +387,7 @@ class _Model(EngineModel):
         damping, armature, limits (None where off) and friction loss, and ``mj_fullM``."""
         mj, m, d = self.mj, self.m, self.d
         mj.mj_forward(m, d)
-        full = np.zeros((m.nv, m.nv))
-        mj.mj_fullM(m, d, full)
+        full = full_mass_matrix(mj, m, d)
         limits_on = not m.opt.disableflags & int(mj.mjtDisableBit.mjDSBL_LIMIT)
         bodies = {}
         turning = {int(mj.mjtJoint.mjJNT_HINGE), int(mj.mjtJoint.mjJNT_BALL), int(mj.mjtJoint.mjJNT_FREE)}
@@ -520,6 +569,7 @@ METHODS = {
         engine="mujoco", mode=mode, module="mujoco", dist="mujoco", build=build,
         scenes=tuple(x for x in SCENES if x not in _REFUSED.get(mode, {})),
         unsupported={**UNSUPPORTED, **_REFUSED.get(mode, {})}, doc=_DOCS[mode], no_match=_NO_MATCH.get(mode, {}),
+        versions=VERSIONS, present=has_integrator(name),
         settings={"integrator": name, "autoreset": "disabled", "contact": "disabled",
                   "constraint": "disabled", "gravity": "scene's g along -z, else disabled",
                   "armature": 0, "warnings": "collected, never printed or logged"},

@@ -30,8 +30,20 @@ def mass_matrix(m, d, qpos) -> np.ndarray:
     mujoco.mj_kinematics(m, d)
     mujoco.mj_comPos(m, d)
     mujoco.mj_crb(m, d)
+    return full_mass_matrix(mujoco, m, d)
+
+
+def full_mass_matrix(mj, m, d) -> np.ndarray:
+    """The dense mass matrix at ``d``'s computed state (after ``mj_forward`` or ``mj_crb``). The
+    binding takes ``(m, d, dst)`` in newer MuJoCo releases and ``(m, dst, M)`` with the sparse
+    ``d.qM`` in older ones (3.3.7 and before): asked of the binding's signature, not the version."""
     full = np.zeros((m.nv, m.nv))
-    mujoco.mj_fullM(m, d, full)
+    head = (mj.mj_fullM.__doc__ or "").split("(", 1)[-1].split(")", 1)[0]
+    names = [part.split(":")[0].strip() for part in head.split(",")]
+    if names[1:2] == ["d"]:
+        mj.mj_fullM(m, d, full)
+    else:
+        mj.mj_fullM(m, full, d.qM)
     return full
 
 

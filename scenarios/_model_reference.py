@@ -102,7 +102,7 @@ def reference_grid(scene, t_end: float | None = None) -> Grid:
         return have
     m = scene.engine_model()
     m.opt.integrator = int(mujoco.mjtIntegrator.mjINT_RK4)
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+    m.opt.disableflags |= int(getattr(mujoco.mjtDisableBit, "mjDSBL_AUTORESET", 0))  # absent in older releases (2.3.7, 3.0.0)
     d = mujoco.MjData(m)
     n0 = max(8, math.ceil(T * scene.omega / H0_OMEGA))
     prev, history = None, []
@@ -164,7 +164,7 @@ def reference_at(scene, t) -> tuple[np.ndarray, np.ndarray]:
         if m is None:
             m = scene.engine_model()
             m.opt.integrator = int(mujoco.mjtIntegrator.mjINT_RK4)
-            m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+            m.opt.disableflags |= int(getattr(mujoco.mjtDisableBit, "mjDSBL_AUTORESET", 0))  # absent in older releases (2.3.7, 3.0.0)
             d = mujoco.MjData(m)
         mujoco.mj_setState(m, d, grid.state[n], spec)
         m.opt.timestep = rest
