@@ -277,9 +277,10 @@ class EngineMode:
     #: the engine unavailable with one line naming the range (``check_version``).
     versions: EngineVersions | None = field(default=None, compare=False)
     #: Whether the imported engine has this mode (a capability asked of the engine, e.g. an
-    #: integrator enum's member); None: every supported release has it. A release without it
-    #: leaves the mode unavailable with "not in <dist> <version>", never a crash.
-    present: Callable[[object], bool] | None = field(default=None, compare=False)
+    #: integrator enum's member): True, False, or a one-line reason why not; None: every
+    #: supported release has it. A release without it leaves the mode unavailable with that
+    #: reason, else "not in <dist> <version>", never a crash.
+    present: Callable[[object], bool | str] | None = field(default=None, compare=False)
 
     isolated = True
     scheme = None
@@ -309,8 +310,9 @@ class EngineMode:
         except Exception as exc:  # ImportError, or a broken install (OSError from a shared library)
             return False, (f"{self.module} cannot be imported ({type(exc).__name__}: {exc}); "
                            f"install it with: pip install 'integrator-harness[{self.engine}]'")
-        if self.present is not None and not self.present(engine):
-            return False, f"not in {self.dist} {engine_version(self.dist)}"
+        has = True if self.present is None else self.present(engine)
+        if has is not True:
+            return False, has if isinstance(has, str) and has else f"not in {self.dist} {engine_version(self.dist)}"
         return True, ""
 
     def version_problem(self) -> str | None:

@@ -28,7 +28,7 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, SteppedModel, chain_force
+from ._base import EngineMode, EngineVersions, SteppedModel, chain_force
 from ._pybullet_cloth import SoftBodyCloth, refusal
 
 #: How the engine's own loop steps a scene whose force is applied from Python (recorded with every run).
@@ -520,9 +520,15 @@ def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> 
     return BUILDERS[scene.kind](pybullet, scene, dt)
 
 
+#: The releases this adapter supports: 3.2.7 is the only one whose wheel imports with numpy 2 (the
+#: project's numpy): 3.2.6 and older were built against numpy 1 ("numpy.core.multiarray failed to
+#: import"). The calls the poses make (changeDynamics' maxJointVelocity, calculateMassMatrix,
+#: loadMJCF, setJointMotorControlArray) are older than that.
+VERSIONS = EngineVersions(low="3.2.7", below="4", tested=("3.2.7",))
+
 METHODS = {
     "pybullet:semi_implicit": EngineMode(
-        engine="pybullet", mode="semi_implicit", module="pybullet", dist="pybullet", build=build,
+        engine="pybullet", mode="semi_implicit", module="pybullet", dist="pybullet", build=build, versions=VERSIONS,
         scenes=SCENES, unsupported=UNSUPPORTED, refuses={"cloth": refusal},
         doc="""semi-implicit Euler (velocity first), forces applied before each step
             Measured: equals ref:semi_implicit_euler bitwise on the spring, the damped spring, the

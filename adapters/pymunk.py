@@ -33,7 +33,7 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, SteppedModel, chain_force, unwrap
+from ._base import EngineMode, EngineVersions, SteppedModel, chain_force, unwrap
 
 # ----------------------------------------------------------------------------- which scenes each mode poses
 # Which scenes each pymunk mode poses, and why not the others: the reasons ``harness list`` and
@@ -78,12 +78,17 @@ class BodyReader:
     """Every body's position and velocity, rows in ``bodies`` order (shape (n, 2) each): one
     Chipmunk call where the space lists these bodies first and in this order (the static body
     follows them), checked by their ids once; property by property otherwise. The same doubles
-    either way: the batch copies Chipmunk's own."""
+    either way: the batch copies Chipmunk's own. ``pymunk.batch`` is new in 6.6: on an older
+    release every read is property by property."""
 
     def __init__(self, space, bodies):
-        from pymunk import batch
-
-        self.space, self.bodies, self.batch = space, bodies, batch
+        self.space, self.bodies = space, bodies
+        try:
+            from pymunk import batch
+        except ImportError:
+            self.batched = False
+            return
+        self.batch = batch
         ids = batch.Buffer()
         batch.get_space_bodies(space, batch.BodyFields.BODY_ID, ids)
         n = len(bodies)
@@ -512,9 +517,15 @@ def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _S
     return BUILDERS[scene.kind](pymunk, mode, scene, dt, count)
 
 
+#: The releases this adapter supports: from 6.5, the oldest with a wheel for Python 3.11 (the
+#: project's interpreter), whose Body, Space, DampedSpring, PinJoint and velocity_func take what
+#: the poses pass; ``pymunk.batch`` (6.6) is asked for, not required (``BodyReader``).
+VERSIONS = EngineVersions(low="6.5.0", below="8", tested=("6.5.0", "6.6.0", "7.0.0", "7.3.1"))
+
+
 def _mode(mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None) -> EngineMode:
     return EngineMode(engine="pymunk", mode=mode, module="pymunk", dist="pymunk", build=build,
-                      scenes=scenes, unsupported=unsupported, doc=doc, no_match=no_match or {},
+                      scenes=scenes, unsupported=unsupported, doc=doc, no_match=no_match or {}, versions=VERSIONS,
                       counting_run=mode in ("spring_force", "applied_force"),
                       settings={"damping": 1, "sleeping": "disabled", "moment": "inf", "shapes": 0, **settings})
 

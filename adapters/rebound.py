@@ -32,7 +32,7 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, SteppedModel
+from ._base import EngineMode, EngineVersions, SteppedModel
 
 _NOT_GRAVITY = "not a gravitational N-body problem (an additional_forces callback would be our force, not REBOUND's)"
 UNSUPPORTED = {s: _NOT_GRAVITY for s in ("spring", "damped_spring", "pendulum", "projectile", "chain", "rope",
@@ -49,6 +49,42 @@ CONFIG = {
 }
 
 ADAPTIVE = ("ias15",)
+
+#: The releases this adapter supports: from 4.0, whose ``sim.steps(n)``, ``serialize_particle_data``
+#: and ``additional_forces`` the poses use. Before 5 an integrator's settings live on
+#: ``sim.ri_<name>`` (``sim.integrator`` is its name) and some are not there yet (leapfrog's
+#: ``order``, IAS15's ``adaptive_mode``): asked for, not assumed (``integrator_config``).
+#: 4.0.0's wheel lacks its ``rebound.integrators`` package and cannot be imported.
+VERSIONS = EngineVersions(low="4.0", below="6", tested=("4.4.0", "5.2.2"))
+
+
+def integrator_config(sim, mode: str):
+    """The object holding the integrator's settings: ``sim.integrator`` (REBOUND 5), else
+    ``sim.ri_<mode>`` (REBOUND 4, where ``sim.integrator`` is the name); None where there is none."""
+    config = sim.integrator
+    return getattr(sim, f"ri_{mode}", None) if isinstance(config, str) else config
+
+
+def takes_settings(mode: str):
+    """Whether the imported REBOUND runs ``mode`` with its ``CONFIG`` as this adapter spells it (a
+    setting the release lacks is left out and recorded; one it refuses, such as REBOUND 4.4's
+    integer IAS15 ``adaptive_mode`` or its SABA type names, leaves the mode unavailable)."""
+    def present(rebound) -> bool | str:
+        sim = rebound.Simulation()
+        try:
+            sim.integrator = mode
+        except (TypeError, ValueError, AttributeError):
+            return False
+        config = integrator_config(sim, mode)
+        for name, value in CONFIG[mode].items():
+            if config is not None and hasattr(config, name):
+                try:
+                    setattr(config, name, value)
+                except (TypeError, ValueError, AttributeError) as exc:
+                    return (f"rebound {rebound.__version__} refuses {mode}'s {name} = {value!r} "
+                            f"({type(exc).__name__}: {' '.join(str(exc).split())[:80]})")
+        return True
+    return present
 
 #: Simulation-wide settings, set explicitly and read back into each run's settings.
 SIM = {"gravity": "basic", "collision": "none", "boundary": "none", "softening": 0.0,
@@ -80,8 +116,12 @@ class _Simulation(SteppedModel):
         for name, value in SIM.items():
             setattr(sim, name, value)
         sim.integrator = mode
+        config = integrator_config(sim, mode)
+        # A setting this release does not have is recorded as missing (its one behaviour runs).
+        missing = [name for name in CONFIG[mode] if config is None or not hasattr(config, name)]
         for name, value in CONFIG[mode].items():
-            setattr(sim.integrator, name, value)
+            if name not in missing:
+                setattr(config, name, value)
         sim.dt = dt
         masses = self._add(sim, scene, *scene.initial_state())
         # One (N, 6) buffer, filled in one call: every array handed to serialize_particle_data
@@ -93,7 +133,8 @@ class _Simulation(SteppedModel):
             "N": int(sim.N), "N_active": "all" if sim.N_active in (-1, 2 ** 64 - 1) else int(sim.N_active),
             "masses": masses, "additional_forces": "none", "move_to_com": False, "model": MODELS[scene.kind],
             "advance": ADVANCE["adaptive" if self.adaptive else "fixed"],
-            **{name: _plain(getattr(sim.integrator, name)) for name in CONFIG[mode]},
+            **{name: (f"not in rebound {rebound.__version__}" if name in missing else _plain(getattr(config, name)))
+               for name in CONFIG[mode]},
         }
         self.settings.update(self.EXTRA_SETTINGS)
         self.force_passes = None
@@ -207,6 +248,7 @@ METHODS = {
     f"rebound:{mode}": EngineMode(
         engine="rebound", mode=mode, module="rebound", dist="rebound", build=build,
         scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], adaptive=mode in ADAPTIVE, counting_run=True,
+        versions=VERSIONS, present=takes_settings(mode),
         settings={"integrator": mode, **CONFIG[mode], **SIM, "models": MODELS},
     )
     for mode in CONFIG
