@@ -13,7 +13,7 @@ import sys
 from records import InvalidInput
 
 COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision", "advise", "model",
-            "nightly", "compare", "history", "bounds"]
+            "nightly", "compare", "history", "bounds", "bisect"]
 
 
 class _Parser(argparse.ArgumentParser):
