@@ -387,7 +387,7 @@ def report_charts(run_id: int, cells: list[Cell], trend=None) -> tuple[list[Char
 
 
 def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None,
-           trend=None, jobs: int = 1) -> tuple[str, list[str]]:
+           trend=None, jobs: int = 1, extra=()) -> tuple[str, list[str]]:
     """(the report's markdown, the chart files written, relative to ``out_dir``) of ``run`` (its
     stored metadata, a ``RunRecord`` or the history's row), its ``cells``, what judging them
     found, ``timing`` (where the run's time went, a ``RunTiming`` or the nightly's dict) and
@@ -404,6 +404,7 @@ def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None
     chart_names = {key: name for key, name in names.items() if name in drawn}
     lines = [f"# Integrator comparison: run {run_id} ({run.suite})", ""]
     lines += verdict(judged.verdict)
+    lines += list(extra)  # sections the caller adds after the verdict (an engine version change)
     lines += history_section(trend, run_id, drawn)
     lines += tradeoff_table(piv, judged.claims)
     lines += identity_table(piv)
@@ -422,12 +423,12 @@ def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None
 
 
 def write_report(run: dict, cells: list[Cell], judged: Judgement, out_dir, timing=None, trend=None,
-                 jobs: int = 1, before_write=None) -> Path:
+                 jobs: int = 1, before_write=None, extra=()) -> Path:
     """``render`` written to ``out_dir/report.md`` (atomically, see above); ``jobs`` processes
     draw its charts; ``before_write`` is called between the two (the nightly's kill point)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    text, charts_written = render(run, cells, judged, out_dir, timing, trend, jobs)
+    text, charts_written = render(run, cells, judged, out_dir, timing, trend, jobs, extra)
     if before_write is not None:
         before_write()
     target = out_dir / "report.md"

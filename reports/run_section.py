@@ -10,6 +10,8 @@ from .text import of_measure as _of
 def appendix(run: RunRecord, cells: list[Cell]) -> list[str]:
     lines = ["## Appendix: versions and settings", "", "| package | version |", "|---|---|"]
     for pkg, ver in sorted(run.versions.items()):
+        if isinstance(ver, dict):  # the engines' versions again, as the run's series
+            continue
         lines.append(f"| {pkg} | {ver or 'not installed'} |")
     lines += ["", "Settings each engine adapter used (as the adapter recorded them):", ""]
     seen = set()

@@ -33,6 +33,10 @@ def add_parser(sub):
     p.add_argument("--model", action="append", metavar="PATH",
                    help="a model file (MJCF .xml or URDF .urdf) whose variants join the suite as scenes (repeatable; "
                         "beside those [tool.harness] models lists in ./pyproject.toml)")
+    p.add_argument("--engine", action="append", metavar="ENGINE==VERSION",
+                   help="run the suite once per engine release, each on an environment of its own kept in the "
+                        "harness cache, and report what changed between releases (repeatable; beside those "
+                        "[tool.harness] engines lists in ./pyproject.toml)")
     p.add_argument("--json", action="store_true", help="print the run summary as JSON")
     return p
 
@@ -43,6 +47,11 @@ def run(args) -> int:
     from harness.nightly.models import configured_models, with_models
 
     suite = validate.choice("--suite", args.suite, list(SUITES))
+    from harness.nightly.matrix import configured_engines
+
+    engines = configured_engines() + list(args.engine or [])
+    if engines and not args.resume:
+        return _matrix(args, suite, engines)
     models = configured_models() + list(args.model or [])
     if models:  # every file read and checked (and each engine's loader tried) before the history is opened
         suite = with_models(SUITES[suite], models)
@@ -74,4 +83,24 @@ def run(args) -> int:
             print(line)
     if regs:
         print(f"harness: {len(regs)} regression(s)", file=sys.stderr)
+    return 1 if regs else 0
+
+
+def _matrix(args, suite: str, engines: list[str]) -> int:
+    """One run per engine release (``harness.nightly.matrix``); every spec checked first."""
+    from harness.nightly.matrix import plan, run_matrix
+
+    plan(engines)  # unknown engine, no such release, offline: one line before anything runs
+    extra = [a for m in (args.model or []) for a in ("--model", m)]
+    for name, value in (("--jobs", args.jobs), ("--bounds", args.bounds), ("--cell-timeout", args.cell_timeout)):
+        if value is not None:
+            extra += [name, str(value)]
+    result = run_matrix(engines, suite, Path(args.out), Path(args.db), extra)
+    regs = [r for run in result["runs"] for r in run["regressions"]]
+    if args.json:
+        print(json.dumps({"runs": result["runs"], "report": str(result["report"])}, indent=1, default=str))
+    else:
+        for run in result["runs"]:
+            print(f"{run['engine']} {run['version']}: run {run['run_id']}, report {run['report']}")
+        print(f"matrix report: {result['report']}")
     return 1 if regs else 0

@@ -52,7 +52,7 @@ from records.run import NUMBA_OPT_KEY, RunRecord
 
 from harness.history import step_detect
 from harness.history.regression import Regression
-from harness.history.storage import MEASUREMENT_VERSION, History
+from harness.history.storage import MEASUREMENT_VERSION, History, engine_series
 
 #: Which way is worse, by measure.
 #: Complete runs of a suite from which cost is judged over the history.
@@ -337,6 +337,15 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
                            f"{other_versions.split(', ')[-1]}")
     left_out = (f"{len(other)} {suite} run(s) of measurement version {other_versions} left out: "
                 f"not comparable with version {measurement_version}") if not other.empty else ""
+    # One series: the engine releases of the run judged (another release is a version change).
+    series = engine_series(same.versions.iloc[-1])
+    mine = [engine_series(v) == series for v in same.versions]
+    if not all(mine):
+        n = len(mine) - sum(mine)
+        said = ", ".join(f"{d} {v}" for d, v in series)
+        left_out = "; ".join(x for x in (left_out, f"{n} {suite} run(s) on other engine releases left out: "
+                                                   f"another series than {said}") if x)
+        same = same[mine]
     same = same.tail(last or WINDOW)
     run_rows = [RunRecord.of(r.to_dict()) for _, r in same.iterrows()]
     by_id = {r.run_id: r for r in run_rows}

@@ -107,6 +107,19 @@ def _tidy(df: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+#: The engines' distributions of a run that recorded none under ``versions["engines"]``.
+ENGINE_DISTS = ("mujoco", "pybullet", "pymunk", "rebound")
+
+
+def engine_series(versions: dict) -> tuple:
+    """((dist, version), ...) of a run's engines (``versions["engines"]``, which the nightly records
+    from the adapters): runs with the same tuple are one series."""
+    engines = versions.get("engines")
+    if not isinstance(engines, dict):
+        engines = {d: versions.get(d) for d in ENGINE_DISTS}
+    return tuple(sorted((d, v) for d, v in engines.items() if v is not None))
+
+
 class History:
     """The run history at ``path`` (created on first use)."""
 
@@ -238,13 +251,18 @@ class History:
             df = pd.read_sql_query(q, con, params=(*data_of, *run_ids, *measures))
         return _tidy(df)
 
-    def previous_complete(self, run_id: int) -> int | None:
+    def previous_complete(self, run_id: int, same_engines: bool = True) -> int | None:
         """The latest complete run before ``run_id`` of the same suite and measurement version
-        (another suite measures other horizons and sweeps: its cells are not comparable)."""
+        (another suite measures other horizons and sweeps: its cells are not comparable) and, with
+        ``same_engines``, of the same engine versions (``engine_series``): another engine release is
+        another series, whose difference is a version change, never a regression."""
         runs = self.runs()
         mine = self.run(run_id)
         older = runs[(runs.run_id < run_id) & (runs.measurement_version == mine["measurement_version"])
                      & (runs.suite == mine["suite"])]
+        if same_engines:
+            series = engine_series(mine["versions"])
+            older = older[[engine_series(v) == series for v in older.versions]]
         return int(older.run_id.iloc[-1]) if not older.empty else None
 
     def integrity_ok(self) -> bool:

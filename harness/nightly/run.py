@@ -224,7 +224,35 @@ def report_run(history: History, run_id: int, out: Path, regressions=(), previou
     cells = history.cell_records(run_id)
     judged = judge(cells, regressions=regressions, previous=previous, trend=trend)
     return write_report(history.run(run_id), cells, judged, out, timing=timing, trend=trend,
-                        jobs=jobs or os.cpu_count() or 1, before_write=lambda: checkpoint("report"))
+                        jobs=jobs or os.cpu_count() or 1, before_write=lambda: checkpoint("report"),
+                        extra=version_change_lines(history, run_id))
+
+
+def version_change_lines(history: History, run_id: int) -> list[str]:
+    """Where the suite's previous complete run ran other engine releases: the version change, said
+    as one (this run starts another series: ``harness.history.storage.engine_series``), with what
+    changed in each upgraded engine's cells (``reports.versions_section``)."""
+    from harness.history.storage import engine_series
+    from reports.versions_section import between_versions_section
+
+    last = history.previous_complete(run_id, same_engines=False)
+    if last is None:
+        return []
+    before = dict(engine_series(history.run(last)["versions"]))
+    now_ = dict(engine_series(history.run(run_id)["versions"]))
+    changed = sorted(d for d in set(before) | set(now_) if before.get(d) != now_.get(d))
+    if not changed:
+        return []
+    said = ", ".join(f"{d} {before.get(d)} → {now_.get(d)}" for d in changed)
+    lines = ["## Engine versions changed", "",
+             f"Run {last}, the suite's previous complete run, ran other engine releases ({said}): this run starts "
+             "their series, so nothing is compared as a regression across the change; what the change did is below.",
+             ""]
+    old_cells, new_cells = history.cell_records(last), history.cell_records(run_id)
+    for d in changed:
+        if before.get(d) and now_.get(d):
+            lines += between_versions_section(d, [(before[d], old_cells), (now_[d], new_cells)])
+    return lines
 
 
 def _resumable(history: History, suite_name: str, identity: dict) -> tuple[int, dict]:
@@ -267,6 +295,15 @@ def _plain(x):
     return json.loads(json.dumps(x, default=str))
 
 
+def engine_versions() -> dict[str, str | None]:
+    """{distribution: installed version} of every engine an adapter drives: the run's series
+    (``harness.history.storage.engine_series``)."""
+    import adapters
+    from adapters._base import engine_version
+
+    return {dist: engine_version(dist) for dist in sorted({m.dist for m in adapters.ENGINE_METHODS.values()})}
+
+
 def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB,
                 jobs: int | None = None, scheduler: str | None = None, bounds_path=bounds_mod.DEFAULT_PATH,
                 progress_stream=None, cell_timeout: float | None = None, resume: bool = False,
@@ -291,7 +328,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     tasks, skipped = build_tasks(suite, bounds_path, injected)
     history = History(db)
     commit, versions, machine = run_metadata()
-    versions = {**versions, **plugin_versions(active_plugins())}
+    versions = {**versions, **plugin_versions(active_plugins()), "engines": engine_versions()}
     executor = make_executor(jobs, scheduler)
     settings = {"suite": asdict(suite), "jobs": jobs, "executor": executor.describe(), "skipped": skipped,
                 "cell_timeout": timeout, "plugins": list(active_plugins()),

@@ -1,0 +1,131 @@
+"""Engine versions as an axis of the nightly, as asv's ``matrix`` does for dependencies:
+``harness nightly --engine mujoco==3.3.7 --engine mujoco==4.0.0`` (or ``[tool.harness] engines``).
+
+Each release gets an environment of its own, built once and kept under the harness cache
+(``harness.execution.engine_env``: the release alone, installed with pip into a folder that goes
+first on the path; everything else is the project's). The suite then runs once per release, each
+run a nightly of its own in a process started on that environment, stored in the same history with
+the versions it ran on: runs of different engine releases are different series
+(``harness.history.storage.engine_series``), so a release changes nothing's regression verdict.
+The matrix's own report (``<out>/report.md``) links each release's report and says, for each
+engine with more than one release, what changed from one release to the next
+(``reports.versions_section``).
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+from records import InvalidInput
+
+_ROOT = Path(__file__).resolve().parents[2]
+#: Set in the environment of a run on one release of a matrix.
+CHILD_ENV = "HARNESS_MATRIX_RUN"
+
+
+def parse_spec(text: str) -> tuple[str, str]:
+    """``"mujoco==3.3.7"`` -> ("mujoco", "3.3.7"); one-line InvalidInput otherwise."""
+    from harness.execution.engine_env import known_engines
+
+    dist, sep, version = str(text).partition("==")
+    dist, version = dist.strip(), version.strip()
+    engines = known_engines()
+    if not sep or not dist or not version:
+        raise InvalidInput(f"--engine {text!r}: write ENGINE==VERSION (engines: {', '.join(engines)})")
+    if dist not in engines:
+        raise InvalidInput(f"--engine {text!r}: unknown engine {dist!r} (valid: {', '.join(engines)})")
+    return dist, version
+
+
+def configured_engines(pyproject: Path | str = "pyproject.toml") -> list[str]:
+    """The engine releases ``[tool.harness] engines`` lists (``"mujoco==3.3.7"``), or none (and none
+    in a matrix's run on one release)."""
+    pyproject = Path(pyproject)
+    if os.environ.get(CHILD_ENV) or not pyproject.is_file():
+        return []
+    try:
+        data = tomllib.loads(pyproject.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InvalidInput(f"{pyproject}: [tool.harness] cannot be read ({exc})") from None
+    engines = data.get("tool", {}).get("harness", {}).get("engines", [])
+    if not isinstance(engines, list) or not all(isinstance(e, str) for e in engines):
+        raise InvalidInput(f"{pyproject}: [tool.harness] engines must be a list of ENGINE==VERSION (got {engines!r})")
+    return engines
+
+
+def plan(specs) -> dict[str, list[str]]:
+    """{engine: its releases, oldest first}, every spec checked and every release resolved against
+    the registry before anything is installed or run."""
+    from harness.execution.engine_env import check_release, version_key
+
+    by_engine: dict[str, list[str]] = {}
+    for text in specs:
+        dist, version = parse_spec(text)
+        check_release(dist, version)
+        by_engine.setdefault(dist, [])
+        if version not in by_engine[dist]:
+            by_engine[dist].append(version)
+    return {d: sorted(vs, key=version_key) for d, vs in by_engine.items()}
+
+
+def _child_env(path: Path) -> dict:
+    env = dict(os.environ)
+    env[CHILD_ENV] = "1"  # the run on one release is a plain nightly, not a matrix again
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(path), str(_ROOT), env.get("PYTHONPATH", "")) if p)
+    return env
+
+
+def run_matrix(specs, suite: str, out: Path, db: Path, extra_args=(), stream=None) -> dict:
+    """Run ``suite`` once per engine release of ``specs`` (module docstring); returns
+    {"runs": [{"engine", "version", "run_id", "report", "regressions", "skipped"}], "report": path}."""
+    from harness.execution.engine_env import ensure
+    from harness.history.storage import History
+    from reports.versions_section import between_versions_section
+
+    stream = stream or sys.stderr
+    releases = plan(specs)
+    out, db = Path(out), Path(db)
+    runs = []
+    for dist, versions in releases.items():
+        for version in versions:
+            env_path = ensure(dist, version)
+            sub_out = out / f"{dist}-{version}"
+            print(f"matrix: {dist} {version}: the suite on {env_path}", file=stream, flush=True)
+            cmd = [sys.executable, "-m", "harness", "nightly", "--suite", suite, "--db", str(db), "--out", str(sub_out),
+                   "--json", *extra_args]
+            done = subprocess.run(cmd, env=_child_env(env_path), stdout=subprocess.PIPE, stderr=stream, text=True)
+            if done.returncode not in (0, 1):
+                raise InvalidInput(f"--engine {dist}=={version}: the run on that release stopped (exit "
+                                   f"{done.returncode}); the other releases' runs are stored")
+            summary = json.loads(done.stdout)
+            run_id = int(summary["run_id"])
+            stored = History(db).run(run_id)
+            recorded = (stored["versions"].get("engines") or {}).get(dist)
+            if recorded != version:
+                raise InvalidInput(f"--engine {dist}=={version}: the run imported {dist} {recorded} instead")
+            skipped = {s["method"]: s["reason"] for s in stored["settings"].get("skipped", [])
+                       if s["method"].split(":")[0] == dist}
+            runs.append({"engine": dist, "version": version, "run_id": run_id, "report": str(sub_out / "report.md"),
+                         "regressions": summary["regressions"], "skipped": skipped})
+    history = History(db)
+    lines = [f"# Engine versions: the {suite} suite on each release", ""]
+    lines += [f"- {r['engine']} {r['version']}: run {r['run_id']}, [report]({Path(r['report']).relative_to(out)})"
+              + (f", {len(r['regressions'])} regression(s) in its own series" if r["regressions"] else "")
+              for r in runs]
+    lines.append("")
+    for dist, versions in releases.items():
+        mine = [r for r in runs if r["engine"] == dist]
+        if len(mine) < 2:
+            continue
+        groups = [(r["version"], history.cell_records(r["run_id"])) for r in mine]
+        lines += between_versions_section(dist, groups, {r["version"]: r["skipped"] for r in mine})
+    out.mkdir(parents=True, exist_ok=True)
+    report = out / "report.md"
+    tmp = out / f".report.md.{os.getpid()}.tmp"
+    tmp.write_text("\n".join(lines) + "\n")
+    os.replace(tmp, report)
+    return {"runs": runs, "report": report}

@@ -1,0 +1,97 @@
+"""Between versions: what changed in one engine's cells from one release to the next.
+
+Each group is one run of the same suite on one release of the engine (a version matrix's runs, or
+the run before an upgrade and the run after it). For each pair of consecutive releases, every cell
+of the engine's modes is set beside its counterpart: **bit for bit unchanged** where its status,
+value and every stored figure are equal (less how it ran: clocks, kernels, backend); otherwise one
+row with both values. A cost cell is compared as its ratio to explicit Euler, each measured in its
+own run, and beyond the process-to-process spread only (``PROCESS_SPREAD``): a ratio is not a bit.
+A mode one release has and the other lacks is said so ("not in mujoco 3.3.7").
+"""
+from __future__ import annotations
+
+import json
+import math
+
+from records.cell import Cell
+
+#: What a stored cell records of how it ran, not of what it measured.
+HOW = ("wall_s", "kernels", "backend", "settings", "engine_version", "timing", "clock", "numbers_timing")
+#: A cost ratio to explicit Euler moving by less than this (relative) is not a change between releases.
+PROCESS_SPREAD = 0.5
+
+
+def _figures(c: Cell) -> str:
+    data = {k: v for k, v in c.figures.to_data().items() if k not in HOW}
+    return json.dumps(data, sort_keys=True, default=str)
+
+
+def _value(c: Cell | None) -> str:
+    if c is None:
+        return "–"
+    if c.status != "ok":
+        return c.status
+    if c.measure == "energy" and c.figures.energy_class:
+        return f"{c.value:.6g} ({c.figures.energy_class})" if c.value is not None else c.figures.energy_class
+    if c.measure == "identity":
+        return f"{c.figures.match or 'no match'} ({c.value:.2e})" if c.value is not None else str(c.figures.match)
+    if c.measure == "cost":
+        r = c.figures.ratio_to_explicit_euler
+        return f"ratio {r:.3g}" if r else "–"
+    if c.value is None:
+        return "none"
+    return "inf" if math.isinf(c.value) else f"{c.value:.9g}"
+
+
+def _same(a: Cell, b: Cell) -> bool:
+    if a.measure == "cost":
+        ra, rb = a.figures.ratio_to_explicit_euler, b.figures.ratio_to_explicit_euler
+        return a.status == b.status and (not ra or not rb or abs(rb / ra - 1.0) <= PROCESS_SPREAD)
+    same_value = a.value == b.value or (a.value is not None and b.value is not None
+                                        and math.isnan(a.value) and math.isnan(b.value))
+    return a.status == b.status and same_value and a.detail == b.detail and _figures(a) == _figures(b)
+
+
+def compare_releases(engine: str, before: tuple[str, list[Cell]], after: tuple[str, list[Cell]]) -> dict:
+    """{"unchanged": n, "changed": [(key, cell_a, cell_b)], "only_before": [...], "only_after": [...]}
+    for the cells of ``engine``'s modes in two runs (each ``(version, cells)``)."""
+    def mine(cells):
+        return {(c.scene, c.method, c.measure, c.dt): c for c in cells if c.family == engine and c.measure != "bound"}
+
+    a, b = mine(before[1]), mine(after[1])
+    out = {"unchanged": 0, "changed": [], "only_before": sorted(set(a) - set(b)), "only_after": sorted(set(b) - set(a))}
+    for key in sorted(set(a) & set(b), key=str):
+        if _same(a[key], b[key]):
+            out["unchanged"] += 1
+        else:
+            out["changed"].append((key, a[key], b[key]))
+    return out
+
+
+def between_versions_section(engine: str, runs: list[tuple[str, list[Cell]]], skipped: dict | None = None) -> list[str]:
+    """The report's "Between versions" lines for ``engine``: ``runs`` as (version, cells), oldest
+    release first; ``skipped``: {version: {method: reason}} of modes a release could not run."""
+    lines = [f"## Between versions: {engine}", "",
+             f"Each release's cells of the {engine} modes beside the next release's (status, value and every "
+             "stored figure; cost as its ratio to explicit Euler, each from its own run).", ""]
+    for (va, ca), (vb, cb) in zip(runs, runs[1:]):
+        res = compare_releases(engine, (va, ca), (vb, cb))
+        head = f"**{engine} {va} → {vb}**: "
+        if not res["changed"] and not res["only_before"] and not res["only_after"]:
+            lines += [head + f"bit for bit unchanged ({res['unchanged']} cells).", ""]
+            continue
+        lines.append(head + f"{res['unchanged']} cells bit for bit unchanged, {len(res['changed'])} changed.")
+        lines.append("")
+        if res["changed"]:
+            lines += [f"| scene | method | measure | {engine} {va} | {engine} {vb} |", "|---|---|---|---|---|"]
+            for (scene, method, measure, _), x, y in res["changed"]:
+                lines.append(f"| {scene} | `{method}` | {measure} | {_value(x)} | {_value(y)} |")
+            lines.append("")
+        for side, version, other in (("only_before", va, vb), ("only_after", vb, va)):
+            methods = sorted({k[1] for k in res[side]})
+            for m in methods:
+                why = (skipped or {}).get(other, {}).get(m) or f"not in {engine} {other}"
+                lines.append(f"- `{m}`: measured on {engine} {version}; {why}")
+        if res["only_before"] or res["only_after"]:
+            lines.append("")
+    return lines
