@@ -218,3 +218,17 @@ def test_two_mujoco_releases_discrete_in_one_euler_bit_for_bit_in_both():
         f"harness: error: method mujoco:discrete is unavailable: not in mujoco {OLD}"
     present = harness(NEW, "run", "spring", "--method", "mujoco:discrete", "--dt", "0.1", "--steps", "2")
     assert present.returncode == 0, present.stderr
+
+
+def test_a_mode_missing_from_early_releases_is_one_cell_until_it_appears(toy):
+    # "not in toyengine 1.2" and "not in toyengine 1.3" name the release, not a different cell.
+    folders, releases, ensure, ensured = toy
+
+    def measure(folder, argv):
+        release = Path(folder).name.split("-", 1)[1]
+        return {"error": f"method toyengine:euler is unavailable: not in toyengine {release}"} \
+            if release < "1.5" else {"rows": [1.0]}
+
+    result = bisect_cli.bisect("toyengine", "1.0", "1.7", ["run", "spring", "--method", "toyengine:euler"],
+                               releases=releases, ensure=ensure, measure=measure)
+    assert (result.first, result.before) == ("1.5", "1.4")

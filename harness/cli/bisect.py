@@ -227,7 +227,11 @@ def bisect(engine: str, low: str, high: str, argv: list[str], *, releases=None, 
         say(f"bisect: {dist} {release}: environment")
         folder = ensure(dist, release)
         say(f"bisect: {dist} {release}: harness {' '.join(argv[:4])}")
-        return measure(folder, argv)
+        value = measure(folder, argv)
+        if isinstance(value, dict) and isinstance(value.get("error"), str):
+            # "not in mujoco 3.3.7" and "not in mujoco 3.4.0" are the same cell: the release is not the value.
+            value = {**value, "error": value["error"].replace(f"{dist} {release}", f"{dist} <release>")}
+        return value
 
     first, before, tried, values = find_change(between, cell, lambda line: say(f"bisect: {line}"))
     result.first, result.before, result.tried, result.values = first, before, tried, values
