@@ -17,8 +17,9 @@ from ._kernels import cache_dir as kernel_cache_dir
 from ._kernels import compile_notices
 from ._numba_config import opt_level as kernel_opt_level
 from ._scheme import Scheme
+from .kinds import KINDS, Kind
+from .tableau import Tableau, tableau_scheme
 from .method import RefMethod
-from .schemes.explicit_euler import explicit_euler
 from .schemes.forest_ruth import forest_ruth
 from .schemes.implicit_euler import implicit_euler
 from .schemes.implicit_midpoint import implicit_midpoint
@@ -26,7 +27,7 @@ from .schemes.leapfrog import leapfrog
 from .schemes.linearly_implicit_euler import linearly_implicit_euler
 from .schemes.position_first_euler_decay import (position_first_euler_decay_after_kick,
                                                  position_first_euler_decay_before_kick)
-from .schemes.rk4 import rk4
+from .schemes.runge_kutta import TABLEAUS, explicit_euler, rk4
 from .schemes.semi_implicit_euler import semi_implicit_euler
 from .schemes.semi_implicit_euler_position_first import semi_implicit_euler_position_first
 from .schemes.semi_implicit_euler_velocity_implicit import semi_implicit_euler_velocity_implicit
@@ -40,6 +41,8 @@ METHODS: dict[str, Scheme] = {s.id: s for s in (
     semi_implicit_euler_velocity_implicit, position_first_euler_decay_after_kick,
     position_first_euler_decay_before_kick, linearly_implicit_euler,
 )}
+#: Every explicit Runge-Kutta tableau (``schemes/runge_kutta.py``): a new entry there is a new scheme.
+METHODS.update({s.id: s for s in TABLEAUS if s.id not in METHODS})
 
 #: Public names of ``_floors``, imported on first use: the floors compile with numba, which a
 #: harness command that times nothing need not import.
@@ -54,6 +57,7 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["METHODS", "Scheme", "RefMethod", "carried_map", "integrate", "integrate_compiled", "integrate_exact", "Exact",
+__all__ = ["METHODS", "Scheme", "Kind", "KINDS", "Tableau", "tableau_scheme", "RefMethod", "carried_map", "integrate",
+           "integrate_compiled", "integrate_exact", "Exact",
            "exact_why", "cache_state", "compile_notices", "kernel_cache_dir", "kernel_opt_level", "CLOCKS", "step_timer",
            "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

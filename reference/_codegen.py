@@ -105,6 +105,10 @@ class _Source:
         self.functions[name] = ast.unparse(tree)
         self._trees[name] = tree
 
+    def parameters(self, name: str) -> list[str]:
+        """The parameters of the copied function ``name`` (its bound kernels dropped)."""
+        return [a.arg for a in self._trees[name].args.args]
+
     def add_one_iteration(self, name: str, new_name: str, iterations: str) -> bool:
         """Copy the already copied ``name`` as ``new_name`` for exactly one iteration: each loop
         ``for _ in range(<iterations>)`` whose body ends ``if ...: break`` becomes one pass
@@ -205,14 +209,13 @@ class _Source:
         return "\n".join(parts + [loop])
 
 
-def _loop_source(kind: str, nstate: int, pointwise: bool, once: bool = False) -> str:
+def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False) -> str:
     """``advance_n(state, t0, h, i0, n, p, k) -> state``: steps i0 .. i0 + n - 1 of a run
     started at t0 (step i starts at t0 + i h, as in the interpreted driver, so a run cut into
     pieces is the same run). ``k`` is the one integer a scheme takes besides the state: Newton
     iterations allowed (implicit) or projection passes (constrained). The state passed in is
     not modified. ``once``: the file has ``scheme_step_once``, the step for one Newton iteration."""
-    extra = "k, " if kind in ("implicit", "constrained") else ""
-    call = f"scheme_step({extra}{{x}}, {{t}}, h, p)"
+    call = kind.step_call("{x}", "{t}")
     if not pointwise:
         return "\n".join([
             "@_jit",
@@ -247,7 +250,7 @@ def _loop_source(kind: str, nstate: int, pointwise: bool, once: bool = False) ->
     if once:
         # One Newton iteration (every linear scene: exact) runs the step copied without the
         # iteration loop's exit, which leaves the batch loop straight-line code that vectorises.
-        lines += ["    if k == 1:", *loops(call.replace("scheme_step(k, ", "scheme_step_once(1, "), "        "),
+        lines += ["    if k == 1:", *loops(kind.step_call("{x}", "{t}", "scheme_step_once", "1"), "        "),
                   "    else:", *loops(call, "        ")]
     else:
         lines += loops(call, "    ")
@@ -255,12 +258,11 @@ def _loop_source(kind: str, nstate: int, pointwise: bool, once: bool = False) ->
     return "\n".join(lines)
 
 
-def _counted_one_source(kind: str) -> str:
+def _counted_one_source(kind) -> str:
     """``run_counted_one(x, t0, h, n, every, p, k, out_q, out_v, cnt) -> (recorded, failed)``:
     ``run_counted`` on a pointwise scene with one entry (one DOF, batch one), its state ``x``
     the floats ``start_counted`` returns for floats: the same operations on scalars, which
     numba compiles in a fraction of the time it takes over array expressions."""
-    extra = "k, " if kind in ("implicit", "constrained") else ""
     return "\n".join([
         "@_jit",
         "def run_counted_one(x, t0, h, n, every, p, k, out_q, out_v, cnt):",
@@ -269,7 +271,7 @@ def _counted_one_source(kind: str) -> str:
         "    out_v[0, 0, 0] = vo",
         "    j = 1",
         "    for i in range(n):",
-        f"        x = scheme_step_counted(cnt, {extra}x, t0 + i * h, h, p)",
+        "        x = " + kind.step_call("x", "t0 + i * h", "scheme_step_counted", lead="cnt, "),
         "        if not (abs(x[0]) <= _DIVERGED and abs(x[1]) <= _DIVERGED):",
         "            return j, i + 1",
         "        if (i + 1) % every == 0 or i + 1 == n:",
@@ -281,7 +283,7 @@ def _counted_one_source(kind: str) -> str:
         ""])
 
 
-def _counted_source(kind: str) -> str:
+def _counted_source(kind) -> str:
     """``run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt) -> (state, recorded,
     failed)``: ``reference._integrate.integrate``'s loop, compiled. Steps 1 .. n of a run started
     at t0 (step i + 1 starts at t0 + i h), each checked as ``records.trajectory.diverged``
@@ -291,7 +293,6 @@ def _counted_source(kind: str) -> str:
     force, solve and projection calls added to ``cnt``. A record is copied entry by entry
     (``_put``): a slice assignment would compile numba's broadcasting and its error message into
     every worker's first counted kernel, a compile cost for the same copy."""
-    extra = "k, " if kind in ("implicit", "constrained") else ""
     return "\n".join([
         f"_DIVERGED = {DIVERGED!r}",
         "",
@@ -318,7 +319,7 @@ def _counted_source(kind: str) -> str:
         "    _put(out_v, 0, vo)",
         "    j = 1",
         "    for i in range(n):",
-        f"        state = scheme_step_counted(cnt, {extra}state, t0 + i * h, h, p)",
+        "        state = " + kind.step_call("state", "t0 + i * h", "scheme_step_counted", lead="cnt, "),
         "        if not (_within(state[0]) and _within(state[1])):",
         "            return state, j, i + 1",
         "        if (i + 1) % every == 0 or i + 1 == n:",
@@ -372,28 +373,17 @@ _FILES: dict[tuple, "KernelFile | SourceUnavailable"] = {}
 
 
 def _kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
-    kind = ("constrained" if scheme.constrained else "implicit" if scheme.implicit
-            else "decay" if scheme.decay else "explicit")
-    pointwise = scene_cls.pointwise and not scheme.constrained
+    kind = scheme.kind
+    pointwise = kind.pointwise(scene_cls)
     src = _Source()
-    kernels = {"explicit": ("scene_accel",), "implicit": ("scene_accel", "scene_solve"),
-               "constrained": ("scene_accel", "scene_project"),
-               "decay": ("scene_accel", "scene_damping_rate")}[kind]
+    kernels = ("scene_accel", *(f"scene_{name}" for name in kind.kernels))
     src.add(scheme.step, "scheme_step", kernels)
     src.add(scheme.start, "start", ("scene_accel",))
     src.add(scheme.observe, "observe", ("scene_accel",))
     src.add(scene_cls.accel, "scene_accel")
-    if kind == "implicit":
-        src.add(scene_cls.solve, "scene_solve")
-    if kind == "constrained":
-        src.add(scene_cls.project, "scene_project")
-    if kind == "decay":
-        src.add(scene_cls.damping_rate, "scene_damping_rate")
-    once = False
-    if kind == "implicit" and pointwise:
-        # The Newton parameter is the step's first after the two kernels.
-        params = src._trees["scheme_step"].args.args
-        once = bool(params) and src.add_one_iteration("scheme_step", "scheme_step_once", params[0].arg)
+    for name in kind.kernels:
+        src.add(getattr(scene_cls, name), f"scene_{name}")
+    once = kind.variants(src, pointwise)
     loops = _loop_source(kind, nstate, pointwise, once)
     try:
         called = {name: entry for name, entry in COUNTED.items() if name in kernels}
@@ -405,6 +395,6 @@ def _kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
         exact_why, libm = src.exact_why()
     except SourceUnavailable as exc:
         exact_why, libm = str(exc), ()
-    header = (f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind}, '
+    header = (f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind.name}, '
               f'{"pointwise" if pointwise else "array"} loop), generated by reference._kernels."""')
     return KernelFile(src.text(header, loops), pointwise, exact_why, libm)

@@ -20,7 +20,6 @@ from scenarios import Scene, no_velocity_dependence
 from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, output_marks
 
 from . import _kernels
-from ._integrate import iterations_for, newton_max
 
 #: One driver per (scheme, scene class) in this process: the Scheme object (a frozen dataclass
 #: holding its functions), so a scheme re-imported from an edited file is a new key.
@@ -96,7 +95,8 @@ def driver(scheme, scene: Scene):
 
 
 def _k(scheme, scene: Scene, iterations: int | None) -> int:
-    return iterations_for(scheme, iterations) if scheme.constrained else newton_max(scene)
+    """The integer the step takes (``Kind.count``), which every compiled loop passes."""
+    return scheme.kind.count(scheme, scene, iterations)
 
 
 def _kernel_layout(scene: Scene, q0, v0):
@@ -164,7 +164,7 @@ def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int =
         energy = scene.energy(q, v)
     meta = RunMeta(backend="compiled", steps_run=(failed - 1) if failed else steps, params=dict(scene.values),
                    force_evals_reason="compiled run: not counted (the interpreted driver counts them)",
-                   iterations=iterations_for(scheme, iterations) if scheme.constrained else None)
+                   iterations=scheme.kind.run_iterations(scheme, iterations))
     return Trajectory(scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
                       step=recorded.astype(np.int64), t=recorded * dt, q=q, v=v, energy=energy,
                       status=status, detail=detail, failed_step=failed, meta=meta)
@@ -195,7 +195,7 @@ PROBE_STEPS = 32
 
 def counted_compile_s(scheme, scene: Scene) -> float:
     """What compiling the pair's counted run is expected to cost, CPU seconds."""
-    return COUNTED_COMPILE_S["pointwise" if type(scene).pointwise and not scheme.constrained else "array"]
+    return COUNTED_COMPILE_S["pointwise" if scheme.kind.pointwise(type(scene)) else "array"]
 
 
 @dataclass(frozen=True)
@@ -286,7 +286,7 @@ def _counted_parts(scheme, scene: Scene, may_compile: bool = True) -> tuple:
     if not why:
         if not (may_compile or kernels.counted_compiled()):
             return kernels, NOT_YET
-        k = newton_max(scene) if scheme.implicit else (scheme.iterations or 0)
+        k = _k(scheme, scene, None)
         out = np.empty((3,) + q.shape)
         with np.errstate(all="ignore"):  # two steps, in the variant batch-one runs take
             _kernels.warm(kernels, lambda: _counted_run(kernels, q, v, 0.0, 0.01 / scene.omega, 2, 1, scene.pvec,
@@ -348,8 +348,8 @@ def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
         energy = scene.energy(q_arr, v_arr)
     meta = RunMeta(backend="compiled, counted", start_force_evals=start_evals,
                    steps_run=(failed - 1) if failed else steps, params=dict(scene.values),
-                   iterations=k if scheme.constrained else None,
-                   projections=int(cnt[2]) if scheme.constrained else None)
+                   iterations=scheme.kind.run_iterations(scheme, iterations),
+                   projections=int(cnt[2]) if "project" in scheme.kind.kernels else None)
     return Trajectory(
         scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
         step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=energy,

@@ -7,7 +7,9 @@ spring and stepped over contiguous arrays, innermost, on a batch. ``harness benc
 each scheme's compiled kernel beside its floor in the same run; the ratio is what the
 generated kernels still pay over a loop written by hand. Written independently of the
 schemes' and the scene's source, the floors also check them: the states agree to roundoff
-(tests/test_reference.py).
+(tests/test_reference.py). An explicit Runge-Kutta scheme's floor is generated from its tableau
+(``reference.tableau``) with the spring's force written in: it checks the kernel files and the
+scene's force, not the tableau, which tests/test_tableau.py checks against its order conditions.
 
 A floor is ``step(state, h, k, m) -> state`` over a tuple of floats, with ``start(x, v, h,
 k, m) -> state`` and ``observe(state, h, k, m) -> (x, v)`` where the scheme carries more than
@@ -17,6 +19,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 
 import numba
 import numpy as np
@@ -28,12 +31,6 @@ _jit = numba.njit(error_model="numpy")
 
 #: Forest-Ruth's theta = 1/(2 - 2^(1/3)), written out again here on purpose.
 _THETA = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
-
-
-@_jit
-def explicit_euler(s, h, k, m):
-    x, v = s
-    return (x + h * v, v + h * (-k * x / m))
 
 
 @_jit
@@ -72,22 +69,6 @@ def verlet(s, h, k, m):
     x, x_prev, a = s
     x_next = 2.0 * x - x_prev + h * h * a
     return (x_next, x, -k * x_next / m)
-
-
-@_jit
-def rk4(s, h, k, m):
-    x, v = s
-    a1 = -k * x / m
-    x2 = x + 0.5 * h * v
-    v2 = v + 0.5 * h * a1
-    a2 = -k * x2 / m
-    x3 = x + 0.5 * h * v2
-    v3 = v + 0.5 * h * a2
-    a3 = -k * x3 / m
-    x4 = x + h * v3
-    v4 = v + h * a3
-    a4 = -k * x4 / m
-    return (x + h / 6.0 * (v + 2.0 * v2 + 2.0 * v3 + v4), v + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4))
 
 
 @_jit
@@ -174,15 +155,14 @@ def _observe_verlet(s, h, k, m):
     return x, (x - x_prev) / h + 0.5 * h * a
 
 
-#: scheme id -> (step, start, observe), every unconstrained scheme.
-FLOORS = {
-    "explicit_euler": (explicit_euler, _start_qv, _observe_qv),
+#: scheme id -> (step, start, observe), the schemes written here by hand; an explicit Runge-Kutta
+#: scheme's floor is generated from its tableau (``_tableau_floor``).
+_HAND_WRITTEN = {
     "semi_implicit_euler": (semi_implicit_euler, _start_qv, _observe_qv),
     "semi_implicit_euler_position_first": (semi_implicit_euler_position_first, _start_qv, _observe_qv),
     "leapfrog": (leapfrog, _start_qv, _observe_qv),
     "velocity_verlet": (velocity_verlet, _start_velocity_verlet, _observe_qv),
     "verlet": (verlet, _start_verlet, _observe_verlet),
-    "rk4": (rk4, _start_qv, _observe_qv),
     "forest_ruth": (forest_ruth, _start_qv, _observe_qv),
     "implicit_euler": (implicit_euler, _start_qv, _observe_qv),
     "linearly_implicit_euler": (linearly_implicit_euler, _start_qv, _observe_qv),
@@ -192,14 +172,62 @@ FLOORS = {
     "position_first_euler_decay_before_kick": (position_first_euler_decay_before_kick, _start_qv, _observe_qv),
 }
 
+
+def _tableau_floor(scheme):
+    """The floor of a tableau scheme: the tableau's stages written out for the spring, a = (-k x)/m
+    at each stage, in the generated step's order of operations (``reference.tableau``)."""
+    source = scheme.tableau.step_source(f"floor_{scheme.id}", lambda x, v, t: f"-k * {x} / m", "s, h, k, m",
+                                        "x, v = s", x="x")
+    namespace: dict = {}
+    exec(source, namespace)
+    return (_jit(namespace[f"floor_{scheme.id}"]), _start_qv, _observe_qv)
+
+
+class _Floors(Mapping):
+    """scheme id -> (step, start, observe) of every unconstrained scheme in ``reference.METHODS``
+    that has one: written here, or generated from its tableau on first use (a tableau registered
+    later, by a test, has its floor too)."""
+
+    def __init__(self):
+        self._generated: dict = {}
+
+    def _ids(self) -> list[str]:
+        from . import METHODS
+
+        return [sid for sid, s in METHODS.items()
+                if not s.constrained and (sid in _HAND_WRITTEN or s.tableau is not None)]
+
+    def __getitem__(self, scheme_id: str):
+        if scheme_id in _HAND_WRITTEN:
+            return _HAND_WRITTEN[scheme_id]
+        from . import METHODS
+
+        scheme = METHODS.get(scheme_id)
+        if scheme is None or scheme.tableau is None:
+            raise KeyError(scheme_id)
+        key = (scheme_id, scheme)
+        if key not in self._generated:
+            self._generated[key] = _tableau_floor(scheme)
+        return self._generated[key]
+
+    def __iter__(self):
+        return iter(self._ids())
+
+    def __len__(self) -> int:
+        return len(self._ids())
+
+
+#: scheme id -> (step, start, observe), every unconstrained scheme.
+FLOORS = _Floors()
+
 _LOOPS: dict = {}
 
 
 def _loops(scheme_id: str):
     """(single, batch) compiled loops of a floor: ``single(state, h, k, m, n) -> state`` in
     registers, ``batch(states (nstate, nb), h, k, m, n)`` in place, the batch innermost."""
-    if scheme_id not in _LOOPS:
-        step = FLOORS[scheme_id][0]
+    step = FLOORS[scheme_id][0]
+    if step not in _LOOPS:
         jit = numba.njit(error_model="numpy")
 
         @jit
@@ -225,8 +253,8 @@ def _loops(scheme_id: str):
                     a[1, b] = s[1]
                     a[2, b] = s[2]
 
-        _LOOPS[scheme_id] = (single, batch2, batch3)
-    return _LOOPS[scheme_id]
+        _LOOPS[step] = (single, batch2, batch3)
+    return _LOOPS[step]
 
 
 def run_floor(scheme_id: str, x0: float, v0: float, h: float, k: float, m: float, n: int) -> tuple[float, float]:

@@ -10,10 +10,7 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene
-from records.trajectory import DIVERGED, OK, UNSTABLE, RunMeta, divergence_detail, diverged, step_loop
-
-#: Newton iterations allowed per implicit step on a nonlinear scene.
-NEWTON_MAX = 50
+from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, step_loop
 
 
 class Counted:
@@ -28,28 +25,11 @@ class Counted:
         return self.fn(*args)
 
 
-def newton_max(scene: Scene) -> int:
-    return 1 if scene.linear else NEWTON_MAX
-
-
-def iterations_for(scheme, iterations: int | None) -> int:
-    """The projection passes a constrained scheme runs with: the caller's, else its default."""
-    return int(scheme.iterations if iterations is None else iterations)
-
-
-def _advance(scheme, scene: Scene, dt: float, accel, solve, project, iterations: int | None = None):
-    """``advance(state, t) -> state``: one step of ``scheme`` on ``scene``, with the kernels given
-    (counted or not), by the scheme's kind (module ``reference._scheme``'s contract)."""
-    p, rate = scene.pvec, scene.damping_rate
-    if scheme.constrained:
-        iters = iterations_for(scheme, iterations)
-        return lambda state, t: scheme.step(accel, project, iters, state, t, dt, p)
-    if scheme.implicit:
-        nmax = newton_max(scene)
-        return lambda state, t: scheme.step(accel, solve, nmax, state, t, dt, p)
-    if scheme.decay:
-        return lambda state, t: scheme.step(accel, rate, state, t, dt, p)
-    return lambda state, t: scheme.step(accel, state, t, dt, p)
+def _kernels(scene: Scene, accel=None, solve=None, project=None) -> dict:
+    """The scene's kernels by name, for a kind to take its own (``Kind.advance``): the force,
+    solve and projection as given (counted), the others as the scene has them."""
+    return {"accel": accel or scene.accel, "solve": solve or scene.solve, "project": project or scene.project,
+            "damping_rate": scene.damping_rate}
 
 
 def carried_map(scheme, scene: Scene, dt: float) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
@@ -67,7 +47,7 @@ def carried_map(scheme, scene: Scene, dt: float) -> tuple[np.ndarray, np.ndarray
     shapes = [np.shape(a) for a in template]
     sizes = [int(np.prod(s)) for s in shapes]
     d = sum(sizes)
-    advance = _advance(scheme, scene, dt, scene.accel, scene.solve, scene.project)
+    advance = scheme.kind.advance(scheme, scene, dt, _kernels(scene))
 
     def run(y):
         parts = np.split(np.asarray(y, dtype=np.float64), np.cumsum(sizes)[:-1])
@@ -99,8 +79,8 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     p = scene.pvec
     accel, solve, project = Counted(scene.accel), Counted(scene.solve), Counted(scene.project)
     meta = RunMeta(backend="interpreted", params=dict(scene.values),
-                   iterations=iterations_for(scheme, iterations) if scheme.constrained else None)
-    advance = _advance(scheme, scene, dt, accel, solve, project, iterations)
+                   iterations=scheme.kind.run_iterations(scheme, iterations))
+    advance = scheme.kind.advance(scheme, scene, dt, _kernels(scene, accel, solve, project), iterations)
     state = scheme.start(accel, q, v, t0, dt, p)
     start_evals = accel.calls
     accel.calls = 0
@@ -124,7 +104,7 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     status = UNSTABLE if failed else OK
     meta.steps_run = (failed - 1) if failed else steps
     meta.start_force_evals = start_evals
-    if scheme.constrained:
+    if "project" in scheme.kind.kernels:
         meta.projections = project.calls
     q_arr, v_arr = np.array(rec_q), np.array(rec_v)
     step_arr = np.array(rec_step, dtype=np.int64)

@@ -316,7 +316,7 @@ def _in_memory(scheme, scene_cls, why: str) -> Kernels:
 
     jit = numba.njit(error_model="numpy")
     step, scheme_start, scheme_observe = jit(scheme.step), jit(scheme.start), jit(scheme.observe)
-    accel, solve, project = jit(scene_cls.accel), jit(scene_cls.solve), jit(scene_cls.project)
+    accel = jit(scene_cls.accel)
 
     @jit
     def start(q, v, t, h, p):
@@ -326,32 +326,7 @@ def _in_memory(scheme, scene_cls, why: str) -> Kernels:
     def observe(state, t, h, p):
         return scheme_observe(accel, state, t, h, p)
 
-    if scheme.constrained:
-        @jit
-        def advance_n(state, t0, h, i0, n, p, k):
-            for i in range(i0, i0 + n):
-                state = step(accel, project, k, state, t0 + i * h, h, p)
-            return state
-    elif scheme.implicit:
-        @jit
-        def advance_n(state, t0, h, i0, n, p, k):
-            for i in range(i0, i0 + n):
-                state = step(accel, solve, k, state, t0 + i * h, h, p)
-            return state
-    elif getattr(scheme, "decay", False):
-        rate = jit(scene_cls.damping_rate)
-
-        @jit
-        def advance_n(state, t0, h, i0, n, p, k):
-            for i in range(i0, i0 + n):
-                state = step(accel, rate, state, t0 + i * h, h, p)
-            return state
-    else:
-        @jit
-        def advance_n(state, t0, h, i0, n, p, k):
-            for i in range(i0, i0 + n):
-                state = step(accel, state, t0 + i * h, h, p)
-            return state
+    advance_n = scheme.kind.in_memory_loop(jit, step, accel, scene_cls)
     return Kernels(start, advance_n, observe, False, None, why)
 
 

@@ -5,23 +5,16 @@ Kernel contract (arrays in the component-major kernel layout, ``(ndof, batch)``)
 * ``start(accel, q, v, t, h, p) -> state``: the carried state (a tuple of arrays);
   the default carries ``(q, v)``. Verlet-type schemes carry more (the previous position,
   the last acceleration) so that a step costs exactly the declared force evaluations.
-* ``step(accel, state, t, h, p) -> state`` for explicit schemes;
-  ``step(accel, solve, newton_max, state, t, h, p) -> state`` for implicit ones, where
-  ``solve`` is the scene's linear solve and ``newton_max`` is 1 for linear scenes
-  (one Newton iteration from the old velocity is exact) and more otherwise.
-* ``step(accel, project, iterations, state, t, h, p) -> state`` for constrained schemes
-  (``constrained=True``), where ``project(q, p, iterations) -> q`` is the scene's constraint
-  projection and ``iterations`` its number of relaxation passes: the scheme's default
-  (``Scheme.iterations``) unless the caller asks for another (``integrate(..., iterations=K)``,
-  ``harness run --opt iterations=K``). A constrained scheme runs only on scenes with a
-  ``project`` kernel, and those scenes only with constrained schemes.
-* ``step(accel, rate, state, t, h, p) -> state`` for decay schemes (``decay=True``), which
-  integrate a linear damping exactly: ``rate(p)`` is the scene's damping rate gamma in
-  a(x, v) = a(x, 0) - gamma v (``Scene.damping_rate``); they run only on scenes that have one.
+* ``step(accel, *kernels, [count,] state, t, h, p) -> state``: the signature is the scheme's
+  kind's (``reference.kinds``: explicit, implicit with the scene's solve and Newton iterations,
+  constrained with the scene's projection and its passes, decay with the scene's damping rate).
+  A constrained scheme's passes are its default (``Scheme.iterations``) unless the caller asks
+  for another (``integrate(..., iterations=K)``, ``harness run --opt iterations=K``).
 * ``observe(accel, state, t, h, p) -> (q, v)``: the state a user sees; it never calls ``accel``.
 
 The functions are plain numpy, so the same source runs interpreted, with every force
-evaluation counted, and compiled by numba for timing.
+evaluation counted, and compiled by numba for timing. An explicit Runge-Kutta scheme is
+declared as its tableau (``reference.tableau``), its step generated as such source.
 """
 from __future__ import annotations
 
@@ -30,6 +23,8 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+
+from . import kinds
 
 
 def start_qv(accel, q, v, t, h, p):
@@ -70,18 +65,31 @@ class Scheme:
     order: int
     force_evals: int
     symplectic: bool
-    implicit: bool
     energy_claim: str
     homega_max: float | None
+    #: What the step takes besides the state, and all that follows from it (``reference.kinds``).
+    kind: kinds.Kind = kinds.EXPLICIT
     start: Callable = start_qv
     observe: Callable = observe_qv
-    constrained: bool = False
     iterations: int | None = None
-    decay: bool = False
     order_velocity_dependent: int | None = None
     same_without_velocity: str | None = None
     carries: tuple[str, ...] = ("q", "v")   # the state carried between steps, as ``start`` builds it
     doc: str = field(default="", compare=False)
+    #: The Butcher tableau an explicit Runge-Kutta scheme is declared as (``reference.tableau``).
+    tableau: object = field(default=None, compare=False)
+
+    @property
+    def implicit(self) -> bool:
+        return self.kind.implicit
+
+    @property
+    def constrained(self) -> bool:
+        return self.kind.constrained
+
+    @property
+    def decay(self) -> bool:
+        return self.kind.decay
 
     @property
     def options(self) -> dict[str, int]:
@@ -99,7 +107,7 @@ class Scheme:
         return self.doc.strip().splitlines()[0] if self.doc else self.id
 
     def describe(self) -> dict:
-        evals = f"{self.force_evals} + solve" if self.implicit else str(self.force_evals)
+        evals = self.kind.evals_text(self)
         limit = ("none (unstable for every h)" if self.homega_max is None
                  else "unbounded" if self.homega_max == math.inf else f"{self.homega_max:.4g}")
         out = {"id": self.id, "order": self.order, "order_velocity_dependent": self.order_for(True),
@@ -113,7 +121,11 @@ class Scheme:
 
 
 def scheme(**declared) -> Callable[[Callable], Scheme]:
-    """Decorator: ``@scheme(order=1, force_evals=1, ...)`` over the step function."""
+    """Decorator: ``@scheme(order=1, force_evals=1, kind=kinds.IMPLICIT, ...)`` over the step
+    function; the kind may also be declared by flags (``implicit=True``: ``kinds.declared``)."""
+    flags = {name: declared.pop(name) for name in ("implicit", "constrained", "decay") if name in declared}
+    if flags:
+        declared["kind"] = kinds.declared(**flags)
 
     def wrap(step: Callable) -> Scheme:
         return Scheme(id=step.__name__, step=step, doc=step.__doc__ or "", **declared)

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field, replace
 from records import REFERENCE, MethodId, Trajectory
 from records.method import NO_REASONS
 
-from scenarios import Scene, no_solve
+from scenarios import Scene
 
 from ._compiled import Exact, integrate_compiled, integrate_exact
 from ._integrate import integrate
@@ -53,17 +53,9 @@ class RefMethod:
         if not scene.has_kernels:
             return False, (f"scene {scene.id} has no force kernel for a reference scheme to step: "
                            "its physics is the engine's (a model file); engine modes run it")
-        if self.scheme.constrained and not scene.constrained:
-            return False, (f"scene {scene.id} has no constraints to project "
-                           f"(without them {self.id} is plain ref:verlet)")
-        if scene.constrained and not self.scheme.constrained:
-            return False, (f"scene {scene.id} is held together by constraints that only a constrained "
-                           f"scheme enforces (ref:verlet_constrained); here its particles would fall freely")
-        if self.scheme.decay and not scene.has_damping_rate:
-            return False, (f"scene {scene.id} has no single linear damping rate for {self.id} to decay "
-                           "(it needs a(x, v) = a(x, 0) - gamma v with one rate gamma)")
-        if self.scheme.implicit and type(scene).solve is no_solve:
-            return False, f"scene {scene.id} provides no implicit solve"
+        why = self.scheme.kind.supports(self.scheme, scene, self.id)
+        if why:
+            return False, why
         return True, ""
 
     def compiled_twin(self) -> "RefMethod":

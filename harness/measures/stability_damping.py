@@ -32,11 +32,13 @@ another velocity than a restart from (q, v) would use, that is the recurrence th
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
 from records import REFERENCE, MethodId, is_reference, scheme_name
 
+from reference import METHODS
 from scenarios import make_scene
 
 from harness.measures.common import resolve
@@ -63,10 +65,6 @@ def _drift(d):
 
 def _oscillator(zeta):
     return np.array([[0.0, 1.0], [-1.0, -2.0 * zeta]])
-
-
-def _explicit_euler(y, z):
-    return np.eye(2) + y * _oscillator(z)
 
 
 def _semi_implicit_euler(y, z):          # kick, then drift with the new velocity
@@ -102,11 +100,6 @@ def _forest_ruth(y, z):
     return _drift(c1) @ _kick(d1, z) @ _drift(c2) @ _kick(d2, z) @ _drift(c2) @ _kick(d1, z) @ _drift(c1)
 
 
-def _rk4(y, z):
-    a = y * _oscillator(z)
-    return np.eye(2) + a + a @ a / 2.0 + a @ a @ a / 6.0 + a @ a @ a @ a / 24.0
-
-
 def _implicit_euler(y, z):
     return np.linalg.inv(np.eye(2) - y * _oscillator(z))
 
@@ -132,9 +125,9 @@ def _verlet(y, z):
     return np.vstack([x1, [1.0, 0.0, 0.0], a1])
 
 
-#: Scheme id -> M(y, zeta), the recurrence of its carried state on the damped oscillator.
-MATRICES = {
-    "explicit_euler": _explicit_euler,
+#: Scheme id -> M(y, zeta) written from its formulas; an explicit Runge-Kutta scheme's comes from
+#: its tableau (``reference.tableau.Tableau.damping_matrix``).
+_WRITTEN = {
     "semi_implicit_euler": _semi_implicit_euler,
     "semi_implicit_euler_position_first": _semi_implicit_euler_position_first,
     "semi_implicit_euler_velocity_implicit": _semi_implicit_euler_velocity_implicit,
@@ -144,12 +137,36 @@ MATRICES = {
     "velocity_verlet": _velocity_verlet,
     "leapfrog": _leapfrog,
     "forest_ruth": _forest_ruth,
-    "rk4": _rk4,
     "implicit_euler": _implicit_euler,
     # On a linear scene the linearly implicit step is backward Euler (tests/test_cloth.py).
     "linearly_implicit_euler": _implicit_euler,
     "implicit_midpoint": _implicit_midpoint,
 }
+
+
+class _Matrices(Mapping):
+    """Scheme id -> M(y, zeta), the recurrence of its carried state on the damped oscillator: every
+    scheme of ``reference.METHODS`` written above or declared as a tableau (one registered later too)."""
+
+    def _ids(self) -> list[str]:
+        return [sid for sid, s in METHODS.items() if sid in _WRITTEN or s.tableau is not None]
+
+    def __getitem__(self, scheme_id: str):
+        if scheme_id in _WRITTEN:
+            return _WRITTEN[scheme_id]
+        scheme = METHODS.get(scheme_id)
+        if scheme is None or scheme.tableau is None:
+            raise KeyError(scheme_id)
+        return scheme.tableau.damping_matrix
+
+    def __iter__(self):
+        return iter(self._ids())
+
+    def __len__(self) -> int:
+        return len(self._ids())
+
+
+MATRICES = _Matrices()
 
 
 def _explicit_euler_limit(z):

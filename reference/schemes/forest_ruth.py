@@ -4,7 +4,7 @@ from .._scheme import scheme
 THETA = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 
 
-@scheme(order=4, force_evals=3, symplectic=True, implicit=False, energy_claim="bounded", homega_max=1.5734,
+@scheme(order=4, force_evals=3, symplectic=True, energy_claim="bounded", homega_max=1.5734,
         order_velocity_dependent=1)
 def forest_ruth(accel, state, t, h, p):
     """Forest-Ruth: three leapfrogs of lengths theta h, (1 - 2 theta) h, theta h composed,

@@ -1,10 +1,11 @@
+from ..kinds import IMPLICIT
 from .._scheme import largest_magnitude, scheme
 
 #: Newton stops when the update is below this, relative to the iterate.
 NEWTON_RTOL = 1e-13
 
 
-@scheme(order=1, force_evals=1, symplectic=False, implicit=True, energy_claim="decays", homega_max=float("inf"))
+@scheme(kind=IMPLICIT, order=1, force_evals=1, symplectic=False, energy_claim="decays", homega_max=float("inf"))
 def implicit_euler(accel, solve, newton_max, state, t, h, p):
     """Implicit (backward) Euler: both updates from the new state.
 

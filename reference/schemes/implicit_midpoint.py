@@ -1,8 +1,9 @@
+from ..kinds import IMPLICIT
 from .._scheme import largest_magnitude, scheme
 from .implicit_euler import NEWTON_RTOL
 
 
-@scheme(order=2, force_evals=1, symplectic=True, implicit=True, energy_claim="bounded", homega_max=float("inf"))
+@scheme(kind=IMPLICIT, order=2, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=float("inf"))
 def implicit_midpoint(accel, solve, newton_max, state, t, h, p):
     """Implicit midpoint rule: the update uses the average of old and new state.
 

@@ -1,7 +1,7 @@
 from .._scheme import scheme
 
 
-@scheme(order=2, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0,
+@scheme(order=2, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=2.0,
         order_velocity_dependent=1)
 def leapfrog(accel, state, t, h, p):
     """Leapfrog, drift-kick-drift (the form REBOUND's ``leapfrog`` integrates):

@@ -1,7 +1,8 @@
+from ..kinds import IMPLICIT
 from .._scheme import scheme
 
 
-@scheme(order=1, force_evals=1, symplectic=False, implicit=True, energy_claim="decays", homega_max=float("inf"))
+@scheme(kind=IMPLICIT, order=1, force_evals=1, symplectic=False, energy_claim="decays", homega_max=float("inf"))
 def linearly_implicit_euler(accel, solve, newton_max, state, t, h, p):
     """Linearly implicit backward Euler (Baraff and Witkin's cloth step): backward Euler with the
     force linearised at the start of the step, so one linear solve and no iteration.

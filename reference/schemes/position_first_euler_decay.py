@@ -3,11 +3,12 @@ factor e^{-gamma h}: Chipmunk's two ways of damping. They apply to forces a(x, v
 gamma v with one rate gamma (the scene's ``damping_rate``)."""
 import math
 
+from ..kinds import DECAY
 from .._scheme import scheme
 
 
-@scheme(order=1, force_evals=1, symplectic=False, implicit=False, energy_claim="bounded", homega_max=2.0,
-        decay=True, same_without_velocity="semi_implicit_euler_position_first")
+@scheme(kind=DECAY, order=1, force_evals=1, symplectic=False, energy_claim="bounded", homega_max=2.0,
+        same_without_velocity="semi_implicit_euler_position_first")
 def position_first_euler_decay_after_kick(accel, rate, state, t, h, p):
     """Position-first Euler, then the whole new velocity decays (Chipmunk's DampedSpring):
 
@@ -21,8 +22,8 @@ def position_first_euler_decay_after_kick(accel, rate, state, t, h, p):
     return (q, math.exp(-rate(p) * h) * (v + h * accel(q, 0.0 * v, t + h, p)))
 
 
-@scheme(order=1, force_evals=1, symplectic=False, implicit=False, energy_claim="bounded", homega_max=2.0,
-        decay=True, same_without_velocity="semi_implicit_euler_position_first")
+@scheme(kind=DECAY, order=1, force_evals=1, symplectic=False, energy_claim="bounded", homega_max=2.0,
+        same_without_velocity="semi_implicit_euler_position_first")
 def position_first_euler_decay_before_kick(accel, rate, state, t, h, p):
     """Position-first Euler whose old velocity decays before the kick (Chipmunk's space.damping,
     v = v damping^h + h a):

@@ -1,7 +1,7 @@
 from .._scheme import scheme
 
 
-@scheme(order=1, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0)
+@scheme(order=1, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=2.0)
 def semi_implicit_euler(accel, state, t, h, p):
     """Semi-implicit (symplectic) Euler, velocity first: the games default (MuJoCo Euler, Bullet).
 

@@ -1,10 +1,11 @@
+from ..kinds import IMPLICIT
 from .._scheme import largest_magnitude, scheme
 
 #: Newton stops when the update is below this, relative to the iterate (as implicit Euler's).
 NEWTON_RTOL = 1e-13
 
 
-@scheme(order=1, force_evals=1, symplectic=True, implicit=True, energy_claim="bounded", homega_max=2.0,
+@scheme(kind=IMPLICIT, order=1, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=2.0,
         same_without_velocity="semi_implicit_euler")
 def semi_implicit_euler_velocity_implicit(accel, solve, newton_max, state, t, h, p):
     """Semi-implicit Euler, implicit in the velocity only: MuJoCo's Euler (eulerdamp), implicit

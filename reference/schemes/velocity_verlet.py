@@ -9,7 +9,7 @@ def observe(accel, state, t, h, p):
     return state[0], state[1]
 
 
-@scheme(order=2, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0,
+@scheme(order=2, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=2.0,
         order_velocity_dependent=1, carries=("q", "v", "a"),
         start=start, observe=observe)
 def velocity_verlet(accel, state, t, h, p):

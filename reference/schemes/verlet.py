@@ -15,7 +15,7 @@ def observe(accel, state, t, h, p):
     return q, (q - q_prev) / h + (0.5 * h) * a
 
 
-@scheme(order=2, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0,
+@scheme(order=2, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=2.0,
         order_velocity_dependent=1, carries=("q", "q_prev", "a"),
         start=start, observe=observe)
 def verlet(accel, state, t, h, p):

@@ -1,3 +1,4 @@
+from ..kinds import CONSTRAINED
 from .._scheme import scheme
 
 #: Projection passes per step unless the caller sets ``iterations``.
@@ -20,8 +21,8 @@ def observe(accel, state, t, h, p):
     return q, (q - q_prev) / h + (0.5 * h) * a_eff
 
 
-@scheme(order=1, force_evals=1, symplectic=False, implicit=False, energy_claim="decays", homega_max=2.0,
-        carries=("q", "q_prev", "a", "a_eff"), start=start, observe=observe, constrained=True,
+@scheme(kind=CONSTRAINED, order=1, force_evals=1, symplectic=False, energy_claim="decays", homega_max=2.0,
+        carries=("q", "q_prev", "a", "a_eff"), start=start, observe=observe,
         iterations=DEFAULT_ITERATIONS)
 def verlet_constrained(accel, project, iterations, state, t, h, p):
     """Position Verlet with position-based constraint projection (Jakobsen, as in cloth and rope

@@ -1,0 +1,185 @@
+"""Scheme kinds: what a scheme's step takes besides the state, and everything that follows from it.
+
+A step is ``step(accel, *kernels, [count,] state, t, h, p) -> state``: the scene's force
+``accel``, then the scene kernels its kind names (``Kind.kernels``, as the scene's attributes),
+then, where the kind has one, one integer (``Kind.count``: Newton iterations allowed, projection
+passes). A kind owns that signature and so every place it shows: the interpreted driver's step
+(``advance``), the call the compiled loops make (``step_call``), the in-memory loop of a pair whose
+source cannot be copied (``in_memory_loop``), the variants a kernel file adds (``variants``), which
+scenes it runs on (``supports``) and what a run reports of it (``run_iterations``, ``evals_text``).
+The drivers, the kernel files and ``RefMethod`` ask the scheme's kind; none branches over kinds.
+
+* ``EXPLICIT``: ``step(accel, state, t, h, p)`` (explicit Runge-Kutta tableaus, the splittings);
+* ``IMPLICIT``: ``step(accel, solve, newton_max, state, t, h, p)``, ``solve`` the scene's linear
+  solve, ``newton_max`` 1 on a linear scene (one Newton iteration from the old velocity is exact);
+* ``CONSTRAINED``: ``step(accel, project, iterations, state, t, h, p)``, ``project(q, p,
+  iterations) -> q`` the scene's constraint projection; runs only on scenes with constraints,
+  and those only with it;
+* ``DECAY``: ``step(accel, damping_rate, state, t, h, p)``, ``damping_rate(p)`` the scene's
+  gamma in a(x, v) = a(x, 0) - gamma v; runs only on scenes that have one.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from scenarios import no_solve
+
+#: Newton iterations allowed per implicit step on a nonlinear scene.
+NEWTON_MAX = 50
+
+
+@dataclass(frozen=True, eq=False)
+class Kind:
+    """An explicit step: the force alone (the base every kind extends)."""
+
+    name: str = "explicit"
+    #: The scene kernels the step takes after ``accel``, by the scene's attribute names.
+    kernels: tuple[str, ...] = ()
+    #: Whether the step takes the integer ``count`` after its kernels.
+    counted: bool = False
+    implicit: bool = False
+    constrained: bool = False
+    decay: bool = False
+
+    def __repr__(self) -> str:
+        return f"<kind {self.name}>"
+
+    # ---------------------------------------------------------------- the signature
+    def count(self, scheme, scene, iterations: int | None = None) -> int:
+        """The integer the step takes (0 where it takes none: the compiled loops pass it anyway)."""
+        return 0
+
+    def run_iterations(self, scheme, iterations: int | None) -> int | None:
+        """What a run reports as its ``iterations`` (projection passes; None where none)."""
+        return None
+
+    def advance(self, scheme, scene, dt: float, kernels: dict, iterations: int | None = None):
+        """``advance(state, t) -> state``: one interpreted step of ``dt``; ``kernels`` maps the
+        scene's kernel names (``accel`` and this kind's) to the callables to use (counted or not)."""
+        p, step = scene.pvec, scheme.step
+        args = (kernels["accel"], *(kernels[name] for name in self.kernels),
+                *((self.count(scheme, scene, iterations),) if self.counted else ()))
+        return lambda state, t: step(*args, state, t, dt, p)
+
+    def step_call(self, state: str, t: str, step: str = "scheme_step", count: str = "k", lead: str = "") -> str:
+        """The compiled loops' call of a kernel file's step (its kernels bound as globals of the
+        file): ``lead`` first (the counted step's counters), then the count where it takes one."""
+        return f"{step}({lead}{count + ', ' if self.counted else ''}{state}, {t}, h, p)"
+
+    def in_memory_loop(self, jit, step, accel, scene_cls):
+        """``advance_n(state, t0, h, i0, n, p, k)`` compiled from function objects (a pair whose
+        source cannot be copied): the step with the scene's kernels passed as arguments."""
+        names = ("accel", *self.kernels)
+        args = ", ".join((*names, *(("k",) if self.counted else ())))
+        namespace = {"step": step, "accel": accel, **{n: jit(getattr(scene_cls, n)) for n in self.kernels}}
+        exec("def advance_n(state, t0, h, i0, n, p, k):\n"
+             "    for i in range(i0, i0 + n):\n"
+             f"        state = step({args}, state, t0 + i * h, h, p)\n"
+             "    return state\n", namespace)
+        return jit(namespace["advance_n"])
+
+    def variants(self, src, pointwise: bool) -> bool:
+        """Add to a kernel file's source (``reference._codegen._Source``) the step variants its
+        loop can use; True where it added the one-iteration step ``scheme_step_once``."""
+        return False
+
+    # ---------------------------------------------------------------- where it runs
+    def pointwise(self, scene_cls) -> bool:
+        """Whether the pair's compiled loop may run entry by entry on floats."""
+        return bool(scene_cls.pointwise)
+
+    def supports(self, scheme, scene, method_id: str) -> str:
+        """Why ``scheme`` of this kind does not run on ``scene`` ("" where it does)."""
+        if scene.constrained:
+            return (f"scene {scene.id} is held together by constraints that only a constrained "
+                    f"scheme enforces (ref:verlet_constrained); here its particles would fall freely")
+        return ""
+
+    def evals_text(self, scheme) -> str:
+        """The force evaluations a step declares, as ``describe`` says them."""
+        return str(scheme.force_evals)
+
+
+@dataclass(frozen=True, eq=False)
+class Implicit(Kind):
+    name: str = "implicit"
+    kernels: tuple[str, ...] = ("solve",)
+    counted: bool = True
+    implicit: bool = True
+
+    def count(self, scheme, scene, iterations=None) -> int:
+        return newton_max(scene)
+
+    def supports(self, scheme, scene, method_id: str) -> str:
+        return super().supports(scheme, scene, method_id) or (
+            f"scene {scene.id} provides no implicit solve" if type(scene).solve is no_solve else "")
+
+    def variants(self, src, pointwise: bool) -> bool:
+        # On a pointwise scene one Newton iteration (every linear scene: exact) runs the step
+        # copied without the iteration loop's exit, straight-line code that vectorises. The
+        # Newton parameter is the step's first after its kernels.
+        if not pointwise:
+            return False
+        params = src.parameters("scheme_step")
+        return bool(params) and src.add_one_iteration("scheme_step", "scheme_step_once", params[0])
+
+    def evals_text(self, scheme) -> str:
+        return f"{scheme.force_evals} + solve"
+
+
+@dataclass(frozen=True, eq=False)
+class Constrained(Kind):
+    name: str = "constrained"
+    kernels: tuple[str, ...] = ("project",)
+    counted: bool = True
+    constrained: bool = True
+
+    def count(self, scheme, scene, iterations=None) -> int:
+        return iterations_for(scheme, iterations)
+
+    def run_iterations(self, scheme, iterations):
+        return iterations_for(scheme, iterations)
+
+    def pointwise(self, scene_cls) -> bool:
+        return False  # a projection couples the entries
+
+    def supports(self, scheme, scene, method_id: str) -> str:
+        if not scene.constrained:
+            return (f"scene {scene.id} has no constraints to project "
+                    f"(without them {method_id} is plain ref:verlet)")
+        return ""
+
+
+@dataclass(frozen=True, eq=False)
+class Decay(Kind):
+    name: str = "decay"
+    kernels: tuple[str, ...] = ("damping_rate",)
+    decay: bool = True
+
+    def supports(self, scheme, scene, method_id: str) -> str:
+        return super().supports(scheme, scene, method_id) or (
+            "" if scene.has_damping_rate else
+            f"scene {scene.id} has no single linear damping rate for {method_id} to decay "
+            "(it needs a(x, v) = a(x, 0) - gamma v with one rate gamma)")
+
+
+EXPLICIT, IMPLICIT, CONSTRAINED, DECAY = Kind(), Implicit(), Constrained(), Decay()
+KINDS = {k.name: k for k in (EXPLICIT, IMPLICIT, CONSTRAINED, DECAY)}
+
+
+def declared(implicit: bool = False, constrained: bool = False, decay: bool = False) -> Kind:
+    """The kind a scheme declares by flags (``@scheme(implicit=True, ...)``): the one whose flags they are."""
+    flags = (bool(implicit), bool(constrained), bool(decay))
+    for kind in KINDS.values():
+        if (kind.implicit, kind.constrained, kind.decay) == flags:
+            return kind
+    raise ValueError(f"no scheme kind is implicit={implicit}, constrained={constrained}, decay={decay}")
+
+
+def newton_max(scene) -> int:
+    return 1 if scene.linear else NEWTON_MAX
+
+
+def iterations_for(scheme, iterations: int | None) -> int:
+    """The projection passes a constrained scheme runs with: the caller's, else its default."""
+    return int(scheme.iterations if iterations is None else iterations)
