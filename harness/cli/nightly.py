@@ -52,6 +52,13 @@ def run(args) -> int:
     engines = configured_engines() + list(args.engine or [])
     if engines and not args.resume:
         return _matrix(args, suite, engines)
+    import adapters
+
+    outside = sorted({m.version_problem() for m in adapters.ENGINE_METHODS.values()} - {None})
+    if outside:  # an engine release its adapter does not support: one line, before anything runs
+        from records import InvalidInput
+
+        raise InvalidInput(outside[0])
     models = configured_models() + list(args.model or [])
     if models:  # every file read and checked (and each engine's loader tried) before the history is opened
         suite = with_models(SUITES[suite], models)

@@ -22,23 +22,23 @@ from pathlib import Path
 
 from records import InvalidInput
 
-_ROOT = Path(__file__).resolve().parents[2]
 #: Set in the environment of a run on one release of a matrix.
 CHILD_ENV = "HARNESS_MATRIX_RUN"
 
 
 def parse_spec(text: str) -> tuple[str, str]:
     """``"mujoco==3.3.7"`` -> ("mujoco", "3.3.7"); one-line InvalidInput otherwise."""
-    from harness.execution.engine_env import known_engines
+    from harness.execution.engine_env import dist_of, engines
 
     dist, sep, version = str(text).partition("==")
     dist, version = dist.strip(), version.strip()
-    engines = known_engines()
+    known = sorted(engines())
     if not sep or not dist or not version:
-        raise InvalidInput(f"--engine {text!r}: write ENGINE==VERSION (engines: {', '.join(engines)})")
-    if dist not in engines:
-        raise InvalidInput(f"--engine {text!r}: unknown engine {dist!r} (valid: {', '.join(engines)})")
-    return dist, version
+        raise InvalidInput(f"--engine {text!r}: write ENGINE==VERSION (engines: {', '.join(known)})")
+    try:
+        return dist_of(dist), version
+    except InvalidInput:
+        raise InvalidInput(f"--engine {text!r}: unknown engine {dist!r} (valid: {', '.join(known)})") from None
 
 
 def configured_engines(pyproject: Path | str = "pyproject.toml") -> list[str]:
@@ -60,12 +60,15 @@ def configured_engines(pyproject: Path | str = "pyproject.toml") -> list[str]:
 def plan(specs) -> dict[str, list[str]]:
     """{engine: its releases, oldest first}, every spec checked and every release resolved against
     the registry before anything is installed or run."""
-    from harness.execution.engine_env import check_release, version_key
+    from harness.execution.engine_env import check_release, releases, version_key
 
     by_engine: dict[str, list[str]] = {}
+    listed: dict[str, list[str]] = {}
     for text in specs:
         dist, version = parse_spec(text)
-        check_release(dist, version)
+        if dist not in listed:
+            listed[dist] = releases(dist)
+        version = check_release(dist, version, listed[dist], field=f"--engine {dist}")
         by_engine.setdefault(dist, [])
         if version not in by_engine[dist]:
             by_engine[dist].append(version)
@@ -73,9 +76,10 @@ def plan(specs) -> dict[str, list[str]]:
 
 
 def _child_env(path: Path) -> dict:
-    env = dict(os.environ)
+    from harness.execution.engine_env import environ
+
+    env = environ(path)
     env[CHILD_ENV] = "1"  # the run on one release is a plain nightly, not a matrix again
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(path), str(_ROOT), env.get("PYTHONPATH", "")) if p)
     return env
 
 
