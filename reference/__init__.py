@@ -22,6 +22,7 @@ from .tableau import Tableau, tableau_scheme
 from .method import RefMethod
 from .schemes.forest_ruth import forest_ruth
 from .schemes.implicit_euler import implicit_euler
+from .schemes.implicit_euler_doubled import implicit_euler_doubled
 from .schemes.implicit_midpoint import implicit_midpoint
 from .schemes.leapfrog import leapfrog
 from .schemes.linearly_implicit_euler import linearly_implicit_euler
@@ -39,7 +40,7 @@ METHODS: dict[str, Scheme] = {s.id: s for s in (
     explicit_euler, semi_implicit_euler, semi_implicit_euler_position_first, verlet, velocity_verlet,
     leapfrog, rk4, implicit_euler, implicit_midpoint, forest_ruth, verlet_constrained,
     semi_implicit_euler_velocity_implicit, position_first_euler_decay_after_kick,
-    position_first_euler_decay_before_kick, linearly_implicit_euler,
+    position_first_euler_decay_before_kick, linearly_implicit_euler, implicit_euler_doubled,
 )}
 #: Every explicit Runge-Kutta tableau (``schemes/runge_kutta.py``): a new entry there is a new scheme.
 METHODS.update({s.id: s for s in TABLEAUS if s.id not in METHODS})

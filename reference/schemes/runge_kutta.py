@@ -29,4 +29,59 @@ Classical 4-stage Runge-Kutta on y = (x, v), y' = (v, a):
     Stable for h w <= 2 sqrt(2).
     """)
 
-TABLEAUS = (explicit_euler, rk4)
+heun = tableau_scheme(
+    "heun", A=[[0, 0], [1, 0]], b=["1/2", "1/2"], c=[0, 1], order=2, energy_claim="grows", module=_MODULE, doc="""\
+Heun's method (explicit trapezoidal rule, Drake's runge_kutta2):
+
+        k1 = f(t, y), k2 = f(t + h, y + h k1)
+        y_{n+1} = y_n + h/2 (k1 + k2)
+
+    Second order, two evaluations. On a spring |R(i y)|^2 = 1 + y^4/4: the energy grows for every h.
+    """)
+
+kutta_rk3 = tableau_scheme(
+    "kutta_rk3", A=[[0, 0, 0], ["1/2", 0, 0], [-1, 2, 0]], b=["1/6", "2/3", "1/6"], c=[0, "1/2", 1], order=3,
+    energy_claim="decays", module=_MODULE, doc="""\
+Kutta's third-order method (Drake's runge_kutta3 without its error estimate):
+
+        k1 = f(t, y), k2 = f(t + h/2, y + h/2 k1), k3 = f(t + h, y - h k1 + 2 h k2)
+        y_{n+1} = y_n + h/6 (k1 + 4 k2 + k3)
+
+    Third order, three evaluations. On a spring |R(i y)|^2 = 1 - y^4/12 + y^6/36: the energy decays,
+    stable for h w <= sqrt(3).
+    """)
+
+bogacki_shampine3 = tableau_scheme(
+    "bogacki_shampine3", A=[[0, 0, 0], ["1/2", 0, 0], [0, "3/4", 0]], b=["2/9", "1/3", "4/9"], c=[0, "1/2", "3/4"],
+    order=3, energy_claim="decays", module=_MODULE, doc="""\
+Bogacki-Shampine's third-order method (its fourth, first-same-as-last stage only feeds the error
+estimate, so at a fixed step it is three stages):
+
+        k1 = f(t, y), k2 = f(t + h/2, y + h/2 k1), k3 = f(t + 3h/4, y + 3h/4 k2)
+        y_{n+1} = y_n + h/9 (2 k1 + 3 k2 + 4 k3)
+
+    Third order, three evaluations; the same stability polynomial as every three-stage third-order
+    scheme: the energy decays on a spring, stable for h w <= sqrt(3).
+    """)
+
+dormand_prince5 = tableau_scheme(
+    "dormand_prince5",
+    A=[[0, 0, 0, 0, 0, 0],
+       ["1/5", 0, 0, 0, 0, 0],
+       ["3/40", "9/40", 0, 0, 0, 0],
+       ["44/45", "-56/15", "32/9", 0, 0, 0],
+       ["19372/6561", "-25360/2187", "64448/6561", "-212/729", 0, 0],
+       ["9017/3168", "-355/33", "46732/5247", "49/176", "-5103/18656", 0]],
+    b=["35/384", 0, "500/1113", "125/192", "-2187/6784", "11/84"], c=[0, "1/5", "3/10", "4/5", "8/9", 1],
+    order=5, energy_claim="decays", module=_MODULE, doc="""\
+Dormand-Prince 5(4), its fifth-order solution (Drake's runge_kutta5; the seventh, first-same-as-last
+stage only feeds the error estimate, so at a fixed step it is six stages):
+
+        k_i = f(t + c_i h, y + h sum_j a_ij k_j), i = 1..6
+        y_{n+1} = y_n + h (35/384 k1 + 500/1113 k3 + 125/192 k4 - 2187/6784 k5 + 11/84 k6)
+
+    Fifth order, six evaluations. R(z) = sum_k z^k/k! to k = 5, + z^6/600: the energy decays on a
+    spring, stable for h w <= 3.40.
+    """)
+
+TABLEAUS = (explicit_euler, rk4, heun, kutta_rk3, bogacki_shampine3, dormand_prince5)
