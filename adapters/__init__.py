@@ -7,9 +7,9 @@ whether it is available or is stepped (and then with its import-time output sile
 """
 from __future__ import annotations
 
-from . import mujoco, pybullet, pymunk, rebound
+from . import drake, mujoco, pybullet, pymunk, rebound
 from ._base import EngineMode, EngineModel, Model, SteppedModel, declared, drive, import_engine, output_marks
 
-ENGINE_METHODS: dict[str, EngineMode] = {**mujoco.METHODS, **pybullet.METHODS, **pymunk.METHODS, **rebound.METHODS}
+ENGINE_METHODS: dict[str, EngineMode] = {**mujoco.METHODS, **pybullet.METHODS, **pymunk.METHODS, **rebound.METHODS, **drake.METHODS}
 
 __all__ = ["ENGINE_METHODS", "EngineMode", "EngineModel", "Model", "SteppedModel", "declared", "drive", "import_engine", "output_marks"]

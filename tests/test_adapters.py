@@ -436,7 +436,8 @@ def test_unstable_run_then_the_harness_goes_on():
 def test_all_methods_include_the_engine_modes():
     ids = all_methods()
     assert set(adapters.ENGINE_METHODS) <= set(ids)
-    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 5 + 4  # MuJoCo, pybullet, pymunk, REBOUND modes
+    # MuJoCo, pybullet, pymunk, REBOUND modes; Drake's ten integrators and four discrete-plant approximations
+    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 5 + 4 + (10 + 4)
 
 
 def test_the_engine_facts_the_code_cites_are_in_the_repository():
@@ -456,7 +457,7 @@ def test_the_engine_facts_the_code_cites_are_in_the_repository():
 
 
 # ------------------------------------------------------------------ a scene is one entry per engine
-ENGINE_MODULES = (adapters.mujoco, adapters.pybullet, adapters.pymunk, adapters.rebound)
+ENGINE_MODULES = (adapters.mujoco, adapters.pybullet, adapters.pymunk, adapters.rebound, adapters.drake)
 
 
 @pytest.mark.parametrize("module", ENGINE_MODULES, ids=lambda m: m.__name__)
