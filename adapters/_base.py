@@ -38,8 +38,7 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene
-from records.trajectory import (OK, UNSTABLE, RunMeta, any_diverged, divergence_detail, diverged, output_marks,
-                               step_loop)
+from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, output_marks, step_loop
 
 
 class Model(Protocol):
@@ -470,7 +469,7 @@ def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every:
         rec_q.append(now[0])
         rec_v.append(now[1])
 
-    failed, detail = step_loop(lambda n: model.advance(), check, record, steps, every)
+    failed, detail = step_loop(lambda a, n: model.advance(), check, record, steps, every)
     traj = _trajectory(scene, method, dt, steps, every, rec_step, rec_q, rec_v, UNSTABLE if failed else OK,
                        detail, failed)
     traj.meta.loop = "harness: one advance() per step, state read after each"
@@ -499,32 +498,47 @@ def run_engine_loop(model: Model, scene: Scene, method: str, dt: float, steps: i
     run with :func:`drive`, which finds the step). A state that diverges and comes back within
     one output interval would be missed: blow-ups do not come back, and MuJoCo warns at the step
     after any state beyond 1e10."""
-    marks = output_marks(steps, every)
     q, v = model.state()
     if diverged(q, v):
         return None
+    marks = output_marks(steps, every)
     states, clean = model.run(marks)
     if not clean or len(states) != len(marks) - 1:
         return None
-    rec_q, rec_v = np.array([q] + [s[0] for s in states]), np.array([v] + [s[1] for s in states])
-    if any_diverged(rec_q, rec_v):
+    rec = {0: (q, v), **{int(n): s for n, s in zip(marks[1:], states)}}
+    rec_step, rec_q, rec_v = [], [], []
+
+    def record(n):
+        rec_step.append(n)
+        rec_q.append(rec[n][0])
+        rec_v.append(rec[n][1])
+
+    # The engine's loop ran to the end; the rule reads its states at the marks and stops at the
+    # first diverged one (then the caller replays the run step by step to find the step).
+    failed, _ = step_loop(lambda a, b: None, lambda n: divergence_detail(n, n * dt) if diverged(*rec[n]) else "",
+                          record, steps, every, spans=True)
+    if failed:
         return None
-    traj = _trajectory(scene, method, dt, steps, every, marks.tolist(), rec_q, rec_v)
+    traj = _trajectory(scene, method, dt, steps, every, rec_step, np.array(rec_q), np.array(rec_v))
     traj.meta.loop = "engine: the engine's own loop between output points, state read at output points only"
     return traj
 
 
 def run_by_steps(model, marks: np.ndarray) -> tuple[list[tuple[np.ndarray, np.ndarray]], bool]:
     """``Model.run`` for an engine stepped by ``model.steps(n)`` (n steps through the engine's own
-    loop, nothing read in between): the state at each mark, stopping at the first diverged one."""
+    loop, nothing read in between): the state at each mark, stopping at the first diverged one
+    (``step_loop``'s spans, the caller replaying a failed run)."""
     out = []
-    for a, b in zip(marks[:-1], marks[1:]):
-        model.steps(int(b - a))
-        q, v = model.state()
-        out.append((q, v))
-        if model.trouble() is not None or diverged(q, v):
-            return out, False
-    return out, True
+
+    def advance(a, b):
+        model.steps(b - a)
+        out.append(model.state())
+
+    def check(n):
+        return model.trouble() or ("diverged" if diverged(*out[-1]) else "")
+
+    failed, _ = step_loop(advance, check, lambda n: None, int(marks[-1]), 1, spans=True, marks=marks)
+    return out, failed is None
 
 
 def chain_force(k: float, c: float, x: np.ndarray, velocities: Callable[[], np.ndarray]) -> np.ndarray:

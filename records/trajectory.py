@@ -37,11 +37,6 @@ def diverged(q, v) -> bool:
     return not (np.abs(q).max(initial=0.0) <= DIVERGED and np.abs(v).max(initial=0.0) <= DIVERGED)
 
 
-def any_diverged(q, v) -> bool:
-    """``diverged`` of any row of the states q, v (arrays of shape (k, n)): one numpy pass."""
-    return not (np.abs(q).max(initial=0.0) <= DIVERGED and np.abs(v).max(initial=0.0) <= DIVERGED)
-
-
 def divergence_detail(n: int, t: float) -> str:
     return f"state diverged (not finite or |state| > {DIVERGED:g}) at step {n} (t = {t:g})"
 
@@ -52,21 +47,47 @@ def output_marks(steps: int, every: int) -> np.ndarray:
     return np.unique(np.append(np.arange(0, int(steps) + 1, int(every), dtype=np.int64), int(steps)))
 
 
-def step_loop(advance: Callable[[int], None], check: Callable[[int], str], record: Callable[[int], None],
-              steps: int, every: int) -> tuple[int | None, str]:
-    """The run loop every step-by-step driver shares (``reference.integrate``, ``adapters.drive``;
-    the compiled templates in ``reference._codegen`` are written to it): record step 0, then for
-    n = 1 .. steps take the step (``advance(n)``), stop at the first whose ``check(n)`` gives a
-    reason (a diverged state, an engine's warning), and record step n where it is a mark of
-    :func:`output_marks`. Returns (the failed step, its reason), or (None, "")."""
+def step_loop(advance: Callable[[int, int], None], check: Callable[[int], str], record: Callable[[int], None],
+              steps: int, every: int, spans: bool = False, rewind: Callable[[], None] | None = None,
+              marks=None) -> tuple[int | None, str]:
+    """The rule every driver records and stops by (``reference.integrate``, the compiled run,
+    ``adapters.drive`` and the engines' own loops; the counted compiled loop of ``reference._codegen``
+    is this loop written as numba source): record step 0, then advance and check, stopping at the
+    first point whose ``check(n)`` gives a reason (a diverged state, an engine's warning), and record
+    each mark of :func:`output_marks`. Returns (the failed step, its reason), or (None, "").
+
+    ``advance(a, b)`` takes steps a + 1 .. b. One step at a time by default. ``spans``: from one
+    mark to the next in one call (an engine's own loop, a compiled loop), checked at the marks
+    only; a span that fails is taken again one step at a time from its start after ``rewind()``
+    puts the state back there, to find the step, or without ``rewind`` its end is returned for
+    the caller to replay the run (a state that passes the bound and comes back within one span
+    would be missed: blow-ups do not). ``marks``: the spans' ends, where a loop is asked for other
+    points than a run's output marks."""
     record(0)
-    for n in range(1, steps + 1):
-        advance(n)
-        why = check(n)
-        if why:
-            return n, why
-        if n % every == 0 or n == steps:
-            record(n)
+    if not spans:
+        for n in range(1, steps + 1):
+            advance(n - 1, n)
+            why = check(n)
+            if why:
+                return n, why
+            if n % every == 0 or n == steps:
+                record(n)
+        return None, ""
+    marks = [int(m) for m in (output_marks(steps, every) if marks is None else marks)]
+    for a, b in zip(marks[:-1], marks[1:]):
+        advance(a, b)
+        why = check(b)
+        if not why:
+            record(b)
+            continue
+        if rewind is None:
+            return b, why
+        rewind()
+        for n in range(a + 1, b + 1):
+            advance(n - 1, n)
+            why = check(n) or (why if n == b else "")
+            if why:
+                return n, why
     return None, ""
 
 

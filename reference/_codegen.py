@@ -258,41 +258,52 @@ def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False) -> str:
     return "\n".join(lines)
 
 
+def _recording_loop(kind, name: str, x: str, within: str, put, returned: str) -> list[str]:
+    """``records.trajectory.step_loop``'s rule as numba source, the one template of both counted
+    loops: record step 0, then for steps 1 .. n take the step, stop at the first whose state is
+    not ``within`` (returning that step), and record each output mark (every ``every`` steps and
+    the last). ``x``: the state's name; ``within``: the check of it; ``put(out, row, value)``: a
+    record written; ``returned``: what the function returns before (rows written, failed step)."""
+    return [
+        "@_jit",
+        f"def {name}({x}, t0, h, n, every, p, k, out_q, out_v, cnt):",
+        f"    qo, vo = observe({x}, t0, h, p)",
+        f"    {put('out_q', '0', 'qo')}",
+        f"    {put('out_v', '0', 'vo')}",
+        "    j = 1",
+        "    for i in range(n):",
+        f"        {x} = " + kind.step_call(x, "t0 + i * h", "scheme_step_counted", lead="cnt, "),
+        f"        if not ({within}):",
+        f"            return {returned}j, i + 1",
+        "        if (i + 1) % every == 0 or i + 1 == n:",
+        f"            qo, vo = observe({x}, t0 + (i + 1) * h, h, p)",
+        f"            {put('out_q', 'j', 'qo')}",
+        f"            {put('out_v', 'j', 'vo')}",
+        "            j += 1",
+        f"    return {returned}j, 0",
+        ""]
+
+
 def _counted_one_source(kind) -> str:
     """``run_counted_one(x, t0, h, n, every, p, k, out_q, out_v, cnt) -> (recorded, failed)``:
     ``run_counted`` on a pointwise scene with one entry (one DOF, batch one), its state ``x``
     the floats ``start_counted`` returns for floats: the same operations on scalars, which
     numba compiles in a fraction of the time it takes over array expressions."""
-    return "\n".join([
-        "@_jit",
-        "def run_counted_one(x, t0, h, n, every, p, k, out_q, out_v, cnt):",
-        "    qo, vo = observe(x, t0, h, p)",
-        "    out_q[0, 0, 0] = qo",
-        "    out_v[0, 0, 0] = vo",
-        "    j = 1",
-        "    for i in range(n):",
-        "        x = " + kind.step_call("x", "t0 + i * h", "scheme_step_counted", lead="cnt, "),
-        "        if not (abs(x[0]) <= _DIVERGED and abs(x[1]) <= _DIVERGED):",
-        "            return j, i + 1",
-        "        if (i + 1) % every == 0 or i + 1 == n:",
-        "            qo, vo = observe(x, t0 + (i + 1) * h, h, p)",
-        "            out_q[j, 0, 0] = qo",
-        "            out_v[j, 0, 0] = vo",
-        "            j += 1",
-        "    return j, 0",
-        ""])
+    return "\n".join(_recording_loop(kind, "run_counted_one", "x",
+                                     "abs(x[0]) <= _DIVERGED and abs(x[1]) <= _DIVERGED",
+                                     lambda out, j, value: f"{out}[{j}, 0, 0] = {value}", ""))
 
 
 def _counted_source(kind) -> str:
     """``run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt) -> (state, recorded,
-    failed)``: ``reference._integrate.integrate``'s loop, compiled. Steps 1 .. n of a run started
-    at t0 (step i + 1 starts at t0 + i h), each checked as ``records.trajectory.diverged``
-    checks it (a component not finite or beyond DIVERGED stops the run: ``failed`` is that
-    step, else 0); the observed state of step 0, every ``every`` steps and the last written to
-    ``out_q``/``out_v`` (kernel layout, one record per row; ``recorded`` rows written); the
-    force, solve and projection calls added to ``cnt``. A record is copied entry by entry
-    (``_put``): a slice assignment would compile numba's broadcasting and its error message into
-    every worker's first counted kernel, a compile cost for the same copy."""
+    failed)``: ``reference._integrate.integrate``'s loop, compiled (``_recording_loop``). Steps
+    1 .. n of a run started at t0 (step i + 1 starts at t0 + i h), each checked as
+    ``records.trajectory.diverged`` checks it (a component not finite or beyond DIVERGED stops the
+    run: ``failed`` is that step, else 0); the observed state of step 0, every ``every`` steps and
+    the last written to ``out_q``/``out_v`` (kernel layout, one record per row; ``recorded`` rows
+    written); the force, solve and projection calls added to ``cnt``. A record is copied entry by
+    entry (``_put``): a slice assignment would compile numba's broadcasting and its error message
+    into every worker's first counted kernel, a compile cost for the same copy."""
     return "\n".join([
         f"_DIVERGED = {DIVERGED!r}",
         "",
@@ -312,23 +323,8 @@ def _counted_source(kind) -> str:
         "            out[j, r, b] = x[r, b]",
         "",
         "",
-        "@_jit",
-        "def run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt):",
-        "    qo, vo = observe(state, t0, h, p)",
-        "    _put(out_q, 0, qo)",
-        "    _put(out_v, 0, vo)",
-        "    j = 1",
-        "    for i in range(n):",
-        "        state = " + kind.step_call("state", "t0 + i * h", "scheme_step_counted", lead="cnt, "),
-        "        if not (_within(state[0]) and _within(state[1])):",
-        "            return state, j, i + 1",
-        "        if (i + 1) % every == 0 or i + 1 == n:",
-        "            qo, vo = observe(state, t0 + (i + 1) * h, h, p)",
-        "            _put(out_q, j, qo)",
-        "            _put(out_v, j, vo)",
-        "            j += 1",
-        "    return state, j, 0",
-        ""])
+        *_recording_loop(kind, "run_counted", "state", "_within(state[0]) and _within(state[1])",
+                         lambda out, j, value: f"_put({out}, {j}, {value})", "state, ")])
 
 
 #: The counters of ``run_counted``: the entry of ``cnt`` each kernel's calls are added to.

@@ -17,7 +17,7 @@ import numpy as np
 from records import Trajectory
 
 from scenarios import Scene, no_velocity_dependence
-from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, output_marks
+from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, output_marks, step_loop
 
 from . import _kernels
 
@@ -117,38 +117,32 @@ def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, 
     records (step 0, every ``every`` steps and the last) and stopped as it stops, at the first
     step whose state diverged; q, v in API layout (T, batch, ndof).
 
-    The compiled loop runs from one recorded step to the next; only where a piece ends
-    diverged is it replayed one step at a time from its start, to find the step (a state that
-    passes ``DIVERGED`` and comes back within one piece would be missed: blow-ups do not)."""
+    The compiled loop runs from one recorded step to the next (``step_loop``'s spans); only where a
+    span ends diverged is it replayed one step at a time from its start, to find the step."""
     q, v = _kernel_layout(scene, q0, v0)
     steps, every = int(steps), int(every)
     parts = _parts(scheme, scene)
     p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
-    state = parts.first_state(q, v, 0.0, h, p)
-    marks = output_marks(steps, every)
-    recorded, qs, vs = [0], [], []
+    now = {"state": parts.first_state(q, v, 0.0, h, p)}
+    now["good"] = now["state"]  # the state at the last recorded step, where a failed span restarts
+    recorded, qs, vs = [], [], []
+
+    def advance(a, b):
+        now["state"] = parts.advance_n(now["state"], 0.0, h, a, b - a, p, k)
 
     def record(n):
-        qo, vo = parts.observe(state, n * h, h, p)
+        now["good"] = now["state"]
+        qo, vo = parts.observe(now["state"], n * h, h, p)
+        recorded.append(n)
         qs.append(qo.T.copy())
         vs.append(vo.T.copy())
 
-    record(0)
-    failed = None
+    def rewind():
+        now["state"] = now["good"]
+
     with np.errstate(all="ignore"):
-        for a, b in zip(marks[:-1], marks[1:]):
-            a, b = int(a), int(b)
-            nxt = parts.advance_n(state, 0.0, h, a, b - a, p, k)
-            if not _within(nxt):
-                for i in range(a, b):
-                    state = parts.advance_n(state, 0.0, h, i, 1, p, k)
-                    if not _within(state):
-                        failed = i + 1
-                        break
-                break
-            state = nxt
-            recorded.append(b)
-            record(b)
+        failed, _ = step_loop(advance, lambda n: "" if _within(now["state"]) else "diverged", record, steps, every,
+                              spans=True, rewind=rewind)
     return np.array(recorded, dtype=np.int64), np.array(qs), np.array(vs), failed
 
 

@@ -92,9 +92,9 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
         rec_q.append(qo.T.copy())
         rec_v.append(vo.T.copy())
 
-    def step(n):
+    def step(a, n):
         nonlocal state
-        state = advance(state, t0 + (n - 1) * dt)
+        state = advance(state, t0 + a * dt)
 
     def check(n) -> str:
         return divergence_detail(n, t0 + n * dt) if diverged(state[0], state[1]) else ""
