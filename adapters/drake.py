@@ -12,7 +12,7 @@ Minimal models, Drake's own physics: one body on one joint of the world, nothing
 
 Every default that would change the physics is set off or set to the scene's value and recorded
 in each run's settings: gravity (Drake's default is 9.81 along -z), the plant's time step
-(``MultibodyPlant(0.0)``: continuous, where Drake's usual builder makes a discrete plant at 1 ms),
+(``MultibodyPlant(0.0)``: continuous, where Drake's usual builder makes a discrete plant of time step 0.001 s),
 the simulator's integrator (Drake's default is RK3, error-controlled at accuracy 1e-4:
 ``ResetIntegratorFromFlags`` replaces it), error control (``set_fixed_step_mode(True)``, maximum
 step h), and the implicit integrators' Newton tolerance, which follows the target accuracy
