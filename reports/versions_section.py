@@ -21,9 +21,39 @@ HOW = ("wall_s", "kernels", "backend", "settings", "engine_version", "timing", "
 PROCESS_SPREAD = 0.5
 
 
-def _figures(c: Cell) -> str:
+#: Measures with several cells a task (one per frame rate, one per bound): keyed by their dt too.
+MANY = ("advise", "bound")
+
+
+def _timing(key: str) -> bool:
+    return "cost" in key or "per_frame" in key or "timing" in key
+
+
+def _data(c: Cell) -> dict:
+    """A cell's stored figures less how it ran; an advice cell's less its costs (timings)."""
     data = {k: v for k, v in c.figures.to_data().items() if k not in HOW}
-    return json.dumps(data, sort_keys=True, default=str)
+    if c.measure == "advise":
+        data = {k: v for k, v in data.items() if not _timing(k)}
+        data["rows"] = [{k: v for k, v in row.items() if not _timing(k)} for row in data.get("rows") or []]
+    return data
+
+
+def _figures(c: Cell) -> str:
+    return json.dumps(_data(c), sort_keys=True, default=str)
+
+
+def _key(c: Cell) -> tuple:
+    return (c.scene, c.method, c.measure, c.dt if c.measure in MANY else None)
+
+
+def what_differs(a: Cell, b: Cell) -> str:
+    """The names of what differs between two counterparts: status, value, detail, figures."""
+    out = [name for name, x, y in (("status", a.status, b.status), ("detail", a.detail, b.detail)) if x != y]
+    if a.measure not in ("cost", "advise") and a.value != b.value:
+        out.append("value")
+    da, db = _data(a), _data(b)
+    out += sorted(k for k in set(da) | set(db) if da.get(k) != db.get(k) and k != "claims")
+    return ", ".join(out) or "–"
 
 
 def _value(c: Cell | None) -> str:
@@ -32,12 +62,18 @@ def _value(c: Cell | None) -> str:
     if c.status != "ok":
         return c.status
     if c.measure == "energy" and c.figures.energy_class:
-        return f"{c.value:.6g} ({c.figures.energy_class})" if c.value is not None else c.figures.energy_class
+        final = c.figures.final_rel_error
+        said = f"{c.value:.9g}" + (f", final {final:.9g}" if final is not None else "")
+        return f"{said} ({c.figures.energy_class})" if c.value is not None else c.figures.energy_class
     if c.measure == "identity":
         return f"{c.figures.match or 'no match'} ({c.value:.2e})" if c.value is not None else str(c.figures.match)
     if c.measure == "cost":
         r = c.figures.ratio_to_explicit_euler
         return f"ratio {r:.3g}" if r else "–"
+    if c.measure == "advise":
+        best = c.figures.best
+        rows = c.figures.rows or []
+        return f"{rows[best]['substeps']} substeps" if best is not None and best < len(rows) else "meets none"
     if c.value is None:
         return "none"
     return "inf" if math.isinf(c.value) else f"{c.value:.9g}"
@@ -47,8 +83,8 @@ def _same(a: Cell, b: Cell) -> bool:
     if a.measure == "cost":
         ra, rb = a.figures.ratio_to_explicit_euler, b.figures.ratio_to_explicit_euler
         return a.status == b.status and (not ra or not rb or abs(rb / ra - 1.0) <= PROCESS_SPREAD)
-    same_value = a.value == b.value or (a.value is not None and b.value is not None
-                                        and math.isnan(a.value) and math.isnan(b.value))
+    same_value = a.measure == "advise" or a.value == b.value or (
+        a.value is not None and b.value is not None and math.isnan(a.value) and math.isnan(b.value))
     return a.status == b.status and same_value and a.detail == b.detail and _figures(a) == _figures(b)
 
 
@@ -56,7 +92,7 @@ def compare_releases(engine: str, before: tuple[str, list[Cell]], after: tuple[s
     """{"unchanged": n, "changed": [(key, cell_a, cell_b)], "only_before": [...], "only_after": [...]}
     for the cells of ``engine``'s modes in two runs (each ``(version, cells)``)."""
     def mine(cells):
-        return {(c.scene, c.method, c.measure, c.dt): c for c in cells if c.family == engine and c.measure != "bound"}
+        return {_key(c): c for c in cells if c.family == engine and c.measure != "bound"}
 
     a, b = mine(before[1]), mine(after[1])
     out = {"unchanged": 0, "changed": [], "only_before": sorted(set(a) - set(b)), "only_after": sorted(set(b) - set(a))}
@@ -70,7 +106,7 @@ def compare_releases(engine: str, before: tuple[str, list[Cell]], after: tuple[s
 
 def between_versions_section(engine: str, runs: list[tuple[str, list[Cell]]], skipped: dict | None = None) -> list[str]:
     """The report's "Between versions" lines for ``engine``: ``runs`` as (version, cells), oldest
-    release first; ``skipped``: {version: {method: reason}} of modes a release could not run."""
+    release first; ``skipped``: {version: {(scene, method): reason}} of what a release did not run."""
     lines = [f"## Between versions: {engine}", "",
              f"Each release's cells of the {engine} modes beside the next release's (status, value and every "
              "stored figure; cost as its ratio to explicit Euler, each from its own run).", ""]
@@ -83,15 +119,15 @@ def between_versions_section(engine: str, runs: list[tuple[str, list[Cell]]], sk
         lines.append(head + f"{res['unchanged']} cells bit for bit unchanged, {len(res['changed'])} changed.")
         lines.append("")
         if res["changed"]:
-            lines += [f"| scene | method | measure | {engine} {va} | {engine} {vb} |", "|---|---|---|---|---|"]
+            lines += [f"| scene | method | measure | {engine} {va} | {engine} {vb} | what differs |",
+                      "|---|---|---|---|---|---|"]
             for (scene, method, measure, _), x, y in res["changed"]:
-                lines.append(f"| {scene} | `{method}` | {measure} | {_value(x)} | {_value(y)} |")
+                lines.append(f"| {scene} | `{method}` | {measure} | {_value(x)} | {_value(y)} | {what_differs(x, y)} |")
             lines.append("")
         for side, version, other in (("only_before", va, vb), ("only_after", vb, va)):
-            methods = sorted({k[1] for k in res[side]})
-            for m in methods:
-                why = (skipped or {}).get(other, {}).get(m) or f"not in {engine} {other}"
-                lines.append(f"- `{m}`: measured on {engine} {version}; {why}")
+            for scene, method in sorted({(k[0], k[1]) for k in res[side]}):
+                why = (skipped or {}).get(other, {}).get((scene, method)) or f"no such cell on {engine} {other}"
+                lines.append(f"- `{method}` on {scene}: measured on {engine} {version} only; on {other}: {why}")
         if res["only_before"] or res["only_after"]:
             lines.append("")
     return lines

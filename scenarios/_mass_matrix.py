@@ -30,6 +30,8 @@ def mass_matrix(m, d, qpos) -> np.ndarray:
     mujoco.mj_kinematics(m, d)
     mujoco.mj_comPos(m, d)
     mujoco.mj_crb(m, d)
+    if hasattr(mujoco, "mj_makeM"):  # where mj_crb leaves the inertia matrix to mj_makeM (3.3.7)
+        mujoco.mj_makeM(m, d)
     return full_mass_matrix(mujoco, m, d)
 
 

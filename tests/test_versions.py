@@ -67,8 +67,8 @@ def test_an_upgrade_is_reported_as_a_version_change_with_what_changed(tmp_path):
     text = "\n".join(lines)
     assert "mujoco 3.3.7 → 4.0.0" in text and "nothing is compared as a regression" in text
     assert "2 cells bit for bit unchanged, 1 changed" in text
-    assert "| spring | `mujoco:rk4` | energy | 5e-09 (decays) | 6e-09 (decays) |" in text
-    assert "`mujoco:discrete`: measured on mujoco 4.0.0; not in mujoco 3.3.7" in text
+    assert "| spring | `mujoco:rk4` | energy | 5e-09 (decays) | 6e-09 (decays) | value |" in text
+    assert "`mujoco:discrete` on spring: measured on mujoco 4.0.0 only; on 3.3.7: no such cell on mujoco 3.3.7" in text
     assert "pymunk" not in text  # an engine whose release did not change is not compared
 
 
@@ -83,3 +83,20 @@ def test_releases_that_change_nothing_read_bit_for_bit_unchanged_and_cost_within
     assert "**mujoco 3.3.7 → 4.0.0**: bit for bit unchanged (2 cells)." in lines
     slower = [b[0], _cell("mujoco:euler", "cost", 2e-6, ratio_to_explicit_euler=20.0)]
     assert len(compare_releases("mujoco", ("3.3.7", a), ("4.0.0", slower))["changed"]) == 1
+
+
+def test_an_advice_cell_is_compared_less_its_costs_and_a_crashed_cell_meets_its_counterpart():
+    from records.cell import AdviceFigures
+
+    def advice(cost, substeps):
+        return Cell(scene="spring", method="mujoco:euler", family="mujoco", measure="advise", status="ok", value=cost,
+                    dt=1 / 60, figures=AdviceFigures(best=0, rows=[{"substeps": substeps, "cost_per_frame_s": cost}]))
+
+    assert compare_releases("mujoco", ("a", [advice(1e-5, 4)]), ("b", [advice(2e-5, 4)]))["unchanged"] == 1
+    changed = compare_releases("mujoco", ("a", [advice(1e-5, 4)]), ("b", [advice(1e-5, 8)]))["changed"]
+    assert len(changed) == 1
+    crashed = Cell(scene="spring", method="mujoco:euler", family="mujoco", measure="energy", status="crashed",
+                   value=None, dt=None, figures=EnergyFigures())
+    res = compare_releases("mujoco", ("a", [crashed]), ("b", [_cell("mujoco:euler", "energy", 1e-3,
+                                                                     energy_class="bounded")]))
+    assert len(res["changed"]) == 1 and not res["only_before"] and not res["only_after"]

@@ -105,7 +105,8 @@ def _matrix(args, suite: str, engines: list[str]) -> int:
     result = run_matrix(engines, suite, Path(args.out), Path(args.db), extra)
     regs = [r for run in result["runs"] for r in run["regressions"]]
     if args.json:
-        print(json.dumps({"runs": result["runs"], "report": str(result["report"])}, indent=1, default=str))
+        runs = [{k: v for k, v in r.items() if k != "skipped"} for r in result["runs"]]
+        print(json.dumps({"runs": runs, "report": str(result["report"])}, indent=1, default=str))
     else:
         for run in result["runs"]:
             print(f"{run['engine']} {run['version']}: run {run['run_id']}, report {run['report']}")

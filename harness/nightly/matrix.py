@@ -88,7 +88,6 @@ def run_matrix(specs, suite: str, out: Path, db: Path, extra_args=(), stream=Non
     {"runs": [{"engine", "version", "run_id", "report", "regressions", "skipped"}], "report": path}."""
     from harness.execution.engine_env import ensure
     from harness.history.storage import History
-    from reports.versions_section import between_versions_section
 
     stream = stream or sys.stderr
     releases = plan(specs)
@@ -111,17 +110,28 @@ def run_matrix(specs, suite: str, out: Path, db: Path, extra_args=(), stream=Non
             recorded = (stored["versions"].get("engines") or {}).get(dist)
             if recorded != version:
                 raise InvalidInput(f"--engine {dist}=={version}: the run imported {dist} {recorded} instead")
-            skipped = {s["method"]: s["reason"] for s in stored["settings"].get("skipped", [])
+            skipped = {(s["scene"], s["method"]): s["reason"] for s in stored["settings"].get("skipped", [])
                        if s["method"].split(":")[0] == dist}
             runs.append({"engine": dist, "version": version, "run_id": run_id, "report": str(sub_out / "report.md"),
                          "regressions": summary["regressions"], "skipped": skipped})
+    for run in runs:  # JSON keys are text
+        run["skipped_lines"] = [f"{m} on {s}: {why}" for (s, m), why in run["skipped"].items()]
+    report = write_matrix_report(suite, releases, runs, db, out)
+    return {"runs": runs, "report": report}
+
+
+def write_matrix_report(suite: str, releases: dict, runs: list[dict], db: Path, out: Path) -> Path:
+    """The matrix's report: each release's run and report, then "Between versions" per engine."""
+    from harness.history.storage import History
+    from reports.versions_section import between_versions_section
+
     history = History(db)
     lines = [f"# Engine versions: the {suite} suite on each release", ""]
     lines += [f"- {r['engine']} {r['version']}: run {r['run_id']}, [report]({Path(r['report']).relative_to(out)})"
               + (f", {len(r['regressions'])} regression(s) in its own series" if r["regressions"] else "")
               for r in runs]
     lines.append("")
-    for dist, versions in releases.items():
+    for dist in releases:
         mine = [r for r in runs if r["engine"] == dist]
         if len(mine) < 2:
             continue
@@ -132,4 +142,4 @@ def run_matrix(specs, suite: str, out: Path, db: Path, extra_args=(), stream=Non
     tmp = out / f".report.md.{os.getpid()}.tmp"
     tmp.write_text("\n".join(lines) + "\n")
     os.replace(tmp, report)
-    return {"runs": runs, "report": report}
+    return report
