@@ -94,7 +94,7 @@ class Scheme:
     @property
     def options(self) -> dict[str, int]:
         """Run-time options a caller may set, with their defaults."""
-        return {"iterations": self.iterations} if self.constrained else {}
+        return self.kind.options(self)
 
     def order_for(self, velocity_dependent: bool) -> int:
         """The declared order on a scene whose force does (True) or does not depend on the velocity."""
@@ -115,8 +115,7 @@ class Scheme:
                "implicit": self.implicit, "constrained": self.constrained, "energy": self.energy_claim,
                "decay": self.decay, "same_without_velocity": self.same_without_velocity, "homega_max": limit,
                "doc": " ".join(self.doc.split())}
-        if self.constrained:
-            out["iterations"] = self.iterations
+        out.update(self.options)
         return out
 
 

@@ -53,6 +53,10 @@ class Kind:
         """What a run reports as its ``iterations`` (projection passes; None where none)."""
         return None
 
+    def options(self, scheme) -> dict[str, int]:
+        """Run-time options a caller may set on a scheme of this kind, with their defaults."""
+        return {}
+
     def advance(self, scheme, scene, dt: float, kernels: dict, iterations: int | None = None):
         """``advance(state, t) -> state``: one interpreted step of ``dt``; ``kernels`` maps the
         scene's kernel names (``accel`` and this kind's) to the callables to use (counted or not)."""
@@ -139,6 +143,9 @@ class Constrained(Kind):
 
     def run_iterations(self, scheme, iterations):
         return iterations_for(scheme, iterations)
+
+    def options(self, scheme) -> dict[str, int]:
+        return {"iterations": scheme.iterations}
 
     def pointwise(self, scene_cls) -> bool:
         return False  # a projection couples the entries
