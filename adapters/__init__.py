@@ -8,8 +8,10 @@ whether it is available or is stepped (and then with its import-time output sile
 from __future__ import annotations
 
 from . import drake, mujoco, pybullet, pymunk, rebound
-from ._base import EngineMode, EngineModel, Model, SteppedModel, declared, drive, import_engine, output_marks
+from ._base import (EngineMode, EngineModel, Model, SteppedModel, declared, drive, engine_version, import_engine,
+                    output_marks, version_key)
 
 ENGINE_METHODS: dict[str, EngineMode] = {**mujoco.METHODS, **pybullet.METHODS, **pymunk.METHODS, **rebound.METHODS, **drake.METHODS}
 
-__all__ = ["ENGINE_METHODS", "EngineMode", "EngineModel", "Model", "SteppedModel", "declared", "drive", "import_engine", "output_marks"]
+__all__ = ["ENGINE_METHODS", "EngineMode", "EngineModel", "Model", "SteppedModel", "declared", "drive", "engine_version", "import_engine", "output_marks",
+           "version_key"]

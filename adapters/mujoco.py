@@ -37,7 +37,7 @@ from typing import Callable
 import numpy as np
 
 from scenarios import Scene
-from scenarios._mass_matrix import full_mass_matrix
+from scenarios import full_mass_matrix
 
 from ._base import EngineMode, EngineModel, EngineVersions, import_engine
 

@@ -11,6 +11,7 @@ from .damped_spring import DampedSpring
 from .kepler import Kepler
 from .model import FEATURES, SUFFIXES, VARIANTS, ModelScene, read_model_file, variant
 from ._bullet_model import BulletModelScene, open_model
+from ._mass_matrix import full_mass_matrix
 from .pendulum import Pendulum
 from .projectile import Projectile
 from .rope import Rope
@@ -66,5 +67,5 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ModelScene", "BulletModelScene", "open_model", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
+__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ModelScene", "BulletModelScene", "open_model", "full_mass_matrix", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
            "no_solve", "no_velocity_dependence"]

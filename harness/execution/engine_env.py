@@ -86,7 +86,7 @@ def dist_of(engine: str) -> str:
 
 
 def version_key(version: str) -> tuple:
-    from adapters._base import version_key as key
+    from adapters import version_key as key
 
     return key(version)
 

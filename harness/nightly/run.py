@@ -299,7 +299,7 @@ def engine_versions() -> dict[str, str | None]:
     """{distribution: installed version} of every engine an adapter drives: the run's series
     (``harness.history.storage.engine_series``)."""
     import adapters
-    from adapters._base import engine_version
+    from adapters import engine_version
 
     return {dist: engine_version(dist) for dist in sorted({m.dist for m in adapters.ENGINE_METHODS.values()})}
 
