@@ -88,7 +88,7 @@ def _claims(method, scene=None) -> Claims:
     order = scheme.order_for(velocity)
     note = f"{order} with a velocity-dependent force ({scheme.order} otherwise)" if order != scheme.order else None
     return Claims(scheme=f"ref:{scheme.id}", order=order, order_note=note, force_evals=scheme.force_evals,
-                  force_evals_text=f"{scheme.force_evals} + solve" if scheme.implicit else str(scheme.force_evals),
+                  force_evals_text=scheme.kind.evals_text(scheme),
                   energy=scheme.energy_claim, homega_max=scheme.homega_max)
 
 
