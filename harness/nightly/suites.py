@@ -182,7 +182,11 @@ SUITES: dict[str, Suite] = {
         "smoke",
         scenes={"spring": SceneSpec(periods=20, order_points=6, order_span=4.0, advise=ADVISE)},
         methods=("ref:explicit_euler", "ref:semi_implicit_euler", "ref:leapfrog", "ref:rk4", "ref:implicit_euler",
-                 "mujoco:euler", "pymunk:applied_force"),
+                 "mujoco:euler", "pymunk:applied_force",
+                 # Drake (issue 35): its RK3 and its discrete plant, one identity row each (the cheap
+                 # ones: implicit_euler's step doubling costs the smoke its slowest cell); the standard
+                 # suite runs every Drake mode.
+                 "drake:runge_kutta3", "drake:discrete_sap"),
         cost_repeats=3, series_points=200, stability_steps=500, cell_timeout=60.0,
     ),
     "standard": Suite(
