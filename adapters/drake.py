@@ -77,25 +77,38 @@ MODELS = {
 }
 
 
+def _pendulum(plant, values):
+    """A point mass m L below a revolute joint about y, the scene's gravity."""
+    from pydrake.multibody.tree import RevoluteJoint, SpatialInertia, UnitInertia
+
+    bob = [0.0, 0.0, -values["L"]]
+    body = plant.AddRigidBody("bob", SpatialInertia(values["m"], bob, UnitInertia.PointMass(bob)))
+    joint = plant.AddJoint(RevoluteJoint("theta", plant.world_frame(), body.body_frame(), [0.0, 1.0, 0.0],
+                                         damping=0.0))
+    return joint, [0.0, 0.0, -values["g"]]
+
+
+def _spring(plant, values):
+    """A mass on a prismatic joint along x with a PrismaticSpring (and the scene's damping), no gravity."""
+    from pydrake.multibody.tree import PrismaticJoint, PrismaticSpring, SpatialInertia, UnitInertia
+
+    body = plant.AddRigidBody("mass", SpatialInertia(values["m"], np.zeros(3), UnitInertia(1.0, 1.0, 1.0)))
+    joint = plant.AddJoint(PrismaticJoint("x", plant.world_frame(), body.body_frame(), [1.0, 0.0, 0.0],
+                                          damping=values.get("c", 0.0)))
+    plant.AddForceElement(PrismaticSpring(joint, 0.0, values["k"]))
+    return joint, [0.0, 0.0, 0.0]
+
+
+#: How each scene Drake poses is built into a plant: a new scene is one entry here.
+POSES = {"spring": _spring, "damped_spring": _spring, "pendulum": _pendulum}
+
+
 def _plant(pydrake, scene: Scene, time_step: float):
     """The scene's MultibodyPlant (module docstring) and its one joint."""
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.multibody.tree import PrismaticJoint, PrismaticSpring, RevoluteJoint, SpatialInertia, UnitInertia
 
     plant = MultibodyPlant(time_step)
-    values = scene.values
-    if scene.kind == "pendulum":
-        bob = [0.0, 0.0, -values["L"]]
-        body = plant.AddRigidBody("bob", SpatialInertia(values["m"], bob, UnitInertia.PointMass(bob)))
-        joint = plant.AddJoint(RevoluteJoint("theta", plant.world_frame(), body.body_frame(), [0.0, 1.0, 0.0],
-                                             damping=0.0))
-        gravity = [0.0, 0.0, -values["g"]]
-    else:
-        body = plant.AddRigidBody("mass", SpatialInertia(values["m"], np.zeros(3), UnitInertia(1.0, 1.0, 1.0)))
-        joint = plant.AddJoint(PrismaticJoint("x", plant.world_frame(), body.body_frame(), [1.0, 0.0, 0.0],
-                                              damping=values.get("c", 0.0)))
-        plant.AddForceElement(PrismaticSpring(joint, 0.0, values["k"]))
-        gravity = [0.0, 0.0, 0.0]
+    joint, gravity = POSES[scene.kind](plant, scene.values)
     plant.mutable_gravity_field().set_gravity_vector(gravity)
     return plant, joint, gravity
 

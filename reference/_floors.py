@@ -94,6 +94,18 @@ def implicit_euler(s, h, k, m):
 
 
 @_jit
+def implicit_euler_doubled(s, h, k, m):
+    # Two implicit Euler steps of h/2, each one Newton iteration from w = v (exact on the linear spring).
+    x, v = s
+    half = 0.5 * h
+    for _ in range(2):
+        dw = (half * (-k * (x + half * v) / m)) / (1.0 + half * half * (k / m))
+        w = v + dw
+        x, v = x + half * w, w
+    return (x, v)
+
+
+@_jit
 def linearly_implicit_euler(s, h, k, m):
     # One solve of (1 + h^2 k/m) v_{n+1} = v_n + h a(x_n, 0).
     x, v = s
@@ -165,6 +177,7 @@ _HAND_WRITTEN = {
     "verlet": (verlet, _start_verlet, _observe_verlet),
     "forest_ruth": (forest_ruth, _start_qv, _observe_qv),
     "implicit_euler": (implicit_euler, _start_qv, _observe_qv),
+    "implicit_euler_doubled": (implicit_euler_doubled, _start_qv, _observe_qv),
     "linearly_implicit_euler": (linearly_implicit_euler, _start_qv, _observe_qv),
     "implicit_midpoint": (implicit_midpoint, _start_qv, _observe_qv),
     "semi_implicit_euler_velocity_implicit": (semi_implicit_euler_velocity_implicit, _start_qv, _observe_qv),

@@ -67,7 +67,10 @@ def test_identify_names_the_scheme_each_mode_integrates_with_damping(scene_id, l
         assert scheme in res.matches
         dev = next(c.max_deviation for c in res.candidates if c.method == scheme)
         assert dev <= RTOL * scale
-        assert res.runner_up.max_deviation > 1e-6 * scale
+        # The runner-up does not match. (Dormand-Prince 5 is RK4's runner-up on these smooth scenes,
+        # 3e-9 to 1e-6 of the scale away over 300 steps: another high-order scheme, above the match
+        # tolerance, where the match itself is within 1e-12.)
+        assert res.runner_up.max_deviation > MATCH_RTOL * scale
 
 
 def _one_step_mujoco(integrator, scene, q, v, h):

@@ -246,6 +246,9 @@ def test_only_the_schemes_let_compile_compile_their_counted_kernels(monkeypatch,
 
     monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))  # nothing compiled here yet
     monkeypatch.setattr(_compiled, "_COUNTED", {})
+    # Nor loaded in this process: another test in the same worker may have compiled the pair's
+    # counted loop into a kernel module this process still holds.
+    monkeypatch.setattr(_compiled, "_LOADED", {})
     scene, scheme = make_scene("spring"), METHODS["semi_implicit_euler_position_first"]
 
     def method(compile_for):

@@ -195,6 +195,7 @@ def argv_for(draw, command: str, paths: dict) -> tuple[list[str], bool]:
                 "--cell-timeout": hostile_number, "--bounds": files(paths), "--scheduler": text,
                 "--db": db, "--out": st.just(str(paths["directory"] / "out"))}
         poisonable = {"--suite": st.one_of(st.just("bogus"), st.just("")), "--jobs": bad,
+                      "--engine": st.sampled_from(["nope==1.0", "mujoco", "==4.0.0", "mujoco==", "mujoco=4.0.0"]),
                       "--cell-timeout": bad, "--bounds": st.sampled_from([str(paths["truncated_csv"]),
                                                                           str(paths["garbage"])])}
         return ["nightly", *_poisoned(draw, spec, poisonable)], True
@@ -206,6 +207,18 @@ def argv_for(draw, command: str, paths: dict) -> tuple[list[str], bool]:
                 "--perturb": hostile_number, "--hz": hostile_number, "--energy-tol": hostile_number,
                 "--jobs": small_count, "--db": db, "--out": st.just(str(paths["directory"] / "out"))}
         return ["model", path, *flags(draw, spec), *(["--json"] if draw(st.booleans()) else [])], True
+    if command == "bisect":
+        # Always one field refused before the registry is asked or anything installed.
+        spec = {"--scene": st.one_of(st.sampled_from(["spring", "pendulum"]), name),
+                "--method": st.one_of(st.just("mujoco:euler"), name),
+                "--measure": st.one_of(st.sampled_from(["trajectory", "energy", "stability"]), text),
+                "--dt": hostile_number, "--steps": small_count}
+        poisonable = {"--measure": st.sampled_from(["bogus", "", "cost"]), "--dt": bad, "--steps": bad,
+                      "--method": st.sampled_from(["ref:rk4", "pybullet:semi_implicit", "mujoco:nope"]),
+                      "--scene": st.sampled_from(["nope", str(paths["garbage"]), str(paths["directory"] / "x.xml")])}
+        versions = st.one_of(st.sampled_from(["2.3.7", "3.3.7", "4.0.0"]), text)
+        head = ["bisect", draw(st.one_of(st.just("mujoco"), name)), draw(versions), draw(versions)]
+        return head + _poisoned(draw, spec, poisonable), True
     if command == "bench":
         return ["bench", "--methods", draw(st.sampled_from(["ref:nope", "", "mujoco:", "x"])),
                 *(["--engines"] if draw(st.booleans()) else [])], True
@@ -233,7 +246,7 @@ def _fuzz(command: str, paths: dict, data) -> None:
 
 def test_every_command_is_fuzzed():
     assert set(COMMANDS) == {"run", "list", "bench", "identify", "energy", "order", "stability", "cost",
-                             "workprecision", "advise", "model", "nightly", "compare", "history", "bounds"}
+                             "workprecision", "advise", "model", "nightly", "compare", "history", "bounds", "bisect"}
 
 
 @pytest.mark.parametrize("command", COMMANDS)

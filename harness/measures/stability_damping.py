@@ -104,6 +104,11 @@ def _implicit_euler(y, z):
     return np.linalg.inv(np.eye(2) - y * _oscillator(z))
 
 
+def _implicit_euler_doubled(y, z):      # two implicit Euler steps of h/2
+    half = _implicit_euler(0.5 * y, z)
+    return half @ half
+
+
 def _implicit_midpoint(y, z):
     a = 0.5 * y * _oscillator(z)
     return np.linalg.solve(np.eye(2) - a, np.eye(2) + a)
@@ -138,6 +143,7 @@ _WRITTEN = {
     "leapfrog": _leapfrog,
     "forest_ruth": _forest_ruth,
     "implicit_euler": _implicit_euler,
+    "implicit_euler_doubled": _implicit_euler_doubled,
     # On a linear scene the linearly implicit step is backward Euler (tests/test_cloth.py).
     "linearly_implicit_euler": _implicit_euler,
     "implicit_midpoint": _implicit_midpoint,
@@ -187,6 +193,7 @@ CLOSED_FORM = {
     "verlet": _semi_implicit_limit,
     "semi_implicit_euler_velocity_implicit": lambda z: 2.0 * (math.sqrt(1.0 + z * z) + z),
     "implicit_euler": lambda z: math.inf,
+    "implicit_euler_doubled": lambda z: math.inf,
     "linearly_implicit_euler": lambda z: math.inf,
     "implicit_midpoint": lambda z: math.inf,
 }
