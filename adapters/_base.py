@@ -24,6 +24,7 @@ per-step path, which stops it at the exact step.
 from __future__ import annotations
 
 import contextlib
+import functools
 import importlib
 import importlib.metadata
 import math
@@ -185,7 +186,14 @@ def import_engine(name: str):
 
 def engine_version(dist: str) -> str | None:
     """The installed version of ``dist``: the first one on ``sys.path``, so an engine environment
-    put ahead of the venv (``harness.execution.engine_env``) names its own release."""
+    put ahead of the venv (``harness.execution.engine_env``) names its own release. Asked once per
+    distribution and search path: every method lookup checks it (``EngineMode.available``), and
+    reading the metadata scans the path."""
+    return _engine_version(dist, tuple(sys.path))
+
+
+@functools.lru_cache(maxsize=64)
+def _engine_version(dist: str, path: tuple) -> str | None:
     try:
         return importlib.metadata.version(dist)
     except importlib.metadata.PackageNotFoundError:
