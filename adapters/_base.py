@@ -65,12 +65,15 @@ class EngineModel:
     * ``own_loop``: ``run(marks)`` is the engine's own loop (else the harness steps the model one
       ``advance()`` at a time);
     * ``settable``: ``set_state(q, v)`` puts the model in a state (scene coordinates) as if it had
-      been built there, so that one model can take one step from many states (``one_steps``).
+      been built there, so that one model can take one step from many states (``one_steps``);
+    * ``run_checks_divergence``: ``run(marks)`` itself stops at the first diverged state (through
+      ``step_loop``), so :func:`run_engine_loop` need not ask again of the states it returns.
     """
 
     settings: dict
     own_loop: bool = False
     settable: bool = False
+    run_checks_divergence: bool = False
 
     def advance(self) -> None:  # pragma: no cover - every model defines it
         raise NotImplementedError
@@ -113,6 +116,7 @@ class SteppedModel(EngineModel):
     read in between; ``run`` reads the state at each mark (:func:`run_by_steps`)."""
 
     own_loop = True
+    run_checks_divergence = True  # run_by_steps checks every mark
 
     def steps(self, n: int) -> None:  # pragma: no cover - every stepped model defines it
         raise NotImplementedError
@@ -522,8 +526,12 @@ def run_engine_loop(model: Model, scene: Scene, method: str, dt: float, steps: i
         rec_v.append(rec[n][1])
 
     # The engine's loop ran to the end; the rule reads its states at the marks and stops at the
-    # first diverged one (then the caller replays the run step by step to find the step).
-    failed, _ = step_loop(lambda a, b: None, lambda n: divergence_detail(n, n * dt) if diverged(*rec[n]) else "",
+    # first diverged one (then the caller replays the run step by step to find the step), unless
+    # the model's run asked that of every mark already.
+    def check(n):
+        return divergence_detail(n, n * dt) if diverged(*rec[n]) else ""
+
+    failed, _ = step_loop(lambda a, b: None, (lambda n: "") if model.run_checks_divergence else check,
                           record, steps, every, spans=True)
     if failed:
         return None

@@ -73,8 +73,9 @@ def step_loop(advance: Callable[[int, int], None], check: Callable[[int], str], 
             if n % every == 0 or n == steps:
                 record(n)
         return None, ""
-    marks = [int(m) for m in (output_marks(steps, every) if marks is None else marks)]
-    for a, b in zip(marks[:-1], marks[1:]):
+    marks = output_marks(steps, every) if marks is None else marks
+    marks = marks.tolist() if isinstance(marks, np.ndarray) else [int(m) for m in marks]  # Python ints
+    for a, b in zip(marks, marks[1:]):
         advance(a, b)
         why = check(b)
         if not why:
