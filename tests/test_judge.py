@@ -138,3 +138,26 @@ def test_reports_import_nothing_of_the_harness():
             for name in names:
                 assert name.split(".")[0] not in {"harness", "adapters", "reference", "scenarios"}, (path.name, name)
 
+
+
+def test_a_mode_that_takes_two_half_steps_is_said_with_the_energy_each_keeps():
+    """Drake's implicit_euler identified as implicit Euler by step doubling: the finding sets the
+    energy it keeps beside ref:implicit_euler's at the same time, read from the run's cells; the
+    unit spring's closed forms are (1 + h^2)^-n and (1 + h^2/4)^-2n."""
+    from records.cell import Cell, EnergyFigures, IdentityFigures
+
+    from harness import judge as judge_mod
+
+    h, n = 0.1, 1000
+    t = [0.0, n * h]
+
+    def energy(method, kept):
+        return Cell(scene="spring", method=method, family=method.split(":")[0], measure="energy", status="ok",
+                    value=1.0, dt=h, steps=2 * n, figures=EnergyFigures(series={"t": t, "energy": [0.5, 0.5 * kept]}))
+
+    cells = [Cell(scene="spring", method="drake:implicit_euler", family="drake", measure="identity", status="ok",
+                  value=1e-13, dt=0.125, steps=1000, figures=IdentityFigures(match="ref:implicit_euler_doubled")),
+             energy("drake:implicit_euler", (1 + h * h / 4) ** (-2 * n)), energy("ref:implicit_euler", (1 + h * h) ** -n)]
+    found = [f for f in judge_mod.judge(cells).findings if "half steps" in f.text]
+    assert len(found) == 1 and found[0].ok
+    assert "keeps 0.00678 of the energy where `ref:implicit_euler` keeps 4.77e-05" in found[0].text
