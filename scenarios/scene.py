@@ -26,7 +26,8 @@ from records import InvalidInput
 
 @dataclass(frozen=True)
 class Param:
-    """A scene parameter with its allowed range (``lo``/``hi`` inclusive unless ``*_open``)."""
+    """A scene parameter with its allowed range (``lo``/``hi`` inclusive unless ``*_open``); a
+    value is finite unless the parameter says it may be infinite (``infinite``)."""
 
     default: float
     doc: str = ""
@@ -35,10 +36,11 @@ class Param:
     lo_open: bool = False
     hi_open: bool = False
     integer: bool = False
+    infinite: bool = False
 
     def allowed(self) -> str:
         left = "(" if self.lo_open or self.lo == -math.inf else "["
-        right = ")" if self.hi_open or self.hi == math.inf else "]"
+        right = ")" if self.hi_open or self.hi == math.inf and not self.infinite else "]"
         kind = "integer in " if self.integer else ""
         return f"{kind}{left}{_fmt(self.lo)}, {_fmt(self.hi)}{right}"
 
@@ -47,7 +49,7 @@ class Param:
             x = float(value)
         except (TypeError, ValueError):
             raise InvalidInput(f"parameter {name}={value!r} is not a number (allowed: {self.allowed()})") from None
-        ok = math.isfinite(x) or (x == math.inf and self.hi == math.inf and not self.hi_open)
+        ok = math.isfinite(x) or (self.infinite and x == math.inf and self.hi == math.inf and not self.hi_open)
         ok = ok and (x > self.lo if self.lo_open else x >= self.lo)
         ok = ok and (x < self.hi if self.hi_open else x <= self.hi)
         if self.integer and ok:

@@ -149,3 +149,18 @@ def test_undamped_chain_is_bitwise_what_it_was():
             x = x + c * q[i + 1]
         expected[i] = x
     np.testing.assert_array_equal(a, expected)
+
+
+@pytest.mark.parametrize("scene_id", sorted(SCENES))
+def test_every_parameter_refuses_a_non_finite_value_in_one_line(scene_id):
+    """``--set k=inf`` ran and printed an infinite energy: a parameter is finite unless it says
+    otherwise (``Param.infinite``), and the refusal names the parameter and its range."""
+    from records import InvalidInput
+
+    for name, spec in SCENES[scene_id].params.items():
+        for bad in ("nan", "inf", "-inf"):
+            if bad == "inf" and spec.infinite:
+                continue
+            with pytest.raises(InvalidInput, match=f"parameter {name}=") as err:
+                SCENES[scene_id](**{name: bad})
+            assert "allowed:" in str(err.value) and "\n" not in str(err.value)
