@@ -242,3 +242,26 @@ def test_the_recorded_level_is_the_one_numba_reads(monkeypatch):
     for value, level in (("0", "0"), ("max", "max"), ("banana", "3"), ("", "3")):
         monkeypatch.setenv("NUMBA_OPT", value)
         assert _numba_config.opt_level() == level
+
+
+def test_the_bench_judges_rk4_against_semi_implicit_euler_by_the_floors_ratio_of_the_same_run():
+    """The RK4 / semi-implicit Euler target is the floors' own ratio in the same run (with slack),
+    not a fixed number: with the rows injected, 4.12 passes where the floors' ratio is 4.12, and
+    fails where the floors say 2."""
+    from harness.bench.kernels import RK4_OVER_SIE_SLACK, targets
+
+    def rows(rk4, rk4_floor):
+        base = {"single_ns_per_step": 1.0, "single_floor_ns_per_step": 1.0, "single_ratio_to_floor": 1.0,
+                "batch1000_ratio_to_floor": 1.0}
+        return [{**base, "method": "ref:semi_implicit_euler", "batch1000_ns_per_spring_step": 0.5,
+                 "batch1000_floor_ns_per_spring_step": 0.5},
+                {**base, "method": "ref:rk4", "batch1000_ns_per_spring_step": rk4,
+                 "batch1000_floor_ns_per_spring_step": rk4_floor}]
+
+    def verdict(result):
+        return next(t for t in result if t["target"].startswith("ref:rk4 / ref:semi_implicit_euler"))
+
+    met = verdict(targets(rows(2.06, 2.06)))
+    assert met["value"] == pytest.approx(4.12) and met["bound"] == pytest.approx(RK4_OVER_SIE_SLACK * 4.12)
+    assert met["met"]
+    assert not verdict(targets(rows(2.06, 1.0)))["met"]
