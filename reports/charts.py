@@ -244,6 +244,28 @@ def stability_chart(cells: list[Cell], scene: str, path: Path, styles: dict | No
     return _save(fig, path)
 
 
+def _stacked_labels(ax, at: dict, y: float) -> None:
+    """One label a method under its point at the top edge (``at``: method -> x), each in the first
+    row below where it overlaps no label already placed (measured on the drawn text), so that the
+    names of methods that blow up at nearby costs stay readable."""
+    fig = ax.figure
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    rows: list[list] = []
+    for method, x in sorted(at.items(), key=lambda kv: kv[1]):
+        for row in range(len(rows) + 1):
+            text = ax.annotate(method, (x, y), textcoords="offset points", xytext=(0, -9 - 8 * row), ha="center",
+                               fontsize=6, color="tab:red")
+            box = text.get_window_extent(renderer).expanded(1.05, 1.0)
+            if row == len(rows):
+                rows.append([box])
+                break
+            if not any(box.overlaps(other) for other in rows[row]):
+                rows[row].append(box)
+                break
+            text.remove()
+
+
 def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path, styles: dict | None = None) -> bool:
     """Cost per frame against the error the advice judges (energy error where the suite sets an
     energy tolerance, else position error), one point per (method, substeps) measured at ``hz``,
@@ -275,14 +297,13 @@ def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path, styles: d
     if unstable_pts:
         ax.scatter([c for c, _ in unstable_pts], [top] * len(unstable_pts), marker="x", color="tab:red",
                    label="unstable (drawn at the top edge)", zorder=3)
-        for method, c in {m: c for c, m in sorted(unstable_pts)}.items():  # one label a method
-            ax.annotate(method, (c, top), textcoords="offset points", xytext=(0, -9), ha="center", fontsize=6,
-                        color="tab:red")
     ax.axhline(tol, color="0.3", linestyle=":", label=f"tolerance {tol:g}")
     ax.set_xlabel("cost per frame: substeps x CPU µs per step (compiled kernel / engine step)")
     ax.set_ylabel(label)
     ax.set_title(f"{scene} at {hz:g} Hz: error against cost, one point per (method, substeps)")
     _legend_outside(ax)
+    if unstable_pts:  # last, where the axes have their final size
+        _stacked_labels(ax, {m: c for c, m in sorted(unstable_pts)}, top)
     return _save(fig, path)
 
 

@@ -102,3 +102,32 @@ def test_a_saved_log_axis_keeps_its_ticks_and_labels_them_in_plain_text(tmp_path
     assert [t.get_text() for t in ax.xaxis.get_majorticklabels()] == [charts.plain_power_label(s) for s in labels]
     assert "10⁻⁵" in [t.get_text() for t in ax.xaxis.get_majorticklabels()]
     plt.close(fig)
+
+
+def test_the_names_of_methods_that_blow_up_at_nearby_costs_do_not_overlap(tmp_path, monkeypatch):
+    """The 60 Hz chart printed the names of the methods unstable there along its top edge on top of
+    each other; each now takes the first row where it overlaps no name already placed."""
+    from records.cell import AdviceFigures, Cell
+    from reports import charts
+
+    names = [f"ref:scheme_number_{i}" for i in range(8)]
+    cells = [Cell(scene="cloth", method=m, family="ref", measure="advise", status="ok", value=None, dt=1 / 60,
+                  figures=AdviceFigures(hz=60.0, request={"energy_tol": 0.5, "error_tol": None},
+                                        rows=[{"cost_per_frame_s": 1e-5 * (1 + 0.01 * i), "energy_error": None,
+                                               "stable": False},
+                                              {"cost_per_frame_s": 1e-3, "energy_error": 1e-2, "stable": True}]))
+             for i, m in enumerate(names)]
+    drawn = {}
+
+    def keep(fig, path):
+        drawn["fig"] = fig
+        return True
+
+    monkeypatch.setattr(charts, "_save", keep)
+    assert charts.advice_chart(cells, "cloth", 60.0, tmp_path / "a.png")
+    fig = drawn["fig"]
+    renderer = fig.canvas.get_renderer()
+    texts = [t for t in fig.axes[0].texts if t.get_text() in names]
+    assert sorted(t.get_text() for t in texts) == sorted(names)
+    boxes = [t.get_window_extent(renderer) for t in texts]
+    assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
