@@ -227,19 +227,9 @@ class BulletModelScene(ModelScene):
                 q[i] = min(max(q[i], lo + 0.1 * (hi - lo)), hi - 0.1 * (hi - lo))
         return q, dv
 
-    def energy(self, q, v):
-        world = self._bullet()
-        q = np.asarray(q, dtype=float)
-        v = np.asarray(v, dtype=float)
-        shape = q.shape[:-1]
-        qs, vs = q.reshape(-1, q.shape[-1]), v.reshape(-1, v.shape[-1])
-        out = np.empty(len(qs))
-        for i in range(len(qs)):
-            if not (np.all(np.isfinite(qs[i])) and np.all(np.isfinite(vs[i]))):
-                out[i] = np.nan
-                continue
-            out[i] = sum(world.parts(qs[i], vs[i]))
-        return out.reshape(shape)
+    def _state_energy(self, q, v) -> float:
+        """One finite state's energy: Bullet's potential plus kinetic (``BulletWorld.parts``)."""
+        return sum(self._bullet().parts(q, v))
 
     def energy_scale(self) -> float:
         potential, kinetic = self._bullet().parts(*self.initial_state())

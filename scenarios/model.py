@@ -306,28 +306,31 @@ class ModelScene(RefinedRunReference, Scene):
         return q, dv
 
     def energy(self, q, v):
-        import mujoco
-
-        m, d = self._model()
+        """The energy of each state (rows of q, v); NaN where a state is not finite."""
         q = np.asarray(q, dtype=float)
         v = np.asarray(v, dtype=float)
         shape = q.shape[:-1]
         qs, vs = q.reshape(-1, q.shape[-1]), v.reshape(-1, v.shape[-1])
         out = np.empty(len(qs))
         for i in range(len(qs)):
-            if not (np.all(np.isfinite(qs[i])) and np.all(np.isfinite(vs[i]))):
-                out[i] = np.nan
-                continue
-            d.qpos[:] = qs[i]
-            d.qvel[:] = vs[i]
-            mujoco.mj_kinematics(m, d)
-            mujoco.mj_comPos(m, d)
-            mujoco.mj_tendon(m, d)
-            mujoco.mj_crb(m, d)
-            mujoco.mj_energyPos(m, d)
-            mujoco.mj_energyVel(m, d)
-            out[i] = d.energy[0] + d.energy[1]
+            finite = np.all(np.isfinite(qs[i])) and np.all(np.isfinite(vs[i]))
+            out[i] = self._state_energy(qs[i], vs[i]) if finite else np.nan
         return out.reshape(shape)
+
+    def _state_energy(self, q, v) -> float:
+        """One finite state's energy: MuJoCo's mj_energyPos + mj_energyVel of it."""
+        import mujoco
+
+        m, d = self._model()
+        d.qpos[:] = q
+        d.qvel[:] = v
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        mujoco.mj_tendon(m, d)
+        mujoco.mj_crb(m, d)
+        mujoco.mj_energyPos(m, d)
+        mujoco.mj_energyVel(m, d)
+        return d.energy[0] + d.energy[1]
 
     def energy_scale(self) -> float:
         """Initial kinetic energy + |initial potential energy|: what energy growth is measured in."""
