@@ -31,12 +31,13 @@ import math
 import os
 import re
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Mapping, Protocol
 
 import numpy as np
 
-from records import Trajectory
+from records import MethodId, Trajectory
+from records.method_id import Option
 
 from scenarios import Scene
 from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, output_marks, step_loop
@@ -292,6 +293,14 @@ class EngineMode:
     #: supported release has it. A release without it leaves the mode unavailable with that
     #: reason, else "not in <dist> <version>", never a crash.
     present: Callable[[object], bool | str] | None = field(default=None, compare=False)
+    #: The run-time options the mode takes (``records.method_id.Option`` by name), written into
+    #: its id where set (``drake:runge_kutta3@1e-6``); ``build`` gets each one set as a keyword.
+    options_declared: Mapping[str, Option] = field(default_factory=dict, compare=False)
+    #: The options set, ``((name, value), ...)`` (``with_options``).
+    options_set: tuple = ()
+    #: The option that, set, hands the step to the engine's error control (``tolerance``): the
+    #: mode is then adaptive (``dt`` its output interval).
+    adaptive_with: str | None = field(default=None, compare=False)
 
     isolated = True
     scheme = None
@@ -301,7 +310,19 @@ class EngineMode:
 
     @property
     def id(self) -> str:
-        return f"{self.engine}:{self.mode}"
+        return str(MethodId.of(self.engine, self.mode, self.options))
+
+    @property
+    def options(self) -> dict:
+        """The options set (``options_set``) by name."""
+        return dict(self.options_set)
+
+    def with_options(self, options: dict) -> "EngineMode":
+        """The same mode with ``options`` set (checked by the caller, ``harness.methods``); setting
+        ``adaptive_with`` makes it adaptive."""
+        merged = {**self.options, **options}
+        return replace(self, options_set=tuple(sorted(merged.items())),
+                       adaptive=self.adaptive or (self.adaptive_with is not None and self.adaptive_with in merged))
 
     @property
     def family(self) -> str:
@@ -351,7 +372,7 @@ class EngineMode:
 
     def _build(self, engine, scene: Scene, dt: float, count: bool):
         # ``count`` is passed only when asked for, so that a plugin's build(engine, mode, scene, dt) still fits.
-        return declared(self.build(engine, self.mode, scene, dt, **({"count": True} if count else {})))
+        return declared(self.build(engine, self.mode, scene, dt, **({"count": True} if count else {}), **self.options))
 
     def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1, *, loop: str = "engine",
                  count: bool = False) -> Trajectory:

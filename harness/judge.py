@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from records import is_reference, scheme_name
 from records.cell import Cell, Claims, MethodCells, pivot
 from records.findings import MARK, Change, ClaimChecks, Finding, Judgement, Verdict
 
@@ -162,7 +163,7 @@ def survives_one_frame(check: Check, scene: str, piv: dict) -> list[Finding]:
             need.append(f"`{m}` {math.ceil(frame / f.dt_max)} (h·ω_max {r.value:.3g})")
     if not survive and not need:
         return []
-    explicit = [m for m in survive if m.startswith("ref:") and not METHODS[m[4:]].implicit]
+    explicit = [m for m in survive if is_reference(m) and not METHODS[scheme_name(m)].implicit]
     return [Finding(f"`{scene}` at {check.expect:g} Hz: stable at one step a frame: {_names(survive) or 'none'} "
                     f"{MARK}; substeps a frame each other method needs to be stable (measured limit): "
                     + ", ".join(need) + ".", not explicit, scene)]
@@ -298,7 +299,7 @@ def not_symplectic_where_mass_varies(check: Check, scene: str, piv: dict) -> lis
     from reference import METHODS
 
     (scheme,) = check.against
-    claim = METHODS[scheme.split(":", 1)[1]].energy_claim
+    claim = METHODS[scheme_name(scheme)].energy_claim
     out = []
     for m, r in _rows(piv, scene, check).items():
         cls, varies = r.figures.energy_class, (r.figures.numbers or {}).get("mass_matrix_varies")

@@ -16,6 +16,7 @@ import os
 import adapters
 import reference
 from records import InvalidInput, Method, MethodId
+from records.method_id import Option
 from records.measures import register as register_measure, unregister as unregister_measure
 from records.method import OPTIONAL, REQUIRED
 from reference import Exact, RefMethod
@@ -78,23 +79,29 @@ def parse_options(items: list[str] | None) -> dict[str, str]:
     return out
 
 
-#: The most iterations a scheme's option takes (projection passes, Newton iterations).
+#: The most iterations a scheme's option takes (projection passes, Newton iterations, substeps).
 MAX_ITERATIONS = 10**6
 
 
+def declared_options(method: Method) -> dict[str, Option]:
+    """The run-time options ``method`` takes, by name: a reference scheme's (``Scheme.options``,
+    counts from 1), an engine mode's (``EngineMode.options``); a plugin's method takes none."""
+    if isinstance(method, RefMethod):
+        return {name: Option(name, int, 1, MAX_ITERATIONS) for name in method.scheme.options}
+    return dict(getattr(method, "options_declared", None) or {})
+
+
 def _with_options(method: Method, options: dict) -> Method:
-    valid = method.scheme.options if method.scheme is not None else {}
+    valid = declared_options(method)
     checked = {}
     for name, value in options.items():
         if name not in valid:
-            raise InvalidInput(f"unknown option {name!r} for method {method.id} "
+            raise InvalidInput(f"unknown option {name!r} for method {MethodId.parse(method.id).base} "
                                f"(valid: {', '.join(valid) or 'none'})")
-        from harness import validate
-
-        checked[name] = validate.count(f"option {name}", value, 1, MAX_ITERATIONS)
+        checked[name] = valid[name].check(MethodId.parse(method.id).base, value)
     if not checked:
         return method
-    return replace(method, options=checked) if isinstance(method, RefMethod) else RefMethod(method.scheme, checked)
+    return method.with_options(checked)
 
 
 #: Environment variable naming plugin modules (``module[,module]``) that add methods.
@@ -189,12 +196,18 @@ def all_methods(exact: Exact | None = None) -> dict[str, object]:
 
 
 def get_method(method_id: str, options: dict | None = None, exact: Exact | None = None) -> Method:
-    """The method with that id; ``options`` (``{"iterations": 5}``) set a scheme's run-time options;
-    ``exact`` its backend (``all_methods``)."""
+    """The method with that id (``records.MethodId``: options may be written into it,
+    ``ref:xpbd?substeps=10&iterations=1``, ``drake:runge_kutta3@1e-6``); ``options``
+    (``{"iterations": 5}``) set more of its run-time options; ``exact`` its backend
+    (``all_methods``). The method's ``id`` is the canonical text of the id with its options."""
+    mid = MethodId.parse(method_id)
     methods = all_methods(exact)
-    if method_id not in methods:
-        raise InvalidInput(f"unknown method {method_id!r} (valid: {', '.join(methods)})")
-    return _with_options(methods[method_id], options or {})
+    if mid.base not in methods:
+        raise InvalidInput(f"unknown method {mid.base!r} (valid: {', '.join(methods)})")
+    given = dict(mid.options)
+    for name, value in (options or {}).items():
+        given[name] = value
+    return _with_options(methods[mid.base], given)
 
 
 def check_supported(method: Method, scene: Scene) -> None:

@@ -44,7 +44,12 @@ class RefMethod:
 
     @property
     def id(self) -> str:
-        return str(MethodId(REFERENCE, self.scheme.id))
+        """``ref:<scheme>``, with the options set written in (``ref:xpbd?iterations=1&substeps=10``)."""
+        return str(MethodId.of(REFERENCE, self.scheme.id, self.options))
+
+    def with_options(self, options: dict) -> "RefMethod":
+        """The same scheme with ``options`` set (checked by the caller, ``harness.methods``)."""
+        return replace(self, options={**self.options, **options})
 
     def available(self) -> tuple[bool, str]:
         return True, ""

@@ -82,6 +82,47 @@ def test_scheme_name_of_anything_but_a_reference_id_is_none():
     assert scheme_name("ref:semi_implicit_euler") == "semi_implicit_euler"
 
 
+@pytest.mark.parametrize("text, canonical, options", [
+    ("ref:xpbd?substeps=10&iterations=1", "ref:xpbd?iterations=1&substeps=10", {"iterations": "1", "substeps": "10"}),
+    ("drake:runge_kutta3@1e-6", "drake:runge_kutta3@1e-6", {"tolerance": "1e-6"}),
+    ("drake:radau3?tolerance=1e-8", "drake:radau3@1e-8", {"tolerance": "1e-8"}),
+])
+def test_a_method_id_carries_its_options_in_one_canonical_text(text, canonical, options):
+    mid = MethodId.parse(text)
+    assert str(mid) == canonical and dict(mid.options) == options and str(MethodId.parse(canonical)) == canonical
+    assert mid.base == text.split("?")[0].split("@")[0]
+    assert scheme_name(text) == (mid.name if mid.reference else None)
+
+
+@pytest.mark.parametrize("text, words", [
+    ("ref:xpbd?substeps", "not of the form key=value"), ("ref:xpbd?substeps=1&substeps=2", "given twice"),
+    ("drake:runge_kutta3@", "needs a tolerance"), ("ref:xpbd?=3", "not of the form key=value"),
+])
+def test_a_malformed_option_in_a_method_id_is_a_one_line_error(text, words):
+    with pytest.raises(InvalidInput, match=words) as exc:
+        MethodId.parse(text)
+    assert "\n" not in str(exc.value)
+
+
+def test_options_in_an_id_are_checked_against_what_the_method_declares():
+    """The id written with its options resolves to the method with them set, and its ``id`` is
+    the canonical text; an option the method does not declare, or out of its range, is one line
+    naming the option and the valid ones, before anything is stepped."""
+    from harness.methods import get_method
+
+    m = get_method("ref:verlet_constrained?iterations=4")
+    assert m.id == "ref:verlet_constrained?iterations=4" and m.options == {"iterations": 4}
+    assert get_method("ref:verlet_constrained", {"iterations": "4"}).id == m.id
+    assert get_method(m.id) == m and get_method("ref:verlet_constrained").id == "ref:verlet_constrained"
+    for text, words in [("ref:rk4?substeps=2", "unknown option 'substeps' for method ref:rk4 (valid: none)"),
+                        ("ref:verlet_constrained?iterations=0", "iterations=0 is out of range"),
+                        ("ref:verlet_constrained?iterations=2.5", "is not an integer"),
+                        ("ref:rk4@1e-6", "unknown option 'tolerance'")]:
+        with pytest.raises(InvalidInput) as exc:
+            get_method(text)
+        assert words in str(exc.value) and "\n" not in str(exc.value), text
+
+
 # --------------------------------------------------------------------------- the protocol
 class Partial:
     """A plugin's method with only what every method must have (README: ``id``, ``available()``,

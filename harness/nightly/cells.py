@@ -36,6 +36,7 @@ from records.cell import (AdviceFigures, BoundFigures, Cell, Claims, CostFigures
                           IdentityFigures, NominalRun, OrderFigures, StabilityFigures, figures_of)
 
 from records.measures import Column, Measure, measures, register
+from records.method_id import scheme_name
 
 from harness.nightly.cell_kit import TaskContext, energy_run, finite, guard, guard_many, make_cell, nominal_dt, plain
 from harness.history.compare import ORDER_DROP, PROCESS_SPREAD, STABILITY_DROP
@@ -125,7 +126,7 @@ def compiles_for(task, suite: Suite) -> set[str]:
     its candidates 1,000 steps, interpreted in a fraction of what a compile costs."""
     if task.family != "ref" or suite.scenes[task.scene].compiled:
         return set()
-    return {task.method.split(":", 1)[1]}
+    return {scheme_name(task.method)}
 
 
 def _scene_task(task, suite: Suite, exact=None) -> list[Cell]:
@@ -295,7 +296,7 @@ def _identity(task, method, scene, exact=None) -> Cell:
     if match and match.startswith("ref:"):
         from harness.methods import RefMethod
 
-        match_claims = _claims(RefMethod(METHODS[match[4:]]), scene)
+        match_claims = _claims(RefMethod(METHODS[scheme_name(match)]), scene)
     if res.status not in ("ok", "unstable"):
         return make_cell(task, "identity", res.status, detail=res.detail)
     runner, closest = res.runner_up, res.closest

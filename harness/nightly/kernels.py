@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+from records.method_id import scheme_name
 from scenarios import make_scene
 
 BASELINE = "explicit_euler"
@@ -98,7 +99,7 @@ def plan(tasks: list, suite) -> tuple[list, KernelPlan]:
         if baseline.supports(scene)[0]:  # explicit Euler cannot pose a constrained scene: no ratio there
             state(BASELINE, scene)
         if task.family == "ref":
-            own = state(task.method.split(":", 1)[1], scene)
+            own = state(scheme_name(task.method), scene)
             task = replace(task, compile_counted=own.file)
             if suite.exact_compiled and not suite.scenes[task.scene].compiled:
                 interpreted += not own.file
