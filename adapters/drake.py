@@ -9,6 +9,15 @@ Minimal models, Drake's own physics: one body on one joint of the world, nothing
   ``PrismaticSpring`` of stiffness k at rest length 0; gravity zeroed.
 * ``pendulum``: a point mass m (``UnitInertia.PointMass``) at distance L below a
   ``RevoluteJoint`` about y, gravity the scene's g along -z: its generalised mass is m L^2.
+* ``chain``: N bodies of mass m, each on its own ``PrismaticJoint`` along x from the world (M
+  exactly m I); the wall springs a ``PrismaticSpring`` k at rest 0 on each end joint (2 k on a
+  single mass), each spring between neighbours a ``LinearBushingRollPitchYaw`` between the two
+  bodies' frames (force stiffness k and damping c along x only, the torques' zero), the wall
+  dashpots the end joints' damping c; gravity zeroed.
+* ``projectile``: the scene's (x, y), y up, are Drake's x and z: a massless carriage on a
+  ``PrismaticJoint`` along x carries the body of mass m on a ``PrismaticJoint`` along z, each
+  joint's damping the scene's linear drag c (force -c v on each axis), gravity the scene's g along -z.
+* ``model``: a model file as Drake's parser builds it (``adapters/_drake_model.py``).
 
 Every default that would change the physics is set off or set to the scene's value and recorded
 in each run's settings: gravity (Drake's default is 9.81 along -z), the plant's time step
@@ -59,21 +68,23 @@ _NOT_POSED = ("not posed yet: a LeafSystem evaluating the scene's force from Pyt
 UNSUPPORTED = {
     "kepler": "Drake's MultibodyPlant has no central 1/r^2 force element (a LeafSystem would be our force, not Drake's)",
     "solar_system": "Drake's MultibodyPlant has no N-body gravity force element",
-    "chain": _NOT_POSED + " (springs between neighbouring prismatic joints need one LinearBushingRollPitchYaw each)",
-    "projectile": _NOT_POSED + " (quadratic drag has no force element)",
     "rope": "a hinge chain of point masses: not posed yet (each link's revolute joint and point mass, "
             "its reduced coordinates as the scene's)",
     "cloth": "rest-length springs between free masses: LinearSpringDamper between bodies on three prismatic "
              "joints each; not posed yet",
     "net": "as the cloth: not posed yet",
     "cloth_flex": "MuJoCo's flex membrane: no Drake counterpart",
-    "model": "harness model in Drake (its URDF/MJCF parser) is not written yet",
 }
 
 MODELS = {
     "spring": "one body of mass m on a PrismaticJoint along x (damping 0), PrismaticSpring k at rest 0",
     "damped_spring": "one body of mass m on a PrismaticJoint along x with damping c, PrismaticSpring k at rest 0",
     "pendulum": "a point mass m (UnitInertia.PointMass) L below a RevoluteJoint about y, damping 0",
+    "chain": "N bodies of mass m on PrismaticJoints along x; PrismaticSpring k at rest 0 on the end joints (walls), "
+             "LinearBushingRollPitchYaw between neighbours (force stiffness k, damping c along x), end joints' damping c",
+    "projectile": "a massless carriage on a PrismaticJoint along x carrying mass m on a PrismaticJoint along z, "
+                  "each joint's damping the drag c",
+    "model": "the file as pydrake's Parser builds it, no SceneGraph (adapters/_drake_model.py)",
 }
 
 
@@ -99,8 +110,45 @@ def _spring(plant, values):
     return joint, [0.0, 0.0, 0.0]
 
 
+def _chain(plant, values):
+    """N bodies on prismatic joints along x, the walls' springs and dashpots on the end joints,
+    a bushing (force along x only) between each pair of neighbours; no gravity."""
+    from pydrake.multibody.tree import (LinearBushingRollPitchYaw, PrismaticJoint, PrismaticSpring, SpatialInertia,
+                                        UnitInertia)
+
+    n, k, c = values["N"], values["k"], values["c"]
+    bodies, joints = [], []
+    for i in range(n):
+        walls = (i == 0) + (i == n - 1)  # 2 for a single mass between both walls
+        body = plant.AddRigidBody(f"m{i}", SpatialInertia(values["m"], np.zeros(3), UnitInertia(1.0, 1.0, 1.0)))
+        joint = plant.AddJoint(PrismaticJoint(f"x{i}", plant.world_frame(), body.body_frame(), [1.0, 0.0, 0.0],
+                                              damping=c * walls))
+        if walls:
+            plant.AddForceElement(PrismaticSpring(joint, 0.0, k * walls))
+        bodies.append(body)
+        joints.append(joint)
+    for a, b in zip(bodies[:-1], bodies[1:]):
+        plant.AddForceElement(LinearBushingRollPitchYaw(a.body_frame(), b.body_frame(), [0.0, 0.0, 0.0],
+                                                        [0.0, 0.0, 0.0], [k, 0.0, 0.0], [c, 0.0, 0.0]))
+    return joints[0], [0.0, 0.0, 0.0]
+
+
+def _projectile(plant, values):
+    """A massless carriage on x carrying the mass on z, each joint damped by the drag c; gravity g along -z."""
+    from pydrake.multibody.tree import PrismaticJoint, SpatialInertia, UnitInertia
+
+    carriage = plant.AddRigidBody("carriage", SpatialInertia(0.0, np.zeros(3), UnitInertia(0.0, 0.0, 0.0)))
+    body = plant.AddRigidBody("mass", SpatialInertia(values["m"], np.zeros(3), UnitInertia(1.0, 1.0, 1.0)))
+    plant.AddJoint(PrismaticJoint("x", plant.world_frame(), carriage.body_frame(), [1.0, 0.0, 0.0],
+                                  damping=values["c"]))
+    joint = plant.AddJoint(PrismaticJoint("y", carriage.body_frame(), body.body_frame(), [0.0, 0.0, 1.0],
+                                          damping=values["c"]))
+    return joint, [0.0, 0.0, -values["g"]]
+
+
 #: How each scene Drake poses is built into a plant: a new scene is one entry here.
-POSES = {"spring": _spring, "damped_spring": _spring, "pendulum": _pendulum}
+POSES = {"spring": _spring, "damped_spring": _spring, "pendulum": _pendulum, "chain": _chain,
+         "projectile": _projectile}
 
 
 def _plant(pydrake, scene: Scene, time_step: float):
@@ -118,12 +166,15 @@ class _Model(EngineModel):
 
     own_loop = True
     settable = True
+    #: Each scene coordinate's place in Drake's positions and velocities (None: the same order).
+    _index = None
+    _plant = staticmethod(_plant)
 
     def __init__(self, pydrake, mode: str, scene: Scene, dt: float):
         from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 
         self.discrete = mode in DISCRETE
-        plant, joint, gravity = _plant(pydrake, scene, dt if self.discrete else 0.0)
+        plant, joint, gravity = self._plant(pydrake, scene, dt if self.discrete else 0.0)
         if self.discrete:
             from pydrake.multibody.plant import DiscreteContactApproximation
 
@@ -131,11 +182,8 @@ class _Model(EngineModel):
         plant.Finalize()
         self.plant, self.dt, self.n, self._trouble = plant, dt, 0, None
         self.sim = sim = Simulator(plant)
-        context = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
-        q0, v0 = scene.initial_state()
-        plant.SetPositions(context, q0)
-        plant.SetVelocities(context, v0)
-        self._context = context
+        self._context = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
+        self._put(*scene.initial_state())
         self.settings = {"plant": f"discrete, time_step {dt!r}" if self.discrete else "continuous (time_step 0)",
                          "gravity": gravity, "model": MODELS[scene.kind],
                          "advance": ("AdvanceTo(k h): one discrete update a step" if self.discrete else
@@ -162,8 +210,7 @@ class _Model(EngineModel):
         # Back to time 0 at the state, and the simulator initialised again (the integrator's
         # cached Jacobians and step data with it), as a model built there would be.
         self.sim.get_mutable_context().SetTime(0.0)
-        self.plant.SetPositions(self._context, q)
-        self.plant.SetVelocities(self._context, v)
+        self._put(q, v)
         self.sim.Initialize()
         self.n, self._time, self._trouble = 0, 0.0, None
         self._steps0 = int(self.integrator.get_num_steps_taken()) if self.integrator is not None else 0
@@ -210,8 +257,17 @@ class _Model(EngineModel):
 
     def state(self):
         context = self.plant.GetMyContextFromRoot(self.sim.get_context())
-        return (np.array(self.plant.GetPositions(context), dtype=float),
-                np.array(self.plant.GetVelocities(context), dtype=float))
+        q, v = np.array(self.plant.GetPositions(context), dtype=float), np.array(self.plant.GetVelocities(context), dtype=float)
+        return (q, v) if self._index is None else (q[self._index], v[self._index])
+
+    def _put(self, q, v) -> None:
+        """The plant's state from the scene's coordinates."""
+        if self._index is not None:
+            full_q, full_v = np.zeros(self.plant.num_positions()), np.zeros(self.plant.num_velocities())
+            full_q[self._index], full_v[self._index] = q, v
+            q, v = full_q, full_v
+        self.plant.SetPositions(self._context, q)
+        self.plant.SetVelocities(self._context, v)
 
     def evaluations(self):
         if self.integrator is None:
@@ -226,7 +282,43 @@ class _Model(EngineModel):
                                         else int(self.integrator.get_num_steps_taken()))
 
 
-BUILDERS = {"spring": _Model, "damped_spring": _Model, "pendulum": _Model}
+class _FileModel(_Model):
+    """A model file (``harness model``) as Drake's parser builds it, stepped as every scene is; its
+    coordinates mapped to the scene's by joint name and its anatomy read back from the plant
+    (``adapters/_drake_model.py``)."""
+
+    def _plant(self, pydrake, scene: Scene, time_step: float):
+        from . import _drake_model
+
+        plant, gravity, self._facts = _drake_model.build_plant(scene, time_step)
+        self._names, self._coordinates = list(scene.dof_names), None
+        return plant, None, gravity
+
+    @property
+    def _index(self):
+        # Read from the finalized plant, at the first state put into it.
+        if self._coordinates is None:
+            from . import _drake_model
+
+            self._coordinates = _drake_model.coordinates(self.plant, self._names)
+        return self._coordinates
+
+    def __init__(self, pydrake, mode: str, scene: Scene, dt: float, **options):
+        super().__init__(pydrake, mode, scene, dt, **options)
+        from . import _drake_model
+
+        self.settings.update(_drake_model.settings(self.plant, self._facts))
+
+    def anatomy(self) -> dict:
+        from . import _drake_model
+
+        context = self.plant.GetMyContextFromRoot(self.sim.get_context())
+        return _drake_model.anatomy(self.plant, context, self._index, self._names, self._facts,
+                                    self.discrete)
+
+
+BUILDERS = {"spring": _Model, "damped_spring": _Model, "pendulum": _Model, "chain": _Model, "projectile": _Model,
+            "model": _FileModel}
 SCENES = tuple(BUILDERS)
 
 

@@ -35,9 +35,10 @@ MODEL_STABILITY_STEPS = 1000
 MODEL_STABILITY_BELOW = 64.0
 MODEL_STABILITY_RTOL = 1e-4
 #: The engines that load a model file.
-MODEL_ENGINES = ("mujoco", "pybullet")
-#: The two modes the cross-engine cell steps from the same state, where both engines load the file.
-CROSS_ENGINE = ("mujoco:euler", "pybullet:semi_implicit")
+MODEL_ENGINES = ("mujoco", "pybullet", "drake")
+#: The modes the cross-engine cells step from the same state: MuJoCo's first, each other one
+#: compared with it where its engine loads the file (a cell each).
+CROSS_ENGINE = ("mujoco:euler", "pybullet:semi_implicit", "drake:semi_explicit_euler")
 #: The advice's horizon on a model, in the model's own timesteps.
 MODEL_ADVICE_STEPS = 600
 
@@ -86,13 +87,14 @@ def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep
     for scene in model_scenes(path, variants, keep, off, **params):
         dt = scene.own_timestep
         unloaded = cannot_load(scene)
-        both = scene.conservative and not any(m.split(":")[0] in unloaded for m in CROSS_ENGINE)
+        loaded = tuple(m for m in CROSS_ENGINE if m.split(":")[0] not in unloaded)
+        both = scene.conservative and len(loaded) > 1 and loaded[0] == CROSS_ENGINE[0]
         specs[scene.id] = SceneSpec(
             params=dict(scene.values), dt=dt, horizon=dt * MODEL_ENERGY_STEPS,
             stability_hi=dt * scene.omega * MODEL_STABILITY_FACTOR, stability_steps=MODEL_STABILITY_STEPS,
             stability_lo=dt * scene.omega / MODEL_STABILITY_BELOW, stability_rtol=MODEL_STABILITY_RTOL,
             advise=advise if advise is not None and scene.conservative else None, source=scene.file.path,
-            cannot_load=unloaded, extras=SceneExtras(cross_engine=CROSS_ENGINE if both else ()))
+            cannot_load=unloaded, extras=SceneExtras(cross_engine=loaded if both else ()))
     return specs
 
 

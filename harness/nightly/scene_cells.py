@@ -22,10 +22,10 @@
 * ``brouwer`` (Kepler and the solar system, the methods ``extras.brouwer`` names): the
   energy error's RMS over an ensemble against time (``harness.measures.brouwer``). Value: its
   log-log slope, 0.5 by Brouwer's law where the error is roundoff.
-* ``cross_engine`` (a model file's conservative variant where both engines load it; the task of
-  the second of ``extras.cross_engine``): the two modes from the same state at a step where each
-  one's own error is at most a tenth of what is reported, over one period of the model's
-  slowest mode (``harness.measures.cross_engine``). Value: their difference, relative; the figures
+* ``cross_engine`` (a model file's conservative variant where two engines load it; the task of
+  each mode of ``extras.cross_engine`` after the first, compared with the first): the two modes
+  from the same state at a step where each one's own error is at most a tenth of what is
+  reported, over one period of the model's slowest mode (``harness.measures.cross_engine``). Value: their difference, relative; the figures
   say whether it is more than their own errors account for, and what the two built models differ in.
 """
 from __future__ import annotations
@@ -66,7 +66,7 @@ SCENE_MEASURES = (
     Measure("cross_engine", CrossEngineFigures, "two engines from the same state on a model file, at a resolved "
             "step, and what their built models differ in", run=lambda ctx: [_cross_engine(ctx.task, ctx.scene,
                                                                                           ctx.spec, ctx.suite)],
-            applies=lambda ctx: bool(_extras(ctx).cross_engine) and ctx.task.method == _extras(ctx).cross_engine[1],
+            applies=lambda ctx: ctx.task.method in _extras(ctx).cross_engine[1:],
             section=lambda scene, piv: _cross_engine_section(scene, piv)),
 )
 for _m in SCENE_MEASURES:
@@ -189,7 +189,7 @@ def _brouwer(task, method, scene, dt, spec) -> Cell:
 def _cross_engine(task, scene, spec, suite) -> Cell:
     from harness.measures.cross_engine import cross_engine, verdict_text
 
-    a, b = spec.extras.cross_engine
+    a, b = spec.extras.cross_engine[0], task.method
     res = cross_engine(scene, a, b, timeout=suite.cell_timeout)
     figures = CrossEngineFigures.pick(plain(res.as_dict()))
     if res.difference is None:  # a run did not finish: its own status, and where and why

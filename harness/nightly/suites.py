@@ -33,8 +33,9 @@ class SceneExtras:
                                                # at each size) and cost_vs_size's repeats, work_per_call
     scaling_methods: tuple = SCALING_METHODS   # the methods the scaling cell runs for
     brouwer: dict | None = None                # the Brouwer ensemble's settings, by method (harness.measures.brouwer)
-    cross_engine: tuple = ()                   # two engine modes compared from the same state (a model file's
-                                               # conservative variant): the cell is the second mode's task's
+    cross_engine: tuple = ()                   # engine modes compared from the same state (a model file's
+                                               # conservative variant): each later mode's task has a cell
+                                               # comparing it with the first
 
 
 @dataclass(frozen=True)
