@@ -27,6 +27,12 @@ the simulator's integrator (Drake's default is RK3, error-controlled at accuracy
 step h), and the implicit integrators' Newton tolerance, which follows the target accuracy
 (``set_target_accuracy(1e-14)``; the explicit integrators throw on it and have no Newton loop).
 
+Error-controlled (a tolerance in the method's id, ``drake:runge_kutta3@1e-6``, for the integrators
+of ``ERROR_CONTROLLED``): fixed-step mode off, ``set_target_accuracy(tolerance)`` (Drake's local
+error per step, and the implicit integrators' Newton tolerance), the step at most the output
+interval; ``dt`` is then the output interval, and each run records the steps Drake took and
+rejected (``get_num_step_shrinkages_from_error_control``).
+
 The loop is Drake's: ``Simulator.AdvanceTo`` from one output point to the next, one call over
 the whole run when one output is asked for. Drake steps by h from the context's time, so the
 step n ends at t_n = fl(t_{n-1} + h); the model advances to exactly that time, and Drake takes
@@ -43,6 +49,8 @@ import numpy as np
 
 from scenarios import Scene
 
+from records.method_id import TOLERANCE, Option
+
 from ._base import EngineMode, EngineModel, EngineVersions
 
 #: The releases this adapter supports: ``ResetIntegratorFromFlags`` by scheme name and
@@ -58,6 +66,11 @@ INTEGRATORS = ("semi_explicit_euler", "explicit_euler", "runge_kutta2", "runge_k
 #: Drake's default 1e-4 radau3 strays 2e-6 from the two-stage Radau IIA on the spring).
 IMPLICIT = ("radau1", "radau3", "implicit_euler", "velocity_implicit_euler")
 NEWTON_ACCURACY = 1e-14
+
+#: The integrators with an error estimate: each also runs error-controlled at a tolerance
+#: (``drake:runge_kutta3@1e-6``); the others throw on a target accuracy.
+ERROR_CONTROLLED = ("bogacki_shampine3", "runge_kutta3", "runge_kutta5", "radau1", "radau3", "implicit_euler",
+                    "velocity_implicit_euler")
 
 #: Our mode name -> the discrete plant's contact approximation (``DiscreteContactApproximation``).
 DISCRETE = {"discrete_tamsi": "kTamsi", "discrete_sap": "kSap", "discrete_lagged": "kLagged",
@@ -170,7 +183,7 @@ class _Model(EngineModel):
     _index = None
     _plant = staticmethod(_plant)
 
-    def __init__(self, pydrake, mode: str, scene: Scene, dt: float):
+    def __init__(self, pydrake, mode: str, scene: Scene, dt: float, tolerance: float | None = None):
         from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 
         self.discrete = mode in DISCRETE
@@ -189,15 +202,24 @@ class _Model(EngineModel):
                          "advance": ("AdvanceTo(k h): one discrete update a step" if self.discrete else
                                      "AdvanceTo(t_n), t_n = fl(t_{n-1} + h): exactly n steps, none inserted"), "target_realtime_rate": 0.0}
         if self.discrete:
-            self.integrator = None
+            self.integrator = self.tolerance = None
             self.settings["contact_approximation"] = DISCRETE[mode]
         else:
             self.integrator = integrator = ResetIntegratorFromFlags(sim, mode, dt)
-            integrator.set_fixed_step_mode(True)
+            self.tolerance = tolerance
+            # Error-controlled (a tolerance set): Drake's own step-size control at that target
+            # accuracy, its steps at most the output interval dt (each output is an AdvanceTo).
+            integrator.set_fixed_step_mode(tolerance is None)
             integrator.set_maximum_step_size(dt)
             self.settings.update({"integrator": mode, "fixed_step_mode": bool(integrator.get_fixed_step_mode()),
                                   "maximum_step_size": float(integrator.get_maximum_step_size())})
-            if mode in IMPLICIT:
+            if tolerance is not None:
+                integrator.set_target_accuracy(tolerance)
+                self.settings.update(target_accuracy=float(integrator.get_target_accuracy()),
+                                     advance="AdvanceTo(n dt) at every output; Drake's error control picks the steps",
+                                     error_control=f"Drake's, at target accuracy {tolerance:g} (its Newton tolerance "
+                                                   "follows it in the implicit integrators)")
+            elif mode in IMPLICIT:
                 integrator.set_target_accuracy(NEWTON_ACCURACY)
                 self.settings["target_accuracy"] = float(integrator.get_target_accuracy())
             else:
@@ -234,7 +256,7 @@ class _Model(EngineModel):
         # Where an implicit integrator's Newton iteration fails at h, Drake shrinks the step even in
         # fixed-step mode (measured on the pendulum at h omega = 3: 255 steps for 240): the run is
         # then no longer the scheme at h, and stops there.
-        if self.integrator is not None and self._trouble is None:
+        if self.integrator is not None and self._trouble is None and self.tolerance is None:
             taken = int(self.integrator.get_num_steps_taken()) - self._steps0
             if taken != self.n:
                 self._trouble = (f"Drake took {taken} steps for {self.n}: its Newton iteration failed at h and it "
@@ -280,6 +302,10 @@ class _Model(EngineModel):
         self.settings["steps_taken"] = (int(self.sim.get_num_discrete_updates() + self.sim.get_num_unrestricted_updates())
                                         if self.discrete
                                         else int(self.integrator.get_num_steps_taken()))
+        if self.integrator is not None and self.tolerance is not None:
+            # A step rejected by the error estimate is retried smaller: Drake counts each shrinkage.
+            self.settings["steps_rejected"] = int(self.integrator.get_num_step_shrinkages_from_error_control())
+            self.settings["substep_failures"] = int(self.integrator.get_num_substep_failures())
 
 
 class _FileModel(_Model):
@@ -322,9 +348,10 @@ BUILDERS = {"spring": _Model, "damped_spring": _Model, "pendulum": _Model, "chai
 SCENES = tuple(BUILDERS)
 
 
-def build(pydrake, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
-    """``count`` changes nothing: Drake counts its derivative evaluations in every run."""
-    return BUILDERS[scene.kind](pydrake, mode, scene, dt)
+def build(pydrake, mode: str, scene: Scene, dt: float, count: bool = False, tolerance: float | None = None) -> _Model:
+    """``count`` changes nothing: Drake counts its derivative evaluations in every run.
+    ``tolerance``: error-controlled at that target accuracy (the modes of ``ERROR_CONTROLLED``)."""
+    return BUILDERS[scene.kind](pydrake, mode, scene, dt, **({"tolerance": tolerance} if tolerance is not None else {}))
 
 
 def has_scheme(mode: str):
@@ -373,6 +400,9 @@ METHODS = {
     f"drake:{mode}": EngineMode(
         engine="drake", mode=mode, module="pydrake", dist="drake", build=build,
         scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], versions=VERSIONS, present=has_scheme(mode),
+        options_declared=({TOLERANCE: Option(TOLERANCE, float, 1e-14, 0.1, "error-controlled at this target accuracy")}
+                          if mode in ERROR_CONTROLLED else {}),
+        adaptive_with=TOLERANCE if mode in ERROR_CONTROLLED else None,
         settings={"scheme": DISCRETE.get(mode, mode),
                   "plant": "discrete, time_step h" if mode in DISCRETE else "continuous (time_step 0)",
                   "fixed_step_mode": None if mode in DISCRETE else True,

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from records.method_id import TOLERANCE, Option
 from scenarios import Scene
 
 from ._base import EngineMode, EngineVersions, SteppedModel
@@ -108,7 +109,8 @@ class _Simulation(SteppedModel):
     #: What the pose adds to the settings (kepler's: the keys its stored runs were recorded with).
     EXTRA_SETTINGS: dict = {}
 
-    def __init__(self, rebound, mode: str, scene: Scene, dt: float, count: bool = False):
+    def __init__(self, rebound, mode: str, scene: Scene, dt: float, count: bool = False,
+                 tolerance: float | None = None):
         self.sim = sim = rebound.Simulation()
         self.adaptive = mode in ADAPTIVE
         self.dt, self.n = dt, 0
@@ -119,7 +121,9 @@ class _Simulation(SteppedModel):
         config = integrator_config(sim, mode)
         # A setting this release does not have is recorded as missing (its one behaviour runs).
         missing = [name for name in CONFIG[mode] if config is None or not hasattr(config, name)]
-        for name, value in CONFIG[mode].items():
+        # IAS15's tolerance is its epsilon (the method id's ``@``: ``rebound:ias15@1e-6``).
+        chosen = {**CONFIG[mode], **({"epsilon": tolerance} if tolerance is not None else {})}
+        for name, value in chosen.items():
             if name not in missing:
                 setattr(config, name, value)
         sim.dt = dt
@@ -224,8 +228,10 @@ def _plain(value):
     return str(value)
 
 
-def build(rebound, mode: str, scene: Scene, dt: float, count: bool = False) -> _Simulation:
-    return BUILDERS[scene.kind](rebound, mode, scene, dt, count)
+def build(rebound, mode: str, scene: Scene, dt: float, count: bool = False,
+          tolerance: float | None = None) -> _Simulation:
+    """``tolerance``: IAS15's epsilon (``rebound:ias15@1e-6``); the fixed-step modes take none."""
+    return BUILDERS[scene.kind](rebound, mode, scene, dt, count, tolerance)
 
 
 _DOCS = {
@@ -249,6 +255,9 @@ METHODS = {
         engine="rebound", mode=mode, module="rebound", dist="rebound", build=build,
         scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], adaptive=mode in ADAPTIVE, counting_run=True,
         versions=VERSIONS, present=takes_settings(mode),
+        options_declared=({TOLERANCE: Option(TOLERANCE, float, 1e-16, 1.0, "IAS15's epsilon")}
+                          if mode in ADAPTIVE else {}),
+        adaptive_with=TOLERANCE if mode in ADAPTIVE else None,
         settings={"integrator": mode, **CONFIG[mode], **SIM, "models": MODELS},
     )
     for mode in CONFIG

@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from matplotlib.ticker import Formatter, LogFormatterMathtext  # noqa: E402
+from matplotlib.ticker import Formatter, LogFormatterMathtext, NullFormatter  # noqa: E402
 
 from records.cell import Cell  # noqa: E402
 
@@ -189,6 +189,15 @@ def workprecision_chart(cells: list[Cell], scene: str, path: Path, styles: dict 
         ax.plot(work, err, markersize=4, label=f"{method} ({cost_source(method)})", **_style(method, styles))
         clocks.add(cost[method].figures.clock or "wall")
         drawn += 1
+    # Error-controlled methods (the ``tolerance`` cells): one point per tolerance, their own
+    # curve, dotted, beside the fixed-step ones.
+    for c in _ok(cells, "tolerance"):
+        pts = [r for r in c.figures.rows or [] if r.get("error") and r["error"] > 0 and r.get("s_per_unit_time")]
+        if pts:
+            ax.plot([r["s_per_unit_time"] for r in pts], [r["error"] for r in pts], linestyle=":", marker="x",
+                    label=f"{c.method} error-controlled, tolerance {_tol_span(pts)} (engine's own loop)")
+            clocks.add(next((r["clock"] for r in pts if r.get("clock")), "wall"))
+            drawn += 1
     if not drawn:
         plt.close(fig)
         return False
@@ -201,6 +210,49 @@ def workprecision_chart(cells: list[Cell], scene: str, path: Path, styles: dict 
     ax.set_ylabel("max global error")
     ax.set_title(f"{scene}: work-precision")
     _legend_outside(ax)
+    return _save(fig, path)
+
+
+def _tol_span(rows: list[dict]) -> str:
+    tols = [r["tolerance"] for r in rows]
+    return f"{max(tols):.0e} to {min(tols):.0e}" if len(tols) > 1 else f"{tols[0]:.0e}"
+
+
+def tolerance_chart(cells: list[Cell], scene: str, path: Path, styles: dict | None = None) -> bool:
+    """Error-controlled methods over their tolerance sweep (``harness.measures.tolerance``): left,
+    max global error against the tolerance asked for (the diagonal: error = tolerance); right,
+    the same error against measured cost per unit of simulated time (the engine's own loop,
+    model built off the clock) with the steps taken and rejected written at each point."""
+    rows = [c for c in _ok(cells, "tolerance") if any(r.get("error") for r in c.figures.rows or [])]
+    if not rows:
+        return False
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
+    clocks, lo, hi = set(), math.inf, 0.0
+    for c in rows:
+        pts = [r for r in c.figures.rows if r.get("error") and r["error"] > 0]
+        st = {k: v for k, v in _style(c.method, styles).items() if k in ("color", "linestyle", "marker")}
+        tol = [r["tolerance"] for r in pts]
+        lo, hi = min(lo, *tol), max(hi, *tol)
+        left.plot(tol, [r["error"] for r in pts], label=c.method, **st)
+        timed = [r for r in pts if r.get("s_per_unit_time")]
+        right.plot([r["s_per_unit_time"] for r in timed], [r["error"] for r in timed], label=c.method, **st)
+        for r in timed:
+            right.annotate(f"{r['steps_taken']}/{r['steps_rejected'] if r['steps_rejected'] is not None else '?'}",
+                           (r["s_per_unit_time"], r["error"]), fontsize=6, xytext=(3, 3), textcoords="offset points")
+            clocks.add(r.get("clock") or "wall")
+    left.plot([lo, hi], [lo, hi], color="0.6", linewidth=0.8, linestyle="--", label="error = tolerance")
+    for ax in (left, right):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_ylabel("max global error")
+    left.set_xlabel("tolerance asked for\n(Drake: target accuracy; IAS15: epsilon)")
+    clock = ({"cpu": "CPU", "wall": "wall", "injected": "injected (not measured)"}.get(clocks.pop(), "wall")
+             if len(clocks) == 1 else "mixed-clock")
+    right.set_xlabel(f"cost: {clock} seconds per unit of simulated time\n(the engine's own loop; "
+                     "labels: steps taken / rejected)")
+    right.xaxis.set_minor_formatter(NullFormatter())
+    fig.suptitle(f"{scene}: error-controlled integration against its tolerance")
+    _legend_outside(right)
     return _save(fig, path)
 
 

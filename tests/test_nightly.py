@@ -132,7 +132,7 @@ def test_smoke_nightly_writes_every_section_and_charts(first_run):
     assert positions == sorted(positions)  # the verdict first, the appendix last
     charts = list((tmp / "out" / "charts").glob("*.png"))
     assert {c.name.split("-")[-1] for c in charts} == {"energy.png", "workprecision.png", "stability.png",
-                                                       "advise60hz.png"}
+                                                       "advise60hz.png", "tolerance.png"}
     assert all(c.stat().st_size > 1000 for c in charts)
     assert sorted(_chart_links(report)) == sorted(f"charts/{c.name}" for c in charts)
     # The trade-off table shows explicit Euler as `grows`, with the textbook agreeing.
@@ -229,7 +229,8 @@ def test_a_chart_that_raises_in_a_worker_leaves_the_report_whole(first_run, tmp_
     assert energy_link in whole
     assert report == whole.replace(energy_link, "")
     assert sorted(p.name for p in (tmp_path / "out" / "charts").iterdir()) == [
-        "run1-spring-advise60hz.png", "run1-spring-stability.png", "run1-spring-workprecision.png"]
+        "run1-spring-advise60hz.png", "run1-spring-stability.png", "run1-spring-tolerance.png",
+        "run1-spring-workprecision.png"]
 
 
 def test_a_killed_nightly_leaves_report_and_history_whole_and_the_next_run_succeeds(killed_then_rerun, first_run):

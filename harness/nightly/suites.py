@@ -36,6 +36,11 @@ class SceneExtras:
     cross_engine: tuple = ()                   # engine modes compared from the same state (a model file's
                                                # conservative variant): each later mode's task has a cell
                                                # comparing it with the first
+    small_steps: dict | None = None            # the small-steps study's settings (harness.measures.small_steps):
+                                               # the cell is ref:xpbd's task's
+    tolerances: dict | None = None             # the tolerance cell's settings (harness.measures.tolerance:
+                                               # tolerances, periods, outputs, repeats, max_evals; ``methods``:
+                                               # only these), for every method that takes a tolerance
 
 
 @dataclass(frozen=True)
@@ -144,6 +149,11 @@ KEPLER_BROUWER_FULL, _ = _brouwer(24)
 ROPE_STABILITY_STEPS = 10_000
 #: The rope's constraint cell also runs ref:verlet_constrained at these projection passes.
 ROPE_EXTRAS = SceneExtras(constraint_iterations=(1, 4, 16))
+#: The small-steps study (harness.measures.small_steps) at 60 Hz over 2 s, in ref:xpbd's task: the
+#: standard suite at three pass counts on its small cloth and rope, timed briefly; the full suite at
+#: six on the default scenes.
+SMALL_STEPS = {"hz": 60.0, "t_end": 2.0, "passes": (1, 4, 16), "timing_frames": 30, "repeats": 3}
+SMALL_STEPS_FULL = {"hz": 60.0, "t_end": 2.0, "passes": (1, 2, 4, 8, 16, 32), "timing_frames": 60, "repeats": 5}
 #: The outer solar system in the standard suite: the schemes issue 6 names against REBOUND's
 #: modes (the full suite runs every method). Its largest stable dt is left to the full suite:
 #: each task's boundedness runs need the reference solve over 1000 steps of the largest dt
@@ -174,6 +184,18 @@ CLOTH_ADVISE = {"horizon": 2.0, "energy_tol": 0.1, "max_substeps": 16}
 #: CPU (the rope's 10,000-step runs most).
 STANDARD_STABILITY_RTOL = 1e-4
 
+#: Error-controlled integration (the ``tolerance`` cell, for every method that takes a tolerance:
+#: Drake's integrators with an error estimate, REBOUND's IAS15), over 5 periods with 50 outputs.
+#: The standard suite sweeps four tolerances on the spring and Kepler, each timed three times, and stops
+#: before a run extrapolated past 50,000 force evaluations (Drake's implicit Euler, first order,
+#: past 1e-4); the full suite sweeps five on every scene that has an error-controlled method,
+#: timed five times, to 200,000.
+STANDARD_TOLERANCES = {"tolerances": (1e-2, 1e-4, 1e-6, 1e-8), "periods": 5.0, "outputs": 50, "repeats": 3,
+                       "max_evals": 50_000}
+FULL_TOLERANCES = {"tolerances": (1e-2, 1e-4, 1e-6, 1e-8, 1e-10), "periods": 5.0, "outputs": 50, "repeats": 5,
+                   "max_evals": 200_000}
+SMOKE_TOLERANCES = {"tolerances": (1e-3, 1e-6), "periods": 2.0, "outputs": 20, "repeats": 1, "max_evals": 20_000}
+
 #: The advice a game or animation programmer asks for: 10 s at the suite's frame rates, the
 #: energy within 0.1% of the largest exact energy, up to 16 substeps a frame.
 ADVISE = {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 16}
@@ -181,7 +203,8 @@ ADVISE = {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 16}
 SUITES: dict[str, Suite] = {
     "smoke": Suite(
         "smoke",
-        scenes={"spring": SceneSpec(periods=20, order_points=6, order_span=4.0, advise=ADVISE)},
+        scenes={"spring": SceneSpec(periods=20, order_points=6, order_span=4.0, advise=ADVISE,
+                                    extras=SceneExtras(tolerances=SMOKE_TOLERANCES))},
         methods=("ref:explicit_euler", "ref:semi_implicit_euler", "ref:leapfrog", "ref:rk4", "ref:implicit_euler",
                  "mujoco:euler", "pymunk:applied_force",
                  # Drake (issue 35): its RK3 and its discrete plant, one identity row each (the cheap
@@ -193,39 +216,44 @@ SUITES: dict[str, Suite] = {
     "standard": Suite(
         "standard",
         scenes={
-            "spring": SceneSpec(periods=200, skip=VELOCITY_SCHEMES, advise=ADVISE),
+            "spring": SceneSpec(periods=200, skip=VELOCITY_SCHEMES, advise=ADVISE,
+                                extras=SceneExtras(tolerances=STANDARD_TOLERANCES)),
             "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE),
             "pendulum": SceneSpec(periods=50, skip=VELOCITY_SCHEMES, advise=ADVISE),
             "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0, skip=VELOCITY_SCHEMES,
-                                extras=SceneExtras(brouwer=KEPLER_BROUWER)),
+                                extras=SceneExtras(brouwer=KEPLER_BROUWER, tolerances=STANDARD_TOLERANCES)),
             "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True),
             "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS, skip=CHAIN_STANDARD_SKIP,
                                advise=ADVISE),
-            "rope": SceneSpec(params={"N": 5}, periods=20, extras=ROPE_EXTRAS, stability_steps=ROPE_STABILITY_STEPS,
-                              skip=ROPE_STANDARD_SKIP),
+            "rope": SceneSpec(params={"N": 5}, periods=20, extras=replace(ROPE_EXTRAS, small_steps=SMALL_STEPS),
+                              stability_steps=ROPE_STABILITY_STEPS, skip=ROPE_STANDARD_SKIP),
             "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
                                       methods=SOLAR_METHODS, compiled=True, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
-            "cloth": SceneSpec(params={"n": 4, "m": 4, "k": 1000.0}, periods=20, skip=CLOTH_STANDARD_SKIP, advise=CLOTH_ADVISE),
+            "cloth": SceneSpec(params={"n": 4, "m": 4, "k": 1000.0}, periods=20, skip=CLOTH_STANDARD_SKIP, advise=CLOTH_ADVISE,
+                               extras=SceneExtras(small_steps=SMALL_STEPS)),
         },
         stability_rtol=STANDARD_STABILITY_RTOL,
     ),
     "full": Suite(
         "full",
         scenes={
-            "spring": SceneSpec(periods=2000, order_points=8, order_span=16.0, advise=ADVISE),
+            "spring": SceneSpec(periods=2000, order_points=8, order_span=16.0, advise=ADVISE,
+                                extras=SceneExtras(tolerances=FULL_TOLERANCES)),
             "damped_spring": SceneSpec(periods=200, order_points=8, order_span=16.0, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE),
-            "pendulum": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE),
+            "pendulum": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE,
+                                  extras=SceneExtras(tolerances=FULL_TOLERANCES)),
             "kepler": SceneSpec(homega=0.02, periods=1000, order_points=8, order_span=16.0,
-                                extras=SceneExtras(brouwer=KEPLER_BROUWER_FULL)),
+                                extras=SceneExtras(brouwer=KEPLER_BROUWER_FULL, tolerances=FULL_TOLERANCES)),
             "projectile": SceneSpec(homega=0.01, periods=0.2, order_points=8, order_span=16.0),
             "chain": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE,
-                               extras=replace(CHAIN_EXTRAS, scaling={"sizes": CHAIN_SIZES})),
-            "rope": SceneSpec(periods=200, order_points=8, order_span=16.0, extras=ROPE_EXTRAS,
+                               extras=replace(CHAIN_EXTRAS, scaling={"sizes": CHAIN_SIZES}, tolerances=FULL_TOLERANCES)),
+            "rope": SceneSpec(periods=200, order_points=8, order_span=16.0,
+                              extras=replace(ROPE_EXTRAS, small_steps=SMALL_STEPS_FULL),
                               stability_steps=ROPE_STABILITY_STEPS),
             "solar_system": SceneSpec(dt=10.0, horizon=1.0e7, order_points=8, order_span=16.0, compiled=True,
                                       stability_hi=SOLAR_STABILITY_HI, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
             "cloth": SceneSpec(periods=50, order_points=8, order_span=16.0, advise=CLOTH_ADVISE,
-                               extras=CLOTH_FULL_EXTRAS),
+                               extras=replace(CLOTH_FULL_EXTRAS, small_steps=SMALL_STEPS_FULL)),
             "net": SceneSpec(params={"n": 4, "m": 4}, periods=50, order_points=8, order_span=16.0),
             # MuJoCo's flexcomp membrane on the cloth's grid: not the same model, measured against its own
             # refined RK4 run; left out of the standard suite (its long task, the stability search of
