@@ -105,3 +105,19 @@ def test_a_worse_error_at_the_same_tolerance_is_a_regression():
     kind, va, vb, detail = _regression(a, {"data": {"rows": worse}})
     assert kind == "tolerance" and (va, vb) == (2.3e-6, 4e-6) and "tolerance 1e-06" in detail
     assert _regression(a, {"data": {"rows": [dict(ROWS[1], error=3e-6)]}}) is None  # within half again
+
+
+def test_harness_workprecision_sweeps_an_error_controlled_method_over_its_tolerances():
+    import json
+
+    from tests.test_cli import cli
+
+    code, out, _ = cli("workprecision", "spring", "--method", "drake:runge_kutta5", "--method", "ref:rk4",
+                       "--points", "2", "--repeats", "1", "--tolerances", "1e-3,1e-6", "--json")
+    doc = json.loads(out)
+    assert code == 0 and {r["method"] for r in doc["rows"]} == {"ref:rk4"}
+    (sweep,) = doc["error_controlled"]
+    assert [r["method"] for r in sweep["rows"]] == ["drake:runge_kutta5@0.001", "drake:runge_kutta5@1e-6"]
+    assert all(r["steps_taken"] > 0 and r["s_per_unit_time"] > 0 for r in sweep["rows"])
+    code, _, err = cli("workprecision", "spring", "--method", "ref:rk4", "--tolerances", "1e-3,0")
+    assert code == 2 and "--tolerances=0 is out of range" in err
