@@ -26,6 +26,7 @@ from .schemes.implicit_euler_doubled import implicit_euler_doubled
 from .schemes.implicit_midpoint import implicit_midpoint
 from .schemes.leapfrog import leapfrog
 from .schemes.linearly_implicit_euler import linearly_implicit_euler
+from .schemes.pbd import pbd
 from .schemes.position_first_euler_decay import (position_first_euler_decay_after_kick,
                                                  position_first_euler_decay_before_kick)
 from .schemes.runge_kutta import TABLEAUS, explicit_euler, rk4
@@ -35,12 +36,13 @@ from .schemes.semi_implicit_euler_velocity_implicit import semi_implicit_euler_v
 from .schemes.velocity_verlet import velocity_verlet
 from .schemes.verlet import verlet
 from .schemes.verlet_constrained import verlet_constrained
+from .schemes.xpbd import xpbd
 
 METHODS: dict[str, Scheme] = {s.id: s for s in (
     explicit_euler, semi_implicit_euler, semi_implicit_euler_position_first, verlet, velocity_verlet,
     leapfrog, rk4, implicit_euler, implicit_midpoint, forest_ruth, verlet_constrained,
     semi_implicit_euler_velocity_implicit, position_first_euler_decay_after_kick,
-    position_first_euler_decay_before_kick, linearly_implicit_euler, implicit_euler_doubled,
+    position_first_euler_decay_before_kick, linearly_implicit_euler, implicit_euler_doubled, pbd, xpbd,
 )}
 #: Every explicit Runge-Kutta tableau (``schemes/runge_kutta.py``): a new entry there is a new scheme.
 METHODS.update({s.id: s for s in TABLEAUS if s.id not in METHODS})

@@ -94,9 +94,9 @@ def driver(scheme, scene: Scene):
     return _parts(scheme, scene).drive
 
 
-def _k(scheme, scene: Scene, iterations: int | None) -> int:
+def _k(scheme, scene: Scene, iterations: int | None, substeps: int | None = None) -> int:
     """The integer the step takes (``Kind.count``), which every compiled loop passes."""
-    return scheme.kind.count(scheme, scene, iterations)
+    return scheme.kind.count(scheme, scene, iterations, substeps)
 
 
 def _kernel_layout(scene: Scene, q0, v0):
@@ -112,7 +112,7 @@ def _within(state) -> bool:
 
 
 def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, q0=None, v0=None,
-                       iterations: int | None = None):
+                       iterations: int | None = None, substeps: int | None = None):
     """(steps recorded, q, v, failed step or None) of a compiled run, recorded as ``integrate``
     records (step 0, every ``every`` steps and the last) and stopped as it stops, at the first
     step whose state diverged; q, v in API layout (T, batch, ndof).
@@ -122,7 +122,7 @@ def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, 
     q, v = _kernel_layout(scene, q0, v0)
     steps, every = int(steps), int(every)
     parts = _parts(scheme, scene)
-    p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
+    p, k, h = scene.pvec, _k(scheme, scene, iterations, substeps), float(dt)
     now = {"state": parts.first_state(q, v, 0.0, h, p)}
     now["good"] = now["state"]  # the state at the last recorded step, where a failed span restarts
     recorded, qs, vs = [], [], []
@@ -147,12 +147,13 @@ def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, 
 
 
 def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
-                       iterations: int | None = None) -> Trajectory:
+                       iterations: int | None = None, substeps: int | None = None) -> Trajectory:
     """``integrate`` on the compiled path: the same step functions and kernels, so the same
     states (bitwise, or within FMA contraction), the same recording and the same divergence
     stop, for runs too long to interpret (1e6 steps of a 6-body force). Force evaluations are
     not counted here (``force_evals`` None): the interpreted driver counts them."""
-    recorded, q, v, failed = run_compiled_every(scheme, scene, dt, steps, every, iterations=iterations)
+    recorded, q, v, failed = run_compiled_every(scheme, scene, dt, steps, every, iterations=iterations,
+                                                  substeps=substeps)
     status, detail = (UNSTABLE, divergence_detail(failed, failed * dt)) if failed else (OK, "")
     with np.errstate(over="ignore", invalid="ignore"):
         energy = scene.energy(q, v)
@@ -310,14 +311,15 @@ def _counted_run(kernels, q, v, t0, h, n, every, p, k, out_q, out_v) -> tuple[in
 def exact_why(scheme, scene: Scene, may_compile: bool = True) -> str:
     """Why :func:`integrate_exact` does not run ``scheme`` on ``scene`` here ("" where it does;
     ``may_compile`` False: NOT_YET where its counted kernel would have to be compiled first)."""
-    for name in ("accel", "solve", "project", "damping_rate"):
+    for name in ("accel", "solve", "project", "damping_rate", "constraints"):
         if name in vars(scene):
             return f"scene {scene.id} overrides its {name} on the instance: the kernels are the class's"
     return _counted_parts(scheme, scene, may_compile)[1]
 
 
 def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1, q0=None, v0=None,
-                    t0: float = 0.0, iterations: int | None = None, may_compile: bool = True) -> Trajectory | None:
+                    t0: float = 0.0, iterations: int | None = None, may_compile: bool = True,
+                    substeps: int | None = None) -> Trajectory | None:
     """``reference.integrate`` compiled: the same trajectory, bit for bit, with the same force
     evaluations, solves and projections counted, the same recording and the same divergence
     stop, from the pair's ``run_counted`` kernel (``reference._kernels``; on a pointwise scene
@@ -329,7 +331,7 @@ def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
         return None
     kernels = _counted_parts(scheme, scene, may_compile)[0]
     q, v = _kernel_layout(scene, q0, v0)
-    p, k, h, t0 = scene.pvec, int(_k(scheme, scene, iterations)), float(dt), float(t0)
+    p, k, h, t0 = scene.pvec, int(_k(scheme, scene, iterations, substeps)), float(dt), float(t0)
     marks = output_marks(steps, every)
     out_q, out_v = np.empty((len(marks),) + q.shape), np.empty((len(marks),) + v.shape)
     with np.errstate(all="ignore"):
@@ -351,10 +353,12 @@ def integrate_exact(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
         failed_step=failed, force_evals=int(cnt[0]), solves=int(cnt[1]), meta=meta)
 
 
-def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None, iterations: int | None = None):
+def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None, iterations: int | None = None,
+                 substeps: int | None = None):
     """Final (q, v) after ``steps`` compiled steps, API layout (batch, ndof)."""
     q, v = _kernel_layout(scene, q0, v0)
-    qf, vf = driver(scheme, scene)(q, v, 0.0, float(dt), int(steps), scene.pvec, _k(scheme, scene, iterations))
+    qf, vf = driver(scheme, scene)(q, v, 0.0, float(dt), int(steps), scene.pvec,
+                                   _k(scheme, scene, iterations, substeps))
     return qf.T.copy(), vf.T.copy()
 
 
@@ -364,7 +368,7 @@ CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
 def step_timer(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, iterations: int | None = None,
-               clock: str = "wall"):
+               clock: str = "wall", substeps: int | None = None):
     """``(warm-up seconds, once)``: the compiled loop (``advance_n`` from the first state) called
     once to compile it, and ``once(n=steps)`` timing one call of n steps on ``clock`` ("wall" or
     "cpu"), in seconds per step."""
@@ -374,7 +378,7 @@ def step_timer(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, iter
     v = np.ascontiguousarray(v0.T)
     t_compile = now()
     parts = _parts(scheme, scene)
-    p, k, h = scene.pvec, _k(scheme, scene, iterations), float(dt)
+    p, k, h = scene.pvec, _k(scheme, scene, iterations, substeps), float(dt)
     state = parts.first_state(q, v, 0.0, h, p)
     parts.observe(parts.advance_n(state, 0.0, h, 0, 2, p, k), 2 * h, h, p)
     t_compile = now() - t_compile
@@ -388,11 +392,11 @@ def step_timer(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, iter
 
 
 def time_per_step(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, repeats: int = 5,
-                  iterations: int | None = None, clock: str = "wall") -> dict:
+                  iterations: int | None = None, clock: str = "wall", substeps: int | None = None) -> dict:
     """Time per step of the compiled loop on ``clock`` ("wall" or "cpu"): one warm-up call
     (compiles), then the minimum over ``repeats`` timed calls (the least-disturbed run; asv
     and timeit do the same)."""
-    t_compile, once = step_timer(scheme, scene, dt, steps, batch, iterations, clock)
+    t_compile, once = step_timer(scheme, scene, dt, steps, batch, iterations, clock, substeps)
     times = [once() for _ in range(repeats)]
     return {"s_per_step": min(times), "median_s_per_step": float(np.median(times)),
             "repeats": times, "warmup_s": t_compile, "batch": batch, "steps": steps, "clock": clock}

@@ -29,7 +29,7 @@ def _kernels(scene: Scene, accel=None, solve=None, project=None) -> dict:
     """The scene's kernels by name, for a kind to take its own (``Kind.advance``): the force,
     solve and projection as given (counted), the others as the scene has them."""
     return {"accel": accel or scene.accel, "solve": solve or scene.solve, "project": project or scene.project,
-            "damping_rate": scene.damping_rate}
+            "damping_rate": scene.damping_rate, "constraints": scene.constraints}
 
 
 def carried_map(scheme, scene: Scene, dt: float) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
@@ -64,10 +64,11 @@ def carried_map(scheme, scene: Scene, dt: float) -> tuple[np.ndarray, np.ndarray
 
 def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
               q0: np.ndarray | None = None, v0: np.ndarray | None = None, t0: float = 0.0,
-              iterations: int | None = None) -> Trajectory:
+              iterations: int | None = None, substeps: int | None = None) -> Trajectory:
     """Step ``scheme`` on ``scene`` for ``steps`` steps of ``dt``, recording every ``every`` steps
     (and always the last). ``q0``/``v0`` may be batched (API layout, (batch, ndof)).
-    ``iterations``: projection passes per step of a constrained scheme (default: the scheme's).
+    ``iterations``: projection passes per step of a constrained scheme (default: the scheme's);
+    ``substeps``: the substeps a position-based scheme cuts each step into (default: the scheme's).
 
     A step whose state is not finite, or exceeds ``DIVERGED`` in magnitude, stops the run:
     status ``unstable`` with that step, the arrays ending at the last good recorded state.
@@ -80,7 +81,8 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     accel, solve, project = Counted(scene.accel), Counted(scene.solve), Counted(scene.project)
     meta = RunMeta(backend="interpreted", params=dict(scene.values),
                    iterations=scheme.kind.run_iterations(scheme, iterations))
-    advance = scheme.kind.advance(scheme, scene, dt, _kernels(scene, accel, solve, project), iterations)
+    advance = scheme.kind.advance(scheme, scene, dt, _kernels(scene, accel, solve, project), iterations,
+                                  substeps=substeps)
     state = scheme.start(accel, q, v, t0, dt, p)
     start_evals = accel.calls
     accel.calls = 0

@@ -72,6 +72,8 @@ class Scheme:
     start: Callable = start_qv
     observe: Callable = observe_qv
     iterations: int | None = None
+    #: Substeps a step is cut into by default (a position-based scheme's ``substeps`` option).
+    substeps: int | None = None
     order_velocity_dependent: int | None = None
     same_without_velocity: str | None = None
     carries: tuple[str, ...] = ("q", "v")   # the state carried between steps, as ``start`` builds it

@@ -16,7 +16,11 @@ The drivers, the kernel files and ``RefMethod`` ask the scheme's kind; none bran
   iterations) -> q`` the scene's constraint projection; runs only on scenes with constraints,
   and those only with it;
 * ``DECAY``: ``step(accel, damping_rate, state, t, h, p)``, ``damping_rate(p)`` the scene's
-  gamma in a(x, v) = a(x, 0) - gamma v; runs only on scenes that have one.
+  gamma in a(x, v) = a(x, 0) - gamma v; runs only on scenes that have one;
+* ``POSITION_BASED``: ``step(accel, constraints, substeps, iterations, state, t, h, p)``,
+  ``constraints(p)`` the scene's springs and links as distance constraints (``scenarios.scene``);
+  the compiled loops pass the two counts as one integer (``pack_counts``) that the step's call
+  unpacks. Runs only on scenes that give their constraints.
 """
 from __future__ import annotations
 
@@ -45,7 +49,7 @@ class Kind:
         return f"<kind {self.name}>"
 
     # ---------------------------------------------------------------- the signature
-    def count(self, scheme, scene, iterations: int | None = None) -> int:
+    def count(self, scheme, scene, iterations: int | None = None, substeps: int | None = None) -> int:
         """The integer the step takes (0 where it takes none: the compiled loops pass it anyway)."""
         return 0
 
@@ -57,7 +61,8 @@ class Kind:
         """Run-time options a caller may set on a scheme of this kind, with their defaults."""
         return {}
 
-    def advance(self, scheme, scene, dt: float, kernels: dict, iterations: int | None = None):
+    def advance(self, scheme, scene, dt: float, kernels: dict, iterations: int | None = None,
+                substeps: int | None = None):
         """``advance(state, t) -> state``: one interpreted step of ``dt``; ``kernels`` maps the
         scene's kernel names (``accel`` and this kind's) to the callables to use (counted or not)."""
         p, step = scene.pvec, scheme.step
@@ -111,7 +116,7 @@ class Implicit(Kind):
     counted: bool = True
     implicit: bool = True
 
-    def count(self, scheme, scene, iterations=None) -> int:
+    def count(self, scheme, scene, iterations=None, substeps=None) -> int:
         return newton_max(scene)
 
     def supports(self, scheme, scene, method_id: str) -> str:
@@ -138,7 +143,7 @@ class Constrained(Kind):
     counted: bool = True
     constrained: bool = True
 
-    def count(self, scheme, scene, iterations=None) -> int:
+    def count(self, scheme, scene, iterations=None, substeps=None) -> int:
         return iterations_for(scheme, iterations)
 
     def run_iterations(self, scheme, iterations):
@@ -170,8 +175,73 @@ class Decay(Kind):
             "(it needs a(x, v) = a(x, 0) - gamma v with one rate gamma)")
 
 
+#: The position-based count packs substeps and iterations as ``substeps * COUNT_BASE + iterations``
+#: (every compiled loop passes one integer; ``harness.methods.MAX_ITERATIONS`` is below the base).
+COUNT_BASE = 1 << 20
+
+
+def pack_counts(substeps: int, iterations: int) -> int:
+    """The one integer the compiled loops pass for a position-based step's two counts."""
+    if not 1 <= iterations < COUNT_BASE or substeps < 1:
+        raise ValueError(f"substeps={substeps} and iterations={iterations} must be at least 1 "
+                         f"(iterations below {COUNT_BASE})")
+    return int(substeps) * COUNT_BASE + int(iterations)
+
+
+@dataclass(frozen=True, eq=False)
+class PositionBased(Kind):
+    """Position-based dynamics (PBD, XPBD): the scene's springs and links are distance
+    constraints (``constraints(p)``), projected ``iterations`` Gauss-Seidel passes in each of
+    ``substeps`` substeps of a step."""
+
+    name: str = "position_based"
+    kernels: tuple[str, ...] = ("constraints",)
+    counted: bool = True
+
+    def _counts(self, scheme, iterations, substeps) -> tuple[int, int]:
+        return (int(scheme.substeps if substeps is None else substeps),
+                int(scheme.iterations if iterations is None else iterations))
+
+    def count(self, scheme, scene, iterations=None, substeps=None) -> int:
+        return pack_counts(*self._counts(scheme, iterations, substeps))
+
+    def run_iterations(self, scheme, iterations):
+        return iterations_for(scheme, iterations)
+
+    def options(self, scheme) -> dict[str, int]:
+        return {"substeps": scheme.substeps, "iterations": scheme.iterations}
+
+    def advance(self, scheme, scene, dt, kernels, iterations=None, substeps=None):
+        p, step = scene.pvec, scheme.step
+        args = (kernels["accel"], kernels["constraints"], *self._counts(scheme, iterations, substeps))
+        return lambda state, t: step(*args, state, t, dt, p)
+
+    def step_call(self, state, t, step="scheme_step", count="k", lead=""):
+        return f"{step}({lead}{count} // {COUNT_BASE}, {count} % {COUNT_BASE}, {state}, {t}, h, p)"
+
+    def in_memory_loop(self, jit, step, accel, scene_cls):
+        constraints = jit(scene_cls.constraints)
+
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, constraints, k // COUNT_BASE, k % COUNT_BASE, state, t0 + i * h, h, p)
+            return state
+        return jit(advance_n)
+
+    def pointwise(self, scene_cls) -> bool:
+        return False  # a constraint couples its two ends
+
+    def supports(self, scheme, scene, method_id: str) -> str:
+        return scene.position_based_why()
+
+    def evals_text(self, scheme) -> str:
+        return (f"{scheme.force_evals} (the forces are constraints: {scheme.substeps} substep(s) x "
+                f"{scheme.iterations} pass(es) over them)")
+
+
 EXPLICIT, IMPLICIT, CONSTRAINED, DECAY = Kind(), Implicit(), Constrained(), Decay()
-KINDS = {k.name: k for k in (EXPLICIT, IMPLICIT, CONSTRAINED, DECAY)}
+POSITION_BASED = PositionBased()
+KINDS = {k.name: k for k in (EXPLICIT, IMPLICIT, CONSTRAINED, DECAY, POSITION_BASED)}
 
 
 def declared(implicit: bool = False, constrained: bool = False, decay: bool = False) -> Kind:

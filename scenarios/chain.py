@@ -94,6 +94,27 @@ def solve(q, v, t, p, alpha, beta, r):
     return x
 
 
+def constraints(p):
+    """The N + 1 springs as 1-D distance constraints (``Scene.constraints``) on the displacements,
+    from the left wall (an anchor at displacement 0) through the masses to the right wall, rest
+    extension 0, compliance 1/k: C = q_b - q_a, whose force is the spring's. The dashpots are
+    not constraints (``position_based_why``)."""
+    n = int(p[0])
+    ends = np.empty((n + 1, 2), np.int64)
+    for i in range(n + 1):
+        ends[i, 0] = i - 1
+        ends[i, 1] = i
+    ends[0, 0] = -1
+    ends[n, 1] = -1
+    compliance = np.empty(n + 1)
+    for i in range(n + 1):
+        compliance[i] = 1.0 / p[1]
+    inv_mass = np.empty(n)
+    for i in range(n):
+        inv_mass[i] = 1.0 / p[2]
+    return ends, np.zeros(n + 1), compliance, inv_mass, np.zeros((1, 1)), np.zeros(1)
+
+
 class Chain(DampedByC, Scene):
     id = "chain"
     title = "stiff spring chain between two walls, N DOF, linear; exact solution from the normal modes"
@@ -111,6 +132,22 @@ class Chain(DampedByC, Scene):
     has_modes = True
     accel = staticmethod(accel)
     solve = staticmethod(solve)
+    constraints = staticmethod(constraints)
+
+    def position_based_why(self) -> str:
+        if self.values["c"] != 0.0:
+            return (f"scene chain has dashpots (c = {self.values['c']:g}), which the position-based "
+                    "schemes do not model: their constraints are its springs alone")
+        return super().position_based_why()
+
+    def constraint_error(self, q):
+        """The springs' largest extension relative to the initial displacement x0 (the chain's
+        coordinates are displacements, with no rest spacing): max |q_b - q_a| / |x0| over the
+        N + 1 springs (the walls at 0), API layout (..., N) -> (...)."""
+        q = np.asarray(q, dtype=float)
+        pad = np.zeros(q.shape[:-1] + (1,))
+        ext = np.diff(np.concatenate([pad, q, pad], axis=-1), axis=-1)
+        return np.max(np.abs(ext), axis=-1) / abs(self.values["x0"])
 
     def mode_damping_ratios(self) -> np.ndarray:
         """zeta_j = c w_j / (2 k), j = 1..N."""

@@ -146,6 +146,48 @@ def accel(q, v, t, p):
     return a
 
 
+def _anchor(i, j, m, pins):
+    """Index of the pinned node (i, j) among the anchors: the top edge's columns in order."""
+    if pins == 1.0:
+        return j
+    if j == 0:
+        return 0
+    return 1
+
+
+def constraints(p):
+    """The springs as distance constraints (``Scene.constraints``), in the kernels' order, each
+    of compliance 1/k; the pinned nodes are the anchors, gravity on the last axis."""
+    n, m, d = int(p[0]), int(p[1]), int(p[-1])
+    pins = p[8]
+    ends = np.empty((6 * n * m, 2), np.int64)
+    rest = np.empty(6 * n * m)
+    compliance = np.empty(6 * n * m)
+    count = 0
+    for i in range(n):
+        for j in range(m):
+            for o in range(6):
+                fa, fb, k, length, i2, j2 = _spring(i, j, o, p)
+                if k == 0.0:
+                    continue
+                ends[count, 0] = fa if fa >= 0 else -1 - _anchor(i, j, m, pins)
+                ends[count, 1] = fb if fb >= 0 else -1 - _anchor(i2, j2, m, pins)
+                rest[count] = length
+                compliance[count] = 1.0 / k
+                count += 1
+    na = m if pins == 1.0 else 2
+    anchors = np.zeros((na, d))
+    for a in range(na):
+        column = a if pins == 1.0 else a * (m - 1)
+        anchors[a, 0] = column * p[2]
+    inv_mass = np.empty(n * m - na)
+    for f in range(n * m - na):
+        inv_mass[f] = (n * m) / p[3]
+    gravity = np.zeros(d)
+    gravity[d - 1] = -p[7]
+    return ends[:count], rest[:count], compliance[:count], inv_mass, anchors, gravity
+
+
 def _blocks(q, b, p, ends, blocks):
     """Each spring's free end indices (-1: pinned) into ends and its stiffness block
     k [(1 - L/|d|) I + (L/|d|) u u^T] (d x d) into blocks, at batch member b; returns how many."""
@@ -312,6 +354,7 @@ class Cloth(Scene):
     dim = 3
     accel = staticmethod(accel)
     solve = staticmethod(solve)
+    constraints = staticmethod(constraints)
     reference_horizon = 2.0
 
     # ------------------------------------------------------------ the grid
@@ -388,6 +431,12 @@ class Cloth(Scene):
         mass = self.node_mass
         return (0.5 * mass * np.sum(v * v, axis=-1) + 0.5 * np.sum(k * stretch * stretch, axis=-1)
                 + mass * self.values["g"] * np.sum(height, axis=-1))
+
+    def constraint_error(self, q):
+        """The springs' largest relative stretch max |length - rest| / rest, API layout (..., ndof) -> (...)."""
+        a, b, _, rest = self.springs()
+        x = self.positions(q)
+        return np.max(np.abs(np.linalg.norm(x[..., b, :] - x[..., a, :], axis=-1) - rest) / rest, axis=-1)
 
     def hessian(self, q: np.ndarray):
         """The stiffness matrix K = -df/dq at the state q (ndof,), sparse (scipy CSR)."""

@@ -80,6 +80,25 @@ def project(q, p, iterations):
     return q
 
 
+def constraints(p):
+    """The links as rigid distance constraints (``Scene.constraints``: compliance 0, rest length
+    l) from the pin (the anchor at the origin) outwards, as ``project`` takes them; gravity -g
+    along y."""
+    n = int(p[0])
+    ends = np.empty((n, 2), np.int64)
+    for i in range(n):
+        ends[i, 0] = i - 1
+        ends[i, 1] = i
+    rest = np.empty(n)
+    inv_mass = np.empty(n)
+    for i in range(n):
+        rest[i] = p[1]
+        inv_mass[i] = 1.0 / p[2]
+    gravity = np.zeros(2)
+    gravity[1] = -p[3]
+    return ends, rest, np.zeros(n), inv_mass, np.zeros((1, 2)), gravity
+
+
 #: DOP853 tolerance (relative and absolute, on angles and angular velocities) of the reference.
 REFERENCE_RTOL = 1e-12
 
@@ -96,6 +115,7 @@ class Rope(Scene):
     accel = staticmethod(accel)
     solve = staticmethod(solve)
     project = staticmethod(project)
+    constraints = staticmethod(constraints)
     reference_horizon = 3.0
 
     @property

@@ -84,6 +84,10 @@ def no_project(q, p, iterations):  # pragma: no cover - only reached by a misuse
     raise NotImplementedError("this scene has no constraints to project")
 
 
+def no_constraints(p):  # pragma: no cover - only reached by a misuse
+    raise NotImplementedError("this scene gives no distance constraints")
+
+
 class Scene:
     """Base class. A subclass declares, and only declares, what its physics needs.
 
@@ -106,6 +110,16 @@ class Scene:
     damping_rate : kernel ``(p) -> gamma`` for scenes whose velocity dependence is one linear
         damping rate, a(x, v) = a(x, 0) - gamma v; the schemes that integrate the damping as an
         exact decay (``Scheme.decay``) run only on those.
+    constraints : kernel ``(p) -> (ends, rest, compliance, inv_mass, anchors, gravity)``: the
+        scene's springs and links as distance constraints, for the position-based schemes. The
+        DOFs are points of d coordinates (point f: q[f d : f d + d]); ``anchors`` (na, d) are
+        fixed points (a wall, a pin); ``ends`` (nc, 2) int64 each constraint's two points, an
+        anchor a as -1 - a; ``rest`` its rest length, ``compliance`` 1/k (0: a rigid link);
+        ``inv_mass`` (npoints,); ``gravity`` (d,) the acceleration of the forces that are not
+        constraints, the same on every point. C = |x_b - x_a| - rest where d > 1; where d = 1,
+        C = x_b - x_a - rest, the 1-D spring's signed extension (linear, as its force is).
+        The scene's ``accel`` is then its constraints' forces plus ``gravity`` (a rigid link's
+        force is the constraint's alone).
     """
 
     id: ClassVar[str]
@@ -118,6 +132,7 @@ class Scene:
     solve: ClassVar[Callable] = staticmethod(no_solve)
     project: ClassVar[Callable] = staticmethod(no_project)
     damping_rate: ClassVar[Callable] = staticmethod(no_damping_rate)
+    constraints: ClassVar[Callable] = staticmethod(no_constraints)
 
     def __init__(self, **overrides):
         unknown = sorted(set(overrides) - set(self.params))
@@ -193,8 +208,22 @@ class Scene:
         return type(self)(**values)
 
     def constraint_error(self, q: np.ndarray) -> np.ndarray | None:
-        """How far states (API layout) are off the constraints; None for unconstrained scenes."""
+        """How far states (API layout) are off the constraints, or the springs off their rest
+        lengths (the largest relative stretch of each state); None for a scene with neither."""
         return None
+
+    @property
+    def has_stretch(self) -> bool:
+        """Whether ``constraint_error`` measures this scene (its links or springs)."""
+        return type(self).constraint_error is not Scene.constraint_error
+
+    def position_based_why(self) -> str:
+        """Why the position-based schemes do not run on this scene ("" where they do): it gives
+        no ``constraints``, or has a force they do not model."""
+        if type(self).constraints is no_constraints:
+            return (f"scene {self.id} gives no distance constraints (springs or links) for a "
+                    "position-based scheme to project")
+        return ""
 
     def escaped(self, q: np.ndarray, v: np.ndarray) -> np.ndarray | None:
         """Per state (rows of q, v), whether a body had left the system; None for a scene that

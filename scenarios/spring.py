@@ -17,6 +17,20 @@ def solve(q, v, t, p, alpha, beta, r):
     return r / (1.0 + beta * (k / m))
 
 
+def constraints(p):
+    """The spring as one 1-D distance constraint (``Scene.constraints``) from a wall anchor at
+    0 to the mass, rest length 0, compliance 1/k: C = x, whose force -k C is the spring's."""
+    ends = np.empty((1, 2), np.int64)
+    ends[0, 0] = -1
+    ends[0, 1] = 0
+    rest = np.zeros(1)
+    compliance = np.empty(1)
+    compliance[0] = 1.0 / p[0]
+    inv_mass = np.empty(1)
+    inv_mass[0] = 1.0 / p[1]
+    return ends, rest, compliance, inv_mass, np.zeros((1, 1)), np.zeros(1)
+
+
 class Spring(Scene):
     id = "spring"
     title = "undamped harmonic oscillator, 1 DOF; exact x = x0 cos(wt) + (v0/w) sin(wt)"
@@ -32,6 +46,7 @@ class Spring(Scene):
     accel = staticmethod(accel)
     solve = staticmethod(solve)
     damping_rate = staticmethod(no_velocity_dependence)
+    constraints = staticmethod(constraints)
 
     def initial_state(self):
         return np.array([self.values["x0"]]), np.array([self.values["v0"]])
