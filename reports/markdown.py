@@ -27,6 +27,7 @@ from .drawing import Chart, draw_charts
 from .damping_section import damping_stability_section
 from .history_section import history_charts, history_section
 from .advice_section import frame_rates, advice_section
+from .position_based_section import position_based_section
 from .run_section import appendix, footer
 from .text import Footnotes, fmt as _fmt, of_measure as _of
 
@@ -407,6 +408,7 @@ def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None
     lines += list(extra)  # sections the caller adds after the verdict (an engine version change)
     lines += history_section(trend, run_id, drawn)
     lines += tradeoff_table(piv, judged.claims)
+    lines += position_based_section(piv, chart_names)
     lines += identity_table(piv)
     lines += damping_stability_section(cells, chart_names.get("damping"))
     lines += ["## Per scene", "", COST_COLUMNS, ""]

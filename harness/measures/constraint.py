@@ -1,8 +1,11 @@
-"""Constraint drift of a method on a constrained scene (the rope), with the energy it loses.
+"""Constraint drift of a method on a scene with links or springs (the rope; the chain, the cloth and
+the net, whose springs stretch), with the energy it loses.
 
 The rule, one way for every method: run ``steps`` steps of ``dt`` from the scene's initial
 state and evaluate the scene's own ``constraint_error`` (the rope's: the largest relative
-stretch max_j |d_j - l| / l over its links) at every recorded state:
+stretch max_j |d_j - l| / l over its links; the cloth's the same over its springs' rest lengths;
+the chain's the springs' largest extension relative to the initial displacement) at every
+recorded state:
 
 * ``max_stretch`` (the largest over the run), ``final_stretch`` (at the last state);
 * ``energy_change`` = (E_end - E_0) / |E_0| and ``max_energy_change`` = max |E_n - E_0| / |E_0|
@@ -27,8 +30,8 @@ def constraint_drift(method, scene: Scene, dt: float, steps: int, *, every: int 
                      timeout: float | None = None) -> dict:
     """Constraint error and energy change of ``method`` on ``scene`` (module docstring)."""
     method = resolve(method, scene)
-    if not scene.constrained:
-        raise InvalidInput(f"scene {scene.id} has no constraints to drift from (valid: rope)")
+    if not scene.has_stretch:
+        raise InvalidInput(f"scene {scene.id} has no links or springs to stretch (valid: rope, chain, cloth, net)")
     traj = step(method, scene, dt, steps, every, timeout)
     out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
            "steps": int(steps), "every": int(every), "status": traj.status, "detail": traj.detail,

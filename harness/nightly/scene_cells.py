@@ -1,9 +1,14 @@
 """The nightly cells only some scenes have, measured beside the five every task measures.
 
-* ``constraint`` (every constrained scene, every method): ``harness.measures.constraint`` over the
-  energy run (the same dt, steps and recording). For a scheme with projection passes
+* ``constraint`` (every scene with links or springs, ``Scene.has_stretch``: the rope, the chain, the
+  cloth and net; every method): ``harness.measures.constraint`` over the energy run (the same dt,
+  steps and recording). For a scheme with projection passes
   (``ref:verlet_constrained``) also at each pass count in ``extras.constraint_iterations``
   (``ConstraintFigures.by_iterations``). Value: the largest relative stretch.
+* ``small_steps`` (scenes whose suite entry lists it: the cloth and the rope; the task of
+  ``ref:xpbd``): ``harness.measures.small_steps`` at 60 Hz, XPBD's substeps against its passes
+  against the implicit schemes and semi-implicit Euler at equal cost per frame, and the paper's
+  claims judged. Value: the number of claims that hold (✓).
 * ``damping`` (scenes whose suite entry lists it in ``extras``: the chain; every method):
   ``harness.measures.damping`` at ``extras.damping_factor`` (the suites' 100) times the explicit
   limit. Value: the energy kept after one step. As with ``stability``, a method found to
@@ -30,12 +35,15 @@
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from records import MethodId, scheme_name
 from scenarios import make_scene
 
 from records.cell import (BrouwerFigures, Cell, Claims, ConstraintFigures, CrossEngineFigures, DampingFigures,
                           ScalingFigures, StabilityVsDampingFigures)
 
+from records.figures import Figures
 from records.measures import Measure, register
 
 from harness.nightly import cells as _cells  # noqa: F401 (the task's own measures register first)
@@ -45,11 +53,20 @@ def _extras(ctx):
     return ctx.spec.extras
 
 
+@dataclass(frozen=True)
+class SmallStepsFigures(Figures):
+    """``small_steps``: the study's rows, the paper's claims judged from them, its settings."""
+
+    rows: list | None = None
+    claims: list | None = None
+    settings: dict | None = None
+
+
 #: The measures a scene adds of its own, each where its scene spec asks for it.
 SCENE_MEASURES = (
     Measure("constraint", ConstraintFigures, "constraint drift: how far the run leaves the constraints",
             run=lambda ctx: [_constraint(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec, ctx.suite)],
-            applies=lambda ctx: ctx.scene.constrained),
+            applies=lambda ctx: ctx.scene.has_stretch),
     Measure("damping", DampingFigures, "damping far beyond the explicit limit: where an implicit scheme damps",
             run=lambda ctx: [_damping(ctx.task, ctx.method, ctx.scene, ctx.spec, ctx.suite)],
             applies=lambda ctx: _extras(ctx).damping_factor is not None),
@@ -68,6 +85,11 @@ SCENE_MEASURES = (
                                                                                           ctx.spec, ctx.suite)],
             applies=lambda ctx: ctx.task.method in _extras(ctx).cross_engine[1:],
             section=lambda scene, piv: _cross_engine_section(scene, piv)),
+    Measure("small_steps", SmallStepsFigures, "small steps: XPBD's substeps against its passes, the implicit schemes "
+            "and semi-implicit Euler at equal cost per frame (Macklin et al. 2019)",
+            run=lambda ctx: [_small_steps(ctx.task, ctx.spec)],
+            applies=lambda ctx: _extras(ctx).small_steps is not None and ctx.task.method == "ref:xpbd",
+            chart=lambda cells, scene, path: _small_steps_chart(cells, path)),
 )
 for _m in SCENE_MEASURES:
     register(_m, builtin=True)
@@ -121,6 +143,33 @@ def _constraint(task, method, scene, dt, spec, suite) -> Cell:
     figures = ConstraintFigures.pick(plain(res), by_iterations=plain(by_iterations))
     return make_cell(task, "constraint", res["status"], finite(res["max_stretch"]), dt, steps, res["detail"],
                      figures)
+
+
+def _small_steps(task, spec) -> Cell:
+    from harness.measures.small_steps import claims, small_steps
+
+    settings = dict(spec.extras.small_steps)
+    frame = small_steps(task.scene, **settings, **(task.params or {}))
+    judged = claims(frame)
+    held = sum(1 for r in judged if r["verdict"] == "✓")
+    figures = SmallStepsFigures(rows=plain(frame.to_dict("records")), claims=judged, settings=plain(dict(frame.attrs)))
+    return make_cell(task, "small_steps", "ok", float(held), 1.0 / settings.get("hz", 60.0),
+                     detail=f"{held} of {len(judged)} claims hold", figures=figures)
+
+
+def small_steps_frame(cell):
+    """A ``small_steps`` cell's rows as the study's DataFrame (its settings as ``attrs``)."""
+    import pandas as pd
+
+    frame = pd.DataFrame(cell.figures.rows or [])
+    frame.attrs.update(cell.figures.settings or {})
+    return frame
+
+
+def _small_steps_chart(cells, path) -> bool:
+    from harness.measures.small_steps import chart
+
+    return chart([small_steps_frame(c) for c in cells if c.measure == "small_steps" and c.figures.rows], path)
 
 
 def _damping(task, method, scene, spec, suite) -> Cell:

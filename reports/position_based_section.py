@@ -1,0 +1,75 @@
+"""The report's 'position-based' section, beside the trade-off table: PBD and XPBD on each scene
+they ran on (order, energy, largest stable h·ω, stretch, cost), then the small-steps study's rows
+and the paper's claims judged (``small_steps`` cells: ``harness.measures.small_steps``)."""
+from __future__ import annotations
+
+import math
+
+from records.cell import Cell
+
+METHODS = ("ref:pbd", "ref:xpbd")
+
+
+def _fmt(x, spec: str = ".3g") -> str:
+    return "–" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
+
+
+def rows_table(rows: list[dict], reference_stretch: float | None) -> list[str]:
+    """The study's rows (``small_steps``), the reference's own stretch first."""
+    lines = ["| configuration | energy kept | stretch | error | CPU µs/frame |", "|---|---|---|---|---|",
+             f"| reference solution | 1 | {_fmt(reference_stretch)} | 0 | – |"]
+    for r in rows:
+        if r.get("status") != "ok":
+            lines.append(f"| {r['config']} | {r.get('status')}: {r.get('detail') or ''} | | | |")
+            continue
+        cost = r.get("cost_per_frame_s")
+        lines.append(f"| {r['config']} | {_fmt(r.get('energy_retained'))} | {_fmt(r.get('stretch'))} | "
+                     f"{_fmt(r.get('error'))} | {_fmt(cost * 1e6 if cost is not None else None)} |")
+    return lines
+
+
+def claims_table(claims: list[dict]) -> list[str]:
+    """One row per claim of the paper: ✓, ✗ or – with its figures."""
+    lines = ["| scene | claim of the paper | | figures |", "|---|---|---|---|"]
+    return lines + [f"| {r['scene']} | {r['claim']} | {r['verdict']} | {r['figures']} |" for r in claims]
+
+
+def position_based_section(piv: dict, chart_names: dict) -> list[str]:
+    """The section, or nothing where the run has neither PBD/XPBD cells nor a small-steps study."""
+    schemes = [(s, m, ms) for (s, m), ms in sorted(piv.items()) if m in METHODS]
+    studies = [(s, ms["small_steps"]) for (s, m), ms in sorted(piv.items()) if "small_steps" in ms]
+    if not schemes and not studies:
+        return []
+    lines = ["## Position-based dynamics (PBD, XPBD)", "",
+             "Each spring a distance constraint of compliance 1/k (XPBD: with its Lagrange multiplier), "
+             "projected by Gauss-Seidel passes in substeps; a rigid link compliance 0. On one linear spring XPBD "
+             "is implicit Euler; its passes converge to implicit Euler's step.", ""]
+    if schemes:
+        lines += ["| scene | method | observed order | energy | largest stable h·ω | max stretch | CPU µs/step |",
+                  "|---|---|---|---|---|---|---|"]
+        for scene, method, ms in schemes:
+            def value(name, spec=".3g", scale=1.0):
+                c: Cell | None = ms.get(name)
+                if c is None:
+                    return "–"
+                if c.status != "ok":
+                    return c.status
+                return _fmt(c.value * scale if c.value is not None else None, spec)
+            energy = ms.get("energy")
+            energy_txt = energy.figures.energy_class if energy is not None and energy.status == "ok" else "–"
+            lines.append(f"| {scene} | `{method}` | {value('order', '.2f')} | {energy_txt} | {value('stability', '.4g')} "
+                         f"| {value('constraint')} | {value('cost', '.3g', 1e6)} |")
+        lines.append("")
+    for scene, cell in studies:
+        settings = cell.figures.settings or {}
+        lines += [f"### Small steps on `{scene}` ({_fmt(settings.get('hz'), 'g')} Hz, "
+                  f"{_fmt(settings.get('t_end'), 'g')} s)", "",
+                  "Energy kept: E(end) / E(0); stretch: the largest |length - rest| / rest over the frames; error: "
+                  "the largest |q - q_ref| against the reference. Cost: CPU time of the compiled loop per frame "
+                  "(process CPU clock, the fastest repeat).", ""]
+        lines += rows_table(cell.figures.rows or [], settings.get("reference_stretch")) + [""]
+        lines += claims_table(cell.figures.claims or []) + [""]
+        name = chart_names.get((scene, "measure:small_steps"))
+        if name:
+            lines += [f"![Small steps on {scene}]({name})", ""]
+    return lines
