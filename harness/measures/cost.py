@@ -157,7 +157,9 @@ class _Timing:
         self.setup_unresolved = False
         if self.scheme is not None:
             self.n = int(steps or REF_TIME_STEPS)
-            self.warmup_s, self._once = step_timer(self.scheme, scene, dt, self.n, clock=clock)
+            # At the method's own options (a constrained scheme's passes, a position-based one's substeps).
+            self.warmup_s, self._once = step_timer(self.scheme, scene, dt, self.n, clock=clock,
+                                                   **getattr(method, "options", {}))
             if budget:
                 per_step = self._once(min(self.n, REF_PILOT_STEPS))
                 if per_step * self.n > REF_RUN_BUDGET_S:
