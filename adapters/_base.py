@@ -293,6 +293,10 @@ class EngineMode:
     #: supported release has it. A release without it leaves the mode unavailable with that
     #: reason, else "not in <dist> <version>", never a crash.
     present: Callable[[object], bool | str] | None = field(default=None, compare=False)
+    #: The floating-point width the engine computes in ("float64", or "float32" for Warp's
+    #: engines): a float32 mode is identified against the reference schemes to float32 rounding
+    #: (``harness.measures.identify``).
+    precision: str = "float64"
     #: The run-time options the mode takes (``records.method_id.Option`` by name), written into
     #: its id where set (``drake:runge_kutta3@1e-6``); ``build`` gets each one set as a keyword.
     options_declared: Mapping[str, Option] = field(default_factory=dict, compare=False)
@@ -477,6 +481,7 @@ class EngineMode:
                 "summary": self.summary, "engine_version": engine_version(self.dist),
                 "engine_versions": str(self.versions) if self.versions else None,
                 "settings": dict(self.settings), "supported_scenes": list(self.scenes), "adaptive": self.adaptive,
+                "precision": self.precision,
                 "doc": " ".join(self.doc.split())}
 
 

@@ -48,6 +48,9 @@ class Method(Protocol):
     #: ``timed_run(scene, dt, steps, now, loop) -> (seconds, failed step or None)``: one run timed
     #: with its model built off the clock; None where the method has no setup to keep off it.
     timed_run: Callable | None
+    #: The floating-point width its states are computed in: "float64", or "float32" (an engine on
+    #: Warp), which is identified against the reference schemes to float32 rounding.
+    precision: str
 
     def available(self) -> tuple[bool, str]:
         """(True, "") or (False, why): whether it can run here at all (an engine installed)."""
@@ -73,5 +76,5 @@ REQUIRED = ("id", "available", "supports", "simulate", "describe")
 #: Every optional capability of :class:`Method` and the value that means "not this method".
 OPTIONAL: Mapping[str, Any] = MappingProxyType({
     "scheme": None, "isolated": False, "adaptive": False, "counting_run": False, "no_match": NO_REASONS,
-    "LOOPS": (), "one_steps": None, "timed_run": None,
+    "LOOPS": (), "one_steps": None, "timed_run": None, "precision": "float64",
 })
