@@ -7,11 +7,11 @@ whether it is available or is stepped (and then with its import-time output sile
 """
 from __future__ import annotations
 
-from . import drake, mujoco, pybullet, pymunk, rebound
+from . import drake, mujoco, newton, pybullet, pymunk, rebound
 from ._base import (EngineMode, EngineModel, Model, SteppedModel, declared, drive, engine_version, import_engine,
                     output_marks, version_key)
 
-ENGINE_METHODS: dict[str, EngineMode] = {**mujoco.METHODS, **pybullet.METHODS, **pymunk.METHODS, **rebound.METHODS, **drake.METHODS}
+ENGINE_METHODS: dict[str, EngineMode] = {**mujoco.METHODS, **pybullet.METHODS, **pymunk.METHODS, **rebound.METHODS, **drake.METHODS, **newton.METHODS}
 
 __all__ = ["ENGINE_METHODS", "EngineMode", "EngineModel", "Model", "SteppedModel", "declared", "drive", "engine_version", "import_engine", "output_marks",
            "version_key"]
