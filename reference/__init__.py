@@ -29,6 +29,7 @@ from .schemes.linearly_implicit_euler import linearly_implicit_euler
 from .schemes.pbd import pbd
 from .schemes.position_first_euler_decay import (position_first_euler_decay_after_kick,
                                                  position_first_euler_decay_before_kick)
+from .schemes.radau_iia2 import radau_iia2
 from .schemes.runge_kutta import TABLEAUS, explicit_euler, rk4
 from .schemes.semi_implicit_euler import semi_implicit_euler
 from .schemes.semi_implicit_euler_position_first import semi_implicit_euler_position_first
@@ -42,7 +43,7 @@ METHODS: dict[str, Scheme] = {s.id: s for s in (
     explicit_euler, semi_implicit_euler, semi_implicit_euler_position_first, verlet, velocity_verlet,
     leapfrog, rk4, implicit_euler, implicit_midpoint, forest_ruth, verlet_constrained,
     semi_implicit_euler_velocity_implicit, position_first_euler_decay_after_kick,
-    position_first_euler_decay_before_kick, linearly_implicit_euler, implicit_euler_doubled, pbd, xpbd,
+    position_first_euler_decay_before_kick, linearly_implicit_euler, implicit_euler_doubled, radau_iia2, pbd, xpbd,
 )}
 #: Every explicit Runge-Kutta tableau (``schemes/runge_kutta.py``): a new entry there is a new scheme.
 METHODS.update({s.id: s for s in TABLEAUS if s.id not in METHODS})

@@ -122,6 +122,20 @@ def implicit_midpoint(s, h, k, m):
 
 
 @_jit
+def radau_iia2(s, h, k, m):
+    # The spring is linear: the two coupled stages solved in closed form (the kernel iterates
+    # to them), the step's stability function R(hF) = (I + hF/3)/(I - 2hF/3 + h^2F^2/6) with
+    # F^2 = -(k/m) I, written as increments (x + dx, v + dv): the quotients themselves round to
+    # 1e-13 over 1000 steps at h = 0.01, where 1 - (1 - 7 z^2/18)/den is lost to cancellation.
+    x, v = s
+    z2 = h * h * (k / m)
+    den = 1.0 + z2 / 9.0 + z2 * z2 / 36.0
+    c = -(0.5 * z2 + z2 * z2 / 36.0)
+    d = h * (1.0 - z2 / 18.0)
+    return (x + (c * x + d * v) / den, v + (c * v - d * (k / m) * x) / den)
+
+
+@_jit
 def semi_implicit_euler_velocity_implicit(s, h, k, m):
     # The spring's force does not depend on v: the implicit velocity solve divides by 1, and
     # the step is semi-implicit Euler's.
@@ -180,6 +194,7 @@ _HAND_WRITTEN = {
     "implicit_euler_doubled": (implicit_euler_doubled, _start_qv, _observe_qv),
     "linearly_implicit_euler": (linearly_implicit_euler, _start_qv, _observe_qv),
     "implicit_midpoint": (implicit_midpoint, _start_qv, _observe_qv),
+    "radau_iia2": (radau_iia2, _start_qv, _observe_qv),
     "semi_implicit_euler_velocity_implicit": (semi_implicit_euler_velocity_implicit, _start_qv, _observe_qv),
     "position_first_euler_decay_after_kick": (position_first_euler_decay_after_kick, _start_qv, _observe_qv),
     "position_first_euler_decay_before_kick": (position_first_euler_decay_before_kick, _start_qv, _observe_qv),

@@ -55,6 +55,11 @@ class Scheme:
     force does not depend on the velocity (its damping treatment is all that sets it apart);
     ``harness identify`` does not offer it as a second match there.
 
+    ``one_pass_on_linear`` (implicit schemes): one Newton iteration from the old velocity solves
+    the step exactly on a linear scene, so the step gets 1 there (``kinds.newton_max``); False
+    where the scene's real solve cannot invert the coupling of the stages in one pass (two-stage
+    Radau IIA), whose iteration then runs to convergence on linear scenes too.
+
     ``energy_claim`` and ``homega_max`` are what the textbook says on the unit spring
     (``homega_max``: ``None`` = unstable for every h, ``math.inf`` = never unstable);
     the harness measures both and reports them side by side.
@@ -76,6 +81,7 @@ class Scheme:
     substeps: int | None = None
     order_velocity_dependent: int | None = None
     same_without_velocity: str | None = None
+    one_pass_on_linear: bool = True
     carries: tuple[str, ...] = ("q", "v")   # the state carried between steps, as ``start`` builds it
     doc: str = field(default="", compare=False)
     #: The Butcher tableau an explicit Runge-Kutta scheme is declared as (``reference.tableau``).

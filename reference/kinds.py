@@ -11,7 +11,8 @@ The drivers, the kernel files and ``RefMethod`` ask the scheme's kind; none bran
 
 * ``EXPLICIT``: ``step(accel, state, t, h, p)`` (explicit Runge-Kutta tableaus, the splittings);
 * ``IMPLICIT``: ``step(accel, solve, newton_max, state, t, h, p)``, ``solve`` the scene's linear
-  solve, ``newton_max`` 1 on a linear scene (one Newton iteration from the old velocity is exact);
+  solve, ``newton_max`` 1 on a linear scene (one Newton iteration from the old velocity is exact),
+  unless the scheme declares otherwise (``Scheme.one_pass_on_linear``: coupled stages iterate);
 * ``CONSTRAINED``: ``step(accel, project, iterations, state, t, h, p)``, ``project(q, p,
   iterations) -> q`` the scene's constraint projection; runs only on scenes with constraints,
   and those only with it;
@@ -117,7 +118,7 @@ class Implicit(Kind):
     implicit: bool = True
 
     def count(self, scheme, scene, iterations=None, substeps=None) -> int:
-        return newton_max(scene)
+        return newton_max(scene) if scheme.one_pass_on_linear else NEWTON_MAX
 
     def supports(self, scheme, scene, method_id: str) -> str:
         return super().supports(scheme, scene, method_id) or (

@@ -16,7 +16,7 @@ of M is <= 1. The limit is
     tr = 2 - 2 zeta y - y^2, limit 2 (sqrt(1 + zeta^2) - zeta): explicit damping lowers it;
   - semi-implicit Euler implicit in the velocity (MuJoCo): det = 1/(1 + 2 zeta y),
     limit 2 (sqrt(1 + zeta^2) + zeta): implicit damping raises it;
-  - implicit Euler and implicit midpoint: A-stable, unbounded.
+  - implicit Euler, implicit midpoint and two-stage Radau IIA: A-stable, unbounded.
 * computed otherwise (RK4, leapfrog, velocity Verlet, Forest-Ruth, the two exact-decay forms,
   whose conditions are transcendental or of higher degree): rho(M(y, zeta)) by ``numpy.linalg.eigvals``,
   the first y where it exceeds 1 + RHO_TOL found by the stability measure's own scan and bisection
@@ -114,6 +114,12 @@ def _implicit_midpoint(y, z):
     return np.linalg.solve(np.eye(2) - a, np.eye(2) + a)
 
 
+def _radau_iia2(y, z):
+    """Its stability function on the first-order form: (I - 2Y/3 + Y^2/6)^-1 (I + Y/3), Y = y M(zeta)."""
+    a = y * _oscillator(z)
+    return np.linalg.solve(np.eye(2) - (2.0 / 3.0) * a + (a @ a) / 6.0, np.eye(2) + a / 3.0)
+
+
 def _velocity_verlet(y, z):
     """On the carried (x, v, a): v_h = v + y/2 a; x_1 = x + y v_h; a_1 = -x_1 - 2 zeta v_h; v_1 = v_h + y/2 a_1."""
     vh = np.array([0.0, 1.0, 0.5 * y])
@@ -147,6 +153,7 @@ _WRITTEN = {
     # On a linear scene the linearly implicit step is backward Euler (tests/test_cloth.py).
     "linearly_implicit_euler": _implicit_euler,
     "implicit_midpoint": _implicit_midpoint,
+    "radau_iia2": _radau_iia2,
 }
 
 
@@ -196,6 +203,7 @@ CLOSED_FORM = {
     "implicit_euler_doubled": lambda z: math.inf,
     "linearly_implicit_euler": lambda z: math.inf,
     "implicit_midpoint": lambda z: math.inf,
+    "radau_iia2": lambda z: math.inf,
 }
 
 
