@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
+from records.figures import Figures
+
 
 @dataclass
 class Row:
@@ -56,3 +58,112 @@ class MethodAdvice:
         d = dict(d)
         rows = [Row(**r) for r in d.pop("rows", [])]
         return cls(rows=rows, **d)
+
+
+# ----------------------------------------------------------------------------- the sweep
+#: How a family (a method's declared kind, ``harness.measures.sweep``) is named in the tables and
+#: charts; a kind not listed is named by itself.
+FAMILY_NAMES = {"explicit": "explicit substeps", "implicit": "implicit solves",
+                "constrained": "constraint projections", "decay": "explicit substeps with exact decay",
+                "position_based": "position-based solves"}
+
+
+def family_name(kind: str) -> str:
+    return FAMILY_NAMES.get(kind, kind)
+
+
+@dataclass
+class SweepEntry:
+    """One method at one value of a swept parameter (``harness.measures.sweep``): the fewest
+    substeps that meet the tolerances and their cost per frame, or the bound that ended the search
+    (``ended``: ``met``; ``cost``, its next level's frame past the stated factor times the cheapest
+    method's; ``cap``, past the sweep's most substeps; ``crashed`` / ``timed_out``)."""
+
+    method: str
+    family: str                     # what the method declares: a reference scheme's kind, an engine mode's
+    ended: str = ""
+    substeps: int | None = None
+    h: float | None = None
+    homega: float | None = None
+    cost_per_step_s: float | None = None
+    cost_per_frame_s: float | None = None
+    energy_error: float | None = None
+    position_error: float | None = None
+    searched: int = 0               # the most substeps run
+    why: str = ""
+
+
+@dataclass
+class SweepPoint:
+    """Every method at one value of the swept parameter; ``homega_one`` is h*omega at one substep
+    a frame (omega / hz)."""
+
+    value: float
+    omega: float
+    homega_one: float
+    entries: list[SweepEntry] = field(default_factory=list)
+
+    @property
+    def met(self) -> list[SweepEntry]:
+        """The entries that meet the tolerances, cheapest frame first (then by id)."""
+        ok = [e for e in self.entries if e.ended == "met" and e.cost_per_frame_s is not None]
+        return sorted(ok, key=lambda e: (e.cost_per_frame_s, e.method))
+
+    @property
+    def cheapest(self) -> SweepEntry | None:
+        met = self.met
+        return met[0] if met else None
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "SweepPoint":
+        d = dict(d)
+        return cls(entries=[SweepEntry(**e) for e in d.pop("entries", [])], **d)
+
+
+@dataclass
+class Crossover:
+    """Where the cheapest family changes between two neighbouring values of the grid: ``value``
+    and ``homega_one`` estimated where the two families' cheapest frames cross (log-log
+    interpolation; ``interpolated`` False: the grid's geometric midpoint, where one family has no
+    cost at one end)."""
+
+    below: float
+    above: float
+    from_family: str
+    to_family: str
+    from_method: str
+    to_method: str
+    value: float
+    homega_one: float
+    interpolated: bool
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class SweepFigures(Figures):
+    """``sweep``: the advice over a grid of one scene parameter (value: the first crossover's
+    h*omega at one substep; None where the cheapest family never changes). ``points`` are
+    ``SweepPoint`` dicts, ``crossovers`` ``Crossover`` dicts; ``params`` the scene's other values,
+    ``label`` the sweep's name in the report (its size), ``clock`` what the costs were timed on."""
+
+    label: str | None = None
+    param: str | None = None
+    params: dict | None = None
+    hz: float | None = None
+    request: dict | None = None
+    factor: float | None = None
+    cap: int | None = None
+    clock: str | None = None
+    points: list | None = None
+    crossovers: list | None = None
+
+    def sweep_points(self) -> list[SweepPoint]:
+        return [SweepPoint.from_dict(p) for p in self.points or []]
+
+    def sweep_crossovers(self) -> list[Crossover]:
+        return [Crossover(**c) for c in self.crossovers or []]

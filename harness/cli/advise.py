@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import os
 
+from records import InvalidInput
 from scenarios import make_scene, parse_overrides
 
 from harness import validate
 from harness.measures.advise import HORIZON, MAX_SUBSTEPS, Request, advise
+from harness.measures.sweep import CAP, CLOCK, FACTOR, POINTS, family_costs, family_name, parse_grid, run_sweep
 from harness.cli.measure_args import emit
 
 
@@ -27,6 +29,15 @@ def add_parser(sub):
                                                                      f"(1, 2, 4, ...; default {MAX_SUBSTEPS})")
     p.add_argument("--jobs", default=str(os.cpu_count() or 1), help="worker processes (default: the cores)")
     p.add_argument("--timeout", default="120", help="seconds one method's search may take")
+    p.add_argument("--sweep", metavar="NAME=LO..HI[:POINTS]",
+                   help="the advice at each value of a log grid of one scene parameter (k=1e2..1e6:9), each "
+                        "method searched past --max-substeps, and where the cheapest family changes")
+    p.add_argument("--points", help=f"values in the --sweep grid (default {POINTS})")
+    p.add_argument("--factor", default=str(FACTOR),
+                   help=f"a sweep searches a method on until its frame costs this many times the cheapest "
+                        f"(default {FACTOR:g})")
+    p.add_argument("--sweep-max-substeps", default=str(CAP),
+                   help=f"... or its substeps pass this many (default {CAP})")
     p.add_argument("--json", action="store_true", help="print the advice and every measured row as JSON")
     return p
 
@@ -37,7 +48,18 @@ def run(args) -> int:
     jobs = validate.count("--jobs", args.jobs, 1, 1024)
     timeout = validate.positive_finite("--timeout", args.timeout)
     patterns = [p.strip() for item in args.methods or () for p in item.split(",") if p.strip()]
-    scene = make_scene(args.scene, **parse_overrides(args.set))
+    overrides = parse_overrides(args.set)
+    scene = make_scene(args.scene, **overrides)
+    if args.sweep is not None:
+        grid = parse_grid(args.sweep, scene, args.points)
+        if grid.param in overrides:
+            raise InvalidInput(f"--sweep {grid.param} and --set {grid.param} name the same parameter "
+                               "(allowed: one of them)")
+        result = run_sweep(scene, grid, request, patterns or None, factor=args.factor, cap=args.sweep_max_substeps,
+                           jobs=jobs, timeout=timeout)
+        return emit(result.as_dict() if args.json else result, args.json, sweep_lines, scene)
+    if args.points is not None:
+        raise InvalidInput("--points is for a --sweep (allowed: with --sweep NAME=LO..HI)")
     result = advise(scene, request, patterns or None, jobs=jobs, timeout=timeout)
     return emit(result.as_dict() if args.json else result, args.json, _lines, scene)
 
@@ -96,3 +118,59 @@ def _limit(m) -> str:
     if m.limit_verdict == "unstable":
         return "none"
     return "-" if m.homega_limit is None else format(m.homega_limit, ".4g")
+
+
+#: What a method's cell in the sweep's table says of each way its search ended.
+ENDED = {"cost": "> x", "cap": "cap", "crashed": "crash", "timed_out": "t/o"}
+
+
+def _cell(e) -> str:
+    if e.ended == "met":
+        return f"{e.substeps}: {_us(e.cost_per_frame_s)}"
+    return ENDED.get(e.ended, e.ended or "-")
+
+
+def sweep_lines(sw):
+    """The sweep as text: per value, each family's cheapest frame; the crossovers; then every
+    method at every value (substeps: µs a frame, or the bound that ended its search)."""
+    r = sw.request
+    params = ", ".join(f"{k}={v:g}" for k, v in sw.params.items())
+    g = sw.grid
+    yield (f"sweep {sw.scene} ({params}) over {g.param} = {g.lo:g} .. {g.hi:g} ({len(g.values)} values, log) "
+           f"at {r.hz:g} Hz over {r.horizon:g}: {r.tolerances_text()}")
+    yield (f"each method: substeps 1..{r.max_substeps}, then doubled until it meets them, its frame would cost "
+           f"> {sw.factor:g} x the cheapest, or > {sw.cap} substeps; cost = substeps x compiled kernel / engine "
+           f"step, {CLOCK.upper()} clock")
+    yield ""
+    families = list(dict.fromkeys(e.family for p in sw.points for e in p.entries))
+    w = {f: max(len(family_name(f)), 34) for f in families}
+    yield (f"  {g.param:>9s} {'h*omega@1':>9s}  " + "  ".join(f"{family_name(f):{w[f]}s}" for f in families)
+           + "  cheapest")
+    for p in sw.points:
+        costs = family_costs(p)
+        cols = []
+        for f in families:
+            e = costs.get(f)
+            cols.append(f"{(e.method + ' ' + str(e.substeps) + ' x, ' + _us(e.cost_per_frame_s) + ' us') if e else '-':{w[f]}s}")
+        best = p.cheapest
+        yield f"  {p.value:9.3g} {p.homega_one:9.3g}  " + "  ".join(cols) + f"  {family_name(best.family) if best else 'none'}"
+    yield ""
+    cross = sw.crossovers
+    if not cross:
+        fam = {p.cheapest.family for p in sw.points if p.cheapest}
+        yield ("no crossover: the cheapest family is " + ", ".join(family_name(f) for f in sorted(fam))
+               + f" at every value" if fam else "no crossover: no method meets the tolerances at any value")
+    for c in cross:
+        yield (f"crossover: {family_name(c.from_family)} ({c.from_method}) -> {family_name(c.to_family)} "
+               f"({c.to_method}) between {g.param}={c.below:.3g} and {c.above:.3g}: "
+               f"{'about' if c.interpolated else 'midway,'} {g.param} = {c.value:.3g}, h*omega = {c.homega_one:.3g} "
+               "at one substep")
+    yield ""
+    yield "every method (substeps: us per frame; > x: its next level past the factor; cap: past the most substeps):"
+    mw = max([len(e.method) for p in sw.points for e in p.entries] + [6])
+    yield f"  {'method':{mw}s} " + " ".join(f"{p.value:>12.3g}" for p in sw.points)
+    for i, e0 in enumerate(sw.points[0].entries if sw.points else []):
+        yield f"  {e0.method:{mw}s} " + " ".join(f"{_cell(p.entries[i]):>12s}" for p in sw.points)
+    if sw.left_out:
+        yield ""
+        yield "left out: " + ", ".join(x["method"] for x in sw.left_out)
