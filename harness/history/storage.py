@@ -39,7 +39,9 @@ from records.cell import CELL_COLUMNS as _CELL_COLUMNS, Cell, to_json
 #: 6: a model file's conservative variant keeps armature and gravity (it switches off only what
 #: dissipates or injects energy); the cross-engine cell compares at a resolved step over one
 #: period of the slowest mode and names every built quantity that differs.
-MEASUREMENT_VERSION = 6
+#: 7: an engine's timed repeat is held to ENGINE_RUN_BUDGET_S, now a compiled loop's budget (a slow
+#: engine's figure, Drake's or pybullet's, is an average over fewer steps).
+MEASUREMENT_VERSION = 7
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS runs (

@@ -42,10 +42,10 @@ The rule, one way for each kind of method:
   A run that diverges within the N steps (the engine's warning, or the harness's criterion)
   is timed over the steps before it, and the timing says so: its step-by-step replay, which
   finds the failing step, is no cost of a step.
-  A model so slow that N steps would take longer than ENGINE_RUN_BUDGET_S (0.1 s, judged
+  A model so slow that N steps would take longer than ENGINE_RUN_BUDGET_S (0.02 s, judged
   from a pilot of the warm-up's steps, the model built off the clock) is timed over fewer steps, at least ENGINE_MIN_STEPS (200): a 32-body
   chain stepped from Python would spend 10,000 steps x 6 runs saying what one budget's run
-  says (the CPU clock reads to the microsecond, a run of that budget to 1e-5 of itself; the spread between repeats is the machine's, 1-5%).
+  says (the CPU clock reads to the microsecond, a run of that budget to 5e-5 of itself; the spread between repeats is the machine's, 1-5%).
 * **Clock**: wall time (``time.perf_counter``) by default; ``clock="cpu"`` reads the CPU
   time of the process (``time.process_time``) instead, which other processes sharing the
   core do not inflate (the nightly runs its cells side by side on shared cores). The
@@ -93,7 +93,7 @@ REF_MIN_STEPS = 5_000
 ENGINE_TIME_STEPS = 10_000
 HARNESS_TIME_STEPS = 2_000
 ENGINE_PILOT_STEPS = 500
-ENGINE_RUN_BUDGET_S = 0.1
+ENGINE_RUN_BUDGET_S = 0.02
 ENGINE_MIN_STEPS = 200
 REPEATS = 5
 #: 0-step runs timed at most, beyond one per repeat, where none is faster than the fastest timed

@@ -3,7 +3,7 @@ at a fixed frame rate and equal cost per frame, XPBD with n substeps of one Gaus
 against one step of n passes, against implicit Euler and its linearly implicit form at one step
 a frame, and against semi-implicit Euler at the fewest substeps a frame it needs to stay bounded.
 
-Every configuration runs ``t_end`` (2 s) of frames of 1/``hz`` from the scene's initial state,
+Every configuration runs ``t_end`` of simulated time (default 2) in frames of 1/``hz`` from the scene's initial state,
 on the exact compiled run (``reference.integrate_exact``: the interpreted bits, counted). Rows
 (``small_steps``), one per configuration:
 
