@@ -85,7 +85,8 @@ REGISTRY: dict[str, Measure] = {}
 #: The modules that declare the built-in measures: imported by name the first time the registry
 #: is read, as a plugin module is, so that every reader (the history's comparison, the report)
 #: sees them without importing the layer that runs them.
-BUILTIN = ("harness.nightly.cells", "harness.nightly.scene_cells", "harness.nightly.tolerance_cells")
+BUILTIN = ("harness.nightly.cells", "harness.nightly.scene_cells", "harness.nightly.tolerance_cells",
+           "harness.nightly.sweep_cell")
 _loaded = False
 
 

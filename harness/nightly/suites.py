@@ -36,6 +36,8 @@ class SceneExtras:
     cross_engine: tuple = ()                   # engine modes compared from the same state (a model file's
                                                # conservative variant): each later mode's task has a cell
                                                # comparing it with the first
+    sweep: dict | None = None                  # the advice over a grid of one parameter (harness.nightly.sweep_cell):
+                                               # grid, hz, request, methods, and its sizes, each with its task
     small_steps: dict | None = None            # the small-steps study's settings (harness.measures.small_steps):
                                                # the cell is ref:xpbd's task's
     tolerances: dict | None = None             # the tolerance cell's settings (harness.measures.tolerance:
@@ -200,6 +202,22 @@ SMOKE_TOLERANCES = {"tolerances": (1e-3, 1e-6), "periods": 2.0, "outputs": 20, "
 #: energy within 0.1% of the largest exact energy, up to 16 substeps a frame.
 ADVISE = {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 16}
 
+#: Where the trade-off flips (harness.nightly.sweep_cell, the full suite only): the advice at 60 Hz
+#: over 2 s (the cloth's trusted horizon), energy within 50% (an animation's sheet that looks right),
+#: over k = 1e2..1e6, two values a decade, for two explicit schemes (leapfrog the cheapest frame at
+#: low k, RK4 the largest limit), the two implicit ones and XPBD, each searched past 16 substeps to
+#: 10 x the cheapest frame or 4096 substeps. The cloth at three sizes of one node mass (its scaling
+#: cell's 1/64: omega, and so the substeps an explicit scheme needs, is then the same at every size,
+#: while a solve's cost grows with N), each size in another method's task, so that they run side by side.
+SWEEP = {"grid": "k=1e2..1e6:9", "hz": 60.0, "request": {"horizon": 2.0, "energy_tol": 0.5, "max_substeps": 16},
+         "methods": ("ref:leapfrog", "ref:rk4", "ref:implicit_euler", "ref:linearly_implicit_euler", "ref:xpbd"),
+         "factor": 10.0, "cap": 4096}
+CLOTH_SWEEP = {**SWEEP, "sizes": tuple({"label": f"{n} x {n}", "params": size, "task": task} for n, size, task in
+                                       zip((4, 16, 32), cloth_sizes((4, 16, 32)),
+                                           ("ref:leapfrog", "ref:semi_implicit_euler", "ref:rk4")))}
+NET_SWEEP = {**SWEEP, "sizes": ({"label": "4 x 4", "params": {}, "task": "ref:leapfrog"},)}
+CHAIN_SWEEP = {**SWEEP, "sizes": ({"label": "N = 32", "params": {}, "task": "ref:leapfrog"},)}
+
 SUITES: dict[str, Suite] = {
     "smoke": Suite(
         "smoke",
@@ -246,15 +264,17 @@ SUITES: dict[str, Suite] = {
                                 extras=SceneExtras(brouwer=KEPLER_BROUWER_FULL, tolerances=FULL_TOLERANCES)),
             "projectile": SceneSpec(homega=0.01, periods=0.2, order_points=8, order_span=16.0),
             "chain": SceneSpec(periods=500, order_points=8, order_span=16.0, advise=ADVISE,
-                               extras=replace(CHAIN_EXTRAS, scaling={"sizes": CHAIN_SIZES}, tolerances=FULL_TOLERANCES)),
+                               extras=replace(CHAIN_EXTRAS, scaling={"sizes": CHAIN_SIZES}, tolerances=FULL_TOLERANCES,
+                                              sweep=CHAIN_SWEEP)),
             "rope": SceneSpec(periods=200, order_points=8, order_span=16.0,
                               extras=replace(ROPE_EXTRAS, small_steps=SMALL_STEPS_FULL),
                               stability_steps=ROPE_STABILITY_STEPS),
             "solar_system": SceneSpec(dt=10.0, horizon=1.0e7, order_points=8, order_span=16.0, compiled=True,
                                       stability_hi=SOLAR_STABILITY_HI, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
             "cloth": SceneSpec(periods=50, order_points=8, order_span=16.0, advise=CLOTH_ADVISE,
-                               extras=replace(CLOTH_FULL_EXTRAS, small_steps=SMALL_STEPS_FULL)),
-            "net": SceneSpec(params={"n": 4, "m": 4}, periods=50, order_points=8, order_span=16.0),
+                               extras=replace(CLOTH_FULL_EXTRAS, small_steps=SMALL_STEPS_FULL, sweep=CLOTH_SWEEP)),
+            "net": SceneSpec(params={"n": 4, "m": 4}, periods=50, order_points=8, order_span=16.0,
+                             extras=SceneExtras(sweep=NET_SWEEP)),
             # MuJoCo's flexcomp membrane on the cloth's grid: not the same model, measured against its own
             # refined RK4 run; left out of the standard suite (its long task, the stability search of
             # mujoco:discrete to h*omega 80, would be the suite's longest). Its order over two periods: over half of one
