@@ -207,6 +207,7 @@ class IdentityFigures(Figures):
     name_suggests: str | None = None
     match_claims: Claims | None = None
     note: str | None = None
+    precision: str | None = None             # the mode's arithmetic: float32 is matched at float32 rounding
 
     @property
     def all_matches(self) -> list[str]:

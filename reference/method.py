@@ -34,6 +34,7 @@ class RefMethod:
     # given, counted on every run, matching itself; no loop to choose, no engine model to reuse
     # or to build off the clock (its timing is the compiled kernel's, ``reference.step_timer``).
     family = REFERENCE
+    precision = "float64"
     isolated = False
     adaptive = False
     counting_run = False

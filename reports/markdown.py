@@ -170,7 +170,8 @@ def identity_table(piv: dict) -> list[str]:
         runner = f"`{f.runner_up}` ({_fmt(f.runner_up_deviation, '.2e')})" if f.runner_up else "–"
         matches = f.all_matches
         said = " = ".join(f"`{m}`" for m in matches) if matches else f"none (closest `{f.closest}`)"
-        lines.append(f"| `{method}` | {scene} | {said} | {_fmt(row.value, '.2e')} | {runner} |")
+        dev = _fmt(row.value, '.2e') + (" (float32: matched at float32 rounding)" if f.precision == "float32" else "")
+        lines.append(f"| `{method}` | {scene} | {said} | {dev} | {runner} |")
     if not n:
         lines.append("| _no engine modes in this run_ | | | | |")
     return lines + [""]

@@ -316,3 +316,24 @@ def test_a_run_row_and_its_timing_become_typed_records_and_an_older_row_keeps_th
                            "slowest_tasks": [["cell spring ref:rk4", 1.0]], "not_a_field": 9})
     assert (timing.total_s, timing.cells_s, timing.kernels_compiled, timing.kernel_load_s) == (5.0, 4.0, 0, 0.0)
     assert RunTiming.of(None) == RunTiming() and RunTiming().total_s is None
+
+
+def test_the_identity_table_says_where_a_float32_mode_was_matched_at_float32_rounding():
+    """A float32 engine (Newton on Warp) is matched within float32 rounding, a float64 one within
+    1e-9: the table says which, so a deviation of 4e-7 is not read as a float64 mismatch."""
+    from records.cell import Cell
+    from records.figures import IdentityFigures
+    from reports.markdown import identity_table
+
+    def cell(method, precision, value):
+        return Cell(scene="spring", method=method, family=method.split(":")[0], measure="identity", status="ok",
+                    value=value, figures=IdentityFigures(match="ref:semi_implicit_euler", precision=precision))
+
+    piv = {("spring", "newton:semi_implicit"): {"identity": cell("newton:semi_implicit", "float32", 4.2e-7)},
+           ("spring", "mujoco:euler"): {"identity": cell("mujoco:euler", "float64", 0.0)}}
+    rows = {line.split("|")[1].strip(): line for line in identity_table(piv) if line.startswith("| `")}
+    assert "4.20e-07 (float32: matched at float32 rounding)" in rows["`newton:semi_implicit`"]
+    assert "float32" not in rows["`mujoco:euler`"]
+    from harness.methods import get_method
+
+    assert get_method("ref:rk4").precision == "float64"

@@ -59,8 +59,8 @@ def default_steps() -> int:
 
 
 def precision_of(method) -> str:
-    """``method.precision``; a reference scheme (``reference.RefMethod``) declares none and
-    computes in float64. An undeclared precision is a ValueError naming the valid ones."""
+    """``method.precision`` (a reference scheme's is float64; a plugin's that declares none is
+    float64). A precision not in PRECISIONS is a ValueError naming the valid ones."""
     precision = getattr(method, "precision", "float64")
     if precision not in PRECISIONS:
         raise ValueError(f"precision: {precision!r} of {method.id} is not one of {', '.join(PRECISIONS)}")

@@ -313,7 +313,7 @@ def _identity(task, method, scene, exact=None) -> Cell:
                                              runner_up=runner.method if runner else None,
                                              runner_up_deviation=finite(runner.max_deviation) if runner else None,
                                              name_suggests=NAME_SUGGESTS.get(mode), match_claims=match_claims,
-                                             note=note))
+                                             note=note, precision=getattr(method, "precision", "float64")))
 
 
 def _bound(task) -> Cell:
