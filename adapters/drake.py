@@ -383,8 +383,9 @@ _DOCS = {
         Measured: ref:dormand_prince5 to 1e-14 on the spring at h = 0.125 over 1000 steps.""",
     "radau1": """implicit (backward) Euler, one-stage Radau IIA
         Measured: ref:implicit_euler to 6e-16 on the spring at h = 0.125 over 1000 steps.""",
-    "radau3": """two-stage Radau IIA (order 3)
-        Measured: order 3 on the spring; the harness has no Radau IIA scheme yet to name it.""",
+    "radau3": """two-stage Radau IIA (order 3, L-stable)
+        Measured: ref:radau_iia2 to 1.3e-15 on the spring at h = 0.125 over 1000 steps, and to
+        3.1e-12 on the pendulum at h = 0.02 (as the explicit modes: Drake's time and sin roundoff).""",
     "implicit_euler": """implicit Euler by step doubling: two implicit Euler steps of h/2 a step
         Measured: ref:implicit_euler_doubled to 1e-13 on the spring at h = 0.125; after 1000 steps of
         0.1 the spring keeps 3.39e-3 of its energy 0.5 where implicit Euler keeps 2.39e-5.""",
