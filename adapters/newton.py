@@ -23,6 +23,11 @@ Minimal models, Newton's own physics:
 * ``cloth`` / ``net``: one particle per grid node at the scene's start, the pinned ones of mass
   0, one particle spring per scene spring (structural, shear, bending) with the scene's stiffness
   and rest length, no triangles; gravity along the last axis (the net lies in the x-y plane).
+* ``model`` (featherstone): a model file as Newton's own loaders build it (``add_urdf`` /
+  ``add_mjcf``), in the joint coordinates, mapped to the scene's by joint name; what the loader
+  ignores or SolverFeatherstone does not apply is listed (``adapters/_newton_model.py``). The
+  particle and maximal-coordinate solvers step free bodies held by penalty or relaxed joints: they
+  run no model file, each with its reason.
 
 Every default that would change the physics is set off and recorded in the run's settings:
 gravity (Newton's default is -9.81 along its up axis: zero for the springs and the chain, the
@@ -87,7 +92,17 @@ UNSUPPORTED_ALL = {
             "relative angles mapped to the scene's Cartesian state)",
     "cloth_flex": "MuJoCo's flex membrane: Newton's triangles are another membrane law (tri_ke, tri_ka), not the "
                   "same model",
-    "model": "harness model in Newton (add_mjcf, add_urdf) is not written yet",
+}
+
+#: Why a particle or maximal-coordinate solver runs no model file: the file's joints are the
+#: scene's coordinates, and these solvers step free bodies held together (module docstring).
+_MODEL_MAXIMAL = {
+    "semi_implicit": "SolverSemiImplicit steps each body free in maximal coordinates, its joints penalty springs "
+                     "(joint_attach_ke 1e4), and applies no joint armature: not the file's joint coordinates",
+    "xpbd": "SolverXPBD steps each body free, its joints relaxed positional constraints, and applies no joint "
+            "armature or passive joint damping: not the file's joint coordinates",
+    "vbd": "SolverVBD steps each body free, its joints augmented penalty constraints, and applies no passive joint "
+           "damping: not the file's joint coordinates",
 }
 
 _PENDULUM_MAXIMAL = {
@@ -99,15 +114,16 @@ _PENDULUM_MAXIMAL = {
            "pendulum's one coordinate",
 }
 
-UNSUPPORTED = {mode: {**UNSUPPORTED_ALL, "pendulum": _PENDULUM_MAXIMAL[mode]}
+UNSUPPORTED = {mode: {**UNSUPPORTED_ALL, "pendulum": _PENDULUM_MAXIMAL[mode], "model": _MODEL_MAXIMAL[mode]}
                for mode in ("semi_implicit", "xpbd", "vbd")}
 UNSUPPORTED["featherstone"] = dict(UNSUPPORTED_ALL)
 
 SCENES = {"semi_implicit": _PARTICLE_SCENES, "xpbd": _PARTICLE_SCENES, "vbd": _PARTICLE_SCENES,
-          "featherstone": ("spring", "damped_spring", "pendulum", "chain", "cloth", "net")}
+          "featherstone": ("spring", "damped_spring", "pendulum", "chain", "cloth", "net", "model")}
 
 #: How each mode poses a scene: "particles" or "joint" (module docstring).
-JOINT_POSES = {("featherstone", "spring"), ("featherstone", "damped_spring"), ("featherstone", "pendulum")}
+JOINT_POSES = {("featherstone", "spring"), ("featherstone", "damped_spring"), ("featherstone", "pendulum"),
+               ("featherstone", "model")}
 
 
 def _warp(newton):
@@ -348,9 +364,50 @@ class _Model(EngineModel):
         return None, "Newton's solvers count no force evaluations"
 
 
+class _FileModel(_Model):
+    """A model file (``harness model``) as Newton's loaders build it, stepped by SolverFeatherstone
+    in the joint coordinates; its coordinates mapped to the scene's by joint name and its anatomy
+    read back from the model and the solver (``adapters/_newton_model.py``)."""
+
+    def _joint_model(self, newton, scene: Scene):
+        from . import _newton_model
+
+        model, gravity, self._facts = _newton_model.build_model(newton, scene)
+        self._names = list(scene.dof_names)
+        self._index, self._offset, self._angular = _newton_model.coordinates(model, self._names, self._facts)
+        return model, _newton_model.settings(model, self._facts)
+
+    def set_state(self, q: np.ndarray, v: np.ndarray) -> None:
+        n = self.model.joint_coord_count
+        full_q, full_v = np.zeros(n), np.zeros(n)
+        # Newton's coordinate is MuJoCo's qpos less the joint's ref (its qpos0).
+        full_q[self._index] = np.asarray(q, dtype=float) - self._offset
+        full_v[self._index] = np.asarray(v, dtype=float)
+        super().set_state(full_q, full_v)
+
+    def state(self):
+        q, v = super().state()
+        return q[self._index] + self._offset, v[self._index]
+
+    def anatomy(self) -> dict:
+        """What Newton built, at the model's current state: one step from it into a scratch state
+        fills SolverFeatherstone's mass matrix and motion subspaces (the state itself unchanged)."""
+        from . import _newton_model
+
+        scratch = self.model.state()
+        with quiet_fds():
+            self.s0.clear_forces()
+            self.solver.step(self.s0, scratch, self.control, None, self.dt)
+        return _newton_model.anatomy(self.model, self.solver, self.s0, self._index, self._offset, self._angular,
+                                     self._names, self._facts)
+
+
+BUILDERS = {"model": _FileModel}
+
+
 def build(newton, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
     """``count`` changes nothing: Newton counts no force evaluations."""
-    return _Model(newton, mode, scene, dt)
+    return BUILDERS.get(scene.kind, _Model)(newton, mode, scene, dt)
 
 
 def has_solver(mode: str):
@@ -372,7 +429,8 @@ _DOCS = {
         rounding); on the chain and the cloth no scheme.""",
     "featherstone": """semi-implicit Euler in the joint coordinates (Featherstone's articulated bodies), float32
         Measured: ref:semi_implicit_euler to float32 rounding on the prismatic spring and the pendulum;
-        particles (chain, cloth) are integrated as by newton:semi_implicit.""",
+        particles (chain, cloth) are integrated as by newton:semi_implicit; a model file (add_urdf,
+        add_mjcf) follows mujoco:euler to float32 rounding where Newton builds MuJoCo's model.""",
 }
 
 _SWEEPS = ("{solver} sweeps the coupled springs {how} and stops after {n} iterations, unconverged: at 100 steps "
