@@ -46,6 +46,10 @@ from harness.measures.error import richardson
 #: Relative difference above which a built quantity is said to differ (a few thousand eps:
 #: two engines' sums of the same inertias in another order agree far closer).
 ANATOMY_RTOL = 1e-9
+#: The same where either engine builds its model in float32 (its anatomy's ``precision``): 17
+#: float32 roundoffs (2^-24), above a mass stored in float32 (6e-9 of it) and a mass matrix summed
+#: in float32 (cartpole.urdf in Newton: 2.2e-8 of its largest entry).
+ANATOMY_RTOL_FLOAT32 = 1e-6
 #: Each engine's own error must be at most this fraction of the difference reported.
 RESOLVE_FRACTION = 0.1
 #: Two trajectories closer than this (relative) are reported as agreeing within it.
@@ -97,8 +101,8 @@ def anatomy(method_id: str, scene: Scene, dt: float, timeout: float = 60.0) -> d
     return None if isinstance(out, isolation.WorkerFailure) else out
 
 
-def _differs(x: float, y: float) -> bool:
-    return abs(x - y) > ANATOMY_RTOL * max(abs(x), abs(y))
+def _differs(x: float, y: float, rtol: float = ANATOMY_RTOL) -> bool:
+    return abs(x - y) > rtol * max(abs(x), abs(y))
 
 
 def _g(x) -> str:
@@ -109,6 +113,7 @@ def anatomy_differences(a: dict, b: dict, names: tuple[str, str], coords) -> lis
     """One line per built quantity that differs between the two engines' models, said from the
     second engine's side ("pybullet: joint j2 has no stiffness (mujoco 25)")."""
     ea, eb = names[0].split(":")[0], names[1].split(":")[0]
+    rtol = ANATOMY_RTOL_FLOAT32 if "float32" in (a.get("precision"), b.get("precision")) else ANATOMY_RTOL
     out = []
     ba, bb = a.get("bodies") or {}, b.get("bodies") or {}
     for body, xa in ba.items():
@@ -116,11 +121,11 @@ def anatomy_differences(a: dict, b: dict, names: tuple[str, str], coords) -> lis
         if xb is None:
             out.append(f"{eb}: body {body} is not in its model ({ea}: {xa['mass']:.9g} kg)")
             continue
-        if _differs(xa["mass"], xb["mass"]):
+        if _differs(xa["mass"], xb["mass"], rtol):
             out.append(f"{eb}: body {body} mass {xb['mass']:.9g} kg, {ea} {xa['mass']:.9g} kg")
         # A body that only translates (no joint turns it) has no inertia in its dynamics.
         if xa.get("rotates", True) and xa["inertia"] is not None and xb["inertia"] is not None and any(
-                _differs(u, w) for u, w in zip(xa["inertia"], xb["inertia"])):
+                _differs(u, w, rtol) for u, w in zip(xa["inertia"], xb["inertia"])):
             out.append(f"{eb}: body {body} principal inertia {[round(x, 9) for x in xb['inertia']]}, "
                        f"{ea} {[round(x, 9) for x in xa['inertia']]} kg m^2")
     for body, xb in bb.items():
@@ -136,20 +141,20 @@ def anatomy_differences(a: dict, b: dict, names: tuple[str, str], coords) -> lis
             out.append(f"{eb}: joint {joint} is a {xb['type']} joint, {ea}'s a {xa['type']} joint")
         ua, ub = np.array(xa["axis"]), np.array(xb["axis"])
         cos = float(np.dot(ua, ub) / (np.linalg.norm(ua) * np.linalg.norm(ub)))
-        if not abs(cos - 1.0) <= ANATOMY_RTOL:
+        if not abs(cos - 1.0) <= rtol:
             out.append(f"{eb}: joint {joint} axis (world) {np.round(ub, 6).tolist()}, {ea} "
                        f"{np.round(ua, 6).tolist()} ({math.degrees(math.acos(max(-1.0, min(1.0, cos)))):.3g} deg apart)")
         for key, what in (("stiffness", "stiffness"), ("spring_ref", "spring reference"), ("damping", "damping"),
                           ("armature", "armature"), ("frictionloss", "friction loss")):
             u, w = float(xa[key]), float(xb[key])
-            if not _differs(u, w):
+            if not _differs(u, w, rtol):
                 continue
             if w == 0.0 and key != "spring_ref":
                 out.append(f"{eb}: joint {joint} has no {what} ({ea} {u:.6g})")
             else:
                 out.append(f"{eb}: joint {joint} {what} {w:.6g}, {ea} {u:.6g}")
         la, lb = xa["limits"], xb["limits"]
-        if (la is None) != (lb is None) or la is not None and any(_differs(u, w) for u, w in zip(la, lb)):
+        if (la is None) != (lb is None) or la is not None and any(_differs(u, w, rtol) for u, w in zip(la, lb)):
             out.append(f"{eb}: joint {joint} limits {_g(lb)}, {ea} {_g(la)}")
     for joint in jb:
         if joint not in ja:
@@ -157,11 +162,11 @@ def anatomy_differences(a: dict, b: dict, names: tuple[str, str], coords) -> lis
     if a.get("mass_matrix") is not None and b.get("mass_matrix") is not None:
         ma, mb = np.array(a["mass_matrix"]), np.array(b["mass_matrix"])
         d = np.abs(ma - mb) / max(float(np.max(np.abs(ma))), 1e-300)
-        if d.size and float(np.max(d)) > ANATOMY_RTOL:
+        if d.size and float(np.max(d)) > rtol:
             i, j = np.unravel_index(int(np.argmax(d)), d.shape)
             out.append(f"{eb}: mass matrix at the initial state differs by up to {float(np.max(d)):.3g} (relative to "
                        f"its largest entry), at ({coords[i]}, {coords[j]}): {mb[i, j]:.6g}, {ea} {ma[i, j]:.6g}")
-    elif _differs(a["total_mass"], b["total_mass"]):
+    elif _differs(a["total_mass"], b["total_mass"], rtol):
         out.append(f"{eb}: total mass {b['total_mass']:.9g} kg, {ea} {a['total_mass']:.9g} kg")
     return out
 
