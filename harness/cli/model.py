@@ -19,7 +19,7 @@ from harness import validate
 
 
 def add_parser(sub):
-    p = sub.add_parser("model", help="every measure on your own MJCF or URDF model, in MuJoCo, pybullet and Drake")
+    p = sub.add_parser("model", help="every measure on your own MJCF or URDF model, in MuJoCo, pybullet, Drake and Newton")
     p.add_argument("path", help="the model file: MJCF (.xml) or URDF (.urdf)")
     p.add_argument("--variant", action="append", metavar="NAME",
                    help=f"which variants to measure (repeatable; default both: {', '.join(VARIANTS)})")

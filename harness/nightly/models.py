@@ -35,10 +35,10 @@ MODEL_STABILITY_STEPS = 1000
 MODEL_STABILITY_BELOW = 64.0
 MODEL_STABILITY_RTOL = 1e-4
 #: The engines that load a model file.
-MODEL_ENGINES = ("mujoco", "pybullet", "drake")
+MODEL_ENGINES = ("mujoco", "pybullet", "drake", "newton")
 #: The modes the cross-engine cells step from the same state: MuJoCo's first, each other one
 #: compared with it where its engine loads the file (a cell each).
-CROSS_ENGINE = ("mujoco:euler", "pybullet:semi_implicit", "drake:semi_explicit_euler")
+CROSS_ENGINE = ("mujoco:euler", "pybullet:semi_implicit", "drake:semi_explicit_euler", "newton:featherstone")
 #: The advice's horizon on a model, in the model's own timesteps.
 MODEL_ADVICE_STEPS = 600
 
@@ -68,7 +68,9 @@ def cannot_load(scene: ModelScene) -> dict[str, str]:
 
     out = {}
     for engine in MODEL_ENGINES:
-        mode = next((m for mid, m in all_methods().items() if mid.startswith(f"{engine}:")), None)
+        # The engine's first mode that poses a model file (Newton's particle solvers do not).
+        mode = next((m for mid, m in all_methods().items() if mid.startswith(f"{engine}:") and m.supports(scene)[0]),
+                    None)
         if mode is None or not mode.available()[0]:
             continue
         why = isolation.run_in_worker(_loads_in_worker, (mode.id, scene), timeout=120.0)
