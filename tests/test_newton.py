@@ -141,3 +141,87 @@ def test_every_scene_a_mode_does_not_pose_has_a_one_line_reason():
     assert adapters.ENGINE_METHODS["newton:xpbd"].supports(make_scene("pendulum"))[1].startswith("SolverXPBD holds")
     assert "no particle springs" in adapter.NOT_MODES["style3d"]
     assert math.isfinite(adapter.spring_rest(make_scene("spring")))
+
+
+# ------------------------------------------------------------------ model files (harness model)
+def _pybullet_data(name: str) -> str:
+    pybullet_data = pytest.importorskip("pybullet_data")
+    import os
+
+    return os.path.join(pybullet_data.getDataPath(), name)
+
+
+def _newton_and_mujoco(path: str, variant_name: str):
+    from harness.measures.cross_engine import anatomy_differences
+    from scenarios import open_model, variant
+
+    scene = variant(open_model(path), variant_name)
+    newton_mode, mujoco = (adapters.ENGINE_METHODS[m] for m in ("newton:featherstone", "mujoco:euler"))
+    a, b = mujoco.anatomy(scene, scene.own_timestep), newton_mode.anatomy(scene, scene.own_timestep)
+    differences = anatomy_differences(a, b, (mujoco.id, newton_mode.id), scene.dof_names)
+    return scene, differences, b, newton_mode, mujoco
+
+
+def test_a_urdf_through_newtons_loader_is_mujocos_model_to_float32_rounding():
+    """The cartpole URDF (pybullet_data), conservative: Newton's add_urdf (root fixed, fixed links
+    collapsed, as MuJoCo compiles a URDF) builds what MuJoCo builds, no quantity differing by more
+    than ANATOMY_RTOL_FLOAT32 (measured: the pole's mass 1.5e-8 and the mass matrix 2.2e-8 off,
+    float32's storing and summing), and newton:featherstone follows mujoco:euler over 100 of the
+    file's own steps to 3.9e-8 in q (|q| <= 0.13) and 7.1e-8 in v (|v| <= 0.32), measured: the
+    float32 roundoff of 100 steps, held to 1e-6. As written, its contacts and the slider's limits
+    are kept by MuJoCo: notes, never silent (no collision pass; a limit as a penalty spring)."""
+    path = _pybullet_data("cartpole.urdf")
+    scene, differences, built, newton_mode, mujoco = _newton_and_mujoco(path, "conservative")
+    assert differences == [] and built["precision"] == "float32"
+    assert built["joints"]["slider_to_cart"]["type"] == "slide" and built["joints"]["cart_to_pole"]["type"] == "hinge"
+    a = mujoco.simulate(scene, scene.own_timestep, 100)
+    b = newton_mode.simulate(scene, scene.own_timestep, 100)
+    assert a.ok and b.ok and float(np.max(np.abs(a.q - b.q))) <= 1e-6 and float(np.max(np.abs(a.v - b.v))) <= 1e-6
+    s = b.meta.settings
+    assert s["precision"] == "float32" and s["angular_damping"] == 0.0 and s["gravity"][2] == pytest.approx(-9.81)
+    assert s["contacts"].startswith("none") and s["joint_target_gains"].startswith("0")
+    _, written, built, _, _ = _newton_and_mujoco(path, "as_written")
+    assert written == []  # the limits [-15, 15] are Newton's too
+    said = " ".join(built["notes"])
+    assert "keeps contact" in said and "penalty spring" in said
+
+
+def test_what_newton_does_not_apply_in_an_mjcf_is_listed_never_silent(tmp_path):
+    """A hinge with friction loss 0.3 (and a spring, its springref 0.1 in the file's degrees, damping
+    and armature, which Newton reads; held to float32's 1e-6 relative): Newton's MJCF
+    loader reads frictionloss into joint_friction, but SolverFeatherstone applies none, so the model
+    it steps lacks it: a difference of the built models and a note, as written; conservative (friction
+    loss off in both) nothing differs."""
+    path = tmp_path / "hinge_friction.xml"
+    path.write_text("""<mujoco model="hinge_friction"><option timestep="0.01"/><worldbody>
+  <body name="b" pos="0 0 0"><inertial pos="0 0 -0.5" mass="1" diaginertia="0.01 0.01 0.01"/>
+   <joint name="h" type="hinge" axis="0 1 0" stiffness="2" springref="0.1" damping="0.2" armature="0.05"
+          frictionloss="0.3"/></body>
+ </worldbody></mujoco>""")
+    _, differences, built, _, _ = _newton_and_mujoco(str(path), "as_written")
+    assert differences == ["newton: joint h has no friction loss (mujoco 0.3)"]
+    assert any("SolverFeatherstone applies no joint friction (the loader read up to 0.3)" in n for n in built["notes"])
+    joint = built["joints"]["h"]
+    assert joint["stiffness"] == pytest.approx(2.0) and joint["spring_ref"] == pytest.approx(math.radians(0.1), rel=1e-6)
+    assert joint["damping"] == pytest.approx(0.2, rel=1e-6) and joint["armature"] == pytest.approx(0.05, rel=1e-6)
+    _, conservative, _, _, _ = _newton_and_mujoco(str(path), "conservative")
+    assert conservative == []
+
+
+def test_a_file_newton_refuses_says_newtons_reason_in_one_line():
+    """humanoid.xml's <option solver="PGS"> stops Newton's MJCF option parser; r2d2.urdf's meshes
+    need trimesh, which Newton's loaders import only for meshes (newton[importers]); a free body
+    (capsule.xml) has a quaternion the scene's coordinates do not hold. The particle and
+    maximal-coordinate solvers pose no model file, each with its one-line reason."""
+    from scenarios import open_model
+
+    featherstone = adapters.ENGINE_METHODS["newton:featherstone"]
+    humanoid = open_model(_pybullet_data("mjcf/humanoid.xml"))
+    with pytest.raises(ValueError, match=r"^Newton cannot load it: ValueError: invalid literal for int\(\) .*'pgs'$"):
+        featherstone.anatomy(humanoid, humanoid.own_timestep)
+    capsule = open_model(_pybullet_data("mjcf/capsule.xml"))
+    with pytest.raises(ValueError, match="quaternion is not mapped"):
+        featherstone.anatomy(capsule, capsule.own_timestep)
+    for mode in ("semi_implicit", "xpbd", "vbd"):
+        ok, why = adapters.ENGINE_METHODS[f"newton:{mode}"].supports(humanoid)
+        assert not ok and "not the file's joint coordinates" in why and "\n" not in why
