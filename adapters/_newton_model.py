@@ -29,7 +29,6 @@ coordinates, in float32; what ``adapters/newton.py``'s file model steps and read
 from __future__ import annotations
 
 import collections
-import math
 import warnings
 
 import numpy as np
@@ -173,9 +172,9 @@ def mass_matrix(solver, model) -> np.ndarray:
     return full + np.diag(model.joint_armature.numpy().astype(float))
 
 
-def anatomy(model, solver, state, index, offset, angular, names, facts: dict) -> dict:
-    """What Newton built, at ``state`` (after a step from it has filled SolverFeatherstone's H and
-    motion subspaces), in ``harness.measures.cross_engine``'s schema (module docstring)."""
+def anatomy(model, solver, index, offset, angular, names, facts: dict) -> dict:
+    """What Newton built, at the state from which a step has just filled SolverFeatherstone's H and
+    motion subspaces, in ``harness.measures.cross_engine``'s schema (module docstring)."""
     types, parent, child = model.joint_type.numpy(), model.joint_parent.numpy(), model.joint_child.numpy()
     inbound = {int(child[j]): j for j in range(model.joint_count)}
     mass, inertia = model.body_mass.numpy(), model.body_inertia.numpy()

@@ -398,7 +398,7 @@ class _FileModel(_Model):
         with quiet_fds():
             self.s0.clear_forces()
             self.solver.step(self.s0, scratch, self.control, None, self.dt)
-        return _newton_model.anatomy(self.model, self.solver, self.s0, self._index, self._offset, self._angular,
+        return _newton_model.anatomy(self.model, self.solver, self._index, self._offset, self._angular,
                                      self._names, self._facts)
 
 
