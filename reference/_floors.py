@@ -159,6 +159,40 @@ def position_first_euler_decay_before_kick(s, h, k, m):
     return (x, math.exp(-0.0 * h) * v + h * (-k * x / m))
 
 
+#: The position-based floors' passes over the one constraint, one substep a step: the schemes'
+#: defaults (``reference.schemes.pbd``/``xpbd``), written out again here.
+_PASSES = 10
+
+
+@_jit
+def xpbd(s, h, k, m):
+    # The spring as XPBD sees it: C = x (a wall anchor at 0, rest length 0), compliance 1/k.
+    x, v = s
+    x_old = x
+    x = x + h * v
+    w = 1.0 / m
+    tilde = (1.0 / k) / (h * h)
+    lam = 0.0
+    for _ in range(_PASSES):
+        dl = (-x - tilde * lam) / (w + tilde)
+        lam = lam + dl
+        x = x + w * dl
+    return (x, (x - x_old) / h)
+
+
+@_jit
+def pbd(s, h, k, m):
+    # Each pass removes the share s' = 1 - (1 - s)^(1/passes) of C = x, s = w / (w + (1/k)/h^2).
+    x, v = s
+    x_old = x
+    x = x + h * v
+    w = 1.0 / m
+    share = 1.0 - (1.0 - w / (w + (1.0 / k) / (h * h))) ** (1.0 / _PASSES)
+    for _ in range(_PASSES):
+        x = x - share * x
+    return (x, (x - x_old) / h)
+
+
 def _start_qv(x, v, h, k, m):
     return (x, v)
 
@@ -195,6 +229,8 @@ _HAND_WRITTEN = {
     "linearly_implicit_euler": (linearly_implicit_euler, _start_qv, _observe_qv),
     "implicit_midpoint": (implicit_midpoint, _start_qv, _observe_qv),
     "radau_iia2": (radau_iia2, _start_qv, _observe_qv),
+    "pbd": (pbd, _start_qv, _observe_qv),
+    "xpbd": (xpbd, _start_qv, _observe_qv),
     "semi_implicit_euler_velocity_implicit": (semi_implicit_euler_velocity_implicit, _start_qv, _observe_qv),
     "position_first_euler_decay_after_kick": (position_first_euler_decay_after_kick, _start_qv, _observe_qv),
     "position_first_euler_decay_before_kick": (position_first_euler_decay_before_kick, _start_qv, _observe_qv),
