@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from adapters import ENGINE_METHODS
 from harness.measures.scaling import cloth_sizes
 
 
@@ -218,6 +219,34 @@ CLOTH_SWEEP = {**SWEEP, "sizes": tuple({"label": f"{n} x {n}", "params": size, "
 NET_SWEEP = {**SWEEP, "sizes": ({"label": "4 x 4", "params": {}, "task": "ref:leapfrog"},)}
 CHAIN_SWEEP = {**SWEEP, "sizes": ({"label": "N = 32", "params": {}, "task": "ref:leapfrog"},)}
 
+#: Drake and Newton in the standard suite. Their plants step in microseconds where a compiled
+#: kernel steps in nanoseconds, so every mode on every scene would be most of the suite's CPU.
+#: The spring runs every mode of both (the identity table's row for each); elsewhere the modes
+#: that answer the scene's own question: on the damped spring, each discrete contact approximation
+#: (explicit or implicit joint damping) beside the continuous semi-explicit Euler and Radau; on the
+#: pendulum, the Runge-Kutta modes the spring cannot tell apart (Heun or midpoint, Kutta or
+#: Bogacki-Shampine); on the chain and the projectile, one explicit, one implicit and the
+#: discrete plant; Newton's position-based solvers and its semi-implicit one on the cloth. The
+#: full suite runs every mode on every scene it poses.
+DRAKE_MODES = tuple(m for m in ENGINE_METHODS if m.startswith("drake:"))
+NEWTON_MODES = tuple(m for m in ENGINE_METHODS if m.startswith("newton:"))
+ENGINES_KEPT = {
+    "damped_spring": ("drake:semi_explicit_euler", "drake:radau3", "drake:discrete_tamsi", "drake:discrete_sap",
+                      "drake:discrete_lagged", "drake:discrete_similar"),
+    "pendulum": ("drake:runge_kutta2", "drake:runge_kutta3", "drake:bogacki_shampine3", "drake:radau3"),
+    "chain": ("drake:semi_explicit_euler", "drake:radau1", "drake:discrete_sap"),
+    "projectile": ("drake:semi_explicit_euler", "drake:radau1", "drake:discrete_sap"),
+    "cloth": ("newton:semi_implicit", "newton:xpbd", "newton:vbd"),
+}
+
+
+def engines_left_out(scene: str) -> tuple[str, ...]:
+    """The Drake and Newton modes the standard suite leaves out on ``scene`` (``ENGINES_KEPT``)."""
+    if scene == "spring":
+        return ()
+    return tuple(m for m in (*DRAKE_MODES, *NEWTON_MODES) if m not in ENGINES_KEPT.get(scene, ()))
+
+
 SUITES: dict[str, Suite] = {
     "smoke": Suite(
         "smoke",
@@ -236,18 +265,20 @@ SUITES: dict[str, Suite] = {
         scenes={
             "spring": SceneSpec(periods=200, skip=VELOCITY_SCHEMES, advise=ADVISE,
                                 extras=SceneExtras(tolerances=STANDARD_TOLERANCES)),
-            "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE),
-            "pendulum": SceneSpec(periods=50, skip=VELOCITY_SCHEMES, advise=ADVISE),
+            "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE,
+                                       skip=engines_left_out("damped_spring")),
+            "pendulum": SceneSpec(periods=50, skip=VELOCITY_SCHEMES + engines_left_out("pendulum"), advise=ADVISE),
             "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0, skip=VELOCITY_SCHEMES,
                                 extras=SceneExtras(brouwer=KEPLER_BROUWER, tolerances=STANDARD_TOLERANCES)),
-            "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True),
-            "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS, skip=CHAIN_STANDARD_SKIP,
-                               advise=ADVISE),
+            "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True, skip=engines_left_out("projectile")),
+            "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS,
+                               skip=CHAIN_STANDARD_SKIP + engines_left_out("chain"), advise=ADVISE),
             "rope": SceneSpec(params={"N": 5}, periods=20, extras=replace(ROPE_EXTRAS, small_steps=SMALL_STEPS),
                               stability_steps=ROPE_STABILITY_STEPS, skip=ROPE_STANDARD_SKIP),
             "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
                                       methods=SOLAR_METHODS, compiled=True, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
-            "cloth": SceneSpec(params={"n": 4, "m": 4, "k": 1000.0}, periods=20, skip=CLOTH_STANDARD_SKIP, advise=CLOTH_ADVISE,
+            "cloth": SceneSpec(params={"n": 4, "m": 4, "k": 1000.0}, periods=20,
+                               skip=CLOTH_STANDARD_SKIP + engines_left_out("cloth"), advise=CLOTH_ADVISE,
                                extras=SceneExtras(small_steps=SMALL_STEPS)),
         },
         stability_rtol=STANDARD_STABILITY_RTOL,
