@@ -530,3 +530,18 @@ def test_the_standard_suite_bisects_stability_to_its_own_width(monkeypatch):
     cell = cells._stability(task, get_method("ref:leapfrog"), make_scene("spring"), suite, spec)
     assert seen == [STANDARD_STABILITY_RTOL] == [1e-4] and SUITES["full"].stability_rtol is None
     assert cell.value == pytest.approx(2.0, rel=2e-4)  # leapfrog's h*omega = 2, to the bisection's width
+
+
+def test_a_method_at_options_of_its_own_is_one_more_task_of_its_scene():
+    """``SceneSpec.with_options``: XPBD at one pass a step is a method of its own on the cloth and
+    the rope (its own cells, its own history series), resolved in the task with those options."""
+    from harness.nightly.cells import context
+    from harness.nightly.run import build_tasks
+    from harness.nightly.suites import SUITES
+
+    tasks, _ = build_tasks(SUITES["standard"])
+    small = [t for t in tasks if t.method == "ref:xpbd?iterations=1"]
+    assert sorted(t.scene for t in small) == ["cloth", "rope"]
+    ctx = context(small[0])
+    assert ctx.method.options == {"iterations": 1} and ctx.method.id == "ref:xpbd?iterations=1"
+    assert any(t.method == "ref:xpbd" and t.scene == "cloth" for t in tasks)

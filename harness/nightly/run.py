@@ -34,7 +34,7 @@ from harness.execution.faults import checkpoint
 from harness.history import bounds as bounds_mod
 from harness.history.compare import compare_runs
 from harness.history.series import load as load_trend
-from harness.methods import active_plugins, all_methods, load_plugins
+from harness.methods import active_plugins, all_methods, get_method, load_plugins
 from harness.history.storage import MEASUREMENT_VERSION, History
 from harness.nightly.progress import Progress, compile_line
 from harness.nightly.suites import SUITES, Suite
@@ -87,8 +87,9 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
     tasks, skipped = [], []
     for scene_id, spec in suite.scenes.items():
         scene = make_scene(scene_id, source=spec.source, **spec.params)
-        for mid in chosen:
-            m = methods[mid]
+        variants = {str(m.id): m for m in map(get_method, spec.with_options)}
+        for mid in (*chosen, *variants):
+            m = variants.get(mid) or methods[mid]
             if m.family in spec.cannot_load:
                 skipped.append({"scene": scene_id, "method": mid,
                                 "reason": f"{m.family} cannot load the file: {spec.cannot_load[m.family]}"})
@@ -100,7 +101,7 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
             ok, why = m.available()
             if ok:
                 ok, why = m.supports(scene)
-            if ok and spec.methods is not None and mid not in spec.methods:
+            if ok and spec.methods is not None and mid not in spec.methods and mid not in variants:
                 ok, why = False, f"not in the {suite.name} suite's selection for {scene_id}"
             if not ok:
                 skipped.append({"scene": scene_id, "method": mid, "reason": why})

@@ -59,6 +59,8 @@ class SceneSpec:
     stability: bool = True         # bisect the largest stable timestep
     extras: SceneExtras = SceneExtras()  # scene-specific cells and their settings (harness.nightly.scene_cells)
     skip: tuple[str, ...] = ()     # methods left out on this scene in this suite (listed with the reason)
+    with_options: tuple[str, ...] = ()  # methods at run-time options of their own (``ref:xpbd?iterations=1``),
+                                        # each one more method on this scene: its own cells and history
     # Where the issue fixes the study in the scene's own units, they override homega/periods:
     dt: float | None = None        # nominal timestep
     horizon: float | None = None   # energy horizon
@@ -156,6 +158,9 @@ ROPE_EXTRAS = SceneExtras(constraint_iterations=(1, 4, 16))
 #: standard suite at three pass counts on its small cloth and rope, timed briefly; the full suite at
 #: six on the default scenes.
 SMALL_STEPS = {"hz": 60.0, "t_end": 2.0, "passes": (1, 4, 16), "timing_frames": 30, "repeats": 3}
+#: XPBD at one pass a step (its substeps are the step itself: "small steps"), a method of its own
+#: beside ref:xpbd's default ten passes, on the scenes whose springs or links it projects.
+SMALL_STEP_XPBD = ("ref:xpbd?iterations=1",)
 SMALL_STEPS_FULL = {"hz": 60.0, "t_end": 2.0, "passes": (1, 2, 4, 8, 16, 32), "timing_frames": 60, "repeats": 5}
 #: The outer solar system in the standard suite: the schemes issue 6 names against REBOUND's
 #: modes (the full suite runs every method). Its largest stable dt is left to the full suite:
@@ -274,12 +279,13 @@ SUITES: dict[str, Suite] = {
             "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS,
                                skip=CHAIN_STANDARD_SKIP + engines_left_out("chain"), advise=ADVISE),
             "rope": SceneSpec(params={"N": 5}, periods=20, extras=replace(ROPE_EXTRAS, small_steps=SMALL_STEPS),
-                              stability_steps=ROPE_STABILITY_STEPS, skip=ROPE_STANDARD_SKIP),
+                              stability_steps=ROPE_STABILITY_STEPS, skip=ROPE_STANDARD_SKIP,
+                              with_options=SMALL_STEP_XPBD),
             "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
                                       methods=SOLAR_METHODS, compiled=True, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
             "cloth": SceneSpec(params={"n": 4, "m": 4, "k": 1000.0}, periods=20,
                                skip=CLOTH_STANDARD_SKIP + engines_left_out("cloth"), advise=CLOTH_ADVISE,
-                               extras=SceneExtras(small_steps=SMALL_STEPS)),
+                               extras=SceneExtras(small_steps=SMALL_STEPS), with_options=SMALL_STEP_XPBD),
         },
         stability_rtol=STANDARD_STABILITY_RTOL,
     ),
@@ -298,14 +304,15 @@ SUITES: dict[str, Suite] = {
                                extras=replace(CHAIN_EXTRAS, scaling={"sizes": CHAIN_SIZES}, tolerances=FULL_TOLERANCES,
                                               sweep=CHAIN_SWEEP)),
             "rope": SceneSpec(periods=200, order_points=8, order_span=16.0,
-                              extras=replace(ROPE_EXTRAS, small_steps=SMALL_STEPS_FULL),
+                              extras=replace(ROPE_EXTRAS, small_steps=SMALL_STEPS_FULL), with_options=SMALL_STEP_XPBD,
                               stability_steps=ROPE_STABILITY_STEPS),
             "solar_system": SceneSpec(dt=10.0, horizon=1.0e7, order_points=8, order_span=16.0, compiled=True,
                                       stability_hi=SOLAR_STABILITY_HI, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
             "cloth": SceneSpec(periods=50, order_points=8, order_span=16.0, advise=CLOTH_ADVISE,
-                               extras=replace(CLOTH_FULL_EXTRAS, small_steps=SMALL_STEPS_FULL, sweep=CLOTH_SWEEP)),
+                               extras=replace(CLOTH_FULL_EXTRAS, small_steps=SMALL_STEPS_FULL, sweep=CLOTH_SWEEP),
+                               with_options=SMALL_STEP_XPBD),
             "net": SceneSpec(params={"n": 4, "m": 4}, periods=50, order_points=8, order_span=16.0,
-                             extras=SceneExtras(sweep=NET_SWEEP)),
+                             extras=SceneExtras(sweep=NET_SWEEP), with_options=SMALL_STEP_XPBD),
             # MuJoCo's flexcomp membrane on the cloth's grid: not the same model, measured against its own
             # refined RK4 run; left out of the standard suite (its long task, the stability search of
             # mujoco:discrete to h*omega 80, would be the suite's longest). Its order over two periods: over half of one
