@@ -64,6 +64,9 @@ def _in_pool(charts: list[Chart], out_dir: Path, jobs: int) -> tuple[dict, list[
                 results[chart.name] = future.result()
             except BrokenProcessPool:
                 lost.append(chart)
+            except Exception:  # noqa: BLE001 - it could not be sent to a worker (a plugin's chart
+                # declared as a lambda does not pickle): drawn here instead, where it needs no sending
+                results[chart.name] = _draw(chart, out_dir)
     return results, lost
 
 

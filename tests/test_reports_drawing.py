@@ -131,3 +131,12 @@ def test_the_names_of_methods_that_blow_up_at_nearby_costs_do_not_overlap(tmp_pa
     assert sorted(t.get_text() for t in texts) == sorted(names)
     boxes = [t.get_window_extent(renderer) for t in texts]
     assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def test_a_chart_that_cannot_be_sent_to_a_worker_is_drawn_here(tmp_path):
+    """A measure's chart declared as a lambda (a plugin may) does not pickle: the pool cannot
+    take it, so it is drawn in this process and the report keeps it (it once lost the report)."""
+    todo = _charts(Chart("charts/lambda.png", lambda path: line_chart(7.0, path), ()))
+    drawn = draw_charts(todo, tmp_path, jobs=2)
+    assert "charts/lambda.png" in drawn and (tmp_path / "charts" / "lambda.png").stat().st_size > 0
+    assert drawn == [c.name for c in todo]
