@@ -209,7 +209,7 @@ def test_charts_drawn_in_worker_processes_make_the_same_report(first_run, tmp_pa
     parallel = _write_stored_report(tmp, tmp_path / "parallel", jobs=2)
     assert parallel == serial  # the markdown, byte for byte
     links = _chart_links(serial)
-    assert len(links) == 4  # the spring's energy, work-precision, stability and 60 Hz advice charts
+    assert len(links) == 5  # the spring's energy, work-precision, stability, 60 Hz advice and tolerance charts
     for folder in ("serial", "parallel"):
         assert sorted(p.name for p in (tmp_path / folder / "charts").iterdir()) == sorted(Path(n).name for n in links)
     for name in links:  # the same drawing code on the same cells: the same pixels

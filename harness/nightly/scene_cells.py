@@ -62,6 +62,11 @@ class SmallStepsFigures(Figures):
     settings: dict | None = None
 
 
+def _small_steps_scene_chart(cells, scene, path) -> bool:
+    """The measure's chart of a scene (a module-level function: the report's pool pickles it)."""
+    return _small_steps_chart(cells, path)
+
+
 #: The measures a scene adds of its own, each where its scene spec asks for it.
 SCENE_MEASURES = (
     Measure("constraint", ConstraintFigures, "constraint drift: how far the run leaves the constraints",
@@ -164,11 +169,6 @@ def small_steps_frame(cell):
     frame = pd.DataFrame(cell.figures.rows or [])
     frame.attrs.update(cell.figures.settings or {})
     return frame
-
-
-def _small_steps_scene_chart(cells, scene, path) -> bool:
-    """The measure's chart of a scene (a module-level function: the report's pool pickles it)."""
-    return _small_steps_chart(cells, path)
 
 
 def _small_steps_chart(cells, path) -> bool:
