@@ -23,6 +23,7 @@ from records.figures import (  # noqa: F401 (the cell's records, re-exported: ``
     FIGURES, AdviceFigures, BoundFigures, BrouwerFigures, Claims, ConstraintFigures, CostFigures, CrossEngineFigures,
     DampingFigures, EnergyFigures, ErrorFigures, Figures, IdentityFigures, NominalRun, OrderFigures, Record,
     ScalingFigures, StabilityFigures, StabilityVsDampingFigures)
+from records.measures import figures_of as _figures_type
 
 #: The columns of a cell, in the tidy DataFrame and in the SQLite ``cells`` table.
 CELL_COLUMNS = ("scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value", "wall_s", "data")
@@ -78,7 +79,7 @@ class Cell:
 
     def __post_init__(self):
         if self.figures is None:
-            self.figures = FIGURES.get(self.measure, Figures)()
+            self.figures = _figures_type(self.measure)()
 
     @property
     def ok(self) -> bool:
@@ -106,7 +107,7 @@ class Cell:
         kernels = data.pop("kernels", None)
         params = data.pop("params", None) or {}
         note = data.pop("model_note", None)
-        figures, extra = FIGURES.get(measure, Figures).from_data(data)
+        figures, extra = _figures_type(measure).from_data(data)
         return {"figures": figures, "extra": extra, "kernels": kernels, "params": dict(params), "model_note": note,
                 "claims": Claims.from_data(claims)[0] if isinstance(claims, dict) else None}
 
@@ -147,7 +148,7 @@ class Cell:
 
 def figures_of(row) -> Figures:
     """The typed figures of a stored row (a tidy row or a DataFrame row: ``measure``, ``data``)."""
-    figures, _ = FIGURES.get(row["measure"], Figures).from_data(dict(row["data"] or {}))
+    figures, _ = _figures_type(row["measure"]).from_data(dict(row["data"] or {}))
     return figures
 
 

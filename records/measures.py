@@ -110,6 +110,13 @@ def get(name: str) -> Measure | None:
     return REGISTRY.get(name)
 
 
+def figures_of(name: str) -> type[Figures]:
+    """The figures type of the measure ``name`` (the built-in measures' declarations loaded first,
+    so a cell read from storage by any reader gets its own type), ``Figures`` for an unknown one."""
+    _builtin()
+    return FIGURES.get(name, Figures)
+
+
 def register(measure: Measure, before: str | None = None, builtin: bool = False) -> Measure:
     """Add ``measure`` (at the end, or just before the measure ``before``); its figures type is
     then the one storage reads its cells with. Registering the same object again changes nothing;

@@ -121,3 +121,19 @@ def test_harness_workprecision_sweeps_an_error_controlled_method_over_its_tolera
     assert all(r["steps_taken"] > 0 and r["s_per_unit_time"] > 0 for r in sweep["rows"])
     code, _, err = cli("workprecision", "spring", "--method", "ref:rk4", "--tolerances", "1e-3,0")
     assert code == 2 and "--tolerances=0 is out of range" in err
+
+
+def test_a_stored_cell_is_read_back_with_its_measures_figures_in_a_fresh_process():
+    """A reader that imports only the records (``harness compare``, a re-rendered report) gets a
+    built-in measure's own figures type: the registry's declarations load on the first read, as
+    the tolerance cell's did not (its findings met bare ``Figures``)."""
+    import subprocess
+    import sys
+
+    code = ("from records.cell import Cell, CELL_COLUMNS\n"
+            "row = {c: None for c in CELL_COLUMNS}\n"
+            "row.update(scene='spring', method='drake:runge_kutta3', family='drake', measure='tolerance', "
+            "status='ok', detail='', wall_s=0.0, data='{\"rows\": [], \"ended\": \"e\"}')\n"
+            "print(type(Cell.from_db_row(row).figures).__name__)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "ToleranceFigures"
