@@ -68,7 +68,7 @@ def position_based_section(piv: dict, chart_names: dict) -> list[str]:
                   "the largest |q - q_ref| against the reference. Cost: CPU time of the compiled loop per frame "
                   "(process CPU clock, the fastest repeat).", ""]
         lines += rows_table(cell.figures.rows or [], settings.get("reference_stretch")) + [""]
-        lines += claims_table(cell.figures.claims or []) + [""]
+        lines += claims_table(cell.figures.paper_claims or []) + [""]
         name = chart_names.get((scene, "measure:small_steps"))
         if name:
             lines += [f"![Small steps on {scene}]({name})", ""]

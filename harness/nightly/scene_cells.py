@@ -58,7 +58,7 @@ class SmallStepsFigures(Figures):
     """``small_steps``: the study's rows, the paper's claims judged from them, its settings."""
 
     rows: list | None = None
-    claims: list | None = None
+    paper_claims: list | None = None         # the paper's claims judged (not "claims": a cell's own key)
     settings: dict | None = None
 
 
@@ -157,7 +157,7 @@ def _small_steps(task, spec) -> Cell:
     frame = small_steps(task.scene, **settings, **(task.params or {}))
     judged = claims(frame)
     held = sum(1 for r in judged if r["verdict"] == "✓")
-    figures = SmallStepsFigures(rows=plain(frame.to_dict("records")), claims=judged, settings=plain(dict(frame.attrs)))
+    figures = SmallStepsFigures(rows=plain(frame.to_dict("records")), paper_claims=judged, settings=plain(dict(frame.attrs)))
     return make_cell(task, "small_steps", "ok", float(held), 1.0 / settings.get("hz", 60.0),
                      detail=f"{held} of {len(judged)} claims hold", figures=figures)
 
