@@ -62,6 +62,9 @@ class Claims(Record):
     force_evals_text: str | None = None
     energy: str | None = None
     homega_max: float | None = None
+    #: The evaluations are per Newton pass, the passes as many as the iteration takes (coupled
+    #: stages that iterate even on a linear scene: two-stage Radau IIA): a step counts whole passes.
+    evals_per_pass: bool = False
 
     @property
     def known(self) -> bool:
@@ -75,6 +78,8 @@ class Claims(Record):
         out = {f.name: getattr(self, f.name) for f in fields(self)}
         if self.order_note is None:
             del out["order_note"]
+        if not self.evals_per_pass:
+            del out["evals_per_pass"]
         return out
 
 

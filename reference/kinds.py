@@ -134,7 +134,7 @@ class Implicit(Kind):
         return bool(params) and src.add_one_iteration("scheme_step", "scheme_step_once", params[0])
 
     def evals_text(self, scheme) -> str:
-        return f"{scheme.force_evals} + solve"
+        return f"{scheme.force_evals}{'' if scheme.one_pass_on_linear else ' a pass'} + solve"
 
 
 @dataclass(frozen=True, eq=False)

@@ -161,3 +161,27 @@ def test_a_mode_that_takes_two_half_steps_is_said_with_the_energy_each_keeps():
     found = [f for f in judge_mod.judge(cells).findings if "half steps" in f.text]
     assert len(found) == 1 and found[0].ok
     assert "keeps 0.00678 of the energy where `ref:implicit_euler` keeps 4.77e-05" in found[0].text
+
+
+def test_a_scheme_whose_stages_iterate_is_judged_by_whole_passes_of_its_declared_evaluations():
+    """Two-stage Radau IIA declares 2 evaluations a Newton pass and iterates even on the linear
+    spring (its stage matrix has complex eigenvalues): 13.9 counted a step is ✓ (about seven
+    passes), fewer than one pass's 2 is ✗; a one-pass scheme is still held to its exact count."""
+    from harness.judge import claim_checks
+    from harness.methods import get_method
+    from harness.nightly.cells import _claims
+    from records.cell import Cell
+    from records.figures import CostFigures
+    from scenarios import make_scene
+
+    spring = make_scene("spring")
+
+    def checks(method, counted):
+        claims = _claims(get_method(method), spring)
+        cost = Cell(scene="spring", method=method, family="ref", measure="cost", status="ok", value=1e-8,
+                    figures=CostFigures(force_evals_per_step=counted), claims=claims)
+        return claim_checks({"cost": cost}).evals
+
+    assert _claims(get_method("ref:radau_iia2"), spring).force_evals_text == "2 a pass + solve"
+    assert checks("ref:radau_iia2", 13.9) is True and checks("ref:radau_iia2", 1.0) is False
+    assert checks("ref:implicit_euler", 1.0) is True and checks("ref:implicit_euler", 3.0) is False

@@ -90,7 +90,8 @@ def _claims(method, scene=None) -> Claims:
     note = f"{order} with a velocity-dependent force ({scheme.order} otherwise)" if order != scheme.order else None
     return Claims(scheme=f"ref:{scheme.id}", order=order, order_note=note, force_evals=scheme.force_evals,
                   force_evals_text=scheme.kind.evals_text(scheme),
-                  energy=scheme.energy_claim, homega_max=scheme.homega_max)
+                  energy=scheme.energy_claim, homega_max=scheme.homega_max,
+                  evals_per_pass=bool(scheme.implicit and not scheme.one_pass_on_linear))
 
 
 def _downsample(n: int, points: int) -> np.ndarray:
