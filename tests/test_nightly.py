@@ -545,3 +545,19 @@ def test_a_method_at_options_of_its_own_is_one_more_task_of_its_scene():
     ctx = context(small[0])
     assert ctx.method.options == {"iterations": 1} and ctx.method.id == "ref:xpbd?iterations=1"
     assert any(t.method == "ref:xpbd" and t.scene == "cloth" for t in tasks)
+
+
+def test_a_mode_the_scene_cannot_pose_gives_that_reason_not_the_suites_selection():
+    """The standard suite leaves most Drake modes out of the cloth, which Drake does not pose: the
+    skipped list says Drake's reason; a mode the suite leaves out where it could run says so."""
+    from harness.nightly.run import build_tasks
+    from harness.nightly.suites import SUITES
+
+    _, skipped = build_tasks(SUITES["standard"])
+    why = {(s["scene"], s["method"]): s["reason"] for s in skipped}
+    if ("cloth", "drake:runge_kutta3") in why:  # Drake installed or not, never "left out"
+        assert "left out" not in why[("cloth", "drake:runge_kutta3")]
+    from harness.methods import get_method
+
+    if get_method("drake:runge_kutta3").available()[0]:
+        assert why[("chain", "drake:runge_kutta3")] == "left out on chain in the standard suite (harness/suites.py)"

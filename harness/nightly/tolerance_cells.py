@@ -91,7 +91,7 @@ def _findings(scene: str, piv: dict) -> list[Finding]:
             f"`{method}` on `{scene}`, error-controlled: global error / tolerance {span} over tolerances "
             f"{ran[0]['tolerance']:g} to {tight['tolerance']:g} ({tight['steps_taken']} steps taken, "
             f"{tight['steps_rejected'] if tight['steps_rejected'] is not None else 'uncounted'} rejected at "
-            f"{tight['tolerance']:g}); the sweep ended at {c.figures.ended}.", None, scene, method))
+            f"{tight['tolerance']:g}); the sweep ended: {c.figures.ended}.", None, scene, method))
     return out
 
 
