@@ -173,3 +173,16 @@ def test_the_small_steps_cell_is_measured_and_reported():
         r["verdict"] == "✓" for r in cell.figures.paper_claims)
     text = "\n".join(position_based_section({("rope", "ref:xpbd"): {"small_steps": cell}}, {}))
     assert "Small steps on `rope`" in text and "| rope | n substeps x 1 pass beat" in text
+
+
+def test_advise_takes_a_method_at_options_of_its_own():
+    """``--methods 'ref:xpbd?iterations=1'`` is that one method (small steps), not a wildcard: an
+    option's '?' is no fnmatch pattern; a bad option is refused in one line."""
+    from harness.measures.advise import candidates
+    from records import InvalidInput
+    from scenarios import make_scene
+
+    keep, _ = candidates(make_scene("cloth", n=3, m=3), ["ref:xpbd?iterations=1", "ref:xpbd"])
+    assert keep == ["ref:xpbd?iterations=1", "ref:xpbd"]
+    with pytest.raises(InvalidInput, match="iterations=0 is out of range"):
+        candidates(make_scene("cloth", n=3, m=3), ["ref:xpbd?iterations=0"])

@@ -392,15 +392,21 @@ def _us(seconds: float | None) -> str:
 
 def candidates(scene: Scene, patterns: list[str] | None) -> tuple[list[str], list[dict]]:
     """Method ids matching ``patterns`` (fnmatch, e.g. ``ref:*``; default every method) that can
-    be advised on ``scene``, and those left out with why. A pattern matching no method id is
-    bad input."""
-    from harness.methods import all_methods
+    be advised on ``scene``, and those left out with why. A pattern with an option in it is one
+    method at those options (``ref:xpbd?iterations=1``, checked as every id is). A pattern
+    matching no method id is bad input."""
+    from harness.methods import all_methods, get_method
 
-    methods = all_methods()
+    methods = dict(all_methods())
     ids = list(methods)
     if patterns:
         chosen = []
         for pat in patterns:
+            if "=" in pat or "@" in pat:  # a method at options of its own, not a wildcard
+                m = get_method(pat)
+                methods[m.id] = m
+                chosen.append(m.id)
+                continue
             hit = [m for m in ids if fnmatch.fnmatchcase(m, pat)]
             if not hit:
                 raise InvalidInput(f"--methods pattern {pat!r} matches no method (valid: {', '.join(ids)}, "
