@@ -10,7 +10,9 @@ so two ways of writing one method give one id (one history series, one cell).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from decimal import Decimal
 
 from .errors import InvalidInput
 
@@ -22,9 +24,16 @@ TOLERANCE = "tolerance"
 
 
 def _option_text(value) -> str:
-    """A value as the id writes it: integers plainly, floats shortest (``1e-06`` as ``1e-6``)."""
+    """A value as the id writes it: integers plainly; a float in its shortest digits, in powers of
+    ten below 0.01 (``1e-4``, ``2.5e-7``: a tolerance reads as one), else plainly (``0.5``)."""
     if isinstance(value, float):
-        text = repr(value) if not value.is_integer() or abs(value) >= 1e16 else f"{value:g}"
+        if value.is_integer() and abs(value) < 1e16:
+            return f"{value:g}"
+        if value != 0.0 and abs(value) < 0.01 and math.isfinite(value):
+            sign, digits, exponent = Decimal(repr(value)).as_tuple()
+            mantissa = str(digits[0]) + ("." + "".join(map(str, digits[1:])) if len(digits) > 1 else "")
+            return f"{'-' if sign else ''}{mantissa}e{exponent + len(digits) - 1}"
+        text = repr(value)
         mantissa, e, exponent = text.partition("e")
         return f"{mantissa}e{int(exponent)}" if e else text
     return str(value)

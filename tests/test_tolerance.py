@@ -117,7 +117,7 @@ def test_harness_workprecision_sweeps_an_error_controlled_method_over_its_tolera
     doc = json.loads(out)
     assert code == 0 and {r["method"] for r in doc["rows"]} == {"ref:rk4"}
     (sweep,) = doc["error_controlled"]
-    assert [r["method"] for r in sweep["rows"]] == ["drake:runge_kutta5@0.001", "drake:runge_kutta5@1e-6"]
+    assert [r["method"] for r in sweep["rows"]] == ["drake:runge_kutta5@1e-3", "drake:runge_kutta5@1e-6"]
     assert all(r["steps_taken"] > 0 and r["s_per_unit_time"] > 0 for r in sweep["rows"])
     code, _, err = cli("workprecision", "spring", "--method", "ref:rk4", "--tolerances", "1e-3,0")
     assert code == 2 and "--tolerances=0 is out of range" in err
