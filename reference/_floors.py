@@ -121,18 +121,40 @@ def implicit_midpoint(s, h, k, m):
     return (x + h * (0.5 * (v + w)), w)
 
 
+#: Two-stage Radau IIA's passes allowed and its stopping tolerances, written out again here
+#: (``reference.schemes.radau_iia2``, ``implicit_euler.NEWTON_RTOL``, ``kinds.NEWTON_MAX``).
+_RADAU_PASSES = 50
+_RADAU_RTOL = 1e-13
+
+
 @_jit
 def radau_iia2(s, h, k, m):
-    # The spring is linear: the two coupled stages solved in closed form (the kernel iterates
-    # to them), the step's stability function R(hF) = (I + hF/3)/(I - 2hF/3 + h^2F^2/6) with
-    # F^2 = -(k/m) I, written as increments (x + dx, v + dv): the quotients themselves round to
-    # 1e-13 over 1000 steps at h = 0.01, where 1 - (1 - 7 z^2/18)/den is lost to cancellation.
+    # The scheme's own algorithm, not the closed form its stages converge to: the simplified
+    # Newton passes on the stage velocities W1, W2 (the spring's solve divides by 1 + beta k/m
+    # for each real shift), each pass two forces and two solves, until the passes stall in
+    # roundoff below the tolerance. Same operations in the same order, so the same bits.
     x, v = s
-    z2 = h * h * (k / m)
-    den = 1.0 + z2 / 9.0 + z2 * z2 / 36.0
-    c = -(0.5 * z2 + z2 * z2 / 36.0)
-    d = h * (1.0 - z2 / 18.0)
-    return (x + (c * x + d * v) / den, v + (c * v - d * (k / m) * x) / den)
+    w1 = v
+    w2 = v
+    d_prev = math.inf
+    for _ in range(_RADAU_PASSES):
+        a1 = -k * (x + (h / 12.0) * (5.0 * w1 - w2)) / m
+        a2 = -k * (x + (0.25 * h) * (3.0 * w1 + w2)) / m
+        r1 = v + (h / 12.0) * (5.0 * a1 - a2) - w1
+        r2 = v + (0.25 * h) * (3.0 * a1 + a2) - w2
+        u1 = ((35.0 * r1 + 7.0 * r2) / 33.0) / (1.0 + 0.09 * (h * h) * (k / m))
+        u2 = ((10.0 * r1 + 35.0 * r2) / 33.0) / (1.0 + 0.25 * (h * h) * (k / m))
+        dw1 = u1 - 0.2 * u2
+        dw2 = u2 - (2.0 / 7.0) * u1
+        w1 = w1 + dw1
+        w2 = w2 + dw2
+        d = max(abs(dw1), abs(dw2))
+        scale = 1.0 + max(abs(w1), abs(w2))
+        stalled = d >= 0.5 * d_prev or d <= 1e-16 * scale
+        d_prev = d
+        if d <= _RADAU_RTOL * scale and stalled:
+            break
+    return (x + (0.25 * h) * (3.0 * w1 + w2), w2)
 
 
 @_jit
