@@ -147,7 +147,12 @@ def spring_rest(scene: Scene) -> float:
     """The spring's rest length, its anchor at x = -rest: twice the amplitude sqrt(x0^2 + m v0^2 / k)
     (the mass never reaches the anchor), at least 1."""
     p = scene.values
-    return 2.0 * max(math.sqrt(p["x0"] ** 2 + p["m"] * p["v0"] ** 2 / p["k"]), 1.0)
+    return rest_length(p["m"], p["k"], p["x0"], p["v0"])
+
+
+def rest_length(m: float, k: float, x0: float, v0: float) -> float:
+    """``spring_rest`` of the spring of mass m and stiffness k from (x0, v0)."""
+    return 2.0 * max(math.sqrt(x0 ** 2 + m * v0 ** 2 / k), 1.0)
 
 
 def _spring_particles(scene: Scene):
@@ -313,8 +318,14 @@ class _Model(EngineModel):
         u = np.zeros_like(x)
         kind = self.scene.kind
         if kind in ("spring", "damped_spring"):
+            # As a model built at this state: its anchor and rest length follow the amplitude
+            # (spring_rest), and in float32 another anchor rounds the spring's length otherwise.
+            p = self.scene.values
+            rest = rest_length(p["m"], p["k"], float(q[0]), float(v[0]))
+            x[0] = (-rest, 0.0, 0.0)
             x[1] = (q[0], 0.0, 0.0)
             u[1] = (v[0], 0.0, 0.0)
+            self.model.spring_rest_length.assign(np.asarray([rest], dtype=np.float32))
         elif kind == "chain":
             x[:, 0] = _chain_rest(self.scene)
             x[1:-1, 0] += q

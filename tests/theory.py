@@ -40,6 +40,10 @@ REF_STABILITY = {
     "dormand_prince5": 0.99719,
     # Two implicit Euler half steps: 1/(1 + y^2/4)^2 per step, never unstable.
     "implicit_euler_doubled": UNBOUNDED,
+    # Two-stage Radau IIA is L-stable; PBD and XPBD on one linear spring are implicit Euler.
+    "radau_iia2": UNBOUNDED,
+    "pbd": UNBOUNDED,
+    "xpbd": UNBOUNDED,
 }
 ENGINE_STABILITY = {
     "mujoco:euler": 2.0,
@@ -78,6 +82,9 @@ REF_ORDER = {
     "bogacki_shampine3": 3,
     "dormand_prince5": 5,
     "implicit_euler_doubled": 1,
+    "radau_iia2": 3,
+    "pbd": 1,
+    "xpbd": 1,
 }
 #: (method, scene) -> order. The engines' scenes: the spring for MuJoCo and pybullet,
 #: the Kepler orbit for REBOUND's leapfrog (docs/engines.md: 2nd order on it).
@@ -106,6 +113,9 @@ REF_ENERGY = {
     "kutta_rk3": "decays",
     "bogacki_shampine3": "decays",
     "implicit_euler_doubled": "decays",
+    "radau_iia2": "decays",
+    "pbd": "decays",
+    "xpbd": "decays",
 }
 
 #: Counted (force evaluations, solves) per step on the spring (issue 4: "1, 1, 1, 4,
