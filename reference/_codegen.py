@@ -131,6 +131,51 @@ class _Source:
             self.functions[new_name] = ast.unparse(ast.fix_missing_locations(tree))
         return found
 
+    def add_hoisted(self, name: str, setup: str, given: str, varying: tuple[str, ...]) -> bool:
+        """Split the already copied ``name`` where it first reads a name in ``varying`` (the state,
+        the time, a kernel whose calls are counted): ``setup`` (the same parameters) runs the
+        statements before that and returns the names they bind that the rest reads; ``given``
+        takes that tuple first and runs the rest. A compiled loop calls ``setup`` once and
+        ``given`` every step: what the statements compute depends on nothing a step changes, so
+        each step sees the values it would have computed itself (the step must not modify them:
+        the scheme's kind says so). False, and nothing added, where no statement comes first."""
+        tree = ast.parse(self.functions[name]).body[0]
+        first = 0
+        for stmt in tree.body:
+            reads = {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+            if reads & set(varying) or any(isinstance(n, (ast.Return, ast.Yield)) for n in ast.walk(stmt)):
+                break
+            first += 1
+        prefix, rest = tree.body[:first], tree.body[first:]
+        bound, counters = [], set()  # a loop's counter means nothing after it (nor is bound if it ran no pass)
+        for stmt in prefix:
+            for n in ast.walk(stmt):
+                if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store) and n.id not in bound:
+                    bound.append(n.id)
+                if isinstance(n, ast.For):
+                    counters |= {t.id for t in ast.walk(n.target) if isinstance(t, ast.Name)}
+        read_later = {n.id for stmt in rest for n in ast.walk(stmt) if isinstance(n, ast.Name)}
+        names = [n for n in bound if n in read_later and n not in counters]
+        if not prefix or not rest or not names:
+            return False
+
+        def tuple_of(ctx):
+            return ast.Tuple([ast.Name(n, ctx()) for n in names], ctx())
+
+        head = ast.parse(self.functions[name]).body[0]
+        head.name, head.body = setup, prefix + [ast.Return(tuple_of(ast.Load))]
+        tail = ast.parse(self.functions[name]).body[0]
+        tail.name = given
+        tail.args.args.insert(0, ast.arg("_given"))
+        tail.body = [ast.Assign([tuple_of(ast.Store)], ast.Name("_given", ast.Load()))] + rest
+        for new_name, fn, what in ((setup, head, "the statements before the state is read"),
+                                   (given, tail, "the rest, given those")):
+            fn = ast.fix_missing_locations(fn)
+            self.origins[new_name] = f"{self.origins[name]}, {what}"
+            self.functions[new_name] = ast.unparse(fn)
+            self._trees[new_name] = fn
+        return True
+
     def add_counted(self, name: str, new_name: str, kernels: dict[str, int]) -> None:
         """Copy the already copied ``name`` as ``new_name`` that counts its kernels' calls: a first
         parameter ``_cnt`` (int64, one entry per kernel: ``kernels`` maps a kernel's name to its
@@ -209,19 +254,28 @@ class _Source:
         return "\n".join(parts + [loop])
 
 
-def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False) -> str:
+#: The step split where it first reads the state (``_Source.add_hoisted``): what comes before, run
+#: once by a loop, and the rest, run every step.
+SETUP, GIVEN = "scheme_setup", "scheme_step_given"
+
+
+def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False, hoisted: bool = False) -> str:
     """``advance_n(state, t0, h, i0, n, p, k) -> state``: steps i0 .. i0 + n - 1 of a run
     started at t0 (step i starts at t0 + i h, as in the interpreted driver, so a run cut into
     pieces is the same run). ``k`` is the one integer a scheme takes besides the state: Newton
     iterations allowed (implicit) or projection passes (constrained). The state passed in is
-    not modified. ``once``: the file has ``scheme_step_once``, the step for one Newton iteration."""
+    not modified. ``once``: the file has ``scheme_step_once``, the step for one Newton iteration;
+    ``hoisted``: it has ``scheme_setup`` and ``scheme_step_given`` (``_Source.add_hoisted``), which
+    the array loop runs instead of the step: the setup once, before its steps."""
     call = kind.step_call("{x}", "{t}")
     if not pointwise:
+        setup, step = _hoisted_calls(kind, hoisted, "state", "t0 + i * h", "t0 + i0 * h")
         return "\n".join([
             "@_jit",
             "def advance_n(state, t0, h, i0, n, p, k):",
+            *(["    " + setup] if setup else []),
             "    for i in range(i0, i0 + n):",
-            "        state = " + call.format(x="state", t="t0 + i * h"),
+            "        state = " + step,
             "    return state", ""])
     s = [f"s{j}" for j in range(nstate)]
 
@@ -258,12 +312,26 @@ def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False) -> str:
     return "\n".join(lines)
 
 
-def _recording_loop(kind, name: str, x: str, within: str, put, returned: str) -> list[str]:
+def _hoisted_calls(kind, hoisted: bool, x: str, t: str, t_first: str, step: str = "scheme_step",
+                   lead: str = "") -> tuple[str, str]:
+    """(the setup line or "", the step's call) of an array loop over ``x``: the step itself, or
+    where the file has them (``hoisted``) the setup assigned to ``_given`` once and the step
+    given it (the counted step's ``lead`` first, as ``add_counted`` puts it)."""
+    if not hoisted:
+        return "", kind.step_call(x, t, step, lead=lead)
+    given = step.replace("scheme_step", GIVEN, 1)
+    return (f"_given = {kind.step_call(x, t_first, SETUP)}",
+            kind.step_call(x, t, given, lead=f"{lead}_given, "))
+
+
+def _recording_loop(kind, name: str, x: str, within: str, put, returned: str, hoisted: bool = False) -> list[str]:
     """``records.trajectory.step_loop``'s rule as numba source, the one template of both counted
     loops: record step 0, then for steps 1 .. n take the step, stop at the first whose state is
     not ``within`` (returning that step), and record each output mark (every ``every`` steps and
     the last). ``x``: the state's name; ``within``: the check of it; ``put(out, row, value)``: a
-    record written; ``returned``: what the function returns before (rows written, failed step)."""
+    record written; ``returned``: what the function returns before (rows written, failed step);
+    ``hoisted``: the step split as ``_loop_source`` takes it."""
+    setup, step = _hoisted_calls(kind, hoisted, x, "t0 + i * h", "t0", "scheme_step_counted", "cnt, ")
     return [
         "@_jit",
         f"def {name}({x}, t0, h, n, every, p, k, out_q, out_v, cnt):",
@@ -271,8 +339,9 @@ def _recording_loop(kind, name: str, x: str, within: str, put, returned: str) ->
         f"    {put('out_q', '0', 'qo')}",
         f"    {put('out_v', '0', 'vo')}",
         "    j = 1",
+        *(["    " + setup] if setup else []),
         "    for i in range(n):",
-        f"        {x} = " + kind.step_call(x, "t0 + i * h", "scheme_step_counted", lead="cnt, "),
+        f"        {x} = " + step,
         f"        if not ({within}):",
         f"            return {returned}j, i + 1",
         "        if (i + 1) % every == 0 or i + 1 == n:",
@@ -294,7 +363,7 @@ def _counted_one_source(kind) -> str:
                                      lambda out, j, value: f"{out}[{j}, 0, 0] = {value}", ""))
 
 
-def _counted_source(kind) -> str:
+def _counted_source(kind, hoisted: bool = False) -> str:
     """``run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt) -> (state, recorded,
     failed)``: ``reference._integrate.integrate``'s loop, compiled (``_recording_loop``). Steps
     1 .. n of a run started at t0 (step i + 1 starts at t0 + i h), each checked as
@@ -324,7 +393,7 @@ def _counted_source(kind) -> str:
         "",
         "",
         *_recording_loop(kind, "run_counted", "state", "_within(state[0]) and _within(state[1])",
-                         lambda out, j, value: f"_put({out}, {j}, {value})", "state, ")])
+                         lambda out, j, value: f"_put({out}, {j}, {value})", "state, ", hoisted)])
 
 
 #: The counters of ``run_counted``: the entry of ``cnt`` each kernel's calls are added to.
@@ -380,12 +449,15 @@ def _kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
     for name in kind.kernels:
         src.add(getattr(scene_cls, name), f"scene_{name}")
     once = kind.variants(src, pointwise)
-    loops = _loop_source(kind, nstate, pointwise, once)
+    hoisted = GIVEN in src.functions and not pointwise
+    loops = _loop_source(kind, nstate, pointwise, once, hoisted)
     try:
         called = {name: entry for name, entry in COUNTED.items() if name in kernels}
         src.add_counted("scheme_step", "scheme_step_counted", called)
+        if hoisted:
+            src.add_counted(GIVEN, GIVEN + "_counted", called)
         src.add_counted("start", "start_counted", {"scene_accel": COUNTED["scene_accel"]})
-        loops += "\n\n" + _counted_source(kind)
+        loops += "\n\n" + _counted_source(kind, hoisted)
         if pointwise:
             loops += "\n\n" + _counted_one_source(kind)
         exact_why, libm = src.exact_why()

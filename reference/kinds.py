@@ -21,7 +21,9 @@ The drivers, the kernel files and ``RefMethod`` ask the scheme's kind; none bran
 * ``POSITION_BASED``: ``step(accel, constraints, substeps, iterations, state, t, h, p)``,
   ``constraints(p)`` the scene's springs and links as distance constraints (``scenarios.scene``);
   the compiled loops pass the two counts as one integer (``pack_counts``) that the step's call
-  unpacks. Runs only on scenes that give their constraints.
+  unpacks, and compute what the step computes before it reads ``state`` or ``t`` once per loop,
+  not once per step (so the step computes its constraints first and never modifies them).
+  Runs only on scenes that give their constraints.
 """
 from __future__ import annotations
 
@@ -228,6 +230,16 @@ class PositionBased(Kind):
                 state = step(accel, constraints, k // COUNT_BASE, k % COUNT_BASE, state, t0 + i * h, h, p)
             return state
         return jit(advance_n)
+
+    def variants(self, src, pointwise: bool) -> bool:
+        # What the step computes before it reads the state or the time (the scene's constraints,
+        # what the scheme derives from them and h) is the same every step: the compiled loops
+        # compute it once (``_Source.add_hoisted``). The step must not modify it.
+        from ._codegen import GIVEN, SETUP
+
+        params = src.parameters("scheme_step")
+        src.add_hoisted("scheme_step", SETUP, GIVEN, (params[-4], params[-3], "scene_accel"))
+        return False
 
     def pointwise(self, scene_cls) -> bool:
         return False  # a constraint couples its two ends
