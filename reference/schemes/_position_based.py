@@ -1,18 +1,56 @@
-"""What PBD and XPBD share: the substep's prediction and velocity update, and one constraint's
-violation C and gradient (``scenarios.scene.Scene.constraints`` gives the constraints). Loops
-written out, batch innermost, as the scenes' kernels are: they compile to straight loops."""
+"""What PBD and XPBD share: a step's arrays, the substep's prediction and velocity update, and
+one pass of one constraint over the batch where d > 1 (``scenarios.scene.Scene.constraints``
+gives the constraints). Loops written out, batch innermost, as the scenes' kernels are: they
+compile to straight loops. A step's arrays are two (``step_arrays``): an anchored end is read
+from rows of its own beside the points', so the 1-D loops over the batch read both ends alike,
+write an anchor back as read, have no branch, and vectorise."""
 import numpy as np
 
 
-def predict(x, u, x_old, gravity, hs):
-    """v += hs g; x_old = x; x += hs v (the substep's prediction, entry by entry)."""
+def step_arrays(q, v, substeps, multipliers, anchors):
+    """(work, u, x_old): ``work`` holds the step's positions x (its first rows, returned as the
+    step's q), then the anchors' coordinates along the batch (a row per coordinate: a
+    projection reads an anchored end as it reads a point, ``row``), then ``multipliers`` rows
+    (XPBD's lambda per constraint); x_old, the positions a substep starts from, is q itself
+    where there is one substep (the step never writes it), else rows after those."""
+    n, nb = q.shape
+    fixed = anchors.shape[0] * anchors.shape[1]
+    work = np.empty((n + fixed + multipliers + (n if substeps > 1 else 0), nb))
+    u = np.empty_like(v)
+    for a in range(anchors.shape[0]):
+        for k in range(anchors.shape[1]):
+            for b in range(nb):
+                work[n + a * anchors.shape[1] + k, b] = anchors[a, k]
+    x_old = q if substeps == 1 else work[n + fixed + multipliers:]
+    return work, u, x_old
+
+
+def row(i, points, d):
+    """The first row in ``work`` (``step_arrays``) of the constraint end i: a point's, or an
+    anchor's (i < 0) after the ``points`` rows of x."""
+    if i >= 0:
+        return i * d
+    return points + (-1 - i) * d
+
+
+def predict(x_from, u_from, x, u, x_old, keep, gravity, hs):
+    """v = v_from + hs g; x = x_from + hs v (the substep's prediction, entry by entry); where
+    ``keep``, x_from is copied to x_old first (x_from and x may be one array)."""
     d = gravity.shape[0]
     for r in range(x.shape[0]):
         g = gravity[r % d]
-        for b in range(x.shape[1]):
-            u[r, b] = u[r, b] + hs * g
-            x_old[r, b] = x[r, b]
-            x[r, b] = x[r, b] + hs * u[r, b]
+        if keep:
+            for b in range(x.shape[1]):
+                xr = x_from[r, b]
+                ur = u_from[r, b] + hs * g
+                x_old[r, b] = xr
+                u[r, b] = ur
+                x[r, b] = xr + hs * ur
+        else:
+            for b in range(x.shape[1]):
+                ur = u_from[r, b] + hs * g
+                u[r, b] = ur
+                x[r, b] = x_from[r, b] + hs * ur
 
 
 def velocity(x, u, x_old, hs):
@@ -29,39 +67,44 @@ def point_inv_mass(inv_mass, i):
     return 0.0
 
 
-def violation(x, anchors, ia, ib, b, rest, grad):
-    """C of the constraint from point ia to ib (an anchor where negative) at batch member b, its
-    gradient with respect to x_b into grad (the first d entries; -grad is x_a's). d = 1: the
-    signed extension x_b - x_a - rest, gradient 1; else |x_b - x_a| - rest along the unit
-    vector (0, with gradient 0, where the two points coincide)."""
-    d = anchors.shape[1]
-    length2 = 0.0
-    for k in range(d):
-        xa = x[ia * d + k, b] if ia >= 0 else anchors[-1 - ia, k]
-        xb = x[ib * d + k, b] if ib >= 0 else anchors[-1 - ib, k]
-        grad[k] = xb - xa
-        length2 = length2 + grad[k] * grad[k]
-    if d == 1:
-        c = grad[0] - rest
-        grad[0] = 1.0
-        return c
-    length = np.sqrt(length2)
-    if length == 0.0:
+def project(work, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde, denominator, share):
+    """One pass of one constraint over the batch, d > 1, its ends' rows ``ra``, ``rb`` in
+    ``work`` (``row``; an anchor's not ``free``, never written): C = |x_b - x_a| - rest and its
+    gradient g = (x_b - x_a)/|x_b - x_a| (C = 0 and g = 0 where the points coincide), then XPBD's
+    dl = (-C - alpha~ lambda) / (w_a + w_b + alpha~), lambda += dl where ``lam`` is a row of
+    work, else (lam < 0) PBD's dl = -share C; x_a -= w_a dl g, x_b += w_b dl g. (The 1-D case,
+    C = x_b - x_a - rest with g = 1, the schemes write out.)"""
+    for b in range(work.shape[1]):
+        g0 = work[rb, b] - work[ra, b]
+        g1 = work[rb + 1, b] - work[ra + 1, b]
+        g2 = 0.0
+        # Sums of squares from the first: 0 + g0^2 is g0^2 (a square is never -0).
+        length2 = g0 * g0 + g1 * g1
+        if d == 3:
+            g2 = work[rb + 2, b] - work[ra + 2, b]
+            length2 = length2 + g2 * g2
+        length = np.sqrt(length2)
+        cv = 0.0
+        if length == 0.0:
+            g0 = 0.0
+            g1 = 0.0
+            g2 = 0.0
+        else:
+            cv = length - rest
+            g0 = g0 / length
+            g1 = g1 / length
+            g2 = g2 / length
+        if lam >= 0:
+            dl = (-cv - tilde * work[lam, b]) / denominator
+            work[lam, b] = work[lam, b] + dl
+        else:
+            dl = -share * cv
         for k in range(d):
-            grad[k] = 0.0
-        return 0.0
-    for k in range(d):
-        grad[k] = grad[k] / length
-    return length - rest
-
-
-def move(x, ia, ib, b, wa, wb, dl, grad, d):
-    """x_a -= w_a dl grad, x_b += w_b dl grad (anchors stay)."""
-    for k in range(d):
-        if ia >= 0:
-            x[ia * d + k, b] = x[ia * d + k, b] - wa * dl * grad[k]
-        if ib >= 0:
-            x[ib * d + k, b] = x[ib * d + k, b] + wb * dl * grad[k]
+            g = g0 if k == 0 else (g1 if k == 1 else g2)
+            if a_free:
+                work[ra + k, b] = work[ra + k, b] - wa * dl * g
+            if b_free:
+                work[rb + k, b] = work[rb + k, b] + wb * dl * g
 
 
 def nth_root(a, n):

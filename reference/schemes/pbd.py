@@ -2,7 +2,7 @@ import numpy as np
 
 from ..kinds import POSITION_BASED
 from .._scheme import scheme
-from ._position_based import move, nth_root, point_inv_mass, predict, velocity, violation
+from ._position_based import nth_root, point_inv_mass, predict, project, row, step_arrays, velocity
 
 #: Substeps and projection passes per step unless the caller sets ``substeps``/``iterations``.
 DEFAULT_SUBSTEPS = 1
@@ -27,29 +27,42 @@ def pbd(accel, constraints, substeps, iterations, state, t, h, p):
     multiplier removes. First order, damps, never explodes on linear springs; a rigid link
     (alpha = 0, s = 1) is projected fully. No force evaluation.
     """
-    q, v = state
+    # Computed from the constraints and h alone, before the state is read: the compiled loops
+    # compute it once (``kinds.POSITION_BASED``). Each constraint's share s' / (w_a + w_b).
     ends, rest, compliance, inv_mass, anchors, gravity = constraints(p)
-    d = anchors.shape[1]
-    nb = q.shape[1]
     hs = h / substeps
-    x = q.copy()
-    u = v.copy()
-    x_old = np.empty_like(q)
     share = np.empty(ends.shape[0])
     for c in range(ends.shape[0]):
         w = point_inv_mass(inv_mass, ends[c, 0]) + point_inv_mass(inv_mass, ends[c, 1])
         share[c] = (1.0 - nth_root(1.0 - w / (w + compliance[c] / (hs * hs)), iterations)) / w
-    grad = np.empty(3)
-    for _ in range(substeps):
-        predict(x, u, x_old, gravity, hs)
+    q, v = state
+    d = anchors.shape[1]
+    nb = q.shape[1]
+    n = q.shape[0]
+    work, u, x_old = step_arrays(q, v, substeps, 0, anchors)
+    x = work[:n]
+    for s in range(substeps):
+        if s == 0:
+            predict(q, v, x, u, x_old, substeps > 1, gravity, hs)
+        else:
+            predict(x, u, x, u, x_old, True, gravity, hs)
         for _ in range(iterations):
             for c in range(ends.shape[0]):
-                ia = ends[c, 0]
-                ib = ends[c, 1]
-                wa = point_inv_mass(inv_mass, ia)
-                wb = point_inv_mass(inv_mass, ib)
+                ra = row(ends[c, 0], n, d)
+                rb = row(ends[c, 1], n, d)
+                a_free = ends[c, 0] >= 0
+                b_free = ends[c, 1] >= 0
+                wa = point_inv_mass(inv_mass, ends[c, 0])
+                wb = point_inv_mass(inv_mass, ends[c, 1])
+                if d > 1:
+                    project(work, ra, a_free, rb, b_free, d, rest[c], wa, wb, -1, 0.0, 0.0, share[c])
+                    continue
+                # d = 1: C = x_b - x_a - rest, gradient 1; an anchor written back as read.
                 for b in range(nb):
-                    cv = violation(x, anchors, ia, ib, b, rest[c], grad)
-                    move(x, ia, ib, b, wa, wb, -share[c] * cv, grad, d)
+                    at_a = work[ra, b]
+                    dl = -share[c] * (work[rb, b] - at_a - rest[c])
+                    work[ra, b] = at_a - wa * dl if a_free else at_a
+                    at_b = work[rb, b]
+                    work[rb, b] = at_b + wb * dl if b_free else at_b
         velocity(x, u, x_old, hs)
     return (x, u)

@@ -2,7 +2,7 @@ import numpy as np
 
 from ..kinds import POSITION_BASED
 from .._scheme import scheme
-from ._position_based import move, point_inv_mass, predict, velocity, violation
+from ._position_based import point_inv_mass, predict, project, row, step_arrays, velocity
 
 #: Substeps and Gauss-Seidel passes per step unless the caller sets ``substeps``/``iterations``.
 DEFAULT_SUBSTEPS = 1
@@ -28,32 +28,48 @@ def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
     passes stop short; never explodes on linear springs. A rigid link is alpha = 0 (PBD's
     projection). No force evaluation: the springs are constraints, gravity the scene's field.
     """
-    q, v = state
+    # Computed from the constraints and h alone, before the state is read: the compiled loops
+    # compute it once (``kinds.POSITION_BASED``). Each constraint's alpha~ and w_a + w_b + alpha~.
     ends, rest, compliance, inv_mass, anchors, gravity = constraints(p)
+    hs = h / substeps
+    tilde = np.empty(ends.shape[0])
+    denominator = np.empty(ends.shape[0])
+    for c in range(ends.shape[0]):
+        tilde[c] = compliance[c] / (hs * hs)
+        denominator[c] = point_inv_mass(inv_mass, ends[c, 0]) + point_inv_mass(inv_mass, ends[c, 1]) + tilde[c]
+    q, v = state
     d = anchors.shape[1]
     nb = q.shape[1]
-    hs = h / substeps
-    x = q.copy()
-    u = v.copy()
-    x_old = np.empty_like(q)
-    lam = np.empty((ends.shape[0], nb))
-    grad = np.empty(3)
-    for _ in range(substeps):
-        predict(x, u, x_old, gravity, hs)
+    n = q.shape[0]
+    work, u, x_old = step_arrays(q, v, substeps, ends.shape[0], anchors)
+    x = work[:n]
+    lam = n + anchors.shape[0] * d  # the first multiplier's row in work
+    for s in range(substeps):
+        if s == 0:
+            predict(q, v, x, u, x_old, substeps > 1, gravity, hs)
+        else:
+            predict(x, u, x, u, x_old, True, gravity, hs)
         for c in range(ends.shape[0]):
             for b in range(nb):
-                lam[c, b] = 0.0
+                work[lam + c, b] = 0.0
         for _ in range(iterations):
             for c in range(ends.shape[0]):
-                ia = ends[c, 0]
-                ib = ends[c, 1]
-                wa = point_inv_mass(inv_mass, ia)
-                wb = point_inv_mass(inv_mass, ib)
-                tilde = compliance[c] / (hs * hs)
+                ra = row(ends[c, 0], n, d)
+                rb = row(ends[c, 1], n, d)
+                a_free = ends[c, 0] >= 0
+                b_free = ends[c, 1] >= 0
+                wa = point_inv_mass(inv_mass, ends[c, 0])
+                wb = point_inv_mass(inv_mass, ends[c, 1])
+                if d > 1:
+                    project(work, ra, a_free, rb, b_free, d, rest[c], wa, wb, lam + c, tilde[c], denominator[c], 0.0)
+                    continue
+                # d = 1: C = x_b - x_a - rest, gradient 1; an anchor written back as read.
                 for b in range(nb):
-                    cv = violation(x, anchors, ia, ib, b, rest[c], grad)
-                    dl = (-cv - tilde * lam[c, b]) / (wa + wb + tilde)
-                    lam[c, b] = lam[c, b] + dl
-                    move(x, ia, ib, b, wa, wb, dl, grad, d)
+                    at_a = work[ra, b]
+                    dl = (-(work[rb, b] - at_a - rest[c]) - tilde[c] * work[lam + c, b]) / denominator[c]
+                    work[lam + c, b] = work[lam + c, b] + dl
+                    work[ra, b] = at_a - wa * dl if a_free else at_a
+                    at_b = work[rb, b]
+                    work[rb, b] = at_b + wb * dl if b_free else at_b
         velocity(x, u, x_old, hs)
     return (x, u)
