@@ -204,15 +204,40 @@ def xpbd(s, h, k, m):
 
 @_jit
 def pbd(s, h, k, m):
-    # Each pass removes the share s' = 1 - (1 - s)^(1/passes) of C = x, s = w / (w + (1/k)/h^2).
-    x, v = s
+    # Each pass removes the share s' = 1 - (1 - s)^(1/passes) of C = x, s = w / (w + (1/k)/h^2),
+    # computed once before the loop (``_start_pbd``, as the kernel's loop computes it once) and
+    # carried in the state; the share divided by w as the scheme keeps it, then times w.
+    x, v, share = s
     x_old = x
     x = x + h * v
     w = 1.0 / m
-    share = 1.0 - (1.0 - w / (w + (1.0 / k) / (h * h))) ** (1.0 / _PASSES)
     for _ in range(_PASSES):
-        x = x - share * x
-    return (x, (x - x_old) / h)
+        x = x + w * (-share * (x - 0.0 - 0.0))  # C = x - anchor - rest, both 0, as the scheme forms it
+    return (x, (x - x_old) / h, share)
+
+
+def _root(a, n):
+    # a^(1/n) by Newton's method from 1 with integer powers by squaring, as the scheme takes it.
+    if n == 1 or a == 0.0 or a == 1.0:
+        return a
+    y = 1.0
+    for _ in range(200):
+        power, base, e = 1.0, y, n - 1
+        while e > 0:
+            if e % 2 == 1:
+                power = power * base
+            base = base * base
+            e = e // 2
+        y_new = y - (power * y - a) / (n * power)
+        if not y_new < y:
+            break
+        y = y_new
+    return y
+
+
+def _start_pbd(x, v, h, k, m):
+    w = 0.0 + 1.0 / m
+    return (x, v, (1.0 - _root(1.0 - w / (w + (1.0 / k) / (h * h)), _PASSES)) / w)
 
 
 def _start_qv(x, v, h, k, m):
@@ -251,7 +276,7 @@ _HAND_WRITTEN = {
     "linearly_implicit_euler": (linearly_implicit_euler, _start_qv, _observe_qv),
     "implicit_midpoint": (implicit_midpoint, _start_qv, _observe_qv),
     "radau_iia2": (radau_iia2, _start_qv, _observe_qv),
-    "pbd": (pbd, _start_qv, _observe_qv),
+    "pbd": (pbd, _start_pbd, _observe_qv),
     "xpbd": (xpbd, _start_qv, _observe_qv),
     "semi_implicit_euler_velocity_implicit": (semi_implicit_euler_velocity_implicit, _start_qv, _observe_qv),
     "position_first_euler_decay_after_kick": (position_first_euler_decay_after_kick, _start_qv, _observe_qv),
