@@ -1,13 +1,14 @@
 """The finding a ``sweep`` cell draws (``harness.nightly.sweep_cell``): the seed's claim that stiff
 cloth wants implicit Euler "where explicit methods would demand absurdly tiny timesteps", held
-against where the cheapest family measured changes.
+against where the measured cheapest frames of the two families cross.
 
-✓ where the trade-off flips the way the claim says: explicit substeps are the cheapest frame at
-the softest value of the grid, an implicit family at the stiffest, and the crossover between is
-named (its value and h*omega at one substep, with how many substeps the cheapest explicit method
-needed at the stiffest value where it still met the tolerances). ✗ where it does not (implicit
-cheapest everywhere, explicit cheapest everywhere, or another family at the stiff end), with
-what was measured instead. Nothing checked (None) where no method meets the tolerances at an end.
+✓ where implicit solves take over from explicit substeps on the grid (``family_crossover``:
+explicit cheaper at one value, implicit at the next): the crossover's value and h*omega at one
+substep are stated, and how many substeps the cheapest explicit method needed just past it.
+✗ where they do not (the explicit frame cheaper at every value, or the implicit one everywhere),
+with the two families' frames at the stiffest value. Either way the line names the cheapest
+family at the stiffest value where it is neither (a position-based solve) and where the overall
+cheapest family changes. Nothing checked (None) where no method meets the tolerances at an end.
 """
 from __future__ import annotations
 
@@ -34,25 +35,36 @@ def sweep_finding(cell) -> Finding:
         return Finding(head.replace(f"{MARK} ", "") + "; not judged: no method meets the tolerances at "
                        f"{f.param} = {(points[0] if soft is None else points[-1]).value:.3g}", None, cell.scene,
                        cell.method)
-    cross = f.sweep_crossovers()
-    flips = [x for x in cross if x.from_family == EXPLICIT and x.to_family == IMPLICIT]
-    ok = soft.family == EXPLICIT and stiff.family == IMPLICIT and bool(flips)
-    if ok:
-        x = flips[-1]
-        explicit = [e for p in points if p.value >= x.above for e in p.met if e.family == EXPLICIT]
-        need = max(explicit, key=lambda e: e.substeps) if explicit else None
-        text = (f"{head}: measured, explicit substeps (`{x.from_method}`) are cheapest up to {f.param} ≈ "
+    from harness.measures.sweep import family_costs, family_crossover
+
+    x = family_crossover(points, EXPLICIT, IMPLICIT)
+    if x is not None:
+        past = [e for p in points if p.value >= x.above for e in p.met if e.family == EXPLICIT]
+        need = past[0] if past else None
+        text = (f"{head}: measured, explicit substeps (`{x.from_method}`) are cheaper up to {f.param} ≈ "
                 f"{x.value:.3g}, implicit solves (`{x.to_method}`) beyond: the crossover at h·ω ≈ "
                 f"{x.homega_one:.3g} at one substep")
         if need is not None:
-            text += (f"; past it the cheapest explicit frame still met them with `{need.method}` at "
-                     f"{need.substeps} substeps")
-        return Finding(text, True, cell.scene, cell.method)
-    measured = ", ".join(f"{family_name(p.cheapest.family)} at {f.param} = {p.value:.3g}" for p in (points[0], points[-1]))
-    if cross:
-        measured += "; crossovers: " + ", ".join(f"{family_name(x.from_family)} → {family_name(x.to_family)} at "
-                                                 f"h·ω ≈ {x.homega_one:.3g}" for x in cross)
-    return Finding(f"{head}: measured, the cheapest frame is {measured}", False, cell.scene, cell.method)
+            text += f"; just past it `{need.method}` still meets them at {need.substeps} substeps"
+    else:
+        last = family_costs(points[-1])
+        frames = ", ".join(f"{family_name(k)} {_us(last[k].cost_per_frame_s)} (`{last[k].method}`)"
+                           for k in (EXPLICIT, IMPLICIT) if k in last)
+        text = (f"{head}: measured, implicit solves never take over from explicit substeps on the grid; at "
+                f"{f.param} = {points[-1].value:.3g} (h·ω = {points[-1].homega_one:.3g} at one substep) "
+                f"{frames or 'neither family meets them'}")
+    if stiff.family not in (EXPLICIT, IMPLICIT):
+        text += (f"; the cheapest frame at {f.param} = {points[-1].value:.3g} is {family_name(stiff.family)} "
+                 f"(`{stiff.method}`, {_us(stiff.cost_per_frame_s)})")
+    overall = [c for c in f.sweep_crossovers()]
+    if overall and not (len(overall) == 1 and (overall[0].from_family, overall[0].to_family) == (EXPLICIT, IMPLICIT)):
+        text += "; the cheapest family overall: " + ", ".join(
+            f"{family_name(c.from_family)} → {family_name(c.to_family)} at h·ω ≈ {c.homega_one:.3g}" for c in overall)
+    return Finding(text, x is not None, cell.scene, cell.method)
+
+
+def _us(seconds) -> str:
+    return "–" if seconds is None else f"{seconds * 1e6:.3g} µs"
 
 
 def sweep_findings(scene: str, piv: dict) -> list[Finding]:

@@ -90,6 +90,7 @@ class SweepEntry:
     energy_error: float | None = None
     position_error: float | None = None
     searched: int = 0               # the most substeps run
+    next_substeps: int | None = None  # the level not run where the cost or the cap bound ended the search
     why: str = ""
 
 

@@ -6,6 +6,7 @@ method, one panel per sweep, the crossovers marked. Everything is read from the 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 from records.advice import SweepFigures, family_name
 
@@ -102,15 +103,16 @@ def _ended(points) -> list[str]:
     for p in points:
         for e in p.entries:
             if e.ended not in ("met", ""):
-                by.setdefault((e.method, e.ended), []).append(p.value)
-    return [f"`{m}` {BOUNDS.get(b, b)} at " + ", ".join(f"{v:.3g}" for v in vs)
-            for (m, b), vs in sorted(by.items())]
+                at = f"{p.value:.3g}" + (f" ({e.next_substeps} substeps)" if e.next_substeps else "")
+                by.setdefault((e.method, e.ended), []).append(at)
+    return [f"`{m}` {BOUNDS.get(b, b)} at " + ", ".join(ats) for (m, b), ats in sorted(by.items())]
 
 
 def sweep_chart(cells, scene: str, path) -> bool:
     """Cost per frame against the swept parameter, one panel per sweep (size): one line per method
     over the values where it meets the tolerances (its fewest substeps beside each point where
-    it searched past the advice's most), each family's cheapest frame as a wide faint band, each
+    it searched past the advice's most), an open triangle where the cost bound ended its search
+    (the frame it did not run: at least that dear), each family's cheapest frame as a wide faint band, each
     crossover a vertical line with the families and its h*omega; the top axis h*omega at one
     substep."""
     from . import charts
@@ -139,6 +141,10 @@ def sweep_chart(cells, scene: str, path) -> bool:
                 if s > limit:
                     ax.annotate(str(s), (x, y), textcoords="offset points", xytext=(3, 3), fontsize=5.5,
                                 color=style["color"])
+            cut = [(p.value, e.next_substeps * e.cost_per_step_s * 1e6) for p in points for e in p.entries
+                   if e.method == m and e.ended == "cost" and e.next_substeps and e.cost_per_step_s]
+            if cut:  # where the cost bound ended its search: the frame it did not run, a lower bound
+                ax.scatter(*zip(*cut), marker="^", facecolors="none", edgecolors=style["color"], s=22, linewidths=0.8)
         families = list(dict.fromkeys(e.family for p in points for e in p.entries))
         for k in families:
             band = [(p.value, _family_costs(p)[k].cost_per_frame_s * 1e6) for p in points if k in _family_costs(p)]
@@ -168,7 +174,7 @@ def sweep_chart(cells, scene: str, path) -> bool:
             seen.setdefault(lab, h)
     axes[0][-1].legend(list(seen.values()), list(seen.keys()), fontsize=6, loc="upper left",
                        bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
-    return charts._save(fig, path)
+    return charts._save(fig, Path(path))
 
 
 def _homega_axis(ax, points) -> None:

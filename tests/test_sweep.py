@@ -181,13 +181,26 @@ def _cell(points, label="4 x 4", method="ref:implicit_euler"):
 def test_the_finding_holds_the_seed_claim_to_the_measured_crossover():
     from harness.sweep_findings import sweep_findings
 
-    (f,) = sweep_findings("cloth", {("cloth", "ref:implicit_euler"): {"sweep": _cell(ROWS)}})
+    def finding(points):
+        (f,) = sweep_findings("cloth", {("cloth", "ref:implicit_euler"): {"sweep": _cell(points)}})
+        return f
+
+    f = finding(ROWS)
     assert f.ok is True
     assert "absurdly tiny timesteps" in f.text and "the crossover at h·ω ≈ 4.33 at one substep" in f.text
-    assert "explicit substeps (`ref:explicit_scheme`) are cheapest up to k ≈ 2.15e+03" in f.text
+    assert "explicit substeps (`ref:explicit_scheme`) are cheaper up to k ≈ 2.15e+03" in f.text
     flipped = [_point(1e2, 1.0, explicit=8.0, implicit=1.0), _point(1e4, 9.0, explicit=1.0, implicit=8.0)]
-    (g,) = sweep_findings("cloth", {("cloth", "ref:implicit_euler"): {"sweep": _cell(flipped)}})
-    assert g.ok is False and "the cheapest frame is implicit solves at k = 100, explicit substeps at k = 1e+04" in g.text
+    g = finding(flipped)
+    assert g.ok is False and "implicit solves never take over from explicit substeps on the grid" in g.text
+    assert "at k = 1e+04 (h·ω = 9 at one substep) explicit substeps 1 µs (`ref:explicit_scheme`), implicit solves 8 µs" in g.text
+    # A third family cheaper than both at the stiff end: the claim is judged on explicit against implicit,
+    # and the line says which family is cheapest overall and where it takes over.
+    third = [_point(1e2, 1.0, explicit=1.0, implicit=8.0, position_based=4.0),
+             _point(1e4, 9.0, explicit=32.0, implicit=8.0, position_based=2.0)]
+    h = finding(third)
+    assert h.ok is True and "the crossover at h·ω ≈ 3.74 at one substep" in h.text  # 9 ** (3/5): log 1/8 to log 4
+    assert "the cheapest frame at k = 1e+04 is position-based solves (`ref:position_based_scheme`, 2 µs)" in h.text
+    assert "the cheapest family overall: explicit substeps → position-based solves at h·ω ≈" in h.text
 
 
 def test_the_section_and_the_chart_are_drawn_from_the_cells(tmp_path):

@@ -121,13 +121,14 @@ def _limit(m) -> str:
 
 
 #: What a method's cell in the sweep's table says of each way its search ended.
-ENDED = {"cost": "> x", "cap": "cap", "crashed": "crash", "timed_out": "t/o"}
+ENDED = {"cost": "cost", "cap": "cap", "crashed": "crash", "timed_out": "t/o"}
 
 
 def _cell(e) -> str:
     if e.ended == "met":
         return f"{e.substeps}: {_us(e.cost_per_frame_s)}"
-    return ENDED.get(e.ended, e.ended or "-")
+    said = ENDED.get(e.ended, e.ended or "-")
+    return f"{said}@{e.next_substeps}" if e.next_substeps else said
 
 
 def sweep_lines(sw):
@@ -166,7 +167,8 @@ def sweep_lines(sw):
                f"{'about' if c.interpolated else 'midway,'} {g.param} = {c.value:.3g}, h*omega = {c.homega_one:.3g} "
                "at one substep")
     yield ""
-    yield "every method (substeps: us per frame; > x: its next level past the factor; cap: past the most substeps):"
+    yield ("every method (substeps: us per frame; cost@S: S substeps would pass the factor, not run; cap@S: past "
+           "the most substeps):")
     mw = max([len(e.method) for p in sw.points for e in p.entries] + [6])
     yield f"  {'method':{mw}s} " + " ".join(f"{p.value:>12.3g}" for p in sw.points)
     for i, e0 in enumerate(sw.points[0].entries if sw.points else []):

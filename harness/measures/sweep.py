@@ -3,20 +3,23 @@ tolerances changes family (``harness advise SCENE --sweep k=1e2..1e6:9``).
 
 At each value of the grid (a log grid, LO to HI in ``points`` values, each checked against the
 parameter's declared range before anything runs) every candidate method is searched over
-substeps 1, 2, 4, ... up to ``max_substeps``, fewest first, each level measured and judged as
-``harness.measures.advise`` judges it (``ascend``; where no position tolerance is asked nothing is
-held against the scene's reference solution, which on a stiff 32 x 32 cloth costs more than the
-whole search: a run that blows up fails the energy tolerance). A method
-that meets the tolerances at none of them is searched on, doubling its substeps, until it meets
-them, or until its next level's cost per frame (substeps x its cost per step, timed before the
-run) would pass ``factor`` times the cheapest frame found at that value (the bound ``cost``), or
-its substeps would pass ``cap`` (the bound ``cap``); which bound ended each search is recorded.
-A chart then shows whether an explicit scheme takes 20 or 2000 substeps where it still can.
+substeps 1, 2, 4, ..., each level measured and judged as ``harness.measures.advise`` judges its
+rows (where no position tolerance is asked nothing is held against the scene's reference
+solution, which on a stiff 32 x 32 cloth costs more than the whole search: a run that blows up
+fails the energy tolerance). The search does not stop at ``max_substeps``: a method's levels go on
+doubling until one meets the tolerances, or until the next level's frame (substeps x its cost per
+step, a pilot timed at that step before the run) would cost more than ``factor`` times the
+cheapest frame found at that value (the bound ``cost``), or its substeps would pass ``cap`` (the
+bound ``cap``); which bound ended each search is recorded. The levels of all the methods run
+cheapest frame first, so the cheapest frame that meets the tolerances is found before any level
+``factor`` times dearer is run: a 32 x 32 cloth's backward Euler frame at k = 1e6 is never run
+where leapfrog's 256 substeps cost a twentieth of it. The chart then shows whether an explicit
+scheme takes 20 or 2000 substeps where it still can.
 
 Cost per frame is substeps x the method's cost per step, as the advice times it: the compiled
-kernel of a reference scheme, the engine mode's step, on the CPU clock, timed at the step of the
-row that meets the tolerances (a method searched beyond ``max_substeps`` is timed first at its
-first level there, to bound its search, and again where it meets them).
+kernel of a reference scheme, the engine mode's step, on the CPU clock, at the step of the level
+that meets the tolerances (each repeat TIME_BUDGET_S long where the cost measure's 100,000 steps
+would take longer).
 
 A method's **family** is what it declares: a reference scheme its kind (``reference.kinds``:
 explicit, implicit, constrained, ..., any kind added later its own family), an engine mode
@@ -50,6 +53,12 @@ FACTOR = 10.0
 CAP = 4096
 #: What the costs are timed on (``harness.measures.advise``).
 CLOCK = "cpu"
+#: Steps of a pilot timing (what orders and bounds the search; PILOT_S of steps where those few take
+#: less), and the length of each timed repeat of a row that meets the tolerances, where the cost
+#: measure's 100,000 steps would be longer.
+PILOT_STEPS = 4
+PILOT_S = 0.005
+TIME_BUDGET_S = 0.05
 
 _GRID = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*([^.:][^:]*?)\s*\.\.\s*([^:]+?)\s*(?::\s*(\S+))?\s*$")
 
@@ -120,109 +129,158 @@ def parse_grid(text: str, scene, points=None) -> Grid:
 
 
 # ----------------------------------------------------------------------------- one value
-def _entry_from(advice: MethodAdvice, family: str) -> SweepEntry:
-    """A method's entry from its search up to ``max_substeps``."""
-    searched = max((r.substeps for r in advice.rows if r.status != "skipped"), default=0)
-    if advice.status != "ok":
-        return SweepEntry(advice.method, family, advice.status, searched=searched, why=advice.reason)
-    best = advice.best_row
-    if best is None:
-        return SweepEntry(advice.method, family, "", searched=searched, why=advice.reason)
-    return SweepEntry(advice.method, family, "met", best.substeps, best.h, best.homega, advice.cost_per_step_s,
-                      best.cost_per_frame_s, best.energy_error, best.position_error, searched=searched)
+def pilot_cost(method, scene, h: float, injected=None) -> float | None:
+    """Seconds per step of the method's compiled kernel (an engine mode's step) at ``h``, from
+    PILOT_STEPS steps on the advice's clock: enough to order and bound the search. The cost
+    measure's own pilot is 2,000 steps, then at least 5,000 a repeat: a 32 x 32 cloth's
+    backward Euler step takes a second at k = 1e6."""
+    from harness.measures.cost import wall_time_per_step
+
+    res = wall_time_per_step(method, scene, h, steps=PILOT_STEPS, repeats=1, clock=CLOCK, injected=injected)
+    per_step = res["s_per_step"]
+    steps = int(PILOT_S / per_step) if per_step and per_step > 0 else PILOT_STEPS * 1000
+    if steps > PILOT_STEPS:  # a fast kernel: a few steps are a few ticks of the CPU clock; time PILOT_S of them
+        res = wall_time_per_step(method, scene, h, steps=min(steps, 100_000), repeats=1, clock=CLOCK,
+                                 injected=injected)
+        per_step = res["s_per_step"]
+    return per_step
 
 
-def search_on(method, scene, request: Request, advice: MethodAdvice, substeps: int, cost_per_step: float | None,
-              ceiling: float | None, *, timeout=None, injected=None) -> dict:
-    """One level beyond ``max_substeps``: ``cost_per_step`` timed first where unknown; where
-    ``ceiling`` (factor x the cheapest frame, seconds) is known and ``substeps`` x the cost per
-    step passes it, nothing is run (``ended`` ``cost``); else the horizon run at ``substeps``,
-    judged as the advice judges it, and the cost per step timed again at its step where it
-    meets the tolerances. Runs in the caller's process."""
-    from harness.measures.advise import _cost_per_step, _row
+def frame_cost(method, scene, h: float, pilot: float | None, injected=None) -> tuple[float | None, str]:
+    """(seconds per step, how timed) of a row that meets the tolerances, as the advice times it
+    (``harness.measures.advise``: COST_REPEATS repeats on the CPU clock), each repeat
+    TIME_BUDGET_S long by the pilot's figure (the cost measure's 100,000 steps where they fit)."""
+    from harness.measures.advise import COST_REPEATS
+    from harness.measures.cost import REF_TIME_STEPS, wall_time_per_step
+
+    steps = None
+    if pilot and pilot * REF_TIME_STEPS > TIME_BUDGET_S:
+        steps = max(PILOT_STEPS, int(TIME_BUDGET_S / pilot))
+    res = wall_time_per_step(method, scene, h, steps=steps, repeats=COST_REPEATS, clock=CLOCK, injected=injected)
+    return res["s_per_step"], f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
+
+
+def start(method, scene, request: Request, *, timeout=None, injected=None) -> tuple[MethodAdvice, str, float | None]:
+    """A method's search before its first level: its stability limit on a linear scene (which
+    skips the runs of levels known unstable, as the advice does), its family and its pilot cost
+    per step at one substep a frame."""
+    from harness.measures.advise import _limit
+    from harness.measures.common import resolve
+
+    method = resolve(method, scene)
+    out = MethodAdvice(method.id)
+    try:
+        out.homega_limit, out.limit_verdict, out.limit_searched = _limit(method, scene, request, timeout)
+    except InvalidInput as exc:  # the one-step map cannot be measured: each step is judged by its run
+        out.limit_verdict = f"not measured ({exc})"
+    return out, family_of(method), pilot_cost(method, scene, 1.0 / request.hz, injected)
+
+
+def level(method, scene, request: Request, advice: MethodAdvice, substeps: int, ceiling: float | None, *,
+          timeout=None, injected=None) -> dict:
+    """One level of a method's search: its pilot cost per step at this step first; where
+    ``ceiling`` (factor x the cheapest frame found, seconds) is known and ``substeps`` x that cost
+    passes it, nothing is run (``ended`` ``cost``); else the horizon run, measured and judged as
+    the advice's rows (``harness.measures.advise._row``; nothing held against the scene's reference
+    solution unless a position tolerance is asked), and where it meets the tolerances its cost
+    per step timed as the advice times it."""
+    from harness.measures.advise import _row
     from harness.measures.common import resolve
 
     method = resolve(method, scene)
     h = 1.0 / (request.hz * substeps)
-    timing = ""
-    if cost_per_step is None:
-        cost_per_step, timing = _cost_per_step(method, scene, h, injected)
-    if ceiling is not None and cost_per_step is not None and substeps * cost_per_step > ceiling:
-        return {"ended": "cost", "cost_per_step_s": cost_per_step, "row": None}
+    pilot = pilot_cost(method, scene, h, injected)
+    out = {"ended": "", "pilot_s": pilot, "row": None, "cost_per_step_s": None, "timing": ""}
+    if ceiling is not None and pilot is not None and substeps * pilot > ceiling:
+        out["ended"] = "cost"
+        return out
     row = _row(method, scene, request, substeps, advice, timeout, reference=False)
-    out = {"ended": "", "cost_per_step_s": cost_per_step, "row": row}
+    out["row"] = row
     if row.status in ("crashed", "timed_out"):
         out["ended"] = row.status
     elif row.meets:
         out["ended"] = "met"
-        out["cost_per_step_s"], timing = _cost_per_step(method, scene, h, injected)
-    out["timing"] = timing
+        out["cost_per_step_s"], out["timing"] = frame_cost(method, scene, h, pilot, injected)
     return out
 
 
 def sweep_value(scene, value: float, request: Request, methods: list, *, factor: float = FACTOR, cap: int = CAP,
                 call=None, timeout=None, injected=None) -> SweepPoint:
-    """Every method of ``methods`` (ids) at one value (``scene`` built at it): the advice's
-    search, then the search on beyond ``max_substeps`` (module docstring). ``call(fn, args)``
-    runs one method's step of the search (default: in this process); the methods' searches of
-    one round run side by side where ``call`` does."""
+    """Every method of ``methods`` (ids) at one value (``scene`` built at it), cheapest first:
+    each method's levels 1, 2, 4, ... are run in the order of their frames' cost (substeps x the
+    method's last pilot cost per step), so that the cheapest frame that meets the tolerances is
+    found before any costlier level runs, and a level whose frame would pass ``factor`` times it
+    is not run (``cost``); past ``cap`` substeps a search ends (``cap``). ``call(fn, args)`` runs
+    one step of the search (default: in this process); where it has ``jobs`` > 1, that many of
+    the cheapest pending levels run side by side."""
     from harness.methods import active_plugins
 
     call = call or _in_process
     plugins = active_plugins()
     point = SweepPoint(float(value), float(scene.omega), float(scene.omega / request.hz))
-    advices = dict(zip(methods, call_all(call, [(_advise_one, (m, scene, request, timeout, injected, plugins))
-                                                for m in methods])))
     entries: dict[str, SweepEntry] = {}
-    for mid, res in advices.items():
-        if isinstance(res, tuple):  # (MethodAdvice, family)
-            entries[mid] = _entry_from(*res)
+    advices: dict[str, MethodAdvice] = {}
+    pilot: dict[str, float | None] = {}
+    pending: dict[str, int] = {}
+    for m, res in zip(methods, call_all(call, [(_start_one, (m, scene, request, timeout, injected, plugins))
+                                                for m in methods])):
+        if isinstance(res, tuple):
+            advices[m], family, pilot[m] = res
+            entries[m] = SweepEntry(m, family, "", cost_per_step_s=pilot[m])
+            pending[m] = 1
         else:  # the worker failed: its status and why
-            entries[mid] = SweepEntry(mid, _family_by_id(mid), getattr(res, "status", "crashed"),
-                                      why=f"{getattr(res, 'status', 'crashed')}: {getattr(res, 'detail', res)}")
-    level = request.substeps[-1] * 2
-    open_ = [m for m, e in entries.items() if e.ended == ""]
-    costs: dict[str, float | None] = {m: None for m in open_}
-    while open_:
+            status = getattr(res, "status", "crashed")
+            entries[m] = SweepEntry(m, _family_by_id(m), status, why=f"{status}: {getattr(res, 'detail', res)}")
+    width = max(1, getattr(call, "jobs", 1))
+    while pending:
         met = [e.cost_per_frame_s for e in entries.values() if e.ended == "met" and e.cost_per_frame_s]
         ceiling = factor * min(met) if met else None
-        if level > cap:
-            for m in open_:
-                entries[m].ended = "cap"
-                entries[m].why = f"no level up to {cap} substeps meets them" + (
-                    f" ({entries[m].why})" if entries[m].why else "")
-            break
-        jobs = [(_search_on_one, (m, scene, request, advices[m][0], level, costs[m], ceiling, timeout, injected,
-                                   plugins))
-                for m in open_]
-        for m, res in zip(list(open_), call_all(call, jobs)):
+        for m, s in list(pending.items()):
             e = entries[m]
+            if s > cap:
+                e.ended, e.next_substeps = "cap", s
+                e.why = f"no level up to {cap} substeps meets them ({e.why})" if e.why else f"past {cap} substeps"
+                del pending[m]
+            elif ceiling is not None and pilot[m] is not None and s * pilot[m] > ceiling:
+                _cut(e, s, pilot[m], ceiling, factor)
+                del pending[m]
+        order = sorted(pending, key=lambda m: (pending[m] * (pilot[m] or 0.0), m))[:width]
+        jobs = [(_level_one, (m, scene, request, advices[m], pending[m], ceiling, timeout, injected, plugins))
+                for m in order]
+        for m, res in zip(order, call_all(call, jobs)):
+            e, s = entries[m], pending[m]
             if not isinstance(res, dict):
                 e.ended, e.why = getattr(res, "status", "crashed"), str(getattr(res, "detail", res))
-                open_.remove(m)
+                del pending[m]
                 continue
-            costs[m] = e.cost_per_step_s = res["cost_per_step_s"]
+            pilot[m] = res["pilot_s"]
             row = res["row"]
             if res["ended"] == "cost":
-                e.ended = "cost"
-                e.why = (f"{level} substeps would cost {_us(level * costs[m])} a frame, past {factor:g} x the "
-                         f"cheapest ({_us(ceiling / factor)})")
+                _cut(e, s, pilot[m], ceiling, factor)
             elif row is not None:
-                e.searched = level
+                e.searched = s
                 if res["ended"] == "met":
-                    e.ended, e.substeps, e.h, e.homega = "met", level, row.h, row.homega
-                    e.cost_per_frame_s = level * e.cost_per_step_s
-                    e.energy_error, e.position_error = row.energy_error, row.position_error
-                    e.why = ""
+                    e.ended, e.substeps, e.h, e.homega = "met", s, row.h, row.homega
+                    e.cost_per_step_s = res["cost_per_step_s"]
+                    e.cost_per_frame_s = s * e.cost_per_step_s
+                    e.energy_error, e.position_error, e.why = row.energy_error, row.position_error, ""
                 elif res["ended"]:
                     e.ended, e.why = res["ended"], row.why
                 else:
-                    e.why = f"{row.why} at {level} substeps"
+                    e.why = f"{row.why} at {s} substep{'s' if s > 1 else ''}"
             if e.ended:
-                open_.remove(m)
-        level *= 2
+                del pending[m]
+            else:
+                pending[m] = 2 * s
     point.entries = [entries[m] for m in methods]
     return point
+
+
+def _cut(e: SweepEntry, s: int, per_step: float, ceiling: float, factor: float) -> None:
+    """End ``e``'s search on the cost bound: ``s`` substeps would cost more than ``ceiling``."""
+    e.ended, e.next_substeps, e.cost_per_step_s = "cost", s, per_step
+    e.why = (f"{s} substep{'s' if s > 1 else ''} would cost {_us(s * per_step)} a frame, past {factor:g} x the "
+             f"cheapest ({_us(ceiling / factor)})" + (f"; {e.why}" if e.why else ""))
 
 
 def _us(seconds: float | None) -> str:
@@ -254,60 +312,23 @@ def _family_by_id(method_id: str) -> str:
         return "explicit"
 
 
-def _method(method_id: str):
+def _method(method_id: str, plugins=()):
     from reference import Exact
 
-    from harness.methods import get_method
+    from harness.methods import get_method, use_plugins
 
+    use_plugins(plugins)
     # A reference scheme runs on its exact compiled path, as ``harness advise`` runs it.
     return get_method(method_id, exact=Exact())
 
 
-def ascend(method, scene, request: Request, *, timeout=None, injected=None) -> MethodAdvice:
-    """One method's search up to ``max_substeps``, fewest substeps first: 1, 2, 4, ... until a level
-    meets the tolerances (the fewest that do, for a convergent method), each row measured and
-    judged as ``harness.measures.advise`` measures it (with its stability limit on a linear scene),
-    nothing held against the scene's reference solution unless a position tolerance is asked.
-    The advice bisects from the most substeps down; a sweep mostly meets stiff scenes' implicit
-    solves at one or two substeps, where that order would first pay for sixteen."""
-    from harness.measures.advise import _cost_per_step, _limit, _reason, _row
-    from harness.measures.common import resolve
-
-    method = resolve(method, scene)
-    out = MethodAdvice(method.id)
-    try:
-        out.homega_limit, out.limit_verdict, out.limit_searched = _limit(method, scene, request, timeout)
-    except InvalidInput as exc:  # the one-step map cannot be measured: each step is judged by its run
-        out.limit_verdict = f"not measured ({exc})"
-    for s in request.substeps:
-        row = _row(method, scene, request, s, out, timeout, reference=False)
-        out.rows.append(row)
-        if row.status in ("crashed", "timed_out"):
-            break
-        if row.meets:
-            out.best = len(out.rows) - 1
-            out.cost_per_step_s, out.cost_timing = _cost_per_step(method, scene, row.h, injected)
-            row.cost_per_frame_s = s * out.cost_per_step_s
-            break
-    if out.best is None:
-        out.reason = _reason(out, request)
-    return out
+def _start_one(method_id, scene, request, timeout, injected, plugins=()):
+    return start(_method(method_id, plugins), scene, request, timeout=timeout, injected=injected)
 
 
-def _advise_one(method_id, scene, request, timeout, injected, plugins=()):
-    from harness.methods import use_plugins
-
-    use_plugins(plugins)
-    method = _method(method_id)
-    return ascend(method, scene, request, timeout=timeout, injected=injected), family_of(method)
-
-
-def _search_on_one(method_id, scene, request, advice, level, cost, ceiling, timeout, injected, plugins=()):
-    from harness.methods import use_plugins
-
-    use_plugins(plugins)
-    return search_on(_method(method_id), scene, request, advice, level, cost, ceiling, timeout=timeout,
-                     injected=injected)
+def _level_one(method_id, scene, request, advice, substeps, ceiling, timeout, injected, plugins=()):
+    return level(_method(method_id, plugins), scene, request, advice, substeps, ceiling, timeout=timeout,
+                 injected=injected)
 
 
 # ----------------------------------------------------------------------------- the crossover
@@ -340,6 +361,33 @@ def crossovers(points: list[SweepPoint]) -> list[Crossover]:
         homega = math.exp(math.log(a.homega_one) + t * (math.log(b.homega_one) - math.log(a.homega_one)))
         out.append(Crossover(a.value, b.value, old, new, ca.method, cb.method, value, homega, interpolated))
     return out
+
+
+def family_crossover(points: list[SweepPoint], a: str, b: str) -> Crossover | None:
+    """Where family ``b``'s cheapest frame first becomes cheaper than family ``a``'s, ``a`` cheaper
+    at the value before (whatever a third family does): interpolated log-log as ``crossovers``.
+    A family with no frame that meets the tolerances at a value but whose search ended on the
+    cost or the cap bound there counts as dearer than every frame met; None where ``b`` never
+    takes over from ``a`` on the grid."""
+    def cost(p, fam):
+        e = family_costs(p).get(fam)
+        if e is not None:
+            return e.cost_per_frame_s, e.method
+        bounded = any(x.family == fam and x.ended in ("cost", "cap") for x in p.entries)
+        return (math.inf, None) if bounded else (None, None)
+
+    for p, q in zip(points, points[1:]):
+        (a0, ma), (b0, _), (a1, _), (b1, mb) = cost(p, a), cost(p, b), cost(q, a), cost(q, b)
+        if None in (a0, b0, a1, b1) or not (a0 < b0 and b1 < a1):
+            continue
+        t, interpolated = 0.5, False
+        if all(math.isfinite(x) for x in (a0, b0, a1, b1)):
+            d0, d1 = math.log(a0 / b0), math.log(a1 / b1)
+            t, interpolated = d0 / (d0 - d1), True
+        value = math.exp(math.log(p.value) + t * (math.log(q.value) - math.log(p.value)))
+        homega = math.exp(math.log(p.homega_one) + t * (math.log(q.homega_one) - math.log(p.homega_one)))
+        return Crossover(p.value, q.value, a, b, ma, mb, value, homega, interpolated)
+    return None
 
 
 # ----------------------------------------------------------------------------- the sweep
