@@ -144,17 +144,18 @@ def sweep_lines(sw):
            f"step, {CLOCK.upper()} clock")
     yield ""
     families = list(dict.fromkeys(e.family for p in sw.points for e in p.entries))
-    w = {f: max(len(family_name(f)), 34) for f in families}
-    yield (f"  {g.param:>9s} {'h*omega@1':>9s}  " + "  ".join(f"{family_name(f):{w[f]}s}" for f in families)
-           + "  cheapest")
+    cells = []
     for p in sw.points:
         costs = family_costs(p)
-        cols = []
-        for f in families:
-            e = costs.get(f)
-            cols.append(f"{(e.method + ' ' + str(e.substeps) + ' x, ' + _us(e.cost_per_frame_s) + ' us') if e else '-':{w[f]}s}")
+        cells.append([f"{e.method} {e.substeps} x {_us(e.cost_per_frame_s)}" if e else "-"
+                      for e in (costs.get(f) for f in families)])
+    w = [max([len(family_name(f))] + [len(row[i]) for row in cells]) for i, f in enumerate(families)]
+    yield (f"  {g.param:>9s} {'h*omega@1':>9s}  " + "  ".join(f"{family_name(f):{w[i]}s}" for i, f in enumerate(families))
+           + "  cheapest (us per frame)")
+    for p, row in zip(sw.points, cells):
         best = p.cheapest
-        yield f"  {p.value:9.3g} {p.homega_one:9.3g}  " + "  ".join(cols) + f"  {family_name(best.family) if best else 'none'}"
+        yield (f"  {p.value:9.3g} {p.homega_one:9.3g}  " + "  ".join(f"{c:{w[i]}s}" for i, c in enumerate(row))
+               + f"  {family_name(best.family) if best else 'none'}")
     yield ""
     cross = sw.crossovers
     if not cross:

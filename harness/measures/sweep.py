@@ -12,8 +12,8 @@ step, a pilot timed at that step before the run) would cost more than ``factor``
 cheapest frame found at that value (the bound ``cost``), or its substeps would pass ``cap`` (the
 bound ``cap``); which bound ended each search is recorded. The levels of all the methods run
 cheapest frame first, so the cheapest frame that meets the tolerances is found before any level
-``factor`` times dearer is run: a 32 x 32 cloth's backward Euler frame at k = 1e6 is never run
-where leapfrog's 256 substeps cost a twentieth of it. The chart then shows whether an explicit
+``factor`` times dearer is run (a large stiff cloth's backward Euler frame, whose Newton
+iterations each solve by conjugate gradients, is then timed and not run). The chart then shows whether an explicit
 scheme takes 20 or 2000 substeps where it still can.
 
 Cost per frame is substeps x the method's cost per step, as the advice times it: the compiled
@@ -131,9 +131,9 @@ def parse_grid(text: str, scene, points=None) -> Grid:
 # ----------------------------------------------------------------------------- one value
 def pilot_cost(method, scene, h: float, injected=None) -> float | None:
     """Seconds per step of the method's compiled kernel (an engine mode's step) at ``h``, from
-    PILOT_STEPS steps on the advice's clock: enough to order and bound the search. The cost
-    measure's own pilot is 2,000 steps, then at least 5,000 a repeat: a 32 x 32 cloth's
-    backward Euler step takes a second at k = 1e6."""
+    PILOT_STEPS steps on the advice's clock (PILOT_S of steps where those few are too short to
+    read): enough to order and bound the search. The cost measure's own pilot is 2,000 steps,
+    then at least 5,000 a repeat, which a large stiff cloth's implicit step makes minutes."""
     from harness.measures.cost import wall_time_per_step
 
     res = wall_time_per_step(method, scene, h, steps=PILOT_STEPS, repeats=1, clock=CLOCK, injected=injected)
