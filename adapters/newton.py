@@ -52,6 +52,8 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -207,8 +209,79 @@ def _cloth_particles(scene: Scene):
     return x, np.zeros_like(x), mass, (a, b, k, np.zeros_like(k), rest), tuple(gravity)
 
 
-PARTICLES = {"spring": _spring_particles, "damped_spring": _spring_particles, "chain": _chain_particles,
-             "cloth": _cloth_particles, "net": _cloth_particles}
+def _spring_put(model, scene: Scene, x, u, q, v) -> None:
+    # As a model built at this state: its anchor and rest length follow the amplitude
+    # (spring_rest), and in float32 another anchor rounds the spring's length otherwise.
+    p = scene.values
+    rest = rest_length(p["m"], p["k"], float(q[0]), float(v[0]))
+    x[0] = (-rest, 0.0, 0.0)
+    x[1] = (q[0], 0.0, 0.0)
+    u[1] = (v[0], 0.0, 0.0)
+    model.spring_rest_length.assign(np.asarray([rest], dtype=np.float32))
+
+
+def _spring_read(scene: Scene, x, u):
+    return np.array([x[1, 0]]), np.array([u[1, 0]])
+
+
+def _chain_put(model, scene: Scene, x, u, q, v) -> None:
+    x[:, 0] = _chain_rest(scene)
+    x[1:-1, 0] += q
+    u[1:-1, 0] = v
+
+
+def _chain_read(scene: Scene, x, u):
+    return x[1:-1, 0] - _chain_rest(scene)[1:-1], u[1:-1, 0].copy()
+
+
+def _sheet_put(model, scene: Scene, x, u, q, v) -> None:
+    n, m, d = scene.grid
+    free = scene._free_index()
+    x[free, :d] = q.reshape(-1, d)
+    u[free, :d] = v.reshape(-1, d)
+
+
+def _sheet_read(scene: Scene, x, u):
+    d = scene.grid[2]
+    free = scene._free_index()
+    return x[free, :d].ravel(), u[free, :d].ravel()
+
+
+@dataclass(frozen=True)
+class ParticlePose:
+    """How a scene is particles and springs: ``particles(scene) -> (x, v, mass, springs, gravity)``,
+    ``put(model, scene, x, u, q, v)`` writes the scene's state into the particle arrays (and what
+    of the model follows it), ``read(scene, x, u) -> (q, v)`` reads it back."""
+
+    particles: Callable
+    put: Callable
+    read: Callable
+
+
+_SPRING = ParticlePose(_spring_particles, _spring_put, _spring_read)
+_SHEET = ParticlePose(_cloth_particles, _sheet_put, _sheet_read)
+#: How each scene Newton poses as particles is built and read: a new scene is one entry here.
+PARTICLES = {"spring": _SPRING, "damped_spring": _SPRING, "chain": ParticlePose(_chain_particles, _chain_put, _chain_read),
+             "cloth": _SHEET, "net": _SHEET}
+
+
+def _revolute(builder, wp, p) -> None:
+    body = builder.add_link(com=wp.vec3(0.0, 0.0, -p["L"]), mass=p["m"], inertia=wp.mat33(np.zeros((3, 3))))
+    builder.add_joint_revolute(-1, body, axis=(0.0, 1.0, 0.0), stiffness=0.0, damping=0.0, armature=0.0)
+
+
+def _prismatic(builder, wp, p) -> None:
+    body = builder.add_link(mass=p["m"], inertia=wp.mat33(np.eye(3)))
+    builder.add_joint_prismatic(-1, body, axis=(1.0, 0.0, 0.0), stiffness=p["k"], rest_q=0.0,
+                                damping=p.get("c", 0.0), armature=0.0)
+
+
+_PRISMATIC = ("one body of mass m on a prismatic joint along x, joint stiffness k at rest 0, joint damping c",
+              lambda p: (0.0, 0.0, 0.0), _prismatic)
+#: How each scene Featherstone poses on a joint is built: (what, gravity(params), add(builder, wp, params)).
+JOINTS = {"spring": _PRISMATIC, "damped_spring": _PRISMATIC,
+          "pendulum": ("a point mass m at L below a revolute joint about y (inertia zero), gravity g along -z",
+                       lambda p: (0.0, 0.0, -p["g"]), _revolute)}
 
 
 def _solver(newton, mode: str, model):
@@ -254,7 +327,7 @@ class _Model(EngineModel):
 
     # -------------------------------------------------------------- building
     def _particle_model(self, newton, mode: str, scene: Scene):
-        x, v, mass, (a, b, k, c, rest), gravity = PARTICLES[scene.kind](scene)
+        x, v, mass, (a, b, k, c, rest), gravity = PARTICLES[scene.kind].particles(scene)
         builder = newton.ModelBuilder(gravity=gravity)
         for i in range(len(mass)):
             builder.add_particle(tuple(float(z) for z in x[i]), tuple(float(z) for z in v[i]), float(mass[i]),
@@ -270,7 +343,6 @@ class _Model(EngineModel):
         model.particle_max_velocity = MAX_VELOCITY
         self.n_particles = len(mass)
         self.free = np.flatnonzero(mass > 0.0)
-        self.dims = scene.grid[2] if scene.kind in ("cloth", "net") else 1
         settings = {"model": f"{len(mass)} particles ({len(self.free)} free), {len(a)} particle springs, no "
                              f"triangles, no bodies",
                     "particle_radius": float(model.particle_max_radius),
@@ -284,16 +356,9 @@ class _Model(EngineModel):
     def _joint_model(self, newton, scene: Scene):
         p = scene.values
         wp = self.wp
-        builder = newton.ModelBuilder(gravity=(0.0, 0.0, -p["g"]) if scene.kind == "pendulum" else (0.0, 0.0, 0.0))
-        if scene.kind == "pendulum":
-            body = builder.add_link(com=wp.vec3(0.0, 0.0, -p["L"]), mass=p["m"], inertia=wp.mat33(np.zeros((3, 3))))
-            builder.add_joint_revolute(-1, body, axis=(0.0, 1.0, 0.0), stiffness=0.0, damping=0.0, armature=0.0)
-            what = "a point mass m at L below a revolute joint about y (inertia zero), gravity g along -z"
-        else:
-            body = builder.add_link(mass=p["m"], inertia=wp.mat33(np.eye(3)))
-            builder.add_joint_prismatic(-1, body, axis=(1.0, 0.0, 0.0), stiffness=p["k"], rest_q=0.0,
-                                        damping=p.get("c", 0.0), armature=0.0)
-            what = "one body of mass m on a prismatic joint along x, joint stiffness k at rest 0, joint damping c"
+        what, gravity, add = JOINTS[scene.kind]
+        builder = newton.ModelBuilder(gravity=gravity(p))
+        add(builder, wp, p)
         builder.add_articulation([builder.joint_count - 1])
         # finalize's inertia check raises the point mass's zero inertia to 1e-6 (its joint mass
         # then m L^2 + 1e-6): skipped, so the pendulum's is m L^2.
@@ -316,24 +381,7 @@ class _Model(EngineModel):
             return
         x = self.s0.particle_q.numpy().astype(float)
         u = np.zeros_like(x)
-        kind = self.scene.kind
-        if kind in ("spring", "damped_spring"):
-            # As a model built at this state: its anchor and rest length follow the amplitude
-            # (spring_rest), and in float32 another anchor rounds the spring's length otherwise.
-            p = self.scene.values
-            rest = rest_length(p["m"], p["k"], float(q[0]), float(v[0]))
-            x[0] = (-rest, 0.0, 0.0)
-            x[1] = (q[0], 0.0, 0.0)
-            u[1] = (v[0], 0.0, 0.0)
-            self.model.spring_rest_length.assign(np.asarray([rest], dtype=np.float32))
-        elif kind == "chain":
-            x[:, 0] = _chain_rest(self.scene)
-            x[1:-1, 0] += q
-            u[1:-1, 0] = v
-        else:
-            d = self.dims
-            x[self.free, :d] = q.reshape(-1, d)
-            u[self.free, :d] = v.reshape(-1, d)
+        PARTICLES[self.scene.kind].put(self.model, self.scene, x, u, q, v)
         self.s0.particle_q.assign(x.astype(np.float32))
         self.s0.particle_qd.assign(u.astype(np.float32))
 
@@ -342,13 +390,7 @@ class _Model(EngineModel):
             return (self.s0.joint_q.numpy().astype(float), self.s0.joint_qd.numpy().astype(float))
         x = self.s0.particle_q.numpy().astype(float)
         u = self.s0.particle_qd.numpy().astype(float)
-        kind = self.scene.kind
-        if kind in ("spring", "damped_spring"):
-            return np.array([x[1, 0]]), np.array([u[1, 0]])
-        if kind == "chain":
-            return x[1:-1, 0] - _chain_rest(self.scene)[1:-1], u[1:-1, 0].copy()
-        d = self.dims
-        return x[self.free, :d].ravel(), u[self.free, :d].ravel()
+        return PARTICLES[self.scene.kind].read(self.scene, x, u)
 
     # -------------------------------------------------------------- stepping
     def steps(self, n: int) -> None:

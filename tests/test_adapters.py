@@ -436,8 +436,9 @@ def test_unstable_run_then_the_harness_goes_on():
 def test_all_methods_include_the_engine_modes():
     ids = all_methods()
     assert set(adapters.ENGINE_METHODS) <= set(ids)
-    # MuJoCo, pybullet, pymunk, REBOUND modes; Drake's ten integrators and four discrete-plant approximations
-    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 5 + 4 + (10 + 4)
+    # MuJoCo, pybullet, pymunk, REBOUND modes; Drake's ten integrators and four discrete-plant
+    # approximations; Newton's four solvers
+    assert len(adapters.ENGINE_METHODS) == 5 + 1 + 5 + 4 + (10 + 4) + 4
 
 
 def test_the_engine_facts_the_code_cites_are_in_the_repository():

@@ -36,6 +36,9 @@ def add_parser(sub):
     p.add_argument("--out", default=None, help="report directory (default results/model/<file name>)")
     p.add_argument("--db", default=None, help="SQLite history to store the run in (default: none kept)")
     p.add_argument("--jobs", default="2", help="worker processes")
+    p.add_argument("--methods", default=None, metavar="PATTERNS",
+                   help="comma-separated engine modes or patterns (drake:*); default every MuJoCo, pybullet and "
+                        "Newton mode and four of Drake's (harness/nightly/models.py MODEL_MODES)")
     p.add_argument("--json", action="store_true", help="print the model, its variants and every cell as JSON")
     return p
 
@@ -64,7 +67,8 @@ def run(args) -> int:
     variants = tuple(dict.fromkeys(variants))
     scenes = model_scenes(args.path, variants, keep=keep, off=off, **params)  # the file checked first: InvalidInput
     out = Path(args.out) if args.out else Path("results/model") / scenes[0].file.name
-    suite = model_suite([args.path], variants, request, hz, keep=keep, off=off, **params)
+    patterns = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
+    suite = model_suite([args.path], variants, request, hz, keep=keep, off=off, methods=patterns, **params)
     with tempfile.TemporaryDirectory() as tmp:
         db = Path(args.db) if args.db else Path(tmp) / "model.sqlite"
         result = run_nightly(suite, out, db, jobs, progress_stream=sys.stderr)

@@ -39,6 +39,11 @@ MODEL_ENGINES = ("mujoco", "pybullet", "drake", "newton")
 #: The modes the cross-engine cells step from the same state: MuJoCo's first, each other one
 #: compared with it where its engine loads the file (a cell each).
 CROSS_ENGINE = ("mujoco:euler", "pybullet:semi_implicit", "drake:semi_explicit_euler", "newton:featherstone")
+#: The modes a model file runs in unless ``harness model --methods`` names others: every mode of an
+#: engine not listed here, and of Drake those that answer a model's questions (semi-explicit Euler,
+#: its cross-engine mode; RK3, Drake's own default; Radau IIA; the discrete plant under SAP). The
+#: other ten add a plant stepped in microseconds each to every cell of every variant.
+MODEL_MODES = {"drake": ("drake:semi_explicit_euler", "drake:runge_kutta3", "drake:radau3", "drake:discrete_sap")}
 #: The advice's horizon on a model, in the model's own timesteps.
 MODEL_ADVICE_STEPS = 600
 
@@ -100,13 +105,27 @@ def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep
     return specs
 
 
-def engine_modes() -> tuple[str, ...]:
-    """The engine modes that run a model, in MODEL_ENGINES' reverse order: a run with no history
-    to schedule by starts Bullet's first, whose loop (Python, springs applied) is the longest."""
+def engine_modes(patterns=None) -> tuple[str, ...]:
+    """The engine modes that run a model, in MODEL_ENGINES' reverse order (a run with no history
+    to schedule by starts with the engine listed last): those matching ``patterns`` (fnmatch,
+    ``drake:*``), else MODEL_MODES' choice. A pattern that matches no model engine's mode is bad
+    input, named with the valid ones."""
+    import fnmatch
+
     from harness.methods import all_methods
 
-    return tuple(mid for engine in reversed(MODEL_ENGINES) for mid in all_methods()
-                 if mid.split(":", 1)[0] == engine)
+    modes = [mid for engine in reversed(MODEL_ENGINES) for mid in all_methods() if mid.split(":", 1)[0] == engine]
+    if not patterns:
+        return tuple(m for m in modes if m.split(":", 1)[0] not in MODEL_MODES
+                     or m in MODEL_MODES[m.split(":", 1)[0]])
+    chosen = []
+    for pat in patterns:
+        hit = [m for m in modes if fnmatch.fnmatchcase(m, pat)]
+        if not hit:
+            raise InvalidInput(f"--methods pattern {pat!r} matches no mode of an engine that loads model files "
+                               f"(valid: {', '.join(modes)}, or a pattern such as drake:*)")
+        chosen += hit
+    return tuple(dict.fromkeys(chosen))
 
 
 def with_models(suite: Suite, paths, **params) -> Suite:
@@ -120,13 +139,14 @@ def with_models(suite: Suite, paths, **params) -> Suite:
 
 
 def model_suite(paths, variants=tuple(VARIANTS), advise: dict | None = None, frame_rates=(), keep=(), off=(),
-                **params) -> Suite:
-    """The suite ``harness model`` runs: the files' variants, every engine mode that loads them."""
+                methods=None, **params) -> Suite:
+    """The suite ``harness model`` runs: the files' variants in the engine modes that load them
+    (``engine_modes(methods)``)."""
     frame_rates = tuple(frame_rates) if advise is not None else ()
     scenes = {}
     for path in paths:
         scenes.update(model_specs(path, variants, advise if frame_rates else None, keep, off, **params))
-    return Suite("model", scenes, methods=engine_modes(), cost_repeats=3, bounds=False, identify=False,
+    return Suite("model", scenes, methods=engine_modes(methods), cost_repeats=3, bounds=False, identify=False,
                  frame_rates=tuple(frame_rates))
 
 
