@@ -251,25 +251,28 @@ def test_harness_model_refuses_bad_files_in_one_line_exit_2(tmp_path, content, s
 
 @pytest.mark.parametrize("flag, value, says", [("--variant", "loose", "unknown --variant 'loose'"),
                                                ("--keep", "wind", "unknown --keep 'wind'"),
-                                               ("--hz", "-1", "--hz=-1 is out of range")])
+                                               ("--hz", "-1", "--hz=-1 is out of range"),
+                                               ("--methods", "drake:nope*", "--methods pattern 'drake:nope*' matches no mode")])
 def test_harness_model_refuses_bad_flags(tmp_path, linear_file, flag, value, says):
     code, _, err = cli("model", str(linear_file), flag, value, "--out", str(tmp_path / "out"))
     assert code == 2 and says in err and err.count("\n") == 1
 
 
 def test_harness_model_on_the_unit_spring_file(tmp_path):
-    """Every MuJoCo mode, both variants, the report written; the figures are the cells'."""
+    """Every MuJoCo mode (--methods: the other engines' model runs have tests of their own), both
+    variants, the report written; the figures are the cells'."""
     from scenarios.model import DEFAULT_FILE
 
     out = tmp_path / "out"
-    code, text, _ = cli("model", DEFAULT_FILE, "--out", str(out), "--hz", "0", "--jobs", "1")
+    code, text, _ = cli("model", DEFAULT_FILE, "--out", str(out), "--hz", "0", "--jobs", "1", "--methods", "mujoco:*")
     assert code == 0
     assert "perturbs an integrator: nothing found" in text
     assert "initial state: the model's first keyframe" in text
     for mode in ("euler", "rk4", "implicit", "implicitfast", "discrete"):
         assert f"| `mujoco:{mode}` | ok |" in text
     assert (out / "report.md").is_file() and any((out / "charts").glob("*stability.png"))
-    code, js, _ = cli("model", DEFAULT_FILE, "--out", str(out), "--hz", "0", "--json", "--variant", "conservative")
+    code, js, _ = cli("model", DEFAULT_FILE, "--out", str(out), "--hz", "0", "--json", "--variant", "conservative",
+                      "--methods", "mujoco:*")
     data = json.loads(js)
     stab = {c["method"]: c["value"] for c in data["cells"] if c["measure"] == "stability"}
     assert stab["mujoco:euler"] == pytest.approx(2.0, rel=2e-3)  # the spring scene's 2 (h*omega)

@@ -53,7 +53,7 @@ def _request(args) -> tuple[tuple[float, ...], dict | None]:
 
 
 def run(args) -> int:
-    from harness.nightly.models import model_scenes, model_suite
+    from harness.nightly.models import engine_modes, model_scenes, model_suite
     from harness.nightly.run import run_nightly
 
     variants = [validate.choice("--variant", v, list(VARIANTS)) for v in (args.variant or list(VARIANTS))]
@@ -65,9 +65,10 @@ def run(args) -> int:
     jobs = validate.count("--jobs", args.jobs, 1, 64)
     hz, request = _request(args)
     variants = tuple(dict.fromkeys(variants))
+    patterns = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
+    engine_modes(patterns)  # a bad --methods pattern is refused before any engine loads the file
     scenes = model_scenes(args.path, variants, keep=keep, off=off, **params)  # the file checked first: InvalidInput
     out = Path(args.out) if args.out else Path("results/model") / scenes[0].file.name
-    patterns = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
     suite = model_suite([args.path], variants, request, hz, keep=keep, off=off, methods=patterns, **params)
     with tempfile.TemporaryDirectory() as tmp:
         db = Path(args.db) if args.db else Path(tmp) / "model.sqlite"

@@ -143,10 +143,11 @@ def model_suite(paths, variants=tuple(VARIANTS), advise: dict | None = None, fra
     """The suite ``harness model`` runs: the files' variants in the engine modes that load them
     (``engine_modes(methods)``)."""
     frame_rates = tuple(frame_rates) if advise is not None else ()
+    modes = engine_modes(methods)  # a bad pattern is refused before any engine loads the file
     scenes = {}
     for path in paths:
         scenes.update(model_specs(path, variants, advise if frame_rates else None, keep, off, **params))
-    return Suite("model", scenes, methods=engine_modes(methods), cost_repeats=3, bounds=False, identify=False,
+    return Suite("model", scenes, methods=modes, cost_repeats=3, bounds=False, identify=False,
                  frame_rates=tuple(frame_rates))
 
 
