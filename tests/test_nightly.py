@@ -168,7 +168,8 @@ def test_smoke_nightly_stores_a_valid_complete_run(first_run):
     assert run.run_id == 1 and run.complete == 1
     assert run.suite == "smoke" and run.versions["numpy"] and run.machine["cpus"]
     cells = h.cells(1)
-    assert set(cells.measure) == {"energy", "error", "order", "stability", "cost", "identity", "bound", "advise"}
+    assert set(cells.measure) == {"energy", "error", "order", "stability", "cost", "identity", "bound", "advise",
+                                 "tolerance"}
     assert not cells.duplicated(["scene", "method", "measure", "dt"]).any()
     assert set(cells.status) == {"ok"}
     # Every cost figure is the injected one, and says so: no verdict of this module reads a clock.

@@ -32,7 +32,12 @@ def constraint_drift(method, scene: Scene, dt: float, steps: int, *, every: int 
     method = resolve(method, scene)
     if not scene.has_stretch:
         raise InvalidInput(f"scene {scene.id} has no links or springs to stretch (valid: rope, chain, cloth, net)")
-    traj = step(method, scene, dt, steps, every, timeout)
+    return drift_of(step(method, scene, dt, steps, every, timeout), scene, method, dt, steps, every)
+
+
+def drift_of(traj, scene: Scene, method, dt: float, steps: int, every: int = 1) -> dict:
+    """``constraint_drift``'s figures of a run already stepped (the nightly's energy run, which the
+    constraint cell reads rather than stepping it again)."""
     out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
            "steps": int(steps), "every": int(every), "status": traj.status, "detail": traj.detail,
            "failed_step": traj.failed_step}

@@ -32,6 +32,9 @@ class TaskContext:
     exact: Any = None
     claims: Claims = field(default_factory=Claims)
     cells: dict = field(default_factory=dict)
+    #: Runs stepped so far that a later measure reads as they are, by name: ``energy``, the energy
+    #: run's trajectory (the constraint cell's stretch is measured on it, not on a run of its own).
+    runs: dict = field(default_factory=dict)
 
 
 def make_cell(task, measure, status="ok", value=None, dt=None, steps=None, detail="", figures=None, extra=None,

@@ -156,13 +156,15 @@ def _scene_task(task, suite: Suite, exact=None) -> list[Cell]:
 ENERGY_RUN_FIGURES = ("max_rel_error", "final_rel_error", "rel_error_defined", "events")
 
 
-def _energy_and_error(task, method, scene, dt, spec, suite) -> list[Cell]:
+def _energy_and_error(task, method, scene, dt, spec, suite, runs: dict | None = None) -> list[Cell]:
     from harness.measures.energy import energy_figures
     from harness.measures.error import run_error
     from harness.execution.simulate import simulate
 
     steps, every = energy_run(scene, dt, spec, suite)
     traj = simulate(method, scene, dt, steps, every, timeout=suite.cell_timeout)
+    if runs is not None:
+        runs["energy"] = traj
     settings = {"settings": traj.meta.settings, "engine_version": traj.meta.engine_version,
                 "backend": traj.meta.backend}
     if traj.status not in ("ok", "unstable") or traj.q.shape[0] == 0:
@@ -441,7 +443,7 @@ register(builtin=True, measure=Measure(
     "judged by)", run=_identity_run, applies=_identifies))
 register(builtin=True, measure=Measure(
     "energy", EnergyFigures, "max |dE/E| over the energy run and its class (bounded, drifts, grows, decays)",
-    run=lambda ctx: _energy_and_error(ctx.task, ctx.run_method, ctx.scene, ctx.dt, ctx.spec, ctx.suite),
+    run=lambda ctx: _energy_and_error(ctx.task, ctx.run_method, ctx.scene, ctx.dt, ctx.spec, ctx.suite, ctx.runs),
     makes=("energy", "error"), columns=_columns("energy"), trend="max |dE/E|"))
 register(builtin=True, measure=Measure("error", ErrorFigures, "max global error over the energy run", made_by="energy",
                  columns=_columns("error"), trend="max global error"))

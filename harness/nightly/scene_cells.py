@@ -70,7 +70,7 @@ def _small_steps_scene_chart(cells, scene, path) -> bool:
 #: The measures a scene adds of its own, each where its scene spec asks for it.
 SCENE_MEASURES = (
     Measure("constraint", ConstraintFigures, "constraint drift: how far the run leaves the constraints",
-            run=lambda ctx: [_constraint(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec, ctx.suite)],
+            run=lambda ctx: [_constraint(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec, ctx.suite, ctx.runs)],
             applies=lambda ctx: ctx.scene.has_stretch),
     Measure("damping", DampingFigures, "damping far beyond the explicit limit: where an implicit scheme damps",
             run=lambda ctx: [_damping(ctx.task, ctx.method, ctx.scene, ctx.spec, ctx.suite)],
@@ -129,12 +129,14 @@ def scene_cells(task, method, scene, dt, spec, suite, claims: Claims | None = No
     return [guard(task, m.name, lambda: m.run(ctx)[0]) for m in SCENE_MEASURES if m.applies(ctx)]
 
 
-def _constraint(task, method, scene, dt, spec, suite) -> Cell:
-    from harness.measures.constraint import constraint_drift
+def _constraint(task, method, scene, dt, spec, suite, runs: dict | None = None) -> Cell:
+    from harness.measures.constraint import constraint_drift, drift_of
     from harness.methods import get_method
 
     steps, every = energy_run(scene, dt, spec, suite)
-    res = constraint_drift(method, scene, dt, steps, every=every, timeout=suite.cell_timeout)
+    stepped = (runs or {}).get("energy")  # the energy run, the same dt, steps and recording: read, not rerun
+    res = (drift_of(stepped, scene, method, dt, steps, every) if stepped is not None else
+           constraint_drift(method, scene, dt, steps, every=every, timeout=suite.cell_timeout))
     by_iterations = None
     passes = spec.extras.constraint_iterations
     if passes and method.scheme is not None and method.scheme.constrained:
