@@ -180,8 +180,11 @@ SOLAR_STABILITY_HI = 4.0
 #: h omega 3.98, past every explicit scheme's limit, RK4's 2.83 the largest; at the default k = 500
 #: it is 2.87, and RK4's 1000-step finite horizon read 2.87 as stable). The schemes that differ from
 #: semi-implicit Euler only under velocity-dependent forces are left out (the cloth has none),
-#: and the chain's four (each a numba compile of the pair); the full suite runs the default 8 x 8.
-CLOTH_STANDARD_SKIP = VELOCITY_SCHEMES + CHAIN_STANDARD_SKIP
+#: the chain's four (each a numba compile of the pair), and two implicit schemes that name engine
+#: modes on the spring (Radau IIA iterates its coupled stages on every step of the stiff sheet,
+#: the suite's longest reference task; implicit Euler by step doubling); the full suite runs the
+#: default 8 x 8 with every scheme.
+CLOTH_STANDARD_SKIP = VELOCITY_SCHEMES + CHAIN_STANDARD_SKIP + ("ref:radau_iia2", "ref:implicit_euler_doubled")
 #: The advice on the cloth: over the reference's trusted 2 s (the falling sheet is chaotic past
 #: it), the energy within 10% (the implicit schemes damp: that is what is asked of them here).
 CLOTH_ADVISE = {"horizon": 2.0, "energy_tol": 0.1, "max_substeps": 16}
@@ -230,13 +233,15 @@ CHAIN_SWEEP = {**SWEEP, "sizes": ({"label": "N = 32", "params": {}, "task": "ref
 
 #: Drake and Newton in the standard suite. Their plants step in microseconds where a compiled
 #: kernel steps in nanoseconds, so every mode on every scene would be most of the suite's CPU.
-#: The spring runs every mode of both (the identity table's row for each); elsewhere the modes
-#: that answer the scene's own question: on the damped spring, each discrete contact approximation
+#: The spring runs every Drake mode (the identity table's row for each) and Newton's semi-implicit
+#: and XPBD solvers (VBD and Featherstone, whose Python-launched steps make each of their tasks
+#: longer than a whole engine's, are the full suite's); elsewhere the modes that answer the scene's
+#: own question: on the damped spring, each discrete contact approximation
 #: (explicit or implicit joint damping) beside the continuous semi-explicit Euler and Radau; on the
 #: pendulum, the Runge-Kutta modes the spring cannot tell apart (Heun or midpoint, Kutta or
 #: Bogacki-Shampine); on the chain and the projectile, one explicit, one implicit and the
-#: discrete plant; Newton's position-based solvers and its semi-implicit one on the cloth. The
-#: full suite runs every mode on every scene it poses.
+#: discrete plant; Newton's XPBD on the cloth, beside the reference XPBD. The full suite runs every
+#: mode on every scene it poses.
 DRAKE_MODES = tuple(m for m in ENGINE_METHODS if m.startswith("drake:"))
 NEWTON_MODES = tuple(m for m in ENGINE_METHODS if m.startswith("newton:"))
 ENGINES_KEPT = {
@@ -245,14 +250,13 @@ ENGINES_KEPT = {
     "pendulum": ("drake:runge_kutta2", "drake:runge_kutta3", "drake:bogacki_shampine3", "drake:radau3"),
     "chain": ("drake:semi_explicit_euler", "drake:radau1", "drake:discrete_sap"),
     "projectile": ("drake:semi_explicit_euler", "drake:radau1", "drake:discrete_sap"),
-    "cloth": ("newton:semi_implicit", "newton:xpbd", "newton:vbd"),
+    "cloth": ("newton:xpbd",),
+    "spring": (*DRAKE_MODES, "newton:semi_implicit", "newton:xpbd"),
 }
 
 
 def engines_left_out(scene: str) -> tuple[str, ...]:
     """The Drake and Newton modes the standard suite leaves out on ``scene`` (``ENGINES_KEPT``)."""
-    if scene == "spring":
-        return ()
     return tuple(m for m in (*DRAKE_MODES, *NEWTON_MODES) if m not in ENGINES_KEPT.get(scene, ()))
 
 
@@ -272,7 +276,7 @@ SUITES: dict[str, Suite] = {
     "standard": Suite(
         "standard",
         scenes={
-            "spring": SceneSpec(periods=200, skip=VELOCITY_SCHEMES, advise=ADVISE,
+            "spring": SceneSpec(periods=200, skip=VELOCITY_SCHEMES + engines_left_out("spring"), advise=ADVISE,
                                 extras=SceneExtras(tolerances=STANDARD_TOLERANCES)),
             "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE,
                                        skip=engines_left_out("damped_spring")),
