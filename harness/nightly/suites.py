@@ -119,6 +119,12 @@ DAMPED_SPRING_EXTRAS = SceneExtras(stability_zetas=(0.0, 0.05, 0.1, 0.5, 1.0, 2.
 VELOCITY_SCHEMES = ("ref:semi_implicit_euler_velocity_implicit", "ref:position_first_euler_decay_after_kick",
                     "ref:position_first_euler_decay_before_kick")
 
+#: The reference schemes that name Drake's modes (Heun, Kutta's RK3, Bogacki-Shampine, Dormand-Prince
+#: and implicit Euler by step doubling): the standard suite runs them where it runs Drake's
+#: Runge-Kutta modes (the spring, the damped spring and the pendulum); the full suite everywhere.
+NAMING_SCHEMES = ("ref:heun", "ref:kutta_rk3", "ref:bogacki_shampine3", "ref:dormand_prince5",
+                  "ref:implicit_euler_doubled")
+
 #: Reference schemes the standard suite leaves out on the chain, to stay in its budget: each
 #: costs a (scheme, scene) numba compile of its own. It keeps explicit Euler (the cost
 #: baseline), semi-implicit Euler and leapfrog (limit h*omega = 2), RK4 (2 sqrt 2), implicit
@@ -279,18 +285,19 @@ SUITES: dict[str, Suite] = {
             "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE,
                                        skip=engines_left_out("damped_spring")),
             "pendulum": SceneSpec(periods=50, skip=VELOCITY_SCHEMES + engines_left_out("pendulum"), advise=ADVISE),
-            "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0, skip=VELOCITY_SCHEMES,
+            "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0, skip=VELOCITY_SCHEMES + NAMING_SCHEMES,
                                 extras=SceneExtras(brouwer=KEPLER_BROUWER, tolerances=STANDARD_TOLERANCES)),
-            "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True, skip=engines_left_out("projectile")),
+            "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True,
+                                    skip=NAMING_SCHEMES + engines_left_out("projectile")),
             "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS,
-                               skip=CHAIN_STANDARD_SKIP + engines_left_out("chain"), advise=ADVISE),
+                               skip=CHAIN_STANDARD_SKIP + NAMING_SCHEMES + engines_left_out("chain"), advise=ADVISE),
             "rope": SceneSpec(params={"N": 5}, periods=20, extras=replace(ROPE_EXTRAS, small_steps=SMALL_STEPS),
                               stability_steps=ROPE_STABILITY_STEPS, skip=ROPE_STANDARD_SKIP,
                               with_options=SMALL_STEP_XPBD),
             "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
                                       methods=SOLAR_METHODS, compiled=True, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
             "cloth": SceneSpec(params={"n": 4, "m": 4, "k": 1000.0}, periods=20,
-                               skip=CLOTH_STANDARD_SKIP + engines_left_out("cloth"), advise=CLOTH_ADVISE,
+                               skip=CLOTH_STANDARD_SKIP + NAMING_SCHEMES + engines_left_out("cloth"), advise=CLOTH_ADVISE,
                                extras=SceneExtras(small_steps=SMALL_STEPS), with_options=SMALL_STEP_XPBD),
         },
         stability_rtol=STANDARD_STABILITY_RTOL,
