@@ -17,6 +17,9 @@ import numpy as np
 from records.trajectory import DIVERGED
 
 from ._scheme import largest_magnitude
+# The step split where it first reads the state (``_Source.add_hoisted``): what comes before, run
+# once by a loop, and the rest, run every step; the kinds name the two in their calls.
+from .kinds import GIVEN, SETUP
 
 from ._exactness import exact_operations
 
@@ -253,10 +256,6 @@ class _Source:
             parts += [f"# from {self.origins[name]}", "@_jit", body, ""]
         return "\n".join(parts + [loop])
 
-
-#: The step split where it first reads the state (``_Source.add_hoisted``): what comes before, run
-#: once by a loop, and the rest, run every step.
-SETUP, GIVEN = "scheme_setup", "scheme_step_given"
 
 
 def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False, hoisted: bool = False) -> str:

@@ -31,6 +31,11 @@ from dataclasses import dataclass
 
 from scenarios import no_solve
 
+#: The names a kernel file gives a step split where it first reads the state or the time
+#: (``reference._codegen``: ``_Source.add_hoisted``): the part computed once per compiled loop, and
+#: the rest of the step, which takes its results.
+SETUP, GIVEN = "scheme_setup", "scheme_step_given"
+
 #: Newton iterations allowed per implicit step on a nonlinear scene.
 NEWTON_MAX = 50
 
@@ -235,8 +240,6 @@ class PositionBased(Kind):
         # What the step computes before it reads the state or the time (the scene's constraints,
         # what the scheme derives from them and h) is the same every step: the compiled loops
         # compute it once (``_Source.add_hoisted``). The step must not modify it.
-        from ._codegen import GIVEN, SETUP
-
         params = src.parameters("scheme_step")
         src.add_hoisted("scheme_step", SETUP, GIVEN, (params[-4], params[-3], "scene_accel"))
         return False
