@@ -51,7 +51,7 @@ from scenarios import Scene
 
 from records.method_id import TOLERANCE, Option
 
-from ._base import EngineMode, EngineModel, EngineVersions
+from ._base import EngineMode, EngineVersions, SteppedModel
 
 #: The releases this adapter supports: ``ResetIntegratorFromFlags`` by scheme name and
 #: ``DiscreteContactApproximation`` (SAP, lagged, similar) are in every release from 1.22;
@@ -174,10 +174,9 @@ def _plant(pydrake, scene: Scene, time_step: float):
     return plant, joint, gravity
 
 
-class _Model(EngineModel):
+class _Model(SteppedModel):
     """The scene's plant in a ``Simulator``, at the scene's initial state (module docstring)."""
 
-    own_loop = True
     settable = True
     #: Each scene coordinate's place in Drake's positions and velocities (None: the same order).
     _index = None
@@ -264,15 +263,6 @@ class _Model(EngineModel):
 
     def advance(self) -> None:
         self.steps(1)
-
-    def run(self, marks: np.ndarray):
-        out = []
-        for a, b in zip(marks[:-1], marks[1:]):
-            self.steps(int(b - a))
-            out.append(self.state())
-            if self._trouble or not np.all(np.isfinite(out[-1][0])) or not np.all(np.isfinite(out[-1][1])):
-                return out, False
-        return out, True
 
     def trouble(self) -> str | None:
         return self._trouble

@@ -59,7 +59,7 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, EngineModel, EngineVersions, quiet_fds
+from ._base import EngineMode, EngineVersions, SteppedModel, quiet_fds
 
 #: The releases this adapter supports: the 1.x solver constructors (SolverSemiImplicit's
 #: ``enable_tri_contact``, SolverXPBD's ``iterations``, SolverVBD's ``iterations``) and
@@ -299,10 +299,9 @@ def _solver(newton, mode: str, model):
             {"angular_damping": 0.0, "update_mass_matrix_interval": 1})
 
 
-class _Model(EngineModel):
+class _Model(SteppedModel):
     """A Newton model of the scene, its solver and two states (module docstring)."""
 
-    own_loop = True
     settable = True
 
     def __init__(self, newton, mode: str, scene: Scene, dt: float):
@@ -403,15 +402,6 @@ class _Model(EngineModel):
 
     def advance(self) -> None:
         self.steps(1)
-
-    def run(self, marks: np.ndarray):
-        out = []
-        for a, b in zip(marks[:-1], marks[1:]):
-            self.steps(int(b - a))
-            out.append(self.state())
-            if not (np.all(np.isfinite(out[-1][0])) and np.all(np.isfinite(out[-1][1]))):
-                return out, False
-        return out, True
 
     def evaluations(self):
         return None, "Newton's solvers count no force evaluations"
