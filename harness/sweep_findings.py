@@ -1,4 +1,4 @@
-"""The finding a ``sweep`` cell draws (``harness.nightly.sweep_cell``): the seed's claim that stiff
+"""The finding a ``sweep`` cell draws (``harness.nightly.measures.sweep_cell``): the seed's claim that stiff
 cloth wants implicit Euler "where explicit methods would demand absurdly tiny timesteps", held
 against where the measured cheapest frames of the two families cross.
 

@@ -4,6 +4,7 @@ the report and ``harness advise`` print them)."""
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from typing import ClassVar
 
 from records.figures import Figures
 
@@ -150,8 +151,11 @@ class SweepFigures(Figures):
     """``sweep``: the advice over a grid of one scene parameter (value: the first crossover's
     h*omega at one substep; None where the cheapest family never changes). ``points`` are
     ``SweepPoint`` dicts, ``crossovers`` ``Crossover`` dicts; ``params`` the scene's other values,
-    ``label`` the sweep's name in the report (its size), ``clock`` what the costs were timed on."""
+    ``label`` the sweep's name in the report (its size), ``clock`` what the costs were timed on.
+    ``params`` is stored as ``scene_params``: a cell's ``params`` are its task's (``records.cell``),
+    and the two under one key lost the sweep's on the way through the history."""
 
+    KEYS: ClassVar[dict[str, str]] = {"params": "scene_params"}
     label: str | None = None
     param: str | None = None
     params: dict | None = None

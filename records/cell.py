@@ -19,11 +19,27 @@ import json
 import math
 from dataclasses import dataclass, field
 
+from records.advice import SweepFigures
 from records.figures import (  # noqa: F401 (the cell's records, re-exported: ``from records.cell import ...``)
-    FIGURES, AdviceFigures, BoundFigures, BrouwerFigures, Claims, ConstraintFigures, CostFigures, CrossEngineFigures,
+    AdviceFigures, BoundFigures, BrouwerFigures, Claims, ConstraintFigures, CostFigures, CrossEngineFigures,
     DampingFigures, EnergyFigures, ErrorFigures, Figures, IdentityFigures, NominalRun, OrderFigures, Record,
-    ScalingFigures, StabilityFigures, StabilityVsDampingFigures)
-from records.measures import figures_of as _figures_type
+    ScalingFigures, SmallStepsFigures, StabilityFigures, StabilityVsDampingFigures, ToleranceFigures)
+
+#: Each measure's figures type, as storage reads its cells: those declared in records here, so that
+#: a reader with nothing of the harness loaded gets them; a type declared in a measure's own module
+#: (a plugin's) is added when the measure is registered (``records.measures.register``). An
+#: unknown measure's cells read as bare ``Figures``.
+FIGURES: dict[str, type[Figures]] = {
+    "energy": EnergyFigures, "error": ErrorFigures, "order": OrderFigures, "stability": StabilityFigures,
+    "cost": CostFigures, "identity": IdentityFigures, "advise": AdviceFigures, "bound": BoundFigures,
+    "constraint": ConstraintFigures, "damping": DampingFigures, "stability_vs_damping": StabilityVsDampingFigures,
+    "scaling": ScalingFigures, "brouwer": BrouwerFigures, "cross_engine": CrossEngineFigures,
+    "small_steps": SmallStepsFigures, "tolerance": ToleranceFigures, "sweep": SweepFigures,
+}
+
+
+def _figures_type(measure: str) -> type[Figures]:
+    return FIGURES.get(measure, Figures)
 
 #: The columns of a cell, in the tidy DataFrame and in the SQLite ``cells`` table.
 CELL_COLUMNS = ("scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value", "wall_s", "data")

@@ -1,4 +1,5 @@
-"""Each measure's figures as a typed record (``FIGURES[measure]``), the textbook claims a cell is
+"""Each measure's figures as a typed record (``records.cell.FIGURES`` names each measure's), and
+the typed rows a report reads of them; the textbook claims a cell is
 judged against (``Claims``), and ``Record``, the frozen-dataclass-as-flat-dict they share: a
 field ``name`` is stored under ``KEYS.get(name, name)`` and a None figure is not written
 (``records.cell`` stores them in a cell's ``data``)."""
@@ -299,7 +300,6 @@ class ScalingFigures(Figures):
     settings: dict | None = None
 
 
-#: The figures of each measure.
 @dataclass(frozen=True)
 class BrouwerFigures(Figures):
     """``brouwer``: the energy error's growth over an ensemble (the value: the log-log slope of
@@ -343,10 +343,80 @@ class CrossEngineFigures(Figures):
     notes: list | None = None
 
 
-FIGURES: dict[str, type[Figures]] = {
-    "energy": EnergyFigures, "error": ErrorFigures, "order": OrderFigures, "stability": StabilityFigures,
-    "cost": CostFigures, "identity": IdentityFigures, "advise": AdviceFigures, "bound": BoundFigures,
-    "constraint": ConstraintFigures, "damping": DampingFigures, "stability_vs_damping": StabilityVsDampingFigures,
-    "scaling": ScalingFigures,
-    "brouwer": BrouwerFigures, "cross_engine": CrossEngineFigures,
-}
+@dataclass(frozen=True)
+class ToleranceFigures(Figures):
+    """``tolerance``: per tolerance, the run's error, steps taken and rejected, evaluations and cost."""
+
+    rows: list | None = None
+    ended: str | None = None
+    settings: dict | None = None
+
+
+@dataclass(frozen=True)
+class SmallStepsRow(Record):
+    """One configuration of the small-steps study (``harness.measures.small_steps``): its label,
+    scheme and options, and at the study's frame rate the energy retained E(end) / E(0), the
+    largest stretch, the error against the reference and the CPU cost per frame (None where it did
+    not run or was not timed: ``status``, ``detail``)."""
+
+    config: str = ""
+    scene: str | None = None
+    method: str | None = None
+    substeps: int | None = None
+    iterations: int | None = None
+    steps_per_frame: int | None = None
+    hz: float | None = None
+    status: str = "ok"
+    detail: str | None = ""
+    energy_retained: float | None = None
+    stretch: float | None = None
+    error: float | None = None
+    cost_per_frame_s: float | None = None
+
+
+@dataclass(frozen=True)
+class PaperClaim(Record):
+    """One claim of the paper judged from the small-steps rows: ✓, ✗ or – where it could not be
+    judged, with the figures that decide it."""
+
+    scene: str = ""
+    claim: str = ""
+    verdict: str = "–"
+    figures: str = ""
+
+
+@dataclass(frozen=True)
+class SmallStepsSettings(Record):
+    """How the small-steps study ran: the scene and its parameters, the frame rate and horizon,
+    the passes compared, the timing's clock, frames and repeats, and the reference solution's own
+    stretch over the same frames."""
+
+    scene: str | None = None
+    params: dict | None = None
+    hz: float | None = None
+    t_end: float | None = None
+    passes: list | None = None
+    clock: str | None = None
+    timing_frames: int | None = None
+    repeats: int | None = None
+    cpu_s: float | None = None
+    reference_stretch: float | None = None
+
+
+@dataclass(frozen=True)
+class SmallStepsFigures(Figures):
+    """``small_steps``: the study's rows, the paper's claims judged from them, its settings (stored
+    as the study's dicts; read as ``SmallStepsRow``, ``PaperClaim``, ``SmallStepsSettings``)."""
+
+    rows: list | None = None
+    paper_claims: list | None = None         # the paper's claims judged (not "claims": a cell's own key)
+    settings: dict | None = None
+
+    def study_rows(self) -> list[SmallStepsRow]:
+        return [SmallStepsRow.from_data(r)[0] for r in self.rows or []]
+
+    def judged_claims(self) -> list[PaperClaim]:
+        return [PaperClaim.from_data(r)[0] for r in self.paper_claims or []]
+
+    def study_settings(self) -> SmallStepsSettings:
+        return SmallStepsSettings.from_data(self.settings or {})[0]

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from records.cell import Cell
 from records.figures import Figures
-from records.measures import Column, Measure
+from records.measures import Column, Comparison, Measure, TaskContext, Worse
 
 
 @dataclass(frozen=True)
@@ -24,11 +25,11 @@ class MomentumFigures(Figures):
     p: list | None = None
 
 
-def _applies(ctx) -> bool:
+def _applies(ctx: TaskContext) -> bool:
     return ctx.scene.id == "spring" and not ctx.method.adaptive
 
 
-def _run(ctx):
+def _run(ctx: TaskContext) -> list[Cell]:
     from harness.execution.simulate import simulate
     from harness.nightly.cell_kit import energy_run, make_cell
 
@@ -44,10 +45,10 @@ def _run(ctx):
     return [make_cell(ctx.task, "momentum", "ok", peak / exact if exact else None, ctx.dt, steps, figures=figures)]
 
 
-def _regression(ra, rb, ctx):
-    va, vb = ra["value"], rb["value"]
+def _regression(before: Cell, after: Cell, comparison: Comparison) -> Worse | None:
+    va, vb = before.value, after.value
     if va is not None and vb is not None and abs(vb - 1) > 2 * abs(va - 1) + 1e-3:
-        return "momentum", va, vb, f"peak |p| / exact {va:.4g} -> {vb:.4g}"
+        return Worse("momentum", va, vb, f"peak |p| / exact {va:.4g} -> {vb:.4g}")
     return None
 
 

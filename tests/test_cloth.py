@@ -280,9 +280,8 @@ def test_the_full_suites_cloth_has_a_scaling_cell_and_finding():
     from harness.judge import judge
     from harness.methods import get_method
     from harness.nightly.run import Task
-    from harness.nightly.cell_kit import TaskContext
-    from harness.nightly.scene_cells import measures_for
-    from records.measures import get
+    from harness.nightly.measures.scene_cells import measures_for
+    from records.measures import TaskContext, get
     from harness.nightly.suites import SUITES
     from harness.measures.scaling import cloth_sizes
     from scenarios import make_scene

@@ -105,7 +105,8 @@ def test_stretch_of_every_scene_with_springs_or_links():
 
 def test_the_stretch_measure_is_registered_and_stored():
     from harness.measures.constraint import constraint_drift
-    from records.figures import FIGURES
+    from harness.nightly import cells  # noqa: F401 (the harness registers the built-in measures)
+    from records.cell import FIGURES
     from records.measures import get
 
     m = get("constraint")
@@ -156,7 +157,8 @@ def test_the_claims_table_from_injected_rows():
 def test_the_small_steps_cell_is_measured_and_reported():
     import types
 
-    from harness.nightly.scene_cells import _small_steps
+    from harness.nightly import cells  # noqa: F401 (the harness registers the built-in measures)
+    from harness.nightly.measures.scene_cells import _small_steps
     from harness.nightly.suites import SUITES, SceneSpec, SceneExtras
     from records.measures import get
     from reports.position_based_section import position_based_section

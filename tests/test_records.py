@@ -280,6 +280,24 @@ def test_a_nightly_task_resolves_its_method_once(monkeypatch):
     assert looked_up.count(task.method) == 1 and looked_up.count("ref:explicit_euler") == 1, looked_up
 
 
+# --------------------------------------------------------------------------- the bottom floor
+def test_records_import_nothing_of_the_project_not_even_by_name():
+    """records/ is the bottom floor (docs/layout.md): it imports only itself, and loads no module
+    by name (the built-in measures are registered from the harness, not fetched from here)."""
+    import ast
+
+    for path in sorted((ROOT / "records").glob("*.py")):
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            for name in names:
+                assert name.split(".")[0] not in {"harness", "adapters", "reference", "scenarios", "reports"}, \
+                    (path.name, name)
+            assert not (isinstance(node, ast.Name) and node.id in ("import_module", "__import__")), path.name
+            assert not (isinstance(node, ast.Attribute) and node.attr == "import_module"), path.name
+
+
 # --------------------------------------------------------------------------- private modules
 PRIVATE_IMPORT = re.compile(r"^\s*(?:from|import)\s+((?:reference|adapters|scenarios|harness|reports|records)"
                             r"(?:\.[a-z_]+)*\._[a-z_]+)", re.M)
@@ -337,3 +355,4 @@ def test_the_identity_table_says_where_a_float32_mode_was_matched_at_float32_rou
     from harness.methods import get_method
 
     assert get_method("ref:rk4").precision == "float64"
+

@@ -275,7 +275,7 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     scaling cell reuses the implicit-Euler chain pair test_scenes_hard compiles)."""
     from harness.nightly.cells import measures_for, run_task
     from harness.nightly.run import Task, build_tasks
-    from harness.nightly.scene_cells import scene_cells
+    from harness.nightly.measures.scene_cells import scene_cells
     from harness.history.storage import History
     from harness.judge import judge
     from reports.markdown import render

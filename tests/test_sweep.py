@@ -239,7 +239,7 @@ def test_the_nightly_cell_is_measured_in_its_named_task_only(injected):
     from harness.nightly.cells import context, measures_for
     from harness.nightly.run import Task
     from harness.nightly.suites import SceneExtras, SceneSpec, Suite
-    from harness.nightly.sweep_cell import SWEEP
+    from records.measures import get
 
     sweep = {"grid": "k=1..4:2", "hz": 60.0, "request": {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 2},
              "methods": ("ref:leapfrog", "ref:semi_implicit_euler"), "factor": 100.0, "cap": 64,
@@ -248,7 +248,7 @@ def test_the_nightly_cell_is_measured_in_its_named_task_only(injected):
     task = Task("cell", "spring", "ref:leapfrog", "ref", {}, suite)
     assert "sweep" in measures_for(task)
     assert "sweep" not in measures_for(Task("cell", "spring", "ref:rk4", "ref", {}, suite))
-    (cell,) = SWEEP.run(context(task))
+    (cell,) = get("sweep").run(context(task))
     f = cell.figures
     assert cell.status == "ok" and cell.value is None and f.crossovers == [] and f.clock == "cpu"
     assert f.label == "unit" and f.param == "k" and f.factor == 100.0 and f.cap == 64

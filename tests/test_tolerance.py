@@ -13,7 +13,10 @@ pytest.importorskip("pydrake")
 
 from harness.measures.tolerance import tolerance_sweep  # noqa: E402
 from harness.methods import get_method  # noqa: E402
-from harness.nightly.tolerance_cells import ToleranceFigures, _findings, _regression, _section  # noqa: E402
+from records.figures import ToleranceFigures  # noqa: E402
+from records.measures import Comparison  # noqa: E402
+
+from harness.nightly.measures.tolerance_cells import _findings, _regression, _section  # noqa: E402
 
 
 def test_a_tolerance_hands_the_step_to_drakes_error_control():
@@ -100,11 +103,10 @@ def test_the_report_and_the_judge_read_the_sweep(tmp_path):
 
 
 def test_a_worse_error_at_the_same_tolerance_is_a_regression():
-    a = {"data": {"rows": ROWS}}
-    worse = [dict(ROWS[0]), dict(ROWS[1], error=4e-6)]
-    kind, va, vb, detail = _regression(a, {"data": {"rows": worse}})
-    assert kind == "tolerance" and (va, vb) == (2.3e-6, 4e-6) and "tolerance 1e-06" in detail
-    assert _regression(a, {"data": {"rows": [dict(ROWS[1], error=3e-6)]}}) is None  # within half again
+    worse = _regression(_cell(ROWS), _cell([dict(ROWS[0]), dict(ROWS[1], error=4e-6)]), Comparison())
+    assert worse.kind == "tolerance" and (worse.before, worse.after) == (2.3e-6, 4e-6)
+    assert "tolerance 1e-06" in worse.detail
+    assert _regression(_cell(ROWS), _cell([dict(ROWS[1], error=3e-6)]), Comparison()) is None  # within half again
 
 
 def test_harness_workprecision_sweeps_an_error_controlled_method_over_its_tolerances():
@@ -124,9 +126,9 @@ def test_harness_workprecision_sweeps_an_error_controlled_method_over_its_tolera
 
 
 def test_a_stored_cell_is_read_back_with_its_measures_figures_in_a_fresh_process():
-    """A reader that imports only the records (``harness compare``, a re-rendered report) gets a
-    built-in measure's own figures type: the registry's declarations load on the first read, as
-    the tolerance cell's did not (its findings met bare ``Figures``)."""
+    """A reader that imports only the records gets a built-in measure's own figures type
+    (``records.cell.FIGURES``), with no measure's declaration loaded, as the tolerance cell once
+    did not (its findings met bare ``Figures``)."""
     import subprocess
     import sys
 

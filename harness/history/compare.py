@@ -1,8 +1,9 @@
 """What got worse between two stored runs.
 
 Cells are matched on (scene, method, measure, dt). Each measure declares its own rule with it
-(``records.measures.Measure.regression``; the built-in ones in ``harness.nightly.cells``), and this
-module applies whichever is declared. A regression is, in run B against run A:
+(``records.measures.Measure.regression``: given the two cells and a ``Comparison``, it answers
+``Worse`` or None; the built-in ones in ``harness.nightly.cells``), and this module applies
+whichever is declared. A regression is, in run B against run A:
 
 * ``energy bound``: a ``bound`` cell whose max |dE/E| is above the reviewed bound (read from
   the bounds file at comparison time, so a tightened bound is checked against stored runs);
@@ -35,12 +36,11 @@ and one noisy night is not a step.
 """
 from __future__ import annotations
 
-import math
-
 import pandas as pd
 
 from records import InvalidInput
-from records.measures import get
+from records.cell import Cell
+from records.measures import Comparison, get
 
 from harness.history import bounds as bounds_mod
 from harness.history.regression import Regression
@@ -54,10 +54,6 @@ PROCESS_SPREAD = 0.5
 def _key(row) -> tuple:
     dt = row["dt"]
     return (row["scene"], row["method"], row["measure"], None if dt is None or pd.isna(dt) else round(float(dt), 15))
-
-
-def _val(x):
-    return None if x is None or (isinstance(x, float) and math.isnan(x)) else x
 
 
 def bound_violations(cells: pd.DataFrame, bounds: list[bounds_mod.Bound]) -> list[Regression]:
@@ -88,6 +84,7 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
             out.append(Regression("new failure", scene, method, measure, dt, "absent", rb["status"],
                                   f"{measure}: {rb['status']}: {rb['detail'] or ''}".rstrip(": ")))
     b_scenes = {key[0] for key in b_rows}
+    machine_only: dict[str, bool] = {}  # by family: nothing a cell of it depends on differs between the runs
     for key, ra in a_rows.items():
         scene, method, measure, dt = key
         rb = b_rows.get(key)
@@ -107,12 +104,13 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
         declared = get(measure)  # the measure's own regression rule (records.measures), if it has one
         if declared is None or declared.regression is None:
             continue
-        context = {"machine_only": lambda rb=rb: runs is not None and what_differs(
-            *runs, rb["family"], deterministic=False) == NOTHING_DIFFERS}
-        found = declared.regression({**ra, "value": _val(ra["value"])}, {**rb, "value": _val(rb["value"])}, context)
-        if found is not None:
-            kind, before, after, detail = found
-            out.append(Regression(kind, scene, method, measure, dt, before, after, detail))
+        family = rb["family"]
+        if family not in machine_only:
+            machine_only[family] = runs is not None and what_differs(
+                *runs, family, deterministic=False) == NOTHING_DIFFERS
+        worse = declared.regression(Cell.from_row(ra), Cell.from_row(rb), Comparison(machine_only[family]))
+        if worse is not None:
+            out.append(Regression(worse.kind, scene, method, measure, dt, worse.before, worse.after, worse.detail))
     return out
 
 

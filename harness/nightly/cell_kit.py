@@ -1,40 +1,15 @@
-"""What every nightly cell is built with, for ``cells`` (the measures every task has) and
-``scene_cells`` (the cells a scene adds of its own): the cell itself, the guard that turns a
-measurement error into a recorded ``crashed`` cell, the energy run's length, and numbers made
-JSON-able. Both modules import this one; it imports neither.
+"""What every nightly cell is built with, for ``cells`` (the measures every task has) and the
+modules of ``measures`` (the built-in measures beyond them): the cell itself, the guard that turns
+a measurement error into a recorded ``crashed`` cell, the energy run's length, and numbers made
+JSON-able. They import this one; it imports none of them.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
-from records.cell import Cell, Claims
-
-
-@dataclass
-class TaskContext:
-    """What a measure's ``run`` and ``applies`` see of one scene x method task
-    (``records.measures.Measure``): the task, its suite and scene spec, the scene and the method
-    (``run_method``: the compiled twin where the scene's long runs take it), the nominal dt, the
-    reference schemes' backend, the claims the cells are judged by (an identity run may replace
-    them) and the cells measured so far, by measure."""
-
-    task: Any
-    suite: Any
-    spec: Any
-    scene: Any
-    method: Any = None
-    run_method: Any = None
-    dt: float | None = None
-    exact: Any = None
-    claims: Claims = field(default_factory=Claims)
-    cells: dict = field(default_factory=dict)
-    #: Runs stepped so far that a later measure reads as they are, by name: ``energy``, the energy
-    #: run's trajectory (the constraint cell's stretch is measured on it, not on a run of its own).
-    runs: dict = field(default_factory=dict)
+from records.cell import Cell
 
 
 def make_cell(task, measure, status="ok", value=None, dt=None, steps=None, detail="", figures=None, extra=None,

@@ -7,7 +7,7 @@ for the chart), ``error`` (max global error over the same run), ``order`` (the d
 whose points also give the work-precision chart), ``stability`` (largest stable h*omega),
 ``cost`` (counted evaluations, and CPU time per step with its ratio to explicit Euler timed
 side by side in the same worker; see below) and, for engine modes, ``identity`` (which
-reference scheme it integrates). Some scenes add cells of their own (``harness.nightly.scene_cells``:
+reference scheme it integrates). Some scenes add cells of their own (``harness.nightly.measures``:
 constraint drift, damping far beyond the explicit limit, cost against size). A bound task
 measures one reviewed energy bound exactly as the file states it.
 
@@ -33,12 +33,13 @@ import numpy as np
 from scenarios import make_scene
 
 from records.cell import (AdviceFigures, BoundFigures, Cell, Claims, CostFigures, EnergyFigures, ErrorFigures,
-                          IdentityFigures, NominalRun, OrderFigures, StabilityFigures, figures_of)
+                          IdentityFigures, NominalRun, OrderFigures, StabilityFigures)
 
-from records.measures import Column, Measure, measures, register
+from records.measures import Column, Comparison, Measure, TaskContext, Worse, measures, register
 from records.method_id import scheme_name
 
-from harness.nightly.cell_kit import TaskContext, energy_run, finite, guard, guard_many, make_cell, nominal_dt, plain
+from harness.nightly.cell_kit import energy_run, finite, guard, guard_many, make_cell, nominal_dt, plain
+from harness.nightly.measures import declared
 from harness.history.compare import ORDER_DROP, PROCESS_SPREAD, STABILITY_DROP
 from harness.nightly.suites import SUITES, Suite
 
@@ -348,28 +349,28 @@ def failed_cells(task, failure) -> list[Cell]:
 
 
 # ----------------------------------------------------------------------------- the measures
-def _order_drop(ra, rb, ctx):
-    va, vb = ra["value"], rb["value"]
+def _order_drop(before: Cell, after: Cell, comparison: Comparison) -> Worse | None:
+    va, vb = before.value, after.value
     if va is not None and vb is not None and vb < va - ORDER_DROP:
-        return "order", va, vb, f"observed order {va:.2f} -> {vb:.2f} (drop > {ORDER_DROP})"
+        return Worse("order", va, vb, f"observed order {va:.2f} -> {vb:.2f} (drop > {ORDER_DROP})")
     return None
 
 
-def _stability_drop(ra, rb, ctx):
-    va, vb = ra["value"], rb["value"]
-    if figures_of(ra).unbounded and not figures_of(rb).unbounded:
-        return "stability", "unbounded", vb, f"was unbounded, now h*omega max = {vb:.4g}"
+def _stability_drop(before: Cell, after: Cell, comparison: Comparison) -> Worse | None:
+    va, vb = before.value, after.value
+    if before.figures.unbounded and not after.figures.unbounded:
+        return Worse("stability", "unbounded", vb, f"was unbounded, now h*omega max = {vb:.4g}")
     if va is not None and vb is not None and math.isfinite(va) and vb < va * (1 - STABILITY_DROP):
-        return "stability", va, vb, f"largest stable h*omega {va:.4g} -> {vb:.4g} (drop > {STABILITY_DROP:.0%})"
+        return Worse("stability", va, vb, f"largest stable h*omega {va:.4g} -> {vb:.4g} (drop > {STABILITY_DROP:.0%})")
     return None
 
 
-def _slowdown(ra, rb, ctx):
+def _slowdown(before: Cell, after: Cell, comparison: Comparison) -> Worse | None:
     """The cost ratio to explicit Euler beyond the noise (``harness.history.compare``); never where
-    nothing the cell depends on differs between the runs (``ctx["machine_only"]()``: the machine's)."""
-    if ctx["machine_only"]():
+    nothing the cell depends on differs between the runs (``comparison.machine_only``: the machine's)."""
+    if comparison.machine_only:
         return None
-    fa, fb = figures_of(ra), figures_of(rb)
+    fa, fb = before.figures, after.figures
     ra_ratio, rb_ratio = fa.ratio_to_explicit_euler, fb.ratio_to_explicit_euler
     if not (ra_ratio and rb_ratio):
         return None
@@ -377,10 +378,10 @@ def _slowdown(ra, rb, ctx):
     moved = abs(cal_b / cal_a - 1.0) if cal_a and cal_b else 0.0
     spread = fa.noise + fb.noise + PROCESS_SPREAD + moved
     if rb_ratio > ra_ratio * (1 + spread):
-        return "slowdown", ra_ratio, rb_ratio, (
+        return Worse("slowdown", ra_ratio, rb_ratio, (
             f"cost ratio to explicit Euler {ra_ratio:.2f} -> {rb_ratio:.2f}, beyond the noise allowed ({spread:.0%}: "
             f"the repeats' spreads, {PROCESS_SPREAD:.0%} from process to process"
-            + (f" and the calibration's move, {moved:.0%}" if moved else "") + ")")
+            + (f" and the calibration's move, {moved:.0%}" if moved else "") + ")"))
     return None
 
 
@@ -438,29 +439,37 @@ def _columns(kind):
     return _COLUMNS[kind]
 
 
-register(builtin=True, measure=Measure(
-    "identity", IdentityFigures, "which reference scheme an engine mode integrates (the claims its cells are "
-    "judged by)", run=_identity_run, applies=_identifies))
-register(builtin=True, measure=Measure(
-    "energy", EnergyFigures, "max |dE/E| over the energy run and its class (bounded, drifts, grows, decays)",
-    run=lambda ctx: _energy_and_error(ctx.task, ctx.run_method, ctx.scene, ctx.dt, ctx.spec, ctx.suite, ctx.runs),
-    makes=("energy", "error"), columns=_columns("energy"), trend="max |dE/E|"))
-register(builtin=True, measure=Measure("error", ErrorFigures, "max global error over the energy run", made_by="energy",
-                 columns=_columns("error"), trend="max global error"))
-register(builtin=True, measure=Measure(
-    "order", OrderFigures, "observed order of the dt sweep (its points draw the work-precision chart)",
-    run=lambda ctx: [_order(ctx.task, ctx.run_method, ctx.scene, ctx.spec)], applies=_fixed_step,
-    regression=_order_drop, columns=_columns("order"), trend="observed order", higher_is_worse=False))
-register(builtin=True, measure=Measure(
-    "cost", CostFigures, "force evaluations and CPU time per step, with explicit Euler's timed beside it",
-    run=lambda ctx: [_cost(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.suite)], regression=_slowdown,
-    columns=_columns("cost"), trend="ratio to explicit Euler", deterministic=False))
-register(builtin=True, measure=Measure(
-    "advise", AdviceFigures, "the fewest substeps a frame that meet the tolerances, and their cost per frame",
-    run=lambda ctx: _advise(ctx.task, ctx.method, ctx.scene, ctx.spec, ctx.suite, ctx.cells["cost"]),
-    applies=lambda ctx: ctx.spec.advise is not None and _fixed_step(ctx)))
-register(builtin=True, measure=Measure(
-    "stability", StabilityFigures, "largest stable h*omega (spectral radius on linear scenes, else a finite "
-    "horizon)", run=lambda ctx: [_stability(ctx.task, ctx.run_method, ctx.scene, ctx.suite, ctx.spec)],
-    applies=lambda ctx: ctx.spec.stability and _fixed_step(ctx), regression=_stability_drop,
-    columns=_columns("stability"), trend="largest stable h*omega", higher_is_worse=False))
+#: The task's own measures, in the order a task runs them.
+MEASURES = [
+    Measure(
+        "identity", IdentityFigures, "which reference scheme an engine mode integrates (the claims its cells are "
+        "judged by)", run=_identity_run, applies=_identifies),
+    Measure(
+        "energy", EnergyFigures, "max |dE/E| over the energy run and its class (bounded, drifts, grows, decays)",
+        run=lambda ctx: _energy_and_error(ctx.task, ctx.run_method, ctx.scene, ctx.dt, ctx.spec, ctx.suite, ctx.runs),
+        makes=("energy", "error"), columns=_columns("energy"), trend="max |dE/E|"),
+    Measure("error", ErrorFigures, "max global error over the energy run", made_by="energy",
+            columns=_columns("error"), trend="max global error"),
+    Measure(
+        "order", OrderFigures, "observed order of the dt sweep (its points draw the work-precision chart)",
+        run=lambda ctx: [_order(ctx.task, ctx.run_method, ctx.scene, ctx.spec)], applies=_fixed_step,
+        regression=_order_drop, columns=_columns("order"), trend="observed order", higher_is_worse=False),
+    Measure(
+        "cost", CostFigures, "force evaluations and CPU time per step, with explicit Euler's timed beside it",
+        run=lambda ctx: [_cost(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.suite)], regression=_slowdown,
+        columns=_columns("cost"), trend="ratio to explicit Euler", deterministic=False),
+    Measure(
+        "advise", AdviceFigures, "the fewest substeps a frame that meet the tolerances, and their cost per frame",
+        run=lambda ctx: _advise(ctx.task, ctx.method, ctx.scene, ctx.spec, ctx.suite, ctx.cells["cost"]),
+        applies=lambda ctx: ctx.spec.advise is not None and _fixed_step(ctx)),
+    Measure(
+        "stability", StabilityFigures, "largest stable h*omega (spectral radius on linear scenes, else a finite "
+        "horizon)", run=lambda ctx: [_stability(ctx.task, ctx.run_method, ctx.scene, ctx.suite, ctx.spec)],
+        applies=lambda ctx: ctx.spec.stability and _fixed_step(ctx), regression=_stability_drop,
+        columns=_columns("stability"), trend="largest stable h*omega", higher_is_worse=False),
+]
+
+# The built-in measures: the task's own, then every module's of ``harness.nightly.measures``
+# (``records.measures``: registered here, where the task loop that runs them all lives).
+for _measure in (*MEASURES, *declared()):
+    register(_measure, builtin=True)

@@ -36,6 +36,7 @@ from harness.history.compare import compare_runs
 from harness.history.series import load as load_trend
 from harness.methods import active_plugins, all_methods, get_method, load_plugins
 from harness.history.storage import MEASUREMENT_VERSION, History
+from harness.nightly import cells as _cells  # noqa: F401 (registers the built-in measures the run reads)
 from harness.nightly.progress import Progress, compile_line
 from harness.nightly.suites import SUITES, Suite
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import asdict
 
 from records.advice import SweepFigures
-from records.measures import Measure, register
+from records.measures import Measure
 
 from harness.nightly.cell_kit import make_cell, plain
 
@@ -68,7 +68,7 @@ def _findings(scene, piv):
     return sweep_findings(scene, piv)
 
 
-SWEEP = register(builtin=True, measure=Measure(
+MEASURES = [Measure(
     "sweep", SweepFigures, "the advice over a grid of one scene parameter: each method's cheapest frame, and where "
     "the cheapest family changes (the crossover)", run=_run, applies=lambda ctx: bool(sweeps_of(ctx)),
-    findings=_findings, section=_section, chart=_chart))
+    findings=_findings, section=_section, chart=_chart)]

@@ -35,31 +35,18 @@
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from records import MethodId, scheme_name
 from scenarios import make_scene
 
 from records.cell import (BrouwerFigures, Cell, Claims, ConstraintFigures, CrossEngineFigures, DampingFigures,
-                          ScalingFigures, StabilityVsDampingFigures)
+                          ScalingFigures, SmallStepsFigures, StabilityVsDampingFigures)
+from records.measures import Measure, TaskContext
 
-from records.figures import Figures
-from records.measures import Measure, register
+from harness.nightly.cell_kit import energy_run, finite, guard, make_cell, plain
 
-from harness.nightly import cells as _cells  # noqa: F401 (the task's own measures register first)
-from harness.nightly.cell_kit import TaskContext, energy_run, finite, guard, make_cell, plain
 
 def _extras(ctx):
     return ctx.spec.extras
-
-
-@dataclass(frozen=True)
-class SmallStepsFigures(Figures):
-    """``small_steps``: the study's rows, the paper's claims judged from them, its settings."""
-
-    rows: list | None = None
-    paper_claims: list | None = None         # the paper's claims judged (not "claims": a cell's own key)
-    settings: dict | None = None
 
 
 def _small_steps_scene_chart(cells, scene, path) -> bool:
@@ -68,7 +55,7 @@ def _small_steps_scene_chart(cells, scene, path) -> bool:
 
 
 #: The measures a scene adds of its own, each where its scene spec asks for it.
-SCENE_MEASURES = (
+MEASURES = [
     Measure("constraint", ConstraintFigures, "constraint drift: how far the run leaves the constraints",
             run=lambda ctx: [_constraint(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec, ctx.suite, ctx.runs)],
             applies=lambda ctx: ctx.scene.has_stretch),
@@ -95,9 +82,7 @@ SCENE_MEASURES = (
             run=lambda ctx: [_small_steps(ctx.task, ctx.spec)],
             applies=lambda ctx: _extras(ctx).small_steps is not None and ctx.task.method == "ref:xpbd",
             chart=_small_steps_scene_chart),
-)
-for _m in SCENE_MEASURES:
-    register(_m, builtin=True)
+]
 
 
 def _report():
@@ -117,16 +102,16 @@ def _cross_engine_section(scene: str, piv: dict) -> list[str]:
 
 
 def measures_for(task, spec) -> list[str]:
-    """The scene's own measures of ``task`` (``SCENE_MEASURES``, each where it applies)."""
+    """The scene's own measures of ``task`` (``MEASURES``, each where it applies)."""
     ctx = TaskContext(task, None, spec, make_scene(task.scene, source=task.source, **task.params))
-    return [m.name for m in SCENE_MEASURES if m.applies(ctx)]
+    return [m.name for m in MEASURES if m.applies(ctx)]
 
 
 def scene_cells(task, method, scene, dt, spec, suite, claims: Claims | None = None) -> list[Cell]:
     """The scene's own cells of ``task``, outside a nightly task (the nightly's task runs every
     registered measure: ``harness.nightly.cells``)."""
     ctx = TaskContext(task, suite, spec, scene, method, method, dt, None, claims or Claims())
-    return [guard(task, m.name, lambda: m.run(ctx)[0]) for m in SCENE_MEASURES if m.applies(ctx)]
+    return [guard(task, m.name, lambda: m.run(ctx)[0]) for m in MEASURES if m.applies(ctx)]
 
 
 def _constraint(task, method, scene, dt, spec, suite, runs: dict | None = None) -> Cell:

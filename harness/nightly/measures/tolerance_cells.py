@@ -10,23 +10,12 @@ scene's.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-from records.figures import Figures
+from records.cell import Cell
+from records.figures import ToleranceFigures
 from records.findings import Finding
-from records.measures import Column, Measure, register
+from records.measures import Column, Comparison, Measure, TaskContext, Worse
 
-from harness.nightly import scene_cells as _scene_cells  # noqa: F401 (the measures before it register first)
-from harness.nightly.cell_kit import TaskContext, finite, make_cell, plain
-
-
-@dataclass(frozen=True)
-class ToleranceFigures(Figures):
-    """``tolerance``: per tolerance, the run's error, steps taken and rejected, evaluations and cost."""
-
-    rows: list | None = None
-    ended: str | None = None
-    settings: dict | None = None
+from harness.nightly.cell_kit import finite, make_cell, plain
 
 
 def _applies(ctx: TaskContext) -> bool:
@@ -55,15 +44,15 @@ def _run(ctx: TaskContext):
                       figures=figures)]
 
 
-def _regression(ra: dict, rb: dict, ctx=None):
+def _regression(before: Cell, after: Cell, comparison: Comparison) -> Worse | None:
     """The error at a tolerance both runs measured grew by more than half: the same request now
     buys a worse answer."""
-    rows_a = {r["tolerance"]: r for r in (ra.get("data") or {}).get("rows") or []}
-    for r in (rb.get("data") or {}).get("rows") or []:
+    rows_a = {r["tolerance"]: r for r in before.figures.rows or []}
+    for r in after.figures.rows or []:
         a = rows_a.get(r["tolerance"])
         if a and a.get("error") and r.get("error") and r["error"] > 1.5 * a["error"]:
-            return ("tolerance", a["error"], r["error"],
-                    f"error at tolerance {r['tolerance']:g} {a['error']:.3g} -> {r['error']:.3g}")
+            return Worse("tolerance", a["error"], r["error"],
+                         f"error at tolerance {r['tolerance']:g} {a['error']:.3g} -> {r['error']:.3g}")
     return None
 
 
@@ -126,8 +115,7 @@ def _chart(cells, scene, path) -> bool:
     return charts.tolerance_chart(cells, scene, path)
 
 
-TOLERANCE_MEASURE = Measure(
+MEASURES = [Measure(
     "tolerance", ToleranceFigures, "error-controlled methods: error, steps taken and rejected, cost against tolerance",
     run=_run, applies=_applies, regression=_regression, findings=_findings,
-    columns=(Column("error / tolerance", _text, 85),), section=_section, chart=_chart)
-register(TOLERANCE_MEASURE, builtin=True)
+    columns=(Column("error / tolerance", _text, 85),), section=_section, chart=_chart)]
