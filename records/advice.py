@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from typing import ClassVar
 
-from records.figures import Figures
+from records.figures import Figures, Record
 
 
 @dataclass
@@ -147,6 +147,19 @@ class Crossover:
 
 
 @dataclass(frozen=True)
+class Request(Record):
+    """What an advice or a sweep was asked, as its cell stores it (``harness.measures.advise.Request``,
+    which validates it): ``hz`` frames per unit time over ``horizon``, within ``energy_tol``
+    (relative) and/or ``error_tol`` (absolute position error), searched up to ``max_substeps``."""
+
+    hz: float | None = None
+    horizon: float | None = None
+    energy_tol: float | None = None
+    error_tol: float | None = None
+    max_substeps: int | None = None
+
+
+@dataclass(frozen=True)
 class SweepFigures(Figures):
     """``sweep``: the advice over a grid of one scene parameter (value: the first crossover's
     h*omega at one substep; None where the cheapest family never changes). ``points`` are
@@ -166,6 +179,9 @@ class SweepFigures(Figures):
     clock: str | None = None
     points: list | None = None
     crossovers: list | None = None
+
+    def sweep_request(self) -> Request:
+        return Request.from_data(self.request or {})[0]
 
     def sweep_points(self) -> list[SweepPoint]:
         return [SweepPoint.from_dict(p) for p in self.points or []]

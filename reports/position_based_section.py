@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from records.cell import Cell
+from records.figures import PaperClaim, SmallStepsRow
 
 METHODS = ("ref:pbd", "ref:xpbd")
 
@@ -14,24 +15,24 @@ def _fmt(x, spec: str = ".3g") -> str:
     return "–" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
 
 
-def rows_table(rows: list[dict], reference_stretch: float | None) -> list[str]:
+def rows_table(rows: list[SmallStepsRow], reference_stretch: float | None) -> list[str]:
     """The study's rows (``small_steps``), the reference's own stretch first."""
     lines = ["| configuration | energy kept | stretch | error | CPU µs/frame |", "|---|---|---|---|---|",
              f"| reference solution | 1 | {_fmt(reference_stretch)} | 0 | – |"]
     for r in rows:
-        if r.get("status") != "ok":
-            lines.append(f"| {r['config']} | {r.get('status')}: {r.get('detail') or ''} | | | |")
+        if r.status != "ok":
+            lines.append(f"| {r.config} | {r.status}: {r.detail or ''} | | | |")
             continue
-        cost = r.get("cost_per_frame_s")
-        lines.append(f"| {r['config']} | {_fmt(r.get('energy_retained'))} | {_fmt(r.get('stretch'))} | "
-                     f"{_fmt(r.get('error'))} | {_fmt(cost * 1e6 if cost is not None else None)} |")
+        cost = r.cost_per_frame_s
+        lines.append(f"| {r.config} | {_fmt(r.energy_retained)} | {_fmt(r.stretch)} | "
+                     f"{_fmt(r.error)} | {_fmt(cost * 1e6 if cost is not None else None)} |")
     return lines
 
 
-def claims_table(claims: list[dict]) -> list[str]:
+def claims_table(claims: list[PaperClaim]) -> list[str]:
     """One row per claim of the paper: ✓, ✗ or – with its figures."""
     lines = ["| scene | claim of the paper | | figures |", "|---|---|---|---|"]
-    return lines + [f"| {r['scene']} | {r['claim']} | {r['verdict']} | {r['figures']} |" for r in claims]
+    return lines + [f"| {r.scene} | {r.claim} | {r.verdict} | {r.figures} |" for r in claims]
 
 
 def position_based_section(piv: dict, chart_names: dict) -> list[str]:
@@ -61,14 +62,14 @@ def position_based_section(piv: dict, chart_names: dict) -> list[str]:
                          f"| {value('constraint')} | {value('cost', '.3g', 1e6)} |")
         lines.append("")
     for scene, cell in studies:
-        settings = cell.figures.settings or {}
-        lines += [f"### Small steps on `{scene}` ({_fmt(settings.get('hz'), 'g')} Hz, "
-                  f"{_fmt(settings.get('t_end'), 'g')} s)", "",
+        settings = cell.figures.study_settings()
+        lines += [f"### Small steps on `{scene}` ({_fmt(settings.hz, 'g')} Hz, "
+                  f"{_fmt(settings.t_end, 'g')} s)", "",
                   "Energy kept: E(end) / E(0); stretch: the largest |length - rest| / rest over the frames; error: "
                   "the largest |q - q_ref| against the reference. Cost: CPU time of the compiled loop per frame "
                   "(process CPU clock, the fastest repeat).", ""]
-        lines += rows_table(cell.figures.rows or [], settings.get("reference_stretch")) + [""]
-        lines += claims_table(cell.figures.paper_claims or []) + [""]
+        lines += rows_table(cell.figures.study_rows(), settings.reference_stretch) + [""]
+        lines += claims_table(cell.figures.judged_claims()) + [""]
         name = chart_names.get((scene, "measure:small_steps"))
         if name:
             lines += [f"![Small steps on {scene}]({name})", ""]

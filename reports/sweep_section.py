@@ -46,15 +46,15 @@ def sweep_section(scene: str, piv: dict) -> list[str]:
     lines = []
     for c in cells:
         f = c.figures
-        r = f.request or {}
+        r = f.sweep_request()
         points = f.sweep_points()
         families = list(dict.fromkeys(e.family for p in points for e in p.entries))
-        tol = " and ".join(t for t in (f"energy error ≤ {r['energy_tol']:g}" if r.get("energy_tol") else "",
-                                       f"position error ≤ {r['error_tol']:g}" if r.get("error_tol") else "") if t)
+        tol = " and ".join(t for t in (f"energy error ≤ {r.energy_tol:g}" if r.energy_tol else "",
+                                       f"position error ≤ {r.error_tol:g}" if r.error_tol else "") if t)
         params = ", ".join(f"{k}={v:g}" for k, v in (f.params or {}).items())
         lines += [f"**Where the trade-off flips on {_title(f, scene)}** ({params}): the cheapest frame of each family "
-                  f"against {f.param}, at {f.hz:g} Hz over {r.get('horizon', float('nan')):g} s, {tol or 'the tolerances'}. "
-                  f"Each method is searched to {r.get('max_substeps', '?')} substeps, then doubled until it meets "
+                  f"against {f.param}, at {f.hz:g} Hz over {_fmt(r.horizon, 'g')} s, {tol or 'the tolerances'}. "
+                  f"Each method is searched to {_fmt(r.max_substeps, 'd', '?')} substeps, then doubled until it meets "
                   f"them, its frame would cost more than {f.factor:g} × the cheapest, or past {f.cap} substeps; "
                   f"cost per frame = substeps × the compiled kernel's (an engine mode's step's) {f.clock.upper()}-clock "
                   "time per step.", "",
@@ -127,7 +127,7 @@ def sweep_chart(cells, scene: str, path) -> bool:
     for ax, c in zip(axes[0], rows):
         f = c.figures
         points = f.sweep_points()
-        limit = (f.request or {}).get("max_substeps") or math.inf
+        limit = f.sweep_request().max_substeps or math.inf
         methods = list(dict.fromkeys(e.method for p in points for e in p.entries))
         for m in methods:
             pts = [(p.value, e.cost_per_frame_s * 1e6, e.substeps) for p in points for e in p.entries

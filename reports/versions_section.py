@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass, field
 
 from records.cell import Cell
 
@@ -88,19 +89,30 @@ def _same(a: Cell, b: Cell) -> bool:
     return a.status == b.status and same_value and a.detail == b.detail and _figures(a) == _figures(b)
 
 
-def compare_releases(engine: str, before: tuple[str, list[Cell]], after: tuple[str, list[Cell]]) -> dict:
-    """{"unchanged": n, "changed": [(key, cell_a, cell_b)], "only_before": [...], "only_after": [...]}
-    for the cells of ``engine``'s modes in two runs (each ``(version, cells)``)."""
+@dataclass
+class ReleaseComparison:
+    """One engine's cells in two releases' runs: how many are bit for bit ``unchanged``, the
+    ``changed`` ones (key, cell before, cell after), and the keys (scene, method, measure, dt)
+    only one release has."""
+
+    unchanged: int = 0
+    changed: list[tuple[tuple, Cell, Cell]] = field(default_factory=list)
+    only_before: list[tuple] = field(default_factory=list)
+    only_after: list[tuple] = field(default_factory=list)
+
+
+def compare_releases(engine: str, before: tuple[str, list[Cell]], after: tuple[str, list[Cell]]) -> ReleaseComparison:
+    """The cells of ``engine``'s modes in two runs (each ``(version, cells)``), set side by side."""
     def mine(cells):
         return {_key(c): c for c in cells if c.family == engine and c.measure != "bound"}
 
     a, b = mine(before[1]), mine(after[1])
-    out = {"unchanged": 0, "changed": [], "only_before": sorted(set(a) - set(b)), "only_after": sorted(set(b) - set(a))}
+    out = ReleaseComparison(only_before=sorted(set(a) - set(b)), only_after=sorted(set(b) - set(a)))
     for key in sorted(set(a) & set(b), key=str):
         if _same(a[key], b[key]):
-            out["unchanged"] += 1
+            out.unchanged += 1
         else:
-            out["changed"].append((key, a[key], b[key]))
+            out.changed.append((key, a[key], b[key]))
     return out
 
 
@@ -113,21 +125,21 @@ def between_versions_section(engine: str, runs: list[tuple[str, list[Cell]]], sk
     for (va, ca), (vb, cb) in zip(runs, runs[1:]):
         res = compare_releases(engine, (va, ca), (vb, cb))
         head = f"**{engine} {va} → {vb}**: "
-        if not res["changed"] and not res["only_before"] and not res["only_after"]:
-            lines += [head + f"bit for bit unchanged ({res['unchanged']} cells).", ""]
+        if not res.changed and not res.only_before and not res.only_after:
+            lines += [head + f"bit for bit unchanged ({res.unchanged} cells).", ""]
             continue
-        lines.append(head + f"{res['unchanged']} cells bit for bit unchanged, {len(res['changed'])} changed.")
+        lines.append(head + f"{res.unchanged} cells bit for bit unchanged, {len(res.changed)} changed.")
         lines.append("")
-        if res["changed"]:
+        if res.changed:
             lines += [f"| scene | method | measure | {engine} {va} | {engine} {vb} | what differs |",
                       "|---|---|---|---|---|---|"]
-            for (scene, method, measure, _), x, y in res["changed"]:
+            for (scene, method, measure, _), x, y in res.changed:
                 lines.append(f"| {scene} | `{method}` | {measure} | {_value(x)} | {_value(y)} | {what_differs(x, y)} |")
             lines.append("")
-        for side, version, other in (("only_before", va, vb), ("only_after", vb, va)):
-            for scene, method in sorted({(k[0], k[1]) for k in res[side]}):
+        for only, version, other in ((res.only_before, va, vb), (res.only_after, vb, va)):
+            for scene, method in sorted({(k[0], k[1]) for k in only}):
                 why = (skipped or {}).get(other, {}).get((scene, method)) or f"no such cell on {engine} {other}"
                 lines.append(f"- `{method}` on {scene}: measured on {engine} {version} only; on {other}: {why}")
-        if res["only_before"] or res["only_after"]:
+        if res.only_before or res.only_after:
             lines.append("")
     return lines

@@ -356,3 +356,18 @@ def test_the_identity_table_says_where_a_float32_mode_was_matched_at_float32_rou
 
     assert get_method("ref:rk4").precision == "float64"
 
+
+def test_the_stored_request_has_the_fields_of_the_request_the_advice_validates():
+    """``records.advice.Request`` is how the report reads an advice's or a sweep's request; the
+    harness's ``Request`` (validated, then stored with ``asdict``) writes it: one set of fields."""
+    from dataclasses import asdict, fields
+
+    from records.advice import Request as Stored
+    from records.advice import SweepFigures
+
+    from harness.measures.advise import Request
+
+    assert [f.name for f in fields(Stored)] == [f.name for f in fields(Request)]
+    asked = Request(hz=60.0, horizon=2.0, energy_tol=1e-3, max_substeps=16).checked()
+    read = SweepFigures(request=asdict(asked)).sweep_request()
+    assert (read.hz, read.horizon, read.energy_tol, read.error_tol, read.max_substeps) == (60.0, 2.0, 1e-3, None, 16)

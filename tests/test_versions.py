@@ -78,11 +78,11 @@ def test_releases_that_change_nothing_read_bit_for_bit_unchanged_and_cost_within
     b = [_cell("mujoco:euler", "energy", 1e-3, energy_class="bounded"),
          _cell("mujoco:euler", "cost", 1.2e-6, ratio_to_explicit_euler=12.0)]
     res = compare_releases("mujoco", ("3.3.7", a), ("4.0.0", b))
-    assert res["unchanged"] == 2 and not res["changed"]
+    assert res.unchanged == 2 and not res.changed
     lines = between_versions_section("mujoco", [("3.3.7", a), ("4.0.0", b)])
     assert "**mujoco 3.3.7 → 4.0.0**: bit for bit unchanged (2 cells)." in lines
     slower = [b[0], _cell("mujoco:euler", "cost", 2e-6, ratio_to_explicit_euler=20.0)]
-    assert len(compare_releases("mujoco", ("3.3.7", a), ("4.0.0", slower))["changed"]) == 1
+    assert len(compare_releases("mujoco", ("3.3.7", a), ("4.0.0", slower)).changed) == 1
 
 
 def test_an_advice_cell_is_compared_less_its_costs_and_a_crashed_cell_meets_its_counterpart():
@@ -92,11 +92,11 @@ def test_an_advice_cell_is_compared_less_its_costs_and_a_crashed_cell_meets_its_
         return Cell(scene="spring", method="mujoco:euler", family="mujoco", measure="advise", status="ok", value=cost,
                     dt=1 / 60, figures=AdviceFigures(best=0, rows=[{"substeps": substeps, "cost_per_frame_s": cost}]))
 
-    assert compare_releases("mujoco", ("a", [advice(1e-5, 4)]), ("b", [advice(2e-5, 4)]))["unchanged"] == 1
-    changed = compare_releases("mujoco", ("a", [advice(1e-5, 4)]), ("b", [advice(1e-5, 8)]))["changed"]
+    assert compare_releases("mujoco", ("a", [advice(1e-5, 4)]), ("b", [advice(2e-5, 4)])).unchanged == 1
+    changed = compare_releases("mujoco", ("a", [advice(1e-5, 4)]), ("b", [advice(1e-5, 8)])).changed
     assert len(changed) == 1
     crashed = Cell(scene="spring", method="mujoco:euler", family="mujoco", measure="energy", status="crashed",
                    value=None, dt=None, figures=EnergyFigures())
     res = compare_releases("mujoco", ("a", [crashed]), ("b", [_cell("mujoco:euler", "energy", 1e-3,
                                                                      energy_class="bounded")]))
-    assert len(res["changed"]) == 1 and not res["only_before"] and not res["only_after"]
+    assert len(res.changed) == 1 and not res.only_before and not res.only_after
