@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -58,23 +59,35 @@ def test_a_scene_written_in_one_module_is_measured_by_every_measure_with_no_othe
     assert observed_order("ref:rk4", scene)["order"] == pytest.approx(4.0, abs=0.2)
 
 
-def _names_in(path: Path) -> set[str]:
-    return {n.value for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.Constant)
-            and isinstance(n.value, str)}
+def _lines_naming(path: Path, word: str) -> list[int]:
+    """The lines of ``path``'s strings (literals and docstrings) where ``word`` stands as a word of
+    its own: ``net`` in "the net" but not in "network", ``cloth`` not in ``cloth_flex``."""
+    pattern = re.compile(rf"\b{re.escape(word)}\b")
+    return sorted({n.lineno for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.Constant)
+                   and isinstance(n.value, str) and pattern.search(n.value)})
+
+
+def test_the_scene_id_check_matches_whole_words_of_any_length(tmp_path):
+    probe = tmp_path / "probe.py"
+    probe.write_text('"""The net, and cloth_flex."""\nA = "network"\nB = f"on the {A} rope"\nC = "kinetic"\n')
+    assert _lines_naming(probe, "net") == [1]      # a word of its own, not "network" or "kinetic"
+    assert _lines_naming(probe, "rope") == [3]     # in an f-string's text too
+    assert _lines_naming(probe, "cloth") == []     # cloth_flex is another id
 
 
 def test_a_built_in_scene_is_its_module_plus_its_registry_entry():
     """Each scene class lives in a module of its own under scenarios/, and outside scenarios/ its id
     is named only where an engine poses it (an adapter's BUILDERS), a suite or the judge asks for
-    it, or a study of that scene runs: the machinery every scene goes through names none."""
+    it, or a study of that scene runs: the machinery every scene goes through names none, in its
+    code or its docstrings."""
     # The machinery every scene goes through (a study of one scene, in harness/measures, names its scene).
     machinery = [p for d in ("harness/execution", "harness/history", "records") for p in (ROOT / d).glob("*.py")]
     machinery += [ROOT / "harness" / "nightly" / f for f in ("cells.py", "cell_kit.py", "run.py")]
     for sid, cls in SCENES.items():
         module = Path(__import__(cls.__module__, fromlist=["x"]).__file__)
         assert module.parent.name == "scenarios", sid
-        named = [p.relative_to(ROOT) for p in machinery if sid in _names_in(p) and len(sid) > 4]
-        assert not named, f"scene {sid!r} is named in the harness's machinery: {named}"
+        named = {str(p.relative_to(ROOT)): lines for p in machinery if (lines := _lines_naming(p, sid))}
+        assert not named, f"scene {sid!r} is named in the harness's machinery (file: lines): {named}"
 
 
 def test_an_engine_is_one_module_of_modes():

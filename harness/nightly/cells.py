@@ -230,7 +230,7 @@ def _stability(task, method, scene, suite, spec) -> Cell:
 def _nominal_run(method, scene, dt: float, steps: int, suite) -> dict:
     """The stability measure's finite horizon (``steps``, 10,000 by default) run once more at the
     suite's nominal dt, with its energy against time: a blow-up past the energy run's horizon
-    (MuJoCo's implicit on the rope, at step 2434 of a 1,257-step energy run) is seen where it
+    (an engine mode's at step 2434 of a 1,257-step energy run: docs/engines.md) is seen where it
     happens, and the judge sets it beside the same engine's other modes (``harness.judge``)."""
     from harness.execution.simulate import simulate
 
