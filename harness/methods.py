@@ -17,7 +17,8 @@ import adapters
 import reference
 from records import InvalidInput, Method, MethodId
 from records.method_id import Option
-from records.measures import register as register_measure, unregister as unregister_measure
+from records.measures import Measure, get as registered_measure, register as register_measure
+from records.measures import unregister as unregister_measure
 from records.method import OPTIONAL, REQUIRED
 from reference import Exact, RefMethod
 from scenarios import Scene
@@ -108,7 +109,7 @@ def _with_options(method: Method, options: dict) -> Method:
 PLUGINS_ENV = "HARNESS_PLUGINS"
 
 _PLUGIN_METHODS: dict[str, dict] = {}   # module name -> the methods it registered, completed (as_method)
-_PLUGIN_MEASURES: dict[str, tuple] = {}  # module name -> the names of the measures it registered
+_PLUGIN_MEASURES: dict[str, tuple[Measure, ...]] = {}  # module name -> the measures it declares
 _TASK_PLUGINS: tuple[str, ...] = ()     # in a worker: the plugins its current task names
 
 
@@ -143,7 +144,7 @@ def load_plugins(names) -> dict[str, object]:
             if not isinstance(methods, dict):
                 raise InvalidInput(f"{PLUGINS_ENV}: plugin module {name!r} defines no METHODS dict "
                                    "(method id -> method object) and no MEASURES list")
-            _PLUGIN_MEASURES[name] = tuple(m.name for m in declared or ())
+            _PLUGIN_MEASURES[name] = tuple(declared or ())
             for mid, m in methods.items():
                 if getattr(m, "id", None) != mid or _plugin_family(mid) is None:
                     raise InvalidInput(f"{PLUGINS_ENV}: plugin {name!r} registers {mid!r} for a method whose id is "
@@ -173,7 +174,8 @@ def use_plugins(names) -> None:
     for module, declared in _PLUGIN_MEASURES.items():  # a previous task's plugin measures go with it
         if module not in active_plugins():
             for measure in declared:
-                unregister_measure(measure)
+                if registered_measure(measure.name) is measure:  # its own, not another of that name
+                    unregister_measure(measure.name)
 
 
 def active_plugins() -> tuple[str, ...]:
