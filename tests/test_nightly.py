@@ -398,8 +398,9 @@ def test_new_cells_that_crash_are_new_failures_and_new_unstable_ones_are_not():
 
 def test_a_slowdown_is_flagged_beyond_repeat_and_process_spread_only():
     def frame(ratio, spread):
-        return pd.DataFrame([{"scene": "s", "method": "m", "measure": "cost", "dt": 0.1, "status": "ok", "detail": "",
-                              "value": 1.0, "data": {"ratio_to_explicit_euler": ratio, "ratio_spread": spread}}])
+        return pd.DataFrame([{"scene": "s", "method": "m", "family": "f", "measure": "cost", "dt": 0.1, "status": "ok",
+                              "detail": "", "value": 1.0,
+                              "data": {"ratio_to_explicit_euler": ratio, "ratio_spread": spread}}])
 
     # Unchanged code moved a ratio by up to 1.34x between processes (compare.PROCESS_SPREAD).
     assert compare_cells(frame(4.0, 0.05), frame(5.6, 0.05), []) == []  # 1.40x < 1 + 0.05 + 0.05 + 0.5
