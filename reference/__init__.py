@@ -5,8 +5,14 @@ computes ``integrate``'s bits (counted alike; ``RefMethod(..., exact=Exact(...))
 
 Timing, for the harness's cost measures and benches: ``step_timer`` / ``time_per_step`` time a
 scheme's compiled kernel on ``CLOCKS[name]``, ``KERNEL_STATS`` counts the kernels compiled and
-loaded in this process, ``kernel_opt_level()`` the LLVM level they compile at, ``compile_notices(tell)`` says each compile before it starts, ``cache_state`` says what the disk cache (``kernel_cache_dir()``) holds of a pair before a run; ``FLOORS`` / ``floor_timer`` are the hand-written floors (imported, with
-numba, on first use).
+loaded in this process, ``kernel_opt_level()`` the LLVM level they compile at,
+``compile_notices(tell)`` says each compile before it starts, ``cache_state`` says what the disk
+cache (``kernel_cache_dir()``) holds of a pair before a run; ``run_floor`` / ``floor_timer`` run
+and time a scheme's hand-written floor (``Scheme.floor``; imported, with numba, on first use).
+
+A scheme is one file of ``schemes/`` (or one tableau entry): its step and everything declared of
+it (``Scheme``: its claims, ``Floor``, its recurrence on the damped ``oscillator``, the scenes it
+joins in a suite, ``EVERY_SCENE``).
 """
 from __future__ import annotations
 
@@ -16,7 +22,7 @@ from ._kernels import STATS as KERNEL_STATS
 from ._kernels import cache_dir as kernel_cache_dir
 from ._kernels import compile_notices
 from ._numba_config import opt_level as kernel_opt_level
-from ._scheme import Scheme
+from ._scheme import EVERY_SCENE, Floor, Scheme
 from .kinds import KINDS, Kind
 from .tableau import Tableau, tableau_scheme
 from .method import RefMethod
@@ -50,7 +56,7 @@ METHODS.update({s.id: s for s in TABLEAUS if s.id not in METHODS})
 
 #: Public names of ``_floors``, imported on first use: the floors compile with numba, which a
 #: harness command that times nothing need not import.
-_FLOOR_NAMES = ("FLOORS", "floor_timer")
+_FLOOR_NAMES = ("run_floor", "floor_timer")
 
 
 def __getattr__(name: str):
@@ -61,7 +67,7 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["METHODS", "Scheme", "Kind", "KINDS", "Tableau", "tableau_scheme", "RefMethod", "carried_map", "integrate",
+__all__ = ["METHODS", "Scheme", "Floor", "EVERY_SCENE", "Kind", "KINDS", "Tableau", "tableau_scheme", "RefMethod", "carried_map", "integrate",
            "integrate_compiled", "integrate_exact", "Exact",
            "exact_why", "cache_state", "compile_notices", "kernel_cache_dir", "kernel_opt_level", "CLOCKS", "step_timer",
            "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

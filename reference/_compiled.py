@@ -60,9 +60,7 @@ def compiled_as(scheme, scene_cls):
     solve divides by 1 + h 0 = 1, its decay multiplies by e^0 = 1, both exact), without the
     solve or the exponential that a loop written for that scene would not have."""
     if scheme.same_without_velocity and scene_cls.damping_rate is no_velocity_dependence:
-        from . import METHODS
-
-        return METHODS[scheme.same_without_velocity]
+        return scheme.same_without_velocity
     return scheme
 
 

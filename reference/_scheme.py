@@ -15,6 +15,14 @@ Kernel contract (arrays in the component-major kernel layout, ``(ndof, batch)``)
 The functions are plain numpy, so the same source runs interpreted, with every force
 evaluation counted, and compiled by numba for timing. An explicit Runge-Kutta scheme is
 declared as its tableau (``reference.tableau``), its step generated as such source.
+
+Beside its step a scheme declares, in its one file (as REBOUND keeps an integrator): its claims
+(order, force evaluations, symplecticity, energy behaviour, stability limit on the spring), its
+floor (``Floor``: the step written by hand on the unit spring, which ``harness bench`` times the
+kernel against), its recurrence on the damped oscillator (``amplification``, and the stability
+limit there in closed form where one exists, ``damping_limit``; ``reference.oscillator``), and the
+scenes it joins in the suites that ask (``suites``). A tableau's floor and recurrence follow from
+its tableau.
 """
 from __future__ import annotations
 
@@ -43,6 +51,43 @@ def largest_magnitude(x):
     return np.abs(x).max()
 
 
+def floor_start_qv(x, v, h, k, m):
+    return (x, v)
+
+
+def floor_observe_qv(s, h, k, m):
+    return s[0], s[1]
+
+
+@dataclass(frozen=True)
+class Floor:
+    """What a step can cost at best: the scheme's updates written out by hand for the unit spring,
+    a = (-k x)/m as the scene spells it, every value a float (no array, no temporary, no call the
+    compiler does not inline). Written apart from the step's source, it also checks it: the kernel
+    on the spring computes the floor's bits where the arithmetic is the same (tests/test_kernels.py).
+
+    ``step(s, h, k, m) -> s`` over a tuple of floats; ``start(x, v, h, k, m) -> s`` and
+    ``observe(s, h, k, m) -> (x, v)`` where the scheme carries more than (x, v). Plain Python:
+    ``reference._floors`` compiles the step and drives it (one spring in registers, or a batch)."""
+
+    step: Callable
+    start: Callable = floor_start_qv
+    observe: Callable = floor_observe_qv
+
+
+class _EveryScene:
+    """Every scene of a suite (``Scheme.suites``): the scheme runs on each that it can run on."""
+
+    def __contains__(self, scene_id: str) -> bool:
+        return True
+
+    def __repr__(self) -> str:
+        return "EVERY_SCENE"
+
+
+EVERY_SCENE = _EveryScene()
+
+
 @dataclass(frozen=True)
 class Scheme:
     """A reference scheme and its declarations.
@@ -51,9 +96,9 @@ class Scheme:
     than ``order`` (a kick that takes a(x, v) at a velocity of the wrong time, without a solve,
     loses the symmetry that made the scheme second order or higher); None: ``order`` holds.
 
-    ``same_without_velocity``: the id of the scheme this one is, update for update, where the
-    force does not depend on the velocity (its damping treatment is all that sets it apart);
-    ``harness identify`` does not offer it as a second match there.
+    ``same_without_velocity``: the scheme this one is, update for update, where the force does not
+    depend on the velocity (its damping treatment is all that sets it apart); ``harness identify``
+    does not offer it as a second match there, and a kernel on such a scene compiles as that one.
 
     ``one_pass_on_linear`` (implicit schemes): one Newton iteration from the old velocity solves
     the step exactly on a linear scene, so the step gets 1 there (``kinds.newton_max``); False
@@ -63,6 +108,17 @@ class Scheme:
     ``energy_claim`` and ``homega_max`` are what the textbook says on the unit spring
     (``homega_max``: ``None`` = unstable for every h, ``math.inf`` = never unstable);
     the harness measures both and reports them side by side.
+
+    ``amplification(y, zeta)``: one step as the matrix of a linear recurrence of the state the
+    scheme carries, on the damped oscillator x'' = -x - 2 zeta x' at y = h omega
+    (``reference.oscillator``), written from the update formulas; None for a scheme that does not
+    run there (constrained, position-based). ``damping_limit(zeta)``: the largest stable y on it in
+    closed form (None: unstable for every y, ``math.inf``: never unstable); without one the
+    harness computes it from ``amplification`` (``harness.measures.stability_damping``).
+
+    ``suites``: suite name -> the scenes the scheme joins in it (scene ids, or ``EVERY_SCENE``), for
+    the suites that let their schemes say where they run (the standard nightly,
+    ``harness.nightly.suites``): a scheme that names no scenes for such a suite runs nowhere in it.
     """
 
     id: str
@@ -80,12 +136,17 @@ class Scheme:
     #: Substeps a step is cut into by default (a position-based scheme's ``substeps`` option).
     substeps: int | None = None
     order_velocity_dependent: int | None = None
-    same_without_velocity: str | None = None
+    same_without_velocity: "Scheme | None" = None
     one_pass_on_linear: bool = True
     carries: tuple[str, ...] = ("q", "v")   # the state carried between steps, as ``start`` builds it
     doc: str = field(default="", compare=False)
     #: The Butcher tableau an explicit Runge-Kutta scheme is declared as (``reference.tableau``).
     tableau: object = field(default=None, compare=False)
+    #: The step by hand on the unit spring (``Floor``); None where the spring is not the scheme's.
+    floor: Floor | None = field(default=None, compare=False)
+    amplification: Callable | None = field(default=None, compare=False)
+    damping_limit: Callable | None = field(default=None, compare=False)
+    suites: dict = field(default_factory=dict, compare=False)
 
     @property
     def implicit(self) -> bool:
@@ -110,6 +171,10 @@ class Scheme:
             return self.order_velocity_dependent
         return self.order
 
+    def joins(self, suite: str, scene_id: str) -> bool:
+        """Whether the scheme declares ``scene_id`` among the scenes it joins in ``suite``."""
+        return scene_id in self.suites.get(suite, ())
+
     @property
     def summary(self) -> str:
         return self.doc.strip().splitlines()[0] if self.doc else self.id
@@ -121,7 +186,9 @@ class Scheme:
         out = {"id": self.id, "order": self.order, "order_velocity_dependent": self.order_for(True),
                "force_evals": evals, "symplectic": self.symplectic,
                "implicit": self.implicit, "constrained": self.constrained, "energy": self.energy_claim,
-               "decay": self.decay, "same_without_velocity": self.same_without_velocity, "homega_max": limit,
+               "decay": self.decay,
+               "same_without_velocity": self.same_without_velocity.id if self.same_without_velocity else None,
+               "homega_max": limit,
                "doc": " ".join(self.doc.split())}
         out.update(self.options)
         return out

@@ -1,6 +1,7 @@
 """Explicit Runge-Kutta schemes as a Butcher tableau (A, b, c, as ``scipy.integrate``'s
 ``RungeKutta`` declares them): one declaration gives the step, its force evaluations, its
-stability limit on the spring, its recurrence on the damped oscillator and its floor.
+stability limit on the spring, its recurrence on the damped oscillator and its floor (the
+scheme's ``floor`` and ``amplification``, ``reference._scheme``).
 
 On y = (x, v), y' = (v, a(x, v, t)), stage i is evaluated at
 x_i = x + h sum_j A_ij v_j, v_i = v + h sum_j A_ij a_j, t + c_i h (stage 1 at (x, v, t)), and
@@ -21,7 +22,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ._scheme import Scheme
+from ._scheme import Floor, Scheme
 from .kinds import EXPLICIT
 
 Number = int | float | str | Fraction
@@ -67,6 +68,15 @@ class Tableau:
             accs.append(ai)
         lines.append(f"    return ({_plus(x, self.b, xs)}, {_plus('v', self.b, accs)})")
         return "\n".join(lines) + "\n"
+
+    def floor_step(self, name: str) -> Callable:
+        """The floor's step (``reference._scheme.Floor``): the stages written out for the unit spring,
+        a = (-k x)/m at each stage, in the generated step's order of operations. It checks the kernel
+        files and the scene's force, not the tableau, which its order conditions check."""
+        source = self.step_source(name, lambda x, v, t: f"-k * {x} / m", "s, h, k, m", "x, v = s", x="x")
+        namespace: dict = {}
+        exec(source, namespace)
+        return namespace[name]
 
     # ------------------------------------------------------------------ what it derives
     def stability_coefficients(self) -> tuple[Fraction, ...]:
@@ -208,12 +218,15 @@ def _compile(source: str, name: str, filename: str, module: str) -> Callable:
 def tableau_scheme(id: str, A, b, c, *, order: int, energy_claim: str, doc: str,
                    module: str = "reference.tableau", **declared) -> Scheme:
     """The explicit scheme of a tableau: its step generated (``Tableau.step_source``), its force
-    evaluations the stages, its stability limit derived (``Tableau.homega_max``), never symplectic
-    (no explicit Runge-Kutta scheme is); ``order`` and ``energy_claim`` declared (a test checks
-    the order against the tableau's order conditions)."""
+    evaluations the stages, its stability limit derived (``Tableau.homega_max``), its floor
+    (``Tableau.floor_step``) and its recurrence on the damped oscillator (``Tableau.damping_matrix``),
+    never symplectic (no explicit Runge-Kutta scheme is); ``order`` and ``energy_claim`` declared (a
+    test checks the order against the tableau's order conditions); ``declared``: the rest of
+    ``Scheme``'s declarations (``suites``, a closed-form ``damping_limit``)."""
     tab = Tableau(A, b, c)
     source = tab.step_source(id, lambda x, v, t: f"accel({x}, {v}, {t}, p)", "accel, state, t, h, p", "q, v = state")
     step = _compile(source, id, f"<tableau {module}.{id}>", module)
     step.__doc__ = doc
     return Scheme(id=id, step=step, order=order, force_evals=tab.stages, symplectic=False, kind=EXPLICIT,
-                  energy_claim=energy_claim, homega_max=tab.homega_max(), doc=doc, tableau=tab, **declared)
+                  energy_claim=energy_claim, homega_max=tab.homega_max(), doc=doc, tableau=tab,
+                  floor=Floor(tab.floor_step(f"floor_{id}")), amplification=tab.damping_matrix, **declared)

@@ -99,3 +99,186 @@ def test_an_engine_is_one_module_of_modes():
         engine = mid.split(":")[0]
         assert f"{engine}.METHODS" in init
         assert (ROOT / "adapters" / f"{engine}.py").is_file()
+
+
+# ------------------------------------------------------------------ a scheme (docs/contributing.md)
+def _kdk_floor(s, h, k, m):
+    x, v = s
+    v = v + 0.5 * h * (-k * x / m)
+    x = x + h * v
+    return (x, v + 0.5 * h * (-k * x / m))
+
+
+def _kdk_amplification(y, z):
+    from reference.oscillator import drift, kick
+
+    return kick(0.5 * y, z) @ drift(y) @ kick(0.5 * y, z)
+
+
+def _declare_kick_drift_kick(**where):
+    """Kick-drift-kick leapfrog, written as the recipe says in this test module alone: a splitting,
+    not a tableau, its floor and its recurrence on the damped oscillator declared with its step;
+    ``where``: the suites it joins (none unless given)."""
+    from reference import Floor
+    from reference._scheme import scheme
+
+    @scheme(order=2, force_evals=2, symplectic=True, energy_claim="bounded", homega_max=2.0,
+            order_velocity_dependent=1, floor=Floor(_kdk_floor), amplification=_kdk_amplification, **where)
+    def kick_drift_kick_test(accel, state, t, h, p):
+        """Kick-drift-kick leapfrog, evaluating the force for both kicks (a test's scheme):
+
+            v_{n+1/2} = v_n + (h/2) a(x_n, v_n, t_n)
+            x_{n+1}   = x_n + h v_{n+1/2}
+            v_{n+1}   = v_{n+1/2} + (h/2) a(x_{n+1}, v_{n+1/2}, t_{n+1})
+
+        Second order, symplectic, two evaluations; stable for h w <= 2.
+        """
+        q, v = state
+        half = 0.5 * h
+        v = v + half * accel(q, v, t, p)
+        q = q + h * v
+        return (q, v + half * accel(q, v, t + h, p))
+
+    return kick_drift_kick_test
+
+
+@pytest.fixture
+def kick_drift_kick(monkeypatch):
+    """The scheme registered in ``reference.METHODS`` for the test, joining no suite: the one entry it is."""
+    from reference import METHODS
+
+    kdk = _declare_kick_drift_kick()
+    monkeypatch.setitem(METHODS, kdk.id, kdk)
+    return kdk
+
+
+def test_a_scheme_written_in_one_module_runs_interpreted_and_compiled_to_the_same_bits(kick_drift_kick):
+    """On the spring and on the damped spring (whose force depends on the velocity): the compiled
+    kernel, generated from the test module's source, gives the interpreted run's bits; the counted
+    force evaluations are the declared two a step (counted, not declared)."""
+    from reference import integrate, integrate_compiled
+    from scenarios import make_scene
+
+    for scene in (make_scene("spring"), make_scene("damped_spring", c=0.6)):
+        dt, steps = 0.05 / scene.omega, 300
+        interpreted = integrate(kick_drift_kick, scene, dt, steps, every=7)
+        compiled = integrate_compiled(kick_drift_kick, scene, dt, steps, every=7)
+        np.testing.assert_array_equal(compiled.step, interpreted.step)
+        np.testing.assert_array_equal(compiled.q, interpreted.q)
+        np.testing.assert_array_equal(compiled.v, interpreted.v)
+        assert interpreted.force_evals == kick_drift_kick.force_evals * steps == 2 * steps
+
+
+def test_a_scheme_written_in_one_module_has_its_floor_its_damping_and_its_limit(kick_drift_kick):
+    """Its floor (``harness bench``) computes the compiled kernel's bits on the unit spring (the same
+    operations in the same order); its declared recurrence is the measured one-step map on the damped
+    spring (1e-14: a few roundoffs of unit-size entries); the limit computed from it undamped is the
+    declared h omega = 2 (1e-3: the search's rho > 1 + RHO_TOL crosses just past the double
+    eigenvalue at 2); and the measured limit agrees with that theory at every damping ratio."""
+    from harness.bench.kernels import on_the_spring
+    from harness.measures.stability_damping import limit_vs_damping, theory_limit
+    from harness.methods import get_method
+    from reference import carried_map, integrate_compiled
+    from reference._floors import run_floor
+    from scenarios import make_scene
+
+    assert kick_drift_kick.id in on_the_spring()
+    traj = integrate_compiled(kick_drift_kick, make_scene("spring"), 0.01, 1000, every=1000)
+    assert (traj.q[-1, 0, 0], traj.v[-1, 0, 0]) == run_floor(kick_drift_kick.floor, 1.0, 0.0, 0.01, 1.0, 1.0, 1000)
+    for zeta, y in ((0.0, 0.5), (0.3, 1.2)):
+        M, c, _ = carried_map(kick_drift_kick, make_scene("damped_spring", c=2.0 * zeta), y)
+        np.testing.assert_allclose(M, kick_drift_kick.amplification(y, zeta), rtol=0, atol=1e-14)
+        assert not c.any()
+    undamped = theory_limit(kick_drift_kick.id, 0.0)
+    assert undamped["source"] == "computed"
+    assert undamped["homega_max"] == pytest.approx(kick_drift_kick.homega_max, rel=1e-3)
+    res = limit_vs_damping(get_method(f"ref:{kick_drift_kick.id}"))
+    assert res["rows"] and all(row["agrees"] for row in res["rows"]), res["rows"]
+
+
+def test_a_new_scheme_runs_nowhere_in_the_standard_suite_until_it_says_where(kick_drift_kick, monkeypatch):
+    """Registered, it is in no task of the standard suite, each scene it could run on saying why;
+    declaring two scenes puts it in exactly those two tasks. The full suite runs every scheme on every
+    scene it can run on, this one too."""
+    import dataclasses
+
+    from harness.nightly.run import build_tasks
+    from harness.nightly.suites import SUITES
+    from reference import METHODS
+
+    standard = dataclasses.replace(SUITES["standard"], bounds=False)
+    mid = f"ref:{kick_drift_kick.id}"
+    tasks, skipped = build_tasks(standard)
+    assert tasks and not [t for t in tasks if t.method == mid]
+    why = {s["scene"]: s["reason"] for s in skipped if s["method"] == mid}
+    assert "does not declare spring among the scenes it joins in the standard suite" in why["spring"]
+
+    monkeypatch.setitem(METHODS, kick_drift_kick.id,
+                        _declare_kick_drift_kick(suites={"standard": ("spring", "pendulum")}))
+    tasks, _ = build_tasks(standard)
+    assert sorted(t.scene for t in tasks if t.method == mid) == ["pendulum", "spring"]
+    full, _ = build_tasks(dataclasses.replace(SUITES["full"], bounds=False))
+    assert {"spring", "pendulum", "kepler", "chain", "cloth"} <= {t.scene for t in full if t.method == mid}
+
+
+#: The standard suite's reference tasks, scheme -> scenes, as it ran them when its schemes came to
+#: declare their scenes (``suites`` in each scheme's file) in place of its skip lists: the same tasks,
+#: in the same order. A scheme that joins or leaves a scene of the standard suite changes its budget,
+#: and this table with it, on purpose.
+STANDARD_REFERENCE_TASKS = {
+    "explicit_euler": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "solar_system",
+                       "cloth"),
+    "semi_implicit_euler": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "solar_system",
+                            "cloth"),
+    "semi_implicit_euler_position_first": ("spring", "damped_spring", "pendulum", "kepler", "projectile"),
+    "verlet": ("spring", "damped_spring", "pendulum", "kepler", "projectile"),
+    "velocity_verlet": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "solar_system"),
+    "leapfrog": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "solar_system", "cloth"),
+    "rk4": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "solar_system", "cloth"),
+    "implicit_euler": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "cloth"),
+    "implicit_midpoint": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "cloth"),
+    "forest_ruth": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "solar_system"),
+    "linearly_implicit_euler": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "cloth"),
+    "implicit_euler_doubled": ("spring", "damped_spring", "pendulum"),
+    "radau_iia2": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain"),
+    "pbd": ("spring", "chain", "rope", "cloth"),
+    "xpbd": ("spring", "chain", "rope", "cloth"),
+    "heun": ("spring", "damped_spring", "pendulum"),
+    "kutta_rk3": ("spring", "damped_spring", "pendulum"),
+    "bogacki_shampine3": ("spring", "damped_spring", "pendulum"),
+    "dormand_prince5": ("spring", "damped_spring", "pendulum"),
+    "semi_implicit_euler_velocity_implicit": ("damped_spring", "projectile", "chain"),
+    "position_first_euler_decay_after_kick": ("damped_spring", "projectile"),
+    "position_first_euler_decay_before_kick": ("damped_spring", "projectile"),
+    "verlet_constrained": ("rope",),
+}
+
+
+def test_the_built_in_schemes_declare_the_standard_suites_reference_tasks_and_the_full_suite_runs_all():
+    """The standard suite's reference tasks, scene by scene in the suite's order, are the table's (with
+    ``ref:xpbd?iterations=1``, which the rope's and the cloth's specs add); the full suite runs every
+    scheme on every scene it can run on (``RefMethod.supports``)."""
+    import dataclasses
+
+    from harness.methods import get_method
+    from harness.nightly.run import build_tasks
+    from harness.nightly.suites import SUITES
+    from reference import METHODS
+    from scenarios import make_scene
+
+    standard = dataclasses.replace(SUITES["standard"], bounds=False)
+    tasks, _ = build_tasks(standard)
+    got = [(t.scene, t.method) for t in tasks if t.family == "ref"]
+    want = [(scene, f"ref:{sid}") for scene in standard.scenes for sid in METHODS
+            if scene in STANDARD_REFERENCE_TASKS.get(sid, ())]
+    want += [(scene, mid) for scene, spec in standard.scenes.items() for mid in spec.with_options]
+    assert sorted(got) == sorted(want) and len(got) == len(set(got))
+    for scene in standard.scenes:  # in the suite's method order on each scene
+        assert [m for s, m in got if s == scene] == [m for s, m in want if s == scene]
+
+    full = dataclasses.replace(SUITES["full"], bounds=False)
+    tasks, _ = build_tasks(full)
+    got = {(t.scene, t.method) for t in tasks if t.family == "ref" and "?" not in t.method}
+    runs = {(scene, f"ref:{sid}") for scene, spec in full.scenes.items() for sid in METHODS
+            if get_method(f"ref:{sid}").supports(make_scene(scene, source=spec.source, **spec.params))[0]}
+    assert got == runs

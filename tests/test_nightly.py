@@ -562,4 +562,5 @@ def test_a_mode_the_scene_cannot_pose_gives_that_reason_not_the_suites_selection
     from harness.methods import get_method
 
     if get_method("drake:runge_kutta3").available()[0]:
-        assert why[("chain", "drake:runge_kutta3")] == "left out on chain in the standard suite (harness/suites.py)"
+        assert why[("chain", "drake:runge_kutta3")] == \
+            "left out on chain in the standard suite (harness/nightly/suites.py)"

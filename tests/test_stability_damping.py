@@ -21,25 +21,37 @@ import pytest
 import adapters
 from harness.execution import isolation
 from harness.methods import get_method
-from harness.measures.stability_damping import (CLOSED_FORM, MATRICES, THEORY_RTOL, ZETAS, computed_limit,
-                                       limit_vs_damping, spectral_radius, theory_limit)
+from harness.measures.stability_damping import (THEORY_RTOL, ZETAS, computed_limit, limit_vs_damping,
+                                                spectral_radius, theory_limit)
 from reference import METHODS
 from scenarios import make_scene
 
-ONE_STEP = list(MATRICES)
+#: The schemes that declare their recurrence on the damped oscillator (``Scheme.amplification``), and
+#: those that also declare its limit in closed form (``Scheme.damping_limit``).
+ONE_STEP = [sid for sid, s in METHODS.items() if s.amplification is not None]
+CLOSED_FORM = sorted(sid for sid, s in METHODS.items() if s.damping_limit is not None)
 
 
 def test_every_scheme_that_runs_on_the_damped_spring_has_its_damped_recurrence():
     """Every scheme the damped spring's stability cell runs (a position-based scheme has no
     damping to project, and says so: it does not run there)."""
     damped = make_scene("damped_spring")
-    assert set(MATRICES) == {sid for sid in METHODS if get_method(f"ref:{sid}").supports(damped)[0]}
+    assert set(ONE_STEP) == {sid for sid in METHODS if get_method(f"ref:{sid}").supports(damped)[0]}
 
 
-@pytest.mark.parametrize("sid", sorted(CLOSED_FORM))
+def test_the_closed_forms_are_the_ones_jury_and_a_stability_give():
+    """Explicit Euler, both semi-implicit Eulers and position Verlet (Jury on the 2x2 polynomial),
+    MuJoCo's velocity-implicit Euler, and the five A-stable implicit schemes."""
+    assert CLOSED_FORM == sorted(["explicit_euler", "semi_implicit_euler", "semi_implicit_euler_position_first",
+                                  "verlet", "semi_implicit_euler_velocity_implicit", "implicit_euler",
+                                  "implicit_euler_doubled", "linearly_implicit_euler", "implicit_midpoint",
+                                  "radau_iia2"])
+
+
+@pytest.mark.parametrize("sid", CLOSED_FORM)
 @pytest.mark.parametrize("zeta", ZETAS + (0.3, 0.99, 1.01, 5.0))
 def test_closed_form_limits_are_where_the_spectral_radius_crosses_one(sid, zeta):
-    closed, computed = CLOSED_FORM[sid](zeta), computed_limit(sid, zeta)
+    closed, computed = METHODS[sid].damping_limit(zeta), computed_limit(sid, zeta)
     if closed is None or math.isinf(closed):
         assert computed == closed
     else:
@@ -85,7 +97,7 @@ def test_the_verlet_forms_are_measured_on_the_state_they_carry(sid, zeta):
     scene = make_scene("damped_spring", c=2.0 * zeta)
     for y in (0.3, 1.0, 1.9):
         M, c, names = carried_map(METHODS[sid], scene, y)
-        assert np.allclose(M, MATRICES[sid](y, zeta), rtol=0, atol=1e-14) and not c.any()
+        assert np.allclose(M, METHODS[sid].amplification(y, zeta), rtol=0, atol=1e-14) and not c.any()
         assert len(names) == 3 and names[-1] == "a"
     if zeta == 0.5:
         restarted = [y for y in np.linspace(1.3, 3.9, 27)

@@ -83,19 +83,19 @@ def test_midpoint_is_unstable_on_the_spring_at_every_step_as_theory_says(midpoin
 
 def test_midpoint_has_a_floor_and_a_damping_matrix_without_another_file(midpoint):
     """The floor (``harness bench``) is generated from the tableau and computes the compiled kernel's
-    bits; the damped spring's recurrence (``stability_damping.MATRICES``) is the measured one-step
+    bits; the damped spring's recurrence (``Scheme.amplification``) is the measured one-step
     map on the damped spring (1e-14: a few roundoffs of unit-size entries); its theory limit is the
     damping search's on that matrix."""
-    from harness.measures.stability_damping import MATRICES, theory_limit
+    from harness.measures.stability_damping import theory_limit
     from reference._compiled import run_compiled
-    from reference._floors import FLOORS, run_floor
+    from reference._floors import run_floor
 
-    assert midpoint.id in FLOORS and midpoint.id in MATRICES
+    assert midpoint.floor is not None and midpoint.amplification is not None and midpoint.damping_limit is None
     q, v = run_compiled(midpoint, make_scene("spring"), 0.01, 1000)
-    assert (q[0, 0], v[0, 0]) == run_floor(midpoint.id, 1.0, 0.0, 0.01, 1.0, 1.0, 1000)
+    assert (q[0, 0], v[0, 0]) == run_floor(midpoint.floor, 1.0, 0.0, 0.01, 1.0, 1.0, 1000)
     for zeta, y in ((0.0, 0.5), (0.3, 1.2)):
         M, _, _ = carried_map(midpoint, make_scene("damped_spring", c=2.0 * zeta), y)
-        np.testing.assert_allclose(M, MATRICES[midpoint.id](y, zeta), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(M, midpoint.amplification(y, zeta), rtol=0, atol=1e-14)
     # The damping theory searches for rho > 1 + RHO_TOL, as the stability measure does: on the spring
     # that is where 1 + y^4/4 = (1 + RHO_TOL)^2, a step far below any usable one, not "stable".
     from harness.measures.stability import RHO_TOL

@@ -1,5 +1,5 @@
 """The reference rows of ``harness bench``: each unconstrained scheme's compiled kernel beside
-its floor (``reference._floors``, the same scheme hand-written as one loop of scalars), on one
+its floor (``Scheme.floor``, the same scheme hand-written as one loop of scalars), on one
 unit spring and on a batch of 1000, timed in the same process in interleaved repeats
 (kernel, floor, kernel, floor, ...: a machine that slows for a while slows both of a pair).
 
@@ -17,7 +17,7 @@ fixed number there judged the machine rather than the kernels).
 """
 from __future__ import annotations
 
-from reference import CLOCKS, FLOORS, METHODS, floor_timer, step_timer
+from reference import CLOCKS, METHODS, floor_timer, step_timer
 from scenarios import make_scene
 
 FLOOR_RATIO_TARGET = 2.0
@@ -31,9 +31,10 @@ BATCH = 1000
 BATCH_STEPS = 2_000
 REPEATS = 9
 
-#: The bench runs on the spring, which has no constraints: constrained schemes
-#: (ref:verlet_constrained) are measured on the rope by ``harness.measures.rope_study``.
-UNCONSTRAINED = [sid for sid, s in METHODS.items() if not s.constrained]
+def on_the_spring() -> list[str]:
+    """The schemes the bench runs: those that declare a floor on the spring (constrained schemes,
+    ref:verlet_constrained, are measured on the rope by ``harness.measures.rope_study``)."""
+    return [sid for sid, s in METHODS.items() if s.floor is not None]
 
 
 def _pair(scheme_id: str, steps: int, batch: int, repeats: int) -> tuple[float, float]:
@@ -42,7 +43,8 @@ def _pair(scheme_id: str, steps: int, batch: int, repeats: int) -> tuple[float, 
     k, m = spring.values["k"], spring.values["m"]
     x0, v0 = spring.values["x0"], spring.values["v0"]
     _, kernel = step_timer(METHODS[scheme_id], spring, DT, steps, batch=batch)
-    _, floor = floor_timer(scheme_id, DT, steps, batch=batch, k=k, m=m, x0=x0, v0=v0, clock=CLOCKS["wall"])
+    _, floor = floor_timer(METHODS[scheme_id].floor, DT, steps, batch=batch, k=k, m=m, x0=x0, v0=v0,
+                           clock=CLOCKS["wall"])
     kt, ft = [], []
     for _ in range(repeats):
         kt.append(kernel())
@@ -55,7 +57,7 @@ def measure(scheme_ids=None, repeats: int = REPEATS) -> dict:
     spring-step (the batch), each beside its floor and the ratio; then every target with the
     measured value and ``met``."""
     rows = []
-    for sid in scheme_ids or UNCONSTRAINED:
+    for sid in scheme_ids or on_the_spring():
         single, single_floor = _pair(sid, SINGLE_STEPS, 1, repeats)
         batch, batch_floor = _pair(sid, BATCH_STEPS, BATCH, repeats)
         rows.append({"method": f"ref:{sid}", "single_ns_per_step": single * 1e9,

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 
-from harness.bench.kernels import UNCONSTRAINED
+from harness.bench.kernels import on_the_spring
 
 
 def add_parser(sub):
@@ -33,7 +33,7 @@ def run(args) -> int:
     else:
         from harness.bench import kernels as bench
 
-        valid = UNCONSTRAINED
+        valid = on_the_spring()
     for mid in args.methods or ():
         validate.choice("method", mid, valid)
     result = bench.measure(args.methods)

@@ -98,12 +98,9 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
             ok, why = m.available()
             if ok:
                 ok, why = m.supports(scene)
-            if ok and mid in spec.skip:  # a mode the scene cannot pose says why, not that it was left out
-                skipped.append({"scene": scene_id, "method": mid, "reason": f"left out on {scene_id} in the "
-                                f"{suite.name} suite (harness/suites.py)"})
-                continue
-            if ok and spec.methods is not None and mid not in spec.methods and mid not in variants:
-                ok, why = False, f"not in the {suite.name} suite's selection for {scene_id}"
+            if ok and mid not in variants:  # a mode the scene cannot pose says why, not that it was left out
+                why = suite.leaves_out(scene_id, m)
+                ok = not why
             if not ok:
                 skipped.append({"scene": scene_id, "method": mid, "reason": why})
                 continue

@@ -9,12 +9,19 @@ N = 32 and N = 10, the scenes' defaults; the standard suite runs N = 8 and N = 5
 The rope's largest stable timestep is searched by the finite horizon (10,000 steps, long enough
 to see MuJoCo's implicit mode blow up at the nominal timestep at step 2434); its ``constraint``
 cell measures how well the links hold beside it.
+
+Which reference schemes run where: the standard suite runs each scheme on the scenes the scheme
+declares (``reference.Scheme.suites``, in its own file: ``Suite.schemes_declare``), so that a new
+scheme runs nowhere in it until it says where; the full suite runs every scheme on every scene it
+can run on; the smoke suite names its few methods.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
 from adapters import ENGINE_METHODS
+from records import REFERENCE
+
 from harness.measures.scaling import cloth_sizes
 
 
@@ -99,6 +106,27 @@ class Suite:
     identify: bool = True                    # identity table for engine modes
     exact_compiled: bool = True              # reference schemes' accuracy runs compiled where that computes
                                              # the interpreted bits (reference.Exact), counted alike
+    schemes_declare: bool = False            # a reference scheme runs on the scenes it declares for this suite
+                                             # (``reference.Scheme.suites[name]``), and nowhere else; False: on
+                                             # every scene (``methods`` and the scenes' ``skip`` aside)
+
+    def leaves_out(self, scene_id: str, method) -> str:
+        """Why this suite leaves ``method`` out on ``scene_id``, a scene it can run it on ("" where it
+        runs it there): a method the scene's ``skip`` lists, or the scene's ``methods`` do not; where
+        the schemes declare (``schemes_declare``), a reference scheme that does not name the scene,
+        whatever ``skip`` and ``methods`` say (they select the engine modes)."""
+        spec = self.scenes[scene_id]
+        mid = str(method.id)
+        if self.schemes_declare and method.family == REFERENCE:
+            if method.scheme.joins(self.name, scene_id):
+                return ""
+            return (f"{mid} does not declare {scene_id} among the scenes it joins in the {self.name} suite "
+                    f"(``suites`` in its declaration)")
+        if mid in spec.skip:
+            return f"left out on {scene_id} in the {self.name} suite (harness/nightly/suites.py)"
+        if spec.methods is not None and mid not in spec.methods:
+            return f"not in the {self.name} suite's selection for {scene_id}"
+        return ""
 
 
 #: The chain's own cells: damping at 100x the explicit limit (the issue's "100x that dt") and
@@ -114,23 +142,6 @@ CLOTH_FULL_EXTRAS = SceneExtras(scaling={"sizes": tuple(cloth_sizes((16, 24, 32)
 #: The damped spring's own cell: the largest stable h*omega at each of the issue's damping ratios,
 #: beside linear-stability theory (harness.measures.stability_damping).
 DAMPED_SPRING_EXTRAS = SceneExtras(stability_zetas=(0.0, 0.05, 0.1, 0.5, 1.0, 2.0))
-#: The schemes that differ from semi-implicit Euler only where the force depends on the
-#: velocity: the standard suite runs them on the damped spring and the projectile only.
-VELOCITY_SCHEMES = ("ref:semi_implicit_euler_velocity_implicit", "ref:position_first_euler_decay_after_kick",
-                    "ref:position_first_euler_decay_before_kick")
-
-#: The reference schemes that name Drake's modes (Heun, Kutta's RK3, Bogacki-Shampine, Dormand-Prince
-#: and implicit Euler by step doubling): the standard suite runs them where it runs Drake's
-#: Runge-Kutta modes (the spring, the damped spring and the pendulum); the full suite everywhere.
-NAMING_SCHEMES = ("ref:heun", "ref:kutta_rk3", "ref:bogacki_shampine3", "ref:dormand_prince5",
-                  "ref:implicit_euler_doubled")
-
-#: Reference schemes the standard suite leaves out on the chain, to stay in its budget: each
-#: costs a (scheme, scene) numba compile of its own. It keeps explicit Euler (the cost
-#: baseline), semi-implicit Euler and leapfrog (limit h*omega = 2), RK4 (2 sqrt 2), implicit
-#: Euler and implicit midpoint, and every engine mode; the full suite runs all ten schemes.
-CHAIN_STANDARD_SKIP = ("ref:semi_implicit_euler_position_first", "ref:verlet", "ref:velocity_verlet",
-                       "ref:forest_ruth")
 #: MuJoCo modes the standard suite leaves out on the rope: on a hinge chain with no springs or
 #: damping it is mujoco:euler bitwise (tests/test_scenes_hard_engines.py). ``implicitfast`` is
 #: too, but stays: it is ``implicit`` less the Coriolis and centripetal derivatives, and the
@@ -168,13 +179,12 @@ SMALL_STEPS = {"hz": 60.0, "t_end": 2.0, "passes": (1, 4, 16), "timing_frames": 
 #: beside ref:xpbd's default ten passes, on the scenes whose springs or links it projects.
 SMALL_STEP_XPBD = ("ref:xpbd?iterations=1",)
 SMALL_STEPS_FULL = {"hz": 60.0, "t_end": 2.0, "passes": (1, 2, 4, 8, 16, 32), "timing_frames": 60, "repeats": 5}
-#: The outer solar system in the standard suite: the schemes issue 6 names against REBOUND's
-#: modes (the full suite runs every method). Its largest stable dt is left to the full suite:
+#: The outer solar system in the standard suite: REBOUND's modes, beside the schemes issue 6 names
+#: against them, which declare it (explicit and semi-implicit Euler, velocity Verlet, leapfrog,
+#: Forest-Ruth, RK4; the full suite runs every method). Its largest stable dt is left to the full suite:
 #: each task's boundedness runs need the reference solve over 1000 steps of the largest dt
 #: tried (1.3e6 days for leapfrog, 2.8e6 at the search cap), computed afresh in every worker.
-SOLAR_METHODS = ("ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocity_verlet", "ref:leapfrog",
-                 "ref:forest_ruth", "ref:rk4", "rebound:leapfrog", "rebound:whfast", "rebound:ias15",
-                 "rebound:saba")
+SOLAR_MODES = ("rebound:leapfrog", "rebound:whfast", "rebound:ias15", "rebound:saba")
 
 #: The solar system's stability search stops at h*omega = 4 (dt = 2760 days, 1.6 steps per
 #: Jupiter orbit): WHFast and SABA, exact on each Kepler orbit, stay bounded far beyond (WHFast
@@ -184,13 +194,8 @@ SOLAR_STABILITY_HI = 4.0
 
 #: The cloth in the standard suite: 4 x 4 masses with k = 1000 (omega_max 239, so a 60 Hz frame is
 #: h omega 3.98, past every explicit scheme's limit, RK4's 2.83 the largest; at the default k = 500
-#: it is 2.87, and RK4's 1000-step finite horizon read 2.87 as stable). The schemes that differ from
-#: semi-implicit Euler only under velocity-dependent forces are left out (the cloth has none),
-#: the chain's four (each a numba compile of the pair), and two implicit schemes that name engine
-#: modes on the spring (Radau IIA iterates its coupled stages on every step of the stiff sheet,
-#: the suite's longest reference task; implicit Euler by step doubling); the full suite runs the
-#: default 8 x 8 with every scheme.
-CLOTH_STANDARD_SKIP = VELOCITY_SCHEMES + CHAIN_STANDARD_SKIP + ("ref:radau_iia2", "ref:implicit_euler_doubled")
+#: it is 2.87, and RK4's 1000-step finite horizon read 2.87 as stable). The reference schemes that
+#: run on it say so in their declarations; the full suite runs the default 8 x 8 with every scheme.
 #: The advice on the cloth: over the reference's trusted 2 s (the falling sheet is chaotic past
 #: it), the energy within 10% (the implicit schemes damp: that is what is asked of them here).
 CLOTH_ADVISE = {"horizon": 2.0, "energy_tol": 0.1, "max_substeps": 16}
@@ -280,27 +285,26 @@ SUITES: dict[str, Suite] = {
     "standard": Suite(
         "standard",
         scenes={
-            "spring": SceneSpec(periods=200, skip=VELOCITY_SCHEMES + engines_left_out("spring"), advise=ADVISE,
+            "spring": SceneSpec(periods=200, skip=engines_left_out("spring"), advise=ADVISE,
                                 extras=SceneExtras(tolerances=STANDARD_TOLERANCES)),
             "damped_spring": SceneSpec(periods=50, extras=DAMPED_SPRING_EXTRAS, advise=ADVISE,
                                        skip=engines_left_out("damped_spring")),
-            "pendulum": SceneSpec(periods=50, skip=VELOCITY_SCHEMES + engines_left_out("pendulum"), advise=ADVISE),
-            "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0, skip=VELOCITY_SCHEMES + NAMING_SCHEMES,
+            "pendulum": SceneSpec(periods=50, skip=engines_left_out("pendulum"), advise=ADVISE),
+            "kepler": SceneSpec(homega=0.02, periods=50, order_span=8.0,
                                 extras=SceneExtras(brouwer=KEPLER_BROUWER, tolerances=STANDARD_TOLERANCES)),
-            "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True,
-                                    skip=NAMING_SCHEMES + engines_left_out("projectile")),
-            "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS,
-                               skip=CHAIN_STANDARD_SKIP + NAMING_SCHEMES + engines_left_out("chain"), advise=ADVISE),
+            "projectile": SceneSpec(homega=0.01, periods=0.2, stability=True, skip=engines_left_out("projectile")),
+            "chain": SceneSpec(params={"N": 8}, periods=50, extras=CHAIN_EXTRAS, skip=engines_left_out("chain"),
+                               advise=ADVISE),
             "rope": SceneSpec(params={"N": 5}, periods=20, extras=replace(ROPE_EXTRAS, small_steps=SMALL_STEPS),
                               stability_steps=ROPE_STABILITY_STEPS, skip=ROPE_STANDARD_SKIP,
                               with_options=SMALL_STEP_XPBD),
             "solar_system": SceneSpec(dt=10.0, horizon=2.0e5, order_points=6, order_span=4.0, stability=False,
-                                      methods=SOLAR_METHODS, compiled=True, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
+                                      methods=SOLAR_MODES, compiled=True, extras=SceneExtras(brouwer=SOLAR_BROUWER)),
             "cloth": SceneSpec(params={"n": 4, "m": 4, "k": 1000.0}, periods=20,
-                               skip=CLOTH_STANDARD_SKIP + NAMING_SCHEMES + engines_left_out("cloth"), advise=CLOTH_ADVISE,
+                               skip=engines_left_out("cloth"), advise=CLOTH_ADVISE,
                                extras=SceneExtras(small_steps=SMALL_STEPS), with_options=SMALL_STEP_XPBD),
         },
-        stability_rtol=STANDARD_STABILITY_RTOL,
+        stability_rtol=STANDARD_STABILITY_RTOL, schemes_declare=True,
     ),
     "full": Suite(
         "full",

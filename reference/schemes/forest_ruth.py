@@ -1,11 +1,33 @@
-from .._scheme import scheme
+from .._scheme import Floor, scheme
+from ..oscillator import drift, kick
 
 #: theta = 1 / (2 - 2^(1/3)), the Forest-Ruth (Yoshida) coefficient.
 THETA = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))
 
 
+def floor(s, h, k, m):
+    x, v = s
+    x = x + 0.5 * THETA * h * v
+    v = v + THETA * h * (-k * x / m)
+    x = x + 0.5 * (1.0 - THETA) * h * v
+    v = v + (1.0 - 2.0 * THETA) * h * (-k * x / m)
+    x = x + 0.5 * (1.0 - THETA) * h * v
+    v = v + THETA * h * (-k * x / m)
+    return (x + 0.5 * THETA * h * v, v)
+
+
+def amplification(y, z):
+    c1, c2 = 0.5 * THETA * y, 0.5 * (1.0 - THETA) * y
+    d1, d2 = THETA * y, (1.0 - 2.0 * THETA) * y
+    return drift(c1) @ kick(d1, z) @ drift(c2) @ kick(d2, z) @ drift(c2) @ kick(d1, z) @ drift(c1)
+
+
 @scheme(order=4, force_evals=3, symplectic=True, energy_claim="bounded", homega_max=1.5734,
-        order_velocity_dependent=1)
+        order_velocity_dependent=1, floor=Floor(floor), amplification=amplification,
+        # Not the chain and the cloth, where each pair would cost the standard suite a compile of its
+        # own (RK4, the fourth order, runs there); the solar system, where the issue names it against
+        # REBOUND's modes; the full suite runs it everywhere.
+        suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "solar_system")})
 def forest_ruth(accel, state, t, h, p):
     """Forest-Ruth: three leapfrogs of lengths theta h, (1 - 2 theta) h, theta h composed,
     theta = 1/(2 - 2^(1/3)):

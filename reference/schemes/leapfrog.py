@@ -1,8 +1,21 @@
-from .._scheme import scheme
+from .._scheme import EVERY_SCENE, Floor, scheme
+from ..oscillator import drift, kick
+
+
+def floor(s, h, k, m):
+    x, v = s
+    x = x + 0.5 * h * v
+    v = v + h * (-k * x / m)
+    return (x + 0.5 * h * v, v)
+
+
+def amplification(y, z):
+    return drift(0.5 * y) @ kick(y, z) @ drift(0.5 * y)
 
 
 @scheme(order=2, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=2.0,
-        order_velocity_dependent=1)
+        order_velocity_dependent=1, floor=Floor(floor), amplification=amplification,
+        suites={"standard": EVERY_SCENE})
 def leapfrog(accel, state, t, h, p):
     """Leapfrog, drift-kick-drift (the form REBOUND's ``leapfrog`` integrates):
 

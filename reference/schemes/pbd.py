@@ -1,7 +1,7 @@
 import numpy as np
 
 from ..kinds import POSITION_BASED
-from .._scheme import scheme
+from .._scheme import EVERY_SCENE, Floor, scheme
 from ._position_based import nth_root, point_inv_mass, predict, project, row, step_arrays, velocity
 
 #: Substeps and projection passes per step unless the caller sets ``substeps``/``iterations``.
@@ -9,8 +9,30 @@ DEFAULT_SUBSTEPS = 1
 DEFAULT_ITERATIONS = 10
 
 
+def floor(s, h, k, m):
+    # Each pass removes the share s' = 1 - (1 - s)^(1/passes) of C = x, s = w / (w + (1/k)/h^2),
+    # computed once before the loop (``floor_start``, as the kernel's loop computes it once) and
+    # carried in the state; the share divided by w as the scheme keeps it, then times w. One
+    # substep, the default passes.
+    x, v, share = s
+    x_old = x
+    x = x + h * v
+    w = 1.0 / m
+    for _ in range(DEFAULT_ITERATIONS):
+        x = x + w * (-share * (x - 0.0 - 0.0))  # C = x - anchor - rest, both 0, as the scheme forms it
+    return (x, (x - x_old) / h, share)
+
+
+def floor_start(x, v, h, k, m):
+    w = 0.0 + 1.0 / m
+    return (x, v, (1.0 - nth_root(1.0 - w / (w + (1.0 / k) / (h * h)), DEFAULT_ITERATIONS)) / w)
+
+
 @scheme(kind=POSITION_BASED, order=1, force_evals=0, symplectic=False, energy_claim="decays",
-        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS)
+        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS,
+        floor=Floor(floor, floor_start),
+        # Every scene that gives distance constraints (the spring, the chain, the rope, the cloth).
+        suites={"standard": EVERY_SCENE})
 def pbd(accel, constraints, substeps, iterations, state, t, h, p):
     """Position-based dynamics (Mueller, Heidelberger, Hennix and Ratcliff 2007): predict,
     project, velocity from the position change, in each of ``substeps`` substeps of hs:

@@ -1,14 +1,31 @@
 """The explicit Runge-Kutta schemes, each one entry: its Butcher tableau (A, b, c), its declared
-order and energy behaviour, its formulas. The step, the force evaluations (its stages), the
-stability limit on the spring, the recurrence on the damped spring and the floor of
+order and energy behaviour, its formulas, the scenes it joins. The step, the force evaluations (its
+stages), the stability limit on the spring, the recurrence on the damped spring and the floor of
 ``harness bench`` follow from the tableau (``reference.tableau``). ``reference.METHODS`` holds
 every entry of ``TABLEAUS``."""
+import math
+
+from .._scheme import EVERY_SCENE
 from ..tableau import tableau_scheme
 
 _MODULE = __name__
 
+#: The schemes that name Drake's Runge-Kutta modes run in the standard suite where it runs those modes
+#: (the spring, the damped spring and the pendulum); the full suite runs them everywhere.
+WHERE_DRAKE_RUNS = {"standard": ("spring", "damped_spring", "pendulum")}
+
+
+def _explicit_euler_damping_limit(z):
+    """l = 1 + y mu, mu the oscillator's roots (Jury): 2 zeta (zeta <= 1), 2 / (zeta + sqrt(zeta^2 - 1))
+    (zeta > 1); unstable at every y undamped."""
+    if z == 0.0:
+        return None
+    return 2.0 * z if z <= 1.0 else 2.0 / (z + math.sqrt(z * z - 1.0))
+
+
 explicit_euler = tableau_scheme(
-    "explicit_euler", A=[[0]], b=[1], c=[0], order=1, energy_claim="grows", module=_MODULE, doc="""\
+    "explicit_euler", A=[[0]], b=[1], c=[0], order=1, energy_claim="grows", module=_MODULE,
+    damping_limit=_explicit_euler_damping_limit, suites={"standard": EVERY_SCENE}, doc="""\
 Explicit (forward) Euler: both updates from the old state.
 
         x_{n+1} = x_n + h v_n
@@ -19,7 +36,8 @@ Explicit (forward) Euler: both updates from the old state.
 
 rk4 = tableau_scheme(
     "rk4", A=[[0, 0, 0, 0], ["1/2", 0, 0, 0], [0, "1/2", 0, 0], [0, 0, 1, 0]], b=["1/6", "1/3", "1/3", "1/6"],
-    c=[0, "1/2", "1/2", 1], order=4, energy_claim="decays", module=_MODULE, doc="""\
+    c=[0, "1/2", "1/2", 1], order=4, energy_claim="decays", module=_MODULE, suites={"standard": EVERY_SCENE},
+    doc="""\
 Classical 4-stage Runge-Kutta on y = (x, v), y' = (v, a):
 
         k1 = f(t, y), k2 = f(t + h/2, y + h/2 k1), k3 = f(t + h/2, y + h/2 k2), k4 = f(t + h, y + h k3)
@@ -30,7 +48,8 @@ Classical 4-stage Runge-Kutta on y = (x, v), y' = (v, a):
     """)
 
 heun = tableau_scheme(
-    "heun", A=[[0, 0], [1, 0]], b=["1/2", "1/2"], c=[0, 1], order=2, energy_claim="grows", module=_MODULE, doc="""\
+    "heun", A=[[0, 0], [1, 0]], b=["1/2", "1/2"], c=[0, 1], order=2, energy_claim="grows", module=_MODULE,
+    suites=WHERE_DRAKE_RUNS, doc="""\
 Heun's method (explicit trapezoidal rule, Drake's runge_kutta2):
 
         k1 = f(t, y), k2 = f(t + h, y + h k1)
@@ -41,7 +60,7 @@ Heun's method (explicit trapezoidal rule, Drake's runge_kutta2):
 
 kutta_rk3 = tableau_scheme(
     "kutta_rk3", A=[[0, 0, 0], ["1/2", 0, 0], [-1, 2, 0]], b=["1/6", "2/3", "1/6"], c=[0, "1/2", 1], order=3,
-    energy_claim="decays", module=_MODULE, doc="""\
+    energy_claim="decays", module=_MODULE, suites=WHERE_DRAKE_RUNS, doc="""\
 Kutta's third-order method (Drake's runge_kutta3 without its error estimate):
 
         k1 = f(t, y), k2 = f(t + h/2, y + h/2 k1), k3 = f(t + h, y - h k1 + 2 h k2)
@@ -53,7 +72,7 @@ Kutta's third-order method (Drake's runge_kutta3 without its error estimate):
 
 bogacki_shampine3 = tableau_scheme(
     "bogacki_shampine3", A=[[0, 0, 0], ["1/2", 0, 0], [0, "3/4", 0]], b=["2/9", "1/3", "4/9"], c=[0, "1/2", "3/4"],
-    order=3, energy_claim="decays", module=_MODULE, doc="""\
+    order=3, energy_claim="decays", module=_MODULE, suites=WHERE_DRAKE_RUNS, doc="""\
 Bogacki-Shampine's third-order method (its fourth, first-same-as-last stage only feeds the error
 estimate, so at a fixed step it is three stages):
 
@@ -73,7 +92,7 @@ dormand_prince5 = tableau_scheme(
        ["19372/6561", "-25360/2187", "64448/6561", "-212/729", 0, 0],
        ["9017/3168", "-355/33", "46732/5247", "49/176", "-5103/18656", 0]],
     b=["35/384", 0, "500/1113", "125/192", "-2187/6784", "11/84"], c=[0, "1/5", "3/10", "4/5", "8/9", 1],
-    order=5, energy_claim="decays", module=_MODULE, doc="""\
+    order=5, energy_claim="decays", module=_MODULE, suites=WHERE_DRAKE_RUNS, doc="""\
 Dormand-Prince 5(4), its fifth-order solution (Drake's runge_kutta5; the seventh, first-same-as-last
 stage only feeds the error estimate, so at a fixed step it is six stages):
 

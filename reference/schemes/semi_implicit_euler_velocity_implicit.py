@@ -1,12 +1,41 @@
+import math
+
+import numpy as np
+
 from ..kinds import IMPLICIT
-from .._scheme import largest_magnitude, scheme
+from .._scheme import Floor, largest_magnitude, scheme
+from ..oscillator import drift
+from .semi_implicit_euler import semi_implicit_euler
 
 #: Newton stops when the update is below this, relative to the iterate (as implicit Euler's).
 NEWTON_RTOL = 1e-13
 
 
+def floor(s, h, k, m):
+    # The spring's force does not depend on v: the implicit velocity solve divides by 1, and
+    # the step is semi-implicit Euler's.
+    x, v = s
+    v = v + h * (-k * x / m)
+    return (x + h * v, v)
+
+
+def amplification(y, z):
+    d = 1.0 + 2.0 * z * y                  # (1 + 2 zeta y) v_1 = v - y x
+    return drift(y) @ np.array([[1.0, 0.0], [-y / d, 1.0 / d]])
+
+
+def damping_limit(z):
+    """det M = 1/(1 + 2 zeta y) (Jury): 2 (sqrt(1 + zeta^2) + zeta). Implicit damping raises the limit."""
+    return 2.0 * (math.sqrt(1.0 + z * z) + z)
+
+
 @scheme(kind=IMPLICIT, order=1, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=2.0,
-        same_without_velocity="semi_implicit_euler")
+        same_without_velocity=semi_implicit_euler, floor=Floor(floor), amplification=amplification,
+        damping_limit=damping_limit,
+        # Where the force depends on the velocity (the damped spring, the projectile), and the chain, where
+        # the standard suite has run it since it first ran these schemes (undamped, it is semi-implicit Euler
+        # there, bitwise). The full suite runs it everywhere.
+        suites={"standard": ("damped_spring", "projectile", "chain")})
 def semi_implicit_euler_velocity_implicit(accel, solve, newton_max, state, t, h, p):
     """Semi-implicit Euler, implicit in the velocity only: MuJoCo's Euler (eulerdamp), implicit
     and implicitfast with joint damping.

@@ -1,5 +1,5 @@
 from ..kinds import CONSTRAINED
-from .._scheme import scheme
+from .._scheme import EVERY_SCENE, scheme
 
 #: Projection passes per step unless the caller sets ``iterations``.
 DEFAULT_ITERATIONS = 10
@@ -23,7 +23,9 @@ def observe(accel, state, t, h, p):
 
 @scheme(kind=CONSTRAINED, order=1, force_evals=1, symplectic=False, energy_claim="decays", homega_max=2.0,
         carries=("q", "q_prev", "a", "a_eff"), start=start, observe=observe,
-        iterations=DEFAULT_ITERATIONS)
+        iterations=DEFAULT_ITERATIONS,
+        # Every scene held by constraints (the rope). No floor and no recurrence: it runs on no spring.
+        suites={"standard": EVERY_SCENE})
 def verlet_constrained(accel, project, iterations, state, t, h, p):
     """Position Verlet with position-based constraint projection (Jakobsen, as in cloth and rope
     code): predict, then move the positions back onto the constraints.

@@ -1,7 +1,7 @@
 import numpy as np
 
 from ..kinds import POSITION_BASED
-from .._scheme import scheme
+from .._scheme import EVERY_SCENE, Floor, scheme
 from ._position_based import point_inv_mass, predict, project, row, step_arrays, velocity
 
 #: Substeps and Gauss-Seidel passes per step unless the caller sets ``substeps``/``iterations``.
@@ -9,8 +9,27 @@ DEFAULT_SUBSTEPS = 1
 DEFAULT_ITERATIONS = 10
 
 
+def floor(s, h, k, m):
+    # The spring as XPBD sees it: C = x (a wall anchor at 0, rest length 0), compliance 1/k. One
+    # substep, the default passes.
+    x, v = s
+    x_old = x
+    x = x + h * v
+    w = 1.0 / m
+    tilde = (1.0 / k) / (h * h)
+    lam = 0.0
+    for _ in range(DEFAULT_ITERATIONS):
+        dl = (-x - tilde * lam) / (w + tilde)
+        lam = lam + dl
+        x = x + w * dl
+    return (x, (x - x_old) / h)
+
+
 @scheme(kind=POSITION_BASED, order=1, force_evals=0, symplectic=False, energy_claim="decays",
-        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS)
+        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS,
+        floor=Floor(floor),
+        # Every scene that gives distance constraints (the spring, the chain, the rope, the cloth).
+        suites={"standard": EVERY_SCENE})
 def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
     """Extended position-based dynamics (Macklin, Mueller and Chentanez 2016): each spring a
     distance constraint C with compliance alpha = 1/k and a Lagrange multiplier lambda, in each
