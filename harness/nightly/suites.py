@@ -31,7 +31,7 @@ SCALING_METHODS = ("ref:implicit_euler",)
 
 @dataclass(frozen=True)
 class SceneExtras:
-    """A scene's own cells and their settings (``SceneSpec.extras``; harness.nightly.scene_cells).
+    """A scene's own cells and their settings (``SceneSpec.extras``; harness.nightly.measures.scene_cells).
     None / empty: the scene has no such cell."""
 
     constraint_iterations: tuple = ()          # projection passes the constraint cell repeats at
@@ -44,7 +44,7 @@ class SceneExtras:
     cross_engine: tuple = ()                   # engine modes compared from the same state (a model file's
                                                # conservative variant): each later mode's task has a cell
                                                # comparing it with the first
-    sweep: dict | None = None                  # the advice over a grid of one parameter (harness.nightly.sweep_cell):
+    sweep: dict | None = None                  # the advice over a grid of one parameter (harness.nightly.measures.sweep_cell):
                                                # grid, hz, request, methods, and its sizes, each with its task
     small_steps: dict | None = None            # the small-steps study's settings (harness.measures.small_steps):
                                                # the cell is ref:xpbd's task's
@@ -64,7 +64,7 @@ class SceneSpec:
                                    # half an orbit from perihelion; one period took Kepler's first-order
                                    # sweeps 30x the steps, 1.47M for explicit Euler, for the same slope)
     stability: bool = True         # bisect the largest stable timestep
-    extras: SceneExtras = SceneExtras()  # scene-specific cells and their settings (harness.nightly.scene_cells)
+    extras: SceneExtras = SceneExtras()  # scene-specific cells and their settings (harness.nightly.measures.scene_cells)
     skip: tuple[str, ...] = ()     # methods left out on this scene in this suite (listed with the reason)
     with_options: tuple[str, ...] = ()  # methods at run-time options of their own (``ref:xpbd?iterations=1``),
                                         # each one more method on this scene: its own cells and history
@@ -222,7 +222,7 @@ SMOKE_TOLERANCES = {"tolerances": (1e-3, 1e-6), "periods": 2.0, "outputs": 20, "
 #: energy within 0.1% of the largest exact energy, up to 16 substeps a frame.
 ADVISE = {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 16}
 
-#: Where the trade-off flips (harness.nightly.sweep_cell, the full suite only): the advice at 60 Hz
+#: Where the trade-off flips (harness.nightly.measures.sweep_cell, the full suite only): the advice at 60 Hz
 #: over 2 s (the cloth's trusted horizon), energy within 50% (an animation's sheet that looks right),
 #: over k = 1e2..1e6, two values a decade, for two explicit schemes (leapfrog the cheapest frame at
 #: low k, RK4 the largest limit), the two implicit ones and XPBD, each searched past 16 substeps to
