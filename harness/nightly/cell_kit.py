@@ -19,8 +19,8 @@ class TaskContext:
     """What a measure's ``run`` and ``applies`` see of one scene x method task
     (``records.measures.Measure``): the task, its suite and scene spec, the scene and the method
     (``run_method``: the compiled twin where the scene's long runs take it), the nominal dt, the
-    reference schemes' backend, the claims the cells are judged by (an identity run may replace
-    them) and the cells measured so far, by measure."""
+    claims the cells are judged by (an identity run may replace them) and the cells measured so
+    far, by measure."""
 
     task: Any
     suite: Any
@@ -29,7 +29,6 @@ class TaskContext:
     method: Any = None
     run_method: Any = None
     dt: float | None = None
-    exact: Any = None
     claims: Claims = field(default_factory=Claims)
     cells: dict = field(default_factory=dict)
     #: Runs stepped so far that a later measure reads as they are, by name: ``energy``, the energy

@@ -97,8 +97,6 @@ class Suite:
     bounds: bool = True                      # measure the reviewed energy bounds
     frame_rates: tuple[float, ...] = (60.0,)  # frame rates of the advice cells (scenes with ``advise``)
     identify: bool = True                    # identity table for engine modes
-    exact_compiled: bool = True              # reference schemes' accuracy runs compiled where that computes
-                                             # the interpreted bits (reference.Exact), counted alike
 
 
 #: The chain's own cells: damping at 100x the explicit limit (the issue's "100x that dt") and
