@@ -6,9 +6,10 @@ cost cell times and its accuracy runs step wherever it computes the interpreted 
 cache under ``$HARNESS_CACHE``: a run after one on the same cache compiles nothing new.
 
 ``plan`` says, before the run, how many loops it will compile ("cold cache: about N kernels to
-compile"): the loops of the reference tasks' pairs, of explicit Euler on every scene (each cost
-cell's baseline, and the calibration's on the unit spring) and of the reference schemes an engine
-task's identity cell steps beside it, each counted once where the cache lacks it.
+compile"): the loops of the reference tasks' pairs and of explicit Euler on every scene (each cost
+cell's baseline, and the calibration's on the unit spring), timed whatever their bits, and of the
+reference schemes an engine task's identity cell steps beside it where their loops compute the
+interpreted bits (elsewhere it interprets them), each counted once where the cache lacks it.
 """
 from __future__ import annotations
 
@@ -71,7 +72,8 @@ def plan(tasks: list, suite) -> KernelPlan:
             need(reference.METHODS[scheme_name(task.method)], scene)
         elif identifies(suite, scene, task.family):
             for ref in candidate_methods(scene).values():
-                need(ref.scheme, scene)
+                if not reference.bitwise_why(ref.scheme, scene):
+                    need(ref.scheme, scene)
     if to_compile:
         need(baseline.scheme, make_scene("spring"))  # the calibration's loop
     return KernelPlan(sum(to_compile.values()), str(reference.kernel_cache_dir()), len(to_compile))
