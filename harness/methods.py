@@ -20,7 +20,7 @@ from records.method_id import Option
 from records.measures import Measure, get as registered_measure, register as register_measure
 from records.measures import unregister as unregister_measure
 from records.method import OPTIONAL, REQUIRED
-from reference import Exact, RefMethod
+from reference import RefMethod
 from scenarios import Scene
 
 
@@ -183,12 +183,13 @@ def active_plugins() -> tuple[str, ...]:
     return tuple(dict.fromkeys((*plugin_names(), *_TASK_PLUGINS)))
 
 
-def all_methods(exact: Exact | None = None) -> dict[str, object]:
+def all_methods(compiled_where_bitwise: bool = False) -> dict[str, object]:
     """Every method id, reference schemes first, then engine modes (available or not), then
-    the methods of the plugin modules in ``$HARNESS_PLUGINS``. ``exact``: the reference schemes'
-    backend (``reference.Exact``: the exact compiled run where it computes the interpreted bits;
-    None: interpreted)."""
-    out: dict[str, Method] = {m.id: m for m in (RefMethod(s, exact=exact) for s in reference.METHODS.values())}
+    the methods of the plugin modules in ``$HARNESS_PLUGINS``. ``compiled_where_bitwise``: the
+    reference schemes step on their compiled loop wherever it computes the interpreted bits
+    (``reference.RefMethod``); else interpreted."""
+    out: dict[str, Method] = {m.id: m for m in (RefMethod(s, compiled_where_bitwise=compiled_where_bitwise)
+                                                for s in reference.METHODS.values())}
     out.update(adapters.ENGINE_METHODS)
     for mid, m in load_plugins(active_plugins()).items():
         if mid in out and out[mid] is not m:
@@ -197,13 +198,14 @@ def all_methods(exact: Exact | None = None) -> dict[str, object]:
     return out
 
 
-def get_method(method_id: str, options: dict | None = None, exact: Exact | None = None) -> Method:
+def get_method(method_id: str, options: dict | None = None, compiled_where_bitwise: bool = False) -> Method:
     """The method with that id (``records.MethodId``: options may be written into it,
     ``ref:xpbd?substeps=10&iterations=1``, ``drake:runge_kutta3@1e-6``); ``options``
-    (``{"iterations": 5}``) set more of its run-time options; ``exact`` its backend
-    (``all_methods``). The method's ``id`` is the canonical text of the id with its options."""
+    (``{"iterations": 5}``) set more of its run-time options; ``compiled_where_bitwise`` how a
+    reference scheme steps (``all_methods``). The method's ``id`` is the canonical text of the id
+    with its options."""
     mid = MethodId.parse(method_id)
-    methods = all_methods(exact)
+    methods = all_methods(compiled_where_bitwise)
     if mid.base not in methods:
         raise InvalidInput(f"unknown method {mid.base!r} (valid: {', '.join(methods)})")
     given = dict(mid.options)

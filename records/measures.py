@@ -36,7 +36,7 @@ class TaskContext:
     """What a measure's ``run`` and ``applies`` see of one scene x method task: the task, its
     suite and scene spec (``harness.nightly``'s ``Task``, ``Suite``, ``SceneSpec``), the scene (a
     ``scenarios.Scene``) and the method (``run_method``: the compiled twin where the scene's long
-    runs take it), the nominal dt, the reference schemes' backend (``reference.Exact``), the claims
+    runs take it), the nominal dt, the claims
     the cells are judged by (an identity run may replace them), the cells measured so far by
     measure, and the runs stepped so far that a later measure reads as they are, by name
     (``energy``: the energy run's trajectory; the constraint cell's stretch is measured on it,
@@ -49,7 +49,6 @@ class TaskContext:
     method: Method | None = None
     run_method: Method | None = None
     dt: float | None = None
-    exact: Any = None
     claims: Claims = field(default_factory=Claims)
     cells: dict[str, Cell] = field(default_factory=dict)
     runs: dict[str, Trajectory] = field(default_factory=dict)

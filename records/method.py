@@ -34,8 +34,9 @@ class Method(Protocol):
     #: Chooses its own steps, ``dt`` being only the output interval: nothing is measured
     #: against dt (observed order, largest stable dt, substeps).
     adaptive: bool
-    #: Counts its force evaluations only in a counting run (``simulate(..., count=True)``),
-    #: the counter being a callback that would slow its timed loop.
+    #: Counts its force evaluations only in a counting run (``simulate(..., count=True)``) where
+    #: a plain run cannot: the counter a callback that would slow an engine's timed loop, or the
+    #: counts varying where a reference scheme's compiled loop cannot count them (Newton's passes).
     counting_run: bool
     #: Scene id -> why, measured, the method integrates no reference scheme there (one line).
     no_match: Mapping[str, str]

@@ -88,8 +88,6 @@ class RunTiming:
     kernels_compiled: int | None = None
     kernels_loaded: int | None = None
     kernel_load_s: float = 0.0
-    counted_compiled: int | None = None  # of kernels_compiled, counted accuracy loops (the rest timing loops)
-    counted_compile_s: float | None = None
     numba_s: float | None = None         # every numba compilation in the workers (numba's compile events)
     kernel_plan: dict | None = None      # what the run expected to compile (harness.nightly.kernels.KernelPlan)
     worker_seconds_by_measure: dict = field(default_factory=dict)

@@ -51,8 +51,7 @@ def step_loop(advance: Callable[[int, int], None], check: Callable[[int], str], 
               steps: int, every: int, spans: bool = False, rewind: Callable[[], None] | None = None,
               marks=None) -> tuple[int | None, str]:
     """The rule every driver records and stops by (``reference.integrate``, the compiled run,
-    ``adapters.drive`` and the engines' own loops; the counted compiled loop of ``reference._codegen``
-    is this loop written as numba source): record step 0, then advance and check, stopping at the
+    ``adapters.drive`` and the engines' own loops): record step 0, then advance and check, stopping at the
     first point whose ``check(n)`` gives a reason (a diverged state, an engine's warning), and record
     each mark of :func:`output_marks`. Returns (the failed step, its reason), or (None, "").
 
@@ -98,7 +97,7 @@ class RunMeta:
     ones, ``adapters``' engine loops, the worker that ran it) sets the fields it knows; a field
     it does not know is None."""
 
-    backend: str | None = None                # interpreted | compiled | compiled, counted | engine
+    backend: str | None = None                # interpreted | compiled | engine
     steps_run: int | None = None              # steps taken before a blow-up (all of them where none)
     params: dict = field(default_factory=dict)  # the scene's parameters
     start_force_evals: int | None = None      # evaluations a multistep scheme's start took

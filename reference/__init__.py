@@ -1,7 +1,8 @@
-"""Reference integrators: ``METHODS[id]`` is a :class:`Scheme`; ``integrate`` steps one on a scene,
-``integrate_compiled`` on its compiled kernel, ``integrate_exact`` on its compiled kernel where that
-computes ``integrate``'s bits (counted alike; ``RefMethod(..., exact=Exact(...))`` takes it);
-``RefMethod`` is a scheme as a method (``records.Method``).
+"""Reference integrators: ``METHODS[id]`` is a :class:`Scheme`; ``integrate`` steps one on a scene
+(interpreted, every force evaluation counted), ``integrate_compiled`` on the pair's compiled loop,
+the one its timings time too, which computes ``integrate``'s bits wherever ``bitwise_why`` finds
+nothing (its counts then declared or probed: ``counted=True``; ``RefMethod(...,
+compiled_where_bitwise=True)`` takes it there); ``RefMethod`` is a scheme as a method (``records.Method``).
 
 Timing, for the harness's cost measures and benches: ``step_timer`` / ``time_per_step`` time a
 scheme's compiled kernel on ``CLOCKS[name]``, ``KERNEL_STATS`` counts the kernels compiled and
@@ -16,7 +17,7 @@ joins in a suite, ``EVERY_SCENE``).
 """
 from __future__ import annotations
 
-from ._compiled import CLOCKS, Exact, cache_state, exact_why, integrate_compiled, integrate_exact, step_timer, time_per_step
+from ._compiled import CLOCKS, bitwise_why, cache_state, integrate_compiled, step_timer, time_per_step
 from ._integrate import carried_map, integrate
 from ._kernels import STATS as KERNEL_STATS
 from ._kernels import cache_dir as kernel_cache_dir
@@ -68,6 +69,5 @@ def __getattr__(name: str):
 
 
 __all__ = ["METHODS", "Scheme", "Floor", "EVERY_SCENE", "Kind", "KINDS", "Tableau", "tableau_scheme", "RefMethod", "carried_map", "integrate",
-           "integrate_compiled", "integrate_exact", "Exact",
-           "exact_why", "cache_state", "compile_notices", "kernel_cache_dir", "kernel_opt_level", "CLOCKS", "step_timer",
+           "integrate_compiled", "bitwise_why", "cache_state", "compile_notices", "kernel_cache_dir", "kernel_opt_level", "CLOCKS", "step_timer",
            "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

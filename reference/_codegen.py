@@ -1,6 +1,6 @@
 """A (scheme, scene) pair's kernel file as source (``reference._kernels`` writes, caches and loads
-it): the pair's functions copied from their source files, the loops ``advance_n`` and
-``run_counted`` written around the unchanged step, and what the copy found (``KernelFile``)."""
+it): the pair's functions copied from their source files, the loop ``advance_n`` written around the
+unchanged step, and what the copy found (``KernelFile``)."""
 from __future__ import annotations
 
 import ast
@@ -14,14 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from records.trajectory import DIVERGED
-
 from ._scheme import largest_magnitude
 # The step split where it first reads the state (``_Source.add_hoisted``): what comes before, run
 # once by a loop, and the rest, run every step; the kinds name the two in their calls.
 from .kinds import GIVEN, SETUP
 
-from ._exactness import exact_operations
+from ._bitwise import bitwise_why
 
 #: Modules a copied function may name, and the import line that gives them.
 _MODULE_IMPORTS = {np: "import numpy as {name}", math: "import math as {name}"}
@@ -136,7 +134,7 @@ class _Source:
 
     def add_hoisted(self, name: str, setup: str, given: str, varying: tuple[str, ...]) -> bool:
         """Split the already copied ``name`` where it first reads a name in ``varying`` (the state,
-        the time, a kernel whose calls are counted): ``setup`` (the same parameters) runs the
+        the time, the scene's force): ``setup`` (the same parameters) runs the
         statements before that and returns the names they bind that the rest reads; ``given``
         takes that tuple first and runs the rest. A compiled loop calls ``setup`` once and
         ``given`` every step: what the statements compute depends on nothing a step changes, so
@@ -179,37 +177,9 @@ class _Source:
             self._trees[new_name] = fn
         return True
 
-    def add_counted(self, name: str, new_name: str, kernels: dict[str, int]) -> None:
-        """Copy the already copied ``name`` as ``new_name`` that counts its kernels' calls: a first
-        parameter ``_cnt`` (int64, one entry per kernel: ``kernels`` maps a kernel's name to its
-        entry) and every call ``K(...)`` of a kernel made ``K_counted(_cnt, ...)``. A kernel named
-        other than as the function of a call (passed on as a value) cannot be counted."""
-        tree = ast.parse(self.functions[name]).body[0]
-        for node in ast.walk(tree):
-            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in kernels:
-                node.args.insert(0, ast.Name("_cnt", ast.Load()))
-                node.func.id += "_counted"
-        for node in ast.walk(tree):
-            if isinstance(node, ast.Name) and node.id in kernels:
-                raise SourceUnavailable(f"{self.origins[name]} passes the kernel {node.id} on as a value: "
-                                        "its calls cannot be counted")
-        tree.args.args.insert(0, ast.arg("_cnt"))
-        tree.name = new_name
-        self.origins[new_name] = self.origins[name] + ", counted"
-        self.functions[new_name] = ast.unparse(ast.fix_missing_locations(tree))
-        self._trees[new_name] = tree
-        for kernel, entry in kernels.items():
-            wrapper = f"{kernel}_counted"
-            if wrapper in self.functions:
-                continue
-            params = ", ".join(a.arg for a in self._trees[kernel].args.args)
-            self.origins[wrapper] = f"{self.origins[kernel]}, counted in _cnt[{entry}]"
-            self.functions[wrapper] = (f"def {wrapper}(_cnt, {params}):\n    _cnt[{entry}] += 1\n"
-                                       f"    return {kernel}({params})")
-
-    def exact_why(self) -> tuple[str, tuple[str, ...]]:
+    def bitwise_why(self) -> tuple[str, tuple[str, ...]]:
         """(why numba may compute other bits than numpy, or "", the libm functions the kernels
-        call) by ``exact_operations``, over every function copied."""
+        call) by ``reference._bitwise``, over every function copied."""
         modules = {}
         for alias, line in self.imports.items():
             if line.startswith("import numpy"):
@@ -218,7 +188,7 @@ class _Source:
                 modules[alias] = "math"
         libm = set()
         for name, tree in self._trees.items():
-            why = exact_operations(tree, modules, set(self.functions) | set(self.imports), libm)
+            why = bitwise_why(tree, modules, set(self.functions) | set(self.imports), libm)
             if why:
                 return f"{self.origins[name]}: {why}", ()
         return "", tuple(sorted(libm))
@@ -311,103 +281,25 @@ def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False, hoisted
     return "\n".join(lines)
 
 
-def _hoisted_calls(kind, hoisted: bool, x: str, t: str, t_first: str, step: str = "scheme_step",
-                   lead: str = "") -> tuple[str, str]:
+def _hoisted_calls(kind, hoisted: bool, x: str, t: str, t_first: str) -> tuple[str, str]:
     """(the setup line or "", the step's call) of an array loop over ``x``: the step itself, or
     where the file has them (``hoisted``) the setup assigned to ``_given`` once and the step
-    given it (the counted step's ``lead`` first, as ``add_counted`` puts it)."""
+    given it."""
     if not hoisted:
-        return "", kind.step_call(x, t, step, lead=lead)
-    given = step.replace("scheme_step", GIVEN, 1)
+        return "", kind.step_call(x, t)
     return (f"_given = {kind.step_call(x, t_first, SETUP)}",
-            kind.step_call(x, t, given, lead=f"{lead}_given, "))
-
-
-def _recording_loop(kind, name: str, x: str, within: str, put, returned: str, hoisted: bool = False) -> list[str]:
-    """``records.trajectory.step_loop``'s rule as numba source, the one template of both counted
-    loops: record step 0, then for steps 1 .. n take the step, stop at the first whose state is
-    not ``within`` (returning that step), and record each output mark (every ``every`` steps and
-    the last). ``x``: the state's name; ``within``: the check of it; ``put(out, row, value)``: a
-    record written; ``returned``: what the function returns before (rows written, failed step);
-    ``hoisted``: the step split as ``_loop_source`` takes it."""
-    setup, step = _hoisted_calls(kind, hoisted, x, "t0 + i * h", "t0", "scheme_step_counted", "cnt, ")
-    return [
-        "@_jit",
-        f"def {name}({x}, t0, h, n, every, p, k, out_q, out_v, cnt):",
-        f"    qo, vo = observe({x}, t0, h, p)",
-        f"    {put('out_q', '0', 'qo')}",
-        f"    {put('out_v', '0', 'vo')}",
-        "    j = 1",
-        *(["    " + setup] if setup else []),
-        "    for i in range(n):",
-        f"        {x} = " + step,
-        f"        if not ({within}):",
-        f"            return {returned}j, i + 1",
-        "        if (i + 1) % every == 0 or i + 1 == n:",
-        f"            qo, vo = observe({x}, t0 + (i + 1) * h, h, p)",
-        f"            {put('out_q', 'j', 'qo')}",
-        f"            {put('out_v', 'j', 'vo')}",
-        "            j += 1",
-        f"    return {returned}j, 0",
-        ""]
-
-
-def _counted_one_source(kind) -> str:
-    """``run_counted_one(x, t0, h, n, every, p, k, out_q, out_v, cnt) -> (recorded, failed)``:
-    ``run_counted`` on a pointwise scene with one entry (one DOF, batch one), its state ``x``
-    the floats ``start_counted`` returns for floats: the same operations on scalars, which
-    numba compiles in a fraction of the time it takes over array expressions."""
-    return "\n".join(_recording_loop(kind, "run_counted_one", "x",
-                                     "abs(x[0]) <= _DIVERGED and abs(x[1]) <= _DIVERGED",
-                                     lambda out, j, value: f"{out}[{j}, 0, 0] = {value}", ""))
-
-
-def _counted_source(kind, hoisted: bool = False) -> str:
-    """``run_counted(state, t0, h, n, every, p, k, out_q, out_v, cnt) -> (state, recorded,
-    failed)``: ``reference._integrate.integrate``'s loop, compiled (``_recording_loop``). Steps
-    1 .. n of a run started at t0 (step i + 1 starts at t0 + i h), each checked as
-    ``records.trajectory.diverged`` checks it (a component not finite or beyond DIVERGED stops the
-    run: ``failed`` is that step, else 0); the observed state of step 0, every ``every`` steps and
-    the last written to ``out_q``/``out_v`` (kernel layout, one record per row; ``recorded`` rows
-    written); the force, solve and projection calls added to ``cnt``. A record is copied entry by
-    entry (``_put``): a slice assignment would compile numba's broadcasting and its error message
-    into every worker's first counted kernel, a compile cost for the same copy."""
-    return "\n".join([
-        f"_DIVERGED = {DIVERGED!r}",
-        "",
-        "",
-        "@_jit",
-        "def _within(x):",
-        "    for e in x.flat:",
-        "        if not abs(e) <= _DIVERGED:",
-        "            return False",
-        "    return True",
-        "",
-        "",
-        "@_jit",
-        "def _put(out, j, x):",
-        "    for r in range(x.shape[0]):",
-        "        for b in range(x.shape[1]):",
-        "            out[j, r, b] = x[r, b]",
-        "",
-        "",
-        *_recording_loop(kind, "run_counted", "state", "_within(state[0]) and _within(state[1])",
-                         lambda out, j, value: f"_put({out}, {j}, {value})", "state, ", hoisted)])
-
-
-#: The counters of ``run_counted``: the entry of ``cnt`` each kernel's calls are added to.
-COUNTED = {"scene_accel": 0, "scene_solve": 1, "scene_project": 2}
+            kind.step_call(x, t, GIVEN, lead="_given, "))
 
 
 @dataclass(frozen=True)
 class KernelFile:
-    """The text of a pair's kernel file and what it holds. ``exact_why``: why the file has no
-    ``run_counted``, or why it might compute other bits than the interpreted driver ("" where
-    it computes the same; ``exact_operations``); ``libm``: the library functions it calls."""
+    """The text of a pair's kernel file and what it holds. ``bitwise_why``: why its loop might
+    compute other bits than the interpreted driver ("" where it computes the same, given the
+    library functions ``libm`` it calls agree: ``reference._bitwise``)."""
 
     text: str
     pointwise: bool
-    exact_why: str
+    bitwise_why: str
     libm: tuple[str, ...]
 
 
@@ -450,18 +342,7 @@ def _kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
     once = kind.variants(src, pointwise)
     hoisted = GIVEN in src.functions and not pointwise
     loops = _loop_source(kind, nstate, pointwise, once, hoisted)
-    try:
-        called = {name: entry for name, entry in COUNTED.items() if name in kernels}
-        src.add_counted("scheme_step", "scheme_step_counted", called)
-        if hoisted:
-            src.add_counted(GIVEN, GIVEN + "_counted", called)
-        src.add_counted("start", "start_counted", {"scene_accel": COUNTED["scene_accel"]})
-        loops += "\n\n" + _counted_source(kind, hoisted)
-        if pointwise:
-            loops += "\n\n" + _counted_one_source(kind)
-        exact_why, libm = src.exact_why()
-    except SourceUnavailable as exc:
-        exact_why, libm = str(exc), ()
+    bitwise, libm = src.bitwise_why()
     header = (f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind.name}, '
               f'{"pointwise" if pointwise else "array"} loop), generated by reference._kernels."""')
-    return KernelFile(src.text(header, loops), pointwise, exact_why, libm)
+    return KernelFile(src.text(header, loops), pointwise, bitwise, libm)

@@ -1,7 +1,7 @@
 """Compiled kernels of a (scheme, scene) pair, generated as source and cached on disk.
 
 Three modules, one concern each: ``reference._codegen`` writes the pair's kernel file as source,
-``reference._exactness`` judges which of its operations compute the interpreted bits, and this
+``reference._bitwise`` judges which of its operations compute the interpreted bits, and this
 one caches the file on disk, loads and compiles it, or compiles it in memory.
 
 For each pair this module writes one Python file: the scheme's ``step``/``start``/``observe``
@@ -18,7 +18,7 @@ in ``kernels/``, numba's cache beside them in ``__pycache__``; both are written 
 temporary name and then put in place, so worker processes compiling the same pair at once
 each see a whole file.
 
-Two loops, both running the unchanged step function:
+The loop runs the unchanged step function in one of two ways:
 
 * **pointwise** (the scene declares ``pointwise``: ``accel[i, b]`` and ``solve[i, b]``
   depend only on entry (i, b) of the state, so every entry is its own 1-DOF system) and the
@@ -26,21 +26,20 @@ Two loops, both running the unchanged step function:
   inlines it into a loop of scalars without an array temporary. On one entry the steps run
   in registers (the entry outermost); on a batch the entries run innermost, over contiguous
   memory, so the loop vectorises. The entries are independent, so either order computes
-  every entry's float operations in the step's order: the same states as the array path.
+  every entry's float operations in the step's order: the same states as the array path, but
+  for a Newton iteration's exit, which the array path takes on the largest update over every
+  entry and this loop on each entry's own (the same where the run has one entry, or the step
+  one iteration).
   An implicit step on a linear scene takes one Newton iteration (exact); the file then also
   holds the step copied for exactly one (``scheme_step_once``: the iteration loop's convergence exit
   dropped, which a single pass never takes), straight-line code that vectorises.
 * **array** (every other pair): the step on the state's arrays, as the interpreted driver
   runs it; each operation allocates its result.
 
-A third function, ``run_counted``, runs the interpreted driver's whole loop compiled: every
-step checked for divergence, the observed state recorded every ``every`` steps, and each call
-of the scene's force, solve and projection counted, as ``reference._integrate.Counted`` counts
-them (the step copied as ``scheme_step_counted``, each kernel call ``K(...)`` made
-``K_counted(_cnt, ...)``). It computes the interpreted run's bits where every operation of the
-pair is one numba and numpy compute alike (``KernelFile.exact_why`` empty; see
-``exact_operations``): ``reference._compiled.integrate_exact`` runs the accuracy measurements
-there.
+The one loop serves both the timings and the accuracy runs: ``reference._compiled.integrate_compiled``
+records it as the interpreted driver records, and computes the interpreted run's bits where every
+operation of the pair is one numba and numpy compute alike (``KernelFile.bitwise_why`` empty; see
+``reference._bitwise`` and ``reference._compiled.bitwise_why``).
 
 A pair whose source cannot be copied (a global that is neither a number, a module nor a
 function of this project) is compiled in memory instead, every process anew, and says so
@@ -78,23 +77,18 @@ def cache_dir() -> Path:
 class Stats:
     """What this process compiled and what it loaded from the disk cache, in CPU seconds of
     this process: ``compiled`` / ``loaded`` count the first calls of a pair's entry points
-    (``warm``; ``counted_*`` the counted accuracy loops among them), ``numba_s`` every numba
-    compilation however it was reached (a variant compiled on a later call, a floor), from
-    numba's own compile events."""
+    (``warm``), ``numba_s`` every numba compilation however it was reached (a variant compiled on
+    a later call, a floor), from numba's own compile events."""
 
     compiled: int = 0
     compile_s: float = 0.0
     loaded: int = 0
     load_s: float = 0.0
-    counted_compiled: int = 0
-    counted_compile_s: float = 0.0
     numba_s: float = 0.0
 
     def snapshot(self) -> dict:
         return {"kernels_compiled": self.compiled, "compile_s": self.compile_s,
-                "kernels_loaded": self.loaded, "load_s": self.load_s,
-                "counted_compiled": self.counted_compiled, "counted_compile_s": self.counted_compile_s,
-                "numba_s": self.numba_s}
+                "kernels_loaded": self.loaded, "load_s": self.load_s, "numba_s": self.numba_s}
 
 
 STATS = Stats()
@@ -208,14 +202,9 @@ class Kernels:
     pointwise: bool
     path: Path | None
     why_uncached: str = ""
-    #: ``start_counted`` and ``run_counted`` (None where the file has none: ``exact_why`` says
-    #: why), and on a pointwise scene ``run_counted_one`` (one entry, on floats).
-    start_counted: object = None
-    run_counted: object = None
-    run_counted_one: object = None
-    #: Why ``run_counted`` might not compute the interpreted driver's bits ("" where it does,
-    #: given ``libm``: the C library functions it calls, which ``reference._libm`` checks).
-    exact_why: str = "compiled in memory: no counted run"
+    #: Why the loop might not compute the interpreted driver's bits ("" where it does, given
+    #: ``libm``: the C library functions it calls, which ``reference._libm`` checks).
+    bitwise_why: str = "compiled in memory from the function objects: not checked"
     libm: tuple[str, ...] = ()
 
     @property
@@ -225,24 +214,6 @@ class Kernels:
     def dispatchers(self) -> list:
         return [self.start, self.advance_n, self.observe]
 
-    def counted_dispatchers(self) -> list:
-        return [d for d in (self.start_counted, self.run_counted, self.run_counted_one, self.observe) if d is not None]
-
-    @property
-    def _counted_mark(self) -> Path | None:
-        return None if self.path is None else self.path.with_suffix(".counted")
-
-    def counted_compiled(self) -> bool:
-        """Whether the counted run was compiled on this machine before (and so loads from the
-        disk cache): a mark put beside the kernel file by :meth:`mark_counted`."""
-        mark = self._counted_mark
-        return mark is not None and mark.exists()
-
-    def mark_counted(self) -> None:
-        mark = self._counted_mark
-        if mark is not None:
-            mark.touch()
-
 
 def _path(scheme, scene_cls, f) -> Path:
     return cache_dir() / f"k_{scheme.id}_{scene_cls.__name__.lower()}_{_key(f.text)}.py"
@@ -251,13 +222,11 @@ def _path(scheme, scene_cls, f) -> Path:
 @dataclass(frozen=True)
 class Cached:
     """What the disk cache holds of a pair, before anything here loads it: its kernel file (the
-    pair was run on this machine before), its timing loop compiled (numba's index of
-    ``advance_n``), its counted loop compiled (``Kernels.mark_counted``). All False for a pair
-    compiled in memory, which nothing caches."""
+    pair was run on this machine before) and its loop compiled (numba's index of ``advance_n``).
+    Both False for a pair compiled in memory, which nothing caches."""
 
     file: bool = False
-    timing: bool = False
-    counted: bool = False
+    compiled: bool = False
     #: The kernel file's name (two schemes that compile as one share it); "" in memory.
     name: str = ""
 
@@ -269,12 +238,11 @@ def cached(scheme, scene_cls, nstate: int) -> Cached:
         return Cached()
     if not path.exists():
         return Cached(name=path.name)
-    return Cached(True, path.stem in _timing_compiled(path.parent / "__pycache__"),
-                  path.with_suffix(".counted").exists(), path.name)
+    return Cached(True, path.stem in _loops_compiled(path.parent / "__pycache__"), path.name)
 
 
-def _timing_compiled(folder: Path) -> set[str]:
-    """The kernel files (stems) whose timing loop numba has cached in ``folder``: an index
+def _loops_compiled(folder: Path) -> set[str]:
+    """The kernel files (stems) whose loop numba has cached in ``folder``: an index
     ``<stem>.advance_n-<line>.py<version>.nbi``. The folder is listed once while it is
     unchanged (its mtime), not globbed pair by pair: it holds thousands of files."""
     try:
@@ -305,9 +273,7 @@ def load(scheme, scene_cls, nstate: int) -> Kernels:
     _write_once(path, f.text)
     module = _import_file(f"_harness_kernels.{stem}", path)
     return Kernels(module.start, module.advance_n, module.observe, f.pointwise, path,
-                   start_counted=getattr(module, "start_counted", None), run_counted=getattr(module, "run_counted", None),
-                   run_counted_one=getattr(module, "run_counted_one", None),
-                   exact_why=f.exact_why, libm=f.libm)
+                   bitwise_why=f.bitwise_why, libm=f.libm)
 
 
 def _in_memory(scheme, scene_cls, why: str) -> Kernels:
@@ -346,26 +312,23 @@ def compile_notices(tell):
         _NOTICES.remove(tell)
 
 
-def _will_compile(kernels: Kernels, counted: bool) -> bool:
+def _will_compile(kernels: Kernels) -> bool:
     """Whether warming the pair's loop compiles it, from what the disk cache holds (``cached``)."""
     if not kernels.cached:
         return True
-    if counted:
-        return not kernels.counted_compiled()
-    return kernels.path.stem not in _timing_compiled(kernels.path.parent / "__pycache__")
+    return kernels.path.stem not in _loops_compiled(kernels.path.parent / "__pycache__")
 
 
-def warm(kernels: Kernels, call, dispatchers: list | None = None, counted: bool = False, label: str = "") -> float:
+def warm(kernels: Kernels, call, label: str = "") -> float:
     """Run ``call()`` (the first call of the pair's kernels, which compiles them or loads them
     from the cache), account it in ``STATS`` and return its seconds, CPU seconds of this
     process (numba compiles in this thread; a core shared with other work does not inflate them).
-    ``dispatchers``: the functions ``call`` compiles (default: the timing loop's); ``counted``:
-    they are the counted accuracy loop's; ``label``: the pair, for ``compile_notices``."""
-    dispatchers = dispatchers or kernels.dispatchers()
-    if _NOTICES and _will_compile(kernels, counted):
+    ``label``: the pair, for ``compile_notices``."""
+    dispatchers = kernels.dispatchers()
+    if _NOTICES and _will_compile(kernels):
         where = "once on this machine, then loaded from the kernel cache" if kernels.cached else \
             f"in memory, not cached: {kernels.why_uncached}"
-        line = (f"compiling the {'counted accuracy' if counted else 'timing'} loop of "
+        line = (f"compiling the loop of "
                 f"{label or (kernels.path.stem if kernels.path else 'a pair')} ({where})")
         for tell in list(_NOTICES):
             tell(line)
@@ -383,7 +346,4 @@ def warm(kernels: Kernels, call, dispatchers: list | None = None, counted: bool 
     else:
         STATS.compiled += 1
         STATS.compile_s += seconds
-        if counted:
-            STATS.counted_compiled += 1
-            STATS.counted_compile_s += seconds
     return seconds

@@ -6,7 +6,8 @@ then, where the kind has one, one integer (``Kind.count``: Newton iterations all
 passes). A kind owns that signature and so every place it shows: the interpreted driver's step
 (``advance``), the call the compiled loops make (``step_call``), the in-memory loop of a pair whose
 source cannot be copied (``in_memory_loop``), the variants a kernel file adds (``variants``), which
-scenes it runs on (``supports``) and what a run reports of it (``run_iterations``, ``evals_text``).
+scenes it runs on (``supports``) and what a run reports of it (``run_iterations``, ``evals_text``,
+``step_counts``).
 The drivers, the kernel files and ``RefMethod`` ask the scheme's kind; none branches over kinds.
 
 * ``EXPLICIT``: ``step(accel, state, t, h, p)`` (explicit Runge-Kutta tableaus, the splittings);
@@ -80,7 +81,8 @@ class Kind:
 
     def step_call(self, state: str, t: str, step: str = "scheme_step", count: str = "k", lead: str = "") -> str:
         """The compiled loops' call of a kernel file's step (its kernels bound as globals of the
-        file): ``lead`` first (the counted step's counters), then the count where it takes one."""
+        file): ``lead`` first (what a hoisted step is given: ``reference._codegen``), then the count
+        where it takes one."""
         return f"{step}({lead}{count + ', ' if self.counted else ''}{state}, {t}, h, p)"
 
     def in_memory_loop(self, jit, step, accel, scene_cls):
@@ -116,6 +118,12 @@ class Kind:
         """The force evaluations a step declares, as ``describe`` says them."""
         return str(scheme.force_evals)
 
+    def step_counts(self, scheme, scene, count: int) -> tuple[int, int, int] | None:
+        """(force evaluations, solves, projections) a step taking ``count`` makes, where they are
+        fixed (the scheme's declared ``force_evals``); None where they vary from step to step
+        (``reference._counts`` then probes them)."""
+        return (scheme.force_evals, 0, 0)
+
 
 @dataclass(frozen=True, eq=False)
 class Implicit(Kind):
@@ -143,6 +151,11 @@ class Implicit(Kind):
     def evals_text(self, scheme) -> str:
         return f"{scheme.force_evals}{'' if scheme.one_pass_on_linear else ' a pass'} + solve"
 
+    def step_counts(self, scheme, scene, count):
+        # One Newton pass (``count`` 1: a linear scene) evaluates the force once per stage and
+        # solves once for each; more may stop at any pass, on the update's size.
+        return (scheme.force_evals, scheme.force_evals, 0) if count == 1 else None
+
 
 @dataclass(frozen=True, eq=False)
 class Constrained(Kind):
@@ -159,6 +172,9 @@ class Constrained(Kind):
 
     def options(self, scheme) -> dict[str, int]:
         return {"iterations": scheme.iterations}
+
+    def step_counts(self, scheme, scene, count):
+        return (scheme.force_evals, 0, 1)  # one projection a step, of ``count`` passes
 
     def pointwise(self, scene_cls) -> bool:
         return False  # a projection couples the entries

@@ -2,7 +2,6 @@
 harness, beside the engine modes of ``adapters``."""
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field, replace
 
 from records import REFERENCE, MethodId, Trajectory
@@ -10,7 +9,7 @@ from records.method import NO_REASONS
 
 from scenarios import Scene
 
-from ._compiled import Exact, integrate_compiled, integrate_exact
+from ._compiled import bitwise_why, integrate_compiled
 from ._integrate import integrate
 from ._scheme import Scheme
 
@@ -19,25 +18,30 @@ from ._scheme import Scheme
 class RefMethod:
     """A reference scheme as a method. ``options`` are the run-time options the scheme declares
     (``Scheme.options``: a constrained scheme's projection ``iterations``); unset ones keep the
-    scheme's defaults. ``compiled`` picks the compiled driver (same states, not counted)."""
+    scheme's defaults. Its runs are interpreted (every evaluation counted as it happens) unless
+    ``compiled_where_bitwise`` (the pair's compiled loop wherever it computes the interpreted bits)
+    or ``compiled`` (the loop everywhere, not counted)."""
 
     scheme: Scheme
     options: dict = field(default_factory=dict, compare=False)
-    #: Step on the compiled path (``reference.integrate_compiled``): the same states, for runs
-    #: too long to interpret; force evaluations are then not counted.
+    #: Step on the pair's compiled loop (``reference.integrate_compiled``) whatever its bits, for
+    #: runs too long to interpret; force evaluations are then not counted.
     compiled: bool = field(default=False, compare=False)
-    #: Step on the exact compiled run where it computes the interpreted bits (``Exact``), else
-    #: interpreted; None: interpreted. The same states and counts either way, only faster.
-    exact: Exact | None = field(default=None, compare=False)
+    #: Step on the pair's compiled loop wherever it computes the interpreted run's bits
+    #: (``reference.bitwise_why``), its counts declared or probed (``reference._counts``), and
+    #: interpreted elsewhere: the interpreted run's states and counts, only faster.
+    compiled_where_bitwise: bool = field(default=False, compare=False)
 
     # The capabilities of records.Method, declared: stepped in this process, at the dt it is
-    # given, counted on every run, matching itself; no loop to choose, no engine model to reuse
-    # or to build off the clock (its timing is the compiled kernel's, ``reference.step_timer``).
+    # given, matching itself; no loop to choose, no engine model to reuse or to build off the
+    # clock (its timing is the compiled kernel's, ``reference.step_timer``). Counted on every run
+    # but one on its compiled loop where the counts vary (``reference._counts``), whose counting
+    # run (``simulate(..., count=True)``) is the interpreted one.
     family = REFERENCE
     precision = "float64"
     isolated = False
     adaptive = False
-    counting_run = False
+    counting_run = True
     no_match = NO_REASONS
     LOOPS = ()
     one_steps = None
@@ -67,26 +71,14 @@ class RefMethod:
     def compiled_twin(self) -> "RefMethod":
         return replace(self, compiled=True)
 
-    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1) -> Trajectory:
-        if self.compiled:
+    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1, count: bool = False) -> Trajectory:
+        """The run (``reference.integrate``'s, wherever it steps); ``count``: interpreted, every
+        evaluation counted as it happens (the counting run)."""
+        if self.compiled and not count:
             return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
-        if self.exact is not None:  # the same run, compiled where that is exact
-            if self.exact.wants_rate(self.scheme, scene):  # what a step costs interpreted, to decide
-                probe = min(int(steps), self.exact.probe_steps)
-                self._interpreted(scene, dt, probe, max(1, probe))
-            traj = integrate_exact(self.scheme, scene, dt, steps, every, **self.options,
-                                   may_compile=self.exact.may_compile(self.scheme, scene, steps))
-            if traj is not None:
-                return traj
-            return self._interpreted(scene, dt, steps, every)
+        if self.compiled_where_bitwise and not count and not bitwise_why(self.scheme, scene, **self.options):
+            return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options, counted=True)
         return integrate(self.scheme, scene, dt, steps, every, **self.options)
-
-    def _interpreted(self, scene: Scene, dt: float, steps: int, every: int) -> Trajectory:
-        """``integrate``, its CPU seconds and steps counted against the pair (``Exact.interpreted``)."""
-        t = time.process_time()
-        traj = integrate(self.scheme, scene, dt, steps, every, **self.options)
-        self.exact.interpreted(self.scheme, scene, time.process_time() - t, max(1, traj.meta.steps_run or steps))
-        return traj
 
     def describe(self) -> dict:
         return {"id": self.id, "family": self.family,

@@ -77,12 +77,8 @@ def _kernels_phrase(timing: RunTiming) -> str:
     if not compiled and not loaded:
         return ""
     share = timing.compile_share
-    split = ""
-    if timing.counted_compiled is not None and compiled:
-        split = (f": {compiled - timing.counted_compiled} timing loops, {timing.counted_compiled} counted accuracy "
-                 f"loops in {timing.counted_compile_s or 0.0:.1f}s")
     return (f", {timing.numba_compile_s or 0.0:.1f}s of it numba compiling {compiled} (scheme, scene) "
-            f"kernels" + (f" ({share:.0%} of it{split})" if share is not None and compiled else "")
+            f"kernels" + (f" ({share:.0%} of it)" if share is not None and compiled else "")
             + f", {loaded} more loaded from the disk cache in {timing.kernel_load_s:.1f}s")
 
 
@@ -102,12 +98,9 @@ def kernel_cache(timing: RunTiming) -> list[str]:
         if timing.numba_s and timing.numba_s > 1.05 * (timing.numba_compile_s or 0.0):
             line += f" numba's own compile events add up to {timing.numba_s:.1f}s in all."
     if plan:
-        line += (f" Before the run: about {plan['timing'] + plan['counted']} kernels to compile "
-                 f"({plan['timing']} timing loops, {plan['counted']} counted accuracy loops)")
-        if plan["interpreted"]:
-            line += (f"; {plan['interpreted']} reference tasks, their pairs new to the cache, interpreted their "
-                     f"accuracy runs while that cost less than compiling would (the same figures, bit for bit)")
-        line += f"; cache `{plan['cache']}`."
+        # A run stored before each pair had one loop planned its timing and counted loops apart.
+        expected = plan["compile"] if "compile" in plan else plan["timing"] + plan["counted"]
+        line += f" Before the run: about {expected} kernels to compile; cache `{plan['cache']}`."
     return ["", line.strip()]
 
 

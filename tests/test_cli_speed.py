@@ -1,22 +1,20 @@
-"""The single-scene commands step reference schemes on the nightly's compiled path (the exact
-compiled run: the interpreted bits, counted alike), give the nightly cell's numbers where they
-ask its question, and say what they are doing once they run longer than a few seconds.
+"""The single-scene commands step reference schemes as the nightly does, on the pair's compiled
+loop wherever it computes the interpreted bits (``reference.RefMethod``), give the nightly cell's
+numbers where they ask its question, and say what they are doing once they run longer than a few
+seconds.
 
-No test here reads a clock to judge: whether a run compiles is decided by what compiling is
-declared to cost (``COUNTED_COMPILE_S``, set here), and the progress threshold is injected."""
+No test here reads a clock to judge: the progress threshold is injected."""
 import io
 import json
 from contextlib import redirect_stderr, redirect_stdout
 
 import pytest
 
-import reference
 from reference import _compiled, method as ref_method
 from scenarios import make_scene
 
 from harness.cli import main
 from harness.nightly import progress
-from harness.nightly.kernels import COMMAND_PROBE_STEPS
 
 
 def cli(*argv):
@@ -32,26 +30,20 @@ def cli(*argv):
 @pytest.fixture
 def stepped(monkeypatch):
     """Every reference run of this process, by the path it took: the interpreted driver's steps
-    (``integrate``, the rate probes included) and the exact compiled runs' backends. Compiling is
-    declared free, so every pair compiles before its first run (a pair new to the disk cache after
-    its rate probe), whatever this machine's speed."""
-    seen = {"interpreted_steps": 0, "exact": []}
-    integrate, integrate_exact = ref_method.integrate, ref_method.integrate_exact
+    (``integrate``) and the runs on the compiled loop."""
+    seen = {"interpreted_steps": 0, "compiled": 0}
+    integrate, integrate_compiled = ref_method.integrate, ref_method.integrate_compiled
 
     def counting(scheme, scene, dt, steps, every=1, **kw):
         seen["interpreted_steps"] += int(steps)
         return integrate(scheme, scene, dt, steps, every, **kw)
 
     def recording(*args, **kw):
-        traj = integrate_exact(*args, **kw)
-        seen["exact"].append(None if traj is None else traj.meta.backend)
-        return traj
+        seen["compiled"] += 1
+        return integrate_compiled(*args, **kw)
 
     monkeypatch.setattr(ref_method, "integrate", counting)
-    monkeypatch.setattr(ref_method, "integrate_exact", recording)
-    monkeypatch.setattr(_compiled, "COUNTED_COMPILE_S", {"pointwise": 0.0, "array": 0.0})
-    for table in ("_INTERPRETED", "_NEW"):  # no rate measured and no pair asked in this process yet
-        monkeypatch.setattr(_compiled, table, {})
+    monkeypatch.setattr(ref_method, "integrate_compiled", recording)
     return seen
 
 
@@ -62,10 +54,9 @@ def test_stability_steps_the_compiled_run_not_the_interpreter(stepped):
     assert code == 0, out
     res = json.loads(out)
     assert res["criterion"] == "finite_horizon" and res["verdict"] == "limited"
-    # One exact compiled run per finite-horizon test; nothing interpreted but the rate probe of a
-    # pair new to the disk cache (none where an earlier run here compiled it).
-    assert stepped["exact"] == ["compiled, counted"] * res["evaluations"]
-    assert stepped["interpreted_steps"] <= COMMAND_PROBE_STEPS
+    # One run on the compiled loop per finite-horizon test, nothing interpreted.
+    assert stepped["compiled"] == res["evaluations"]
+    assert stepped["interpreted_steps"] == 0
 
 
 def test_identify_steps_every_candidate_on_the_compiled_run(stepped, monkeypatch):
@@ -76,10 +67,9 @@ def test_identify_steps_every_candidate_on_the_compiled_run(stepped, monkeypatch
     code, out, _ = cli("identify", "spring", "--method", "ref:leapfrog", "--steps", "200", "--json")
     assert code in (0, 1), out  # 1: no other scheme matches
     res = json.loads(out)
-    # The method's own run and each candidate's: the exact compiled run, the probes at most interpreted.
-    runs = 1 + len(res["candidates"])
-    assert stepped["exact"] == ["compiled, counted"] * runs
-    assert stepped["interpreted_steps"] <= COMMAND_PROBE_STEPS * runs
+    # The method's own run and each candidate's, on the compiled loop, nothing interpreted.
+    assert stepped["compiled"] == 1 + len(res["candidates"])
+    assert stepped["interpreted_steps"] == 0
 
 
 @pytest.mark.parametrize("argv", [
@@ -93,8 +83,7 @@ def test_identify_steps_every_candidate_on_the_compiled_run(stepped, monkeypatch
 def test_every_single_scene_command_steps_the_compiled_run(stepped, argv):
     code, out, _ = cli(*argv)
     assert code == 0, out
-    assert stepped["exact"] and set(stepped["exact"]) == {"compiled, counted"}
-    assert stepped["interpreted_steps"] <= COMMAND_PROBE_STEPS
+    assert stepped["compiled"] and stepped["interpreted_steps"] == 0
 
 
 def test_stability_gives_the_nightly_cells_numbers_for_its_question():
@@ -109,8 +98,7 @@ def test_stability_gives_the_nightly_cells_numbers_for_its_question():
     spec = suite.scenes["pendulum"]
     task = Task("cell", "pendulum", "ref:leapfrog", "ref", {}, suite)
     scene = make_scene("pendulum")
-    cell = _stability(task, get_method("ref:leapfrog", exact=reference.Exact(frozenset({"leapfrog"}))), scene,
-                      suite, spec)
+    cell = _stability(task, get_method("ref:leapfrog", compiled_where_bitwise=True), scene, suite, spec)
     code, out, _ = cli("stability", "pendulum", "--method", "ref:leapfrog", "--steps", str(suite.stability_steps),
                        "--hi", repr(suite.stability_homega_max), "--rtol", repr(suite.stability_rtol), "--json")
     assert code == 0, out
@@ -126,7 +114,7 @@ def test_identify_gives_the_nightly_cells_answer():
 
     task = Task("cell", "spring", "mujoco:euler", "mujoco", {}, "standard")
     scene = make_scene("spring")
-    cell = _identity(task, get_method("mujoco:euler"), scene, reference.Exact(frozenset()))
+    cell = _identity(task, get_method("mujoco:euler"), scene)
     code, out, _ = cli("identify", "spring", "--method", "mujoco:euler", "--json")
     assert code == 0, out
     res = json.loads(out)
@@ -137,15 +125,13 @@ def test_identify_gives_the_nightly_cells_answer():
 def test_a_long_command_says_what_it_is_doing(monkeypatch, tmp_path):
     monkeypatch.setattr(progress, "QUIET_S", 0.0)  # every line at once, as past the threshold
     monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))  # nothing compiled here: the compile is named
-    monkeypatch.setattr(_compiled, "COUNTED_COMPILE_S", {"pointwise": 0.0, "array": 0.0})
-    for table in ("_COUNTED", "_LOADED", "_INTERPRETED", "_NEW"):
-        monkeypatch.setattr(_compiled, table, {})
+    monkeypatch.setattr(_compiled, "_DRIVERS", {})  # nor loaded in this process
     code, out, err = cli("stability", "pendulum", "--method", "ref:leapfrog", "--steps", "200", "--hi", "10",
                          "--rtol", "1e-2", "--json")
     assert code == 0, out
     res = json.loads(out)
     lines = err.splitlines()
-    assert any(line.startswith("compiling the counted accuracy loop of leapfrog on pendulum") for line in lines)
+    assert any(line.startswith("compiling the loop of leapfrog on pendulum") for line in lines)
     runs = [line for line in lines if line.startswith("stability: ")]
     assert len(runs) == res["evaluations"]
     assert runs[0].startswith("stability: scanning h*omega from 0.0001 up to 10 by x2: run 1 of at most 18 ")

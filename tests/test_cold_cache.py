@@ -1,12 +1,11 @@
 """A nightly on an empty kernel cache (a fresh machine, a CI runner that keeps nothing) and on a full
-one store the same accuracy cells, bit for bit; the run says beforehand what it will compile, and
-afterwards what compiling took and what a kept cache would have saved.
+one store the same cells, bit for bit; the run says beforehand what it will compile, and afterwards
+what compiling took and what a kept cache would have saved; a second run compiles nothing.
 
-On an empty cache a reference task interprets its accuracy runs (its pair is new to the cache:
-``harness.nightly.kernels``) while that costs less than compiling its counted loop would; the next
-run finds the pair and compiles whatever is left; the one after loads everything. Timings are injected (``HARNESS_INJECT_TIMINGS``), so that the cost cells
-are as deterministic as the accuracy figures; what differs between the runs is only how they ran
-(which backend stepped the accuracy runs, the kernels compiled or loaded, the seconds).
+Each (scheme, scene) pair has one compiled loop, for its timings and its accuracy runs alike
+(``harness.nightly.kernels``): the first run compiles it, the next ones load it. Timings are injected
+(``HARNESS_INJECT_TIMINGS``), so that the cost cells are as deterministic as the accuracy figures;
+what differs between the runs is only how they ran (the kernels compiled or loaded, the seconds).
 """
 import json
 import subprocess
@@ -21,10 +20,11 @@ from harness.nightly.progress import compile_line
 from records.run import RunTiming
 from tests.test_resume import CLOCKED, ROOT, SUITE, TIMINGS, cells_of, env
 
-#: How a run ran, beside what it measured: the backend of the accuracy runs.
-HOW = CLOCKED | {"backend"}
+#: How a run ran, beside what it measured.
+HOW = CLOCKED
 #: The resume tests' suite less a scheme and an engine mode, and its bound: one reference task (its
-#: energy, error, order, cost, advice and stability cells), one engine task (its identity too).
+#: energy, error, order, cost, advice and stability cells), one engine task (its identity too, whose
+#: candidates step on their compiled loops).
 COLD = replace(SUITE, name="cold-smoke", methods=("ref:rk4", "mujoco:euler"), bounds=False)
 
 
@@ -70,30 +70,26 @@ def _backends(frame) -> set:
 def test_an_empty_and_a_full_kernel_cache_store_the_same_cells(three_runs):
     cold, second, warm = (three_runs[r][0] for r in (1, 2, 3))
     assert _measured(cold) == _measured(warm) == _measured(second)  # every figure bitwise, the accuracy cells too
-    # ... and they were measured otherwise: the energy run, a task's first, interpreted on the empty
-    # cache, compiled on the full one.
-    assert _backends(three_runs[1][3]) == {"interpreted"}
-    assert _backends(three_runs[2][3]) == _backends(three_runs[3][3]) == {"compiled, counted"}
+    # ... each run's accuracy runs on the one compiled loop, compiled in the first, loaded after.
+    assert _backends(three_runs[1][3]) == _backends(three_runs[2][3]) == _backends(three_runs[3][3]) == {"compiled"}
 
 
 def test_the_run_says_what_it_will_compile_and_what_compiling_took(three_runs):
+    from harness.measures.identify import candidate_methods
+    from scenarios import make_scene
+
     (_, t1, p1, _), (_, t2, p2, _), (_, t3, p3, _) = (three_runs[r] for r in (1, 2, 3))
-    # Empty: the timing loops of RK4 and of explicit Euler (the cost cells' baseline and the
-    # calibration's, one pair on the spring), RK4's accuracy runs interpreted.
-    assert p1.splitlines()[0].startswith("cold cache: about 2 kernels to compile (2 timing loops, 0 counted")
-    assert t1.kernel_plan["interpreted"] == 1
-    assert t1.kernels_compiled >= 2 and t1.numba_compile_s > 0
+    # Empty: the loop of every scheme stepped on the spring (RK4's task, explicit Euler as the cost
+    # cells' baseline and the calibration's, every identity candidate beside mujoco:euler).
+    loops = len(candidate_methods(make_scene("spring")))
+    assert p1.splitlines()[0].startswith(f"cold cache: about {loops} kernels to compile (of the {loops} the run steps)")
+    assert t1.kernels_compiled >= loops and t1.numba_compile_s > 0
     assert "compiling: " in p1 and "a kept kernel cache would have saved about" in p1
-    # The pairs are known now: each counted loop is compiled once, in the first run where
-    # interpreting the task's runs came to cost what compiling would, else in this one.
-    assert t1.counted_compiled + t2.counted_compiled == 1 and t2.kernel_plan["interpreted"] == 0
-    assert t2.kernels_compiled == t2.counted_compiled
-    assert p2.splitlines()[0].startswith(f"kernel cache: {t2.counted_compiled} counted accuracy loops to compile"
-                                         if t2.counted_compiled else "kernel cache warm: nothing to compile")
-    # Full: nothing compiles, and the run says so before and after.
-    assert p3.splitlines()[0].startswith("kernel cache warm: nothing to compile")
-    assert t3.kernels_compiled == 0 and t3.kernels_loaded > 0
-    assert p3.splitlines()[-1].startswith("kernels: ") and "none compiled" in p3.splitlines()[-1]
+    # The second run and the third: nothing compiles, and each says so before and after.
+    for t, p in ((t2, p2), (t3, p3)):
+        assert p.splitlines()[0].startswith("kernel cache warm: nothing to compile")
+        assert t.kernels_compiled == 0 and t.kernels_loaded > 0
+        assert p.splitlines()[-1].startswith("kernels: ") and "none compiled" in p.splitlines()[-1]
 
 
 def test_what_a_cache_would_have_saved():
@@ -105,7 +101,8 @@ def test_what_a_cache_would_have_saved():
                                "cache would have saved about 39 CPU-s")
     # None loaded to measure a load by: the stated 0.02 s.
     assert RunTiming(numba_compile_s=10.0, kernels_compiled=100).cache_would_save_s == pytest.approx(8.0)
-    assert KernelPlan(0, 0, 0, "/c", 5).line() == "kernel cache warm: nothing to compile; kernel cache /c"
-    # Some of the run's timing loops cached: not a cold cache.
-    assert KernelPlan(1, 2, 0, "/c", 5).line().startswith("kernel cache: about 3 kernels to compile (1 timing")
-    assert KernelPlan(5, 0, 3, "/c", 5).line().startswith("cold cache: about 5 kernels to compile (5 timing")
+    assert KernelPlan(0, "/c", 5).line() == "kernel cache warm: nothing to compile; kernel cache /c"
+    # Some of the run's loops cached: not a cold cache.
+    assert KernelPlan(3, "/c", 5).line() == "kernel cache: about 3 kernels to compile (of the 5 the run steps); " \
+                                            "kernel cache /c"
+    assert KernelPlan(5, "/c", 5).line().startswith("cold cache: about 5 kernels to compile (of the 5")

@@ -11,7 +11,7 @@ import math
 from scenarios import make_scene, parse_overrides
 
 from harness import validate
-from harness.cli.measure_args import backend, method_for, progress
+from harness.cli.measure_args import method_for, progress
 from harness.measures.identify import format_report, identify
 
 
@@ -35,7 +35,7 @@ def run(args) -> int:
     scene = make_scene(args.scene, **parse_overrides(args.set))
     method = method_for(args.method, scene)
     with progress() as say:  # the candidates step on the nightly's compiled path, as the method does
-        result = identify(method, scene, dt, steps, timeout=timeout, exact=backend(), progress=say)
+        result = identify(method, scene, dt, steps, timeout=timeout, compiled_where_bitwise=True, progress=say)
     if args.json:
         out = result.as_dict()
         print(json.dumps(_finite({"model_note": scene.model_note, **out} if scene.model_note else out), indent=1))

@@ -28,18 +28,10 @@ def scene_of(args):
     return make_scene(args.scene, **parse_overrides(args.set))
 
 
-def backend():
-    """The reference schemes' backend in every single-scene command: the nightly's compiled path
-    (``harness.nightly.kernels.command_backend``)."""
-    from harness.nightly.kernels import command_backend
-
-    return command_backend()
-
-
 def method_for(method_id: str, scene, options: dict | None = None):
-    """The method, on the nightly's compiled path where it is a reference scheme (``backend``),
-    checked against ``scene``."""
-    method = get_method(method_id, options, exact=backend())
+    """The method, checked against ``scene``; a reference scheme steps as in the nightly, on its
+    compiled loop wherever that computes the interpreted bits (``reference.RefMethod``)."""
+    method = get_method(method_id, options, compiled_where_bitwise=True)
     check_supported(method, scene)
     return method
 

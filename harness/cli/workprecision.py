@@ -8,7 +8,7 @@ from harness import validate
 from harness.methods import all_methods
 from harness.measures.tolerance import TOLERANCES, takes_tolerance, tolerance_sweep
 from harness.measures.workprecision import HOMEGA_MAX, PERIODS, POINTS, REPEATS, chart_ready, work_precision
-from harness.cli.measure_args import add_common, backend, emit, fmt, method_for, progress, scene_of, timeout_of
+from harness.cli.measure_args import add_common, emit, fmt, method_for, progress, scene_of, timeout_of
 
 
 def add_parser(sub):
@@ -37,7 +37,8 @@ def run(args) -> int:
     if args.method:
         methods = [method_for(m, scene) for m in args.method]
     else:
-        methods = [m for m in all_methods(backend()).values() if m.available()[0] and m.supports(scene)[0]]
+        methods = [m for m in all_methods(compiled_where_bitwise=True).values()
+                   if m.available()[0] and m.supports(scene)[0]]
     controlled = [m for m in methods if takes_tolerance(m) and "tolerance" not in m.options]
     stepped = [m for m in methods if m not in controlled]
     with progress() as say:

@@ -427,15 +427,13 @@ def candidates(scene: Scene, patterns: list[str] | None) -> tuple[list[str], lis
 
 def _advise_in_worker(method_id: str, scene: Scene, request: Request, timeout, plugins,
                       injected: dict | None = None) -> MethodAdvice:
-    from reference import Exact
-
     from harness.methods import get_method, use_plugins
 
     use_plugins(plugins)
-    # A reference scheme's runs on its exact compiled path where that computes the interpreted
-    # bits (as the nightly's advice cells): the same figures; backward Euler's Newton iterations
-    # over the cloth's solve, interpreted, do not finish within the command's limit at 4 x 4.
-    method = get_method(method_id, exact=Exact())
+    # A reference scheme's runs on its compiled loop where that computes the interpreted bits (as
+    # the nightly's advice cells): the same figures; backward Euler's Newton iterations over the
+    # cloth's solve, interpreted, do not finish within the command's limit at 4 x 4.
+    method = get_method(method_id, compiled_where_bitwise=True)
     return advise_method(method, scene, request, timeout=timeout, injected=injected)
 
 

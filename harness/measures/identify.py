@@ -110,10 +110,10 @@ def candidate_run(ref, scene: Scene, dt: float, steps: int) -> Trajectory:
     """``ref.simulate(scene, dt, steps, 1)``, or the same run made before in this process, or
     by any process of this code on this machine (``_stored``): the key holds the scheme and its
     options, the scene's id, parameters and initial state, dt, steps and the backend reference
-    runs take (``reference.Exact``: the same bits either way)."""
+    runs take (``reference.RefMethod.compiled_where_bitwise``: the same bits either way)."""
     q0, v0 = scene.batch_state(1)
     key = (ref.id, tuple(sorted(ref.options.items())), scene.id, tuple(sorted(scene.values.items())),
-           q0.tobytes(), v0.tobytes(), float(dt), int(steps), ref.exact is not None)
+           q0.tobytes(), v0.tobytes(), float(dt), int(steps), ref.compiled_where_bitwise)
     if key not in _CANDIDATES:
         if len(_CANDIDATES) >= CANDIDATES_KEPT:
             del _CANDIDATES[next(iter(_CANDIDATES))]
@@ -215,11 +215,21 @@ class IdentityResult(Result):
         return self.candidates[0] if self.candidates else None
 
 
+def candidate_methods(scene: Scene, compiled_where_bitwise: bool = False) -> dict:
+    """The reference schemes ``identify`` compares a method with on ``scene``, by id: each that runs
+    there, but a scheme that is another there, update for update (``same_without_velocity``): that
+    one is the candidate."""
+    return {mid: ref for mid, ref in all_methods(compiled_where_bitwise).items()
+            if ref.family == REFERENCE and ref.supports(scene)[0]
+            and (scene.velocity_dependent or not ref.scheme.same_without_velocity)}
+
+
 def identify(method, scene: Scene, dt: float | None = None, steps: int | None = None,
-             timeout: float | None = None, exact=None, progress=None) -> IdentityResult:
-    """Rank every reference scheme by its deviation from ``method`` on ``scene``; ``exact``: the
-    candidates' backend (``reference.Exact``; None: interpreted); ``progress``: told a line
-    before each run (a command's progress)."""
+             timeout: float | None = None, compiled_where_bitwise: bool = False, progress=None) -> IdentityResult:
+    """Rank every reference scheme by its deviation from ``method`` on ``scene``;
+    ``compiled_where_bitwise``: the candidates step on their compiled loops wherever those compute
+    the interpreted bits (else interpreted); ``progress``: told a line before each run (a
+    command's progress)."""
     method = resolve(method, scene)
     dt = default_dt(scene) if dt is None else dt
     steps = default_steps() if steps is None else steps
@@ -239,10 +249,8 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     c_scene, c_dt = float32_inputs(scene, dt) if precision == "float32" else (scene, dt)
     as_held = rounded_to_float32 if precision == "float32" else (lambda traj: traj)
     candidates = []
-    refs = [(mid, ref) for mid, ref in all_methods(exact).items()
-            if ref.family == REFERENCE and mid != method.id and ref.supports(scene)[0]
-            # a scheme that is here another, update for update (same_without_velocity): that one is the candidate
-            and (scene.velocity_dependent or not ref.scheme.same_without_velocity)]
+    refs = [(mid, ref) for mid, ref in candidate_methods(scene, compiled_where_bitwise).items()
+            if mid != method.id]
     for i, (mid, ref) in enumerate(refs, 1):
         say(f"identify: candidate {mid}, {i} of {len(refs)}")
         traj = as_held(candidate_run(ref, c_scene, c_dt, steps))

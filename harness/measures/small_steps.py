@@ -4,7 +4,8 @@ against one step of n passes, against implicit Euler and its linearly implicit f
 a frame, and against semi-implicit Euler at the fewest substeps a frame it needs to stay bounded.
 
 Every configuration runs ``t_end`` of simulated time (default 2) in frames of 1/``hz`` from the scene's initial state,
-on the exact compiled run (``reference.integrate_exact``: the interpreted bits, counted). Rows
+on the scheme's compiled loop where that computes the interpreted bits (``reference.RefMethod``,
+``compiled_where_bitwise``), else interpreted. Rows
 (``small_steps``), one per configuration:
 
 * ``energy_retained`` = E(t_end) / E(0) (the scenes' exact energy is E(0): 1 is no damping);
@@ -29,7 +30,7 @@ import time
 import numpy as np
 import pandas as pd
 
-from reference import METHODS, integrate_exact, time_per_step
+from reference import METHODS, RefMethod, time_per_step
 from scenarios import make_scene
 
 #: The configurations' passes: n substeps x 1 pass against 1 step x n passes.
@@ -47,14 +48,8 @@ MAX_SUBSTEPS = 256
 MARGIN = 0.01
 
 
-def _runs(scene, scheme_id: str, dt: float, steps: int, options: dict) -> dict:
-    scheme = METHODS[scheme_id]
-    tr = integrate_exact(scheme, scene, dt, steps, 1, **options)
-    if tr is None:  # no exact compiled run for the pair here: the interpreted one, the same bits
-        from reference import integrate
-
-        tr = integrate(scheme, scene, dt, steps, 1, **options)
-    return tr
+def _runs(scene, scheme_id: str, dt: float, steps: int, options: dict):
+    return RefMethod(METHODS[scheme_id], options, compiled_where_bitwise=True).simulate(scene, dt, steps, 1)
 
 
 def _row(scene, label: str, scheme_id: str, options: dict, hz: float, steps_per_frame: int, t_end: float,

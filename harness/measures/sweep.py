@@ -313,13 +313,12 @@ def _family_by_id(method_id: str) -> str:
 
 
 def _method(method_id: str, plugins=()):
-    from reference import Exact
-
     from harness.methods import get_method, use_plugins
 
     use_plugins(plugins)
-    # A reference scheme runs on its exact compiled path, as ``harness advise`` runs it.
-    return get_method(method_id, exact=Exact())
+    # A reference scheme runs on its compiled loop where that computes the interpreted bits, as
+    # ``harness advise`` runs it.
+    return get_method(method_id, compiled_where_bitwise=True)
 
 
 def _start_one(method_id, scene, request, timeout, injected, plugins=()):

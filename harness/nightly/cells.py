@@ -54,18 +54,19 @@ def suite_of(task) -> Suite:
     return task.suite if isinstance(task.suite, Suite) else SUITES[task.suite]
 
 
-def context(task, method=None, exact=None) -> TaskContext:
-    """The task's ``TaskContext`` before any cell is measured."""
+def context(task, method=None) -> TaskContext:
+    """The task's ``TaskContext`` before any cell is measured. A reference scheme steps on its
+    compiled loop wherever that computes the interpreted bits (``reference.RefMethod``)."""
     from harness.methods import get_method
 
     suite = suite_of(task)
     spec = suite.scenes[task.scene]
     scene = make_scene(task.scene, source=task.source, **task.params)
-    method = method or get_method(task.method, exact=exact)
+    method = method or get_method(task.method, compiled_where_bitwise=True)
     dt = nominal_dt(spec, scene)
-    # Long runs of reference schemes on the compiled path (same states); counting stays interpreted.
+    # Runs too long to interpret on the compiled loop whatever its bits, not counted (the scene's spec).
     run_method = method.compiled_twin() if spec.compiled else method
-    return TaskContext(task, suite, spec, scene, method, run_method, dt, exact, _claims(method, scene))
+    return TaskContext(task, suite, spec, scene, method, run_method, dt, _claims(method, scene))
 
 
 def _applies(measure, ctx) -> bool:
@@ -101,10 +102,8 @@ def _downsample(n: int, points: int) -> np.ndarray:
 
 def run_task(task) -> list[Cell]:
     """Runs in a worker process. Any exception becomes a ``crashed`` cell with the message.
-    Reference schemes step on the compiled path wherever it computes the interpreted run's
-    bits (``reference.Exact``, where the suite's ``exact_compiled``)."""
-    from reference import Exact
-
+    Reference schemes step on their compiled loop wherever it computes the interpreted run's
+    bits (``reference.RefMethod``)."""
     from harness.methods import use_plugins
 
     use_plugins(task.plugins)
@@ -112,31 +111,15 @@ def run_task(task) -> list[Cell]:
         return [guard(task, "bound", lambda: _bound(task))]
     if task.kind == "cost":  # a cell's cost measured again, in a fresh worker (the nightly's re-measure)
         return [guard(task, "cost", lambda: _cost_again(task))]
-    suite = suite_of(task)
-    own = frozenset(compiles_for(task, suite))
-    exact = Exact(own, frozenset() if task.compile_counted else own) if suite.exact_compiled else None
-    return _scene_task(task, suite, exact)
+    return _scene_task(task)
 
 
-def compiles_for(task, suite: Suite) -> set[str]:
-    """The reference schemes whose counted kernels a task compiles (``reference.Exact``): a
-    reference task its own scheme's, where its accuracy runs are stepped counted (not a scene
-    whose runs step the compiled loop, where only the cost cell's 100 steps are counted); where
-    the pair is new to the disk cache (``Task.compile_counted`` False: ``harness.nightly.kernels``)
-    only once interpreting them has cost as much as compiling would. Every other run takes a
-    counted kernel compiled before, and is interpreted otherwise: an engine task's identity runs
-    its candidates 1,000 steps, interpreted in a fraction of what a compile costs."""
-    if task.family != "ref" or suite.scenes[task.scene].compiled:
-        return set()
-    return {scheme_name(task.method)}
-
-
-def _scene_task(task, suite: Suite, exact=None) -> list[Cell]:
+def _scene_task(task) -> list[Cell]:
     """Every registered measure that applies to the task, in registry order, each cell sent back
     as it is measured (a crash in one measure is its cell, and the rest go on)."""
     from harness.execution.pool import report_partial
 
-    ctx = context(task, exact=exact)
+    ctx = context(task)
     cells = []
     for measure in measures():
         if not _applies(measure, ctx):
@@ -288,12 +271,14 @@ def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
     return cells
 
 
-def _identity(task, method, scene, exact=None) -> Cell:
+def _identity(task, method, scene) -> Cell:
     from reference import METHODS
 
     from harness.measures.identify import identify
 
-    res = identify(method, scene, exact=exact)
+    # The candidates step as the reference tasks do, on their compiled loops where those compute
+    # the interpreted bits (loaded from the kernel cache where a task compiled them).
+    res = identify(method, scene, compiled_where_bitwise=True)
     match = res.match
     mode = task.method.split(":", 1)[1]
     match_claims = Claims()
@@ -386,19 +371,23 @@ def _slowdown(before: Cell, after: Cell, comparison: Comparison) -> Worse | None
 
 
 def _identity_run(ctx) -> list[Cell]:
-    cell = _identity(ctx.task, ctx.method, ctx.scene, ctx.exact)
+    cell = _identity(ctx.task, ctx.method, ctx.scene)
     match_claims = cell.figures.match_claims
     if cell.ok and match_claims is not None and match_claims.known:
         ctx.claims = match_claims  # the scheme it integrates: what its other cells are judged by
     return [cell]
 
 
-def _identifies(ctx) -> bool:
+def identifies(suite, scene, family: str) -> bool:
+    """Whether a task of ``family`` on ``scene`` has an identity cell in ``suite``."""
     # A constrained scene's only reference scheme projects positions; no engine integrates that
     # (MuJoCo's rope is reduced coordinates, pymunk's impulses): nothing to identify. Nor on a
     # model file, which no reference scheme steps.
-    return (ctx.task.family != "ref" and ctx.suite.identify and not ctx.scene.constrained
-            and ctx.scene.has_kernels)
+    return family != "ref" and suite.identify and not scene.constrained and scene.has_kernels
+
+
+def _identifies(ctx) -> bool:
+    return identifies(ctx.suite, ctx.scene, ctx.task.family)
 
 
 def _fixed_step(ctx) -> bool:

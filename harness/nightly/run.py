@@ -61,7 +61,6 @@ class Task:
     plugins: tuple[str, ...] = ()  # plugin modules the worker loads before it looks the method up
     timings: dict | None = None    # injected timings (``harness.measures.cost``), the clock's if None
     source: str | None = None      # the file of a scene built from one (a model file)
-    compile_counted: bool = True   # a reference task compiles its counted run (harness.nightly.kernels.plan)
 
     @property
     def label(self) -> str:
@@ -206,8 +205,7 @@ def timing_summary(cells_by_task: dict[str, list[Cell]], stats: dict, wall_cells
     return {"cells_s": wall_cells, "worker_seconds_by_measure": dict(by_measure),
             "worker_seconds_by_family": dict(by_family), "numba_compile_s": kernels["compile_s"],
             "kernels_compiled": int(kernels["kernels_compiled"]), "kernels_loaded": int(kernels["kernels_loaded"]),
-            "kernel_load_s": kernels["load_s"], "counted_compiled": int(kernels["counted_compiled"]),
-            "counted_compile_s": kernels["counted_compile_s"], "numba_s": kernels["numba_s"],
+            "kernel_load_s": kernels["load_s"], "numba_s": kernels["numba_s"],
             "task_s": task_s, "task_cpu_s": task_cpu, "slowest_tasks": slowest,
             "worker_cpu_s": sum(known) if known else None,
             "tasks_without_cpu": len(task_cpu) - len(known)}
@@ -350,7 +348,7 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     progress = Progress(len(to_run), progress_stream)
     plan = None
     if isinstance(executor, LocalExecutor):  # a cluster's workers keep caches of their own
-        to_run, plan = kernel_plan(to_run, suite)
+        plan = kernel_plan(to_run, suite)
         progress.say(plan.line())
     cells_by_task: dict[str, list[Cell]] = {}
     busy0, t_cells = machine_busy_s(), time.perf_counter()

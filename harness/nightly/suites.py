@@ -104,8 +104,6 @@ class Suite:
     bounds: bool = True                      # measure the reviewed energy bounds
     frame_rates: tuple[float, ...] = (60.0,)  # frame rates of the advice cells (scenes with ``advise``)
     identify: bool = True                    # identity table for engine modes
-    exact_compiled: bool = True              # reference schemes' accuracy runs compiled where that computes
-                                             # the interpreted bits (reference.Exact), counted alike
     schemes_declare: bool = False            # a reference scheme runs on the scenes it declares for this suite
                                              # (``reference.Scheme.suites[name]``), and nowhere else; False: on
                                              # every scene (``methods`` and the scenes' ``skip`` aside)

@@ -110,7 +110,7 @@ def measures_for(task, spec) -> list[str]:
 def scene_cells(task, method, scene, dt, spec, suite, claims: Claims | None = None) -> list[Cell]:
     """The scene's own cells of ``task``, outside a nightly task (the nightly's task runs every
     registered measure: ``harness.nightly.cells``)."""
-    ctx = TaskContext(task, suite, spec, scene, method, method, dt, None, claims or Claims())
+    ctx = TaskContext(task, suite, spec, scene, method, method, dt, claims or Claims())
     return [guard(task, m.name, lambda: m.run(ctx)[0]) for m in MEASURES if m.applies(ctx)]
 
 
@@ -127,9 +127,9 @@ def _constraint(task, method, scene, dt, spec, suite, runs: dict | None = None) 
     if passes and method.scheme is not None and method.scheme.constrained:
         by_iterations = []
         for k in passes:
-            r = constraint_drift(get_method(task.method, {"iterations": k}, exact=method.exact), scene, dt, steps,
-                                 every=every,
-                                 timeout=suite.cell_timeout)
+            r = constraint_drift(get_method(task.method, {"iterations": k},
+                                            compiled_where_bitwise=method.compiled_where_bitwise),
+                                 scene, dt, steps, every=every, timeout=suite.cell_timeout)
             by_iterations.append({key: r[key] for key in ("iterations", "status", "max_stretch", "final_stretch",
                                                               "energy_change", "max_energy_change")})
     figures = ConstraintFigures.pick(plain(res), by_iterations=plain(by_iterations))

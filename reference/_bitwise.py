@@ -1,7 +1,7 @@
-"""Which operations a compiled kernel computes as the interpreted step does, bit for bit
-(``reference._kernels``): IEEE arithmetic and square root in the source's order, exact
+"""Bitwise agreement: which operations a compiled kernel computes as the interpreted step does, bit
+for bit (``reference._kernels``): IEEE arithmetic and square root in the source's order, exact
 abs/min/max, making arrays, and the library functions this machine's numpy and numba are checked
-to agree on; anything else keeps the pair's accuracy runs interpreted."""
+to agree on; anything else keeps the pair's accuracy runs interpreted (``reference._compiled.bitwise_why``)."""
 from __future__ import annotations
 
 import ast
@@ -9,11 +9,11 @@ import ast
 
 #: Calls whose result numba computes bit for bit as numpy and Python do: IEEE 754's correctly
 #: rounded square root, the exact abs, min and max, and making arrays.
-EXACT_CALLS = frozenset({"np.sqrt", "math.sqrt", "np.abs", "abs", "min", "max", "np.empty_like", "np.zeros_like",
+BITWISE_CALLS = frozenset({"np.sqrt", "math.sqrt", "np.abs", "abs", "min", "max", "np.empty_like", "np.zeros_like",
                          "np.empty", "np.zeros", "np.eye", "np.outer", "np.ascontiguousarray", "range", "len", "float",
                          "int"})
-#: Array methods likewise exact.
-EXACT_METHODS = frozenset({"copy"})
+#: Array methods likewise computed bit for bit.
+BITWISE_METHODS = frozenset({"copy"})
 #: Functions both sides take from a library: the C library's sin, cos and exp (where numpy does
 #: not bring its own vectorised version) and LAPACK's dense solve (numpy's bundled build against
 #: the one numba calls through scipy): the same bits exactly where this machine's builds agree
@@ -21,7 +21,7 @@ EXACT_METHODS = frozenset({"copy"})
 LIBM_CALLS = frozenset({"np.sin", "np.cos", "np.exp", "math.sin", "math.cos", "math.exp", "np.linalg.solve"})
 
 
-def exact_operations(tree: ast.FunctionDef, modules: dict[str, str], known: set[str], libm: set[str]) -> str:
+def bitwise_why(tree: ast.FunctionDef, modules: dict[str, str], known: set[str], libm: set[str]) -> str:
     """Why numba might compute other bits than the interpreted function ``tree``, or "".
 
     Interpreted, a kernel runs numpy's elementwise operations and Python's float arithmetic;
@@ -32,7 +32,7 @@ def exact_operations(tree: ast.FunctionDef, modules: dict[str, str], known: set[
     way. A reduction (np.sum, np.dot, @: numpy sums pairwise, numba in order), ``**`` (numpy's
     pow against numba's repeated products) or any call not listed might not; a library
     function (``LIBM_CALLS``) does where the machine's builds agree. ``modules`` maps the names bound to numpy and math to "np" and
-    "math"; ``known``: functions and kernels of the file (exact if their own source is);
+    "math"; ``known``: functions and kernels of the file (bitwise if their own source is);
     the libm functions called are added to ``libm``."""
     for node in ast.walk(tree):
         if isinstance(node, (ast.BinOp, ast.AugAssign)) and isinstance(node.op, (ast.Pow, ast.MatMult)):
@@ -42,7 +42,7 @@ def exact_operations(tree: ast.FunctionDef, modules: dict[str, str], known: set[
         func = node.func
         if isinstance(func, ast.Name):
             name = func.id
-            if name in known or name in EXACT_CALLS:
+            if name in known or name in BITWISE_CALLS:
                 continue
             return f"calls {name}"
         root, path = func, []
@@ -51,13 +51,13 @@ def exact_operations(tree: ast.FunctionDef, modules: dict[str, str], known: set[
             root = root.value
         if path and isinstance(root, ast.Name) and root.id in modules:
             name = ".".join([modules[root.id], *path])
-            if name in EXACT_CALLS:
+            if name in BITWISE_CALLS:
                 continue
             if name in LIBM_CALLS:
                 libm.add(name)
                 continue
             return f"calls {name}"
-        if isinstance(func, ast.Attribute) and func.attr in EXACT_METHODS:
+        if isinstance(func, ast.Attribute) and func.attr in BITWISE_METHODS:
             continue
         return f"calls {ast.unparse(func)}"
     return ""
