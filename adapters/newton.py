@@ -59,15 +59,17 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, EngineVersions, SteppedModel, quiet_fds
+from ._engine import EngineVersions, quiet_fds
+from ._mode import EngineMode
+from ._model import SteppedModel
 
 #: The releases this adapter supports: the 1.x solver constructors (SolverSemiImplicit's
 #: ``enable_tri_contact``, SolverXPBD's ``iterations``, SolverVBD's ``iterations``) and
 #: ``ModelBuilder(gravity=...)``; measured on 1.8.0 with warp-lang 1.19.0.
 VERSIONS = EngineVersions(low="1.8", below="2", tested=("1.8.0",))
 
-#: Our mode name -> the solver class in ``newton.solvers``.
-SOLVERS = {"semi_implicit": "SolverSemiImplicit", "xpbd": "SolverXPBD", "vbd": "SolverVBD",
+#: Our mode name -> what it selects in Newton: the solver class in ``newton.solvers``.
+MODES = {"semi_implicit": "SolverSemiImplicit", "xpbd": "SolverXPBD", "vbd": "SolverVBD",
            "featherstone": "SolverFeatherstone"}
 
 #: Newton's own defaults for the iterative solvers, kept and recorded (at each of them the unit
@@ -80,8 +82,6 @@ MAX_VELOCITY = 1e30
 
 #: The subfolder of the harness cache that holds Warp's compiled kernels.
 WARP_CACHE = "warp"
-
-_PARTICLE_SCENES = ("spring", "damped_spring", "chain", "cloth", "net")
 
 _STYLE3D = ("Style3D's cloth is an anisotropic triangle membrane with bending edges (tri_aniso_ke) under its own "
             "projective-dynamics solve; it reads no particle springs, so no scene's springs can be posed")
@@ -120,12 +120,9 @@ UNSUPPORTED = {mode: {**UNSUPPORTED_ALL, "pendulum": _PENDULUM_MAXIMAL[mode], "m
                for mode in ("semi_implicit", "xpbd", "vbd")}
 UNSUPPORTED["featherstone"] = dict(UNSUPPORTED_ALL)
 
-SCENES = {"semi_implicit": _PARTICLE_SCENES, "xpbd": _PARTICLE_SCENES, "vbd": _PARTICLE_SCENES,
-          "featherstone": ("spring", "damped_spring", "pendulum", "chain", "cloth", "net", "model")}
-
-#: How each mode poses a scene: "particles" or "joint" (module docstring).
-JOINT_POSES = {("featherstone", "spring"), ("featherstone", "damped_spring"), ("featherstone", "pendulum"),
-               ("featherstone", "model")}
+#: The modes that step articulations in joint coordinates: they pose a scene on a joint where its pose
+#: has one, else as particles (module docstring); the others pose particles only.
+ARTICULATED = ("featherstone",)
 
 
 def _warp(newton):
@@ -260,9 +257,7 @@ class ParticlePose:
 
 _SPRING = ParticlePose(_spring_particles, _spring_put, _spring_read)
 _SHEET = ParticlePose(_cloth_particles, _sheet_put, _sheet_read)
-#: How each scene Newton poses as particles is built and read: a new scene is one entry here.
-PARTICLES = {"spring": _SPRING, "damped_spring": _SPRING, "chain": ParticlePose(_chain_particles, _chain_put, _chain_read),
-             "cloth": _SHEET, "net": _SHEET}
+_CHAIN = ParticlePose(_chain_particles, _chain_put, _chain_read)
 
 
 def _revolute(builder, wp, p) -> None:
@@ -276,12 +271,22 @@ def _prismatic(builder, wp, p) -> None:
                                 damping=p.get("c", 0.0), armature=0.0)
 
 
-_PRISMATIC = ("one body of mass m on a prismatic joint along x, joint stiffness k at rest 0, joint damping c",
-              lambda p: (0.0, 0.0, 0.0), _prismatic)
-#: How each scene Featherstone poses on a joint is built: (what, gravity(params), add(builder, wp, params)).
-JOINTS = {"spring": _PRISMATIC, "damped_spring": _PRISMATIC,
-          "pendulum": ("a point mass m at L below a revolute joint about y (inertia zero), gravity g along -z",
-                       lambda p: (0.0, 0.0, -p["g"]), _revolute)}
+@dataclass(frozen=True)
+class JointPose:
+    """How a scene is one body on one joint of the world: ``what`` (in words, each run's ``model``
+    setting), ``gravity(params)`` and ``add(builder, wp, params)`` its body and joint."""
+
+    what: str
+    gravity: Callable | None
+    add: Callable | None
+
+
+_PRISMATIC = JointPose("one body of mass m on a prismatic joint along x, joint stiffness k at rest 0, joint damping c",
+                       lambda p: (0.0, 0.0, 0.0), _prismatic)
+_REVOLUTE = JointPose("a point mass m at L below a revolute joint about y (inertia zero), gravity g along -z",
+                      lambda p: (0.0, 0.0, -p["g"]), _revolute)
+#: A model file's joints, as Newton's loaders build them (``_FileModel``).
+_FILE_JOINTS = JointPose("the file as Newton's own loaders build it (adapters/_newton_model.py)", None, None)
 
 
 def _solver(newton, mode: str, model):
@@ -307,7 +312,8 @@ class _Model(SteppedModel):
     def __init__(self, newton, mode: str, scene: Scene, dt: float):
         self.wp = wp = _warp(newton)
         self.newton, self.mode, self.scene, self.dt = newton, mode, scene, dt
-        self.joint = (mode, scene.kind) in JOINT_POSES
+        self.pose = POSES[scene.kind]
+        self.joint = mode in ARTICULATED and self.pose.joint is not None
         with quiet_fds():
             if self.joint:
                 model, settings = self._joint_model(newton, scene)
@@ -318,7 +324,7 @@ class _Model(SteppedModel):
             self.s0, self.s1 = model.state(), model.state()
             self.control = model.control()
         self.set_state(*scene.initial_state())
-        self.settings = {"solver": SOLVERS[mode], "precision": "float32", "device": str(model.device),
+        self.settings = {"solver": MODES[mode], "precision": "float32", "device": str(model.device),
                          **solver_settings, **settings,
                          "gravity": [float(g) for g in model.gravity.numpy().reshape(-1, 3)[0]],
                          "engine_loop": "solver.step from Python, one call a step (warp captures graphs on CUDA "
@@ -326,7 +332,7 @@ class _Model(SteppedModel):
 
     # -------------------------------------------------------------- building
     def _particle_model(self, newton, mode: str, scene: Scene):
-        x, v, mass, (a, b, k, c, rest), gravity = PARTICLES[scene.kind].particles(scene)
+        x, v, mass, (a, b, k, c, rest), gravity = self.pose.particles.particles(scene)
         builder = newton.ModelBuilder(gravity=gravity)
         for i in range(len(mass)):
             builder.add_particle(tuple(float(z) for z in x[i]), tuple(float(z) for z in v[i]), float(mass[i]),
@@ -355,7 +361,7 @@ class _Model(SteppedModel):
     def _joint_model(self, newton, scene: Scene):
         p = scene.values
         wp = self.wp
-        what, gravity, add = JOINTS[scene.kind]
+        what, gravity, add = self.pose.joint.what, self.pose.joint.gravity, self.pose.joint.add
         builder = newton.ModelBuilder(gravity=gravity(p))
         add(builder, wp, p)
         builder.add_articulation([builder.joint_count - 1])
@@ -380,7 +386,7 @@ class _Model(SteppedModel):
             return
         x = self.s0.particle_q.numpy().astype(float)
         u = np.zeros_like(x)
-        PARTICLES[self.scene.kind].put(self.model, self.scene, x, u, q, v)
+        self.pose.particles.put(self.model, self.scene, x, u, q, v)
         self.s0.particle_q.assign(x.astype(np.float32))
         self.s0.particle_qd.assign(u.astype(np.float32))
 
@@ -389,7 +395,7 @@ class _Model(SteppedModel):
             return (self.s0.joint_q.numpy().astype(float), self.s0.joint_qd.numpy().astype(float))
         x = self.s0.particle_q.numpy().astype(float)
         u = self.s0.particle_qd.numpy().astype(float)
-        return PARTICLES[self.scene.kind].read(self.scene, x, u)
+        return self.pose.particles.read(self.scene, x, u)
 
     # -------------------------------------------------------------- stepping
     def steps(self, n: int) -> None:
@@ -445,18 +451,38 @@ class _FileModel(_Model):
                                      self._names, self._facts)
 
 
-BUILDERS = {"model": _FileModel}
+@dataclass(frozen=True)
+class Pose:
+    """How Newton poses one scene: as particles and particle springs (``particles``: every solver),
+    on a joint of an articulation (``joint``: the modes of ``ARTICULATED``, which take it where a
+    scene has both), and the model class that builds it (a model file's own)."""
+
+    particles: ParticlePose | None = None
+    joint: JointPose | None = None
+    model: type = _Model
+
+
+#: How Newton poses each scene it poses; a new scene is one entry here.
+POSES = {"spring": Pose(_SPRING, _PRISMATIC), "damped_spring": Pose(_SPRING, _PRISMATIC),
+         "pendulum": Pose(joint=_REVOLUTE), "chain": Pose(_CHAIN), "cloth": Pose(_SHEET), "net": Pose(_SHEET),
+         "model": Pose(joint=_FILE_JOINTS, model=_FileModel)}
+
+
+def scenes(mode: str) -> tuple[str, ...]:
+    """The scenes ``mode`` poses: those with particles, and for an articulated mode those on a joint."""
+    return tuple(kind for kind, pose in POSES.items()
+                 if pose.particles is not None or (mode in ARTICULATED and pose.joint is not None))
 
 
 def build(newton, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
     """``count`` changes nothing: Newton counts no force evaluations."""
-    return BUILDERS.get(scene.kind, _Model)(newton, mode, scene, dt)
+    return POSES[scene.kind].model(newton, mode, scene, dt)
 
 
-def has_solver(mode: str):
+def has_mode(mode: str):
     """Whether the imported Newton has the mode's solver class."""
     def present(newton) -> bool:
-        return hasattr(newton.solvers, SOLVERS[mode])
+        return hasattr(newton.solvers, MODES[mode])
     return present
 
 
@@ -496,9 +522,9 @@ _NO_MATCH = {
 METHODS = {
     f"newton:{mode}": EngineMode(
         engine="newton", mode=mode, module="newton", dist="newton", build=build,
-        scenes=SCENES[mode], unsupported=UNSUPPORTED[mode], doc=_DOCS[mode], versions=VERSIONS,
-        present=has_solver(mode), precision="float32", no_match=_NO_MATCH[mode],
-        settings={"solver": SOLVERS[mode], "precision": "float32", "device": "cpu",
+        scenes=scenes(mode), unsupported=UNSUPPORTED[mode], doc=_DOCS[mode], versions=VERSIONS,
+        present=has_mode(mode), precision="float32", no_match=_NO_MATCH[mode],
+        settings={"solver": MODES[mode], "precision": "float32", "device": "cpu",
                   "gravity": "scene's g along the last axis (cloth, net) or -z (pendulum), else zero",
                   "particle_radius": 0.0, "particle_contact": "off (particle_grid None)",
                   "enable_tri_contact": False if mode == "semi_implicit" else None,
@@ -508,7 +534,7 @@ METHODS = {
                   "angular_damping": 0.0 if mode in ("semi_implicit", "featherstone") else None,
                   "iterations": {"xpbd": XPBD_ITERATIONS, "vbd": VBD_ITERATIONS}.get(mode)},
     )
-    for mode in SOLVERS
+    for mode in MODES
 }
 
 #: Style3D is not a mode: it poses no scene (``_STYLE3D``).

@@ -6,7 +6,7 @@ import time
 from dataclasses import dataclass, field, replace
 
 from records import REFERENCE, MethodId, Trajectory
-from records.method import NO_REASONS
+from records.method import NO_BEHAVIOUR, NO_REASONS
 
 from scenarios import Scene
 
@@ -39,6 +39,7 @@ class RefMethod:
     adaptive = False
     counting_run = False
     no_match = NO_REASONS
+    behaviour = NO_BEHAVIOUR
     LOOPS = ()
     one_steps = None
     timed_run = None
