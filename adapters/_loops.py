@@ -18,16 +18,13 @@ per-step path, which stops it at the exact step (``EngineMode.simulate``).
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from records import Trajectory
 from records.trajectory import OK, UNSTABLE, RunMeta, divergence_detail, diverged, output_marks, step_loop
 from scenarios import Scene
 
-if TYPE_CHECKING:
-    from ._model import Model
+from ._model import Model
 
 
 def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every: int = 1) -> Trajectory:
@@ -109,21 +106,3 @@ def run_engine_loop(model: Model, scene: Scene, method: str, dt: float, steps: i
     traj = _trajectory(scene, method, dt, steps, every, rec_step, np.array(rec_q), np.array(rec_v))
     traj.meta.loop = "engine: the engine's own loop between output points, state read at output points only"
     return traj
-
-
-def run_by_steps(model, marks: np.ndarray) -> tuple[list[tuple[np.ndarray, np.ndarray]], bool]:
-    """``Model.run`` for an engine stepped by ``model.steps(n)`` (n steps through the engine's own
-    loop, nothing read in between): the state at each mark, stopping at the first diverged one
-    (``step_loop``'s spans, the caller replaying a failed run)."""
-    out = []
-
-    def advance(a, b):
-        model.steps(b - a)
-        out.append(model.state())
-
-    def check(n):
-        return model.trouble() or ("diverged" if diverged(*out[-1]) else "")
-
-    failed, _ = step_loop(advance, check, lambda n: None, int(marks[-1]), 1, spans=True, marks=marks)
-    return out, failed is None
-

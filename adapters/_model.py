@@ -12,7 +12,7 @@ from typing import Protocol
 
 import numpy as np
 
-from ._loops import run_by_steps
+from records.trajectory import diverged, step_loop
 
 
 class Model(Protocol):
@@ -115,4 +115,21 @@ class _Declared(EngineModel):
 def declared(model) -> EngineModel:
     """``model`` with every optional member declared: itself if it is an :class:`EngineModel`."""
     return model if isinstance(model, EngineModel) else _Declared(model)
+
+
+def run_by_steps(model, marks: np.ndarray) -> tuple[list[tuple[np.ndarray, np.ndarray]], bool]:
+    """``Model.run`` for an engine stepped by ``model.steps(n)`` (n steps through the engine's own
+    loop, nothing read in between): the state at each mark, stopping at the first diverged one
+    (``step_loop``'s spans, the caller replaying a failed run)."""
+    out = []
+
+    def advance(a, b):
+        model.steps(b - a)
+        out.append(model.state())
+
+    def check(n):
+        return model.trouble() or ("diverged" if diverged(*out[-1]) else "")
+
+    failed, _ = step_loop(advance, check, lambda n: None, int(marks[-1]), 1, spans=True, marks=marks)
+    return out, failed is None
 
