@@ -45,13 +45,16 @@ The loop is Newton's: ``solver.step(state_in, state_out, control, None, h)`` onc
 Python, the two states swapped, the forces cleared, nothing read in between. Warp captures a
 step as a graph on CUDA devices only (``wp.ScopedCapture``), so on the CPU there is no graph to
 replay and each step is a handful of kernel launches from Python. First use of a solver compiles
-its kernels; Warp caches them under the harness cache (``<cache>/warp``, ``_warp``) unless the
+the Warp modules of the kernels it launches, forward passes only (``forward_only``: the harness
+never differentiates); Warp caches them under the harness cache (``<cache>/warp``, ``_warp``), so
+that a machine compiles them once and emptying the harness cache empties them too, unless the
 user named a cache of their own (``WARP_CACHE_PATH`` or ``warp.config.kernel_cache_dir``).
 """
 from __future__ import annotations
 
 import math
 import os
+import sys
 from dataclasses import dataclass
 from typing import Callable
 
@@ -126,20 +129,41 @@ ARTICULATED = ("featherstone",)
 
 
 def _warp(newton):
-    """Warp, initialised once, quietly, its kernel cache under the harness cache unless the user
-    named one (``WARP_CACHE_PATH``, ``warp.config.kernel_cache_dir``)."""
+    """Warp, started quietly, its kernel cache under the harness cache unless the user named one
+    (``WARP_CACHE_PATH``, ``warp.config.kernel_cache_dir``), and Newton's kernels set to compile
+    forward only (``forward_only``)."""
     import warp as wp
-    from warp._src import context
 
-    if context.runtime is None:  # the cache and the log level count only before Warp starts
-        if wp.config.kernel_cache_dir is None and "WARP_CACHE_PATH" not in os.environ:
-            from reference import kernel_cache_dir
+    # Warp resolves kernel_cache_dir to a path when it starts: None means neither started nor
+    # named by the user.
+    if wp.config.kernel_cache_dir is None and "WARP_CACHE_PATH" not in os.environ:
+        from reference import kernel_cache_dir
 
-            wp.config.kernel_cache_dir = str(kernel_cache_dir().parent / WARP_CACHE)
-        wp.config.log_level = wp.LOG_WARNING  # no line per module loaded or compiled
-        with quiet_fds():
-            wp.init()
+        wp.config.kernel_cache_dir = str(kernel_cache_dir().parent / WARP_CACHE)
+    wp.config.log_level = wp.LOG_WARNING  # no line per module loaded or compiled
+    with quiet_fds():
+        wp.init()  # nothing where Warp has started
+    forward_only(wp, newton)
     return wp
+
+
+def forward_only(wp, newton) -> None:
+    """Newton's Warp modules compile their kernels without their backward (adjoint) passes: the
+    harness never differentiates a step, and Warp compiles a whole module, backward passes
+    included, at the first launch of any of its kernels. The forward code is the same either way
+    (the same states bit for bit, ``tests/test_newton.py``). A Warp module takes Warp's default
+    when it is created, and Newton imports a solver's kernels when the solver is first asked for:
+    the default is set off for the modules created from now on (the harness runs no Warp code that
+    differentiates), and the option on every module of Newton's created before, each only where
+    not set yet (setting one marks the module changed, to be compiled again)."""
+    wp.config.enable_backward = False
+    prefix = newton.__name__ + "."
+    modules = {id(k.module): k.module for name, python_module in list(sys.modules.items())
+               if python_module is not None and (name == newton.__name__ or name.startswith(prefix))
+               for k in list(vars(python_module).values()) if isinstance(k, wp.Kernel)}
+    for module in modules.values():
+        if wp.get_module_options(module).get("enable_backward") is not False:
+            wp.set_module_options({"enable_backward": False}, module=module)
 
 
 def spring_rest(scene: Scene) -> float:
