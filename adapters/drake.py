@@ -44,23 +44,25 @@ included).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from scenarios import Scene
 
+from records.method import NO_BEHAVIOUR, Behaviour
 from records.method_id import TOLERANCE, Option
 
-from ._base import EngineMode, EngineVersions, SteppedModel
+from ._engine import EngineVersions
+from ._mode import EngineMode
+from ._model import SteppedModel
 
 #: The releases this adapter supports: ``ResetIntegratorFromFlags`` by scheme name and
 #: ``DiscreteContactApproximation`` (SAP, lagged, similar) are in every release from 1.22;
 #: measured on 1.51.1.
 VERSIONS = EngineVersions(low="1.22", below="2", tested=("1.51.1",))
 
-#: Our mode name -> Drake's integration scheme name (``GetIntegrationSchemes()``).
-INTEGRATORS = ("semi_explicit_euler", "explicit_euler", "runge_kutta2", "runge_kutta3", "bogacki_shampine3",
-               "runge_kutta5", "radau1", "radau3", "implicit_euler", "velocity_implicit_euler")
 
 #: Implicit integrators: their Newton iteration stops at the target accuracy, set this tight (at
 #: Drake's default 1e-4 radau3 strays 2e-6 from the two-stage Radau IIA on the spring).
@@ -72,9 +74,16 @@ NEWTON_ACCURACY = 1e-14
 ERROR_CONTROLLED = ("bogacki_shampine3", "runge_kutta3", "runge_kutta5", "radau1", "radau3", "implicit_euler",
                     "velocity_implicit_euler")
 
-#: Our mode name -> the discrete plant's contact approximation (``DiscreteContactApproximation``).
+#: The modes of the discrete plant: our mode name -> its contact approximation (``DiscreteContactApproximation``).
 DISCRETE = {"discrete_tamsi": "kTamsi", "discrete_sap": "kSap", "discrete_lagged": "kLagged",
             "discrete_similar": "kSimilar"}
+
+#: Our mode name -> what it selects in Drake: an integration scheme of the continuous plant, by its
+#: name in ``GetIntegrationSchemes()`` (the mode's own), or the discrete plant's contact approximation.
+MODES = {**{name: name for name in ("semi_explicit_euler", "explicit_euler", "runge_kutta2", "runge_kutta3",
+                                    "bogacki_shampine3", "runge_kutta5", "radau1", "radau3", "implicit_euler",
+                                    "velocity_implicit_euler")},
+         **DISCRETE}
 
 _NOT_POSED = ("not posed yet: a LeafSystem evaluating the scene's force from Python would be our force, "
               "not Drake's, and no force element of the plant poses it minimally in this adapter")
@@ -88,18 +97,6 @@ UNSUPPORTED = {
     "net": "as the cloth: not posed yet",
     "cloth_flex": "MuJoCo's flex membrane: no Drake counterpart",
 }
-
-MODELS = {
-    "spring": "one body of mass m on a PrismaticJoint along x (damping 0), PrismaticSpring k at rest 0",
-    "damped_spring": "one body of mass m on a PrismaticJoint along x with damping c, PrismaticSpring k at rest 0",
-    "pendulum": "a point mass m (UnitInertia.PointMass) L below a RevoluteJoint about y, damping 0",
-    "chain": "N bodies of mass m on PrismaticJoints along x; PrismaticSpring k at rest 0 on the end joints (walls), "
-             "LinearBushingRollPitchYaw between neighbours (force stiffness k, damping c along x), end joints' damping c",
-    "projectile": "a massless carriage on a PrismaticJoint along x carrying mass m on a PrismaticJoint along z, "
-                  "each joint's damping the drag c",
-    "model": "the file as pydrake's Parser builds it, no SceneGraph (adapters/_drake_model.py)",
-}
-
 
 def _pendulum(plant, values):
     """A point mass m L below a revolute joint about y, the scene's gravity."""
@@ -159,17 +156,12 @@ def _projectile(plant, values):
     return joint, [0.0, 0.0, -values["g"]]
 
 
-#: How each scene Drake poses is built into a plant: a new scene is one entry here.
-POSES = {"spring": _spring, "damped_spring": _spring, "pendulum": _pendulum, "chain": _chain,
-         "projectile": _projectile}
-
-
 def _plant(pydrake, scene: Scene, time_step: float):
     """The scene's MultibodyPlant (module docstring) and its one joint."""
     from pydrake.multibody.plant import MultibodyPlant
 
     plant = MultibodyPlant(time_step)
-    joint, gravity = POSES[scene.kind](plant, scene.values)
+    joint, gravity = POSES[scene.kind].add(plant, scene.values)
     plant.mutable_gravity_field().set_gravity_vector(gravity)
     return plant, joint, gravity
 
@@ -190,21 +182,21 @@ class _Model(SteppedModel):
         if self.discrete:
             from pydrake.multibody.plant import DiscreteContactApproximation
 
-            plant.set_discrete_contact_approximation(getattr(DiscreteContactApproximation, DISCRETE[mode]))
+            plant.set_discrete_contact_approximation(getattr(DiscreteContactApproximation, MODES[mode]))
         plant.Finalize()
         self.plant, self.dt, self.n, self._trouble = plant, dt, 0, None
         self.sim = sim = Simulator(plant)
         self._context = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
         self._put(*scene.initial_state())
         self.settings = {"plant": f"discrete, time_step {dt!r}" if self.discrete else "continuous (time_step 0)",
-                         "gravity": gravity, "model": MODELS[scene.kind],
+                         "gravity": gravity, "model": POSES[scene.kind].what,
                          "advance": ("AdvanceTo(k h): one discrete update a step" if self.discrete else
                                      "AdvanceTo(t_n), t_n = fl(t_{n-1} + h): exactly n steps, none inserted"), "target_realtime_rate": 0.0}
         if self.discrete:
             self.integrator = self.tolerance = None
-            self.settings["contact_approximation"] = DISCRETE[mode]
+            self.settings["contact_approximation"] = MODES[mode]
         else:
-            self.integrator = integrator = ResetIntegratorFromFlags(sim, mode, dt)
+            self.integrator = integrator = ResetIntegratorFromFlags(sim, MODES[mode], dt)
             self.tolerance = tolerance
             # Error-controlled (a tolerance set): Drake's own step-size control at that target
             # accuracy, its steps at most the output interval dt (each output is an AdvanceTo).
@@ -333,28 +325,50 @@ class _FileModel(_Model):
                                     self.discrete)
 
 
-BUILDERS = {"spring": _Model, "damped_spring": _Model, "pendulum": _Model, "chain": _Model, "projectile": _Model,
-            "model": _FileModel}
-SCENES = tuple(BUILDERS)
+@dataclass(frozen=True)
+class Pose:
+    """How Drake poses one scene: ``what`` it builds (in words, each run's ``model`` setting),
+    ``add(plant, params) -> (joint, gravity)`` its bodies, joints and force elements, and the model
+    class that steps it (a model file's own, which builds its plant from the file)."""
+
+    what: str
+    add: Callable | None
+    model: type = _Model
+
+
+#: How Drake poses each scene it poses; a new scene is one entry here.
+POSES = {
+    "spring": Pose("one body of mass m on a PrismaticJoint along x (damping 0), PrismaticSpring k at rest 0", _spring),
+    "damped_spring": Pose("one body of mass m on a PrismaticJoint along x with damping c, PrismaticSpring k at rest 0",
+                          _spring),
+    "pendulum": Pose("a point mass m (UnitInertia.PointMass) L below a RevoluteJoint about y, damping 0", _pendulum),
+    "chain": Pose("N bodies of mass m on PrismaticJoints along x; PrismaticSpring k at rest 0 on the end joints (walls), "
+                  "LinearBushingRollPitchYaw between neighbours (force stiffness k, damping c along x), end joints' "
+                  "damping c", _chain),
+    "projectile": Pose("a massless carriage on a PrismaticJoint along x carrying mass m on a PrismaticJoint along z, "
+                       "each joint's damping the drag c", _projectile),
+    "model": Pose("the file as pydrake's Parser builds it, no SceneGraph (adapters/_drake_model.py)", None, _FileModel),
+}
+SCENES = tuple(POSES)
 
 
 def build(pydrake, mode: str, scene: Scene, dt: float, count: bool = False, tolerance: float | None = None) -> _Model:
     """``count`` changes nothing: Drake counts its derivative evaluations in every run.
     ``tolerance``: error-controlled at that target accuracy (the modes of ``ERROR_CONTROLLED``)."""
-    return BUILDERS[scene.kind](pydrake, mode, scene, dt, **({"tolerance": tolerance} if tolerance is not None else {}))
+    return POSES[scene.kind].model(pydrake, mode, scene, dt, **({"tolerance": tolerance} if tolerance is not None else {}))
 
 
-def has_scheme(mode: str):
-    """Whether the imported Drake offers ``mode`` (its ``GetIntegrationSchemes()``, or the
-    contact approximation's member)."""
+def has_mode(mode: str):
+    """Whether the imported Drake offers what ``mode`` selects (``MODES``: a scheme of its
+    ``GetIntegrationSchemes()``, or the contact approximation's member)."""
     def present(pydrake) -> bool:
         if mode in DISCRETE:
             from pydrake.multibody.plant import DiscreteContactApproximation
 
-            return hasattr(DiscreteContactApproximation, DISCRETE[mode])
+            return hasattr(DiscreteContactApproximation, MODES[mode])
         from pydrake.systems.analysis import GetIntegrationSchemes
 
-        return mode in GetIntegrationSchemes()
+        return MODES[mode] in GetIntegrationSchemes()
     return present
 
 
@@ -387,19 +401,25 @@ _DOCS = {
     "discrete_similar": """discrete MultibodyPlant (similar): semi-implicit Euler; joint damping implicit""",
 }
 
+#: What a mode was measured to do that its name does not say (``records.method.Behaviour``): the two
+#: implicit Euler modes step by step doubling (``_DOCS``).
+_HALVES = Behaviour(integrates_as={"spring": "ref:implicit_euler_doubled"}, half_steps_of="ref:implicit_euler")
+_BEHAVIOUR = {"implicit_euler": _HALVES, "velocity_implicit_euler": _HALVES}
+
 METHODS = {
     f"drake:{mode}": EngineMode(
         engine="drake", mode=mode, module="pydrake", dist="drake", build=build,
-        scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], versions=VERSIONS, present=has_scheme(mode),
+        scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], versions=VERSIONS, present=has_mode(mode),
+        behaviour=_BEHAVIOUR.get(mode, NO_BEHAVIOUR),
         options_declared=({TOLERANCE: Option(TOLERANCE, float, 1e-14, 0.1, "error-controlled at this target accuracy")}
                           if mode in ERROR_CONTROLLED else {}),
         adaptive_with=TOLERANCE if mode in ERROR_CONTROLLED else None,
-        settings={"scheme": DISCRETE.get(mode, mode),
+        settings={"scheme": MODES[mode],
                   "plant": "discrete, time_step h" if mode in DISCRETE else "continuous (time_step 0)",
                   "fixed_step_mode": None if mode in DISCRETE else True,
                   "target_accuracy": NEWTON_ACCURACY if mode in IMPLICIT else None,
                   "gravity": "scene's g along -z (pendulum), else zero",
                   "joint_damping": "scene's c (damped spring), else 0"},
     )
-    for mode in (*INTEGRATORS, *DISCRETE)
+    for mode in MODES
 }

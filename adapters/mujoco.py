@@ -36,17 +36,20 @@ from typing import Callable
 
 import numpy as np
 
+from records.method import Behaviour
 from scenarios import Scene
 from scenarios import full_mass_matrix
 
-from ._base import EngineMode, EngineModel, EngineVersions, import_engine
+from ._engine import EngineVersions, import_engine
+from ._mode import EngineMode
+from ._model import EngineModel
 
 #: The releases this adapter supports and was measured on: 2.3.7 is the oldest whose Python
 #: bindings have everything the models use (mjtState, rollout's state layout, the warning hook).
 VERSIONS = EngineVersions(low="2.3.7", below="5", tested=("2.3.7", "3.0.0", "3.3.7", "4.0.0"))
 
-#: Our mode name -> MuJoCo's integrator name in MJCF.
-INTEGRATORS = {"euler": "Euler", "rk4": "RK4", "implicit": "implicit", "implicitfast": "implicitfast",
+#: Our mode name -> what it selects in MuJoCo: the integrator, by its name in MJCF.
+MODES = {"euler": "Euler", "rk4": "RK4", "implicit": "implicit", "implicitfast": "implicitfast",
                "discrete": "discrete"}
 
 UNSUPPORTED = {
@@ -121,10 +124,10 @@ def _rollout_class(mj):
     return cls if {"control_spec", "initial_warmstart", "skip_checks", "state"} <= set(names) else None
 
 
-def has_integrator(name: str) -> Callable[[object], bool]:
-    """Whether the imported MuJoCo has integrator ``name`` (MJCF spelling) in ``mjtIntegrator``."""
+def has_mode(mode: str) -> Callable[[object], bool]:
+    """Whether the imported MuJoCo has the mode's integrator in ``mjtIntegrator``."""
     def present(mj) -> bool:
-        return hasattr(mj.mjtIntegrator, f"mjINT_{name.upper()}")
+        return hasattr(mj.mjtIntegrator, f"mjINT_{MODES[mode].upper()}")
     return present
 
 
@@ -268,11 +271,11 @@ class _Model(EngineModel):
         self.mj = mujoco
         # The engine's own loop where this release's rollout takes what ``_roll`` passes.
         self.own_loop = _rollout_class(mujoco) is not None
-        self.pose = pose = BUILDERS[scene.kind]
+        self.pose = pose = POSES[scene.kind]
         if pose.compiled is not None:
-            self.m = m = pose.compiled(mujoco, INTEGRATORS[mode], scene, dt)
+            self.m = m = pose.compiled(mujoco, MODES[mode], scene, dt)
         else:
-            self.m = m = mujoco.MjModel.from_xml_string(pose.xml(INTEGRATORS[mode], scene, dt))
+            self.m = m = mujoco.MjModel.from_xml_string(pose.xml(MODES[mode], scene, dt))
         self.scene = scene
         if pose.point_masses:
             m.body_inertia[1:] = 0.0
@@ -490,8 +493,8 @@ def _flex_settings(m) -> dict:
             "selfcollide": int(m.flex_selfcollide[0])}
 
 
-#: One pose per scene MuJoCo poses; a new scene is one entry here.
-BUILDERS: dict[str, Pose] = {
+#: How MuJoCo poses each scene it poses; a new scene is one entry here.
+POSES: dict[str, Pose] = {
     "spring": Pose(_spring_xml),
     "damped_spring": Pose(_spring_xml),
     "pendulum": Pose(_pendulum_xml, point_masses=True),
@@ -509,7 +512,7 @@ BUILDERS: dict[str, Pose] = {
     "cloth_flex": Pose(None, compiled=_model_file, to_joints=_engine_state, from_joints=_engine_scene_state,
                        settings=_flex_settings),
 }
-SCENES = tuple(BUILDERS)
+SCENES = tuple(POSES)
 
 #: Scenes a mode cannot step, measured: mujoco 4.0.0 stops mj_step (FatalError, mj_checkDiscrete)
 #: on a flex with elasticity under implicit and implicitfast (tests/test_cloth_flex.py).
@@ -564,15 +567,22 @@ _NO_MATCH = {
                           "flat sheet starts exactly at its rest length, where it is left out" for scene in ("cloth", "net")}},
 }
 
+#: What each mode was measured to do that its name does not say (``records.method.Behaviour``): the
+#: modes of semi-implicit Euler step it in the generalized velocity (docs/findings.md).
+_IN_VELOCITY = Behaviour(integrates_as={"cloth": "ref:semi_implicit_euler"}, in_velocity="ref:semi_implicit_euler")
+_BEHAVIOUR = {"euler": _IN_VELOCITY, "implicit": _IN_VELOCITY, "implicitfast": _IN_VELOCITY,
+              "rk4": Behaviour(integrates_as={"cloth": "ref:rk4"}),
+              "discrete": Behaviour(from_a_generic_state={"chain": "ref:implicit_euler"})}
+
 METHODS = {
     f"mujoco:{mode}": EngineMode(
         engine="mujoco", mode=mode, module="mujoco", dist="mujoco", build=build,
         scenes=tuple(x for x in SCENES if x not in _REFUSED.get(mode, {})),
         unsupported={**UNSUPPORTED, **_REFUSED.get(mode, {})}, doc=_DOCS[mode], no_match=_NO_MATCH.get(mode, {}),
-        versions=VERSIONS, present=has_integrator(name),
+        versions=VERSIONS, present=has_mode(mode), behaviour=_BEHAVIOUR[mode],
         settings={"integrator": name, "autoreset": "disabled", "contact": "disabled",
                   "constraint": "disabled", "gravity": "scene's g along -z, else disabled",
                   "armature": 0, "warnings": "collected, never printed or logged"},
     )
-    for mode, name in INTEGRATORS.items()
+    for mode, name in MODES.items()
 }

@@ -45,13 +45,16 @@ The loop is Newton's: ``solver.step(state_in, state_out, control, None, h)`` onc
 Python, the two states swapped, the forces cleared, nothing read in between. Warp captures a
 step as a graph on CUDA devices only (``wp.ScopedCapture``), so on the CPU there is no graph to
 replay and each step is a handful of kernel launches from Python. First use of a solver compiles
-its kernels; Warp caches them under the harness cache (``<cache>/warp``, ``_warp``) unless the
+the Warp modules of the kernels it launches, forward passes only (``forward_only``: the harness
+never differentiates); Warp caches them under the harness cache (``<cache>/warp``, ``_warp``), so
+that a machine compiles them once and emptying the harness cache empties them too, unless the
 user named a cache of their own (``WARP_CACHE_PATH`` or ``warp.config.kernel_cache_dir``).
 """
 from __future__ import annotations
 
 import math
 import os
+import sys
 from dataclasses import dataclass
 from typing import Callable
 
@@ -59,15 +62,17 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, EngineVersions, SteppedModel, quiet_fds
+from ._engine import EngineVersions, quiet_fds
+from ._mode import EngineMode
+from ._model import SteppedModel
 
 #: The releases this adapter supports: the 1.x solver constructors (SolverSemiImplicit's
 #: ``enable_tri_contact``, SolverXPBD's ``iterations``, SolverVBD's ``iterations``) and
 #: ``ModelBuilder(gravity=...)``; measured on 1.8.0 with warp-lang 1.19.0.
 VERSIONS = EngineVersions(low="1.8", below="2", tested=("1.8.0",))
 
-#: Our mode name -> the solver class in ``newton.solvers``.
-SOLVERS = {"semi_implicit": "SolverSemiImplicit", "xpbd": "SolverXPBD", "vbd": "SolverVBD",
+#: Our mode name -> what it selects in Newton: the solver class in ``newton.solvers``.
+MODES = {"semi_implicit": "SolverSemiImplicit", "xpbd": "SolverXPBD", "vbd": "SolverVBD",
            "featherstone": "SolverFeatherstone"}
 
 #: Newton's own defaults for the iterative solvers, kept and recorded (at each of them the unit
@@ -80,8 +85,6 @@ MAX_VELOCITY = 1e30
 
 #: The subfolder of the harness cache that holds Warp's compiled kernels.
 WARP_CACHE = "warp"
-
-_PARTICLE_SCENES = ("spring", "damped_spring", "chain", "cloth", "net")
 
 _STYLE3D = ("Style3D's cloth is an anisotropic triangle membrane with bending edges (tri_aniso_ke) under its own "
             "projective-dynamics solve; it reads no particle springs, so no scene's springs can be posed")
@@ -120,29 +123,47 @@ UNSUPPORTED = {mode: {**UNSUPPORTED_ALL, "pendulum": _PENDULUM_MAXIMAL[mode], "m
                for mode in ("semi_implicit", "xpbd", "vbd")}
 UNSUPPORTED["featherstone"] = dict(UNSUPPORTED_ALL)
 
-SCENES = {"semi_implicit": _PARTICLE_SCENES, "xpbd": _PARTICLE_SCENES, "vbd": _PARTICLE_SCENES,
-          "featherstone": ("spring", "damped_spring", "pendulum", "chain", "cloth", "net", "model")}
-
-#: How each mode poses a scene: "particles" or "joint" (module docstring).
-JOINT_POSES = {("featherstone", "spring"), ("featherstone", "damped_spring"), ("featherstone", "pendulum"),
-               ("featherstone", "model")}
+#: The modes that step articulations in joint coordinates: they pose a scene on a joint where its pose
+#: has one, else as particles (module docstring); the others pose particles only.
+ARTICULATED = ("featherstone",)
 
 
 def _warp(newton):
-    """Warp, initialised once, quietly, its kernel cache under the harness cache unless the user
-    named one (``WARP_CACHE_PATH``, ``warp.config.kernel_cache_dir``)."""
+    """Warp, started quietly, its kernel cache under the harness cache unless the user named one
+    (``WARP_CACHE_PATH``, ``warp.config.kernel_cache_dir``), and Newton's kernels set to compile
+    forward only (``forward_only``)."""
     import warp as wp
-    from warp._src import context
 
-    if context.runtime is None:  # the cache and the log level count only before Warp starts
-        if wp.config.kernel_cache_dir is None and "WARP_CACHE_PATH" not in os.environ:
-            from reference import kernel_cache_dir
+    # Warp resolves kernel_cache_dir to a path when it starts: None means neither started nor
+    # named by the user.
+    if wp.config.kernel_cache_dir is None and "WARP_CACHE_PATH" not in os.environ:
+        from reference import kernel_cache_dir
 
-            wp.config.kernel_cache_dir = str(kernel_cache_dir().parent / WARP_CACHE)
-        wp.config.log_level = wp.LOG_WARNING  # no line per module loaded or compiled
-        with quiet_fds():
-            wp.init()
+        wp.config.kernel_cache_dir = str(kernel_cache_dir().parent / WARP_CACHE)
+    wp.config.log_level = wp.LOG_WARNING  # no line per module loaded or compiled
+    with quiet_fds():
+        wp.init()  # nothing where Warp has started
+    forward_only(wp, newton)
     return wp
+
+
+def forward_only(wp, newton) -> None:
+    """Newton's Warp modules compile their kernels without their backward (adjoint) passes: the
+    harness never differentiates a step, and Warp compiles a whole module, backward passes
+    included, at the first launch of any of its kernels. The forward code is the same either way
+    (the same states bit for bit, ``tests/test_newton.py``). A Warp module takes Warp's default
+    when it is created, and Newton imports a solver's kernels when the solver is first asked for:
+    the default is set off for the modules created from now on (the harness runs no Warp code that
+    differentiates), and the option on every module of Newton's created before, each only where
+    not set yet (setting one marks the module changed, to be compiled again)."""
+    wp.config.enable_backward = False
+    prefix = newton.__name__ + "."
+    modules = {id(k.module): k.module for name, python_module in list(sys.modules.items())
+               if python_module is not None and (name == newton.__name__ or name.startswith(prefix))
+               for k in list(vars(python_module).values()) if isinstance(k, wp.Kernel)}
+    for module in modules.values():
+        if wp.get_module_options(module).get("enable_backward") is not False:
+            wp.set_module_options({"enable_backward": False}, module=module)
 
 
 def spring_rest(scene: Scene) -> float:
@@ -260,9 +281,7 @@ class ParticlePose:
 
 _SPRING = ParticlePose(_spring_particles, _spring_put, _spring_read)
 _SHEET = ParticlePose(_cloth_particles, _sheet_put, _sheet_read)
-#: How each scene Newton poses as particles is built and read: a new scene is one entry here.
-PARTICLES = {"spring": _SPRING, "damped_spring": _SPRING, "chain": ParticlePose(_chain_particles, _chain_put, _chain_read),
-             "cloth": _SHEET, "net": _SHEET}
+_CHAIN = ParticlePose(_chain_particles, _chain_put, _chain_read)
 
 
 def _revolute(builder, wp, p) -> None:
@@ -276,12 +295,22 @@ def _prismatic(builder, wp, p) -> None:
                                 damping=p.get("c", 0.0), armature=0.0)
 
 
-_PRISMATIC = ("one body of mass m on a prismatic joint along x, joint stiffness k at rest 0, joint damping c",
-              lambda p: (0.0, 0.0, 0.0), _prismatic)
-#: How each scene Featherstone poses on a joint is built: (what, gravity(params), add(builder, wp, params)).
-JOINTS = {"spring": _PRISMATIC, "damped_spring": _PRISMATIC,
-          "pendulum": ("a point mass m at L below a revolute joint about y (inertia zero), gravity g along -z",
-                       lambda p: (0.0, 0.0, -p["g"]), _revolute)}
+@dataclass(frozen=True)
+class JointPose:
+    """How a scene is one body on one joint of the world: ``what`` (in words, each run's ``model``
+    setting), ``gravity(params)`` and ``add(builder, wp, params)`` its body and joint."""
+
+    what: str
+    gravity: Callable | None
+    add: Callable | None
+
+
+_PRISMATIC = JointPose("one body of mass m on a prismatic joint along x, joint stiffness k at rest 0, joint damping c",
+                       lambda p: (0.0, 0.0, 0.0), _prismatic)
+_REVOLUTE = JointPose("a point mass m at L below a revolute joint about y (inertia zero), gravity g along -z",
+                      lambda p: (0.0, 0.0, -p["g"]), _revolute)
+#: A model file's joints, as Newton's loaders build them (``_FileModel``).
+_FILE_JOINTS = JointPose("the file as Newton's own loaders build it (adapters/_newton_model.py)", None, None)
 
 
 def _solver(newton, mode: str, model):
@@ -307,7 +336,8 @@ class _Model(SteppedModel):
     def __init__(self, newton, mode: str, scene: Scene, dt: float):
         self.wp = wp = _warp(newton)
         self.newton, self.mode, self.scene, self.dt = newton, mode, scene, dt
-        self.joint = (mode, scene.kind) in JOINT_POSES
+        self.pose = POSES[scene.kind]
+        self.joint = mode in ARTICULATED and self.pose.joint is not None
         with quiet_fds():
             if self.joint:
                 model, settings = self._joint_model(newton, scene)
@@ -318,7 +348,7 @@ class _Model(SteppedModel):
             self.s0, self.s1 = model.state(), model.state()
             self.control = model.control()
         self.set_state(*scene.initial_state())
-        self.settings = {"solver": SOLVERS[mode], "precision": "float32", "device": str(model.device),
+        self.settings = {"solver": MODES[mode], "precision": "float32", "device": str(model.device),
                          **solver_settings, **settings,
                          "gravity": [float(g) for g in model.gravity.numpy().reshape(-1, 3)[0]],
                          "engine_loop": "solver.step from Python, one call a step (warp captures graphs on CUDA "
@@ -326,7 +356,7 @@ class _Model(SteppedModel):
 
     # -------------------------------------------------------------- building
     def _particle_model(self, newton, mode: str, scene: Scene):
-        x, v, mass, (a, b, k, c, rest), gravity = PARTICLES[scene.kind].particles(scene)
+        x, v, mass, (a, b, k, c, rest), gravity = self.pose.particles.particles(scene)
         builder = newton.ModelBuilder(gravity=gravity)
         for i in range(len(mass)):
             builder.add_particle(tuple(float(z) for z in x[i]), tuple(float(z) for z in v[i]), float(mass[i]),
@@ -355,7 +385,7 @@ class _Model(SteppedModel):
     def _joint_model(self, newton, scene: Scene):
         p = scene.values
         wp = self.wp
-        what, gravity, add = JOINTS[scene.kind]
+        what, gravity, add = self.pose.joint.what, self.pose.joint.gravity, self.pose.joint.add
         builder = newton.ModelBuilder(gravity=gravity(p))
         add(builder, wp, p)
         builder.add_articulation([builder.joint_count - 1])
@@ -380,7 +410,7 @@ class _Model(SteppedModel):
             return
         x = self.s0.particle_q.numpy().astype(float)
         u = np.zeros_like(x)
-        PARTICLES[self.scene.kind].put(self.model, self.scene, x, u, q, v)
+        self.pose.particles.put(self.model, self.scene, x, u, q, v)
         self.s0.particle_q.assign(x.astype(np.float32))
         self.s0.particle_qd.assign(u.astype(np.float32))
 
@@ -389,7 +419,7 @@ class _Model(SteppedModel):
             return (self.s0.joint_q.numpy().astype(float), self.s0.joint_qd.numpy().astype(float))
         x = self.s0.particle_q.numpy().astype(float)
         u = self.s0.particle_qd.numpy().astype(float)
-        return PARTICLES[self.scene.kind].read(self.scene, x, u)
+        return self.pose.particles.read(self.scene, x, u)
 
     # -------------------------------------------------------------- stepping
     def steps(self, n: int) -> None:
@@ -445,18 +475,38 @@ class _FileModel(_Model):
                                      self._names, self._facts)
 
 
-BUILDERS = {"model": _FileModel}
+@dataclass(frozen=True)
+class Pose:
+    """How Newton poses one scene: as particles and particle springs (``particles``: every solver),
+    on a joint of an articulation (``joint``: the modes of ``ARTICULATED``, which take it where a
+    scene has both), and the model class that builds it (a model file's own)."""
+
+    particles: ParticlePose | None = None
+    joint: JointPose | None = None
+    model: type = _Model
+
+
+#: How Newton poses each scene it poses; a new scene is one entry here.
+POSES = {"spring": Pose(_SPRING, _PRISMATIC), "damped_spring": Pose(_SPRING, _PRISMATIC),
+         "pendulum": Pose(joint=_REVOLUTE), "chain": Pose(_CHAIN), "cloth": Pose(_SHEET), "net": Pose(_SHEET),
+         "model": Pose(joint=_FILE_JOINTS, model=_FileModel)}
+
+
+def scenes(mode: str) -> tuple[str, ...]:
+    """The scenes ``mode`` poses: those with particles, and for an articulated mode those on a joint."""
+    return tuple(kind for kind, pose in POSES.items()
+                 if pose.particles is not None or (mode in ARTICULATED and pose.joint is not None))
 
 
 def build(newton, mode: str, scene: Scene, dt: float, count: bool = False) -> _Model:
     """``count`` changes nothing: Newton counts no force evaluations."""
-    return BUILDERS.get(scene.kind, _Model)(newton, mode, scene, dt)
+    return POSES[scene.kind].model(newton, mode, scene, dt)
 
 
-def has_solver(mode: str):
+def has_mode(mode: str):
     """Whether the imported Newton has the mode's solver class."""
     def present(newton) -> bool:
-        return hasattr(newton.solvers, SOLVERS[mode])
+        return hasattr(newton.solvers, MODES[mode])
     return present
 
 
@@ -496,9 +546,9 @@ _NO_MATCH = {
 METHODS = {
     f"newton:{mode}": EngineMode(
         engine="newton", mode=mode, module="newton", dist="newton", build=build,
-        scenes=SCENES[mode], unsupported=UNSUPPORTED[mode], doc=_DOCS[mode], versions=VERSIONS,
-        present=has_solver(mode), precision="float32", no_match=_NO_MATCH[mode],
-        settings={"solver": SOLVERS[mode], "precision": "float32", "device": "cpu",
+        scenes=scenes(mode), unsupported=UNSUPPORTED[mode], doc=_DOCS[mode], versions=VERSIONS,
+        present=has_mode(mode), precision="float32", no_match=_NO_MATCH[mode],
+        settings={"solver": MODES[mode], "precision": "float32", "device": "cpu",
                   "gravity": "scene's g along the last axis (cloth, net) or -z (pendulum), else zero",
                   "particle_radius": 0.0, "particle_contact": "off (particle_grid None)",
                   "enable_tri_contact": False if mode == "semi_implicit" else None,
@@ -508,7 +558,7 @@ METHODS = {
                   "angular_damping": 0.0 if mode in ("semi_implicit", "featherstone") else None,
                   "iterations": {"xpbd": XPBD_ITERATIONS, "vbd": VBD_ITERATIONS}.get(mode)},
     )
-    for mode in SOLVERS
+    for mode in MODES
 }
 
 #: Style3D is not a mode: it poses no scene (``_STYLE3D``).

@@ -28,7 +28,10 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._base import EngineMode, EngineVersions, SteppedModel, chain_force
+from ._engine import EngineVersions
+from ._mode import EngineMode
+from ._model import SteppedModel
+from ._posing import chain_force
 from ._pybullet_cloth import SoftBodyCloth, refusal
 
 #: How the engine's own loop steps a scene whose force is applied from Python (recorded with every run).
@@ -507,17 +510,17 @@ class _ModelFile(SteppedModel):
         self.p.disconnect(physicsClientId=self.cid)
 
 
-#: One model per scene Bullet poses; a new scene is one entry here.
-BUILDERS: dict[str, type] = {
+#: How Bullet poses each scene it poses (the model class); a new scene is one entry here.
+POSES: dict[str, type] = {
     "spring": _Spring, "damped_spring": _Spring, "pendulum": _Pendulum, "projectile": _Projectile, "chain": _Chain,
     "model": _ModelFile, "cloth": SoftBodyCloth,
 }
-SCENES = tuple(BUILDERS)
+SCENES = tuple(POSES)
 
 
 def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> _Bullet:
     """``count`` changes nothing: Bullet's force evaluations cannot be counted."""
-    return BUILDERS[scene.kind](pybullet, scene, dt)
+    return POSES[scene.kind](pybullet, scene, dt)
 
 
 #: The releases this adapter supports: 3.2.7 is the only one whose wheel imports with numpy 2 (the
@@ -526,6 +529,10 @@ def build(pybullet, mode: str, scene: Scene, dt: float, count: bool = False) -> 
 #: loadMJCF, setJointMotorControlArray) are older than that.
 VERSIONS = EngineVersions(low="3.2.7", below="4", tested=("3.2.7",))
 
+#: Its step is semi-implicit Euler in the generalized velocity, as MuJoCo's Euler, but it declares no
+#: ``Behaviour.in_velocity``: on a model file its energy is MuJoCo's energy function on the trajectory
+#: of the model Bullet built, which can differ (masses, armature), so its energy class is not the
+#: scheme's alone.
 METHODS = {
     "pybullet:semi_implicit": EngineMode(
         engine="pybullet", mode="semi_implicit", module="pybullet", dist="pybullet", build=build, versions=VERSIONS,

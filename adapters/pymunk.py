@@ -31,9 +31,13 @@ import math
 
 import numpy as np
 
+from records.method import NO_BEHAVIOUR, Behaviour
 from scenarios import Scene
 
-from ._base import EngineMode, EngineVersions, SteppedModel, chain_force, unwrap
+from ._engine import EngineVersions
+from ._mode import EngineMode
+from ._model import SteppedModel
+from ._posing import chain_force, unwrap
 
 # ----------------------------------------------------------------------------- which scenes each mode poses
 # Which scenes each pymunk mode poses, and why not the others: the reasons ``harness list`` and
@@ -493,9 +497,9 @@ class _Net(_Rope):
                              springs=len(self.constraints), spring_damping=sorted({s.damping for s in self.constraints}))
 
 
-#: One model per scene Chipmunk poses (each mode poses those its ``EngineMode`` lists); a new
-#: scene is one entry here.
-BUILDERS: dict[str, type[_Space]] = {
+#: How Chipmunk poses each scene it poses (the model class; each mode poses those its ``EngineMode``
+#: lists); a new scene is one entry here.
+POSES: dict[str, type[_Space]] = {
     "spring": _Body, "damped_spring": _Body, "projectile": _Projectile, "pendulum": _Pendulum,
     "chain": _Chain, "rope": _Rope, "net": _Net,
 }
@@ -514,7 +518,7 @@ def _joint_settings(joints) -> dict:
 
 
 def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _Space:
-    return BUILDERS[scene.kind](pymunk, mode, scene, dt, count)
+    return POSES[scene.kind](pymunk, mode, scene, dt, count)
 
 
 #: The releases this adapter supports: from 6.5, the oldest with a wheel for Python 3.11 (the
@@ -523,9 +527,11 @@ def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _S
 VERSIONS = EngineVersions(low="6.5.0", below="8", tested=("6.5.0", "6.6.0", "7.0.0", "7.3.1"))
 
 
-def _mode(mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None) -> EngineMode:
+def _mode(mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None,
+          behaviour: Behaviour = NO_BEHAVIOUR) -> EngineMode:
     return EngineMode(engine="pymunk", mode=mode, module="pymunk", dist="pymunk", build=build,
                       scenes=scenes, unsupported=unsupported, doc=doc, no_match=no_match or {}, versions=VERSIONS,
+                      behaviour=behaviour,
                       counting_run=mode in ("spring_force", "applied_force"),
                       settings={"damping": 1, "sleeping": "disabled", "moment": "inf", "shapes": 0, **settings})
 
@@ -548,7 +554,8 @@ METHODS = {m.id: m for m in (
           {"spring": "DampedSpring, damping 0, between neighbours and to static walls",
            "spacing": f"{SPRING_SPACING:g} max(|x0|, 1)"},
           {"chain": "with damping, Chipmunk's impulse solver decays each spring's relative velocity in turn, "
-                    "one spring after another: no one-step formula of the whole chain's damping"}),
+                    "one spring after another: no one-step formula of the whole chain's damping"},
+          Behaviour(integrates_as={"net": "ref:semi_implicit_euler_position_first"})),
     _mode("space_damping", _SPACE_DAMPING_SCENES, _SPACE_DAMPING_UNSUPPORTED,
           """position-first semi-implicit Euler, damping as an exact decay before the kick (Chipmunk's space.damping)
           Measured: equals ref:position_first_euler_decay_before_kick on the damped spring and the

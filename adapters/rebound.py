@@ -30,18 +30,22 @@ from __future__ import annotations
 
 import numpy as np
 
+from records.method import Behaviour
 from records.method_id import TOLERANCE, Option
 from scenarios import Scene
 
-from ._base import EngineMode, EngineVersions, SteppedModel
+from ._engine import EngineVersions
+from ._mode import EngineMode
+from ._model import SteppedModel
 
 _NOT_GRAVITY = "not a gravitational N-body problem (an additional_forces callback would be our force, not REBOUND's)"
 UNSUPPORTED = {s: _NOT_GRAVITY for s in ("spring", "damped_spring", "pendulum", "projectile", "chain", "rope",
                                                     "cloth", "net")}
 
-#: Integrator settings set explicitly, so that a new REBOUND default cannot change what runs.
-#: Each is REBOUND 5.2.2's default.
-CONFIG = {
+#: Our mode name (REBOUND's integrator name) -> what it selects in REBOUND: that integrator, its
+#: settings set explicitly so that a new REBOUND default cannot change what runs. Each is REBOUND
+#: 5.2.2's default.
+MODES = {
     "leapfrog": {"order": 2},
     "whfast": {"corrector": 0, "safe_mode": 1, "coordinates": "JACOBI", "kernel": "DEFAULT",
                "keep_unsynchronized": 0},
@@ -66,8 +70,8 @@ def integrator_config(sim, mode: str):
     return getattr(sim, f"ri_{mode}", None) if isinstance(config, str) else config
 
 
-def takes_settings(mode: str):
-    """Whether the imported REBOUND runs ``mode`` with its ``CONFIG`` as this adapter spells it (a
+def has_mode(mode: str):
+    """Whether the imported REBOUND runs ``mode`` with its ``MODES`` settings as this adapter spells it (a
     setting the release lacks is left out and recorded; one it refuses, such as REBOUND 4.4's
     integer IAS15 ``adaptive_mode`` or its SABA type names, leaves the mode unavailable)."""
     def present(rebound) -> bool | str:
@@ -77,7 +81,7 @@ def takes_settings(mode: str):
         except (TypeError, ValueError, AttributeError):
             return False
         config = integrator_config(sim, mode)
-        for name, value in CONFIG[mode].items():
+        for name, value in MODES[mode].items():
             if config is not None and hasattr(config, name):
                 try:
                     setattr(config, name, value)
@@ -95,17 +99,12 @@ SIM = {"gravity": "basic", "collision": "none", "boundary": "none", "softening":
 ADVANCE = {"adaptive": "integrate(n dt) at every multiple n of dt, adaptive steps between them",
            "fixed": "steps(n) between output points (steps(1) per step as stepped by the harness)"}
 
-MODELS = {
-    "kepler": "central mass 1, G = GM, massless test particle",
-    "solar_system": "the scene's 6 bodies, masses and G; heliocentric initial state as the scene's, "
-                    "not moved to the centre of mass",
-}
-
-
 class _Simulation(SteppedModel):
     """What both poses share: the simulation's settings, the integrator, the counter and the
     loop. A pose sets G and adds its particles (``_add``) and reads the state back."""
 
+    #: The model, in words (each run's ``model`` setting).
+    WHAT: str = ""
     #: What the pose adds to the settings (kepler's: the keys its stored runs were recorded with).
     EXTRA_SETTINGS: dict = {}
 
@@ -120,9 +119,9 @@ class _Simulation(SteppedModel):
         sim.integrator = mode
         config = integrator_config(sim, mode)
         # A setting this release does not have is recorded as missing (its one behaviour runs).
-        missing = [name for name in CONFIG[mode] if config is None or not hasattr(config, name)]
+        missing = [name for name in MODES[mode] if config is None or not hasattr(config, name)]
         # IAS15's tolerance is its epsilon (the method id's ``@``: ``rebound:ias15@1e-6``).
-        chosen = {**CONFIG[mode], **({"epsilon": tolerance} if tolerance is not None else {})}
+        chosen = {**MODES[mode], **({"epsilon": tolerance} if tolerance is not None else {})}
         for name, value in chosen.items():
             if name not in missing:
                 setattr(config, name, value)
@@ -135,10 +134,10 @@ class _Simulation(SteppedModel):
             "integrator": str(sim.integrator), "dt": float(sim.dt), "G": float(sim.G),
             **{name: _plain(getattr(sim, name)) for name in SIM},
             "N": int(sim.N), "N_active": "all" if sim.N_active in (-1, 2 ** 64 - 1) else int(sim.N_active),
-            "masses": masses, "additional_forces": "none", "move_to_com": False, "model": MODELS[scene.kind],
+            "masses": masses, "additional_forces": "none", "move_to_com": False, "model": self.WHAT,
             "advance": ADVANCE["adaptive" if self.adaptive else "fixed"],
             **{name: (f"not in rebound {rebound.__version__}" if name in missing else _plain(getattr(config, name)))
-               for name in CONFIG[mode]},
+               for name in MODES[mode]},
         }
         self.settings.update(self.EXTRA_SETTINGS)
         self.force_passes = None
@@ -181,6 +180,7 @@ class _Simulation(SteppedModel):
 class _Kepler(_Simulation):
     """A central body of mass 1 with G = GM, and a massless test particle at the scene's state."""
 
+    WHAT = "central mass 1, G = GM, massless test particle"
     EXTRA_SETTINGS = {"central_mass": 1.0, "particle_mass": 0.0}
 
     def _G(self, scene: Scene) -> float:
@@ -199,6 +199,9 @@ class _Kepler(_Simulation):
 class _SolarSystem(_Simulation):
     """The scene's bodies, masses and G in its order and frame (module docstring)."""
 
+    WHAT = ("the scene's 6 bodies, masses and G; heliocentric initial state as the scene's, not moved to the centre "
+            "of mass")
+
     def _G(self, scene: Scene) -> float:
         return float(scene.pvec[0])  # the scene packs p = (G, m_0, ..., m_5)
 
@@ -214,9 +217,9 @@ class _SolarSystem(_Simulation):
         return self._data[:, :3].flatten(), self._data[:, 3:].flatten()
 
 
-#: One model per scene REBOUND poses; a new scene is one entry here.
-BUILDERS: dict[str, type[_Simulation]] = {"kepler": _Kepler, "solar_system": _SolarSystem}
-SCENES = tuple(BUILDERS)
+#: How REBOUND poses each scene it poses (the model class); a new scene is one entry here.
+POSES: dict[str, type[_Simulation]] = {"kepler": _Kepler, "solar_system": _SolarSystem}
+SCENES = tuple(POSES)
 
 
 def _plain(value):
@@ -231,7 +234,7 @@ def _plain(value):
 def build(rebound, mode: str, scene: Scene, dt: float, count: bool = False,
           tolerance: float | None = None) -> _Simulation:
     """``tolerance``: IAS15's epsilon (``rebound:ias15@1e-6``); the fixed-step modes take none."""
-    return BUILDERS[scene.kind](rebound, mode, scene, dt, count, tolerance)
+    return POSES[scene.kind](rebound, mode, scene, dt, count, tolerance)
 
 
 _DOCS = {
@@ -250,15 +253,21 @@ _DOCS = {
         of the orbit, so no order is measurable there.""",
 }
 
+#: What each mode was measured to do that its name does not say (``records.method.Behaviour``).
+_BEHAVIOUR = {"leapfrog": Behaviour(integrates_as={"solar_system": "ref:leapfrog"}, symplectic=True),
+              "whfast": Behaviour(symplectic=True, beats_at_equal_cost=("rebound:leapfrog", "ref:leapfrog")),
+              "ias15": Behaviour(roundoff=True),
+              "saba": Behaviour(symplectic=True)}
+
 METHODS = {
     f"rebound:{mode}": EngineMode(
         engine="rebound", mode=mode, module="rebound", dist="rebound", build=build,
         scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], adaptive=mode in ADAPTIVE, counting_run=True,
-        versions=VERSIONS, present=takes_settings(mode),
+        versions=VERSIONS, present=has_mode(mode), behaviour=_BEHAVIOUR[mode],
         options_declared=({TOLERANCE: Option(TOLERANCE, float, 1e-16, 1.0, "IAS15's epsilon")}
                           if mode in ADAPTIVE else {}),
         adaptive_with=TOLERANCE if mode in ADAPTIVE else None,
-        settings={"integrator": mode, **CONFIG[mode], **SIM, "models": MODELS},
+        settings={"integrator": mode, **MODES[mode], **SIM, "models": {kind: pose.WHAT for kind, pose in POSES.items()}},
     )
-    for mode in CONFIG
+    for mode in MODES
 }

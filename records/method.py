@@ -9,6 +9,7 @@ for a plugin's method that leaves some out (it must have ``REQUIRED``).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Callable, Mapping, Protocol, runtime_checkable
 
@@ -16,6 +17,41 @@ from .trajectory import Trajectory
 
 #: No scene on which the method, measured, integrates no reference scheme (``Method.no_match``).
 NO_REASONS: Mapping[str, str] = MappingProxyType({})
+
+
+@dataclass(frozen=True)
+class Behaviour:
+    """What a method was measured to do that its name does not say, which the judge checks again
+    on every run where a scene's findings table names the field (``harness.judge``: the table
+    decides where, the judge keeps the tolerance and the check or cross; it names no method).
+    Every default says "not this method". An engine mode declares it; a reference scheme's claims
+    are its scheme's (``Method.scheme``)."""
+
+    #: Scene id -> the reference scheme the method integrates there (its identity cell's match).
+    integrates_as: Mapping[str, str] = field(default_factory=dict)
+    #: The reference scheme the method is named for, each of its steps two of that scheme's half
+    #: steps (Drake's implicit Euler, by step doubling): where it integrates as declared
+    #: (``integrates_as``), the energy it keeps is set beside that scheme's.
+    half_steps_of: str | None = None
+    #: Scene id -> the reference scheme the method integrates from a generic state, though from the
+    #: scene's own state it matches none (``Method.no_match`` says why).
+    from_a_generic_state: Mapping[str, str] = field(default_factory=dict)
+    #: The reference scheme the method takes in the generalized velocity v, not the momentum
+    #: M(q) v (v+ = v + h M(q)^-1 f, q+ = q + h v+: MuJoCo's Euler): where the scene's mass matrix
+    #: varies it is not that scheme's map, and its energy may leave the scheme's class.
+    in_velocity: str | None = None
+    #: Its map is symplectic: on a conservative scene its energy error stays bounded.
+    symplectic: bool = False
+    #: Its error is roundoff alone (IAS15 at its default tolerance): the energy is kept to
+    #: roundoff, and its error grows as Brouwer's law, t^(1/2).
+    roundoff: bool = False
+    #: The methods it was measured more accurate than at equal cost per simulated time (its max
+    #: global error along the order sweep below each one's at the same cost).
+    beats_at_equal_cost: tuple[str, ...] = ()
+
+
+#: A method whose behaviour is its name's, or its scheme's claims (``Method.behaviour``).
+NO_BEHAVIOUR = Behaviour()
 
 
 @runtime_checkable
@@ -52,6 +88,8 @@ class Method(Protocol):
     #: The floating-point width its states are computed in: "float64", or "float32" (an engine on
     #: Warp), which is identified against the reference schemes to float32 rounding.
     precision: str
+    #: What it was measured to do beyond its name, which the judge checks on every run (``Behaviour``).
+    behaviour: Behaviour
 
     def available(self) -> tuple[bool, str]:
         """(True, "") or (False, why): whether it can run here at all (an engine installed)."""
@@ -77,5 +115,5 @@ REQUIRED = ("id", "available", "supports", "simulate", "describe")
 #: Every optional capability of :class:`Method` and the value that means "not this method".
 OPTIONAL: Mapping[str, Any] = MappingProxyType({
     "scheme": None, "isolated": False, "adaptive": False, "counting_run": False, "no_match": NO_REASONS,
-    "LOOPS": (), "one_steps": None, "timed_run": None, "precision": "float64",
+    "LOOPS": (), "one_steps": None, "timed_run": None, "precision": "float64", "behaviour": NO_BEHAVIOUR,
 })

@@ -105,7 +105,7 @@ class RunMeta:
     force_evals_reason: str | None = None     # why they are not counted, where they are not
     iterations: int | None = None             # a constrained scheme's projection passes per step
     projections: int | None = None            # projections counted
-    loop: str | None = None                   # how an engine mode was stepped (adapters._base)
+    loop: str | None = None                   # how an engine mode was stepped (adapters._loops)
     engine: str | None = None
     engine_version: str | None = None
     settings: dict | None = None              # the engine's settings, read back from the model that ran

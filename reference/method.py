@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 from records import REFERENCE, MethodId, Trajectory
-from records.method import NO_REASONS
+from records.method import NO_BEHAVIOUR, NO_REASONS
 
 from scenarios import Scene
 
@@ -43,6 +43,7 @@ class RefMethod:
     adaptive = False
     counting_run = True
     no_match = NO_REASONS
+    behaviour = NO_BEHAVIOUR
     LOOPS = ()
     one_steps = None
     timed_run = None

@@ -461,16 +461,30 @@ def test_the_engine_facts_the_code_cites_are_in_the_repository():
 ENGINE_MODULES = (adapters.mujoco, adapters.pybullet, adapters.pymunk, adapters.rebound, adapters.drake)
 
 
+@pytest.mark.parametrize("module", (*ENGINE_MODULES, adapters.newton), ids=lambda m: m.__name__)
+def test_every_adapter_names_its_tables_alike(module):
+    """One vocabulary in every adapter: ``POSES`` (scene -> how the engine poses it) holds exactly
+    the scenes its modes pose; where a mode selects something of the engine by name, ``MODES``
+    (mode -> what it selects) names every mode, and ``has_mode(mode)`` asks the engine for it."""
+    modes = [m for m in adapters.ENGINE_METHODS.values() if m.build is module.build]
+    assert modes and {s for m in modes for s in m.scenes} == set(module.POSES)
+    if hasattr(module, "MODES"):
+        assert list(module.MODES) == [m.mode for m in modes]
+        assert all(m.present.__qualname__.startswith("has_mode.") for m in modes)
+    else:
+        assert all(m.present is None for m in modes)
+
+
 @pytest.mark.parametrize("module", ENGINE_MODULES, ids=lambda m: m.__name__)
-def test_every_scene_an_engine_poses_is_one_builder_entry(module):
-    """What a mode poses is read from its module's ``BUILDERS``: no scene a mode claims lacks
+def test_every_scene_an_engine_poses_is_one_pose_entry(module):
+    """What a mode poses is read from its module's ``POSES``: no scene a mode claims lacks
     an entry, every entry is posed by some mode, and the model it builds declares the optional
     members (``EngineModel``) rather than leaving them to be probed."""
     modes = [m for m in adapters.ENGINE_METHODS.values() if m.build is module.build]
     assert modes
     claimed = {s for m in modes for s in m.scenes}
-    assert claimed == set(module.BUILDERS)
-    for scene_id in module.BUILDERS:
+    assert claimed == set(module.POSES)
+    for scene_id in module.POSES:
         mode = next(m for m in modes if scene_id in m.scenes)
         scene = make_scene(scene_id)
         if not mode.supports(scene)[0]:  # posed in other parameters only: the triangulated cloth in Bullet
@@ -487,14 +501,14 @@ def test_every_scene_an_engine_poses_is_one_builder_entry(module):
 
 
 def test_no_adapter_branches_on_a_scene_id():
-    """A new scene is one ``BUILDERS`` entry per engine: the adapters compare no scene id
+    """A new scene is one ``POSES`` entry per engine: the adapters compare no scene id
     (``EngineMode.supports`` reads the declared list)."""
     import re
 
     pattern = re.compile(r"scene(_id|\.id|\.kind)\s*(==|!=|in\b|not in\b)")
     hits = [f"{path.name}:{n}" for path in Path(adapters.__file__).parent.glob("*.py")
             for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
-    assert [h.split(":")[0] for h in hits] == ["_base.py"]  # supports(): scene.kind in self.scenes
+    assert [h.split(":")[0] for h in hits] == ["_mode.py"]  # supports(): scene.kind in self.scenes
 
 
 def test_a_plugin_model_with_only_the_required_members_gets_the_declared_defaults():

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from adapters import ENGINE_METHODS
-from adapters._base import import_engine
+from adapters import import_engine
 from adapters._pybullet_cloth import LOAD, MAX_DISPLACEMENT, grid_mesh, mesh_edges
 from harness.cli import main
 from harness.measures.common import started_at

@@ -77,7 +77,7 @@ def test_the_scene_id_check_matches_whole_words_of_any_length(tmp_path):
 
 def test_a_built_in_scene_is_its_module_plus_its_registry_entry():
     """Each scene class lives in a module of its own under scenarios/, and outside scenarios/ its id
-    is named only where an engine poses it (an adapter's BUILDERS), a suite or the judge asks for
+    is named only where an engine poses it (an adapter's POSES), a suite or the judge asks for
     it, or a study of that scene runs: the machinery every scene goes through names none, in its
     code or its docstrings."""
     # The machinery every scene goes through (a study of one scene, in harness/measures, names its scene).

@@ -76,9 +76,9 @@ def test_identify_names_the_scheme_each_mode_integrates_with_damping(scene_id, l
 def _one_step_mujoco(integrator, scene, q, v, h):
     import mujoco
 
-    from adapters.mujoco import BUILDERS
+    from adapters.mujoco import POSES
 
-    m = mujoco.MjModel.from_xml_string(BUILDERS[scene.id].xml(integrator, scene, h))
+    m = mujoco.MjModel.from_xml_string(POSES[scene.id].xml(integrator, scene, h))
     d = mujoco.MjData(m)
     d.qpos[:], d.qvel[:] = q, v
     mujoco.mj_step(m, d)

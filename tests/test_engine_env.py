@@ -159,10 +159,10 @@ def test_a_registry_that_does_not_answer_is_one_line(monkeypatch, tmp_path):
 
 def test_an_installed_version_outside_the_range_makes_the_mode_unavailable(monkeypatch):
     import adapters
-    from adapters import _base
+    from adapters import _mode
 
     mode = adapters.ENGINE_METHODS["mujoco:euler"]
-    monkeypatch.setattr(_base, "engine_version", lambda dist: "2.2.0")
+    monkeypatch.setattr(_mode, "engine_version", lambda dist: "2.2.0")
     ok, why = mode.available()
     assert not ok and why == "mujoco 2.2.0 is outside the versions its adapter supports (mujoco>=2.3.7,<5; tested on " \
                              "2.3.7, 3.0.0, 3.3.7, 4.0.0)"
@@ -181,7 +181,7 @@ def test_harness_run_on_an_engine_outside_the_range_is_one_line_exit_2(tmp_path)
 
 
 def test_version_order():
-    from adapters._base import EngineVersions, version_key
+    from adapters import EngineVersions, version_key
 
     assert sorted(["3.10.0", "3.2.0", "2.3.1.post1", "2.3.1", "3.0.0rc1", "3.0.0"], key=version_key) == \
         ["2.3.1", "2.3.1.post1", "3.0.0rc1", "3.0.0", "3.2.0", "3.10.0"]

@@ -246,10 +246,10 @@ def test_pymunk_reads_every_body_in_one_call_the_same_doubles(scene_id, params, 
     per-step reads were most of a stability search's time): the doubles the properties give."""
     import pymunk
 
-    from adapters.pymunk import BUILDERS
+    from adapters.pymunk import POSES
     from scenarios import make_scene
 
-    model = BUILDERS[scene_id](pymunk, mode, make_scene(scene_id, **params), 0.01)
+    model = POSES[scene_id](pymunk, mode, make_scene(scene_id, **params), 0.01)
     model.steps(7)
     x, u = model._bodies_state()
     assert model._batch.batched  # the batch path, not the fallback

@@ -4,13 +4,16 @@ importing anything of the harness."""
 from __future__ import annotations
 
 import ast
+import dataclasses
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
 from records.cell import FIGURES, Cell, Claims
 from records.findings import MARK, Finding
+from records.method import Behaviour
 
 from harness import judge
 from reports.markdown import CHECK, CROSS, finding_line, verdict as verdict_lines
@@ -83,6 +86,38 @@ def test_every_scene_check_names_a_finding_and_a_measure():
             assert row.finding in judge.FINDINGS, (scene, row)
             assert row.measure in {"energy", "error", "order", "cost", "stability", "identity", "constraint",
                                    "damping", "scaling", "brouwer"}
+            assert row.of is None or row.of in judge.DECLARED, (scene, row)
+    assert set(judge.DECLARED) <= {f.name for f in dataclasses.fields(Behaviour)}
+
+
+def test_the_judge_names_no_engine_mode():
+    """What an engine mode was measured to do is its declared behaviour, which a row reads
+    through ``of``: the judge and its engine findings name no engine's mode."""
+    import adapters
+    from harness import engine_findings
+
+    engines = {m.engine for m in adapters.ENGINE_METHODS.values()}
+    for path in (judge.__file__, engine_findings.__file__):
+        text = Path(path).read_text()
+        assert not [e for e in engines if f"{e}:" in text], path
+
+
+def test_a_row_applies_to_every_method_of_the_run_that_declares_its_field():
+    """A method that declares the row's field and sets nothing of it joins the row's methods; one
+    that sets some of its fields (the scheme expected) is a row of its own; a method the registry
+    does not hold (a plugin not loaded now) and one that declares nothing are left out."""
+    one = SimpleNamespace(behaviour=Behaviour(integrates_as={"cloth": "ref:rk4"}), no_match={})
+    two = SimpleNamespace(behaviour=Behaviour(roundoff=True), no_match={})
+    methods = {"x:one": one, "x:two": two, "x:none": SimpleNamespace(behaviour=Behaviour(), no_match={})}
+    piv = {("cloth", m): None for m in ("x:one", "x:two", "x:none", "x:unknown", "ref:rk4")}
+    row = judge.Check("integrates_as", "identity", of="integrates_as")
+    assert judge.declared_checks(row, "cloth", piv, methods) == [
+        judge.Check("integrates_as", "identity", methods=("x:one",), expect="ref:rk4")]
+    row = judge.Check("energy_within", "energy", methods=("ref:rk4",), tolerance=1e-13, of="roundoff")
+    assert judge.declared_checks(row, "cloth", piv, methods) == [
+        judge.Check("energy_within", "energy", methods=("ref:rk4", "x:two"), tolerance=1e-13)]
+    # No method of its own and none declaring: no row (an empty ``methods`` would mean every method).
+    assert judge.declared_checks(judge.Check("brouwer_law", "brouwer", of="roundoff"), "spring", piv, methods) == []
 
 
 def solar(ias15=5e-14, rk4_class="decays", whfast_class="bounded", match="ref:leapfrog"):

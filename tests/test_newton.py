@@ -2,10 +2,12 @@
 the reference schemes run from Newton's float32 inputs (dt and parameters rounded to float32, the
 states rounded: ``harness.measures.identify``), with float32 tolerances; every perturbing default
 is off; every scene a mode does not pose has its one-line reason. Skipped where newton cannot be
-imported. Each solver's kernels compile on first use and are cached by Warp under the harness cache."""
+imported. Each solver's kernels compile on first use, forward passes only, and are cached by Warp
+under the harness cache."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -141,6 +143,45 @@ def test_every_scene_a_mode_does_not_pose_has_a_one_line_reason():
     assert adapters.ENGINE_METHODS["newton:xpbd"].supports(make_scene("pendulum"))[1].startswith("SolverXPBD holds")
     assert "no particle springs" in adapter.NOT_MODES["style3d"]
     assert math.isfinite(adapter.spring_rest(make_scene("spring")))
+
+
+# ------------------------------------------------------------------ Warp's compile
+def _newton_warp_modules(wp) -> list:
+    """The Warp module of every kernel Newton's imported modules define."""
+    import sys
+
+    return list({id(k.module): k.module for name, module in list(sys.modules.items())
+                 if module is not None and name.startswith("newton.")
+                 for k in list(vars(module).values()) if isinstance(k, wp.Kernel)}.values())
+
+
+def test_newtons_kernels_compile_forward_only_into_the_harness_cache_to_the_same_bits():
+    """Once a model is built, every Warp module of Newton's compiles its kernels without their
+    backward passes (``forward_only``), into Warp's cache under the harness cache (so emptying the
+    harness cache empties it); a run is the same bit for bit as with the backward passes compiled
+    (SolverSemiImplicit's particle kernels, the cheapest to compile both ways)."""
+    import warp as wp
+
+    from reference import kernel_cache_dir
+
+    newton, scene = __import__("newton"), make_scene("damped_spring")
+    forward = adapter._Model(newton, "semi_implicit", scene, 0.1)
+    modules = _newton_warp_modules(wp)
+    assert modules and all(wp.get_module_options(m)["enable_backward"] is False for m in modules)
+    assert Path(wp.config.kernel_cache_dir).parent == (kernel_cache_dir().parent / adapter.WARP_CACHE).resolve()
+    both = adapter._Model(newton, "semi_implicit", scene, 0.1)
+    try:
+        forward.steps(200)
+        for m in modules:
+            wp.set_module_options({"enable_backward": True}, module=m)
+        both.steps(200)
+        for a, b in zip(forward.state(), both.state()):
+            assert np.array_equal(a, b)
+    finally:
+        adapter.forward_only(wp, newton)
+        forward.close()
+        both.close()
+    assert all(wp.get_module_options(m)["enable_backward"] is False for m in modules)
 
 
 # ------------------------------------------------------------------ model files (harness model)

@@ -100,8 +100,8 @@ def test_mujoco_discrete_is_backward_euler_only_where_every_tendon_is_stretched(
     # The adapter's tolerance matters: at MuJoCo's default (1e-8) the same generic run is off
     # by 1e-8 of the state (measured 2.6e-8 at h w = 0.1), four decades above 1e-12.
     assert adapters.ENGINE_METHODS["mujoco:discrete"].simulate(chain, dt, 1, 1).meta.settings["tolerance"] == 1e-14
-    monkeypatch.setitem(adapters.mujoco.BUILDERS, "chain",
-                        dataclasses.replace(adapters.mujoco.BUILDERS["chain"], tolerance=1e-8))
+    monkeypatch.setitem(adapters.mujoco.POSES, "chain",
+                        dataclasses.replace(adapters.mujoco.POSES["chain"], tolerance=1e-8))
     loose = relative_deviation(engine("mujoco:discrete", moved, 0.1 / chain.omega, 1000),
                                ref("implicit_euler", moved, 0.1 / chain.omega, 1000))
     assert loose > 1e-9
@@ -320,7 +320,7 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     text, _ = render(history.run(run_id), cells, judge(cells), tmp_path / "out", {})
     findings = text.split("## Findings")[1]
     assert "`ref:implicit_euler` on `chain` at 100x the explicit limit (h·ω_max = 200)" in findings
-    assert "`mujoco:discrete` on `chain` is backward Euler only where every tendon is stretched" in findings
+    assert "`mujoco:discrete` on `chain` is `ref:implicit_euler` only from a generic state" in findings
     assert "cost per step grows as N^" in findings
     assert "`pymunk:pin_joint`:" in findings and "`ref:verlet_constrained` on `rope` against projection passes" in findings
 

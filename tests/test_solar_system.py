@@ -66,7 +66,7 @@ def test_rebound_poses_the_scene_itself(solar, mode):
     assert s["exit_max_distance"] == s["exit_min_distance"] == 0.0
     assert s["integrator"] == mode
     assert s["advance"] == adapters.rebound.ADVANCE["adaptive" if mode == "ias15" else "fixed"]
-    for name, value in adapters.rebound.CONFIG[mode].items():
+    for name, value in adapters.rebound.MODES[mode].items():
         assert s[name] == value, name
     assert adapters.ENGINE_METHODS[f"rebound:{mode}"].describe()["adaptive"] is (mode == "ias15")
 
