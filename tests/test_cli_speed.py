@@ -59,7 +59,7 @@ def test_stability_steps_the_compiled_run_not_the_interpreter(stepped):
     assert stepped["interpreted_steps"] == 0
 
 
-def test_identify_steps_every_candidate_on_the_compiled_run(stepped, monkeypatch):
+def test_identify_steps_every_candidate_it_runs_in_full_on_the_compiled_run(stepped, monkeypatch):
     from harness.measures import identify as ident
 
     monkeypatch.setattr(ident, "_CANDIDATES", {})
@@ -67,9 +67,10 @@ def test_identify_steps_every_candidate_on_the_compiled_run(stepped, monkeypatch
     code, out, _ = cli("identify", "spring", "--method", "ref:leapfrog", "--steps", "200", "--json")
     assert code in (0, 1), out  # 1: no other scheme matches
     res = json.loads(out)
-    # The method's own run and each candidate's, on the compiled loop, nothing interpreted.
-    assert stepped["compiled"] == 1 + len(res["candidates"])
-    assert stepped["interpreted_steps"] == 0
+    # The method's own run and each candidate's in full, on the compiled loop; the screen's short
+    # runs step ``reference.integrate`` itself (interpreted), never the method's backend.
+    runs = 1 + sum(c["steps"] == res["steps"] for c in res["candidates"])
+    assert stepped["compiled"] == runs
 
 
 @pytest.mark.parametrize("argv", [

@@ -10,6 +10,17 @@ Several schemes can match when a scene cannot tell them apart (on a force that d
 the velocity only, position-first Euler and explicit Euler are the same update). A scheme that
 differs from another only in how it treats velocity-dependent forces
 (``Scheme.same_without_velocity``) is not a candidate on a scene without them.
+
+Most schemes part from the method within a step or two by far more than roundoff, and the max
+over a run is at least its max over any first steps, so a short interpreted run rules them out
+(``screen``): each candidate is stepped 1, 2, 4, ... up to ``SCREEN_STEPS`` steps (nothing
+compiled) until its difference exceeds the tolerance. Only those that stay within it, and the
+runner-up, run in full, on the backend a full run takes (a compiled loop on a large scene): the
+matches and their max |diff| are the same as from full runs of every scheme. The runner-up is
+the scheme that stays within roundoff of the method longest among those that do not match
+(then the smaller difference where it parts), with its max |diff| over the whole run; the others
+show their difference at the step where they part. Where nothing matches, every scheme runs in
+full and the closest is the one of smallest max |diff|.
 """
 from __future__ import annotations
 
@@ -44,6 +55,13 @@ FLOAT32_MATCH_RTOL = 5e-5
 
 #: The precisions ``identify`` compares a method at; a reference scheme computes in float64.
 PRECISIONS = ("float64", "float32")
+
+#: The longest screen (``screen``): a scheme still within the tolerance after this many steps runs in
+#: full. Schemes of another update part at the first step (on the default cloth at dt = period / 100,
+#: explicit and second-order schemes 1e2 to 1e3 times the tolerance away after one step); implicit
+#: Euler and the position-based schemes, beside semi-implicit Euler on the stiff cloth, part at the
+#: eighth (5e-10 of a 1.7e-9 tolerance after five steps, 6.7e-9 after ten).
+SCREEN_STEPS = 16
 
 #: Default run: 100 steps per period over 10 periods.
 STEPS_PER_PERIOD = 100
@@ -104,21 +122,33 @@ def max_deviation(a: Trajectory, b: Trajectory) -> float:
 #: four to ten modes per scene, one task each, in two worker processes).
 _CANDIDATES: dict[tuple, Trajectory] = {}
 CANDIDATES_KEPT = 64
+#: The screen's runs likewise (a few states each: up to five lengths of every scheme on a scene).
+_SCREENS: dict[tuple, Trajectory] = {}
+SCREENS_KEPT = 512
 
 
-def candidate_run(ref, scene: Scene, dt: float, steps: int) -> Trajectory:
-    """``ref.simulate(scene, dt, steps, 1)``, or the same run made before in this process, or
+def candidate_run(ref, scene: Scene, dt: float, steps: int, interpreted: bool = False) -> Trajectory:
+    """``ref.simulate(scene, dt, steps, 1)`` (``interpreted``: ``reference.integrate``, which
+    compiles nothing: the screen's runs), or the same run made before in this process, or
     by any process of this code on this machine (``_stored``): the key holds the scheme and its
     options, the scene's id, parameters and initial state, dt, steps and the backend reference
     runs take (``reference.RefMethod.compiled_where_bitwise``: the same bits either way)."""
     q0, v0 = scene.batch_state(1)
+    backend = "interpreted" if interpreted else ref.compiled_where_bitwise
     key = (ref.id, tuple(sorted(ref.options.items())), scene.id, tuple(sorted(scene.values.items())),
-           q0.tobytes(), v0.tobytes(), float(dt), int(steps), ref.compiled_where_bitwise)
-    if key not in _CANDIDATES:
-        if len(_CANDIDATES) >= CANDIDATES_KEPT:
-            del _CANDIDATES[next(iter(_CANDIDATES))]
-        _CANDIDATES[key] = _stored(key, lambda: ref.simulate(scene, dt, steps, 1))
-    return _CANDIDATES[key]
+           q0.tobytes(), v0.tobytes(), float(dt), int(steps), backend)
+    kept, bound = (_SCREENS, SCREENS_KEPT) if interpreted else (_CANDIDATES, CANDIDATES_KEPT)
+    if key not in kept:
+        if len(kept) >= bound:
+            del kept[next(iter(kept))]
+        if interpreted:
+            from reference import integrate
+
+            run = lambda: integrate(ref.scheme, scene, dt, steps, 1, **ref.options)  # noqa: E731
+        else:
+            run = lambda: ref.simulate(scene, dt, steps, 1)  # noqa: E731
+        kept[key] = _stored(key, run)
+    return kept[key]
 
 
 def _code_digest() -> str:
@@ -180,12 +210,15 @@ def _stored(key: tuple, run) -> Trajectory:
 
 @dataclass(frozen=True)
 class Candidate(Result):
-    """One reference scheme against the method: its largest deviation over the run."""
+    """One reference scheme against the method: its largest deviation over the run, or where the
+    screen ruled it out, over its first ``steps`` steps, the last the first beyond the tolerance."""
 
     method: str
     max_deviation: float
     status: str
     matches: bool
+    steps: int | None = None       # the steps its deviation is over (the run's where it ran in full)
+    within: int | None = None      # the last step up to which it stays within the tolerance (None: all)
 
 
 @dataclass(frozen=True)
@@ -209,6 +242,7 @@ class IdentityResult(Result):
     runner_up: Candidate | None = None         # the closest scheme that is not the answer
     candidates: list = field(default_factory=list)  # every Candidate, closest first
     why_no_match: str | None = None            # what the engine mode records, where nothing matches
+    screen_steps: int | None = None            # the screen's longest run (None: every scheme ran in full)
 
     @property
     def closest(self) -> Candidate | None:
@@ -248,15 +282,38 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     # The candidates run on what the method was given: a float32 engine's inputs rounded.
     c_scene, c_dt = float32_inputs(scene, dt) if precision == "float32" else (scene, dt)
     as_held = rounded_to_float32 if precision == "float32" else (lambda traj: traj)
-    candidates = []
     refs = [(mid, ref) for mid, ref in candidate_methods(scene, compiled_where_bitwise).items()
             if mid != method.id]
-    for i, (mid, ref) in enumerate(refs, 1):
-        say(f"identify: candidate {mid}, {i} of {len(refs)}")
-        traj = as_held(candidate_run(ref, c_scene, c_dt, steps))
-        dev = max_deviation(run, traj)
-        candidates.append(Candidate(mid, dev, traj.status, dev <= tolerance))
-    candidates.sort(key=lambda c: c.max_deviation)
+    order = {mid: i for i, (mid, _) in enumerate(refs)}
+    # The screen needs the method's every step from 0 on, and a run long enough to shorten.
+    screening = run.status == OK and steps > SCREEN_STEPS and np.array_equal(run.step, np.arange(steps + 1))
+    parted: dict[str, Candidate] = {}
+    if screening:
+        for i, (mid, ref) in enumerate(refs, 1):
+            say(f"identify: screening {mid}, {i} of {len(refs)}")
+            ruled_out = _screen(run, mid, ref, c_scene, c_dt, tolerance, as_held)
+            if ruled_out is not None:
+                parted[mid] = ruled_out
+    full: dict[str, Candidate] = {}
+
+    def run_in_full(chosen):
+        for i, (mid, ref) in enumerate(chosen, 1):
+            say(f"identify: candidate {mid}, {i} of {len(chosen)}")
+            traj = as_held(candidate_run(ref, c_scene, c_dt, steps))
+            dev = max_deviation(run, traj)
+            full[mid] = Candidate(mid, dev, traj.status, dev <= tolerance, steps, _within(run, traj, tolerance))
+            parted.pop(mid, None)
+
+    run_in_full([(mid, ref) for mid, ref in refs if mid not in parted])
+    if parted and not any(c.matches for c in full.values()):
+        # Nothing matches: every scheme in full, the closest the one of smallest max |diff| over the run.
+        run_in_full([(mid, ref) for mid, ref in refs if mid in parted])
+    elif parted and all(c.matches for c in full.values()):
+        # The runner-up, in full: of the schemes that do not match, the one that stays within longest.
+        runner = min(parted.values(), key=lambda c: (-c.within, c.max_deviation, order[c.method]))
+        run_in_full([(runner.method, dict(refs)[runner.method])])
+    candidates = (sorted(full.values(), key=lambda c: (c.max_deviation, order[c.method]))
+                  + sorted(parted.values(), key=lambda c: (-c.within, c.max_deviation, order[c.method])))
     matches = [c.method for c in candidates if c.matches]
     if not matches:
         # What the engine mode itself records, measured, about why nothing can match here.
@@ -267,7 +324,50 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     others = [c for c in candidates[0 if matches else 1:] if not c.matches]
     return IdentityResult(**out, tolerance=tolerance, matches=matches, match=matches[0] if matches else None,
                           max_deviation=best.max_deviation if best else None,
-                          runner_up=others[0] if others else None, candidates=candidates)
+                          runner_up=others[0] if others else None, candidates=candidates,
+                          screen_steps=SCREEN_STEPS if screening else None)
+
+
+def _deviations(run: Trajectory, traj: Trajectory, n: int) -> np.ndarray:
+    """max |difference| in q and v at each step 0 .. n of two runs recorded at every step; inf
+    at the steps either did not record (it stopped earlier)."""
+    d = np.full(n + 1, np.inf)
+    m = min(len(traj.step), len(run.step), n + 1)
+    if not (np.array_equal(traj.step[:m], np.arange(m)) and np.array_equal(run.step[:m], np.arange(m))):
+        return d
+    with np.errstate(invalid="ignore"):
+        d[:m] = np.maximum(np.max(np.abs(run.q[:m] - traj.q[:m]), axis=(1, 2)),
+                           np.max(np.abs(run.v[:m] - traj.v[:m]), axis=(1, 2)))
+    return d
+
+
+def _within(run: Trajectory, traj: Trajectory, tolerance: float) -> int | None:
+    """The last step up to which ``traj`` stays within ``tolerance`` of ``run`` (None: every step)."""
+    beyond = _first_beyond(_deviations(run, traj, max(len(run.step), len(traj.step)) - 1), tolerance)
+    return None if beyond is None else beyond - 1
+
+
+def _first_beyond(d: np.ndarray, tolerance: float) -> int | None:
+    """The first step whose deviation is not within ``tolerance`` (NaN is not), else None."""
+    beyond = np.flatnonzero(~(d <= tolerance))
+    return int(beyond[0]) if beyond.size else None
+
+
+def _screen(run: Trajectory, mid: str, ref, scene: Scene, dt: float, tolerance: float, as_held) -> Candidate | None:
+    """``mid`` as the screen rules it out: its interpreted runs of 1, 2, 4, ... up to
+    ``SCREEN_STEPS`` steps held against the method's first steps, stopped at the first run that
+    parts from it beyond ``tolerance``; its deviation up to that step (the first beyond). None:
+    within the tolerance throughout, it runs in full."""
+    n = 1
+    while True:
+        traj = as_held(candidate_run(ref, scene, dt, n, interpreted=True))
+        d = _deviations(run, traj, n)
+        k = _first_beyond(d, tolerance)
+        if k is not None:
+            return Candidate(mid, float(np.max(d[:k + 1])), traj.status, False, k, k - 1)
+        if n >= SCREEN_STEPS:
+            return None
+        n = min(2 * n, SCREEN_STEPS)
 
 
 def format_report(result: IdentityResult) -> str:
@@ -294,8 +394,12 @@ def format_report(result: IdentityResult) -> str:
             lines.append(f"  why: {result.why_no_match}")
     if result.runner_up is not None:
         lines.append(f"  runner-up {result.runner_up.method}: max |diff| = {result.runner_up.max_deviation:.3g}")
-    lines.append("  all schemes, max |diff| in (q, v) over every step:")
+    lines.append("  all schemes, max |diff| in (q, v) over every step" + (
+        f" (over the steps up to where it parts, for a scheme that parts within the first {result.screen_steps})"
+        if result.screen_steps else "") + ":")
     for c in result.candidates:
         mark = "  <- match" if c.matches else ""
+        if c.steps is not None and c.steps < result.steps:
+            mark = f"  (parts at step {c.steps})"
         lines.append(f"    {c.method:42s} {c.max_deviation:10.3g}{mark}")
     return "\n".join(lines)

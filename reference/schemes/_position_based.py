@@ -1,63 +1,23 @@
-"""What PBD and XPBD share: a step's arrays, the substep's prediction and velocity update, and
-one pass of one constraint over the batch where d > 1 (``scenarios.scene.Scene.constraints``
-gives the constraints). Loops written out, batch innermost, as the scenes' kernels are: they
-compile to straight loops. A step's arrays are two (``step_arrays``): an anchored end is read
-from rows of its own beside the points', so the 1-D loops over the batch read both ends alike,
-write an anchor back as read, have no branch, and vectorise."""
+"""What PBD and XPBD share: where a constraint's end lies in a step's array (``row``), a point's
+inverse mass, and one pass of one constraint over the batch where d > 1
+(``scenarios.scene.Scene.constraints`` gives the constraints). Loops written out, batch
+innermost, as the scenes' kernels are: they compile to straight loops. A step makes one array,
+``work``: the positions x, then the anchors' coordinates along the batch (a row per coordinate:
+a projection reads an anchored end as it reads a point), then the step's other rows (XPBD's
+multipliers, x_old, the velocities); so the 1-D loops over the batch read both ends alike, write
+an anchor back as read, have no branch, and vectorise. Each scheme writes its prediction and
+velocity loops out in its step rather than calling helpers with the arrays: a compiled call
+passes every array it is given with a reference count taken and dropped, a cost per step beside
+which the single spring's step is small."""
 import numpy as np
 
 
-def step_arrays(q, v, substeps, multipliers, anchors):
-    """(work, u, x_old): ``work`` holds the step's positions x (its first rows, returned as the
-    step's q), then the anchors' coordinates along the batch (a row per coordinate: a
-    projection reads an anchored end as it reads a point, ``row``), then ``multipliers`` rows
-    (XPBD's lambda per constraint); x_old, the positions a substep starts from, is q itself
-    where there is one substep (the step never writes it), else rows after those."""
-    n, nb = q.shape
-    fixed = anchors.shape[0] * anchors.shape[1]
-    work = np.empty((n + fixed + multipliers + (n if substeps > 1 else 0), nb))
-    u = np.empty_like(v)
-    for a in range(anchors.shape[0]):
-        for k in range(anchors.shape[1]):
-            for b in range(nb):
-                work[n + a * anchors.shape[1] + k, b] = anchors[a, k]
-    x_old = q if substeps == 1 else work[n + fixed + multipliers:]
-    return work, u, x_old
-
-
 def row(i, points, d):
-    """The first row in ``work`` (``step_arrays``) of the constraint end i: a point's, or an
+    """The first row in a step's ``work`` of the constraint end i: a point's, or an
     anchor's (i < 0) after the ``points`` rows of x."""
     if i >= 0:
         return i * d
     return points + (-1 - i) * d
-
-
-def predict(x_from, u_from, x, u, x_old, keep, gravity, hs):
-    """v = v_from + hs g; x = x_from + hs v (the substep's prediction, entry by entry); where
-    ``keep``, x_from is copied to x_old first (x_from and x may be one array)."""
-    d = gravity.shape[0]
-    for r in range(x.shape[0]):
-        g = gravity[r % d]
-        if keep:
-            for b in range(x.shape[1]):
-                xr = x_from[r, b]
-                ur = u_from[r, b] + hs * g
-                x_old[r, b] = xr
-                u[r, b] = ur
-                x[r, b] = xr + hs * ur
-        else:
-            for b in range(x.shape[1]):
-                ur = u_from[r, b] + hs * g
-                u[r, b] = ur
-                x[r, b] = x_from[r, b] + hs * ur
-
-
-def velocity(x, u, x_old, hs):
-    """v = (x - x_old) / hs: the velocity from the substep's position change."""
-    for r in range(x.shape[0]):
-        for b in range(x.shape[1]):
-            u[r, b] = (x[r, b] - x_old[r, b]) / hs
 
 
 def point_inv_mass(inv_mass, i):

@@ -2,7 +2,7 @@ import numpy as np
 
 from ..kinds import POSITION_BASED
 from .._scheme import EVERY_SCENE, Floor, scheme
-from ._position_based import nth_root, point_inv_mass, predict, project, row, step_arrays, velocity
+from ._position_based import nth_root, point_inv_mass, project, row
 
 #: Substeps and projection passes per step unless the caller sets ``substeps``/``iterations``.
 DEFAULT_SUBSTEPS = 1
@@ -61,13 +61,27 @@ def pbd(accel, constraints, substeps, iterations, state, t, h, p):
     d = anchors.shape[1]
     nb = q.shape[1]
     n = q.shape[0]
-    work, u, x_old = step_arrays(q, v, substeps, 0, anchors)
-    x = work[:n]
+    # One array a step: x (returned as q), the anchors' rows, x_old where substeps > 1 (q where
+    # there is one), u (returned as v); written out here, not through helpers taking the arrays.
+    fixed = anchors.shape[0] * d
+    x_old = n + fixed
+    u = x_old + (n if substeps > 1 else 0)
+    work = np.empty((u + n, nb))
+    for a in range(anchors.shape[0]):
+        for k in range(d):
+            for b in range(nb):
+                work[n + a * d + k, b] = anchors[a, k]
     for s in range(substeps):
-        if s == 0:
-            predict(q, v, x, u, x_old, substeps > 1, gravity, hs)
-        else:
-            predict(x, u, x, u, x_old, True, gravity, hs)
+        # v~ = v + hs g, x~ = x + hs v~ (from q, v at the first substep), x_old kept where it is not q.
+        for r in range(n):
+            g = gravity[r % d]
+            for b in range(nb):
+                xr = q[r, b] if s == 0 else work[r, b]
+                ur = (v[r, b] if s == 0 else work[u + r, b]) + hs * g
+                if substeps > 1:
+                    work[x_old + r, b] = xr
+                work[u + r, b] = ur
+                work[r, b] = xr + hs * ur
         for _ in range(iterations):
             for c in range(ends.shape[0]):
                 ra = row(ends[c, 0], n, d)
@@ -86,5 +100,8 @@ def pbd(accel, constraints, substeps, iterations, state, t, h, p):
                     work[ra, b] = at_a - wa * dl if a_free else at_a
                     at_b = work[rb, b]
                     work[rb, b] = at_b + wb * dl if b_free else at_b
-        velocity(x, u, x_old, hs)
-    return (x, u)
+        # v = (x - x_old) / hs
+        for r in range(n):
+            for b in range(nb):
+                work[u + r, b] = (work[r, b] - (q[r, b] if substeps == 1 else work[x_old + r, b])) / hs
+    return (work[:n], work[u:u + n])
