@@ -37,7 +37,8 @@ class MethodAdvice:
     method: str
     status: str = "ok"              # ok, or crashed / timed_out where the search itself died
     homega_limit: float | None = None
-    limit_verdict: str = "not measured"   # limited, unbounded (stable at every h*omega searched), unstable
+    limit_verdict: str = "not measured"   # limited, unbounded (stable at every h*omega searched), unstable,
+    #                                       unresolved (no stable step resolved: harness.measures.stability)
     limit_searched: float | None = None   # the largest h*omega the limit search tried
     cost_per_step_s: float | None = None
     cost_timing: str = ""

@@ -156,10 +156,11 @@ class StabilityFigures(Figures):
 
     criterion: str | None = None
     criterion_rule: str | None = None
-    verdict: str | None = None               # limited, unbounded, unstable
+    verdict: str | None = None               # limited, unbounded, unstable, unresolved
     dt_max: float | None = None
     unbounded: bool | None = None
     unstable_everywhere: bool | None = None
+    unresolved: bool | None = None           # no stable step resolved (``harness.measures.stability``)
     homega_searched: float | None = None
     rho_above_dt_max: float | None = None
     nominal: NominalRun | None = None        # the finite horizon's run at the suite's nominal dt

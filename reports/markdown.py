@@ -41,6 +41,8 @@ def homega_text(cell: Cell | None) -> str:
     f = cell.figures
     if f.unstable_everywhere:
         return "none (ρ > 1 for every h)"
+    if f.unresolved:
+        return "no stable step resolved"
     if f.unbounded:
         searched = f.homega_searched if f.homega_searched is not None else float("nan")
         return f"unbounded (searched to {searched:.3g})"

@@ -115,7 +115,7 @@ def _lines(a):
 def _limit(m) -> str:
     if m.limit_verdict == "unbounded":
         return ">" + format(m.limit_searched, ".3g")
-    if m.limit_verdict == "unstable":
+    if m.limit_verdict in ("unstable", "unresolved"):
         return "none"
     return "-" if m.homega_limit is None else format(m.homega_limit, ".4g")
 

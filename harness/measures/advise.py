@@ -290,8 +290,9 @@ def _reason(advice: MethodAdvice, request: Request) -> str:
         return f"{last.why} at {last.substeps} substep{'s' if last.substeps > 1 else ''}"
     if last.status in ("crashed", "timed_out"):
         return last.why
-    if advice.limit_verdict == "unstable":
-        return (f"unstable: spectral radius > 1 at every h (h*omega = {last.homega:.3g} at "
+    if advice.limit_verdict in ("unstable", "unresolved"):
+        every = "at every h" if advice.limit_verdict == "unstable" else "at every h (no stable step resolved)"
+        return (f"unstable: spectral radius > 1 {every} (h*omega = {last.homega:.3g} at "
                 f"{last.substeps} substeps)")
     if advice.homega_limit is not None:
         return f"unstable: h*omega = {last.homega:.3g} > {advice.homega_limit:.3g} at {last.substeps} substeps"

@@ -217,7 +217,7 @@ def _stability(task, method, scene, suite, spec) -> Cell:
     res = largest_stable_dt(method, scene, steps=steps, hi=hi, **search)
     verdict = res.verdict
     figures = StabilityFigures.pick(plain(res.as_dict()), unbounded=verdict == "unbounded",
-                                    unstable_everywhere=verdict == "unstable",
+                                    unstable_everywhere=verdict == "unstable", unresolved=verdict == "unresolved",
                                     homega_searched=plain((res.dt_searched_max or 0) * scene.omega))
     value = math.inf if verdict == "unbounded" else res.omega_dt_max
     if res.criterion == "finite_horizon":
