@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 from records import is_reference, scheme_name
 from records.cell import Cell, Claims, MethodCells, pivot
+from records.figures import limit_text
 from records.findings import MARK, Change, ClaimChecks, Finding, Judgement, Verdict
 
 from harness.engine_findings import blowups_at_nominal, engine_findings
@@ -136,8 +137,8 @@ def stability_limits(check: Check, scene: str, piv: dict) -> list[Finding]:
     by_limit: dict = {}
     for m, r in stab.items():
         if r.figures.verdict == "limited":
-            by_limit.setdefault(round(r.value, 3), []).append(m)
-    parts = [f"h·ω_max = {v:.4g}: {_names(ms)}" for v, ms in sorted(by_limit.items())]
+            by_limit.setdefault(float(limit_text(r.value)), []).append(m)
+    parts = [f"h·ω_max = {limit_text(v)}: {_names(ms)}" for v, ms in sorted(by_limit.items())]
     never = [m for m, r in stab.items() if r.figures.unstable_everywhere]
     unresolved = [m for m, r in stab.items() if r.figures.unresolved]
     free = [m for m, r in stab.items() if r.figures.unbounded]

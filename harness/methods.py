@@ -81,13 +81,19 @@ def parse_options(items: list[str] | None) -> dict[str, str]:
 
 #: The most iterations a scheme's option takes (projection passes, Newton iterations, substeps).
 MAX_ITERATIONS = 10**6
+#: A reference scheme's counts that are its convergence knob (``Option.tighten``): a projection's
+#: passes, ten times as many to converge further.
+KNOBS = {"iterations": 10}
 
 
 def declared_options(method: Method) -> dict[str, Option]:
     """The run-time options ``method`` takes, by name: a reference scheme's (``Scheme.options``,
     counts from 1), an engine mode's (``EngineMode.options``); a plugin's method takes none."""
     if isinstance(method, RefMethod):
-        return {name: Option(name, int, 1, MAX_ITERATIONS) for name in method.scheme.options}
+        scheme = method.scheme
+        counts = {name: Option(name, int, 1, MAX_ITERATIONS, default=default, tighten=KNOBS.get(name))
+                  for name, default in scheme.options.items()}
+        return {**counts, **scheme.kind.parameters(scheme)}
     return dict(getattr(method, "options_declared", None) or {})
 
 

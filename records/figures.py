@@ -4,6 +4,7 @@ field ``name`` is stored under ``KEYS.get(name, name)`` and a None figure is not
 (``records.cell`` stores them in a cell's ``data``)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from typing import ClassVar
 
@@ -146,6 +147,23 @@ class NominalRun(Record):
     @property
     def has_series(self) -> bool:
         return bool(self.series and len(self.series["t"]))
+
+
+#: Significant digits of every stability limit the report prints, measured or declared: the nightly's
+#: coarsest search bisects to 1e-4 relative, its limit the last stable step, up to 1e-4 below the
+#: boundary, so a fourth digit could print 0.9971 in one table and 0.9972 in another for one limit
+#: (Dormand-Prince's 0.997188). Three digits are what every search resolves.
+LIMIT_DIGITS = 3
+
+
+def limit_text(x, none: str = "none") -> str:
+    """A largest stable h*omega as every table prints it (``LIMIT_DIGITS``), the report and the commands alike: None -> ``none``,
+    inf -> ``unbounded``."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return none
+    if math.isinf(x):
+        return "unbounded"
+    return format(x, f".{LIMIT_DIGITS}g")
 
 
 @dataclass(frozen=True)

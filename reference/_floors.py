@@ -202,6 +202,27 @@ def xpbd(s, h, k, m):
     return (x, (x - x_old) / h)
 
 
+#: The Jacobi XPBD floor's passes: the scheme's default (``reference.schemes.xpbd_jacobi``, Newton's).
+_JACOBI_PASSES = 2
+
+
+@_jit
+def xpbd_jacobi(s, h, k, m):
+    # One constraint: a Jacobi pass is its correction, summed from 0 and then applied, at
+    # relaxation 1 (1000 thousandths, as the scheme divides it), gradient 1.
+    x, v = s
+    x_old = x
+    x = x + h * v
+    w = 1.0 / m
+    tilde = (1.0 / k) / (h * h)
+    lam = 0.0
+    for _ in range(_JACOBI_PASSES):
+        dl = (1000 / 1000.0) * ((-(x - 0.0 - 0.0) - tilde * lam) / (0.0 + w + tilde))
+        lam = lam + dl
+        x = x + (0.0 + w * dl * 1.0)
+    return (x, (x - x_old) / h)
+
+
 @_jit
 def pbd(s, h, k, m):
     # Each pass removes the share s' = 1 - (1 - s)^(1/passes) of C = x, s = w / (w + (1/k)/h^2),
@@ -278,6 +299,7 @@ _HAND_WRITTEN = {
     "radau_iia2": (radau_iia2, _start_qv, _observe_qv),
     "pbd": (pbd, _start_pbd, _observe_qv),
     "xpbd": (xpbd, _start_qv, _observe_qv),
+    "xpbd_jacobi": (xpbd_jacobi, _start_qv, _observe_qv),
     "semi_implicit_euler_velocity_implicit": (semi_implicit_euler_velocity_implicit, _start_qv, _observe_qv),
     "position_first_euler_decay_after_kick": (position_first_euler_decay_after_kick, _start_qv, _observe_qv),
     "position_first_euler_decay_before_kick": (position_first_euler_decay_before_kick, _start_qv, _observe_qv),

@@ -7,6 +7,8 @@ import math
 
 from records.cell import Cell
 
+from .text import limit_text
+
 METHODS = ("ref:pbd", "ref:xpbd")
 
 
@@ -55,9 +57,14 @@ def position_based_section(piv: dict, chart_names: dict) -> list[str]:
                 if c.status != "ok":
                     return c.status
                 return _fmt(c.value * scale if c.value is not None else None, spec)
+            stab = ms.get("stability")
+            stab_txt = ("–" if stab is None else stab.status if stab.status != "ok"
+                        else "no stable step resolved" if stab.figures.unresolved
+                        else f"unbounded (searched to {stab.figures.homega_searched:.3g})"
+                        if stab.figures.unbounded and stab.figures.homega_searched else limit_text(stab.value))
             energy = ms.get("energy")
             energy_txt = energy.figures.energy_class if energy is not None and energy.status == "ok" else "–"
-            lines.append(f"| {scene} | `{method}` | {value('order', '.2f')} | {energy_txt} | {value('stability', '.4g')} "
+            lines.append(f"| {scene} | `{method}` | {value('order', '.2f')} | {energy_txt} | {stab_txt} "
                          f"| {value('constraint')} | {value('cost', '.3g', 1e6)} |")
         lines.append("")
     for scene, cell in studies:

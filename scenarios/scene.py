@@ -264,6 +264,12 @@ class Scene:
         can leave or collide."""
         return []
 
+    def identification_run(self) -> tuple[float, int] | None:
+        """(dt, steps) of the run ``harness identify`` holds an engine mode against the reference
+        schemes on, where its default (100 steps a period of ``omega``, 1000 steps) cannot tell
+        them apart; None: the default."""
+        return None
+
     def exact_energy(self, t: np.ndarray) -> np.ndarray:
         """Exact energy at times t. Conservative scenes keep their initial energy."""
         q0, v0 = self.initial_state()

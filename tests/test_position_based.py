@@ -11,6 +11,7 @@ from reference.kinds import COUNT_BASE, POSITION_BASED, pack_counts
 from scenarios import make_scene
 
 XPBD, PBD, IE = METHODS["xpbd"], METHODS["pbd"], METHODS["implicit_euler"]
+JACOBI = METHODS["xpbd_jacobi"]
 
 
 def test_the_schemes_are_declared_position_based_with_their_options():
@@ -57,11 +58,16 @@ def test_xpbd_passes_converge_to_the_implicit_euler_step_on_the_chain():
     assert pbd > 1e-2
 
 
-@pytest.mark.parametrize("scheme", [PBD, XPBD], ids=["pbd", "xpbd"])
+@pytest.mark.parametrize("scheme", [PBD, XPBD, JACOBI], ids=["pbd", "xpbd", "xpbd_jacobi"])
 @pytest.mark.parametrize("scene_id", ["spring", "chain", "rope", "cloth", "net"])
 def test_compiled_is_the_interpreted_run_bit_for_bit(scheme, scene_id):
     scene = make_scene(scene_id, **({"n": 4, "m": 4} if scene_id in ("cloth", "net") else {}))
     opts = {"substeps": 3, "iterations": 2}
+    if scheme is JACOBI:  # at a relaxation of its own too: it rides in the compiled loops' one integer
+        from harness.methods import get_method
+
+        scheme = get_method("ref:xpbd_jacobi?relaxation=0.7").scheme
+        assert scheme.kind.relaxation == 0.7
     a = integrate(scheme, scene, 1 / 60, 12, **opts)
     b = integrate_compiled(scheme, scene, 1 / 60, 12, **opts)
     c = integrate_exact(scheme, scene, 1 / 60, 12, **opts)
@@ -69,6 +75,55 @@ def test_compiled_is_the_interpreted_run_bit_for_bit(scheme, scene_id):
     for other in (b, c):
         assert np.array_equal(a.q, other.q) and np.array_equal(a.v, other.v)
     assert a.force_evals == c.force_evals == 0
+
+
+def test_jacobi_xpbd_is_implicit_euler_on_one_spring_and_sums_its_corrections_elsewhere():
+    """One constraint: a Jacobi pass is a Gauss-Seidel pass (the unit spring's implicit Euler, the
+    bound of the XPBD test above, 1e-14). Three points on a line, two springs (rest 1) from a wall:
+    one pass computed by hand from one set of positions, both corrections of the middle point
+    summed, against XPBD's sequential pass that sees the first correction before the second."""
+    spring = make_scene("spring")
+    a = integrate(JACOBI, spring, 0.1, 1000, iterations=1)
+    b = integrate(IE, spring, 0.1, 1000)
+    assert np.max(np.abs(a.q - b.q)) <= 1e-14 and np.max(np.abs(a.v - b.v)) <= 1e-14
+    chain = make_scene("chain", N=2, k=4.0, m=1.0, x0=0.5)
+    ends, rest, compliance, inv_mass, anchors, gravity = type(chain).constraints(chain.pvec)
+    q0, v0 = chain.initial_state()
+    h = 0.1
+    x = q0 + h * v0  # the prediction (no gravity on the chain)
+    tilde = compliance / h**2
+    points = lambda i: 0.0 if i < 0 else x[i]  # an anchor sits at its rest place 0  # noqa: E731
+    delta = np.zeros_like(x)
+    for (ia, ib), r, t in zip(ends, rest, tilde):
+        wa, wb = (0.0 if i < 0 else inv_mass[i] for i in (ia, ib))
+        dl = (-(points(ib) - points(ia) - r) - 0.0) / (wa + wb + t)
+        if ia >= 0:
+            delta[ia] -= wa * dl
+        if ib >= 0:
+            delta[ib] += wb * dl
+    by_hand = x + delta
+    got = integrate(JACOBI, chain, h, 1, iterations=1).q[-1, 0]
+    np.testing.assert_allclose(got, by_hand, rtol=0, atol=1e-15)
+    sequential = integrate(XPBD, chain, h, 1, iterations=1).q[-1, 0]
+    assert np.max(np.abs(sequential - got)) > 1e-3
+
+
+def test_the_relaxation_is_an_option_in_thousandths():
+    from harness.methods import get_method
+    from records import InvalidInput
+
+    m = get_method("ref:xpbd_jacobi?iterations=3&relaxation=0.5")
+    assert m.id == "ref:xpbd_jacobi?iterations=3&relaxation=0.5" and m.options == {"iterations": 3}
+    assert get_method("ref:xpbd_jacobi?relaxation=1").id == "ref:xpbd_jacobi?relaxation=1"
+    for bad, said in (("0.1234", "not a multiple of 0.001"), ("3", "out of range"), ("x", "not a number")):
+        with pytest.raises(InvalidInput, match=said):
+            get_method(f"ref:xpbd_jacobi?relaxation={bad}")
+    # Half the summed corrections: the one spring no longer solved in one pass, and relaxation 1 the default.
+    spring = make_scene("spring")
+    half = get_method("ref:xpbd_jacobi?relaxation=0.5&iterations=1").simulate(spring, 0.1, 10)
+    whole = get_method("ref:xpbd_jacobi?relaxation=1&iterations=1").simulate(spring, 0.1, 10)
+    default = get_method("ref:xpbd_jacobi?iterations=1").simulate(spring, 0.1, 10)
+    assert np.array_equal(whole.q, default.q) and not np.allclose(half.q, whole.q, rtol=0, atol=1e-6)
 
 
 def test_where_they_run_and_why_not():

@@ -44,6 +44,7 @@ REF_STABILITY = {
     "radau_iia2": UNBOUNDED,
     "pbd": UNBOUNDED,
     "xpbd": UNBOUNDED,
+    "xpbd_jacobi": UNBOUNDED,
 }
 ENGINE_STABILITY = {
     "mujoco:euler": 2.0,
@@ -85,6 +86,7 @@ REF_ORDER = {
     "radau_iia2": 3,
     "pbd": 1,
     "xpbd": 1,
+    "xpbd_jacobi": 1,
 }
 #: (method, scene) -> order. The engines' scenes: the spring for MuJoCo and pybullet,
 #: the Kepler orbit for REBOUND's leapfrog (docs/engines.md: 2nd order on it).
@@ -116,6 +118,7 @@ REF_ENERGY = {
     "radau_iia2": "decays",
     "pbd": "decays",
     "xpbd": "decays",
+    "xpbd_jacobi": "decays",
 }
 
 #: Counted (force evaluations, solves) per step on the spring (issue 4: "1, 1, 1, 4,

@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 
 from records import InvalidInput
+from records.figures import limit_text
 from scenarios import make_scene, parse_overrides
 
 from harness import validate
@@ -117,7 +118,7 @@ def _limit(m) -> str:
         return ">" + format(m.limit_searched, ".3g")
     if m.limit_verdict in ("unstable", "unresolved"):
         return "none"
-    return "-" if m.homega_limit is None else format(m.homega_limit, ".4g")
+    return "-" if m.homega_limit is None else limit_text(m.homega_limit)
 
 
 #: What a method's cell in the sweep's table says of each way its search ended.

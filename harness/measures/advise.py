@@ -276,9 +276,19 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
     return row
 
 
+def classed(scene: Scene, horizon: float) -> bool:
+    """Whether the horizon holds the periods the energy classification needs
+    (``harness.measures.energy.MIN_PERIODS``): over fewer a bounded band reads as a drift."""
+    from harness.measures.energy import MIN_PERIODS
+
+    return horizon >= MIN_PERIODS * scene.period
+
+
 def _energy_class(traj, scene: Scene) -> str | None:
     from harness.measures.energy import classify
 
+    if not classed(scene, float(traj.t[-1] - traj.t[0])):
+        return None  # too few periods to tell a band from a drift (the command says so under its table)
     return classify(traj.energy[:, 0], scene.exact_energy(traj.t), traj.t)["classification"]
 
 
