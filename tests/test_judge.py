@@ -71,6 +71,21 @@ def test_no_stable_step_resolved_reads_check_none_in_the_tradeoff_table():
     assert row.endswith(f"| no stable step resolved [none] {CHECK} |")
 
 
+def test_an_identity_row_says_matched_only_where_a_scheme_matched():
+    from records.cell import pivot
+    from reports.markdown import identity_table
+
+    def row(**figures):
+        c = cell("identity", 6.97e-3, method="newton:xpbd", scene="cloth", claims=Claims(), precision="float32",
+                 **figures)
+        return next(line for line in identity_table(pivot([c])) if "newton:xpbd" in line)
+
+    unmatched = row(closest="ref:linearly_implicit_euler")
+    assert "none (closest `ref:linearly_implicit_euler`)" in unmatched and "matched" not in unmatched
+    assert "no scheme within float32 rounding" in unmatched
+    assert "(float32: matched at float32 rounding)" in row(match="ref:xpbd_jacobi", matches=["ref:xpbd_jacobi"])
+
+
 def test_a_method_without_claims_is_not_judged():
     got = checks(cell("stability", 2.0, claims=Claims()), cell("order", 2.0, claims=Claims()))
     assert got.homega is None and got.order is False and not got.claims.known
