@@ -97,6 +97,29 @@ def declared_options(method: Method) -> dict[str, Option]:
     return dict(getattr(method, "options_declared", None) or {})
 
 
+def convergence_knob(method: Method) -> Option | None:
+    """The option that is ``method``'s convergence knob (declared with ``Option.tighten``: a
+    projection's passes, an iterative solve's tolerance), None where it has none."""
+    return next((o for o in declared_options(method).values() if o.tighten), None)
+
+
+def tightened(method: Method) -> Method | None:
+    """``method`` with its convergence knob tightened: its value (set, else the declared default)
+    times ``tighten`` (ten times the passes, a tolerance a hundred times tighter), held to the
+    option's range; None where it has no knob, or the knob is already at its end of the range."""
+    knob = convergence_knob(method)
+    if knob is None:
+        return None
+    value = (getattr(method, "options", None) or {}).get(knob.name, knob.default)
+    if value is None:
+        return None
+    new = min(max(float(value) * knob.tighten, knob.low), knob.high)
+    new = int(round(new)) if knob.type is int else new
+    if new == value:
+        return None
+    return _with_options(method, {knob.name: new})
+
+
 def _with_options(method: Method, options: dict) -> Method:
     valid = declared_options(method)
     checked = {}

@@ -27,6 +27,10 @@ class Row:
     meets: bool = False
     why: str = ""
     detail: str = ""
+    #: Where the row meets the tolerances and its method has a convergence knob: the same substeps
+    #: with the knob tightened (``harness.measures.advise.convergence``): {"method", "meets", "why",
+    #: "energy_error", "position_error"}; its "meets" False: the win rests on the solve's own error.
+    converged: dict | None = None
 
 
 @dataclass
@@ -93,6 +97,12 @@ class SweepEntry:
     searched: int = 0               # the most substeps run
     next_substeps: int | None = None  # the level not run where the cost or the cap bound ended the search
     why: str = ""
+    converged: dict | None = None   # where met: its convergence knob tightened (``records.advice.Row.converged``)
+
+    @property
+    def rests_on_solve(self) -> bool:
+        """Met, but missed once its solve converges further: the win rests on the solve's own error."""
+        return self.converged is not None and not self.converged["meets"]
 
 
 @dataclass
@@ -104,6 +114,7 @@ class SweepPoint:
     omega: float
     homega_one: float
     entries: list[SweepEntry] = field(default_factory=list)
+    position_tol: float | None = None   # the position tolerance at this value, absolute (None: not judged)
 
     @property
     def met(self) -> list[SweepEntry]:

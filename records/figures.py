@@ -246,6 +246,8 @@ class AdviceFigures(Figures):
 
     hz: float | None = None
     request: dict | None = None
+    length_scale: float | None = None        # the scene's, that a relative position tolerance is a share of
+    position_tol: float | None = None        # the position tolerance on the scene (None: positions not judged)
     method: str | None = None
     status: str | None = None
     homega_limit: float | None = None

@@ -367,6 +367,12 @@ class Cloth(Scene):
         return np.append(super().pvec, float(self.dim))
 
     @property
+    def length_scale(self) -> float:
+        """The sheet's width: its longer side at rest, (max(n, m) - 1) s (0.3 for the 4 x 4 sheet)."""
+        n, m, _ = self.grid
+        return (max(n, m) - 1) * self.values["s"]
+
+    @property
     def node_mass(self) -> float:
         n, m, _ = self.grid
         return self.values["mass"] / (n * m)

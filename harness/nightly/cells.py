@@ -281,7 +281,10 @@ def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
         request = Request(hz=hz, **spec.advise).checked()
         res = advise_method(method, scene, request, timeout=suite.cell_timeout, cost_per_step=per_step)
         best = res.best_row
-        figures, extra = AdviceFigures.from_data(plain({"hz": hz, "request": asdict(request), **res.as_dict()}))
+        figures, extra = AdviceFigures.from_data(plain({"hz": hz, "request": asdict(request),
+                                                        "length_scale": scene.length_scale,
+                                                        "position_tol": request.position_tolerance(scene),
+                                                        **res.as_dict()}))
         cells.append(make_cell(task, "advise", "ok", best.cost_per_frame_s if best is not None else None, 1.0 / hz,
                                figures=figures, extra=extra))
     return cells
