@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 
 from records import is_reference, scheme_name
 from records.cell import Cell, Claims, MethodCells, pivot
+from records.figures import limit_text
 from records.findings import MARK, Change, ClaimChecks, Finding, Judgement, Verdict
 
 from harness.engine_findings import blowups_at_nominal, engine_findings
@@ -40,12 +41,13 @@ def claims_of(cells: dict) -> Claims:
 
 def homega_ok(cell: Cell | None, claim) -> bool | None:
     """A stability cell against the claimed largest stable h*omega (None: no h is stable; inf:
-    every h is) to STABILITY_TOL; None where there is nothing to judge."""
+    every h is) to STABILITY_TOL; None where there is nothing to judge. No stable step resolved
+    (a growth below what the search tells from 1 at every step) is no stable h: it agrees with None."""
     if cell is None or cell.status != "ok":
         return None
     f = cell.figures
     if claim is None:
-        return bool(f.unstable_everywhere)
+        return bool(f.unstable_everywhere or f.unresolved)
     if claim == math.inf:
         return bool(f.unbounded)
     return cell.value is not None and not f.unbounded and abs(cell.value / float(claim) - 1) <= STABILITY_TOL
@@ -141,12 +143,16 @@ def stability_limits(check: Check, scene: str, piv: dict) -> list[Finding]:
     by_limit: dict = {}
     for m, r in stab.items():
         if r.figures.verdict == "limited":
-            by_limit.setdefault(round(r.value, 3), []).append(m)
-    parts = [f"h·ω_max = {v:.4g}: {_names(ms)}" for v, ms in sorted(by_limit.items())]
+            by_limit.setdefault(float(limit_text(r.value)), []).append(m)
+    parts = [f"h·ω_max = {limit_text(v)}: {_names(ms)}" for v, ms in sorted(by_limit.items())]
     never = [m for m, r in stab.items() if r.figures.unstable_everywhere]
+    unresolved = [m for m, r in stab.items() if r.figures.unresolved]
     free = [m for m, r in stab.items() if r.figures.unbounded]
     if never:
         parts.append(f"unstable at every h: {_names(never)}")
+    if unresolved:
+        parts.append(f"no stable step resolved (growing at every step, by less than the search tells from 1): "
+                     f"{_names(unresolved)}")
     if free:
         searched = max(stab[m].figures.homega_searched or 0 for m in free)
         parts.append(f"stable at every h searched (to h·ω = {searched:.3g}): {_names(free)}")
@@ -168,6 +174,8 @@ def survives_one_frame(check: Check, scene: str, piv: dict) -> list[Finding]:
             survive.append(m)
         elif f.unstable_everywhere:
             need.append(f"`{m}` unstable at every h")
+        elif f.unresolved:
+            need.append(f"`{m}` no stable step resolved")
         elif f.dt_max:
             need.append(f"`{m}` {math.ceil(frame / f.dt_max)} (h·ω_max {r.value:.3g})")
     if not survive and not need:

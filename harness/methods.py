@@ -82,14 +82,43 @@ def parse_options(items: list[str] | None) -> dict[str, str]:
 
 #: The most iterations a scheme's option takes (projection passes, Newton iterations, substeps).
 MAX_ITERATIONS = 10**6
+#: A reference scheme's counts that are its convergence knob (``Option.tighten``): a projection's
+#: passes, ten times as many to converge further.
+KNOBS = {"iterations": 10}
 
 
 def declared_options(method: Method) -> dict[str, Option]:
     """The run-time options ``method`` takes, by name: a reference scheme's (``Scheme.options``,
     counts from 1), an engine mode's (``EngineMode.options``); a plugin's method takes none."""
     if isinstance(method, RefMethod):
-        return {name: Option(name, int, 1, MAX_ITERATIONS) for name in method.scheme.options}
+        scheme = method.scheme
+        counts = {name: Option(name, int, 1, MAX_ITERATIONS, default=default, tighten=KNOBS.get(name))
+                  for name, default in scheme.options.items()}
+        return {**counts, **scheme.kind.parameters(scheme)}
     return dict(getattr(method, "options_declared", None) or {})
+
+
+def convergence_knob(method: Method) -> Option | None:
+    """The option that is ``method``'s convergence knob (declared with ``Option.tighten``: a
+    projection's passes, an iterative solve's tolerance), None where it has none."""
+    return next((o for o in declared_options(method).values() if o.tighten), None)
+
+
+def tightened(method: Method) -> Method | None:
+    """``method`` with its convergence knob tightened: its value (set, else the declared default)
+    times ``tighten`` (ten times the passes, a tolerance a hundred times tighter), held to the
+    option's range; None where it has no knob, or the knob is already at its end of the range."""
+    knob = convergence_knob(method)
+    if knob is None:
+        return None
+    value = (getattr(method, "options", None) or {}).get(knob.name, knob.default)
+    if value is None:
+        return None
+    new = min(max(float(value) * knob.tighten, knob.low), knob.high)
+    new = int(round(new)) if knob.type is int else new
+    if new == value:
+        return None
+    return _with_options(method, {knob.name: new})
 
 
 def _with_options(method: Method, options: dict) -> Method:

@@ -28,6 +28,10 @@ class Row:
     meets: bool = False
     why: str = ""
     detail: str = ""
+    #: Where the row meets the tolerances and its method has a convergence knob: the same substeps
+    #: with the knob tightened (``harness.measures.advise.convergence``): {"method", "meets", "why",
+    #: "energy_error", "position_error"}; its "meets" False: the win rests on the solve's own error.
+    converged: dict | None = None
 
 
 @dataclass
@@ -38,7 +42,8 @@ class MethodAdvice:
     method: str
     status: str = "ok"              # ok, or crashed / timed_out where the search itself died
     homega_limit: float | None = None
-    limit_verdict: str = "not measured"   # limited, unbounded (stable at every h*omega searched), unstable
+    limit_verdict: str = "not measured"   # limited, unbounded (stable at every h*omega searched), unstable,
+    #                                       unresolved (no stable step resolved: harness.measures.stability)
     limit_searched: float | None = None   # the largest h*omega the limit search tried
     cost_per_step_s: float | None = None
     cost_timing: str = ""
@@ -93,6 +98,12 @@ class SweepEntry:
     searched: int = 0               # the most substeps run
     next_substeps: int | None = None  # the level not run where the cost or the cap bound ended the search
     why: str = ""
+    converged: dict | None = None   # where met: its convergence knob tightened (``records.advice.Row.converged``)
+
+    @property
+    def rests_on_solve(self) -> bool:
+        """Met, but missed once its solve converges further: the win rests on the solve's own error."""
+        return self.converged is not None and not self.converged["meets"]
 
 
 @dataclass
@@ -104,6 +115,7 @@ class SweepPoint:
     omega: float
     homega_one: float
     entries: list[SweepEntry] = field(default_factory=list)
+    position_tol: float | None = None   # the position tolerance at this value, absolute (None: not judged)
 
     @property
     def met(self) -> list[SweepEntry]:
@@ -150,13 +162,15 @@ class Crossover:
 class Request(Record):
     """What an advice or a sweep was asked, as its cell stores it (``harness.measures.advise.Request``,
     which validates it): ``hz`` frames per unit time over ``horizon``, within ``energy_tol``
-    (relative) and/or ``error_tol`` (absolute position error), searched up to ``max_substeps``."""
+    (relative) and/or ``error_tol`` (absolute position error) or ``error_rel`` (a share of the
+    scene's length scale), searched up to ``max_substeps``."""
 
     hz: float | None = None
     horizon: float | None = None
     energy_tol: float | None = None
     error_tol: float | None = None
     max_substeps: int | None = None
+    error_rel: float | None = None
 
 
 @dataclass(frozen=True)

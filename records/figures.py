@@ -5,6 +5,7 @@ field ``name`` is stored under ``KEYS.get(name, name)`` and a None figure is not
 (``records.cell`` stores them in a cell's ``data``)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from typing import ClassVar
 
@@ -149,6 +150,23 @@ class NominalRun(Record):
         return bool(self.series and len(self.series["t"]))
 
 
+#: Significant digits of every stability limit the report prints, measured or declared: the nightly's
+#: coarsest search bisects to 1e-4 relative, its limit the last stable step, up to 1e-4 below the
+#: boundary, so a fourth digit could print 0.9971 in one table and 0.9972 in another for one limit
+#: (Dormand-Prince's 0.997188). Three digits are what every search resolves.
+LIMIT_DIGITS = 3
+
+
+def limit_text(x, none: str = "none") -> str:
+    """A largest stable h*omega as every table prints it (``LIMIT_DIGITS``), the report and the commands alike: None -> ``none``,
+    inf -> ``unbounded``."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return none
+    if math.isinf(x):
+        return "unbounded"
+    return format(x, f".{LIMIT_DIGITS}g")
+
+
 @dataclass(frozen=True)
 class StabilityFigures(Figures):
     """``stability``: the largest stable h*omega (the value; inf where unbounded)."""
@@ -157,10 +175,11 @@ class StabilityFigures(Figures):
 
     criterion: str | None = None
     criterion_rule: str | None = None
-    verdict: str | None = None               # limited, unbounded, unstable
+    verdict: str | None = None               # limited, unbounded, unstable, unresolved
     dt_max: float | None = None
     unbounded: bool | None = None
     unstable_everywhere: bool | None = None
+    unresolved: bool | None = None           # no stable step resolved (``harness.measures.stability``)
     homega_searched: float | None = None
     rho_above_dt_max: float | None = None
     nominal: NominalRun | None = None        # the finite horizon's run at the suite's nominal dt
@@ -228,6 +247,8 @@ class AdviceFigures(Figures):
 
     hz: float | None = None
     request: dict | None = None
+    length_scale: float | None = None        # the scene's, that a relative position tolerance is a share of
+    position_tol: float | None = None        # the position tolerance on the scene (None: positions not judged)
     method: str | None = None
     status: str | None = None
     homega_limit: float | None = None
@@ -401,6 +422,7 @@ class SmallStepsSettings(Record):
     repeats: int | None = None
     cpu_s: float | None = None
     reference_stretch: float | None = None
+    label: str | None = None                 # the study's title where it is not its scene's id (a stiffened scene)
 
 
 @dataclass(frozen=True)
@@ -411,6 +433,20 @@ class SmallStepsFigures(Figures):
     rows: list | None = None
     paper_claims: list | None = None         # the paper's claims judged (not "claims": a cell's own key)
     settings: dict | None = None
+    #: Where the scene is not the paper's case (its reference stretches its soft springs), the study
+    #: on the scene with every spring stiff: {"rows", "paper_claims", "settings"} as above.
+    stiff: dict | None = None
+
+    def studies(self) -> list[tuple[list[SmallStepsRow], list[PaperClaim], SmallStepsSettings]]:
+        """Each study the cell holds (the scene's, then the stiffened scene's where there is one):
+        its rows, its judged claims and its settings."""
+        stiff = self.stiff or {}
+        return [([SmallStepsRow.from_data(r)[0] for r in rows or []],
+                 [PaperClaim.from_data(r)[0] for r in claims or []],
+                 SmallStepsSettings.from_data(settings or {})[0])
+                for rows, claims, settings in ((self.rows, self.paper_claims, self.settings),
+                                               (stiff.get("rows"), stiff.get("paper_claims"), stiff.get("settings")))
+                if rows]
 
     def study_rows(self) -> list[SmallStepsRow]:
         return [SmallStepsRow.from_data(r)[0] for r in self.rows or []]

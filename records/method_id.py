@@ -110,13 +110,19 @@ def scheme_name(method_id: str | None) -> str | None:
 
 @dataclass(frozen=True)
 class Option:
-    """A run-time option a method declares: its type (int or float) and its range, inclusive."""
+    """A run-time option a method declares: its type (int or float) and its range, inclusive;
+    ``default`` the value the method runs at where it is not set (None: not declared); ``tighten``,
+    where the option is the method's convergence knob (an iterative solve's passes or tolerance),
+    the factor that makes the solve converge further (10: ten times the passes; 0.01: a hundred
+    times tighter a tolerance; ``harness.methods.tightened``)."""
 
     name: str
     type: type
     low: float
     high: float
     doc: str = ""
+    default: float | None = None
+    tighten: float | None = None
 
     def check(self, method: str, value):
         """``value`` as this option's type, or InvalidInput naming the option and its range."""

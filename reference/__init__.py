@@ -45,12 +45,14 @@ from .schemes.velocity_verlet import velocity_verlet
 from .schemes.verlet import verlet
 from .schemes.verlet_constrained import verlet_constrained
 from .schemes.xpbd import xpbd
+from .schemes.xpbd_jacobi import xpbd_jacobi
 
 METHODS: dict[str, Scheme] = {s.id: s for s in (
     explicit_euler, semi_implicit_euler, semi_implicit_euler_position_first, verlet, velocity_verlet,
     leapfrog, rk4, implicit_euler, implicit_midpoint, forest_ruth, verlet_constrained,
     semi_implicit_euler_velocity_implicit, position_first_euler_decay_after_kick,
     position_first_euler_decay_before_kick, linearly_implicit_euler, implicit_euler_doubled, radau_iia2, pbd, xpbd,
+    xpbd_jacobi,
 )}
 #: Every explicit Runge-Kutta tableau (``schemes/runge_kutta.py``): a new entry there is a new scheme.
 METHODS.update({s.id: s for s in TABLEAUS if s.id not in METHODS})

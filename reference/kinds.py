@@ -70,6 +70,20 @@ class Kind:
         """Run-time options a caller may set on a scheme of this kind, with their defaults."""
         return {}
 
+    def parameters(self, scheme) -> dict:
+        """Run-time options that set a constant of the step rather than a count the drivers take
+        (``records.method_id.Option`` by name): bound into the scheme (``with_parameters``), whose
+        kind carries them to its step. None here."""
+        return {}
+
+    def with_parameters(self, scheme, values: dict):
+        """The scheme with these ``parameters`` set (InvalidInput where one cannot be carried)."""
+        return scheme
+
+    def parameter_values(self, scheme) -> dict:
+        """The parameters set on ``scheme`` (written into its method's id)."""
+        return {}
+
     def advance(self, scheme, scene, dt: float, kernels: dict, iterations: int | None = None,
                 substeps: int | None = None):
         """``advance(state, t) -> state``: one interpreted step of ``dt``; ``kernels`` maps the

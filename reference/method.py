@@ -51,11 +51,19 @@ class RefMethod:
     @property
     def id(self) -> str:
         """``ref:<scheme>``, with the options set written in (``ref:xpbd?iterations=1&substeps=10``)."""
-        return str(MethodId.of(REFERENCE, self.scheme.id, self.options))
+        return str(MethodId.of(REFERENCE, self.scheme.id,
+                               {**self.options, **self.scheme.kind.parameter_values(self.scheme)}))
 
     def with_options(self, options: dict) -> "RefMethod":
-        """The same scheme with ``options`` set (checked by the caller, ``harness.methods``)."""
-        return replace(self, options={**self.options, **options})
+        """The same scheme with ``options`` set (checked by the caller, ``harness.methods``): the
+        counts the drivers take kept in ``options``, the parameters of the step (``Kind.parameters``:
+        a Jacobi scheme's relaxation) bound into the scheme."""
+        kind = self.scheme.kind
+        declared = kind.parameters(self.scheme)
+        bound = {k: v for k, v in options.items() if k in declared}
+        counts = {k: v for k, v in options.items() if k not in declared}
+        scheme = kind.with_parameters(self.scheme, bound) if bound else self.scheme
+        return replace(self, scheme=scheme, options={**self.options, **counts})
 
     def available(self) -> tuple[bool, str]:
         return True, ""

@@ -9,7 +9,8 @@ from records.cell import Cell
 from .text import Footnotes, fmt as _fmt, of_measure as _of
 
 #: What the At-Hz section says of a request no advice cell carried.
-REQUEST_UNKNOWN = {"energy_tol": None, "error_tol": None, "horizon": float("nan"), "max_substeps": "?"}
+REQUEST_UNKNOWN = {"energy_tol": None, "error_tol": None, "error_rel": None, "horizon": float("nan"),
+                   "max_substeps": "?"}
 
 
 def frame_rates(cells: list[Cell]) -> list[float]:
@@ -19,6 +20,13 @@ def frame_rates(cells: list[Cell]) -> list[float]:
 def _per_frame(row: dict) -> str:
     c = row["cost_per_frame_s"]
     return "–" if c is None else f"{c * 1e6:.3g} µs"
+
+
+def _converged(row: dict) -> str:
+    c = row.get("converged")
+    if c is None:
+        return "–"
+    return "yes" if c["meets"] else f"no: `{c['method']}` {c['why']}"
 
 
 def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]:
@@ -36,11 +44,19 @@ def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]
         tol.append(f"energy error ≤ {request['energy_tol']:g}")
     if request["error_tol"] is not None:
         tol.append(f"position error ≤ {request['error_tol']:g}")
+    elif request["error_rel"] is not None:
+        tol.append(f"position error ≤ {100 * request['error_rel']:g}% of the scene's length scale")
+    accuracy = request["error_tol"] is not None or request["error_rel"] is not None
     lines = [f"## At {hz:g} Hz", "",
+             *([] if accuracy else ["**No accuracy tolerance: the energy alone judged, not where the positions end.**",
+                                    ""]),
              f"Which method, with how many substeps a frame, keeps each scene stable and within "
              f"{' and '.join(tol) or 'the tolerances'} over {request['horizon']:g} s at {hz:g} "
              f"frames a second, for the least cost per frame (`harness advise`; substeps 1 to "
-             f"{request['max_substeps']}, cost = substeps × the cost cell's CPU time per step).", ""]
+             f"{request['max_substeps']}, cost = substeps × the cost cell's CPU time per step). An iterative "
+             "method that meets them is run again with its convergence knob tightened (ten times the passes, a "
+             "tolerance a hundred times tighter): *converged* no where that misses them, its win resting on the "
+             "solve's own error.", ""]
     by_scene: dict = {}
     for c in rows:
         by_scene.setdefault(c.scene, []).append(c)
@@ -58,14 +74,26 @@ def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]
                 meeting.append((row["cost_per_frame_s"] or math.inf, r.method, row))
         meeting.sort(key=lambda m: (m[0], m[1]))
         lines += [f"### `{scene}` at {hz:g} Hz", ""]
+        position_tol = next((r.figures.position_tol for r in grp if r.figures.position_tol is not None), None)
+        scale = next((r.figures.length_scale for r in grp if r.figures.length_scale is not None), None)
+        if position_tol is not None:
+            lines += [f"Position tolerance here: {position_tol:.3g}"
+                      + (f" ({100 * request['error_rel']:g}% of the scene's length scale {scale:.3g})"
+                         if request["error_tol"] is None and scale is not None else "") + ".", ""]
+        elif accuracy:
+            lines += ["No accuracy tolerance here: the scene has no reference solution to hold the positions "
+                      "against; the energy alone judged.", ""]
         if meeting:
             _, method, row = meeting[0]
+            rests = row.get("converged") is not None and not row["converged"]["meets"]
             lines.append(f"**Advised: `{method}`, {row['substeps']} substep{'s' if row['substeps'] > 1 else ''}, "
-                         f"{_per_frame(row)} per frame.**")
+                         f"{_per_frame(row)} per frame"
+                         + (f"; its win rests on the solve's own error (`{row['converged']['method']}` misses "
+                            f"them)" if rests else "") + ".**")
         else:
             lines.append("**No method meets the tolerances here.**")
         lines += ["", "| rank | method | substeps | h·ω | energy error | class | position error | per frame | "
-                      "evals/frame |", "|---|---|---|---|---|---|---|---|---|"]
+                      "evals/frame | converged |", "|---|---|---|---|---|---|---|---|---|---|"]
         notes = Footnotes()
         reasons = {r.method: r.figures.evals_reason for r in grp if r.status == "ok"}
         for i, (_, method, row) in enumerate(meeting[:5], start=1):
@@ -73,9 +101,9 @@ def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]
                 reasons.get(method) and f"`{method}` counts no force evaluations: {reasons[method]}"))
             lines.append(f"| {i} | `{method}` | {row['substeps']} | {row['homega']:.3g} | {_fmt(row['energy_error'], '.2e')} | "
                          f"{row['energy_class'] or '–'} | {_fmt(row['position_error'], '.2e')} | "
-                         f"{_per_frame(row)} | {evals} |")
+                         f"{_per_frame(row)} | {evals} | {_converged(row)} |")
         if len(meeting) > 5:
-            lines.append(f"| | {len(meeting) - 5} more meet them | | | | | | | |")
+            lines.append(f"| | {len(meeting) - 5} more meet them | | | | | | | | |")
         lines.append("")
         lines += notes.lines()
         if failing:

@@ -266,9 +266,10 @@ def stability_chart(cells: list[Cell], scene: str, path: Path, styles: dict | No
     small = [r.value for r in rows if r.value is not None and 0 < r.value < 10 and not math.isnan(r.value)]
     for i, r in enumerate(rows):
         f = r.figures
-        if f.unstable_everywhere:
+        if f.unstable_everywhere or f.unresolved:
             ax.barh(i, 0.0)
-            ax.text(0.02, i, "unstable for every h", va="center", fontsize=7)
+            ax.text(0.02, i, "unstable for every h" if f.unstable_everywhere else "no stable step resolved",
+                    va="center", fontsize=7)
         elif f.unbounded:
             bound = f.homega_searched or 100.0
             ax.barh(i, bound, hatch="//", color="0.85", edgecolor="0.4")

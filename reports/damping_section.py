@@ -8,15 +8,15 @@ import math
 
 from records.cell import Cell
 
+from .text import limit_text
+
 CHECK, CROSS = "✓", "✗"
 
 
 def _limit(v) -> str:
-    if v is None:
-        return "none"
     if isinstance(v, float) and math.isinf(v):
         return "∞"
-    return f"{v:.4g}"
+    return limit_text(v)
 
 
 def damping_stability_section(cells: list[Cell], chart_name: str | None) -> list[str]:

@@ -29,7 +29,7 @@ from .history_section import history_charts, history_section
 from .advice_section import frame_rates, advice_section
 from .position_based_section import position_based_section
 from .run_section import appendix, footer
-from .text import Footnotes, fmt as _fmt, of_measure as _of
+from .text import Footnotes, fmt as _fmt, limit_text, of_measure as _of
 
 CHECK, CROSS = "✓", "✗"
 
@@ -41,20 +41,18 @@ def homega_text(cell: Cell | None) -> str:
     f = cell.figures
     if f.unstable_everywhere:
         return "none (ρ > 1 for every h)"
+    if f.unresolved:
+        return "no stable step resolved"
     if f.unbounded:
         searched = f.homega_searched if f.homega_searched is not None else float("nan")
         return f"unbounded (searched to {searched:.3g})"
-    return _fmt(cell.value, ".4g")
+    return limit_text(cell.value, none="–")
 
 
 def claim_homega_text(c) -> str:
-    if c is None:
-        return "none"
     if c == "?":  # no claims known: every cell of the scheme failed before measuring
         return c
-    if c == math.inf or c == "inf":
-        return "unbounded"
-    return f"{float(c):.4g}"
+    return limit_text(None if c is None else float(c))
 
 
 def mark(ok) -> str:
@@ -170,7 +168,8 @@ def identity_table(piv: dict) -> list[str]:
         runner = f"`{f.runner_up}` ({_fmt(f.runner_up_deviation, '.2e')})" if f.runner_up else "–"
         matches = f.all_matches
         said = " = ".join(f"`{m}`" for m in matches) if matches else f"none (closest `{f.closest}`)"
-        dev = _fmt(row.value, '.2e') + (" (float32: matched at float32 rounding)" if f.precision == "float32" else "")
+        dev = _fmt(row.value, '.2e') + ("" if f.precision != "float32" else " (float32: matched at float32 rounding)"
+                                        if matches else " (float32: no scheme within float32 rounding)")
         lines.append(f"| `{method}` | {scene} | {said} | {dev} | {runner} |")
     if not n:
         lines.append("| _no engine modes in this run_ | | | | |")

@@ -50,19 +50,26 @@ def sweep_section(scene: str, piv: dict) -> list[str]:
         points = f.sweep_points()
         families = list(dict.fromkeys(e.family for p in points for e in p.entries))
         tol = " and ".join(t for t in (f"energy error ≤ {r.energy_tol:g}" if r.energy_tol else "",
-                                       f"position error ≤ {r.error_tol:g}" if r.error_tol else "") if t)
+                                       f"position error ≤ {r.error_tol:g}" if r.error_tol else
+                                       f"position error ≤ {100 * r.error_rel:g}% of the scene's length scale"
+                                       if r.error_rel else "") if t)
+        if not (r.error_tol or r.error_rel):
+            tol = f"{tol}, no accuracy tolerance (positions not judged)"
         params = ", ".join(f"{k}={v:g}" for k, v in (f.params or {}).items())
         lines += [f"**Where the trade-off flips on {_title(f, scene)}** ({params}): the cheapest frame of each family "
                   f"against {f.param}, at {f.hz:g} Hz over {_fmt(r.horizon, 'g')} s, {tol or 'the tolerances'}. "
                   f"Each method is searched to {_fmt(r.max_substeps, 'd', '?')} substeps, then doubled until it meets "
                   f"them, its frame would cost more than {f.factor:g} × the cheapest, or past {f.cap} substeps; "
                   f"cost per frame = substeps × the compiled kernel's (an engine mode's step's) {f.clock.upper()}-clock "
-                  "time per step.", "",
+                  "time per step. Each pick: its energy error E and position error x; * where its win rests on "
+                  "the solve's own error (it misses the tolerances with its convergence knob tightened: ten times "
+                  "the passes, a tolerance a hundred times tighter).", "",
                   f"| {f.param} | h·ω at 1 substep | " + " | ".join(family_name(k) for k in families) + " | cheapest |",
                   "|---|---|" + "---|" * len(families) + "---|"]
         for p in points:
             from_family = _family_costs(p)
-            cols = [(f"`{e.method}` {e.substeps} × = {_us(e.cost_per_frame_s)}" if e else "–")
+            cols = [(f"`{e.method}` {e.substeps} × = {_us(e.cost_per_frame_s)} (E {_fmt(e.energy_error, '.2g')}, "
+                     f"x {_fmt(e.position_error, '.2g')}){RESTS if e.rests_on_solve else ''}" if e else "–")
                     for e in (from_family.get(k) for k in families)]
             best = p.cheapest
             lines.append(f"| {p.value:.3g} | {p.homega_one:.3g} | " + " | ".join(cols)
@@ -83,6 +90,10 @@ def sweep_section(scene: str, piv: dict) -> list[str]:
     for c in broken:
         lines += [f"Sweep in `{c.method}`'s task: {c.status}: {c.detail or '–'}", ""]
     return lines
+
+
+#: The mark of a pick whose win rests on its solve's own error (escaped: a bare * is emphasis in markdown).
+RESTS = " \\*"
 
 
 def _family_costs(point) -> dict:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from records.cell import Cell
+from records.figures import limit_text  # noqa: F401 - the one rule, printed by every section
 
 _SUPERSCRIPTS = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
 

@@ -61,6 +61,11 @@ class Kepler(Scene):
         # Mean motion n = sqrt(GM/a^3) with a = 1: one orbit is 2 pi / n.
         return math.sqrt(self.values["GM"])
 
+    @property
+    def length_scale(self) -> float:
+        """The orbit's semi-major axis, a = 1."""
+        return 1.0
+
     def energy(self, q, v):
         gm = self.values["GM"]
         r = np.sqrt(q[..., 0] ** 2 + q[..., 1] ** 2)

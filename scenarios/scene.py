@@ -264,6 +264,12 @@ class Scene:
         can leave or collide."""
         return []
 
+    def identification_run(self) -> tuple[float, int] | None:
+        """(dt, steps) of the run ``harness identify`` holds an engine mode against the reference
+        schemes on, where its default (100 steps a period of ``omega``, 1000 steps) cannot tell
+        them apart; None: the default."""
+        return None
+
     def exact_energy(self, t: np.ndarray) -> np.ndarray:
         """Exact energy at times t. Conservative scenes keep their initial energy."""
         q0, v0 = self.initial_state()
@@ -272,6 +278,17 @@ class Scene:
     @property
     def period(self) -> float:
         return 2.0 * math.pi / self.omega
+
+    @property
+    def length_scale(self) -> float:
+        """The scene's size in the unit of its positions: what a position error is judged against
+        (``harness advise``'s accuracy tolerance is a share of it). Here the size of the initial
+        state, max(max |q0|, max |v0| / omega): a displacement's amplitude (the spring, the chain,
+        the pendulum's angle), the places of points laid out from the origin (the rope), a drag
+        rate's reach (the projectile, v0 / gamma). A scene whose positions say another size declares its own."""
+        q0, v0 = self.initial_state()
+        size = max(float(np.max(np.abs(q0), initial=0.0)), float(np.max(np.abs(v0), initial=0.0)) / self.omega)
+        return size if size > 0.0 and math.isfinite(size) else 1.0
 
     # ------------------------------------------------------------- derived
     @property

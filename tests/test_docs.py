@@ -173,3 +173,88 @@ def test_every_docs_page_the_readme_links_exists():
     assert links, "README.md links no docs/ page"
     missing = sorted(link for link in links if not (ROOT / link).is_file())
     assert not missing, f"README.md links docs/ pages that do not exist: {missing}"
+
+
+#: README commands whose output is neither timed nor minutes long: their excerpts are run and held
+#: to the real output. (``advise``, ``workprecision``, ``cost`` and ``bench`` print timings; ``model``,
+#: ``nightly`` and Newton's identification run for minutes: their excerpts are measured by hand.)
+CHECKED_COMMANDS = ("list", "run", "identify spring --method mujoco:", "identify spring --method drake:", "energy",
+                    "order", "stability")
+#: The one mark of rows an excerpt leaves out.
+ELIDED = "…"
+
+
+def readme_excerpts() -> list[tuple[str, list[str]]]:
+    """(command, the lines README shows of its output) for every ``$ harness ...`` in README's code blocks."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    out = []
+    for block in re.findall(r"```\n(.*?)```", text, re.S):
+        command, shown = None, []
+        for line in block.splitlines():
+            if line.startswith("$ harness "):
+                if command is not None:
+                    out.append((command, shown))
+                command, shown = line[len("$ harness "):], []
+            elif command is not None:
+                shown.append(line)
+        if command is not None:
+            out.append((command, shown))
+    return out
+
+
+def elision_errors(shown: list[str], real: list[str]) -> list[str]:
+    """What is wrong with an excerpt of ``real``: a line shown that the command does not print (in
+    order), or rows left out with no ``…`` where they were."""
+    errors, at, gap = [], -1, False
+    for line in shown:
+        if line.strip() == ELIDED:
+            gap = True
+            continue
+        try:
+            i = real.index(line, at + 1)
+        except ValueError:
+            errors.append(f"not printed (or out of order): {line!r}")
+            continue
+        if i != at + 1 and not gap:
+            errors.append(f"rows left out before {line!r} with no {ELIDED}")
+        at, gap = i, False
+    if at < len(real) - 1 and not gap:
+        errors.append(f"rows left out after the last line shown with no {ELIDED}")
+    return errors
+
+
+def test_the_elision_rule():
+    real = ["a", "b", "c", "d"]
+    assert elision_errors(["a", "b", "c", "d"], real) == []
+    assert elision_errors(["a", ELIDED, "d"], real) == [] and elision_errors(["a", "b", ELIDED], real) == []
+    assert elision_errors(["a", "d"], real) == ["rows left out before 'd' with no …"]
+    assert elision_errors(["a", "b"], real) == ["rows left out after the last line shown with no …"]
+    assert elision_errors(["a", "x"], real)[0].startswith("not printed")
+
+
+def test_readme_excerpts_are_the_commands_real_output_and_mark_what_they_leave_out(capsys):
+    """Issue 42: README's excerpts dropped rows without a mark. Every excerpt of a command that prints
+    no timing is run here and held to its output, rows left out marked ``…``; every excerpt marks
+    with ``…`` alone, never "..."."""
+    import shlex
+
+    from harness.cli import main
+
+    excerpts = readme_excerpts()
+    assert not [line for _, shown in excerpts for line in shown if line.strip() == "..."]
+    checked = 0
+    for command, shown in excerpts:
+        if not command.startswith(CHECKED_COMMANDS):
+            continue
+        capsys.readouterr()
+        main(shlex.split(command))
+        real = capsys.readouterr().out.splitlines()
+        assert not elision_errors(shown, real), (command, elision_errors(shown, real))
+        checked += 1
+    assert checked >= 6  # list, run, identify, energy, order, stability
+
+
+def test_the_model_file_readme_runs_is_shipped():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    files = re.findall(r"harness model (\S+\.(?:xml|urdf))", text)
+    assert files and all((ROOT / f).is_file() for f in files), files

@@ -22,6 +22,14 @@ def test_a_band_is_bounded_and_a_steady_growth_grows():
     assert classify(np.exp(1e-4 * T), ONE, T)["classification"] == "grows"
 
 
+def test_a_decay_says_the_error_grew_not_the_energy():
+    """An energy that decays has an error whose envelope grows: the rule says which envelope
+    ('decays (envelope grew; ...)' read as a contradiction), with its two figures."""
+    res = classify(np.exp(-1e-4 * T), ONE, T)
+    assert res["classification"] == "decays"
+    assert res["rule"].startswith("the error's envelope grew from 1.00e-02 in the first tenth to 1.00e-01 in the last")
+
+
 def test_saturation_at_order_one_is_not_bounded():
     # Energy gained quickly (within the first tenth), then flat at +92%: the envelope stops
     # growing, so the envelope test alone read it as bounded.

@@ -51,6 +51,7 @@ def test_evaluations_energy_and_the_claims_judged_against():
     (2.0, 2.0 * (1 + 1.01 * judge.STABILITY_TOL), {}, False),
     (2.0, math.inf, {"unbounded": True}, False),
     (None, None, {"unstable_everywhere": True}, True),   # explicit Euler: no h is stable
+    (None, None, {"unresolved": True}, True),            # Heun: growing at every step, no stable step resolved
     (None, 2.0, {}, False),
     (math.inf, math.inf, {"unbounded": True}, True),     # backward Euler: every h is
     (math.inf, 50.0, {}, False),
@@ -58,6 +59,34 @@ def test_evaluations_energy_and_the_claims_judged_against():
 def test_the_stability_limit_against_its_claim(claim, value, figures, ok):
     claims = Claims(scheme="ref:x", homega_max=claim)
     assert checks(cell("stability", value, claims=claims, **figures)).homega is ok
+
+
+def test_no_stable_step_resolved_reads_check_none_in_the_tradeoff_table():
+    """Heun's row (issue 42): the measured limit is no number where the search resolves no stable
+    step, and agrees with the declared none."""
+    from records.cell import pivot
+    from reports.markdown import tradeoff_table
+
+    claims = Claims(scheme="ref:heun", order=2, force_evals=2, force_evals_text="2", energy="grows", homega_max=None)
+    stab = cell("stability", None, method="ref:heun", claims=claims, verdict="unresolved", unresolved=True)
+    piv = pivot([stab])
+    row = next(line for line in tradeoff_table(piv, judge.judge([stab]).claims) if "ref:heun" in line)
+    assert row.endswith(f"| no stable step resolved [none] {CHECK} |")
+
+
+def test_an_identity_row_says_matched_only_where_a_scheme_matched():
+    from records.cell import pivot
+    from reports.markdown import identity_table
+
+    def row(**figures):
+        c = cell("identity", 6.97e-3, method="newton:xpbd", scene="cloth", claims=Claims(), precision="float32",
+                 **figures)
+        return next(line for line in identity_table(pivot([c])) if "newton:xpbd" in line)
+
+    unmatched = row(closest="ref:linearly_implicit_euler")
+    assert "none (closest `ref:linearly_implicit_euler`)" in unmatched and "matched" not in unmatched
+    assert "no scheme within float32 rounding" in unmatched
+    assert "(float32: matched at float32 rounding)" in row(match="ref:xpbd_jacobi", matches=["ref:xpbd_jacobi"])
 
 
 def test_a_method_without_claims_is_not_judged():

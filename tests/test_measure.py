@@ -31,7 +31,7 @@ from scenarios import make_scene
 from scenarios.pendulum import Pendulum
 from records.trajectory import UNSTABLE
 from theory import (ENERGY_DT, ENERGY_STEPS, ORDER_SCENES, ORDER_TOL, ORDER_TOL_FOR, REF_ENERGY, REF_EVALS, REF_ORDER,
-                    REF_STABILITY, STABILITY_RTOL, UNBOUNDED, UNSTABLE as NEVER_STABLE)
+                    REF_STABILITY, STABILITY_RTOL, UNBOUNDED, UNRESOLVED, UNSTABLE as NEVER_STABLE)
 
 
 class Delegate:
@@ -82,11 +82,34 @@ def test_largest_stable_dt_on_spring(spring, sid):
     elif expected == UNBOUNDED:
         assert res.verdict == "unbounded" and res.dt_max is None
         assert res.dt_searched_max == pytest.approx(stability.HOMEGA_HI)
+    elif expected == UNRESOLVED:
+        assert res.verdict == "unresolved" and res.dt_max is None and res.omega_dt_max is None
+        assert res.detail.startswith("no stable step resolved")
     else:
         assert res.verdict == "limited"
         assert res.omega_dt_max == pytest.approx(expected, rel=STABILITY_RTOL)
         assert res.dt_max == res.omega_dt_max / spring.omega
         assert res.spectral["rho"] <= 1.0 + stability.RHO_TOL < res.rho_above_dt_max
+
+
+def test_a_growth_below_the_search_resolution_is_no_limit(spring):
+    """Heun on the spring grows at every step, rho - 1 = y^4/8 + O(y^6) (|R(iy)|^2 = 1 + y^4/4):
+    below RHO_TOL up to y = 0.00168, where the bisection ends. The search says so instead of
+    reporting 0.00168: rho - 1 at the last step called stable is RHO_TOL (the bisection's end, to
+    its 1e-6 relative width times the power 4), and 1/16 of it at half that step (y^4), both > 0;
+    rho - 1 of 1e-12 read from the eigenvalues of a map whose entries carry eps (1e-16) is good to
+    about 1e-4 relative, the step where it crosses to a quarter of that: the tolerances below.
+    Semi-implicit Euler (rho = 1 to roundoff below 2) and RK4 (rho < 1 below 2 sqrt 2) keep their
+    limits: the rule reads their growth at the limit as none."""
+    res = stability.largest_stable_dt("ref:heun", spring)
+    y = (8.0 * stability.RHO_TOL) ** 0.25
+    assert res.verdict == "unresolved" and res.first_unstable_omega_dt == pytest.approx(y, rel=1e-4)
+    rho = lambda h: stability.recurrence_map("ref:heun", spring, h)["rho"]  # noqa: E731
+    unresolved, at, half = stability.growth_unresolved(rho, res.spectral["omega_dt"])
+    assert unresolved and at == pytest.approx(stability.RHO_TOL, rel=1e-3) and half == pytest.approx(at / 16, rel=1e-2)
+    for sid, limit in (("semi_implicit_euler", 2.0), ("rk4", 2.0 * math.sqrt(2.0))):
+        rho = lambda h, sid=sid: stability.recurrence_map(f"ref:{sid}", spring, h)["rho"]  # noqa: E731
+        assert not stability.growth_unresolved(rho, limit * (1 - 1e-6))[0]
 
 
 def test_explicit_euler_is_unstable_at_every_dt_searched(spring):

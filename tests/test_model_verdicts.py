@@ -20,25 +20,9 @@ from harness.measures import cross_engine as ce  # noqa: E402
 
 #: Three hinges with joint stiffness and armature, no gravity, no contacts: capsules whose
 #: masses the file states (0.7, 0.5, 0.3 kg), so Bullet's loader, which takes a geom's mass
-#: from its volume and density, builds other bodies.
-CHAIN = """<mujoco model="chain3">
-  <option timestep="0.002" gravity="0 0 0"/>
-  <worldbody>
-    <body name="b1">
-      <joint name="j1" type="hinge" axis="0 1 0" stiffness="40" armature="0.05" damping="0.2"/>
-      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="0.7" contype="0" conaffinity="0"/>
-      <body name="b2" pos="0.3 0 0">
-        <joint name="j2" type="hinge" axis="0 1 0" stiffness="25" armature="0.03"/>
-        <geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.025" mass="0.5" contype="0" conaffinity="0"/>
-        <body name="b3" pos="0.25 0 0">
-          <joint name="j3" type="hinge" axis="0 1 0" stiffness="10" armature="0.02"/>
-          <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02" mass="0.3" contype="0" conaffinity="0"/>
-        </body>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+#: from its volume and density, builds other bodies. Shipped for README's ``harness model``.
+CHAIN_FILE = Path(__file__).resolve().parents[1] / "scenarios" / "data" / "chain.xml"
+CHAIN = CHAIN_FILE.read_text()
 #: (length, radius) of each capsule above.
 CAPSULES = {"b1": (0.3, 0.03), "b2": (0.25, 0.025), "b3": (0.2, 0.02)}
 

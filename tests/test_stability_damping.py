@@ -72,6 +72,17 @@ def test_damping_moves_the_limit_the_way_the_damping_is_treated():
     assert theory_limit("explicit_euler", 0.0)["homega_max"] is None
 
 
+def test_heuns_undamped_row_is_no_stable_step_resolved_in_theory_and_measured():
+    """Heun undamped grows at every step by y^4/8, below RHO_TOL up to y = 0.00168: theory and
+    measure both say none (issue 42), not 0.00168; damped (zeta 0.05), its growth is resolved
+    as a decay below a limit, and both give the same number."""
+    res = limit_vs_damping(get_method("ref:heun"), zetas=(0.0, 0.05))
+    undamped, damped = res["rows"]
+    assert (undamped["measured"], undamped["theory"], undamped["verdict"], undamped["agrees"]) == (
+        None, None, "unresolved", True)
+    assert damped["verdict"] == "limited" and damped["agrees"] and damped["measured"] > 0.1
+
+
 @pytest.mark.parametrize("sid", ONE_STEP)
 def test_each_reference_scheme_measures_its_theory_at_every_damping_ratio(sid):
     res = limit_vs_damping(get_method(f"ref:{sid}"))

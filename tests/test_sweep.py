@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from harness.cli import main
+from harness.cli.advise import sweep_lines
 from harness.measures.advise import Request
 from harness.measures.sweep import crossovers, family_of, parse_grid, run_sweep
 from harness.methods import get_method
@@ -115,7 +116,10 @@ def test_the_command_prints_the_sweep_and_its_json(injected, capsys):
             "--methods", "ref:leapfrog,ref:semi_implicit_euler", "--sweep", "k=1..4:2", "--factor", "100", "--jobs", "1"]
     assert main(argv) == 0
     out = capsys.readouterr().out
-    assert "sweep spring (m=1, x0=1, v0=0) over k = 1 .. 4 (2 values, log) at 60 Hz over 10" in out
+    assert ("sweep spring (m=1, x0=1, v0=0) over k = 1 .. 4 (2 values, log) at 60 Hz over 10: energy error <= 0.001 "
+            "and position error <= 0.05 (5% of the scene's length scale 1)") in out
+    # Each pick with its energy and position error (leapfrog at 1/60: h*omega/2 squared, and its phase).
+    assert "ref:leapfrog 1 x 0.01 (E 6.9e-05, x 9.2e-05)" in out
     assert "no crossover: the cheapest family is explicit substeps at every value" in out
     row = next(line for line in out.splitlines() if line.strip().startswith("ref:semi_implicit_euler"))
     assert row.split()[1:] == ["16:", "0.16", "32:", "0.32"]
@@ -123,6 +127,26 @@ def test_the_command_prints_the_sweep_and_its_json(injected, capsys):
     d = json.loads(capsys.readouterr().out)
     assert d["param"] == "k" and d["grid"] == [1.0, 4.0] and d["clock"] == "cpu" and d["crossovers"] == []
     assert [e["substeps"] for p in d["points"] for e in p["entries"]] == [1, 16, 1, 32]
+
+
+def test_a_pick_whose_win_rests_on_its_passes_is_marked(tmp_path, monkeypatch):
+    """Issue 42's cloth at k = 1e5, the energy alone asked (no accuracy tolerance, said first):
+    XPBD's one substep keeps 53% of the energy (within 0.5), at a hundred passes 49%: the pick
+    carries a * and the legend says why; the convergence check ran and is in the JSON."""
+    path = tmp_path / "timings.json"
+    path.write_text(json.dumps({"s_per_step": {"ref:xpbd": 1e-8, "*": 1e-6}}))
+    monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
+    cloth = make_scene("cloth", n=4, m=4)
+    request = Request(hz=60, horizon=2, energy_tol=0.5, max_substeps=1, error_rel=None)
+    sw = run_sweep(cloth, parse_grid("k=5e4..1e5:2", cloth), request, ["ref:xpbd"], pool=False)
+    xpbd = sw.points[-1].entries[0]
+    assert xpbd.ended == "met" and xpbd.substeps == 1 and xpbd.rests_on_solve
+    assert xpbd.converged["method"] == "ref:xpbd?iterations=100" and xpbd.converged["energy_error"] > 0.5
+    lines = list(sweep_lines(sw))
+    assert lines[0].endswith("energy error <= 0.5; no accuracy tolerance (positions not judged)")
+    assert any("ref:xpbd 1 x 0.01 (E 0.47, x -)*" in line for line in lines)
+    assert any("*: its win rests on the solve's own error" in line for line in lines)
+    assert sw.as_dict()["points"][-1]["entries"][0]["converged"]["meets"] is False
 
 
 # ----------------------------------------------------------------------------- families and the crossover
@@ -212,7 +236,20 @@ def test_the_section_and_the_chart_are_drawn_from_the_cells(tmp_path):
     lines = sweep_section("cloth", piv)
     assert lines[0].startswith("**Where the trade-off flips on `cloth` 4 x 4** (n=4, m=4)")
     assert "| k | h·ω at 1 substep | explicit substeps | implicit solves | cheapest |" in lines
-    assert "| 1e+04 | 9 | `ref:explicit_scheme` 4 × = 32 µs | `ref:implicit_scheme` 4 × = 8 µs | implicit solves |" in lines
+    assert ("| 1e+04 | 9 | `ref:explicit_scheme` 4 × = 32 µs (E –, x –) | `ref:implicit_scheme` 4 × = 8 µs (E –, x –) "
+            "| implicit solves |") in lines
+    assert "energy error ≤ 0.5, no accuracy tolerance (positions not judged)" in lines[0]
+    # A pick with its errors, its win resting on its solve's own error: marked.
+    marked = [_point(1e2, 1.0, explicit=1.0), _point(1e3, 3.0, explicit=4.0)]
+    e = marked[1].entries[0]
+    e.energy_error, e.position_error = 0.47, 0.233
+    e.converged = {"method": "ref:explicit_scheme?iterations=100", "meets": False, "why": "energy falls 51%",
+                   "energy_error": 0.51, "position_error": 0.2}
+    cell = _cell(marked)
+    cell.figures.request.update(error_rel=0.05)
+    text = sweep_section("cloth", {("cloth", cell.method): {"sweep": cell}})
+    assert "| 1e+03 | 3 | `ref:explicit_scheme` 4 × = 4 µs (E 0.47, x 0.23) \\* | explicit substeps |" in text
+    assert "position error ≤ 5% of the scene's length scale" in text[0]
     assert any(line.startswith("Crossover: explicit substeps (`ref:explicit_scheme`) → implicit solves") for line in lines)
     path = tmp_path / "sweep.png"
     assert sweep_chart(cells, "cloth", path) and path.stat().st_size > 10_000

@@ -7,7 +7,7 @@ spring, omega = 1).
 import math
 
 SQRT8 = 2.0 * math.sqrt(2.0)
-UNBOUNDED, UNSTABLE = "unbounded", "unstable"
+UNBOUNDED, UNSTABLE, UNRESOLVED = "unbounded", "unstable", "unresolved"
 
 #: Largest stable h*omega on `spring`, "within 0.5%" (issue 4). Theory: the stability
 #: polynomials on the imaginary axis (docs/engines.md): 2 for the one-evaluation symplectic
@@ -32,9 +32,9 @@ REF_STABILITY = {
     "linearly_implicit_euler": UNBOUNDED,
     # The tableaus' stability polynomials (tests/test_tableau.py derives each): Heun 1 + y^4/4 > 1;
     # every three-stage third-order scheme sqrt(3); Dormand-Prince 5's fifth-order solution 0.99719.
-    # Heun's |R(i y)| - 1 = y^4/8 stays below the measure's RHO_TOL (1e-12) up to y = (8e-12)^(1/4):
-    # the spectral radius search reports that step as the limit, a step far below any usable one.
-    "heun": (4.0 * ((1.0 + 1e-12) ** 2 - 1.0)) ** 0.25,
+    # Heun's |R(i y)| - 1 = y^4/8 > 0 at every y, below the measure's RHO_TOL (1e-12) up to
+    # y = (8e-12)^(1/4) = 0.00168: no stable step resolved, never a limit of 0.00168.
+    "heun": UNRESOLVED,
     "kutta_rk3": math.sqrt(3.0),
     "bogacki_shampine3": math.sqrt(3.0),
     "dormand_prince5": 0.99719,
@@ -44,6 +44,7 @@ REF_STABILITY = {
     "radau_iia2": UNBOUNDED,
     "pbd": UNBOUNDED,
     "xpbd": UNBOUNDED,
+    "xpbd_jacobi": UNBOUNDED,
 }
 ENGINE_STABILITY = {
     "mujoco:euler": 2.0,
@@ -85,6 +86,7 @@ REF_ORDER = {
     "radau_iia2": 3,
     "pbd": 1,
     "xpbd": 1,
+    "xpbd_jacobi": 1,
 }
 #: (method, scene) -> order. The engines' scenes: the spring for MuJoCo and pybullet,
 #: the Kepler orbit for REBOUND's leapfrog (docs/engines.md: 2nd order on it).
@@ -116,6 +118,7 @@ REF_ENERGY = {
     "radau_iia2": "decays",
     "pbd": "decays",
     "xpbd": "decays",
+    "xpbd_jacobi": "decays",
 }
 
 #: Counted (force evaluations, solves) per step on the spring (issue 4: "1, 1, 1, 4,

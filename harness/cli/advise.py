@@ -6,10 +6,11 @@ from __future__ import annotations
 import os
 
 from records import InvalidInput
+from records.figures import limit_text
 from scenarios import make_scene, parse_overrides
 
 from harness import validate
-from harness.measures.advise import HORIZON, MAX_SUBSTEPS, Request, advise
+from harness.measures.advise import ERROR_REL, HORIZON, MAX_SUBSTEPS, Request, advise, rests_on_solve, solve_note
 from harness.measures.sweep import CAP, CLOCK, FACTOR, POINTS, family_costs, family_name, parse_grid, run_sweep
 from harness.cli.measure_args import emit
 
@@ -22,7 +23,9 @@ def add_parser(sub):
     p.add_argument("--horizon", default=str(HORIZON), help=f"simulated time to hold the tolerances over "
                                                             f"(default {HORIZON:g})")
     p.add_argument("--energy-tol", help="largest |E - E_exact| / max |E_exact| allowed over the horizon")
-    p.add_argument("--error-tol", help="largest absolute position error allowed over the horizon")
+    p.add_argument("--error-tol", default=f"{100 * ERROR_REL:g}%",
+                   help="largest position error allowed over the horizon: ABS in the scene's units, P%% of the "
+                        f"scene's length scale, or none (default {100 * ERROR_REL:g}%%)")
     p.add_argument("--methods", action="append", metavar="PATTERNS",
                    help="comma-separated method ids or patterns (ref:*,mujoco:*); default: every method")
     p.add_argument("--max-substeps", default=str(MAX_SUBSTEPS), help=f"largest substep count tried "
@@ -42,9 +45,25 @@ def add_parser(sub):
     return p
 
 
+def position_tolerance(text) -> tuple[float | str | None, float | None]:
+    """``--error-tol``: (absolute, relative) from ``ABS``, ``P%`` or ``none`` (InvalidInput, one line)."""
+    t = str(text).strip()
+    if t.lower() == "none":
+        return None, None
+    if t.endswith("%"):
+        return None, validate.positive_finite("--error-tol", t[:-1]) / 100.0
+    try:
+        float(t)
+    except ValueError:
+        raise InvalidInput(f"--error-tol={text!r} is not a tolerance (allowed: ABS > 0 in the scene's units, "
+                           "P% of the scene's length scale, or none)") from None
+    return t, None
+
+
 def run(args) -> int:
-    request = Request(hz=args.hz, horizon=args.horizon, energy_tol=args.energy_tol, error_tol=args.error_tol,
-                      max_substeps=args.max_substeps).checked()
+    error_tol, error_rel = position_tolerance(args.error_tol)
+    request = Request(hz=args.hz, horizon=args.horizon, energy_tol=args.energy_tol, error_tol=error_tol,
+                      max_substeps=args.max_substeps, error_rel=error_rel).checked()
     jobs = validate.count("--jobs", args.jobs, 1, 1024)
     timeout = validate.positive_finite("--timeout", args.timeout)
     patterns = [p.strip() for item in args.methods or () for p in item.split(",") if p.strip()]
@@ -72,19 +91,31 @@ def _g(x, spec=".2e") -> str:
     return "-" if x is None else format(x, spec)
 
 
+def _converged(b, notes: dict) -> str:
+    """The converged column: - (no convergence knob), yes, or no with the note saying why."""
+    if b.converged is None:
+        return "-"
+    if b.converged["meets"]:
+        return "yes"
+    return f"no[{notes.setdefault(solve_note(b), len(notes) + 1)}]"
+
+
 def _lines(a):
+    from harness.measures.energy import MIN_PERIODS
+
     r = a.request
     params = ", ".join(f"{k}={v:g}" for k, v in a.params.items())
-    yield (f"advise {a.scene} ({params}) at {r.hz:g} Hz over {r.horizon:g}: {r.tolerances_text()}; "
-           f"substeps 1..{r.max_substeps}")
+    yield (f"advise {a.scene} ({params}) at {r.hz:g} Hz over {r.horizon:g}: "
+           f"{r.tolerances_text(a.length_scale, a.position_tol is not None)}; substeps 1..{r.max_substeps}")
     yield a.verdict()
     yield ""
     yield "meets the tolerances (cheapest frame first; the fewest substeps that meet them):"
     w = max([len(m.method) for m in a.meeting + a.failing] + [len(x["method"]) for x in a.left_out] + [6])
     head = (f"  {'method':{w}s} {'substeps':>8s} {'h*omega':>8s} {'limit':>8s} {'energy err':>10s} {'class':>8s} "
-            f"{'pos err':>9s} {'us/frame':>9s} {'evals/frame':>11s}")
+            f"{'pos err':>9s} {'us/frame':>9s} {'evals/frame':>11s} {'converged':>9s}")
     meeting = a.meeting
     notes: dict[str, int] = {}
+    solves: dict[str, int] = {}
     if meeting:
         yield head
         for m in meeting:
@@ -94,9 +125,17 @@ def _lines(a):
                 evals += f"[{notes.setdefault(m.evals_reason, len(notes) + 1)}]"
             yield (f"  {m.method:{w}s} {b.substeps:8d} {b.homega:8.3g} {_limit(m):>8s} {_g(b.energy_error):>10s} "
                    f"{b.energy_class or '-':>8s} {_g(b.position_error):>9s} {_us(b.cost_per_frame_s):>9s} "
-                   f"{evals:>11s}")
+                   f"{evals:>11s} {_converged(b, solves):>9s}")
         for reason, n in notes.items():
             yield f"  [{n}] evaluations not counted: {reason}"
+        for why, n in solves.items():
+            yield f"  no[{n}] {why}"
+        if a.periods is not None and a.periods < MIN_PERIODS and any(m.best_row.energy_class is None for m in meeting):
+            yield (f"  class -: the horizon holds {a.periods:.3g} periods of the scene's omega, fewer than the "
+                   f"{MIN_PERIODS:g} that tell a bounded band from a drift")
+        if any(m.best_row.converged is not None for m in meeting):
+            yield ("  converged: each iterative method again at its substeps with its convergence knob tightened "
+                   "(ten times the passes, a tolerance a hundred times tighter): yes, it still meets them")
     else:
         yield "  none"
     failing = a.failing
@@ -115,9 +154,9 @@ def _lines(a):
 def _limit(m) -> str:
     if m.limit_verdict == "unbounded":
         return ">" + format(m.limit_searched, ".3g")
-    if m.limit_verdict == "unstable":
+    if m.limit_verdict in ("unstable", "unresolved"):
         return "none"
-    return "-" if m.homega_limit is None else format(m.homega_limit, ".4g")
+    return "-" if m.homega_limit is None else limit_text(m.homega_limit)
 
 
 #: What a method's cell in the sweep's table says of each way its search ended.
@@ -131,6 +170,13 @@ def _cell(e) -> str:
     return f"{said}@{e.next_substeps}" if e.next_substeps else said
 
 
+def _pick(e) -> str:
+    """A family's pick at one value: method, substeps x us per frame, its errors, * where its win
+    rests on the solve's own error."""
+    return (f"{e.method} {e.substeps} x {_us(e.cost_per_frame_s)} (E {_g(e.energy_error, '.2g')}, "
+            f"x {_g(e.position_error, '.2g')}){'*' if e.rests_on_solve else ''}")
+
+
 def sweep_lines(sw):
     """The sweep as text: per value, each family's cheapest frame; the crossovers; then every
     method at every value (substeps: µs a frame, or the bound that ended its search)."""
@@ -138,7 +184,7 @@ def sweep_lines(sw):
     params = ", ".join(f"{k}={v:g}" for k, v in sw.params.items())
     g = sw.grid
     yield (f"sweep {sw.scene} ({params}) over {g.param} = {g.lo:g} .. {g.hi:g} ({len(g.values)} values, log) "
-           f"at {r.hz:g} Hz over {r.horizon:g}: {r.tolerances_text()}")
+           f"at {r.hz:g} Hz over {r.horizon:g}: {r.tolerances_text(sw.length_scale)}")
     yield (f"each method: substeps 1..{r.max_substeps}, then doubled until it meets them, its frame would cost "
            f"> {sw.factor:g} x the cheapest, or > {sw.cap} substeps; cost = substeps x compiled kernel / engine "
            f"step, {CLOCK.upper()} clock")
@@ -147,8 +193,7 @@ def sweep_lines(sw):
     cells = []
     for p in sw.points:
         costs = family_costs(p)
-        cells.append([f"{e.method} {e.substeps} x {_us(e.cost_per_frame_s)}" if e else "-"
-                      for e in (costs.get(f) for f in families)])
+        cells.append([_pick(e) if e else "-" for e in (costs.get(f) for f in families)])
     w = [max([len(family_name(f))] + [len(row[i]) for row in cells]) for i, f in enumerate(families)]
     yield (f"  {g.param:>9s} {'h*omega@1':>9s}  " + "  ".join(f"{family_name(f):{w[i]}s}" for i, f in enumerate(families))
            + "  cheapest (us per frame)")
@@ -156,6 +201,9 @@ def sweep_lines(sw):
         best = p.cheapest
         yield (f"  {p.value:9.3g} {p.homega_one:9.3g}  " + "  ".join(f"{c:{w[i]}s}" for i, c in enumerate(row))
                + f"  {family_name(best.family) if best else 'none'}")
+    yield ("  each pick: method, substeps x us per frame (E its energy error, x its position error)"
+           + ("; *: its win rests on the solve's own error (it misses the tolerances with its convergence knob "
+              "tightened)" if any(e.rests_on_solve for p in sw.points for e in p.entries) else ""))
     yield ""
     cross = sw.crossovers
     if not cross:
@@ -163,10 +211,13 @@ def sweep_lines(sw):
         yield ("no crossover: the cheapest family is " + ", ".join(family_name(f) for f in sorted(fam))
                + f" at every value" if fam else "no crossover: no method meets the tolerances at any value")
     for c in cross:
+        above = next((e for p in sw.points if p.value == c.above for e in p.entries if e.method == c.to_method), None)
+        rests = (f" ({c.to_method}'s win there rests on the solve's own error)"
+                 if above is not None and above.rests_on_solve else "")
         yield (f"crossover: {family_name(c.from_family)} ({c.from_method}) -> {family_name(c.to_family)} "
                f"({c.to_method}) between {g.param}={c.below:.3g} and {c.above:.3g}: "
                f"{'about' if c.interpolated else 'midway,'} {g.param} = {c.value:.3g}, h*omega = {c.homega_one:.3g} "
-               "at one substep")
+               f"at one substep{rests}")
     yield ""
     yield ("every method (substeps: us per frame; cost@S: S substeps would pass the factor, not run; cap@S: past "
            "the most substeps):")

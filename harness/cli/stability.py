@@ -47,6 +47,8 @@ def _lines(r):
         head = f"dt_max {r.dt_max:.6g} (h*omega {r.omega_dt_max:.6g})"
     elif r.verdict == "unbounded":
         head = f"unbounded (stable up to h*omega {r.omega_dt_searched[1]:g})"
+    elif r.verdict == "unresolved":
+        head = r.detail
     else:
         head = f"unstable for every dt searched (down to h*omega {r.omega_dt_searched[0]:g})"
     yield f"{r.method} on {r.scene}: {head}"

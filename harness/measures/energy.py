@@ -171,8 +171,9 @@ def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: b
                    rule=f"last-tenth envelope {last:.3g} <= {ENVELOPE_RATIO:g} x first {first:.3g} + {FLOOR:g}, "
                         f"trend {secular:.3g} <= {SECULAR_SHARE:g} x first")
         return out
-    why = (f"trend {secular:.3g} > {SECULAR_SHARE:g} x first-tenth envelope {first:.3g}" if within
-           else "envelope grew")
+    # The envelope is the error's, |g|: an energy that decays has an error that grows.
+    why = (f"trend {secular:.3g} > {SECULAR_SHARE:g} x the first tenth's error envelope {first:.3g}" if within
+           else f"the error's envelope grew from {first:.2e} in the first tenth to {last:.2e} in the last")
     if np.all(np.diff(means) > 0):
         out.update(classification="grows", rule=f"{why}; tenth means of g increase")
     elif np.all(np.diff(means) < 0):

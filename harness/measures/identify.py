@@ -69,11 +69,13 @@ PERIODS = 10
 
 
 def default_dt(scene: Scene) -> float:
-    return scene.period / STEPS_PER_PERIOD
+    run = scene.identification_run()
+    return run[0] if run is not None else scene.period / STEPS_PER_PERIOD
 
 
-def default_steps() -> int:
-    return STEPS_PER_PERIOD * PERIODS
+def default_steps(scene: Scene | None = None) -> int:
+    run = scene.identification_run() if scene is not None else None
+    return run[1] if run is not None else STEPS_PER_PERIOD * PERIODS
 
 
 def precision_of(method) -> str:
@@ -266,7 +268,7 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     command's progress)."""
     method = resolve(method, scene)
     dt = default_dt(scene) if dt is None else dt
-    steps = default_steps() if steps is None else steps
+    steps = default_steps(scene) if steps is None else steps
     say = progress or (lambda line: None)
     where = " in a worker process" if method.isolated else ""
     say(f"identify: stepping {method.id}, {steps} steps at dt {dt:.6g}{where}")

@@ -33,8 +33,17 @@ The search: h*omega from ``lo`` (1e-4) up by factors of SCAN_RATIO (2) to ``hi``
 ``lo`` finds the *first* loss of stability, not an island above it (a stretch of
 instability narrower than a factor 2 can be stepped over). Verdicts: ``limited``
 (``dt_max`` is the last stable dt found), ``unbounded`` (stable at every dt searched;
-``dt_max`` is None and ``dt_searched_max`` says how far) or ``unstable`` (unstable
-already at ``lo``: explicit Euler's verdict on a spring, "unstable for every dt").
+``dt_max`` is None and ``dt_searched_max`` says how far), ``unstable`` (unstable
+already at ``lo``: explicit Euler's verdict on a spring, "unstable for every dt") or
+``unresolved`` (no stable step resolved: ``growth_unresolved``).
+
+A limit is a number only where the search resolves the growth below it. Heun's method on the
+spring grows at every step, |R(iy)| = sqrt(1 + y^4/4), by rho - 1 = y^4/8: below RHO_TOL up to
+y = 0.00168, so the spectral test calls every smaller step stable and the bisection "finds" the
+step where the growth reaches the tolerance, a property of the criterion, not of the method.
+Where the last step called stable still grows by more than a tenth of RHO_TOL (roundoff is far
+below that) and half that step grows too, by less, the growth falls away with the step and never
+reaches 1 at any step searched: the verdict is ``unresolved``, with no limit.
 """
 from __future__ import annotations
 
@@ -52,6 +61,9 @@ from harness.measures.common import require_fixed_step, resolve, scaled_state, s
 from harness.measures.error import true_state
 
 RHO_TOL = 1e-12
+#: The growth rho - 1 at the last stable step above which a limit is where an unresolved growth
+#: reached RHO_TOL rather than where the method starts to grow (``growth_unresolved``).
+UNRESOLVED_RHO = RHO_TOL / 10.0
 LINEARITY_RTOL = 1e-8
 GROWTH = 10.0
 HORIZON_STEPS = 10_000
@@ -197,6 +209,26 @@ def spectral_test(method, scene: Scene, dt: float, *, timeout: float | None = No
     return res["rho"] <= 1.0 + RHO_TOL, {"rho": res["rho"]}
 
 
+def growth_unresolved(rho, homega: float) -> tuple[bool, float, float]:
+    """Whether a spectral limit found at ``homega`` (the last step the search called stable; ``rho(y)``
+    the spectral radius at h*omega = y) is no limit: (unresolved, rho - 1 there, rho - 1 at half of it).
+    Unresolved where the step still grows by more than UNRESOLVED_RHO and half of it grows too, by
+    less: a growth that shrinks with the step and is below what the search tells from 1 at every step
+    below the "limit" (module docstring). A method that is stable below its limit has rho - 1 at or
+    below roundoff there (a symplectic one) or below 0 at half of it (a damping one)."""
+    at, half = rho(homega), rho(0.5 * homega)
+    if at is None or half is None:  # a step that did not finish: nothing to say of its growth
+        return False, math.nan, math.nan
+    at, half = at - 1.0, half - 1.0
+    return bool(at > UNRESOLVED_RHO and 0.0 < half < at), at, half
+
+
+def unresolved_detail(homega: float, at: float, half: float) -> str:
+    return (f"no stable step resolved: the one-step map grows at every step searched up to h*omega {homega:.6g}, "
+            f"by less than the criterion tells from 1 (rho - 1 = {at:.3g} there, {half:.3g} at half of it; "
+            f"stable means rho <= 1 + {RHO_TOL:g})")
+
+
 def finite_horizon_test(method, scene: Scene, dt: float, *, steps: int = HORIZON_STEPS,
                         timeout: float | None = None) -> tuple[bool, dict]:
     """Stable iff the run finishes and max ||y_n|| <= GROWTH * max ||y_true(t_n)||."""
@@ -250,7 +282,7 @@ class StabilityResult(Result):
     dt_searched_min: float
     dt_searched_max: float
     omega_dt_searched: list
-    verdict: str                              # limited | unbounded | unstable
+    verdict: str                              # limited | unbounded | unstable | unresolved
     dt_max: float | None                      # None where unbounded or unstable
     omega_dt_max: float | None
     evaluations: int                          # stability tests run
@@ -352,6 +384,13 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
             good = mid
         else:
             bad = mid
+    if use == "spectral_radius":
+        unresolved, at, half = growth_unresolved(
+            lambda y: recurrence_map(method, scene, y / omega, timeout=timeout, check_affine=False)["rho"], good)
+        if unresolved:
+            out.update(verdict="unresolved", dt_max=None, omega_dt_max=None, first_unstable_omega_dt=bad,
+                       evaluations=len(evaluations), detail=unresolved_detail(good, at, half))
+            return _with_map(out, method, scene, good / omega, timeout)
     out.update(verdict="limited", dt_max=good / omega, omega_dt_max=good,
                first_unstable_omega_dt=bad, evaluations=len(evaluations))
     if use == "spectral_radius":

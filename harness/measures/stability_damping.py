@@ -34,7 +34,7 @@ from reference import METHODS
 from scenarios import make_scene
 
 from harness.measures.common import resolve
-from harness.measures.stability import HOMEGA_HI, HOMEGA_LO, RHO_TOL, SCAN_RATIO, largest_stable_dt
+from harness.measures.stability import HOMEGA_HI, HOMEGA_LO, RHO_TOL, SCAN_RATIO, growth_unresolved, largest_stable_dt
 
 #: The issue's sweep of damping ratios.
 ZETAS = (0.0, 0.05, 0.1, 0.5, 1.0, 2.0)
@@ -52,7 +52,8 @@ def spectral_radius(scheme_id: str, y: float, zeta: float) -> float:
 
 def computed_limit(scheme_id: str, zeta: float, rtol: float = 1e-12) -> float | None:
     """The first y where rho(M(y, zeta)) > 1 + RHO_TOL: scan up from HOMEGA_LO by SCAN_RATIO to
-    HOMEGA_HI, then bisect. None: unstable already at HOMEGA_LO; inf: stable to HOMEGA_HI."""
+    HOMEGA_HI, then bisect. None: unstable already at HOMEGA_LO, or no stable step resolved (the
+    measure's rule, ``stability.growth_unresolved``); inf: stable to HOMEGA_HI."""
     def stable(y):
         return spectral_radius(scheme_id, y, zeta) <= 1.0 + RHO_TOL
 
@@ -70,7 +71,7 @@ def computed_limit(scheme_id: str, zeta: float, rtol: float = 1e-12) -> float | 
     while bad / good - 1.0 > rtol:
         mid = math.sqrt(good * bad)
         good, bad = (mid, bad) if stable(mid) else (good, mid)
-    return good
+    return None if growth_unresolved(lambda y: spectral_radius(scheme_id, y, zeta), good)[0] else good
 
 
 def theory_limit(scheme_id: str, zeta: float) -> dict:

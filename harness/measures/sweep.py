@@ -4,9 +4,12 @@ tolerances changes family (``harness advise SCENE --sweep k=1e2..1e6:9``).
 At each value of the grid (a log grid, LO to HI in ``points`` values, each checked against the
 parameter's declared range before anything runs) every candidate method is searched over
 substeps 1, 2, 4, ..., each level measured and judged as ``harness.measures.advise`` judges its
-rows (where no position tolerance is asked nothing is held against the scene's reference
-solution, which on a stiff 32 x 32 cloth costs more than the whole search: a run that blows up
-fails the energy tolerance). The search does not stop at ``max_substeps``: a method's levels go on
+rows: the energy and, by default, the position error against the scene's reference (5% of its
+length scale); where the request asks no position tolerance nothing is held against the
+reference, which on a stiff 32 x 32 cloth costs more than the whole search (a run that blows up
+then fails the energy tolerance). A level that meets them is run again with its convergence knob
+tightened (``advise.convergence``), and where that misses them the entry says its win rests on
+the solve's own error (``SweepEntry.rests_on_solve``). The search does not stop at ``max_substeps``: a method's levels go on
 doubling until one meets the tolerances, or until the next level's frame (substeps x its cost per
 step, a pilot timed at that step before the run) would cost more than ``factor`` times the
 cheapest frame found at that value (the bound ``cost``), or its substeps would pass ``cap`` (the
@@ -183,8 +186,9 @@ def level(method, scene, request: Request, advice: MethodAdvice, substeps: int, 
     passes it, nothing is run (``ended`` ``cost``); else the horizon run, measured and judged as
     the advice's rows (``harness.measures.advise._row``; nothing held against the scene's reference
     solution unless a position tolerance is asked), and where it meets the tolerances its cost
-    per step timed as the advice times it."""
-    from harness.measures.advise import _row
+    per step timed as the advice times it and, for a method with a convergence knob, the same level
+    with the knob tightened (``harness.measures.advise.convergence``)."""
+    from harness.measures.advise import _row, convergence
     from harness.measures.common import resolve
 
     method = resolve(method, scene)
@@ -201,6 +205,7 @@ def level(method, scene, request: Request, advice: MethodAdvice, substeps: int, 
     elif row.meets:
         out["ended"] = "met"
         out["cost_per_step_s"], out["timing"] = frame_cost(method, scene, h, pilot, injected)
+        row.converged = convergence(method, scene, request, row, advice, timeout, reference=False)
     return out
 
 
@@ -217,7 +222,8 @@ def sweep_value(scene, value: float, request: Request, methods: list, *, factor:
 
     call = call or _in_process
     plugins = active_plugins()
-    point = SweepPoint(float(value), float(scene.omega), float(scene.omega / request.hz))
+    point = SweepPoint(float(value), float(scene.omega), float(scene.omega / request.hz),
+                       position_tol=request.position_tolerance(scene))
     entries: dict[str, SweepEntry] = {}
     advices: dict[str, MethodAdvice] = {}
     pilot: dict[str, float | None] = {}
@@ -264,6 +270,7 @@ def sweep_value(scene, value: float, request: Request, methods: list, *, factor:
                     e.cost_per_step_s = res["cost_per_step_s"]
                     e.cost_per_frame_s = s * e.cost_per_step_s
                     e.energy_error, e.position_error, e.why = row.energy_error, row.position_error, ""
+                    e.converged = row.converged
                 elif res["ended"]:
                     e.ended, e.why = res["ended"], row.why
                 else:
@@ -400,6 +407,7 @@ class Sweep:
     cap: int
     points: list
     left_out: list
+    length_scale: float | None = None   # the scene's where it is the same at every value, else None
 
     @property
     def crossovers(self) -> list[Crossover]:
@@ -409,7 +417,8 @@ class Sweep:
         from dataclasses import asdict
 
         return {"scene": self.scene, "params": self.params, "param": self.grid.param, "grid": list(self.grid.values),
-                "request": asdict(self.request), "factor": self.factor, "cap": self.cap, "clock": CLOCK,
+                "request": asdict(self.request), "length_scale": self.length_scale, "factor": self.factor,
+                "cap": self.cap, "clock": CLOCK,
                 "points": [p.as_dict() for p in self.points],
                 "crossovers": [c.as_dict() for c in self.crossovers], "left_out": self.left_out}
 
@@ -445,8 +454,9 @@ def run_sweep(scene, grid: Grid, request: Request, patterns=None, *, factor: flo
     else:
         for v, s in zip(grid.values, scenes):
             points.append(sweep_value(s, v, request, ids, factor=factor, cap=cap, timeout=timeout, injected=injected))
+    scales = {s.length_scale for s in scenes}
     return Sweep(scene.id, {k: v for k, v in scene.values.items() if k != grid.param}, grid, request, factor, cap,
-                 points, left)
+                 points, left, scales.pop() if len(scales) == 1 else None)
 
 
 class _PoolCall:

@@ -201,7 +201,7 @@ def _stability(task, method, scene, suite, spec) -> Cell:
     res = largest_stable_dt(method, scene, steps=steps, hi=hi, **search)
     verdict = res.verdict
     figures = StabilityFigures.pick(plain(res.as_dict()), unbounded=verdict == "unbounded",
-                                    unstable_everywhere=verdict == "unstable",
+                                    unstable_everywhere=verdict == "unstable", unresolved=verdict == "unresolved",
                                     homega_searched=plain((res.dt_searched_max or 0) * scene.omega))
     value = math.inf if verdict == "unbounded" else res.omega_dt_max
     if res.criterion == "finite_horizon":
@@ -265,7 +265,10 @@ def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
         request = Request(hz=hz, **spec.advise).checked()
         res = advise_method(method, scene, request, timeout=suite.cell_timeout, cost_per_step=per_step)
         best = res.best_row
-        figures, extra = AdviceFigures.from_data(plain({"hz": hz, "request": asdict(request), **res.as_dict()}))
+        figures, extra = AdviceFigures.from_data(plain({"hz": hz, "request": asdict(request),
+                                                        "length_scale": scene.length_scale,
+                                                        "position_tol": request.position_tolerance(scene),
+                                                        **res.as_dict()}))
         cells.append(make_cell(task, "advise", "ok", best.cost_per_frame_s if best is not None else None, 1.0 / hz,
                                figures=figures, extra=extra))
     return cells

@@ -1,0 +1,188 @@
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from records import InvalidInput
+from records.method_id import Option
+
+from ..kinds import COUNT_BASE, PositionBased
+from .._scheme import scheme
+from ._position_based import point_inv_mass, predict, row, step_arrays, velocity
+
+#: Substeps and Jacobi passes per step unless the caller sets ``substeps``/``iterations``: the
+#: passes are Newton's SolverXPBD default (``iterations=2``), the solver this scheme is the
+#: float64 form of.
+DEFAULT_SUBSTEPS = 1
+DEFAULT_ITERATIONS = 2
+#: The relaxation factor unless the caller sets ``relaxation``: the summed corrections applied whole,
+#: as SolverXPBD applies its springs'.
+DEFAULT_RELAXATION = 1.0
+#: The relaxation is a decimal of at most three places in (0, 2]: the compiled loops pass the
+#: step one integer (``kinds.pack_counts``), which carries it in thousandths above the two counts;
+#: the step divides by 1000, the correctly rounded quotient being the double the decimal names.
+RELAXATION_STEPS = 1000
+RELAXATION_MAX = 2.0
+#: Where the relaxation sits in the packed integer: above substeps * COUNT_BASE + iterations.
+RELAXATION_BASE = COUNT_BASE * COUNT_BASE
+
+
+@dataclass(frozen=True, eq=False)
+class JacobiPositionBased(PositionBased):
+    """Position-based dynamics with Jacobi passes: the position-based kind's step and counts, and
+    a relaxation factor (an option that sets a constant of the step, not a count the loops pass
+    by name), carried by the kind the scheme is bound to (``with_parameters``) into the one
+    integer every compiled loop passes (``count``: thousandths above the two counts)."""
+
+    relaxation: float | None = None
+
+    def _relaxation(self) -> float:
+        return DEFAULT_RELAXATION if self.relaxation is None else self.relaxation
+
+    def count(self, scheme, scene, iterations=None, substeps=None) -> int:
+        code = int(round(self._relaxation() * RELAXATION_STEPS))
+        return code * RELAXATION_BASE + super().count(scheme, scene, iterations, substeps)
+
+    def advance(self, scheme, scene, dt, kernels, iterations=None, substeps=None):
+        p, step = scene.pvec, scheme.step
+        relaxation = int(round(self._relaxation() * RELAXATION_STEPS)) / RELAXATION_STEPS
+        args = (kernels["accel"], kernels["constraints"], *self._counts(scheme, iterations, substeps), relaxation)
+        return lambda state, t: step(*args, state, t, dt, p)
+
+    def step_call(self, state, t, step="scheme_step", count="k", lead=""):
+        return (f"{step}({lead}({count} // {COUNT_BASE}) % {COUNT_BASE}, {count} % {COUNT_BASE}, "
+                f"({count} // {RELAXATION_BASE}) / {RELAXATION_STEPS:.1f}, {state}, {t}, h, p)")
+
+    def in_memory_loop(self, jit, step, accel, scene_cls):
+        constraints = jit(scene_cls.constraints)
+
+        def advance_n(state, t0, h, i0, n, p, k):
+            for i in range(i0, i0 + n):
+                state = step(accel, constraints, (k // COUNT_BASE) % COUNT_BASE, k % COUNT_BASE,
+                             (k // RELAXATION_BASE) / RELAXATION_STEPS, state, t0 + i * h, h, p)
+            return state
+        return jit(advance_n)
+
+    def parameters(self, scheme) -> dict:
+        return {"relaxation": Option("relaxation", float, 1.0 / RELAXATION_STEPS, RELAXATION_MAX,
+                                     "the factor the summed corrections of a pass are applied by "
+                                     "(thousandths)", default=DEFAULT_RELAXATION)}
+
+    def with_parameters(self, scheme, values: dict):
+        if "relaxation" not in values:
+            return scheme
+        r = float(values["relaxation"])
+        code = round(r * RELAXATION_STEPS)
+        if code / RELAXATION_STEPS != r:
+            raise InvalidInput(f"method {scheme.id}: option relaxation={values['relaxation']} is not a multiple of "
+                               f"{1.0 / RELAXATION_STEPS:g} (allowed: number from {1.0 / RELAXATION_STEPS:g} to "
+                               f"{RELAXATION_MAX:g} in thousandths)")
+        return replace(scheme, kind=replace(self, relaxation=r))
+
+    def parameter_values(self, scheme) -> dict:
+        return {} if self.relaxation is None else {"relaxation": self.relaxation}
+
+    def evals_text(self, scheme) -> str:
+        return (f"{scheme.force_evals} (the forces are constraints: {scheme.substeps} substep(s) x "
+                f"{scheme.iterations} Jacobi pass(es) over them)")
+
+
+JACOBI = JacobiPositionBased()
+
+
+@scheme(kind=JACOBI, order=1, force_evals=0, symplectic=False, energy_claim="decays",
+        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS)
+def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, h, p):
+    """XPBD with Jacobi passes (Macklin, Mueller and Chentanez 2016, projected in parallel as
+    Newton's SolverXPBD projects particle springs): in each of ``substeps`` substeps of hs,
+
+        v~ = v + hs g,  x~ = x + hs v~,  lambda = 0
+        ``iterations`` Jacobi passes, alpha~ = alpha / hs^2, every constraint from the same x:
+            dlambda = omega (-C(x) - alpha~ lambda) / (w_a + w_b + alpha~),  lambda += dlambda,
+            dx_a -= w_a dlambda grad C,  dx_b += w_b dlambda grad C;  then x += dx
+        v = (x - x_old) / hs
+
+    omega the ``relaxation`` factor (1: the corrections summed and applied whole). On one spring a
+    pass is XPBD's Gauss-Seidel pass (implicit Euler on the unit spring); on coupled springs each
+    point takes every correction computed from the same positions, which overshoots where a point
+    has several (omega < 1 damps that) and converges more slowly than Gauss-Seidel, if at all.
+    First order, damps like implicit Euler where it converges. No force evaluation.
+    """
+    # Computed from the constraints and h alone, before the state is read: the compiled loops
+    # compute it once (``kinds.POSITION_BASED``). Each constraint's alpha~ and w_a + w_b + alpha~.
+    ends, rest, compliance, inv_mass, anchors, gravity = constraints(p)
+    hs = h / substeps
+    tilde = np.empty(ends.shape[0])
+    denominator = np.empty(ends.shape[0])
+    for c in range(ends.shape[0]):
+        tilde[c] = compliance[c] / (hs * hs)
+        denominator[c] = point_inv_mass(inv_mass, ends[c, 0]) + point_inv_mass(inv_mass, ends[c, 1]) + tilde[c]
+    q, v = state
+    d = anchors.shape[1]
+    nb = q.shape[1]
+    n = q.shape[0]
+    work, u, x_old = step_arrays(q, v, substeps, ends.shape[0], anchors)
+    x = work[:n]
+    delta = np.empty((n, nb))
+    lam = n + anchors.shape[0] * d  # the first multiplier's row in work
+    for s in range(substeps):
+        if s == 0:
+            predict(q, v, x, u, x_old, substeps > 1, gravity, hs)
+        else:
+            predict(x, u, x, u, x_old, True, gravity, hs)
+        for c in range(ends.shape[0]):
+            for b in range(nb):
+                work[lam + c, b] = 0.0
+        for _ in range(iterations):
+            for r in range(n):
+                for b in range(nb):
+                    delta[r, b] = 0.0
+            for c in range(ends.shape[0]):
+                _correction(work, delta, row(ends[c, 0], n, d), ends[c, 0] >= 0, row(ends[c, 1], n, d),
+                            ends[c, 1] >= 0, d, rest[c], point_inv_mass(inv_mass, ends[c, 0]),
+                            point_inv_mass(inv_mass, ends[c, 1]), lam + c, tilde[c], denominator[c], relaxation)
+            for r in range(n):
+                for b in range(nb):
+                    x[r, b] = x[r, b] + delta[r, b]
+        velocity(x, u, x_old, hs)
+    return (x, u)
+
+
+def _correction(work, delta, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde, denominator, relaxation):
+    """One constraint's correction over the batch, read from the positions in ``work`` (``row``:
+    an anchor's rows after the points') and added into ``delta`` (a free end's rows; an anchor
+    is never corrected): C = |x_b - x_a| - rest, g = (x_b - x_a)/|x_b - x_a| (C = 0, g = 0 where
+    the points coincide) where d > 1; C = x_b - x_a - rest, g = 1 where d = 1; then
+    dl = relaxation (-C - alpha~ lambda) / (w_a + w_b + alpha~), lambda += dl,
+    dx_a -= w_a dl g, dx_b += w_b dl g."""
+    for b in range(work.shape[1]):
+        g0 = work[rb, b] - work[ra, b]
+        g1 = 0.0
+        g2 = 0.0
+        if d == 1:
+            cv = g0 - rest
+            g0 = 1.0
+        else:
+            g1 = work[rb + 1, b] - work[ra + 1, b]
+            length2 = g0 * g0 + g1 * g1
+            if d == 3:
+                g2 = work[rb + 2, b] - work[ra + 2, b]
+                length2 = length2 + g2 * g2
+            length = np.sqrt(length2)
+            cv = 0.0
+            if length == 0.0:
+                g0 = 0.0
+                g1 = 0.0
+                g2 = 0.0
+            else:
+                cv = length - rest
+                g0 = g0 / length
+                g1 = g1 / length
+                g2 = g2 / length
+        dl = relaxation * ((-cv - tilde * work[lam, b]) / denominator)
+        work[lam, b] = work[lam, b] + dl
+        for k in range(d):
+            g = g0 if k == 0 else (g1 if k == 1 else g2)
+            if a_free:
+                delta[ra + k, b] = delta[ra + k, b] - wa * dl * g
+            if b_free:
+                delta[rb + k, b] = delta[rb + k, b] + wb * dl * g
