@@ -265,7 +265,7 @@ def test_a_soft_cloths_small_steps_cell_runs_the_study_again_with_stiff_springs(
     import types
 
     from harness.measures.small_steps import PAPERS_CASE
-    from harness.nightly.scene_cells import _small_steps
+    from harness.nightly.measures.scene_cells import _small_steps
     from harness.nightly.suites import SceneExtras, SceneSpec
     from records.cell import Cell
     from reports.position_based_section import position_based_section

@@ -6,8 +6,8 @@ from records import InvalidInput
 from records.method_id import Option
 
 from ..kinds import COUNT_BASE, PositionBased
-from .._scheme import scheme
-from ._position_based import point_inv_mass, predict, row, step_arrays, velocity
+from .._scheme import Floor, scheme
+from ._position_based import point_inv_mass, row
 
 #: Substeps and Jacobi passes per step unless the caller sets ``substeps``/``iterations``: the
 #: passes are Newton's SolverXPBD default (``iterations=2``), the solver this scheme is the
@@ -89,8 +89,29 @@ class JacobiPositionBased(PositionBased):
 JACOBI = JacobiPositionBased()
 
 
+def floor(s, h, k, m):
+    # One constraint: a Jacobi pass is its correction, summed from 0 and then applied, at
+    # relaxation 1 (1000 thousandths, as the scheme divides it), gradient 1. One substep, the
+    # default passes.
+    x, v = s
+    x_old = x
+    x = x + h * v
+    w = 1.0 / m
+    tilde = (1.0 / k) / (h * h)
+    lam = 0.0
+    for _ in range(DEFAULT_ITERATIONS):
+        dl = (1000 / 1000.0) * ((-(x - 0.0 - 0.0) - tilde * lam) / (0.0 + w + tilde))
+        lam = lam + dl
+        x = x + (0.0 + w * dl * 1.0)
+    return (x, (x - x_old) / h)
+
+
 @scheme(kind=JACOBI, order=1, force_evals=0, symplectic=False, energy_claim="decays",
-        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS)
+        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS,
+        floor=Floor(floor),
+        # No scene of the standard suite: it is there to identify Newton's XPBD, which the identity
+        # cells hold every scheme against; the full suite runs it wherever it can.
+        suites={})
 def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, h, p):
     """XPBD with Jacobi passes (Macklin, Mueller and Chentanez 2016, projected in parallel as
     Newton's SolverXPBD projects particle springs): in each of ``substeps`` substeps of hs,
@@ -120,37 +141,55 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
     d = anchors.shape[1]
     nb = q.shape[1]
     n = q.shape[0]
-    work, u, x_old = step_arrays(q, v, substeps, ends.shape[0], anchors)
-    x = work[:n]
-    delta = np.empty((n, nb))
-    lam = n + anchors.shape[0] * d  # the first multiplier's row in work
+    # One array a step, as XPBD's: x (returned as q), the anchors' rows, the multipliers' rows,
+    # x_old where substeps > 1 (q where there is one), u (returned as v), then a pass's summed
+    # corrections (a row per point).
+    fixed = anchors.shape[0] * d
+    lam = n + fixed  # the first multiplier's row
+    x_old = lam + ends.shape[0]
+    u = x_old + (n if substeps > 1 else 0)
+    delta = u + n
+    work = np.empty((delta + n, nb))
+    for a in range(anchors.shape[0]):
+        for k in range(d):
+            for b in range(nb):
+                work[n + a * d + k, b] = anchors[a, k]
     for s in range(substeps):
-        if s == 0:
-            predict(q, v, x, u, x_old, substeps > 1, gravity, hs)
-        else:
-            predict(x, u, x, u, x_old, True, gravity, hs)
+        # v~ = v + hs g, x~ = x + hs v~ (from q, v at the first substep), x_old kept where it is not q.
+        for r in range(n):
+            g = gravity[r % d]
+            for b in range(nb):
+                xr = q[r, b] if s == 0 else work[r, b]
+                ur = (v[r, b] if s == 0 else work[u + r, b]) + hs * g
+                if substeps > 1:
+                    work[x_old + r, b] = xr
+                work[u + r, b] = ur
+                work[r, b] = xr + hs * ur
         for c in range(ends.shape[0]):
             for b in range(nb):
                 work[lam + c, b] = 0.0
         for _ in range(iterations):
             for r in range(n):
                 for b in range(nb):
-                    delta[r, b] = 0.0
+                    work[delta + r, b] = 0.0
             for c in range(ends.shape[0]):
                 _correction(work, delta, row(ends[c, 0], n, d), ends[c, 0] >= 0, row(ends[c, 1], n, d),
                             ends[c, 1] >= 0, d, rest[c], point_inv_mass(inv_mass, ends[c, 0]),
                             point_inv_mass(inv_mass, ends[c, 1]), lam + c, tilde[c], denominator[c], relaxation)
             for r in range(n):
                 for b in range(nb):
-                    x[r, b] = x[r, b] + delta[r, b]
-        velocity(x, u, x_old, hs)
-    return (x, u)
+                    work[r, b] = work[r, b] + work[delta + r, b]
+        # v = (x - x_old) / hs
+        for r in range(n):
+            for b in range(nb):
+                work[u + r, b] = (work[r, b] - (q[r, b] if substeps == 1 else work[x_old + r, b])) / hs
+    return (work[:n], work[u:u + n])
 
 
 def _correction(work, delta, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde, denominator, relaxation):
     """One constraint's correction over the batch, read from the positions in ``work`` (``row``:
-    an anchor's rows after the points') and added into ``delta`` (a free end's rows; an anchor
-    is never corrected): C = |x_b - x_a| - rest, g = (x_b - x_a)/|x_b - x_a| (C = 0, g = 0 where
+    an anchor's rows after the points') and added into the summed corrections, ``work``'s rows
+    from ``delta`` on (a free end's rows; an anchor is never corrected): C = |x_b - x_a| - rest, g = (x_b - x_a)/|x_b - x_a| (C = 0, g = 0 where
     the points coincide) where d > 1; C = x_b - x_a - rest, g = 1 where d = 1; then
     dl = relaxation (-C - alpha~ lambda) / (w_a + w_b + alpha~), lambda += dl,
     dx_a -= w_a dl g, dx_b += w_b dl g."""
@@ -183,6 +222,6 @@ def _correction(work, delta, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde
         for k in range(d):
             g = g0 if k == 0 else (g1 if k == 1 else g2)
             if a_free:
-                delta[ra + k, b] = delta[ra + k, b] - wa * dl * g
+                work[delta + ra + k, b] = work[delta + ra + k, b] - wa * dl * g
             if b_free:
-                delta[rb + k, b] = delta[rb + k, b] + wb * dl * g
+                work[delta + rb + k, b] = work[delta + rb + k, b] + wb * dl * g
