@@ -8,11 +8,22 @@ once per process, over arguments spread across the range a kernel sees, on each 
 kernels call it (numpy on an array, ``math`` on a float). A disagreement on any argument
 counts as a disagreement everywhere. LAPACK's dense solve likewise: numpy's bundled build
 against the one numba calls, on random systems of the sizes a scene's solve has.
+
+Each answer is kept beside the kernels (``$HARNESS_CACHE/kernels/libm-<key>.json``), the key a hash
+of what it depends on (numpy's, numba's and Python's versions, this CPU and its features, the
+kernels' optimisation level, this module's source): a later process on the machine reads it instead
+of compiling the check again.
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import os
+import sys
+import tempfile
 from functools import cache
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -84,10 +95,53 @@ def _solve_agrees() -> bool:
     return True
 
 
+def _answers_file() -> Path:
+    """Where this machine's answers are kept (the module docstring)."""
+    from llvmlite import binding
+
+    from ._kernels import cache_dir
+
+    h = hashlib.sha256(Path(__file__).read_bytes())
+    h.update(f"numpy {np.__version__} numba {numba.__version__} python {sys.version} cpu {binding.get_host_cpu_name()} "
+             f"{binding.get_host_cpu_features().flatten()} opt {_numba_config.opt_level()}".encode())
+    return cache_dir() / f"libm-{h.hexdigest()[:16]}.json"
+
+
+def _kept() -> dict:
+    try:
+        return json.loads(_answers_file().read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _keep(name: str, answer: bool) -> None:
+    """Add an answer to the file: written under a temporary name and put in place, so a process
+    reading it sees a whole file (of two writing at once, one's answer may be lost, and found again
+    by a later process)."""
+    path = _answers_file()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
+        with os.fdopen(fd, "w") as f:
+            json.dump({**_kept(), name: answer}, f)
+        os.replace(tmp, path)
+    except OSError:  # a cache that cannot be written: the answer is found again in the next process
+        pass
+
+
 @cache
 def agrees(name: str) -> bool:
     """True iff numba's ``name`` ("np.sin", "math.exp", ...) gives numpy's (or math's) bits at
-    every argument checked, NaN for NaN."""
+    every argument checked, NaN for NaN: as kept for this machine, else checked (and kept)."""
+    kept = _kept()
+    if name in kept:
+        return bool(kept[name])
+    answer = _check(name)
+    _keep(name, answer)
+    return answer
+
+
+def _check(name: str) -> bool:
     if name == "np.linalg.solve":
         return _solve_agrees()
     x = _arguments(name)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 
 import ast
+import json
 
 import numpy as np
 import pytest
@@ -212,7 +213,8 @@ def test_bitwise_operations_record_the_libm_calls():
     assert why == "" and libm == {"np.sin", "math.exp", "np.linalg.solve"}
 
 
-def test_libm_check_sees_a_one_ulp_difference(monkeypatch):
+def test_libm_check_sees_a_one_ulp_difference(monkeypatch, tmp_path):
+    monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))  # no answer kept from an earlier process
     _libm.agrees.cache_clear()
     try:
         assert _libm.agrees("np.sin")
@@ -224,8 +226,13 @@ def test_libm_check_sees_a_one_ulp_difference(monkeypatch):
 
         monkeypatch.setattr(_libm, "_compiled", off_by_one_ulp)
         _libm.agrees.cache_clear()
-        assert not _libm.agrees("np.sin")
+        assert _libm.agrees("np.sin")  # the answer kept on disk for this machine, read
+        monkeypatch.setenv("HARNESS_CACHE", str(tmp_path / "other"))
+        _libm.agrees.cache_clear()
+        assert not _libm.agrees("np.sin")  # checked afresh
         assert _libm.agrees("math.exp")
+        assert json.loads(next((tmp_path / "other" / "kernels").glob("libm-*.json")).read_text()) == \
+            {"np.sin": False, "math.exp": True}
     finally:
         _libm.agrees.cache_clear()
 
