@@ -475,6 +475,25 @@ def test_every_adapter_names_its_tables_alike(module):
         assert all(m.present is None for m in modes)
 
 
+def test_every_declared_behaviour_names_scenes_the_mode_poses_and_methods_that_exist():
+    """What a mode declares it was measured to do (``records.method.Behaviour``) names scenes it
+    poses and reference schemes or methods that exist, and where it matches a scheme only from a
+    generic state its ``no_match`` says why not from the scene's own (the judge's line quotes it)."""
+    from records import scheme_name
+
+    methods = all_methods()
+    for mid, mode in adapters.ENGINE_METHODS.items():
+        b = mode.behaviour
+        for scene_id, scheme in {**b.integrates_as, **b.from_a_generic_state}.items():
+            assert scene_id in mode.scenes and scheme_name(scheme) in reference.METHODS, (mid, scene_id)
+        for scene_id in b.from_a_generic_state:
+            assert mode.no_match.get(scene_id), (mid, scene_id)
+        for scheme in (b.half_steps_of, b.in_velocity):
+            assert scheme is None or scheme_name(scheme) in reference.METHODS, mid
+        assert b.half_steps_of is None or b.integrates_as, mid
+        assert all(other in methods for other in b.beats_at_equal_cost), mid
+
+
 @pytest.mark.parametrize("module", ENGINE_MODULES, ids=lambda m: m.__name__)
 def test_every_scene_an_engine_poses_is_one_pose_entry(module):
     """What a mode poses is read from its module's ``POSES``: no scene a mode claims lacks
