@@ -93,6 +93,15 @@ def test_an_energy_class_needs_ten_periods_of_the_horizon(spring_advice):
     assert longer.best_row.energy_class == "bounded"
 
 
+def test_heuns_limit_in_the_advice_is_none_not_the_searchs_step():
+    """Heun grows at every step on the spring, below what the spectral search tells from 1 up to
+    h*omega 0.00168: its limit in the advice is no stable step resolved, printed none."""
+    from harness.cli.advise import _limit
+
+    heun = advise_method(get_method("ref:heun"), make_scene("spring"), SPRING_60HZ, cost_per_step=(1e-8, "given"))
+    assert heun.limit_verdict == "unresolved" and heun.homega_limit is None and _limit(heun) == "none"
+
+
 def test_explicit_euler_is_advised_against_at_every_substep_count(spring_advice):
     ee = next(m for m in spring_advice.methods if m.method == "ref:explicit_euler")
     assert ee.best is None and ee.limit_verdict == "unstable"
