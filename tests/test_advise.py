@@ -206,6 +206,31 @@ def test_a_position_tolerance_is_judged_by_default_relative_to_the_scenes_size()
     assert verdict.startswith("no accuracy tolerance (the energy alone judged): ")
 
 
+def test_the_default_position_tolerance_is_not_held_against_another_engines_model():
+    """On a model file whose reference is MuJoCo's own run, pybullet steps the model Bullet built
+    (other masses, no armature): its distance from MuJoCo's run is the models' difference, which
+    the default tolerance does not judge; an absolute one asked for still is; MuJoCo is judged."""
+    pytest.importorskip("mujoco")
+    pytest.importorskip("pybullet")
+    from pathlib import Path
+
+    from harness.measures.advise import _judge
+    from records.advice import Row
+    from scenarios import ModelScene, variant
+
+    chain = variant(ModelScene(Path(__file__).resolve().parents[1] / "scenarios" / "data" / "chain.xml"),
+                    "conservative")
+
+    def judged(method, request):
+        row = Row(1, 0.01, 0.1, True, "ok", energy_error=1e-4, position_error=1.0)
+        _judge(row, request, chain, get_method(method))
+        return row.meets
+
+    default, absolute = Request(hz=60, energy_tol=1e-3).checked(), Request(hz=60, energy_tol=1e-3, error_tol=0.1).checked()
+    assert judged("pybullet:semi_implicit", default) and not judged("pybullet:semi_implicit", absolute)
+    assert not judged("mujoco:euler", default)
+
+
 def test_a_stiff_cloths_xpbd_frame_misses_the_accuracy_and_its_energy_win_rests_on_its_passes():
     """Issue 42's cloth, 4 x 4 at k = 1e5, one substep at 60 Hz: XPBD's default ten passes keep the
     energy within 0.5 (they lose 47%) but end 0.23 from the reference on a sheet 0.3 wide, past
