@@ -25,6 +25,10 @@ The drivers, the kernel files and ``RefMethod`` ask the scheme's kind; none bran
   unpacks, and compute what the step computes before it reads ``state`` or ``t`` once per loop,
   not once per step (so the step computes its constraints first and never modifies them).
   Runs only on scenes that give their constraints.
+
+A kind may also take **parameters**: options that set a constant of the step rather than a count
+(``Kind.parameters``; Jacobi XPBD's relaxation, ``reference/schemes/xpbd_jacobi.py``), bound into
+the scheme's kind (``with_parameters``) and carried by it into the integer the loops pass.
 """
 from __future__ import annotations
 

@@ -93,6 +93,15 @@ def test_an_energy_class_needs_ten_periods_of_the_horizon(spring_advice):
     assert longer.best_row.energy_class == "bounded"
 
 
+def test_heuns_limit_in_the_advice_is_none_not_the_searchs_step():
+    """Heun grows at every step on the spring, below what the spectral search tells from 1 up to
+    h*omega 0.00168: its limit in the advice is no stable step resolved, printed none."""
+    from harness.cli.advise import _limit
+
+    heun = advise_method(get_method("ref:heun"), make_scene("spring"), SPRING_60HZ, cost_per_step=(1e-8, "given"))
+    assert heun.limit_verdict == "unresolved" and heun.homega_limit is None and _limit(heun) == "none"
+
+
 def test_explicit_euler_is_advised_against_at_every_substep_count(spring_advice):
     ee = next(m for m in spring_advice.methods if m.method == "ref:explicit_euler")
     assert ee.best is None and ee.limit_verdict == "unstable"
@@ -195,6 +204,31 @@ def test_a_position_tolerance_is_judged_by_default_relative_to_the_scenes_size()
     assert position_tolerance("0.01") == ("0.01", None)
     verdict = Advice("spring", {}, off, []).verdict()
     assert verdict.startswith("no accuracy tolerance (the energy alone judged): ")
+
+
+def test_the_default_position_tolerance_is_not_held_against_another_engines_model():
+    """On a model file whose reference is MuJoCo's own run, pybullet steps the model Bullet built
+    (other masses, no armature): its distance from MuJoCo's run is the models' difference, which
+    the default tolerance does not judge; an absolute one asked for still is; MuJoCo is judged."""
+    pytest.importorskip("mujoco")
+    pytest.importorskip("pybullet")
+    from pathlib import Path
+
+    from harness.measures.advise import _judge
+    from records.advice import Row
+    from scenarios import ModelScene, variant
+
+    chain = variant(ModelScene(Path(__file__).resolve().parents[1] / "scenarios" / "data" / "chain.xml"),
+                    "conservative")
+
+    def judged(method, request):
+        row = Row(1, 0.01, 0.1, True, "ok", energy_error=1e-4, position_error=1.0)
+        _judge(row, request, chain, get_method(method))
+        return row.meets
+
+    default, absolute = Request(hz=60, energy_tol=1e-3).checked(), Request(hz=60, energy_tol=1e-3, error_tol=0.1).checked()
+    assert judged("pybullet:semi_implicit", default) and not judged("pybullet:semi_implicit", absolute)
+    assert not judged("mujoco:euler", default)
 
 
 def test_a_stiff_cloths_xpbd_frame_misses_the_accuracy_and_its_energy_win_rests_on_its_passes():

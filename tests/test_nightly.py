@@ -147,6 +147,9 @@ def test_smoke_nightly_writes_every_section_and_charts(first_run):
     # meets it at 1 and explicit Euler at none (spectral radius > 1 at every h).
     assert "**Advised: `ref:leapfrog`, 1 substep" in advice or "**Advised: `ref:rk4`, 1 substep" in advice
     assert "| `ref:semi_implicit_euler` | 16 | 0.00104 |" in advice
+    # The 60 Hz cells judge where the positions end too, by default (issue 42).
+    assert "Position tolerance here: 0.05 (5% of the scene's length scale 1)." in advice
+    assert "| converged |" in advice
     assert "`ref:explicit_euler`: unstable: spectral radius > 1 at every h" in advice
     findings = report.split("## Findings")[1].split("## Failures")[0]
     assert "`pymunk:applied_force` on `spring` is **explicit Euler**" in findings

@@ -199,7 +199,7 @@ SOLAR_STABILITY_HI = 4.0
 CLOTH_ADVISE = {"horizon": 2.0, "energy_tol": 0.1, "max_substeps": 16}
 
 #: The standard suite bisects each largest stable timestep to 1e-4 relative, not the measure's
-#: 1e-6: the report gives four digits, the judge's theory check allows 0.5% and a regression is a
+#: 1e-6: the report gives three digits, the judge's theory check allows 0.5% and a regression is a
 #: 1% drop, and the seven bisection runs it saves a search were a fifth of the stability cells'
 #: CPU (the rope's 10,000-step runs most).
 STANDARD_STABILITY_RTOL = 1e-4
