@@ -189,7 +189,7 @@ class Chain(DampedByC, Scene):
         """Modal coordinates: the orthonormal DST-I (its matrix is symmetric and its own inverse)."""
         return dst(q, type=1, norm="ortho", axis=-1)
 
-    def exact(self, t):
+    def closed_form(self, t):
         t = np.asarray(t, dtype=float)
         q0, v0 = self.initial_state()
         w = self.mode_frequencies()
@@ -209,5 +209,5 @@ class Chain(DampedByC, Scene):
     def exact_energy(self, t):
         if self.values["c"] == 0.0:
             return super().exact_energy(t)
-        q, v = self.exact(t)
+        q, v = self.closed_form(t)
         return self.energy(q, v)

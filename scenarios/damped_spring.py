@@ -60,7 +60,7 @@ class DampedSpring(DampedByC, Scene):
         k, m = self.values["k"], self.values["m"]
         return 0.5 * m * v[..., 0] ** 2 + 0.5 * k * q[..., 0] ** 2
 
-    def exact(self, t):
+    def closed_form(self, t):
         k, m, c = self.values["k"], self.values["m"], self.values["c"]
         x0, v0 = self.values["x0"], self.values["v0"]
         if c < 2.0 * math.sqrt(k * m):
@@ -78,5 +78,5 @@ class DampedSpring(DampedByC, Scene):
         return x[:, None], v[:, None]
 
     def exact_energy(self, t):
-        q, v = self.exact(t)
+        q, v = self.closed_form(t)
         return self.energy(q, v)

@@ -93,7 +93,7 @@ class Kepler(Scene):
                         "text": f"ejected (unbound: v²/2 - GM/r >= 0) by step {int(step[i])}, at r = {r[i]:.3g}"})
         return sorted(out, key=lambda ev: ev["step"])
 
-    def exact(self, t):
+    def closed_form(self, t):
         t = np.asarray(t, dtype=float)
         e, n = self.values["e"], self.omega
         M = np.mod(n * t, 2.0 * math.pi)

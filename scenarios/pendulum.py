@@ -55,7 +55,7 @@ class Pendulum(Scene):
         g, L, m = self.values["g"], self.values["L"], self.values["m"]
         return 0.5 * m * L * L * v[..., 0] ** 2 - m * g * L * np.cos(q[..., 0])
 
-    def exact(self, t):
+    def closed_form(self, t):
         t = np.asarray(t, dtype=float)
         k = math.sin(self.values["theta0"] / 2.0)
         w = self.omega

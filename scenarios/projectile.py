@@ -60,7 +60,7 @@ class Projectile(DampedByC, Scene):
         g, m = self.values["g"], self.values["m"]
         return 0.5 * m * (v[..., 0] ** 2 + v[..., 1] ** 2) + m * g * q[..., 1]
 
-    def exact(self, t):
+    def closed_form(self, t):
         t = np.asarray(t, dtype=float)[:, None]
         g, m, c = self.values["g"], self.values["m"], self.values["c"]
         _, v0 = self.initial_state()
@@ -75,5 +75,5 @@ class Projectile(DampedByC, Scene):
         return q, v
 
     def exact_energy(self, t):
-        q, v = self.exact(t)
+        q, v = self.closed_form(t)
         return self.energy(q, v)

@@ -160,14 +160,14 @@ class Scene:
         """Characteristic angular frequency, so that h*omega compares timesteps across scenes."""
         raise NotImplementedError
 
-    def exact(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    def closed_form(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """Exact (q, v) at times t, shape (len(t), ndof); None where no closed form exists."""
         return None
 
     def reference_solution(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """(q, v) to measure errors against: the exact solution, or for a scene without one a
         high-accuracy numerical solution, trustworthy for t <= ``reference_horizon``."""
-        return self.exact(t)
+        return self.closed_form(t)
 
     #: How far ``reference_solution`` is accurate well below any scheme's error (inf: exact).
     reference_horizon: ClassVar[float] = float("inf")
@@ -323,7 +323,7 @@ class Scene:
         return np.tile(q0, (batch, 1)), np.tile(v0, (batch, 1))
 
     def describe(self) -> dict:
-        has_exact = self.exact(np.zeros(1)) is not None
+        has_exact = self.closed_form(np.zeros(1)) is not None
         return {
             "id": self.id,
             "title": self.title,

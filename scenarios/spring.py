@@ -59,7 +59,7 @@ class Spring(Scene):
         k, m = self.values["k"], self.values["m"]
         return 0.5 * m * v[..., 0] ** 2 + 0.5 * k * q[..., 0] ** 2
 
-    def exact(self, t):
+    def closed_form(self, t):
         t = np.asarray(t, dtype=float)
         w, x0, v0 = self.omega, self.values["x0"], self.values["v0"]
         x = x0 * np.cos(w * t) + (v0 / w) * np.sin(w * t)

@@ -382,7 +382,7 @@ def test_cost_through_the_engine_interface(spring):
 class PendulumWithoutClosedForm(Pendulum):
     id = "pendulum_without_closed_form"
 
-    def exact(self, t):
+    def closed_form(self, t):
         return None
 
 
@@ -393,7 +393,7 @@ def test_reference_solve_matches_the_closed_forms():
         scene = make_scene(scene_id)
         t = np.linspace(0.0, scene.period, 201)
         q, v = error.reference_solution(scene, t)
-        qe, ve = scene.exact(t)
+        qe, ve = scene.closed_form(t)
         y, ye = np.hstack([q, v / scene.omega]), np.hstack([qe, ve / scene.omega])
         assert np.max(np.linalg.norm(y - ye, axis=1)) / np.max(np.linalg.norm(ye, axis=1)) < error.REFERENCE_FLOOR
 

@@ -19,7 +19,7 @@ def ode(scene):
     return f
 
 
-EXACT_SCENES = [s for s in SCENES if make_scene(s).exact(np.zeros(1)) is not None]
+EXACT_SCENES = [s for s in SCENES if make_scene(s).closed_form(np.zeros(1)) is not None]
 
 
 @pytest.mark.parametrize("scene_id", EXACT_SCENES)
@@ -29,7 +29,7 @@ def test_exact_solution_solves_the_scene_ode(scene_id):
     t = np.linspace(0, 2 * scene.period, 41)
     sol = solve_ivp(ode(scene), (0, t[-1]), np.concatenate([q0, v0]), method="DOP853",
                     rtol=1e-13, atol=1e-13, t_eval=t)
-    q, v = scene.exact(t)
+    q, v = scene.closed_form(t)
     n = scene.ndof
     scale = 1 + np.abs(sol.y).max()
     # DOP853 at rtol 1e-13 over two periods agrees to ~1e-10 of the state's scale.
@@ -41,7 +41,7 @@ def test_exact_solution_solves_the_scene_ode(scene_id):
 def test_exact_energy_matches_energy_of_exact_state(scene_id):
     scene = make_scene(scene_id)
     t = np.linspace(0, scene.period, 17)
-    q, v = scene.exact(t)
+    q, v = scene.closed_form(t)
     np.testing.assert_allclose(scene.exact_energy(t), scene.energy(q, v), rtol=1e-12, atol=1e-12)
 
 
@@ -98,7 +98,7 @@ def test_damped_spring_is_exact_for_every_damping_ratio(c):
     scene = make_scene("damped_spring", c=c, v0=0.3)
     assert scene.zeta == pytest.approx(c / 2.0)
     t = np.linspace(0.0, 30.0, 301)
-    q, v = scene.exact(t)
+    q, v = scene.closed_form(t)
     sol = solve_ivp(lambda _, y: [y[1], -y[0] - c * y[1]], (0.0, 30.0), [1.0, 0.3], t_eval=t, method="DOP853",
                     rtol=1e-12, atol=1e-14)
     assert np.max(np.abs(q[:, 0] - sol.y[0])) <= DAMPED_TOL and np.max(np.abs(v[:, 0] - sol.y[1])) <= DAMPED_TOL
@@ -109,8 +109,8 @@ def test_damped_spring_is_exact_for_every_damping_ratio(c):
 def test_critical_damping_is_the_limit_of_the_overdamped_solution():
     # zeta = 1 exactly (c = 2) uses s = 0; a hair above it must agree to O(zeta - 1).
     t = np.linspace(0.0, 20.0, 201)
-    crit = make_scene("damped_spring", c=2.0).exact(t)
-    near = make_scene("damped_spring", c=2.0 * (1 + 1e-10)).exact(t)
+    crit = make_scene("damped_spring", c=2.0).closed_form(t)
+    near = make_scene("damped_spring", c=2.0 * (1 + 1e-10)).closed_form(t)
     assert np.max(np.abs(crit[0] - near[0])) < 1e-9 and np.max(np.abs(crit[1] - near[1])) < 1e-9
 
 
@@ -122,7 +122,7 @@ def test_damped_chain_modes_are_exact(c):
     scene = make_scene("chain", N=6, c=c)
     q0, v0 = scene.initial_state()
     t = np.linspace(0.0, 0.2, 41)
-    q, v = scene.exact(t)
+    q, v = scene.closed_form(t)
 
     def rhs(_, y):
         return np.concatenate([y[6:], scene.accel(y[:6, None], y[6:, None], 0.0, scene.pvec)[:, 0]])

@@ -69,11 +69,11 @@ def chain():
 
 def test_chain_exact_starts_at_the_initial_state_and_keeps_its_energy(chain):
     q0, v0 = chain.initial_state()
-    q, v = chain.exact(np.zeros(1))
+    q, v = chain.closed_form(np.zeros(1))
     # The DST round trip costs a few ulps per entry.
     assert np.max(np.abs(q[0] - q0)) <= 1e-14 and np.max(np.abs(v[0] - v0)) <= 1e-14
     t = np.linspace(0.0, 10.0, 101)
-    e = chain.energy(*chain.exact(t))
+    e = chain.energy(*chain.closed_form(t))
     # Each mode conserves its energy exactly; what remains is roundoff of O(N) terms of size
     # O(w^2 q^2) ~ 4e4 against E0 = 1e4: 1e-12 relative is ~500 ulps.
     assert np.max(np.abs(e - e[0])) / e[0] <= 1e-12
@@ -88,7 +88,7 @@ def test_chain_exact_solves_the_ode(chain):
     q0, v0 = chain.initial_state()
     sol = solve_ivp(lambda _, y: np.concatenate([y[n:], chain.accel(y[:n, None], None, 0.0, p)[:, 0]]),
                     (0.0, 0.2), np.concatenate([q0, v0]), method="DOP853", rtol=1e-12, atol=1e-12, t_eval=t)
-    q, v = chain.exact(t)
+    q, v = chain.closed_form(t)
     assert np.max(np.abs(sol.y[:n].T - q)) <= 1e-9 * chain.values["x0"]
     assert np.max(np.abs(sol.y[n:].T - v)) <= 1e-9 * chain.values["x0"] * chain.omega
 
@@ -169,7 +169,7 @@ def test_implicit_euler_at_100x_the_explicit_limit_is_stable_and_damps(chain):
 def test_chain_of_one_mass():
     one = make_scene("chain", N=1, k=4.0, m=1.0)
     assert one.omega == pytest.approx(math.sqrt(2 * 4.0), rel=1e-15)  # two springs on one mass
-    q, _ = one.exact(np.array([math.pi / one.omega]))
+    q, _ = one.closed_form(np.array([math.pi / one.omega]))
     assert q[0, 0] == pytest.approx(-1.0, abs=1e-15)
 
 

@@ -56,7 +56,7 @@ def test_midpoint_is_second_order_on_the_spring(midpoint):
     for k in range(5):
         steps = 64 * 2 ** k
         traj = integrate(midpoint, spring, horizon / steps, steps, every=steps)
-        x, v = spring.exact(traj.t[-1:])
+        x, v = spring.closed_form(traj.t[-1:])
         dts.append(horizon / steps)
         errors.append(math.hypot(traj.q[-1, 0, 0] - x[0, 0], (traj.v[-1, 0, 0] - v[0, 0]) / spring.omega))
     slope = linregress(np.log(dts), np.log(errors)).slope

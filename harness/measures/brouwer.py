@@ -85,7 +85,7 @@ def energy_walk(method, scene: Scene, dt: float, steps: int, every: int, *, real
         e = traj.energy[:, 0]
         walks.append((e[1:] - e[1]) / abs(e[0]))
         t, t_abs = traj.t[1:] - traj.t[1], traj.t[1:]
-        exact = None if method.adaptive else scene.exact(traj.t)
+        exact = None if method.adaptive else scene.closed_form(traj.t)
         if exact is not None:
             errors.append(np.linalg.norm(traj.q[:, 0] - exact[0], axis=-1)[1:])
     out = {"realizations": int(realizations), "perturbation": PERTURBATION, "dt": float(dt), "steps": int(steps),

@@ -10,7 +10,7 @@ The rule, one way for every method:
 * ``error_max`` is the largest of these over the run (the sup norm in time, which a lucky
   final-time cancellation cannot hide), ``error_final`` the one at the last step.
 
-The true state is ``scene.exact(t)`` where that exists; otherwise the scene's own
+The true state is ``scene.closed_form(t)`` where that exists; otherwise the scene's own
 ``reference_solution(t)`` where it provides one (a solve of the scene's true model, vectorised
 and cached: the rope's reduced model, the solar system's pair sum), trusted up to the scene's
 ``reference_horizon``: the error is then measured over ``t <= reference_horizon`` only
@@ -96,7 +96,7 @@ def true_state(scene: Scene, t) -> tuple[np.ndarray, np.ndarray, str]:
     """(q, v, source): the exact solution where the scene has one, else the scene's reference
     solution where it has one, else the reference solve."""
     t = np.asarray(t, dtype=float)
-    exact = scene.exact(t)
+    exact = scene.closed_form(t)
     if exact is not None:
         return exact[0], exact[1], "exact"
     own = scene.reference_solution(t)  # Scene's default is exact(t): None here
