@@ -138,8 +138,8 @@ class Kind:
 
     def step_counts(self, scheme, scene, count: int) -> tuple[int, int, int] | None:
         """(force evaluations, solves, projections) a step taking ``count`` makes, where they are
-        fixed (the scheme's declared ``force_evals``); None where they vary from step to step
-        (``reference._counts`` then probes them)."""
+        fixed (the scheme's declared ``force_evals``); None where they vary from step to step (a
+        run on the compiled loop then has none, and a counting run interprets: ``reference._counts``)."""
         return (scheme.force_evals, 0, 0)
 
 

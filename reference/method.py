@@ -28,8 +28,8 @@ class RefMethod:
     #: runs too long to interpret; force evaluations are then not counted.
     compiled: bool = field(default=False, compare=False)
     #: Step on the pair's compiled loop wherever it computes the interpreted run's bits
-    #: (``reference.bitwise_why``), its counts declared or probed (``reference._counts``), and
-    #: interpreted elsewhere: the interpreted run's states and counts, only faster.
+    #: (``reference.bitwise_why``), its counts those the scheme declares (``reference._counts``;
+    #: none where they vary), and interpreted elsewhere: the interpreted run's states, only faster.
     compiled_where_bitwise: bool = field(default=False, compare=False)
 
     # The capabilities of records.Method, declared: stepped in this process, at the dt it is
