@@ -85,9 +85,11 @@ MAX_ITERATIONS = 10**6
 
 def declared_options(method: Method) -> dict[str, Option]:
     """The run-time options ``method`` takes, by name: a reference scheme's (``Scheme.options``,
-    counts from 1), an engine mode's (``EngineMode.options``); a plugin's method takes none."""
+    counts from 1; an implicit scheme's solve, ``RefMethod.options_declared``), an engine mode's
+    (``EngineMode.options``); a plugin's method takes none."""
     if isinstance(method, RefMethod):
-        return {name: Option(name, int, 1, MAX_ITERATIONS) for name in method.scheme.options}
+        return {**{name: Option(name, int, 1, MAX_ITERATIONS) for name in method.scheme.options},
+                **method.options_declared}
     return dict(getattr(method, "options_declared", None) or {})
 
 

@@ -110,16 +110,23 @@ def scheme_name(method_id: str | None) -> str | None:
 
 @dataclass(frozen=True)
 class Option:
-    """A run-time option a method declares: its type (int or float) and its range, inclusive."""
+    """A run-time option a method declares: its type (int or float) and its range, inclusive;
+    or a name (type str) among ``choices`` (``ref:implicit_euler?solver=direct``)."""
 
     name: str
     type: type
-    low: float
-    high: float
+    low: float = -math.inf
+    high: float = math.inf
     doc: str = ""
+    choices: tuple[str, ...] = ()
 
     def check(self, method: str, value):
         """``value`` as this option's type, or InvalidInput naming the option and its range."""
+        if self.type is str:
+            if str(value) not in self.choices:
+                raise InvalidInput(f"method {method}: option {self.name}={value!r} is not one of its choices "
+                                   f"(allowed: {', '.join(self.choices)})")
+            return str(value)
         allowed = f"allowed: {'integer' if self.type is int else 'number'} from {_option_text(self.low)} to {_option_text(self.high)}"
         try:
             x = float(value)
