@@ -89,12 +89,13 @@ KNOBS = {"iterations": 10}
 
 def declared_options(method: Method) -> dict[str, Option]:
     """The run-time options ``method`` takes, by name: a reference scheme's (``Scheme.options``,
-    counts from 1), an engine mode's (``EngineMode.options``); a plugin's method takes none."""
+    counts from 1; an implicit scheme's solve, ``RefMethod.options_declared``), an engine mode's
+    (``EngineMode.options``); a plugin's method takes none."""
     if isinstance(method, RefMethod):
         scheme = method.scheme
         counts = {name: Option(name, int, 1, MAX_ITERATIONS, default=default, tighten=KNOBS.get(name))
                   for name, default in scheme.options.items()}
-        return {**counts, **scheme.kind.parameters(scheme)}
+        return {**counts, **scheme.kind.parameters(scheme), **method.options_declared}
     return dict(getattr(method, "options_declared", None) or {})
 
 

@@ -114,18 +114,25 @@ class Option:
     ``default`` the value the method runs at where it is not set (None: not declared); ``tighten``,
     where the option is the method's convergence knob (an iterative solve's passes or tolerance),
     the factor that makes the solve converge further (10: ten times the passes; 0.01: a hundred
-    times tighter a tolerance; ``harness.methods.tightened``)."""
+    times tighter a tolerance; ``harness.methods.tightened``); or a name (type str) among
+    ``choices`` (``ref:implicit_euler?solver=direct``)."""
 
     name: str
     type: type
-    low: float
-    high: float
+    low: float = -math.inf
+    high: float = math.inf
     doc: str = ""
     default: float | None = None
     tighten: float | None = None
+    choices: tuple[str, ...] = ()
 
     def check(self, method: str, value):
         """``value`` as this option's type, or InvalidInput naming the option and its range."""
+        if self.type is str:
+            if str(value) not in self.choices:
+                raise InvalidInput(f"method {method}: option {self.name}={value!r} is not one of its choices "
+                                   f"(allowed: {', '.join(self.choices)})")
+            return str(value)
         allowed = f"allowed: {'integer' if self.type is int else 'number'} from {_option_text(self.low)} to {_option_text(self.high)}"
         try:
             x = float(value)

@@ -105,6 +105,10 @@ class RunMeta:
     force_evals_reason: str | None = None     # why they are not counted, where they are not
     iterations: int | None = None             # a constrained scheme's projection passes per step
     projections: int | None = None            # projections counted
+    linear_solver: str | None = None          # a library solve the method chose (reference.solvers), where it did
+    solver_iterations: int | None = None      # its iterations counted (conjugate gradients, local/global passes)
+    unconverged_solves: int | None = None     # its solves that stopped at the iteration cap or broke down
+    factorizations: int | None = None         # its matrix factorizations counted
     loop: str | None = None                   # how an engine mode was stepped (adapters._loops)
     engine: str | None = None
     engine_version: str | None = None

@@ -64,11 +64,13 @@ def carried_map(scheme, scene: Scene, dt: float) -> tuple[np.ndarray, np.ndarray
 
 def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
               q0: np.ndarray | None = None, v0: np.ndarray | None = None, t0: float = 0.0,
-              iterations: int | None = None, substeps: int | None = None) -> Trajectory:
+              iterations: int | None = None, substeps: int | None = None, solver=None) -> Trajectory:
     """Step ``scheme`` on ``scene`` for ``steps`` steps of ``dt``, recording every ``every`` steps
     (and always the last). ``q0``/``v0`` may be batched (API layout, (batch, ndof)).
     ``iterations``: projection passes per step of a constrained scheme (default: the scheme's);
-    ``substeps``: the substeps a position-based scheme cuts each step into (default: the scheme's).
+    ``substeps``: the substeps a position-based scheme cuts each step into (default: the scheme's);
+    ``solver``: a library solve an implicit scheme takes instead of the scene's kernel
+    (``reference.solvers.Choice``), its iterations, unconverged solves and factorizations counted.
 
     A step whose state is not finite, or exceeds ``DIVERGED`` in magnitude, stops the run:
     status ``unstable`` with that step, the arrays ending at the last good recorded state.
@@ -78,11 +80,17 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     q = np.ascontiguousarray(np.atleast_2d(q0).T, dtype=np.float64)
     v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
     p = scene.pvec
-    accel, solve, project = Counted(scene.accel), Counted(scene.solve), Counted(scene.project)
     meta = RunMeta(backend="interpreted", params=dict(scene.values),
                    iterations=scheme.kind.run_iterations(scheme, iterations))
-    advance = scheme.kind.advance(scheme, scene, dt, _kernels(scene, accel, solve, project), iterations,
-                                  substeps=substeps)
+    if solver is None:
+        accel, solve, project = Counted(scene.accel), Counted(scene.solve), Counted(scene.project)
+        advance = scheme.kind.advance(scheme, scene, dt, _kernels(scene, accel, solve, project), iterations,
+                                      substeps=substeps)
+    else:
+        prepared = solver.prepare(scheme, scene, dt)
+        accel, solve, project = Counted(prepared.accel), Counted(prepared.solve), Counted(scene.project)
+        advance = prepared.advance(accel, solve)
+        meta.linear_solver = prepared.text
     state = scheme.start(accel, q, v, t0, dt, p)
     start_evals = accel.calls
     accel.calls = 0
@@ -108,6 +116,14 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     meta.start_force_evals = start_evals
     if "project" in scheme.kind.kernels:
         meta.projections = project.calls
+    if solver is not None:
+        meta.solver_iterations = prepared.iterations
+        meta.unconverged_solves = prepared.unconverged
+        meta.factorizations = prepared.factorizations
+        if prepared.unconverged:  # an unconverged solve is said with the run, whatever its status
+            short = (f"{prepared.unconverged} of {solve.calls} solves stopped short of their tolerance "
+                     f"({prepared.text})")
+            detail = f"{detail}; {short}" if detail else short
     q_arr, v_arr = np.array(rec_q), np.array(rec_v)
     step_arr = np.array(rec_step, dtype=np.int64)
     with np.errstate(over="ignore", invalid="ignore"):  # the last states of a blow-up are finite but huge

@@ -9,18 +9,24 @@ from records.method import NO_BEHAVIOUR, NO_REASONS
 
 from scenarios import Scene
 
-from ._compiled import bitwise_why, integrate_compiled
+from . import solvers
+from ._compiled import bitwise_why, integrate_compiled, step_timer
 from ._integrate import integrate
 from ._scheme import Scheme
+
+#: What the cost measure times of a scheme on its compiled path.
+COMPILED_TIMING = "compiled (numba), min of repeats after warm-up"
 
 
 @dataclass(frozen=True)
 class RefMethod:
     """A reference scheme as a method. ``options`` are the run-time options the scheme declares
-    (``Scheme.options``: a constrained scheme's projection ``iterations``); unset ones keep the
-    scheme's defaults. Its runs are interpreted (every evaluation counted as it happens) unless
-    ``compiled_where_bitwise`` (the pair's compiled loop wherever it computes the interpreted bits)
-    or ``compiled`` (the loop everywhere, not counted)."""
+    (``Scheme.options``: a constrained scheme's projection ``iterations``; an implicit scheme's
+    ``solver`` and its settings, ``reference.solvers``); unset ones keep the scheme's defaults. Its
+    runs are interpreted (every evaluation counted as it happens) unless ``compiled_where_bitwise``
+    (the pair's compiled loop wherever it computes the interpreted bits) or ``compiled`` (the loop
+    everywhere, not counted). A library solve runs in Python, counted, whatever the driver asked
+    for (numba cannot compile the library)."""
 
     scheme: Scheme
     options: dict = field(default_factory=dict, compare=False)
@@ -63,7 +69,25 @@ class RefMethod:
         bound = {k: v for k, v in options.items() if k in declared}
         counts = {k: v for k, v in options.items() if k not in declared}
         scheme = kind.with_parameters(self.scheme, bound) if bound else self.scheme
-        return replace(self, scheme=scheme, options={**self.options, **counts})
+        merged = {**self.options, **counts}
+        solvers.choice(scheme, merged)
+        return replace(self, scheme=scheme, options=merged)
+
+    @property
+    def solver(self) -> "solvers.Choice | None":
+        """The library solve its options choose (None: the scene's own kernel)."""
+        return solvers.split(self.scheme, self.options)[0]
+
+    @property
+    def _kernel_options(self) -> dict:
+        """The options the kernels take (a constrained scheme's passes, ...), the solve's left out."""
+        return solvers.split(self.scheme, self.options)[1]
+
+    @property
+    def options_declared(self) -> dict:
+        """The options of its solve (``reference.solvers.options_for``); the counts a constrained or
+        position-based scheme takes are declared by ``harness.methods``."""
+        return solvers.options_for(self.scheme)
 
     def available(self) -> tuple[bool, str]:
         return True, ""
@@ -75,20 +99,41 @@ class RefMethod:
         why = self.scheme.kind.supports(self.scheme, scene, self.id)
         if why:
             return False, why
+        solver = self.solver
+        why = solver.supports(scene) if solver is not None else ""
+        if why:
+            return False, why
         return True, ""
 
     def compiled_twin(self) -> "RefMethod":
-        return replace(self, compiled=True)
+        # A library solve has no compiled path: its run is already its fastest.
+        return self if self.solver is not None else replace(self, compiled=True)
 
     def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1, count: bool = False) -> Trajectory:
         """The run (``reference.integrate``'s, wherever it steps); ``count``: interpreted, every
-        evaluation counted as it happens (the counting run)."""
+        evaluation counted as it happens (the counting run). A library solve runs interpreted."""
+        solver, options = solvers.split(self.scheme, self.options)
+        if solver is not None:
+            return integrate(self.scheme, scene, dt, steps, every, solver=solver)
         if self.compiled and not count:
-            return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options)
-        if self.compiled_where_bitwise and not count and not bitwise_why(self.scheme, scene, **self.options):
-            return integrate_compiled(self.scheme, scene, dt, steps, every, **self.options, counted=True)
-        return integrate(self.scheme, scene, dt, steps, every, **self.options)
+            return integrate_compiled(self.scheme, scene, dt, steps, every, **options)
+        if self.compiled_where_bitwise and not count and not bitwise_why(self.scheme, scene, **options):
+            return integrate_compiled(self.scheme, scene, dt, steps, every, **options, counted=True)
+        return integrate(self.scheme, scene, dt, steps, every, **options)
+
+    def step_timer(self, scene: Scene, dt: float, steps: int, clock: str = "wall"):
+        """``(warm-up seconds, once, what is timed)`` at its options: the compiled loop
+        (``reference.step_timer``), or where a library solve is chosen the Python loop that runs
+        it (``reference.solvers.step_timer``), which the third says."""
+        solver, options = solvers.split(self.scheme, self.options)
+        if solver is not None:
+            return solvers.step_timer(solver, self.scheme, scene, dt, steps, clock)
+        return (*step_timer(self.scheme, scene, dt, steps, clock=clock, **options), COMPILED_TIMING)
 
     def describe(self) -> dict:
-        return {"id": self.id, "family": self.family,
-                **{k: v for k, v in self.scheme.describe().items() if k != "id"}}
+        out = {"id": self.id, "family": self.family,
+               **{k: v for k, v in self.scheme.describe().items() if k != "id"}}
+        solver = self.solver
+        if solver is not None:
+            out["solver"] = solver.text
+        return out

@@ -41,7 +41,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.linalg import eigsh
 
-from .scene import Param, Scene
+from .scene import Param, Scene, SparseForm
 from ._solutions import SegmentedSolution, cached
 
 #: DOP853 tolerance (relative and absolute) of the reference solution.
@@ -333,6 +333,86 @@ def solve(q, v, t, p, alpha, beta, r):
     return out
 
 
+class _Sheet:
+    """The cloth's springs as arrays, for its force and its solve's matrix in whole-array numpy
+    (``Cloth.sparse_form``): the springs' end nodes (row-order grid indices), stiffness and rest
+    length; each node's free index (-1: pinned) and start; and the matrix's pattern, fixed by the
+    springs, so that a matrix at a state is its values summed into that pattern."""
+
+    def __init__(self, scene: "Cloth"):
+        n, m, d = scene.grid
+        self.d, self.mass, self.g, self.size = d, scene.node_mass, float(scene.values["g"]), scene.ndof
+        self.a, self.b, self.k, self.rest = scene.springs()
+        self.base = scene.rest_positions()
+        self.free_nodes = scene._free_index()
+        self.free = np.full(n * m, -1)
+        self.free[self.free_nodes] = np.arange(len(self.free_nodes))
+        # Each spring's four d x d blocks (a a, b b: +; a b, b a: -) where both of its nodes are
+        # free, then the identity's diagonal: every entry's (row, column) and where its value comes
+        # from (an entry of the springs' blocks, its sign), summed into the compressed rows of the
+        # distinct positions by one sparse product (``assemble``).
+        c = np.arange(d)
+        rows, cols, source, sign = [], [], [], []
+        block = np.arange(len(self.k) * d * d).reshape(-1, d, d)
+        for r_end, c_end, s in ((self.a, self.a, 1.0), (self.b, self.b, 1.0), (self.a, self.b, -1.0),
+                                (self.b, self.a, -1.0)):
+            fr, fc = self.free[r_end], self.free[c_end]
+            keep = np.flatnonzero((fr >= 0) & (fc >= 0))
+            shape = (len(keep), d, d)
+            rows.append(np.broadcast_to(fr[keep, None, None] * d + c[None, :, None], shape).ravel())
+            cols.append(np.broadcast_to(fc[keep, None, None] * d + c[None, None, :], shape).ravel())
+            source.append(block[keep].ravel())
+            sign.append(np.full(len(keep) * d * d, s))
+        diagonal = np.arange(self.size)
+        key = np.concatenate(rows + [diagonal]).astype(np.int64) * self.size + np.concatenate(cols + [diagonal])
+        unique, slot = np.unique(key, return_inverse=True)
+        self.indices = (unique % self.size).astype(np.int32)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // self.size, minlength=self.size))]
+                                     ).astype(np.int32)
+        entries = len(np.concatenate(sign))
+        self.assemble = coo_matrix((np.concatenate(sign), (slot[:entries], np.concatenate(source))),
+                                   shape=(len(unique), block.size)).tocsr()
+        self.diagonal = slot[entries:]
+
+    def positions(self, q: np.ndarray) -> np.ndarray:
+        """Every node's position, (n m, d), from the free coordinates q (ndof,)."""
+        x = self.base.copy()
+        x[self.free_nodes] = q.reshape(-1, self.d)
+        return x
+
+    def accel(self, q, v, t, p):
+        """The force over the masses plus gravity, kernel layout (ndof, batch)."""
+        out = np.empty_like(q)
+        for col in range(q.shape[1]):
+            x = self.positions(q[:, col])
+            dx = x[self.b] - x[self.a]
+            length = np.sqrt(np.sum(dx * dx, axis=1))
+            f = (self.k * (length - self.rest) / length)[:, None] * dx
+            force = np.empty_like(x)
+            for c in range(self.d):
+                force[:, c] = (np.bincount(self.a, f[:, c], minlength=len(x))
+                               - np.bincount(self.b, f[:, c], minlength=len(x)))
+            acc = force[self.free_nodes] / self.mass
+            acc[:, self.d - 1] -= self.g
+            out[:, col] = acc.ravel()
+        return out
+
+    def matrix(self, q, v, t, alpha, beta):
+        """I + (beta / m) K(q), K = -df/dq spring by spring k [(1 - L/|d|) I + (L/|d|) u u^T]."""
+        from scipy.sparse import csr_matrix
+
+        x = self.positions(q)
+        dx = x[self.b] - x[self.a]
+        length = np.sqrt(np.sum(dx * dx, axis=1))
+        u = dx / length[:, None]
+        ratio = self.rest / length
+        blocks = (self.k * ratio)[:, None, None] * u[:, :, None] * u[:, None, :] \
+            + (self.k * (1.0 - ratio))[:, None, None] * np.eye(self.d)
+        data = self.assemble @ (blocks.ravel() * (beta / self.mass))
+        data[self.diagonal] += 1.0
+        return csr_matrix((data, self.indices, self.indptr), shape=(self.size, self.size))
+
+
 class Cloth(Scene):
     id = "cloth"
     title = ("stiff mass-spring cloth, n x m masses, springs with rest lengths, gravity, pinned top corners; "
@@ -418,6 +498,14 @@ class Cloth(Scene):
         x = np.broadcast_to(self.rest_positions(), q.shape[:-1] + self.rest_positions().shape).copy()
         x[..., self._free_index(), :] = q.reshape(q.shape[:-1] + (-1, d))
         return x
+
+    def sparse_form(self) -> SparseForm:
+        """The force and the solve's matrix I + (beta/m) K(q) as whole-array numpy and scipy CSR
+        (``Scene.sparse_form``), built once per scene."""
+        if "_sparse" not in self.__dict__:
+            sheet = _Sheet(self)
+            self._sparse = SparseForm(sheet.accel, sheet.matrix, self.grid[2])
+        return self._sparse
 
     @property
     def dof_names(self):

@@ -88,6 +88,21 @@ def no_constraints(p):  # pragma: no cover - only reached by a misuse
     raise NotImplementedError("this scene gives no distance constraints")
 
 
+@dataclass(frozen=True)
+class SparseForm:
+    """A scene's force and its implicit solve's matrix for the solves that run in Python, where a
+    reference scheme's method takes a library solve in place of the scene's ``solve`` kernel
+    (``reference.solvers``): ``accel(q, v, t, p)`` the scene's force in kernel layout, as whole-array
+    numpy (the kernel's force, its sums taken in another order); ``matrix(q, v, t, alpha, beta)``
+    the matrix I - alpha da/dv - beta da/dq that ``solve`` inverts, at one state (q, v of shape
+    (ndof,)), scipy CSR with one sparsity pattern at every state; ``block`` the coordinates of a
+    point (its d x d diagonal block: block-Jacobi's blocks, the translations multigrid keeps)."""
+
+    accel: Callable
+    matrix: Callable
+    block: int
+
+
 class Scene:
     """Base class. A subclass declares, and only declares, what its physics needs.
 
@@ -235,6 +250,12 @@ class Scene:
         max |eig(M(q_0)^-1 M(q)) - 1|, the largest relative change of the kinetic energy of one
         velocity (``scenarios._mass_matrix``). None: not measured; a built-in scene's mass matrix
         is constant in its own coordinates (particles in Cartesian coordinates, one hinge)."""
+        return None
+
+    def sparse_form(self) -> SparseForm | None:
+        """The scene's force and its implicit solve's matrix as whole-array numpy and scipy sparse
+        (:class:`SparseForm`), for the library solves a reference scheme may take in place of
+        ``solve``; None where the scene gives none (its kernels alone)."""
         return None
 
     #: The scene's physics is its own kernels (``accel``, ...), which reference schemes step;

@@ -6,7 +6,9 @@ The rule, one way for each kind of method:
   steps (default 100) through the runner, ``Trajectory.force_evals / steps run``. The
   reference driver wraps the scene's force and subtracts start-up evaluations (Verlet's
   a_0), so these are per step proper; ``solves_per_step`` counts the implicit schemes'
-  linear solves (one per Newton iteration). An engine mode reports what its engine counts
+  linear solves (one per Newton iteration), and where the method chose a library solve
+  (``reference.solvers``) ``solver_iterations_per_step`` its iterations and ``unconverged_solves``
+  those that stopped short of its tolerance. An engine mode reports what its engine counts
   (MuJoCo's forward passes, in every run), or, where counting needs a callback that would slow
   the timed loop (REBOUND, pymunk), what a counting run (``simulate(..., count=True)``, in this
   process, as the timing runs) counts over the steps the isolated run ran; or None with the
@@ -19,7 +21,10 @@ The rule, one way for each kind of method:
   REF_RUN_BUDGET_S (0.02 s, judged from a pilot run of REF_PILOT_STEPS, 2,000) runs fewer
   steps, at least REF_MIN_STEPS (5,000): a slow kernel (Kepler's implicit midpoint, the solar
   system's RK4) says in one budget's run what 100,000 steps would say, since the call's fixed
-  cost is then a negligible share of a run and the clock reads to the nanosecond.
+  cost is then a negligible share of a run and the clock reads to the nanosecond. A scheme that
+  chose a library solve (``ref:implicit_euler?solver=direct``, ``reference.solvers``), which numba
+  cannot compile, is timed by the same rule on the Python loop that runs it, and its ``timing``
+  says so.
 * **Wall time per step**, engine modes, two figures, each ``method.simulate`` timed in this
   process (no worker): one warm-up call of up to ENGINE_PILOT_STEPS (500) steps, then
   ``repeats`` timed runs of N steps and of 0 steps; the figure is ``(min t(N) - min t(0)) / N``.
@@ -78,7 +83,8 @@ from records import Method
 from records.result import Result
 
 import reference
-from reference import CLOCKS, step_timer, time_per_step
+from reference import CLOCKS, time_per_step
+from reference.method import COMPILED_TIMING
 
 from scenarios import Scene
 
@@ -125,6 +131,10 @@ def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_S
         out["force_evals_per_step"] = traj.force_evals / ran
         out["start_force_evals"] = traj.meta.start_force_evals
     out["solves_per_step"] = None if traj.solves is None or ran <= 0 else traj.solves / ran
+    if traj.meta.linear_solver is not None and ran > 0:  # a library solve's own counts (reference.solvers)
+        out["solver"] = traj.meta.linear_solver
+        out["solver_iterations_per_step"] = traj.meta.solver_iterations / ran
+        out["unconverged_solves"] = traj.meta.unconverged_solves
     scheme = method.scheme
     if scheme is not None:
         out["declared_force_evals"] = scheme.force_evals
@@ -132,7 +142,7 @@ def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_S
     return out
 
 
-_COMPILED_TIMING = "compiled (numba), min of repeats after warm-up"
+_COMPILED_TIMING = COMPILED_TIMING
 _LOOP_TIMING = {
     "engine": "engine s/step: in-process simulate through the engine's own loop, state read at the output "
               "point only, model built off the clock, (min t(N) - min t(0))/N after warm-up",
@@ -157,9 +167,9 @@ class _Timing:
         self.setup_unresolved = False
         if self.scheme is not None:
             self.n = int(steps or REF_TIME_STEPS)
-            # At the method's own options (a constrained scheme's passes, a position-based one's substeps).
-            self.warmup_s, self._once = step_timer(self.scheme, scene, dt, self.n, clock=clock,
-                                                   **getattr(method, "options", {}))
+            # At the method's own options (a constrained scheme's passes, a position-based one's
+            # substeps; a library solve, timed on the Python loop that runs it, which it says).
+            self.warmup_s, self._once, self.scheme_timing = method.step_timer(scene, dt, self.n, clock=clock)
             if budget:
                 per_step = self._once(min(self.n, REF_PILOT_STEPS))
                 if per_step * self.n > REF_RUN_BUDGET_S:
@@ -241,7 +251,7 @@ class _Timing:
 
     def result(self, clock: str) -> dict:
         self._resolve_setup()
-        timing = _COMPILED_TIMING if self.scheme is not None else _LOOP_TIMING[self.loop]
+        timing = self.scheme_timing if self.scheme is not None else _LOOP_TIMING[self.loop]
         if self.setup_unresolved:
             timing += ("; every 0-step run was slower than the fastest timed run (a loaded machine): "
                        "whole runs per step, the setup included, an upper bound")
@@ -318,6 +328,9 @@ class CostResult(Result):
     engine_loop: str | None = None            # how the engine's own loop steps, where it says
     as_stepped: dict | None = None            # an engine mode stepped one call at a time from Python
     as_stepped_s_per_step: float | None = None
+    solver: str | None = None                 # a library solve the method chose (reference.solvers)
+    solver_iterations_per_step: float | None = None  # its iterations (conjugate gradients, local/global passes)
+    unconverged_solves: int | None = None     # its solves over the counted steps that stopped short of tol
 
 
 def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = None, repeats: int = REPEATS,
