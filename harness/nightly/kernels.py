@@ -7,9 +7,13 @@ cache under ``$HARNESS_CACHE``: a run after one on the same cache compiles nothi
 
 ``plan`` says, before the run, how many loops it will compile ("cold cache: about N kernels to
 compile"): the loops of the reference tasks' pairs and of explicit Euler on every scene (each cost
-cell's baseline, and the calibration's on the unit spring), timed whatever their bits, and of the
-reference schemes an engine task's identity cell steps beside it where their loops compute the
-interpreted bits (elsewhere it interprets them), each counted once where the cache lacks it.
+cell's baseline, and the calibration's on the unit spring), timed whatever their bits, each counted
+once where the cache lacks it. An engine task's identity cell steps a reference scheme's loop only
+where the scheme survives its short interpreted screen (``harness.measures.identify``): the match
+and the runner-up, found by running. The plan cannot know them beforehand, so it names them apart
+("besides the loops of the identity candidates a screen keeps") and counts only the loops among
+them already compiled as stepped. A screen is deterministic, so a second run on the same cache
+keeps the same candidates and compiles nothing.
 """
 from __future__ import annotations
 
@@ -28,6 +32,7 @@ class KernelPlan:
     compile: int = 0
     cache: str = ""
     loops: int = 0
+    screened: int = 0   # identity candidates whose loop is not compiled: compiled only where a screen keeps them
 
     def line(self) -> str:
         """The line the nightly prints before it starts."""
@@ -36,6 +41,8 @@ class KernelPlan:
                     f"kernels to compile (of the {self.loops} the run steps)")
         else:
             what = "kernel cache warm: nothing to compile"
+        if self.screened:
+            what += f", besides the loops of the identity candidates a screen keeps (of {self.screened})"
         return f"{what}; kernel cache {self.cache}"
 
 
@@ -47,6 +54,7 @@ def plan(tasks: list, suite) -> KernelPlan:
     from harness.nightly.cells import identifies
 
     to_compile: dict[str, bool] = {}  # kernel file -> its loop is to compile
+    screened: set[str] = set()        # identity candidates' kernel files not compiled yet
     baseline = reference.RefMethod(reference.METHODS[BASELINE])
     scenes: dict[tuple, object] = {}
 
@@ -73,7 +81,12 @@ def plan(tasks: list, suite) -> KernelPlan:
         elif identifies(suite, scene, task.family):
             for ref in candidate_methods(scene).values():
                 if not reference.bitwise_why(ref.scheme, scene):
-                    need(ref.scheme, scene)
+                    loop = reference.cache_state(ref.scheme, scene)
+                    if loop.compiled:
+                        to_compile.setdefault(loop.name, False)
+                    else:
+                        screened.add(loop.name)
     if to_compile:
         need(baseline.scheme, make_scene("spring"))  # the calibration's loop
-    return KernelPlan(sum(to_compile.values()), str(reference.kernel_cache_dir()), len(to_compile))
+    return KernelPlan(sum(to_compile.values()), str(reference.kernel_cache_dir()), len(to_compile),
+                      len(screened - to_compile.keys()))
