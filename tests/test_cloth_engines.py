@@ -66,7 +66,7 @@ def test_mujoco_discrete_is_one_solve_without_the_geometric_stiffness(cloth):
 
 
 def test_mujoco_discrete_matches_nothing_and_says_why(cloth):
-    res = identify("mujoco:discrete", cloth, steps=300)
+    res = identify("mujoco:discrete", cloth, steps=40)  # parts from every scheme at the first step
     assert res.match is None and "k J^T J" in res.why_no_match
 
 

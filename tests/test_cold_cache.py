@@ -18,6 +18,7 @@ from harness.history.storage import History
 from harness.nightly.kernels import KernelPlan
 from harness.nightly.progress import compile_line
 from records.run import RunTiming
+from tests.shared_fixture import built_once
 from tests.test_resume import CLOCKED, ROOT, SUITE, TIMINGS, cells_of, env
 
 #: How a run ran, beside what it measured.
@@ -37,8 +38,11 @@ NIGHTLY = ("import sys; from pathlib import Path; from harness.nightly.run impor
 @pytest.fixture(scope="module")
 def three_runs(tmp_path_factory):
     """The suite three times on one kernel cache, empty at first: {run: (cells, timing, progress,
-    stored cells)}."""
-    tmp = tmp_path_factory.mktemp("cold")
+    stored cells)}; once per test run."""
+    return built_once(tmp_path_factory, "cold-cache-runs", _three_runs)
+
+
+def _three_runs(tmp):
     timings = tmp / "timings.json"
     timings.write_text(json.dumps(TIMINGS))
     db = tmp / "h.sqlite"

@@ -28,6 +28,7 @@ from harness.nightly.cells import run_task
 from harness.nightly.run import Task, build_tasks
 from harness.history.storage import History
 from harness.nightly.suites import SUITES
+from tests.shared_fixture import built_once
 from records.cell import FIGURES
 
 FAULTS = str(Path(__file__).with_name("dask_faults.py"))
@@ -46,13 +47,16 @@ def stored(tmp):
     return runs, history.cells(int(runs.run_id.iloc[-1]))
 
 
-@pytest.fixture(scope="module")
-def local_run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("local")
+def _local_run(tmp):
     with pytest.MonkeyPatch.context() as mp:
         mp.delenv(distributed.ENV_VAR, raising=False)
         code = main(nightly_argv(tmp, "--jobs", "2"))
     return tmp, code
+
+
+@pytest.fixture(scope="module")
+def local_run(tmp_path_factory):
+    return built_once(tmp_path_factory, "distributed-local", _local_run)
 
 
 @contextlib.contextmanager
@@ -71,12 +75,15 @@ def worker_kills(tmp, plan: dict):
         yield
 
 
-@pytest.fixture(scope="module")
-def dask_run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("dask")
+def _dask_run(tmp):
     with worker_kills(tmp, {KILLED_ONCE: 1}):
         code = main(nightly_argv(tmp, "--scheduler", "local:2"))
     return tmp, code
+
+
+@pytest.fixture(scope="module")
+def dask_run(tmp_path_factory):
+    return built_once(tmp_path_factory, "distributed-dask", _dask_run)
 
 
 @pytest.fixture(scope="module")

@@ -24,6 +24,7 @@ from harness.history.compare import compare_cells
 from harness.history.series import what_differs
 from harness.history.storage import MEASUREMENT_VERSION, History
 from harness.nightly.suites import SceneSpec, Suite
+from tests.shared_fixture import built_once
 from tests.slow_plugin import SLOWDOWN_VAR
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -275,16 +276,20 @@ def nightly_process(tmp, slowdown: int) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-@pytest.fixture(scope="module")
-def nights(tmp_path_factory):
-    """Three nightlies of the small suite as they are, then one with the plugin's step slowed."""
-    tmp = tmp_path_factory.mktemp("history")
+def _four_nights(tmp):
     seen = {"results": [nightly_process(tmp, 1) for _ in range(3)]}
     seen["report3"] = (tmp / "out" / "report.md").read_text()
     seen["history3"] = run_cli("history", "--db", str(tmp / "h.sqlite"), "--json")
     seen["results"].append(nightly_process(tmp, 300))
     seen["report4"] = (tmp / "out" / "report.md").read_text()
     return tmp, seen
+
+
+@pytest.fixture(scope="module")
+def nights(tmp_path_factory):
+    """Three nightlies of the small suite as they are, then one with the plugin's step slowed
+    (once per test run: its tests read the history, or copy it to change it)."""
+    return built_once(tmp_path_factory, "history-nights", _four_nights)
 
 
 def _section(report: str, title: str) -> str:

@@ -33,7 +33,7 @@ def _both(monkeypatch, method, scene):
     screened = ident.identify(method, scene, steps=STEPS)
     in_full = list(ran)
     with monkeypatch.context() as m:
-        m.setattr(ident, "SCREEN_STEPS", STEPS)  # a run no longer than the screen: every scheme in full
+        m.setattr(ident, "UNSCREENED_STEPS", STEPS)  # a run too short to screen: every scheme in full
         full = ident.identify(method, scene, steps=STEPS)
     return screened, full, in_full
 
@@ -42,7 +42,7 @@ def _both(monkeypatch, method, scene):
 def test_the_screen_gives_the_verdict_of_full_runs(monkeypatch, method, scene_id, params):
     scene = make_scene(scene_id, **params)
     screened, full, in_full = _both(monkeypatch, method, scene)
-    assert full.screen_steps is None and screened.screen_steps == ident.SCREEN_STEPS
+    assert full.screen_steps is None and screened.screen_steps == ident.screen_length(STEPS) == STEPS // 2
     assert (screened.matches, screened.match, screened.max_deviation, screened.tolerance) == \
         (full.matches, full.match, full.max_deviation, full.tolerance)
     # The verdict's line is the same text.
@@ -54,7 +54,7 @@ def test_the_screen_gives_the_verdict_of_full_runs(monkeypatch, method, scene_id
         # shown of it is a lower bound of its full run's max |diff| (the same steps, the same bits).
         assert not by_full[c.method].matches and not c.matches
         assert screened.tolerance < c.max_deviation <= by_full[c.method].max_deviation
-        assert c.within == c.steps - 1 < ident.SCREEN_STEPS
+        assert c.within == c.steps - 1 < screened.screen_steps
     # Only the others step their full run; the screen's runs are interpreted and short.
     assert sorted(in_full) == sorted([method, *(c.method for c in screened.candidates if c.steps == STEPS)])
     if full.matches:
@@ -70,8 +70,10 @@ def test_the_screen_gives_the_verdict_of_full_runs(monkeypatch, method, scene_id
 
 def test_a_short_or_unstable_run_is_not_screened(monkeypatch):
     scene = make_scene("spring")
-    res = ident.identify("ref:semi_implicit_euler_velocity_implicit", scene, steps=ident.SCREEN_STEPS)
-    assert res.screen_steps is None and all(c.steps == ident.SCREEN_STEPS for c in res.candidates)
+    res = ident.identify("ref:semi_implicit_euler_velocity_implicit", scene, steps=ident.UNSCREENED_STEPS)
+    assert res.screen_steps is None and all(c.steps == ident.UNSCREENED_STEPS for c in res.candidates)
+    # A longer run is screened over half its steps, up to SCREEN_STEPS.
+    assert ident.screen_length(100) == 50 and ident.screen_length(10_000) == ident.SCREEN_STEPS
     # Explicit Euler far past its limit blows up: its recorded steps end early, every scheme runs in full.
     blown = ident.identify("ref:explicit_euler", scene, dt=2.5, steps=400)
     assert blown.status == "unstable" and blown.screen_steps is None
