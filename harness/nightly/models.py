@@ -55,45 +55,68 @@ def model_scenes(path, variants=tuple(VARIANTS), keep=(), off=(), **params) -> l
     return [variant(base, name, keep, off) for name in variants]
 
 
-def _loads_in_worker(method_id: str, scene: ModelScene) -> str:
+def _loads_in_worker(method_id: str, scenes: list) -> list[str]:
+    """Why ``method_id`` cannot build each of ``scenes`` ("" where it can), in one process."""
     from harness.methods import get_method
 
-    try:
-        get_method(method_id).anatomy(scene, scene.own_timestep)
-    except Exception as exc:  # the engine's own error, whatever its type: one line says why
-        return " ".join((str(exc) or type(exc).__name__).split())
-    return ""
+    out = []
+    for scene in scenes:
+        try:
+            get_method(method_id).anatomy(scene, scene.own_timestep)
+        except Exception as exc:  # the engine's own error, whatever its type: one line says why
+            out.append(" ".join((str(exc) or type(exc).__name__).split()))
+        else:
+            out.append("")
+    return out
 
 
 def cannot_load(scene: ModelScene) -> dict[str, str]:
-    """{engine: why} for each engine of MODEL_ENGINES that cannot build the scene (its loader's own
-    message), each tried in a worker process: a loader that crashes costs nothing but its line."""
+    """{engine: why} for each engine of MODEL_ENGINES that cannot build the scene (``cannot_load_all``)."""
+    return cannot_load_all([scene])[0]
+
+
+def cannot_load_all(scenes: list) -> list[dict[str, str]]:
+    """For each scene, {engine: why} for each engine of MODEL_ENGINES that cannot build it (its
+    loader's own message). Each engine tries every scene in one worker process (an engine's import
+    is most of its cost: Newton's and Drake's take seconds); where that worker fails (a loader
+    crashed or hung), each scene is tried in a worker of its own, so a crash costs nothing but
+    the line of the scene that caused it."""
     from harness.execution import isolation
     from harness.methods import all_methods
 
-    out = {}
+    out = [{} for _ in scenes]
     for engine in MODEL_ENGINES:
         # The engine's first mode that poses a model file (Newton's particle solvers do not).
-        mode = next((m for mid, m in all_methods().items() if mid.startswith(f"{engine}:") and m.supports(scene)[0]),
-                    None)
-        if mode is None or not mode.available()[0]:
-            continue
-        why = isolation.run_in_worker(_loads_in_worker, (mode.id, scene), timeout=120.0)
-        if isinstance(why, isolation.WorkerFailure):
-            why = f"the loader {why.status}: {why.detail}"
-        if why:
-            out[engine] = why
+        posed = [(i, scene, next((m for mid, m in all_methods().items()
+                                  if mid.startswith(f"{engine}:") and m.supports(scene)[0]), None))
+                 for i, scene in enumerate(scenes)]
+        posed = [(i, scene, mode) for i, scene, mode in posed if mode is not None and mode.available()[0]]
+        by_mode: dict[str, list] = {}
+        for i, scene, mode in posed:
+            by_mode.setdefault(mode.id, []).append((i, scene))
+        for mode_id, group in by_mode.items():
+            whys = isolation.run_in_worker(_loads_in_worker, (mode_id, [scene for _, scene in group]),
+                                           timeout=120.0 * len(group))
+            if isinstance(whys, isolation.WorkerFailure):
+                whys = []
+                for _, scene in group:
+                    why = isolation.run_in_worker(_loads_in_worker, (mode_id, [scene]), timeout=120.0)
+                    whys.append(f"the loader {why.status}: {why.detail}" if isinstance(why, isolation.WorkerFailure)
+                                else why[0])
+            for (i, _), why in zip(group, whys):
+                if why:
+                    out[i][engine] = why
     return out
 
 
 def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep=(), off=(),
                 **params) -> dict[str, SceneSpec]:
     """{scene id: its spec} for the file's variants. ``advise`` (Request fields but hz) asks for
-    the advice on the conservative variant. Each engine's loader is tried first (``cannot_load``)."""
+    the advice on the conservative variant. Each engine's loader is tried first (``cannot_load_all``)."""
     specs = {}
-    for scene in model_scenes(path, variants, keep, off, **params):
+    scenes = model_scenes(path, variants, keep, off, **params)
+    for scene, unloaded in zip(scenes, cannot_load_all(scenes)):
         dt = scene.own_timestep
-        unloaded = cannot_load(scene)
         loaded = tuple(m for m in CROSS_ENGINE if m.split(":")[0] not in unloaded)
         both = scene.conservative and len(loaded) > 1 and loaded[0] == CROSS_ENGINE[0]
         specs[scene.id] = SceneSpec(
