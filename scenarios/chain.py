@@ -27,7 +27,6 @@ most damped: zeta_N = c omega / (2 k)), each in closed form (``scenarios._oscill
 import math
 
 import numpy as np
-from scipy.fft import dst, idst
 
 from .scene import DampedByC, Param, Scene
 from ._oscillator import damped_oscillator
@@ -187,9 +186,13 @@ class Chain(DampedByC, Scene):
 
     def modal(self, q: np.ndarray) -> np.ndarray:
         """Modal coordinates: the orthonormal DST-I (its matrix is symmetric and its own inverse)."""
+        from scipy.fft import dst  # here: a large import, which only the closed form needs
+
         return dst(q, type=1, norm="ortho", axis=-1)
 
     def closed_form(self, t):
+        from scipy.fft import idst
+
         t = np.asarray(t, dtype=float)
         q0, v0 = self.initial_state()
         w = self.mode_frequencies()

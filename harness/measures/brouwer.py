@@ -31,7 +31,6 @@ A scheme whose energy error is bounded (leapfrog) reads a slope near 0 on the sa
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import linregress
 
 from scenarios import Scene
 
@@ -51,6 +50,7 @@ def _slope(t: np.ndarray, rms: np.ndarray) -> float:
     keep = (t > 0) & (rms > 0) & np.isfinite(rms)
     if keep.sum() < 3:
         return float("nan")
+    from scipy.stats import linregress  # here: most processes importing this module never fit, and scipy.stats is a large import
     return float(linregress(np.log(t[keep]), np.log(rms[keep])).slope)
 
 

@@ -50,7 +50,6 @@ with ``secular_rate``, the least-squares slope of g against t (per unit time).
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import linregress
 
 from records import Trajectory
 
@@ -160,6 +159,7 @@ def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: b
     first = float(np.max(np.abs(g[tenths[0]])))
     last = float(np.max(np.abs(g[tenths[-1]])))
     means = np.array([float(np.mean(g[idx])) for idx in tenths])
+    from scipy.stats import linregress  # here: most processes importing this module never fit, and scipy.stats is a large import
     slope = float(linregress(t, g).slope) if np.ptp(t) > 0 else 0.0
     secular = abs(slope) * float(np.ptp(t))
     out.update(first_tenth_envelope=first, last_tenth_envelope=last,

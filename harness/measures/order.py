@@ -31,7 +31,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import linregress
 
 from records import InvalidInput
 
@@ -141,6 +140,7 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
     if choice:
         out["range"] = {k: v for k, v in choice.items() if k != "dts"}
     if len(used) >= MIN_USED:
+        from scipy.stats import linregress  # here: most processes importing this module never fit, and scipy.stats is a large import
         fit = linregress(np.log([u["dt"] for u in used]), np.log([u["error"] for u in used]))
         out.update(order=float(fit.slope), stderr=float(fit.stderr), rvalue=float(fit.rvalue),
                    intercept=float(fit.intercept))

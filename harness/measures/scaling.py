@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy.stats import linregress
 
 from reference import METHODS, time_per_step
 from scenarios import make_scene
@@ -45,6 +44,7 @@ def cost_vs_size(scene_id: str, sizes: list[dict], scheme: str = "implicit_euler
         rows.append({"ndof": int(n), **params, "steps": steps, "s_per_step": t["s_per_step"],
                      "median_s_per_step": t["median_s_per_step"], "ns_per_dof_step": t["s_per_step"] * 1e9 / n})
     frame = pd.DataFrame(rows)
+    from scipy.stats import linregress  # here: most processes importing this module never fit, and scipy.stats is a large import
     fit = linregress(np.log(frame["ndof"]), np.log(frame["s_per_step"]))
     frame.attrs.update({"method": f"ref:{scheme}", "scene": scene_id, "slope": float(fit.slope),
                         "intercept": float(fit.intercept), "rvalue": float(fit.rvalue)})
