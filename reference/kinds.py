@@ -97,11 +97,16 @@ class Kind:
                 *((self.count(scheme, scene, iterations),) if self.counted else ()))
         return lambda state, t: step(*args, state, t, dt, p)
 
+    def count_args(self, count: str = "k") -> list[str]:
+        """What the step takes between its kernels and the state, as expressions of the integer
+        ``count`` the compiled loops pass: the count itself where it takes one."""
+        return [count] if self.counted else []
+
     def step_call(self, state: str, t: str, step: str = "scheme_step", count: str = "k", lead: str = "") -> str:
         """The compiled loops' call of a kernel file's step (its kernels bound as globals of the
         file): ``lead`` first (what a hoisted step is given: ``reference._codegen``), then the count
-        where it takes one."""
-        return f"{step}({lead}{count + ', ' if self.counted else ''}{state}, {t}, h, p)"
+        where it takes one (``count_args``)."""
+        return f"{step}({lead}{', '.join([*self.count_args(count), state, t, 'h', 'p'])})"
 
     def in_memory_loop(self, jit, step, accel, scene_cls):
         """``advance_n(state, t0, h, i0, n, p, k)`` compiled from function objects (a pair whose
@@ -258,8 +263,8 @@ class PositionBased(Kind):
         args = (kernels["accel"], kernels["constraints"], *self._counts(scheme, iterations, substeps))
         return lambda state, t: step(*args, state, t, dt, p)
 
-    def step_call(self, state, t, step="scheme_step", count="k", lead=""):
-        return f"{step}({lead}{count} // {COUNT_BASE}, {count} % {COUNT_BASE}, {state}, {t}, h, p)"
+    def count_args(self, count="k"):
+        return [f"{count} // {COUNT_BASE}", f"{count} % {COUNT_BASE}"]
 
     def in_memory_loop(self, jit, step, accel, scene_cls):
         constraints = jit(scene_cls.constraints)

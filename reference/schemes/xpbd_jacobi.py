@@ -48,9 +48,9 @@ class JacobiPositionBased(PositionBased):
         args = (kernels["accel"], kernels["constraints"], *self._counts(scheme, iterations, substeps), relaxation)
         return lambda state, t: step(*args, state, t, dt, p)
 
-    def step_call(self, state, t, step="scheme_step", count="k", lead=""):
-        return (f"{step}({lead}({count} // {COUNT_BASE}) % {COUNT_BASE}, {count} % {COUNT_BASE}, "
-                f"({count} // {RELAXATION_BASE}) / {RELAXATION_STEPS:.1f}, {state}, {t}, h, p)")
+    def count_args(self, count="k"):
+        return [f"({count} // {COUNT_BASE}) % {COUNT_BASE}", f"{count} % {COUNT_BASE}",
+                f"({count} // {RELAXATION_BASE}) / {RELAXATION_STEPS:.1f}"]
 
     def in_memory_loop(self, jit, step, accel, scene_cls):
         constraints = jit(scene_cls.constraints)
