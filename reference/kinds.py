@@ -23,7 +23,9 @@ The drivers, the kernel files and ``RefMethod`` ask the scheme's kind; none bran
   ``constraints(p)`` the scene's springs and links as distance constraints (``scenarios.scene``);
   the compiled loops pass the two counts as one integer (``pack_counts``) that the step's call
   unpacks, and compute what the step computes before it reads ``state`` or ``t`` once per loop,
-  not once per step (so the step computes its constraints first and never modifies them).
+  not once per step (so the step computes its constraints first and never modifies them); a step
+  that copies its state into one array and reads only that runs in the loop itself, its state
+  carried in one such array (``_Source.add_loop_in_place``).
   Runs only on scenes that give their constraints.
 
 A kind may also take **parameters**: options that set a constant of the step rather than a count
@@ -278,9 +280,15 @@ class PositionBased(Kind):
     def variants(self, src, pointwise: bool) -> bool:
         # What the step computes before it reads the state or the time (the scene's constraints,
         # what the scheme derives from them and h) is the same every step: the compiled loops
-        # compute it once (``_Source.add_hoisted``). The step must not modify it.
+        # compute it once. The step must not modify it. Where the step copies its state into one
+        # array, reads only that and returns views of the rows it copied into
+        # (``_Source.add_loop_in_place``), the loop holds the step's statements and one such
+        # array, so a step makes none and passes none in a call; else it calls the rest of the
+        # step given what came before (``_Source.add_hoisted``).
         params = src.parameters("scheme_step")
-        src.add_hoisted("scheme_step", SETUP, GIVEN, (params[-4], params[-3], "scene_accel"))
+        varying = (params[-4], params[-3], "scene_accel")
+        if not src.add_loop_in_place("scheme_step", varying, self.count_args("_k")):
+            src.add_hoisted("scheme_step", SETUP, GIVEN, varying)
         return False
 
     def pointwise(self, scene_cls) -> bool:
