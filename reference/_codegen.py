@@ -1,6 +1,7 @@
 """A (scheme, scene) pair's kernel file as source (``reference._kernels`` writes, caches and loads
 it): the pair's functions copied from their source files, the loop ``advance_n`` written around the
-unchanged step, and what the copy found (``KernelFile``)."""
+unchanged step (or, where the step's kind asks, with the step's statements in it), and what the copy
+found (``KernelFile``)."""
 from __future__ import annotations
 
 import ast
@@ -49,6 +50,51 @@ def _free_globals(tree: ast.FunctionDef) -> list[str]:
     return [n for n in loads if n not in bound and not hasattr(builtins, n)]
 
 
+def _reads(stmt) -> set[str]:
+    return {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+
+
+def _returns(stmt) -> bool:
+    return any(isinstance(n, (ast.Return, ast.Yield, ast.YieldFrom)) for n in ast.walk(stmt))
+
+
+def _stores(stmts) -> list[str]:
+    """The names the statements assign, once for each assignment."""
+    return [n.id for stmt in stmts for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)]
+
+
+def _makes_empty_array(stmt, numpy: set[str]) -> bool:
+    """Whether ``stmt`` is ``X = np.empty(...)`` (``numpy``: the names numpy is imported as)."""
+    return (isinstance(stmt, ast.Assign) and len(stmt.targets) == 1 and isinstance(stmt.targets[0], ast.Name)
+            and isinstance(stmt.value, ast.Call) and isinstance(stmt.value.func, ast.Attribute)
+            and stmt.value.func.attr == "empty" and isinstance(stmt.value.func.value, ast.Name)
+            and stmt.value.func.value.id in numpy)
+
+
+def _binds_without_call(stmt) -> bool:
+    """Whether ``stmt`` only binds names (or tuples of names) to a value computed without a call."""
+    return (isinstance(stmt, ast.Assign)
+            and all(isinstance(n, (ast.Name, ast.Tuple)) for target in stmt.targets for n in ast.walk(target)
+                    if not isinstance(n, (ast.Store, ast.Load)))
+            and not any(isinstance(n, ast.Call) for n in ast.walk(stmt.value)))
+
+
+def _reads_only_shape(stmt, names) -> bool:
+    """Whether ``stmt`` reads each of ``names`` only for its ``.shape``."""
+    shapes = {id(n.value) for n in ast.walk(stmt) if isinstance(n, ast.Attribute) and n.attr == "shape"}
+    return all(id(n) in shapes for n in ast.walk(stmt)
+               if isinstance(n, ast.Name) and n.id in names and isinstance(n.ctx, ast.Load))
+
+
+def _copy_into(stmt, array: str) -> tuple[str, str] | None:
+    """(the rows, the name) where ``stmt`` is ``array[rows] = name``, else None."""
+    if (isinstance(stmt, ast.Assign) and len(stmt.targets) == 1 and isinstance(stmt.targets[0], ast.Subscript)
+            and isinstance(stmt.targets[0].value, ast.Name) and stmt.targets[0].value.id == array
+            and isinstance(stmt.value, ast.Name)):
+        return ast.unparse(stmt.targets[0].slice), stmt.value.id
+    return None
+
+
 def _function_tree(fn, name: str) -> ast.FunctionDef:
     try:
         src = textwrap.dedent(inspect.getsource(fn))
@@ -72,6 +118,8 @@ class _Source:
         self.origins: dict[str, str] = {}
         self._copied: dict[str, object] = {}
         self._trees: dict[str, ast.FunctionDef] = {}
+        #: The loop's source where ``add_loop_in_place`` wrote it, else "" (``_loop_source`` writes it).
+        self.loop = ""
 
     def add(self, fn, name: str, bind: tuple[str, ...] = ()) -> None:
         """Copy ``fn`` as ``name``, with the globals it reads. ``bind`` names the kernels its
@@ -175,6 +223,103 @@ class _Source:
             self.origins[new_name] = f"{self.origins[name]}, {what}"
             self.functions[new_name] = ast.unparse(fn)
             self._trees[new_name] = fn
+        return True
+
+    def add_loop_in_place(self, name: str, varying: tuple[str, ...], counts: list[str]) -> bool:
+        """Write the compiled loop ``advance_n(state, t0, h, i0, n, p, k)`` (``_loop_source``'s
+        signature) with the statements of the already copied step ``name`` in it, one array
+        carrying the state from step to step, where the step has this form::
+
+            <setup: the statements before the first read of a name in ``varying``>
+            q, v = state                      # the state unpacked (any names, any count)
+            <names bound to values computed without a call, reading q, v only for their .shape>
+            work = np.empty(...)              # the step's one array
+            work[<rows of q>] = q             # the state copied into it, each part once
+            work[<rows of v>] = v
+            <the rest, reading neither the state nor q, v: only the array>
+            return (work[<rows of q>], work[<rows of v>])
+
+        The loop runs the setup and the statements through the copies once, then the rest every
+        step. The views a step returns are the rows its copies write, so each step begins with its
+        state in those rows, as the copies would leave it: the copies are made once, and a step
+        makes no array, passes none in a call and takes no reference to one (the step's statements
+        are in the loop, not called; a compiled call takes and drops a reference to every array it
+        passes). The step must not modify what the setup computes (as for ``add_hoisted``), and
+        must write every other entry of its array before it reads it (an ``np.empty`` array holds
+        nothing to read), so it computes the bits it computes with an array of its own.
+        ``counts``: the expressions of ``k`` the step's parameters before the state take
+        (``Kind.count_args``). False, and nothing added, where the step has another form, the rest
+        assigns a name bound before it, or a name of the loop's own would shadow one of the step's."""
+        tree = ast.parse(self.functions[name]).body[0]
+        params = [a.arg for a in tree.args.args]
+        if len(params) != len(counts) + 4:
+            return False
+        *count_params, state, t, h, p = params
+        body = tree.body
+        if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+            body = body[1:]  # the docstring
+        first = 0
+        for stmt in body:
+            if _reads(stmt) & set(varying) or _returns(stmt):
+                break
+            first += 1
+        prefix, rest = body[:first], body[first:]
+        # The state unpacked into names, first.
+        if not rest or not (isinstance(rest[0], ast.Assign) and len(rest[0].targets) == 1
+                            and isinstance(rest[0].targets[0], ast.Tuple)
+                            and all(isinstance(e, ast.Name) for e in rest[0].targets[0].elts)
+                            and isinstance(rest[0].value, ast.Name) and rest[0].value.id == state):
+            return False
+        parts = [e.id for e in rest[0].targets[0].elts]
+        # The return: views of one array, one a part.
+        last = rest[-1]
+        if not (isinstance(last, ast.Return) and isinstance(last.value, ast.Tuple)
+                and len(last.value.elts) == len(parts)
+                and all(isinstance(e, ast.Subscript) and isinstance(e.value, ast.Name) for e in last.value.elts)):
+            return False
+        array = last.value.elts[0].value.id
+        rows = [ast.unparse(e.slice) for e in last.value.elts]
+        if any(e.value.id != array for e in last.value.elts) or any(_returns(stmt) for stmt in rest[:-1]):
+            return False
+        numpy = {alias for alias, line in self.imports.items() if line.startswith("import numpy")}
+        made = [i for i, stmt in enumerate(rest) if _makes_empty_array(stmt, numpy)]
+        if len(made) != 1 or rest[made[0]].targets[0].id != array:
+            return False
+        at = made[0]
+        shape = rest[1:at]
+        if not all(_binds_without_call(stmt) and t not in _reads(stmt) and _reads_only_shape(stmt, [*parts, state])
+                   for stmt in shape):
+            return False
+        copies = rest[at + 1:at + 1 + len(parts)]
+        if [_copy_into(stmt, array) for stmt in copies] != list(zip(rows, parts)):
+            return False
+        steps = rest[at + 1 + len(parts):-1]
+        bound = set(params) | set(parts) | set(_stores(shape)) | {array}
+        counters = {n.id for stmt in prefix for loop_ in ast.walk(stmt) if isinstance(loop_, ast.For)
+                    for n in ast.walk(loop_.target) if isinstance(n, ast.Name)}
+        if (any((_reads(stmt) & (set(parts) | {state})) for stmt in steps)
+                or set(_stores(steps)) & (bound | (set(_stores(prefix)) - counters)) or _stores(body).count(array) != 1):
+            return False
+        loop = "advance_n"
+        own = {loop, "_t0", "_i0", "_steps", "_k", "_i"}
+        if own & ({n.id for n in ast.walk(tree) if isinstance(n, ast.Name)} | set(params) | set(self.functions)):
+            return False
+
+        def lines(stmts, indent):
+            return [textwrap.indent(ast.unparse(stmt), indent) for stmt in stmts]
+
+        reads_time = any(t in _reads(stmt) for stmt in steps)
+        text = [f"def {loop}({state}, _t0, {h}, _i0, _steps, {p}, _k):",
+                *[f"    {param} = {value}" for param, value in zip(count_params, counts)],
+                *lines(prefix, "    "),
+                *lines(rest[:at + 1 + len(parts)], "    "),
+                "    for _i in range(_i0, _i0 + _steps):",
+                *([f"        {t} = _t0 + _i * {h}"] if reads_time else []),
+                *lines(steps, "        "),
+                f"    return {ast.unparse(last.value)}"]
+        self._trees[loop] = ast.parse("\n".join(text)).body[0]
+        self.loop = "\n".join([f"# from {self.origins[name]}: its statements in the loop, the state carried in its array",
+                                "@_jit", *text, ""])
         return True
 
     def bitwise_why(self) -> tuple[str, tuple[str, ...]]:
@@ -341,7 +486,7 @@ def _kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
         src.add(getattr(scene_cls, name), f"scene_{name}")
     once = kind.variants(src, pointwise)
     hoisted = GIVEN in src.functions and not pointwise
-    loops = _loop_source(kind, nstate, pointwise, once, hoisted)
+    loops = src.loop or _loop_source(kind, nstate, pointwise, once, hoisted)
     bitwise, libm = src.bitwise_why()
     header = (f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind.name}, '
               f'{"pointwise" if pointwise else "array"} loop), generated by reference._kernels."""')

@@ -23,7 +23,9 @@ The drivers, the kernel files and ``RefMethod`` ask the scheme's kind; none bran
   ``constraints(p)`` the scene's springs and links as distance constraints (``scenarios.scene``);
   the compiled loops pass the two counts as one integer (``pack_counts``) that the step's call
   unpacks, and compute what the step computes before it reads ``state`` or ``t`` once per loop,
-  not once per step (so the step computes its constraints first and never modifies them).
+  not once per step (so the step computes its constraints first and never modifies them); a step
+  that copies its state into one array and reads only that runs in the loop itself, its state
+  carried in one such array (``_Source.add_loop_in_place``).
   Runs only on scenes that give their constraints.
 
 A kind may also take **parameters**: options that set a constant of the step rather than a count
@@ -97,11 +99,16 @@ class Kind:
                 *((self.count(scheme, scene, iterations),) if self.counted else ()))
         return lambda state, t: step(*args, state, t, dt, p)
 
+    def count_args(self, count: str = "k") -> list[str]:
+        """What the step takes between its kernels and the state, as expressions of the integer
+        ``count`` the compiled loops pass: the count itself where it takes one."""
+        return [count] if self.counted else []
+
     def step_call(self, state: str, t: str, step: str = "scheme_step", count: str = "k", lead: str = "") -> str:
         """The compiled loops' call of a kernel file's step (its kernels bound as globals of the
         file): ``lead`` first (what a hoisted step is given: ``reference._codegen``), then the count
-        where it takes one."""
-        return f"{step}({lead}{count + ', ' if self.counted else ''}{state}, {t}, h, p)"
+        where it takes one (``count_args``)."""
+        return f"{step}({lead}{', '.join([*self.count_args(count), state, t, 'h', 'p'])})"
 
     def in_memory_loop(self, jit, step, accel, scene_cls):
         """``advance_n(state, t0, h, i0, n, p, k)`` compiled from function objects (a pair whose
@@ -258,8 +265,8 @@ class PositionBased(Kind):
         args = (kernels["accel"], kernels["constraints"], *self._counts(scheme, iterations, substeps))
         return lambda state, t: step(*args, state, t, dt, p)
 
-    def step_call(self, state, t, step="scheme_step", count="k", lead=""):
-        return f"{step}({lead}{count} // {COUNT_BASE}, {count} % {COUNT_BASE}, {state}, {t}, h, p)"
+    def count_args(self, count="k"):
+        return [f"{count} // {COUNT_BASE}", f"{count} % {COUNT_BASE}"]
 
     def in_memory_loop(self, jit, step, accel, scene_cls):
         constraints = jit(scene_cls.constraints)
@@ -273,9 +280,15 @@ class PositionBased(Kind):
     def variants(self, src, pointwise: bool) -> bool:
         # What the step computes before it reads the state or the time (the scene's constraints,
         # what the scheme derives from them and h) is the same every step: the compiled loops
-        # compute it once (``_Source.add_hoisted``). The step must not modify it.
+        # compute it once. The step must not modify it. Where the step copies its state into one
+        # array, reads only that and returns views of the rows it copied into
+        # (``_Source.add_loop_in_place``), the loop holds the step's statements and one such
+        # array, so a step makes none and passes none in a call; else it calls the rest of the
+        # step given what came before (``_Source.add_hoisted``).
         params = src.parameters("scheme_step")
-        src.add_hoisted("scheme_step", SETUP, GIVEN, (params[-4], params[-3], "scene_accel"))
+        varying = (params[-4], params[-3], "scene_accel")
+        if not src.add_loop_in_place("scheme_step", varying, self.count_args("_k")):
+            src.add_hoisted("scheme_step", SETUP, GIVEN, varying)
         return False
 
     def pointwise(self, scene_cls) -> bool:

@@ -73,6 +73,76 @@ def test_the_pointwise_loop_on_a_batch_is_the_interpreted_batch(scheme_id):
     np.testing.assert_array_equal(v, ref.v[-1])
 
 
+def _carried_in_its_array(accel, constraints, substeps, iterations, state, t, h, p):
+    scale = h * iterations
+    q, v = state
+    n = q.shape[0]
+    nb = q.shape[1]
+    work = np.empty((2 * n, nb))
+    work[:n] = q
+    work[n:2 * n] = v
+    for r in range(n):
+        for b in range(nb):
+            work[n + r, b] = work[n + r, b] - scale * work[r, b]
+            work[r, b] = work[r, b] + scale * work[n + r, b]
+    return (work[:n], work[n:2 * n])
+
+
+def _reads_its_state_after_the_copy(accel, constraints, substeps, iterations, state, t, h, p):
+    scale = h * iterations
+    q, v = state
+    n = q.shape[0]
+    nb = q.shape[1]
+    work = np.empty((2 * n, nb))
+    work[:n] = q
+    work[n:2 * n] = v
+    for r in range(n):
+        for b in range(nb):
+            work[r, b] = q[r, b] + scale * work[n + r, b]
+    return (work[:n], work[n:2 * n])
+
+
+@pytest.mark.parametrize("step, in_place", [(_carried_in_its_array, True), (_reads_its_state_after_the_copy, False)],
+                         ids=["carried", "reads_the_state_late"])
+def test_a_step_runs_in_the_loop_only_where_its_array_carries_its_state(step, in_place):
+    """``_Source.add_loop_in_place``: a step that copies its state into its array and reads only
+    that runs in the loop, one array for every step, the states those of the step called step by
+    step (the loop run here interpreted, bit for bit); one that reads its state after the copy
+    keeps the call of its rest (the loop would read the first state every step)."""
+    src = _codegen._Source()
+    src.add(step, "scheme_step", ("scene_accel", "scene_constraints"))
+    assert src.add_loop_in_place("scheme_step", ("state", "t", "scene_accel"), ["_k // 8", "_k % 8"]) is in_place
+    if not in_place:
+        assert src.loop == ""
+        return
+    loop = src.loop[src.loop.index("    for _i in range"):]
+    assert "np.empty" not in loop and "scheme_step" not in loop
+    namespace = {"_jit": lambda f: f, "np": np}
+    exec(src.loop, namespace)
+    rng = np.random.default_rng(3)
+    state = (rng.normal(size=(2, 3)), rng.normal(size=(2, 3)))
+    k, h = 8 * 1 + 3, 0.1
+    ran = namespace["advance_n"](state, 0.0, h, 0, 5, None, k)
+    stepped = state
+    for i in range(5):
+        stepped = step(None, None, 1, 3, stepped, i * h, h, None)
+    for a, b in zip(ran, stepped):
+        assert a.tobytes() == b.tobytes()
+    assert ran[0].base is ran[1].base  # one array carries both parts
+
+
+@pytest.mark.parametrize("scene_id", ["spring", "cloth"])
+@pytest.mark.parametrize("scheme_id", ["pbd", "xpbd", "xpbd_jacobi"])
+def test_the_position_based_loops_make_their_array_once(scheme_id, scene_id):
+    """The position-based steps copy their state into their array and read only that: their
+    loops hold the step's statements and make the array before the steps, none in a step."""
+    scene = make_scene(scene_id)
+    text = _codegen.kernel_file(METHODS[scheme_id], type(scene), 2).text
+    loop = text[text.index("def advance_n"):]
+    steps = loop[loop.index("    for _i in range"):]
+    assert "np.empty" in loop and "np.empty" not in steps and "scheme_step" not in loop
+
+
 def test_a_non_pointwise_scene_runs_the_array_loop_and_every_kernel_is_cached():
     for scene_id in ("kepler", "projectile", "chain"):
         kernels = _parts(METHODS["rk4"], make_scene(scene_id)).kernels

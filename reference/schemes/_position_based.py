@@ -5,7 +5,10 @@ innermost, as the scenes' kernels are: they compile to straight loops. A step ma
 ``work``: the positions x, then the anchors' coordinates along the batch (a row per coordinate:
 a projection reads an anchored end as it reads a point), then the step's other rows (XPBD's
 multipliers, x_old, the velocities); so the 1-D loops over the batch read both ends alike, write
-an anchor back as read, have no branch, and vectorise. Each scheme writes its prediction and
+an anchor back as read, have no branch, and vectorise. The step copies its state (q, v) into the
+rows of x and the velocities, reads only ``work`` after that and returns views of those rows, so
+the compiled loops carry the state in one such array from step to step and make none
+(``reference._codegen``: ``_Source.add_loop_in_place``). Each scheme writes its prediction and
 velocity loops out in its step rather than calling helpers with the arrays: a compiled call
 passes every array it is given with a reference count taken and dropped, a cost per step beside
 which the single spring's step is small."""

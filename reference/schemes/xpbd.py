@@ -60,27 +60,28 @@ def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
     d = anchors.shape[1]
     nb = q.shape[1]
     n = q.shape[0]
-    # One array a step: x (returned as q), the anchors' rows, the multipliers' rows, x_old where
-    # substeps > 1 (q where there is one), u (returned as v); written out here, not through helpers
-    # taking the arrays.
+    # One array a step: x (returned as q), the anchors' rows, the multipliers' rows, x_old, u
+    # (returned as v); the state copied in, then only the array read (``_position_based``);
+    # written out here, not through helpers taking the arrays.
     fixed = anchors.shape[0] * d
     lam = n + fixed  # the first multiplier's row
     x_old = lam + ends.shape[0]
-    u = x_old + (n if substeps > 1 else 0)
+    u = x_old + n
     work = np.empty((u + n, nb))
+    work[:n] = q
+    work[u:u + n] = v
     for a in range(anchors.shape[0]):
         for k in range(d):
             for b in range(nb):
                 work[n + a * d + k, b] = anchors[a, k]
     for s in range(substeps):
-        # v~ = v + hs g, x~ = x + hs v~ (from q, v at the first substep), x_old kept where it is not q.
+        # v~ = v + hs g, x~ = x + hs v~, x_old kept.
         for r in range(n):
             g = gravity[r % d]
             for b in range(nb):
-                xr = q[r, b] if s == 0 else work[r, b]
-                ur = (v[r, b] if s == 0 else work[u + r, b]) + hs * g
-                if substeps > 1:
-                    work[x_old + r, b] = xr
+                xr = work[r, b]
+                ur = work[u + r, b] + hs * g
+                work[x_old + r, b] = xr
                 work[u + r, b] = ur
                 work[r, b] = xr + hs * ur
         for c in range(ends.shape[0]):
@@ -108,5 +109,5 @@ def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
         # v = (x - x_old) / hs
         for r in range(n):
             for b in range(nb):
-                work[u + r, b] = (work[r, b] - (q[r, b] if substeps == 1 else work[x_old + r, b])) / hs
+                work[u + r, b] = (work[r, b] - work[x_old + r, b]) / hs
     return (work[:n], work[u:u + n])

@@ -48,9 +48,9 @@ class JacobiPositionBased(PositionBased):
         args = (kernels["accel"], kernels["constraints"], *self._counts(scheme, iterations, substeps), relaxation)
         return lambda state, t: step(*args, state, t, dt, p)
 
-    def step_call(self, state, t, step="scheme_step", count="k", lead=""):
-        return (f"{step}({lead}({count} // {COUNT_BASE}) % {COUNT_BASE}, {count} % {COUNT_BASE}, "
-                f"({count} // {RELAXATION_BASE}) / {RELAXATION_STEPS:.1f}, {state}, {t}, h, p)")
+    def count_args(self, count="k"):
+        return [f"({count} // {COUNT_BASE}) % {COUNT_BASE}", f"{count} % {COUNT_BASE}",
+                f"({count} // {RELAXATION_BASE}) / {RELAXATION_STEPS:.1f}"]
 
     def in_memory_loop(self, jit, step, accel, scene_cls):
         constraints = jit(scene_cls.constraints)
@@ -142,27 +142,28 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
     nb = q.shape[1]
     n = q.shape[0]
     # One array a step, as XPBD's: x (returned as q), the anchors' rows, the multipliers' rows,
-    # x_old where substeps > 1 (q where there is one), u (returned as v), then a pass's summed
-    # corrections (a row per point).
+    # x_old, u (returned as v), then a pass's summed corrections (a row per point); the state
+    # copied in, then only the array read (``_position_based``).
     fixed = anchors.shape[0] * d
     lam = n + fixed  # the first multiplier's row
     x_old = lam + ends.shape[0]
-    u = x_old + (n if substeps > 1 else 0)
+    u = x_old + n
     delta = u + n
     work = np.empty((delta + n, nb))
+    work[:n] = q
+    work[u:u + n] = v
     for a in range(anchors.shape[0]):
         for k in range(d):
             for b in range(nb):
                 work[n + a * d + k, b] = anchors[a, k]
     for s in range(substeps):
-        # v~ = v + hs g, x~ = x + hs v~ (from q, v at the first substep), x_old kept where it is not q.
+        # v~ = v + hs g, x~ = x + hs v~, x_old kept.
         for r in range(n):
             g = gravity[r % d]
             for b in range(nb):
-                xr = q[r, b] if s == 0 else work[r, b]
-                ur = (v[r, b] if s == 0 else work[u + r, b]) + hs * g
-                if substeps > 1:
-                    work[x_old + r, b] = xr
+                xr = work[r, b]
+                ur = work[u + r, b] + hs * g
+                work[x_old + r, b] = xr
                 work[u + r, b] = ur
                 work[r, b] = xr + hs * ur
         for c in range(ends.shape[0]):
@@ -182,7 +183,7 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
         # v = (x - x_old) / hs
         for r in range(n):
             for b in range(nb):
-                work[u + r, b] = (work[r, b] - (q[r, b] if substeps == 1 else work[x_old + r, b])) / hs
+                work[u + r, b] = (work[r, b] - work[x_old + r, b]) / hs
     return (work[:n], work[u:u + n])
 
 
