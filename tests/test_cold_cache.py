@@ -79,17 +79,13 @@ def test_an_empty_and_a_full_kernel_cache_store_the_same_cells(three_runs):
 
 
 def test_the_run_says_what_it_will_compile_and_what_compiling_took(three_runs):
-    from harness.measures.identify import candidate_methods
-    from scenarios import make_scene
-
     (_, t1, p1, _), (_, t2, p2, _), (_, t3, p3, _) = (three_runs[r] for r in (1, 2, 3))
     # Empty: RK4's loop (its task) and explicit Euler's (the cost cells' baseline and the
-    # calibration's), besides those of the identity candidates beside mujoco:euler that its screen
-    # keeps: semi-implicit Euler (the match) and the runner-up.
-    others = len(candidate_methods(make_scene("spring"))) - 2
-    assert p1.splitlines()[0].startswith("cold cache: about 2 kernels to compile (of the 2 the run steps), besides "
-                                         f"the loops of the identity candidates a screen keeps (of {others})")
-    assert t1.kernels_compiled == 4 and t1.numba_compile_s > 0
+    # calibration's). The identity candidates beside mujoco:euler compile nothing: their loops are
+    # not in the cache, so their runs are interpreted (the same bits), and kept on disk.
+    assert p1.splitlines()[0].startswith("cold cache: about 2 kernels to compile (of the 2 the run steps)")
+    # (Explicit Euler's loop may compile in both workers, which need it at once: hence "about".)
+    assert 2 <= t1.kernels_compiled <= 3 and t1.numba_compile_s > 0
     assert "compiling: " in p1 and "a kept kernel cache would have saved about" in p1
     # The second run and the third: nothing compiles, and each says so before and after.
     for t, p in ((t2, p2), (t3, p3)):
@@ -112,6 +108,3 @@ def test_what_a_cache_would_have_saved():
     assert KernelPlan(3, "/c", 5).line() == "kernel cache: about 3 kernels to compile (of the 5 the run steps); " \
                                             "kernel cache /c"
     assert KernelPlan(5, "/c", 5).line().startswith("cold cache: about 5 kernels to compile (of the 5")
-    assert KernelPlan(0, "/c", 2, screened=3).line() == (
-        "kernel cache warm: nothing to compile, besides the loops of the identity candidates a screen keeps (of 3); "
-        "kernel cache /c")

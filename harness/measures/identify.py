@@ -144,11 +144,14 @@ SCREENS_KEPT = 512
 
 def candidate_run(ref, scene: Scene, dt: float, steps: int, interpreted: bool = False) -> Trajectory:
     """``ref.simulate(scene, dt, steps, 1)`` (``interpreted``: ``reference.integrate``, which
-    compiles nothing: the screen's runs), or the same run made before in this process, or
+    compiles nothing: the screen's runs, and a full run whose loop is not compiled already:
+    ``_loop_compiled``), or the same run made before in this process, or
     by any process of this code on this machine (``_stored``): the key holds the scheme and its
     options, the scene's id, parameters and initial state, dt, steps and the backend reference
     runs take (``reference.RefMethod.compiled_where_bitwise``: the same bits either way)."""
     q0, v0 = scene.batch_state(1)
+    if not interpreted and ref.compiled_where_bitwise and not _loop_compiled(ref, scene):
+        interpreted = True  # a candidate's run never compiles a loop: the same bits, interpreted
     backend = "interpreted" if interpreted else ref.compiled_where_bitwise
     key = (ref.id, tuple(sorted(ref.options.items())), scene.id, tuple(sorted(scene.values.items())),
            q0.tobytes(), v0.tobytes(), float(dt), int(steps), backend)
@@ -164,6 +167,18 @@ def candidate_run(ref, scene: Scene, dt: float, steps: int, interpreted: bool = 
             run = lambda: ref.simulate(scene, dt, steps, 1)  # noqa: E731
         kept[key] = _stored(key, run)
     return kept[key]
+
+
+def _loop_compiled(ref, scene: Scene) -> bool:
+    """Whether the pair's compiled loop is in the disk cache (or compiled in this process): an
+    identity's candidate run is one run of up to a few thousand steps, which costs less
+    interpreted than compiling its loop would, where the loop is not there already."""
+    from reference import cache_state
+
+    try:
+        return cache_state(ref.scheme, scene).compiled
+    except Exception:  # noqa: BLE001 - a pair without a compiled form: interpreted
+        return False
 
 
 def _code_digest() -> str:

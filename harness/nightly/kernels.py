@@ -8,12 +8,9 @@ cache under ``$HARNESS_CACHE``: a run after one on the same cache compiles nothi
 ``plan`` says, before the run, how many loops it will compile ("cold cache: about N kernels to
 compile"): the loops of the reference tasks' pairs and of explicit Euler on every scene (each cost
 cell's baseline, and the calibration's on the unit spring), timed whatever their bits, each counted
-once where the cache lacks it. An engine task's identity cell steps a reference scheme's loop only
-where the scheme survives its short interpreted screen (``harness.measures.identify``): the match
-and the runner-up, found by running. The plan cannot know them beforehand, so it names them apart
-("besides the loops of the identity candidates a screen keeps") and counts only the loops among
-them already compiled as stepped. A screen is deterministic, so a second run on the same cache
-keeps the same candidates and compiles nothing.
+once where the cache lacks it. An engine task's identity cell compiles nothing: its candidates step
+their loops where the cache holds them and are interpreted elsewhere (``harness.measures.identify``),
+the same bits either way, and their runs are kept on disk, so a second run steps none of them.
 """
 from __future__ import annotations
 
@@ -32,7 +29,6 @@ class KernelPlan:
     compile: int = 0
     cache: str = ""
     loops: int = 0
-    screened: int = 0   # identity candidates whose loop is not compiled: compiled only where a screen keeps them
 
     def line(self) -> str:
         """The line the nightly prints before it starts."""
@@ -41,8 +37,6 @@ class KernelPlan:
                     f"kernels to compile (of the {self.loops} the run steps)")
         else:
             what = "kernel cache warm: nothing to compile"
-        if self.screened:
-            what += f", besides the loops of the identity candidates a screen keeps (of {self.screened})"
         return f"{what}; kernel cache {self.cache}"
 
 
@@ -50,11 +44,7 @@ def plan(tasks: list, suite) -> KernelPlan:
     """What a run of ``tasks`` in ``suite`` will compile."""
     import reference
 
-    from harness.measures.identify import candidate_methods
-    from harness.nightly.cells import identifies
-
     to_compile: dict[str, bool] = {}  # kernel file -> its loop is to compile
-    screened: set[str] = set()        # identity candidates' kernel files not compiled yet
     baseline = reference.RefMethod(reference.METHODS[BASELINE])
     scenes: dict[tuple, object] = {}
 
@@ -78,15 +68,6 @@ def plan(tasks: list, suite) -> KernelPlan:
             need(baseline.scheme, scene)
         if task.family == "ref":
             need(reference.METHODS[scheme_name(task.method)], scene)
-        elif identifies(suite, scene, task.family):
-            for ref in candidate_methods(scene).values():
-                if not reference.bitwise_why(ref.scheme, scene):
-                    loop = reference.cache_state(ref.scheme, scene)
-                    if loop.compiled:
-                        to_compile.setdefault(loop.name, False)
-                    else:
-                        screened.add(loop.name)
     if to_compile:
         need(baseline.scheme, make_scene("spring"))  # the calibration's loop
-    return KernelPlan(sum(to_compile.values()), str(reference.kernel_cache_dir()), len(to_compile),
-                      len(screened - to_compile.keys()))
+    return KernelPlan(sum(to_compile.values()), str(reference.kernel_cache_dir()), len(to_compile))
