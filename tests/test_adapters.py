@@ -355,7 +355,7 @@ def test_identify_names_the_scheme_and_the_runner_up(capsys):
 def test_identify_says_when_no_scheme_matches_and_why(capsys):
     # MuJoCo's Euler on the damped chain: joint damping implicit, tendon damping explicit.
     assert main(["identify", "chain", "--method", "mujoco:euler", "--set", "N=4", "--set", "c=20",
-                 "--steps", "200"]) == 1
+                 "--steps", "60"]) == 1
     out = capsys.readouterr().out
     assert "matches no reference scheme within" in out and "closest ref:" in out
     why = [line for line in out.splitlines() if line.strip().startswith("why:")]
