@@ -201,3 +201,44 @@ def test_timed_on_the_loop_that_runs_it(sheet):
     assert "SuperLU" in res["timing"] and res["s_per_step"] > 0
     compiled = wall_time_per_step("ref:linearly_implicit_euler", sheet, H, steps=200, repeats=2, clock="cpu")
     assert compiled["timing"].startswith("compiled (numba)")
+
+
+# ----------------------------------------------------------------------------- the nightly's sweep
+@pytest.fixture()
+def injected_costs(tmp_path, monkeypatch):
+    """Every method's cost per step injected (1 µs): where a search stops is then the same on any machine."""
+    import json
+
+    path = tmp_path / "timings.json"
+    path.write_text(json.dumps({"s_per_step": {"*": 1e-6}}))
+    monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
+
+
+def test_the_full_suite_sweeps_the_larger_sheets_with_the_library_solves():
+    from harness.nightly.suites import SUITES, SWEEP_SOLVES
+
+    sizes = {s["label"]: s for s in SUITES["full"].scenes["cloth"].extras.sweep["sizes"]}
+    assert "methods" not in sizes["4 x 4"]  # there the scene's compiled banded solve is the cheapest
+    for label in ("16 x 16", "32 x 32"):
+        assert set(SWEEP_SOLVES) <= set(sizes[label]["methods"])
+        scene = make_scene("cloth", **sizes[label]["params"])
+        assert all(get_method(m).supports(scene)[0] for m in sizes[label]["methods"])
+
+
+def test_a_sweep_cell_takes_its_size_s_own_methods(injected_costs):
+    """A size's ``methods`` replace the sweep's: the library solve is searched and meets the
+    tolerance (its cost injected: the verdict is the search's, not the machine's)."""
+    from harness.nightly.cells import context
+    from harness.nightly.run import Task
+    from harness.nightly.suites import SceneExtras, SceneSpec, Suite
+    from harness.nightly.sweep_cell import SWEEP
+
+    sweep = {"grid": "k=1e2..1e3:2", "hz": 60.0, "request": {"horizon": 0.2, "energy_tol": 0.5, "max_substeps": 2},
+             "methods": ("ref:leapfrog",), "factor": 1000.0, "cap": 8,
+             "sizes": ({"label": "3 x 3", "params": {"n": 3, "m": 3}, "task": "ref:leapfrog",
+                        "methods": ("ref:leapfrog", "ref:linearly_implicit_euler?solver=direct")},)}
+    suite = Suite("tiny", scenes={"cloth": SceneSpec(extras=SceneExtras(sweep=sweep))})
+    (cell,) = SWEEP.run(context(Task("cell", "cloth", "ref:leapfrog", "ref", {"n": 3, "m": 3}, suite)))
+    entries = cell.figures.sweep_points()[1].entries
+    assert [e.method for e in entries] == ["ref:leapfrog", "ref:linearly_implicit_euler?solver=direct"]
+    assert entries[1].ended == "met" and entries[1].family == "implicit"

@@ -187,7 +187,7 @@ def sweep_lines(sw):
            f"at {r.hz:g} Hz over {r.horizon:g}: {r.tolerances_text(sw.length_scale)}")
     yield (f"each method: substeps 1..{r.max_substeps}, then doubled until it meets them, its frame would cost "
            f"> {sw.factor:g} x the cheapest, or > {sw.cap} substeps; cost = substeps x compiled kernel / engine "
-           f"step, {CLOCK.upper()} clock")
+           f"step (a library solve, ?solver=: the Python loop that runs it), {CLOCK.upper()} clock")
     yield ""
     families = list(dict.fromkeys(e.family for p in sw.points for e in p.entries))
     cells = []
