@@ -223,6 +223,8 @@ def test_the_full_suite_sweeps_the_larger_sheets_with_the_library_solves():
         assert set(SWEEP_SOLVES) <= set(sizes[label]["methods"])
         scene = make_scene("cloth", **sizes[label]["params"])
         assert all(get_method(m).supports(scene)[0] for m in sizes[label]["methods"])
+    # Every setting behind a figure is written into the id the report prints.
+    assert [get_method(m).id for m in SWEEP_SOLVES] == list(SWEEP_SOLVES)
 
 
 def test_a_sweep_cell_takes_its_size_s_own_methods(injected_costs):
