@@ -184,6 +184,15 @@ def test_a_solve_stopped_at_its_cap_is_flagged(sheet):
                                sheet, H, steps=10)["unconverged_solves"] == 9
 
 
+def test_the_cost_command_says_the_solve_s_counts_and_loop(capsys):
+    assert main(["cost", "cloth", "--set", "n=4", "--set", "m=4", "--set", "k=1000", "--dt", str(H), "--method",
+                 "ref:linearly_implicit_euler?solver=pcg_jacobi&tol=1e-12&maxiter=2", "--count-steps", "10",
+                 "--time-steps", "10", "--repeats", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "its solve's iterations per step: 1.9; solves stopped short of their tolerance: 9 over 10 steps" in out
+    assert "interpreted: a Python loop over the scheme's step" in out
+
+
 def test_an_indefinite_system_stops_conjugate_gradients():
     """p^T A p <= 0: the matrix is not positive definite along p; the solve stops there, flagged."""
     from scipy.sparse import diags
