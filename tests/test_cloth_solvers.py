@@ -242,14 +242,14 @@ def test_a_sweep_cell_takes_its_size_s_own_methods(injected_costs):
     from harness.nightly.cells import context
     from harness.nightly.run import Task
     from harness.nightly.suites import SceneExtras, SceneSpec, Suite
-    from harness.nightly.sweep_cell import SWEEP
+    from records.measures import get
 
     sweep = {"grid": "k=1e2..1e3:2", "hz": 60.0, "request": {"horizon": 0.2, "energy_tol": 0.5, "max_substeps": 2},
              "methods": ("ref:leapfrog",), "factor": 1000.0, "cap": 8,
              "sizes": ({"label": "3 x 3", "params": {"n": 3, "m": 3}, "task": "ref:leapfrog",
                         "methods": ("ref:leapfrog", "ref:linearly_implicit_euler?solver=direct")},)}
     suite = Suite("tiny", scenes={"cloth": SceneSpec(extras=SceneExtras(sweep=sweep))})
-    (cell,) = SWEEP.run(context(Task("cell", "cloth", "ref:leapfrog", "ref", {"n": 3, "m": 3}, suite)))
+    (cell,) = get("sweep").run(context(Task("cell", "cloth", "ref:leapfrog", "ref", {"n": 3, "m": 3}, suite)))
     entries = cell.figures.sweep_points()[1].entries
     assert [e.method for e in entries] == ["ref:leapfrog", "ref:linearly_implicit_euler?solver=direct"]
     assert entries[1].ended == "met" and entries[1].family == "implicit"
