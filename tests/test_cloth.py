@@ -50,6 +50,30 @@ def test_accel_kernel_is_the_vectorised_spring_force(scene_id, params):
     np.testing.assert_array_equal(rhs[:scene.ndof], v)
 
 
+@pytest.mark.parametrize("scene_id, params", [("cloth", {}), ("net", {}), ("cloth", {"pins": 1}),
+                                              ("cloth", {"n": 3, "m": 5, "k_bend": 0.0})])
+def test_the_reference_s_right_hand_side_adds_each_node_s_forces_as_add_at_does(scene_id, params):
+    """The reference's sparse incidence product against ``np.add.at`` over the springs' starts,
+    then their ends: the same sums in the same order, so the same bits (the reference solve,
+    its tolerances and its cache are unchanged by how the forces are gathered)."""
+    scene = make_scene(scene_id, **params)
+    q, v = perturbed(scene)
+    _, _, d = scene.grid
+    a, b, k, rest = scene.springs()
+    free = scene._free_index()
+    x = scene.rest_positions()
+    x[free] = q.reshape(-1, d)
+    dx = x[b] - x[a]
+    length = np.linalg.norm(dx, axis=-1)
+    f = (k * (length - rest) / length)[:, None] * dx
+    force = np.zeros_like(x)
+    np.add.at(force, a, f)
+    np.add.at(force, b, -f)
+    acc = force[free] / scene.node_mass
+    acc[:, d - 1] -= scene.values["g"]
+    np.testing.assert_array_equal(scene._rhs()(0.0, np.concatenate([q, v]))[scene.ndof:], acc.ravel())
+
+
 def test_energy_at_rest_and_free_nodes():
     scene = make_scene("cloth", n=5, m=4, s=0.2, mass=2.0, g=3.0)
     q0, v0 = scene.initial_state()
