@@ -153,6 +153,27 @@ def test_reference_keeps_the_energy_and_agrees_with_a_tighter_solve(small):
     np.testing.assert_array_equal(q[0], q0)
 
 
+def test_a_reference_past_its_kept_dense_output_solves_a_segment_again_to_the_same_values(monkeypatch):
+    """A solution keeps dense output up to ``KEPT_VALUES`` numbers (``scenarios._solutions``); kept
+    none, each segment asked for is solved again from its start: the same solve, the same bits.
+    A time on a segment's boundary is read from the segment before it, however far earlier calls
+    reached; times asked for again are answered from the values kept, with no solve."""
+    from scenarios import _solutions
+
+    scene = make_scene("cloth", n=3, m=3)
+    t = np.linspace(0.0, 1.5, 31)                         # 0.5 and 1.0 are boundaries of the 0.5 s segments
+    kept = _solutions.SegmentedSolution(scene._rhs(), np.concatenate(scene.initial_state()), 0.5, 1e-10, 1e-10)
+    whole = kept(t)
+    monkeypatch.setattr(_solutions, "KEPT_VALUES", 0)
+    bare = _solutions.SegmentedSolution(scene._rhs(), np.concatenate(scene.initial_state()), 0.5, 1e-10, 1e-10)
+    np.testing.assert_array_equal(bare(t[:11]), whole[:11])   # to t = 0.5: one segment solved
+    assert bare.solves == 1 and not bare.pieces
+    np.testing.assert_array_equal(bare(t), whole)            # segment 0 again, 1 and 2 for the first time
+    assert bare.solves == 4 and len(bare.starts) == 4
+    np.testing.assert_array_equal(bare(t), whole)
+    assert bare.solves == 4                                  # the same times: the values kept
+
+
 def test_stiff_by_default_at_60_hz():
     """A single 60 Hz step is past every explicit scheme's linear limit (RK4's 2 sqrt(2) the largest)."""
     scene = make_scene("cloth")
