@@ -453,6 +453,14 @@ class Cloth(Scene):
         return (max(n, m) - 1) * self.values["s"]
 
     @property
+    def solve_text(self) -> str:
+        """The sheet's own solve (``solve``), which its size picks."""
+        if self.ndof <= DIRECT_MAX_DOF:
+            return f"the scene's banded LDL^T, compiled ({self.ndof} unknowns)"
+        return (f"the scene's unpreconditioned conjugate gradients to a relative residual of {CG_RTOL:g}, compiled "
+                f"({self.ndof} unknowns, past the banded solve's {DIRECT_MAX_DOF})")
+
+    @property
     def node_mass(self) -> float:
         n, m, _ = self.grid
         return self.values["mass"] / (n * m)
