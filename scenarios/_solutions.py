@@ -5,12 +5,13 @@ output started from the end of the previous one, and kept for the life of the pr
 value at time t therefore does not depend on how far earlier calls reached (a single solve to
 a larger horizon would take different steps and differ at the tolerance level).
 
-A segment's dense output holds every step's interpolant (8 numbers per unknown a step): the
-16 x 16 cloth at k = 1e6 needs about 39,000 steps to reach t = 2, 3.5 GB of them, and a 32 x 32
-sheet four times that. A solution therefore keeps dense output up to ``KEPT_VALUES`` numbers and, past
-that, only each segment's start: a segment not kept is solved again from its start when asked for (the same solve, so the same values), and the
-values last asked for are kept by their times (``RECENT`` sets of times), so that the many runs
-measured against one reference at the same times (the advice's frames) solve it once.
+A segment's dense output holds every step's interpolant (8 numbers per unknown a step): the 16 x 16
+cloth at k = 1e6 needs about 39,000 steps to reach t = 2, 3.5 GB of them, and a 32 x 32 sheet four
+times that. A solution therefore keeps dense output up to ``KEPT_VALUES`` numbers and, past that,
+only each segment's start: a segment not kept is solved again from its start when asked for (the
+same solve, so the same values), and the values last asked for are kept by their times (``RECENT``
+sets of times), so that the many runs measured against one reference at the same times (the advice's
+frames) solve it once.
 """
 from __future__ import annotations
 
