@@ -111,6 +111,22 @@ def test_the_search_stops_at_the_cost_factor_and_at_the_cap_and_says_which(injec
     assert capped.why.startswith("no level up to 8 substeps meets them")
 
 
+def test_the_sweep_runs_no_counting_run(injected, monkeypatch):
+    """A sweep prints no evaluations per frame, so its levels skip the interpreted counting run a
+    compiled implicit run leaves to ``counted_evaluations`` (on a 16 x 16 cloth, the scene's
+    conjugate gradients in Python: dearer than the whole search)."""
+    import harness.measures.cost as cost
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a sweep level ran a counting run")
+
+    monkeypatch.setattr(cost, "counted_evaluations", refuse)
+    cloth = make_scene("cloth", n=3, m=3)
+    request = Request(hz=60, horizon=0.2, energy_tol=0.5, max_substeps=2, error_rel=None)
+    sw = run_sweep(cloth, parse_grid("k=1e2..1e3:2", cloth), request, ["ref:linearly_implicit_euler"], pool=False)
+    assert [e.ended for p in sw.points for e in p.entries] == ["met"] * 2
+
+
 def test_the_command_prints_the_sweep_and_its_json(injected, capsys):
     argv = ["advise", "spring", "--hz", "60", "--horizon", "10", "--energy-tol", "1e-3", "--max-substeps", "2",
             "--methods", "ref:leapfrog,ref:semi_implicit_euler", "--sweep", "k=1..4:2", "--factor", "100", "--jobs", "1"]

@@ -310,9 +310,13 @@ def advise_method(method, scene: Scene, request: Request, *, timeout: float | No
     return out
 
 
-def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, timeout, reference: bool = True) -> Row:
+def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, timeout, reference: bool = True,
+         count: bool = True) -> Row:
     """One substep count measured: stability first (no run for a step known unstable), then the
-    horizon run's energy, position error and counted evaluations, judged against the request."""
+    horizon run's energy, position error and counted evaluations, judged against the request.
+    ``count`` False: no evaluations counted where the run did not count them (a sweep, which
+    prints none, skips the interpreted counting run: on a large cloth its Python conjugate
+    gradients are dearer than the whole search)."""
     from harness.execution.simulate import simulate
     from harness.measures.stability import blew_up, spectral_test
 
@@ -348,7 +352,7 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
         row.position_error = frames.position_error()
     if traj.force_evals is not None:
         row.evals_per_frame = traj.force_evals / steps * s
-    else:  # counted as the cost measure counts them: a counting run where the mode has one
+    elif count:  # counted as the cost measure counts them: a counting run where the mode has one
         from harness.measures.cost import counted_evaluations
 
         counted = counted_evaluations(method, scene, h, steps=min(steps, COUNT_STEPS), timeout=timeout)
@@ -369,7 +373,7 @@ def classed(scene: Scene, horizon: float) -> bool:
 
 
 def convergence(method, scene: Scene, request: Request, row: Row, advice: MethodAdvice, timeout=None,
-                reference: bool = True) -> dict | None:
+                reference: bool = True, count: bool = True) -> dict | None:
     """The row's method run again at the row's substeps with its convergence knob tightened
     (``harness.methods.tightened``), judged as the row was: ``{"method", "meets", "why", "energy_error",
     "position_error"}``; None for a method with no knob (nothing iterates short of its answer)."""
@@ -379,7 +383,7 @@ def convergence(method, scene: Scene, request: Request, row: Row, advice: Method
     if tight is None:
         return None
     probe = MethodAdvice(tight.id, limit_verdict=advice.limit_verdict)
-    r = _row(tight, scene, request, row.substeps, probe, timeout, reference)
+    r = _row(tight, scene, request, row.substeps, probe, timeout, reference, count)
     return {"method": tight.id, "meets": r.meets, "why": r.why or ("" if r.meets else r.status),
             "energy_error": r.energy_error, "position_error": r.position_error}
 

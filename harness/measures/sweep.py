@@ -208,14 +208,14 @@ def level(method, scene, request: Request, advice: MethodAdvice, substeps: int, 
     if ceiling is not None and pilot is not None and substeps * pilot > ceiling:
         out["ended"] = "cost"
         return out
-    row = _row(method, scene, request, substeps, advice, timeout, reference=False)
+    row = _row(method, scene, request, substeps, advice, timeout, reference=False, count=False)
     out["row"] = row
     if row.status in ("crashed", "timed_out"):
         out["ended"] = row.status
     elif row.meets:
         out["ended"] = "met"
         out["cost_per_step_s"], out["timing"] = frame_cost(method, scene, h, pilot, injected)
-        row.converged = convergence(method, scene, request, row, advice, timeout, reference=False)
+        row.converged = convergence(method, scene, request, row, advice, timeout, reference=False, count=False)
     return out
 
 
