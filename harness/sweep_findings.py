@@ -5,7 +5,8 @@ grid's stiffest value (``seed_claims``; ``harness advise --sweep`` prints the sa
 
 * **survives** (the energy tolerance alone): an implicit solve stays stable and within the energy
   tolerance with steps at least ``TINY`` times longer than the explicit schemes need for the same
-  (``SweepEntry.energy_substeps``: the fewest substeps whose run did, whatever its position error).
+  (``SweepEntry.energy_substeps``: the fewest substeps whose run did, whatever its position error;
+  an explicit search that ended first, on its cost or substep bound, needs at least its next level).
   ✓ where it does; ✗ where no implicit solve stays within it up to the most substeps searched, or
   an explicit scheme does at fewer than ``TINY`` times the implicit solve's substeps; not judged
   where every implicit search ended on its cost bound before one did.
@@ -90,21 +91,27 @@ def survives(points, param: str, energy_tol: float | None, accuracy: bool = True
     s_i, m_i = steps[IMPLICIT][0]
     e_i = next(e for e in implicit if e.method == m_i)
     said = f"`{m_i}` stays within energy error ≤ {energy_tol:g} at {s_i} substep{'s' if s_i > 1 else ''}{_solve(e_i)}"
-    if steps[EXPLICIT]:
-        s_e, m_e = steps[EXPLICIT][0]
-        explicit = f"explicit substeps need {s_e} (`{m_e}`)"
-        at_least = s_e
+    tried = [e for e in p.entries if e.family == EXPLICIT]
+    if not tried:
+        return Claim(name, None, f"not judged: no explicit scheme was searched {_at(p, param)}; {said}")
+    # An explicit search that ended before a level within the energy tolerance (on its cost or
+    # substep bound) needs at least its next level: the fewest the family needs is bounded below.
+    bounds = sorted((e.next_substeps or 2 * max(e.searched, 1), e.method) for e in tried
+                    if _energy_steps(e, accuracy) is None)
+    need, m_e = min(steps[EXPLICIT][:1] + bounds[:1])
+    exact = bool(steps[EXPLICIT]) and (not bounds or steps[EXPLICIT][0][0] < bounds[0][0])
+    if exact:
+        explicit = f"explicit substeps need {need} (`{m_e}`)"
+    elif steps[EXPLICIT]:
+        s_e, m_met = steps[EXPLICIT][0]
+        explicit = (f"explicit substeps need at least {need} (`{m_e}` not within it below {need}, its search ended "
+                    f"there; `{m_met}` within it at {s_e})")
     else:
-        tried = [e for e in p.entries if e.family == EXPLICIT]
-        if not tried:
-            return Claim(name, None, f"not judged: no explicit scheme was searched {_at(p, param)}; {said}")
-        at_least = min(e.next_substeps or 2 * max(e.searched, 1) for e in tried)
-        explicit = f"no explicit scheme does up to {at_least // 2} substeps"
-    ratio = at_least / s_i
+        explicit = f"no explicit scheme is within it below {need} substeps (`{m_e}` the first to stop)"
+    ratio = need / s_i
     ok = ratio >= TINY
-    return Claim(name, ok, f"{_at(p, param)}: {said}; {explicit}: steps "
-                           f"{'at least ' if not steps[EXPLICIT] else ''}{ratio:.3g} x shorter "
-                           f"({'≥' if ok else '<'} the {TINY} x the claim asks)")
+    return Claim(name, ok, f"{_at(p, param)}: {said}; {explicit}: steps {'' if exact else 'at least '}"
+                           f"{ratio:.3g} x shorter ({'≥' if ok else '<'} the {TINY} x the claim asks)")
 
 
 def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:

@@ -246,7 +246,14 @@ def test_the_first_claim_asks_steps_at_least_ten_times_longer_within_the_energy_
     assert first({"explicit": 32, "implicit": 4}, explicit=32.0, implicit=8.0).ok is False
     # No explicit scheme within the energy tolerance up to its 8 substeps (next 16): at least 16 x at 1 substep.
     g = first({"implicit": 1}, explicit=None, implicit=8.0)
-    assert g.ok is True and "no explicit scheme does up to 8 substeps: steps at least 16 x shorter" in g.text
+    assert g.ok is True and "no explicit scheme is within it below 16 substeps (`ref:explicit_scheme` the first to " \
+                            "stop): steps at least 16 x shorter" in g.text
+    # One explicit scheme within it at 32, another's search ended at 16 before it was: at least 16.
+    stiff = _point(1e4, 9.0, energy={"explicit": 32, "implicit": 1}, explicit=32.0, implicit=8.0, rk=None)
+    stiff.entries[2].family = "explicit"
+    k = _claims([ROWS[0], stiff])[0]
+    assert k.ok is True and ("explicit substeps need at least 16 (`ref:rk_scheme` not within it below 16, its search "
+                             "ended there; `ref:explicit_scheme` within it at 32): steps at least 16 x shorter") in k.text
     stiff = _point(1e4, 9.0, energy={"explicit": 32}, explicit=32.0, implicit=None)
     cut = _claims([ROWS[0], stiff])[0]  # every implicit search ended on its cost bound: not known
     assert cut.ok is None and "{mark}" not in cut.text and "not judged: every implicit search ended" in cut.text
