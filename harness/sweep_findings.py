@@ -59,8 +59,12 @@ def _at(p, param: str) -> str:
     return f"at {param} = {p.value:.3g} (h·ω = {p.homega_one:.3g} at one substep)"
 
 
-def _solve(e) -> str:
-    return f", solve: {e.solve}" if e.solve else ""
+def _solve(e, checked: bool = True) -> str:
+    """The entry's solve, and where its win rests on that solve's own error, the run that says so
+    (``checked``: the convergence check ran at the substeps the line names)."""
+    rests = (f" (its win rests on the solve's own error: `{e.converged['method']}` misses the tolerances)"
+             if checked and e.rests_on_solve else "")
+    return (f", solve: {e.solve}" if e.solve else "") + rests
 
 
 def _energy_steps(e, accuracy: bool) -> int | None:
@@ -90,7 +94,8 @@ def survives(points, param: str, energy_tol: float | None, accuracy: bool = True
                                   f"{_at(p, param)} ({tried})")
     s_i, m_i = steps[IMPLICIT][0]
     e_i = next(e for e in implicit if e.method == m_i)
-    said = f"`{m_i}` stays within energy error ≤ {energy_tol:g} at {s_i} substep{'s' if s_i > 1 else ''}{_solve(e_i)}"
+    said = (f"`{m_i}` stays within energy error ≤ {energy_tol:g} at {s_i} substep{'s' if s_i > 1 else ''}"
+            f"{_solve(e_i, e_i.substeps == s_i)}")
     tried = [e for e in p.entries if e.family == EXPLICIT]
     if not tried:
         return Claim(name, None, f"not judged: no explicit scheme was searched {_at(p, param)}; {said}")
@@ -131,8 +136,13 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
         return f"`{e.method}` {e.substeps} × = {_us(e.cost_per_frame_s)} a frame{_solve(e)}"
 
     if imp is None:
-        why = "; ".join(f"`{e.method}`: {e.why or e.ended}" for e in p.entries if e.family == IMPLICIT)
-        text, ok = f"{_at(p, param)} no implicit solve meets them ({why}); explicit substeps do: {frame(exp)}", False
+        tried = [e for e in p.entries if e.family == IMPLICIT]
+        far = max(tried, key=lambda e: (e.searched, e.method))
+        ended = sorted({e.ended for e in tried})
+        text = (f"{_at(p, param)} no implicit solve meets them ({len(tried)} searched, ended on "
+                f"{' / '.join(ended)}; the furthest, `{far.method}` to {far.searched} substeps: "
+                f"{far.why.split('; ')[-1] if far.why else far.ended}); explicit substeps do: {frame(exp)}")
+        ok = False
     elif exp is None:
         if not bounded:
             return Claim(name, None, f"not judged: no explicit scheme was searched {_at(p, param)}; "

@@ -280,6 +280,19 @@ def test_the_second_claim_holds_the_cheapest_frames_that_meet_every_tolerance_an
              _point(1e4, 9.0, explicit=32.0, implicit=8.0, position_based=2.0)]
     h = _claims(third)[1]
     assert h.ok is True and "the cheapest frame there is position-based solves (`ref:position_based_scheme`, 2 µs)" in h.text
+    # The implicit pick's win resting on its solve's own error: said beside it.
+    rests = [ROWS[0], _point(1e4, 9.0, explicit=32.0, implicit=8.0)]
+    rests[1].entries[1].converged = {"method": "ref:implicit_scheme?tol=1e-5", "meets": False}
+    r = _claims(rests)[1]
+    assert r.ok is True and ("`ref:implicit_scheme` 4 × = 8 µs a frame (its win rests on the solve's own error: "
+                             "`ref:implicit_scheme?tol=1e-5` misses the tolerances)") in r.text
+    # No implicit solve meets them: the furthest search and why it ended.
+    none = [ROWS[0], _point(1e4, 9.0, explicit=32.0, implicit=None)]
+    none[1].entries[1].why = "16 substeps would cost 2 µs a frame; position error 0.05 > 0.015 at 8 substeps"
+    n = _claims(none)[1]
+    assert n.ok is False and ("no implicit solve meets them (1 searched, ended on cost; the furthest, "
+                              "`ref:implicit_scheme` to 8 substeps: position error 0.05 > 0.015 at 8 substeps); "
+                              "explicit substeps do: `ref:explicit_scheme` 4 × = 32 µs a frame") in n.text
     # The energy alone asked: the second claim is not judged, and says so with no mark.
     e = _claims(ROWS, error_rel=None)[1]
     assert e.ok is None and "not judged: the sweep asked no accuracy tolerance" in e.text and MARK not in e.text
