@@ -1,76 +1,203 @@
-"""The finding a ``sweep`` cell draws (``harness.nightly.measures.sweep_cell``): the seed's claim that stiff
-cloth wants implicit Euler "where explicit methods would demand absurdly tiny timesteps", held
-against where the measured cheapest frames of the two families cross.
+"""The findings a ``sweep`` cell draws (``harness.nightly.measures.sweep_cell``): the seed's claim that
+stiff cloth wants implicit Euler "where explicit methods would demand absurdly tiny timesteps", as
+the two claims it makes, each judged per sweep (per sheet size) from the measured entries at the
+grid's stiffest value (``seed_claims``; ``harness advise --sweep`` prints the same two lines):
 
-✓ where implicit solves take over from explicit substeps on the grid (``family_crossover``:
-explicit cheaper at one value, implicit at the next): the crossover's value and h*omega at one
-substep are stated, and how many substeps the cheapest explicit method needed just past it.
-✗ where they do not (the explicit frame cheaper at every value, or the implicit one everywhere),
-with the two families' frames at the stiffest value. Either way the line names the cheapest
-family at the stiffest value where it is neither (a position-based solve) and where the overall
-cheapest family changes. Nothing checked (None) where no method meets the tolerances at an end.
+* **survives** (the energy tolerance alone): an implicit solve stays stable and within the energy
+  tolerance with steps at least ``TINY`` times longer than the explicit schemes need for the same
+  (``SweepEntry.energy_substeps``: the fewest substeps whose run did, whatever its position error;
+  an explicit search that ended first, on its cost or substep bound, needs at least its next level).
+  ✓ where it does; ✗ where no implicit solve stays within it up to the most substeps searched, or
+  an explicit scheme does at fewer than ``TINY`` times the implicit solve's substeps; not judged
+  where every implicit search ended on its cost bound before one did.
+* **the cheaper usable frame** (the accuracy tolerance too): the implicit family's cheapest frame
+  that meets every tolerance is cheaper than the explicit family's (an explicit family whose
+  searches all ended on the cost or the substep bound counts as dearer). ✓ / ✗ at the stiffest
+  value, with where implicit solves take over on the grid (``family_crossover``) where they do;
+  not judged where the sweep asked no accuracy tolerance, or neither family meets the tolerances.
+
+Each line names the methods behind its figures and their solves (``SweepEntry.solve``: a library's
+with its settings, or the scene's own kernel), and the tolerances. Where a third family (a
+position-based solve) is the cheapest frame at the stiffest value, the second line says so.
 """
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 from records.advice import family_name
 from records.findings import MARK, Finding
 
-#: The seed's claim, as the finding quotes it.
+#: The seed's claim, as the findings quote it.
 CLAIM = ("the seed sends stiff cloth to implicit Euler \"where explicit methods would demand absurdly tiny "
          "timesteps\"")
-#: The families the claim counts as explicit substepping and as implicit solving.
+#: The families the claims count as explicit substepping and as implicit solving.
 EXPLICIT, IMPLICIT = "explicit", "implicit"
+#: "Absurdly tiny": the explicit schemes' step at least this many times shorter than the implicit
+#: solve's for the same energy tolerance (an order of magnitude; at the stiff end of the cloth's
+#: grid their stability alone asks h·ω <= 2 against the frame's h·ω of 100 and more).
+TINY = 10
 
 
-def sweep_finding(cell) -> Finding:
-    f = cell.figures
-    points = f.sweep_points()
-    where = f"`{cell.scene}`{' ' + f.label if f.label else ''}"
-    request = f.request or {}
-    tol = f"energy ≤ {request['energy_tol']:g}" if request.get("energy_tol") else "the tolerances"
-    head = (f"{MARK} {where}, {f.param} = {points[0].value:.3g}..{points[-1].value:.3g} at {f.hz:g} Hz "
-            f"({tol} over {request.get('horizon', float('nan')):g} s): {CLAIM}")
-    soft, stiff = points[0].cheapest, points[-1].cheapest
-    if soft is None or stiff is None:
-        return Finding(head.replace(f"{MARK} ", "") + "; not judged: no method meets the tolerances at "
-                       f"{f.param} = {(points[0] if soft is None else points[-1]).value:.3g}", None, cell.scene,
-                       cell.method)
+@dataclass(frozen=True)
+class Claim:
+    """One of the seed's two claims on one sweep: whether it holds (None: not judged) and what was
+    measured, in words (no mark)."""
+
+    name: str
+    ok: bool | None
+    text: str
+
+
+def seed_claims(points, param: str, energy_tol: float | None, accuracy: bool) -> tuple[Claim, Claim]:
+    """The two claims (module docstring) judged at the stiffest value of ``points``
+    (``SweepPoint``s in grid order); ``accuracy``: whether the sweep asked a position tolerance."""
+    return survives(points, param, energy_tol, accuracy), cheaper_usable(points, param, accuracy)
+
+
+def _at(p, param: str) -> str:
+    return f"at {param} = {p.value:.3g} (h·ω = {p.homega_one:.3g} at one substep)"
+
+
+def _solve(e, checked: bool = True) -> str:
+    """The entry's solve, and where its win rests on that solve's own error, the run that says so
+    (``checked``: the convergence check ran at the substeps the line names)."""
+    rests = (f" (its win rests on the solve's own error: `{e.converged['method']}` misses the tolerances)"
+             if checked and e.rests_on_solve else "")
+    return (f", solve: {e.solve}" if e.solve else "") + rests
+
+
+def _energy_steps(e, accuracy: bool) -> int | None:
+    """The fewest substeps within the energy tolerance an entry records; a sweep on the energy alone
+    stored before entries recorded it gives its met substeps."""
+    if e.energy_substeps is not None:
+        return e.energy_substeps
+    return e.substeps if e.ended == "met" and not accuracy else None
+
+
+def survives(points, param: str, energy_tol: float | None, accuracy: bool = True) -> Claim:
+    name = "implicit Euler survives where explicit steps must be tiny (energy tolerance)"
+    p = points[-1]
+    if energy_tol is None:
+        return Claim(name, None, "not judged: the sweep asked no energy tolerance")
+    steps = {fam: sorted(((s, e.method) for e in p.entries if e.family == fam
+                          for s in [_energy_steps(e, accuracy)] if s is not None)) for fam in (EXPLICIT, IMPLICIT)}
+    implicit = [e for e in p.entries if e.family == IMPLICIT]
+    if not implicit:
+        return Claim(name, None, f"not judged: no implicit solve was searched {_at(p, param)}")
+    if not steps[IMPLICIT]:
+        tried = ", ".join(f"`{e.method}` to {e.searched} substeps" for e in implicit)
+        if all(e.ended == "cost" for e in implicit):  # stopped for cost, not for want of a stable step
+            return Claim(name, None, f"not judged: every implicit search ended on its cost bound {_at(p, param)} "
+                                     f"before one stayed within the energy tolerance ({tried})")
+        return Claim(name, False, f"no implicit solve stays stable within energy error ≤ {energy_tol:g} "
+                                  f"{_at(p, param)} ({tried})")
+    s_i, m_i = steps[IMPLICIT][0]
+    e_i = next(e for e in implicit if e.method == m_i)
+    said = (f"`{m_i}` stays within energy error ≤ {energy_tol:g} at {s_i} substep{'s' if s_i > 1 else ''}"
+            f"{_solve(e_i, e_i.substeps == s_i)}")
+    tried = [e for e in p.entries if e.family == EXPLICIT]
+    if not tried:
+        return Claim(name, None, f"not judged: no explicit scheme was searched {_at(p, param)}; {said}")
+    # An explicit search that ended before a level within the energy tolerance (on its cost or
+    # substep bound) needs at least its next level: the fewest the family needs is bounded below.
+    bounds = sorted((e.next_substeps or 2 * max(e.searched, 1), e.method) for e in tried
+                    if _energy_steps(e, accuracy) is None)
+    need, m_e = min(steps[EXPLICIT][:1] + bounds[:1])
+    exact = bool(steps[EXPLICIT]) and (not bounds or steps[EXPLICIT][0][0] < bounds[0][0])
+    if exact:
+        explicit = f"explicit substeps need {need} (`{m_e}`)"
+    elif steps[EXPLICIT]:
+        s_e, m_met = steps[EXPLICIT][0]
+        explicit = (f"explicit substeps need at least {need} (`{m_e}` not within it below {need}, its search ended "
+                    f"there; `{m_met}` within it at {s_e})")
+    else:
+        explicit = f"no explicit scheme is within it below {need} substeps (`{m_e}` the first to stop)"
+    ratio = need / s_i
+    ok = ratio >= TINY
+    return Claim(name, ok, f"{_at(p, param)}: {said}; {explicit}: steps {'' if exact else 'at least '}"
+                           f"{ratio:.3g} x shorter ({'≥' if ok else '<'} the {TINY} x the claim asks)")
+
+
+def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
     from harness.measures.sweep import family_costs, family_crossover
 
+    name = "implicit Euler is the cheaper usable frame (accuracy tolerance too)"
+    if not accuracy:
+        return Claim(name, None, "not judged: the sweep asked no accuracy tolerance (the energy alone)")
+    p = points[-1]
+    costs = family_costs(p)
+    imp, exp = costs.get(IMPLICIT), costs.get(EXPLICIT)
+    bounded = [e for e in p.entries if e.family == EXPLICIT and e.ended in ("cost", "cap")]
+    if imp is None and exp is None:
+        return Claim(name, None, f"not judged: neither family meets the tolerances {_at(p, param)}")
+
+    def frame(e) -> str:
+        return f"`{e.method}` {e.substeps} × = {_us(e.cost_per_frame_s)} a frame{_solve(e)}"
+
+    if imp is None:
+        tried = [e for e in p.entries if e.family == IMPLICIT]
+        far = max(tried, key=lambda e: (e.searched, e.method))
+        ended = sorted({e.ended for e in tried})
+        text = (f"{_at(p, param)} no implicit solve meets them ({len(tried)} searched, ended on "
+                f"{' / '.join(ended)}; the furthest, `{far.method}` to {far.searched} substeps: "
+                f"{far.why.split('; ')[-1] if far.why else far.ended}); explicit substeps do: {frame(exp)}")
+        ok = False
+    elif exp is None:
+        if not bounded:
+            return Claim(name, None, f"not judged: no explicit scheme was searched {_at(p, param)}; "
+                                     f"implicit solves: {frame(imp)}")
+        text, ok = (f"{_at(p, param)} implicit solves meet them, {frame(imp)}; no explicit scheme does within "
+                    f"its cost bound"), True
+    else:
+        ok = imp.cost_per_frame_s < exp.cost_per_frame_s
+        ratio = exp.cost_per_frame_s / imp.cost_per_frame_s
+        text = (f"{_at(p, param)} implicit solves' cheapest frame that meets them, {frame(imp)}, against explicit "
+                f"substeps' {frame(exp)}: " + (f"implicit {ratio:.3g} x cheaper" if ok else
+                                               f"explicit {1 / ratio:.3g} x cheaper"))
     x = family_crossover(points, EXPLICIT, IMPLICIT)
     if x is not None:
-        past = [e for p in points if p.value >= x.above for e in p.met if e.family == EXPLICIT]
-        need = past[0] if past else None
-        text = (f"{head}: measured, explicit substeps (`{x.from_method}`) are cheaper up to {f.param} ≈ "
-                f"{x.value:.3g}, implicit solves (`{x.to_method}`) beyond: the crossover at h·ω ≈ "
-                f"{x.homega_one:.3g} at one substep")
-        if need is not None:
-            text += f"; just past it `{need.method}` still meets them at {need.substeps} substeps"
-    else:
-        last = family_costs(points[-1])
-        frames = ", ".join(f"{family_name(k)} {_us(last[k].cost_per_frame_s)} (`{last[k].method}`)"
-                           for k in (EXPLICIT, IMPLICIT) if k in last)
-        text = (f"{head}: measured, implicit solves never take over from explicit substeps on the grid; at "
-                f"{f.param} = {points[-1].value:.3g} (h·ω = {points[-1].homega_one:.3g} at one substep) "
-                f"{frames or 'neither family meets them'}")
-    if stiff.family not in (EXPLICIT, IMPLICIT):
-        text += (f"; the cheapest frame at {f.param} = {points[-1].value:.3g} is {family_name(stiff.family)} "
-                 f"(`{stiff.method}`, {_us(stiff.cost_per_frame_s)})")
-    overall = [c for c in f.sweep_crossovers()]
-    if overall and not (len(overall) == 1 and (overall[0].from_family, overall[0].to_family) == (EXPLICIT, IMPLICIT)):
-        text += "; the cheapest family overall: " + ", ".join(
-            f"{family_name(c.from_family)} → {family_name(c.to_family)} at h·ω ≈ {c.homega_one:.3g}" for c in overall)
-    return Finding(text, x is not None, cell.scene, cell.method)
+        text += (f"; implicit solves take over from explicit substeps at {param} ≈ {x.value:.3g} "
+                 f"(h·ω ≈ {x.homega_one:.3g} at one substep)")
+    stiff = p.cheapest
+    if stiff is not None and stiff.family not in (EXPLICIT, IMPLICIT):
+        text += (f"; the cheapest frame there is {family_name(stiff.family)} (`{stiff.method}`, "
+                 f"{_us(stiff.cost_per_frame_s)})")
+    return Claim(name, ok, text)
 
 
 def _us(seconds) -> str:
-    return "–" if seconds is None else f"{seconds * 1e6:.3g} µs"
+    return "–" if seconds is None or not math.isfinite(seconds) else f"{seconds * 1e6:.3g} µs"
+
+
+def sweep_finding(cell) -> list[Finding]:
+    """The two claims on one sweep cell, each a finding that names the sheet and the tolerances."""
+    f = cell.figures
+    points = f.sweep_points()
+    where = f"`{cell.scene}`{' ' + f.label if f.label else ''}"
+    r = f.sweep_request()
+    tols = []
+    if r.energy_tol:
+        tols.append(f"energy error ≤ {r.energy_tol:g}")
+    pos = points[-1].position_tol
+    if r.error_tol:
+        tols.append(f"position error ≤ {r.error_tol:g}")
+    elif r.error_rel:
+        tols.append(f"position error ≤ {100 * r.error_rel:g}% of the scene's length scale"
+                    + (f" ({pos:.3g})" if pos is not None else ""))
+    head = (f"{where}, {f.param} = {points[0].value:.3g}..{points[-1].value:.3g} at {f.hz:g} Hz over "
+            f"{r.horizon:g} s ({' and '.join(tols) or 'the tolerances'}): {CLAIM}")
+    out = []
+    for claim in seed_claims(points, f.param, r.energy_tol, bool(r.error_tol or r.error_rel)):
+        mark = f"{MARK} " if claim.ok is not None else ""
+        out.append(Finding(f"{mark}{head}; {claim.name}: {claim.text}", claim.ok, cell.scene, cell.method))
+    return out
 
 
 def sweep_findings(scene: str, piv: dict) -> list[Finding]:
-    """One finding per ok ``sweep`` cell on ``scene``, smallest sheet first."""
+    """Two findings per ok ``sweep`` cell on ``scene``, smallest sheet first."""
     cells = [ms["sweep"] for (s, _), ms in piv.items() if s == scene and "sweep" in ms]
     cells = [c for c in cells if c.status == "ok" and c.figures.points]
     params = lambda c: c.figures.params or {}  # noqa: E731
     cells.sort(key=lambda c: (float(params(c).get("n", 1)) * float(params(c).get("m", 1)), c.method))
-    return [sweep_finding(c) for c in cells]
+    return [finding for c in cells for finding in sweep_finding(c)]

@@ -99,6 +99,10 @@ class SweepEntry:
     next_substeps: int | None = None  # the level not run where the cost or the cap bound ended the search
     why: str = ""
     converged: dict | None = None   # where met: its convergence knob tightened (``records.advice.Row.converged``)
+    #: The fewest substeps, of the levels run, whose run was stable and within the energy tolerance
+    #: (whatever its position error): the seed's first claim reads it (``harness.sweep_findings``).
+    energy_substeps: int | None = None
+    solve: str = ""                 # an implicit method's linear solve, in words (its library's and settings)
 
     @property
     def rests_on_solve(self) -> bool:

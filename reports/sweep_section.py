@@ -60,8 +60,8 @@ def sweep_section(scene: str, piv: dict) -> list[str]:
                   f"against {f.param}, at {f.hz:g} Hz over {_fmt(r.horizon, 'g')} s, {tol or 'the tolerances'}. "
                   f"Each method is searched to {_fmt(r.max_substeps, 'd', '?')} substeps, then doubled until it meets "
                   f"them, its frame would cost more than {f.factor:g} × the cheapest, or past {f.cap} substeps; "
-                  f"cost per frame = substeps × the compiled kernel's (an engine mode's step's) {f.clock.upper()}-clock "
-                  "time per step. Each pick: its energy error E and position error x; * where its win rests on "
+                  f"cost per frame = substeps × the compiled kernel's (an engine mode's step's; a library solve's, "
+                  f"`?solver=`, the Python loop that runs it) {f.clock.upper()}-clock time per step. Each pick: its energy error E and position error x; * where its win rests on "
                   "the solve's own error (it misses the tolerances with its convergence knob tightened: ten times "
                   "the passes, a tolerance a hundred times tighter).", "",
                   f"| {f.param} | h·ω at 1 substep | " + " | ".join(family_name(k) for k in families) + " | cheapest |",

@@ -240,6 +240,12 @@ class Scene:
                     "position-based scheme to project")
         return ""
 
+    @property
+    def solve_text(self) -> str:
+        """What the scene's own ``solve`` kernel does, in words: an implicit scheme's solve unless
+        its method id names a library's (``reference.solvers``)."""
+        return "the scene's own solve kernel, compiled"
+
     def escaped(self, q: np.ndarray, v: np.ndarray) -> np.ndarray | None:
         """Per state (rows of q, v), whether a body had left the system; None for a scene that
         cannot tell (one without bodies that can leave)."""

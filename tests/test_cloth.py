@@ -50,6 +50,30 @@ def test_accel_kernel_is_the_vectorised_spring_force(scene_id, params):
     np.testing.assert_array_equal(rhs[:scene.ndof], v)
 
 
+@pytest.mark.parametrize("scene_id, params", [("cloth", {}), ("net", {}), ("cloth", {"pins": 1}),
+                                              ("cloth", {"n": 3, "m": 5, "k_bend": 0.0})])
+def test_the_reference_s_right_hand_side_adds_each_node_s_forces_as_add_at_does(scene_id, params):
+    """The reference's sparse incidence product against ``np.add.at`` over the springs' starts,
+    then their ends: the same sums in the same order, so the same bits (the reference solve,
+    its tolerances and its cache are unchanged by how the forces are gathered)."""
+    scene = make_scene(scene_id, **params)
+    q, v = perturbed(scene)
+    _, _, d = scene.grid
+    a, b, k, rest = scene.springs()
+    free = scene._free_index()
+    x = scene.rest_positions()
+    x[free] = q.reshape(-1, d)
+    dx = x[b] - x[a]
+    length = np.linalg.norm(dx, axis=-1)
+    f = (k * (length - rest) / length)[:, None] * dx
+    force = np.zeros_like(x)
+    np.add.at(force, a, f)
+    np.add.at(force, b, -f)
+    acc = force[free] / scene.node_mass
+    acc[:, d - 1] -= scene.values["g"]
+    np.testing.assert_array_equal(scene._rhs()(0.0, np.concatenate([q, v]))[scene.ndof:], acc.ravel())
+
+
 def test_energy_at_rest_and_free_nodes():
     scene = make_scene("cloth", n=5, m=4, s=0.2, mass=2.0, g=3.0)
     q0, v0 = scene.initial_state()
@@ -127,6 +151,27 @@ def test_reference_keeps_the_energy_and_agrees_with_a_tighter_solve(small):
     assert np.max(np.abs(q - q2)) <= 1e-8
     q0, v0 = small.initial_state()
     np.testing.assert_array_equal(q[0], q0)
+
+
+def test_a_reference_past_its_kept_dense_output_solves_a_segment_again_to_the_same_values(monkeypatch):
+    """A solution keeps dense output up to ``KEPT_VALUES`` numbers (``scenarios._solutions``); kept
+    none, each segment asked for is solved again from its start: the same solve, the same bits.
+    A time on a segment's boundary is read from the segment before it, however far earlier calls
+    reached; times asked for again are answered from the values kept, with no solve."""
+    from scenarios import _solutions
+
+    scene = make_scene("cloth", n=3, m=3)
+    t = np.linspace(0.0, 1.5, 31)                         # 0.5 and 1.0 are boundaries of the 0.5 s segments
+    kept = _solutions.SegmentedSolution(scene._rhs(), np.concatenate(scene.initial_state()), 0.5, 1e-10, 1e-10)
+    whole = kept(t)
+    monkeypatch.setattr(_solutions, "KEPT_VALUES", 0)
+    bare = _solutions.SegmentedSolution(scene._rhs(), np.concatenate(scene.initial_state()), 0.5, 1e-10, 1e-10)
+    np.testing.assert_array_equal(bare(t[:11]), whole[:11])   # to t = 0.5: one segment solved
+    assert bare.solves == 1 and not bare.pieces
+    np.testing.assert_array_equal(bare(t), whole)            # segment 0 again, 1 and 2 for the first time
+    assert bare.solves == 4 and len(bare.starts) == 4
+    np.testing.assert_array_equal(bare(t), whole)
+    assert bare.solves == 4                                  # the same times: the values kept
 
 
 def test_stiff_by_default_at_60_hz():

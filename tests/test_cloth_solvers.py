@@ -184,6 +184,15 @@ def test_a_solve_stopped_at_its_cap_is_flagged(sheet):
                                sheet, H, steps=10)["unconverged_solves"] == 9
 
 
+def test_the_cost_command_says_the_solve_s_counts_and_loop(capsys):
+    assert main(["cost", "cloth", "--set", "n=4", "--set", "m=4", "--set", "k=1000", "--dt", str(H), "--method",
+                 "ref:linearly_implicit_euler?solver=pcg_jacobi&tol=1e-12&maxiter=2", "--count-steps", "10",
+                 "--time-steps", "10", "--repeats", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "its solve's iterations per step: 1.9; solves stopped short of their tolerance: 9 over 10 steps" in out
+    assert "interpreted: a Python loop over the scheme's step" in out
+
+
 def test_an_indefinite_system_stops_conjugate_gradients():
     """p^T A p <= 0: the matrix is not positive definite along p; the solve stops there, flagged."""
     from scipy.sparse import diags
@@ -201,3 +210,83 @@ def test_timed_on_the_loop_that_runs_it(sheet):
     assert "SuperLU" in res["timing"] and res["s_per_step"] > 0
     compiled = wall_time_per_step("ref:linearly_implicit_euler", sheet, H, steps=200, repeats=2, clock="cpu")
     assert compiled["timing"].startswith("compiled (numba)")
+
+
+# ----------------------------------------------------------------------------- the nightly's sweep
+@pytest.fixture()
+def injected_costs(tmp_path, monkeypatch):
+    """Every method's cost per step injected (1 µs): where a search stops is then the same on any machine."""
+    import json
+
+    path = tmp_path / "timings.json"
+    path.write_text(json.dumps({"s_per_step": {"*": 1e-6}}))
+    monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
+
+
+def test_the_full_suite_sweeps_the_larger_sheets_with_the_library_solves():
+    from harness.nightly.suites import SUITES, SWEEP_SOLVES
+
+    sizes = {s["label"]: s for s in SUITES["full"].scenes["cloth"].extras.sweep["sizes"]}
+    assert "methods" not in sizes["4 x 4"]  # there the scene's compiled banded solve is the cheapest
+    for label in ("16 x 16", "32 x 32"):
+        assert set(SWEEP_SOLVES) <= set(sizes[label]["methods"])
+        scene = make_scene("cloth", **sizes[label]["params"])
+        assert all(get_method(m).supports(scene)[0] for m in sizes[label]["methods"])
+    # Every setting behind a figure is written into the id the report prints.
+    assert [get_method(m).id for m in SWEEP_SOLVES] == list(SWEEP_SOLVES)
+
+
+def test_a_sweep_cell_takes_its_size_s_own_methods(injected_costs):
+    """A size's ``methods`` replace the sweep's: the library solve is searched and meets the
+    tolerance (its cost injected: the verdict is the search's, not the machine's)."""
+    from harness.nightly.cells import context
+    from harness.nightly.run import Task
+    from harness.nightly.suites import SceneExtras, SceneSpec, Suite
+    from records.measures import get
+
+    sweep = {"grid": "k=1e2..1e3:2", "hz": 60.0, "request": {"horizon": 0.2, "energy_tol": 0.5, "max_substeps": 2},
+             "methods": ("ref:leapfrog",), "factor": 1000.0, "cap": 8,
+             "sizes": ({"label": "3 x 3", "params": {"n": 3, "m": 3}, "task": "ref:leapfrog",
+                        "methods": ("ref:leapfrog", "ref:linearly_implicit_euler?solver=direct")},)}
+    suite = Suite("tiny", scenes={"cloth": SceneSpec(extras=SceneExtras(sweep=sweep))})
+    (cell,) = get("sweep").run(context(Task("cell", "cloth", "ref:leapfrog", "ref", {"n": 3, "m": 3}, suite)))
+    entries = cell.figures.sweep_points()[1].entries
+    assert [e.method for e in entries] == ["ref:leapfrog", "ref:linearly_implicit_euler?solver=direct"]
+    assert entries[1].ended == "met" and entries[1].family == "implicit"
+
+
+def test_the_report_judges_both_claims_per_size_from_the_measured_sweep(tmp_path, monkeypatch):
+    """The nightly's sweep cell on a 3 x 3 sheet at k = 1e3 and 1e6 (60 Hz, 0.5 s, energy within 0.5
+    and positions within 5% of the width), costs injected (leapfrog 1 µs a step, linearly implicit
+    Euler's compiled banded solve 0.01 µs): the substeps are the runs', the costs the injected ones,
+    so the report's two findings are the same on any machine and under any load. At k = 1e6 the
+    implicit solve stays within the energy at 8 substeps, leapfrog at 64: 8 x shorter steps, short
+    of the 10 x "absurdly tiny" asks (✗); both meet every tolerance at 64, the implicit frame 100 x
+    cheaper on these costs (✓)."""
+    import json
+
+    from harness.nightly.cells import context
+    from harness.nightly.run import Task
+    from harness.nightly.suites import SceneExtras, SceneSpec, Suite
+    from records.measures import get
+    from reports.markdown import findings
+
+    path = tmp_path / "timings.json"
+    path.write_text(json.dumps({"s_per_step": {"ref:leapfrog": 1e-6, "ref:linearly_implicit_euler": 1e-8}}))
+    monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
+    sweep = {"grid": "k=1e3..1e6:2", "hz": 60.0, "request": {"horizon": 0.5, "energy_tol": 0.5, "max_substeps": 2},
+             "methods": ("ref:leapfrog", "ref:linearly_implicit_euler"), "factor": 1000.0, "cap": 256,
+             "sizes": ({"label": "3 x 3", "params": {"n": 3, "m": 3}, "task": "ref:leapfrog"},)}
+    suite = Suite("tiny", scenes={"cloth": SceneSpec(extras=SceneExtras(sweep=sweep))})
+    (cell,) = get("sweep").run(context(Task("cell", "cloth", "ref:leapfrog", "ref", {"n": 3, "m": 3}, suite)))
+    stiff = cell.figures.sweep_points()[-1]
+    assert [(e.method, e.substeps, e.energy_substeps) for e in stiff.entries] == [
+        ("ref:leapfrog", 64, 64), ("ref:linearly_implicit_euler", 64, 8)]
+    assert stiff.entries[1].solve == "the scene's banded LDL^T, compiled (21 unknowns)"
+    lines = findings(get("sweep").findings("cloth", {("cloth", cell.method): {"sweep": cell}}))
+    survives, usable = (line for line in lines if "absurdly tiny" in line)
+    assert survives.startswith("- ✗ `cloth` 3 x 3, k = 1e+03..1e+06 at 60 Hz over 0.5 s (energy error ≤ 0.5 and "
+                               "position error ≤ 5% of the scene's length scale (0.01))")
+    assert ("`ref:linearly_implicit_euler` stays within energy error ≤ 0.5 at 8 substeps, solve: the scene's banded "
+            "LDL^T, compiled (21 unknowns); explicit substeps need 64 (`ref:leapfrog`): steps 8 x shorter") in survives
+    assert usable.startswith("- ✓ `cloth` 3 x 3") and "implicit 100 x cheaper" in usable

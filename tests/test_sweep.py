@@ -111,6 +111,22 @@ def test_the_search_stops_at_the_cost_factor_and_at_the_cap_and_says_which(injec
     assert capped.why.startswith("no level up to 8 substeps meets them")
 
 
+def test_the_sweep_runs_no_counting_run(injected, monkeypatch):
+    """A sweep prints no evaluations per frame, so its levels skip the interpreted counting run a
+    compiled implicit run leaves to ``counted_evaluations`` (on a 16 x 16 cloth, the scene's
+    conjugate gradients in Python: dearer than the whole search)."""
+    import harness.measures.cost as cost
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a sweep level ran a counting run")
+
+    monkeypatch.setattr(cost, "counted_evaluations", refuse)
+    cloth = make_scene("cloth", n=3, m=3)
+    request = Request(hz=60, horizon=0.2, energy_tol=0.5, max_substeps=2, error_rel=None)
+    sw = run_sweep(cloth, parse_grid("k=1e2..1e3:2", cloth), request, ["ref:linearly_implicit_euler"], pool=False)
+    assert [e.ended for p in sw.points for e in p.entries] == ["met"] * 2
+
+
 def test_the_command_prints_the_sweep_and_its_json(injected, capsys):
     argv = ["advise", "spring", "--hz", "60", "--horizon", "10", "--energy-tol", "1e-3", "--max-substeps", "2",
             "--methods", "ref:leapfrog,ref:semi_implicit_euler", "--sweep", "k=1..4:2", "--factor", "100", "--jobs", "1"]
@@ -160,10 +176,14 @@ def test_a_family_is_what_the_method_declares():
     assert family_name("position_based") == "position-based solves" and family_name("newkind") == "newkind"
 
 
-def _point(value, homega, **costs):
-    """A point with one entry per family=cost_us (None: that family met nothing there)."""
+def _point(value, homega, energy=None, **costs):
+    """A point with one entry per family=cost_us (None: that family met nothing there, its search
+    ended on the cost bound); ``energy``: family -> the fewest substeps within the energy tolerance."""
+    energy = energy or {}
     entries = [SweepEntry(f"ref:{fam}_scheme", fam, "met" if us is not None else "cost", 4 if us else None,
-                          cost_per_frame_s=None if us is None else us * 1e-6) for fam, us in costs.items()]
+                          cost_per_frame_s=None if us is None else us * 1e-6, searched=4 if us else 8,
+                          next_substeps=None if us else 16, energy_substeps=energy.get(fam))
+               for fam, us in costs.items()]
     return SweepPoint(value, homega * 60, homega, entries)
 
 
@@ -192,9 +212,10 @@ def test_a_family_with_no_cost_at_one_end_puts_the_crossover_midway_and_new_kind
     assert crossovers(ROWS[:2]) == []
 
 
-def _cell(points, label="4 x 4", method="ref:implicit_euler"):
+def _cell(points, label="4 x 4", method="ref:implicit_euler", error_rel=None):
     figures = SweepFigures(label=label, param="k", params={"n": 4, "m": 4}, hz=60.0,
-                           request={"horizon": 2.0, "energy_tol": 0.5, "error_tol": None, "max_substeps": 16},
+                           request={"horizon": 2.0, "energy_tol": 0.5, "error_tol": None, "max_substeps": 16,
+                                    "error_rel": error_rel},
                            factor=10.0, cap=4096, clock="cpu", points=[p.as_dict() for p in points],
                            crossovers=[c.as_dict() for c in crossovers(points)])
     cross = crossovers(points)
@@ -202,29 +223,79 @@ def _cell(points, label="4 x 4", method="ref:implicit_euler"):
                 value=cross[0].homega_one if cross else None, figures=figures)
 
 
-def test_the_finding_holds_the_seed_claim_to_the_measured_crossover():
+def _claims(points, error_rel=0.05):
     from harness.sweep_findings import sweep_findings
 
-    def finding(points):
-        (f,) = sweep_findings("cloth", {("cloth", "ref:implicit_euler"): {"sweep": _cell(points)}})
-        return f
+    found = sweep_findings("cloth", {("cloth", "ref:implicit_euler"): {"sweep": _cell(points, error_rel=error_rel)}})
+    assert len(found) == 2 and all("absurdly tiny timesteps" in f.text for f in found)
+    return found
 
-    f = finding(ROWS)
-    assert f.ok is True
-    assert "absurdly tiny timesteps" in f.text and "the crossover at h·ω ≈ 4.33 at one substep" in f.text
-    assert "explicit substeps (`ref:explicit_scheme`) are cheaper up to k ≈ 2.15e+03" in f.text
+
+def test_the_first_claim_asks_steps_at_least_ten_times_longer_within_the_energy_tolerance():
+    """Survives: at the stiffest value an implicit solve within the energy tolerance at 2 substeps
+    against explicit substeps' 32 (16 x) holds; at 4 against 32 (8 x) does not; with no implicit
+    solve within it, or no explicit one within its bound, the line says which."""
+    def first(energy, **costs):
+        return _claims([ROWS[0], _point(1e4, 9.0, energy=energy, **costs)])[0]
+
+    f = first({"explicit": 32, "implicit": 2}, explicit=32.0, implicit=8.0)
+    assert f.ok is True and "implicit Euler survives where explicit steps must be tiny (energy tolerance)" in f.text
+    assert ("at k = 1e+04 (h·ω = 9 at one substep): `ref:implicit_scheme` stays within energy error ≤ 0.5 at 2 "
+            "substeps; explicit substeps need 32 (`ref:explicit_scheme`): steps 16 x shorter (≥ the 10 x the claim "
+            "asks)") in f.text
+    assert first({"explicit": 32, "implicit": 4}, explicit=32.0, implicit=8.0).ok is False
+    # No explicit scheme within the energy tolerance up to its 8 substeps (next 16): at least 16 x at 1 substep.
+    g = first({"implicit": 1}, explicit=None, implicit=8.0)
+    assert g.ok is True and "no explicit scheme is within it below 16 substeps (`ref:explicit_scheme` the first to " \
+                            "stop): steps at least 16 x shorter" in g.text
+    # One explicit scheme within it at 32, another's search ended at 16 before it was: at least 16.
+    stiff = _point(1e4, 9.0, energy={"explicit": 32, "implicit": 1}, explicit=32.0, implicit=8.0, rk=None)
+    stiff.entries[2].family = "explicit"
+    k = _claims([ROWS[0], stiff])[0]
+    assert k.ok is True and ("explicit substeps need at least 16 (`ref:rk_scheme` not within it below 16, its search "
+                             "ended there; `ref:explicit_scheme` within it at 32): steps at least 16 x shorter") in k.text
+    stiff = _point(1e4, 9.0, energy={"explicit": 32}, explicit=32.0, implicit=None)
+    cut = _claims([ROWS[0], stiff])[0]  # every implicit search ended on its cost bound: not known
+    assert cut.ok is None and "{mark}" not in cut.text and "not judged: every implicit search ended" in cut.text
+    stiff.entries[1].ended = "cap"      # searched to the most substeps, never within the energy tolerance
+    h = _claims([ROWS[0], stiff])[0]
+    assert h.ok is False and "no implicit solve stays stable within energy error ≤ 0.5" in h.text
+
+
+def test_the_second_claim_holds_the_cheapest_frames_that_meet_every_tolerance_and_names_the_crossover():
+    from records.findings import MARK
+
+    f = _claims(ROWS)[1]
+    assert f.ok is True and f.text.startswith(MARK) and "implicit Euler is the cheaper usable frame" in f.text
+    assert ("position error ≤ 5% of the scene's length scale" in f.text and "energy error ≤ 0.5" in f.text)
+    assert ("implicit solves' cheapest frame that meets them, `ref:implicit_scheme` 4 × = 8 µs a frame, against "
+            "explicit substeps' `ref:explicit_scheme` 4 × = 32 µs a frame: implicit 4 x cheaper") in f.text
+    assert "implicit solves take over from explicit substeps at k ≈ 2.15e+03 (h·ω ≈ 4.33 at one substep)" in f.text
     flipped = [_point(1e2, 1.0, explicit=8.0, implicit=1.0), _point(1e4, 9.0, explicit=1.0, implicit=8.0)]
-    g = finding(flipped)
-    assert g.ok is False and "implicit solves never take over from explicit substeps on the grid" in g.text
-    assert "at k = 1e+04 (h·ω = 9 at one substep) explicit substeps 1 µs (`ref:explicit_scheme`), implicit solves 8 µs" in g.text
-    # A third family cheaper than both at the stiff end: the claim is judged on explicit against implicit,
-    # and the line says which family is cheapest overall and where it takes over.
+    g = _claims(flipped)[1]
+    assert g.ok is False and "explicit 8 x cheaper" in g.text and "take over" not in g.text
+    # A third family cheaper than both at the stiff end: the claim is judged on explicit against
+    # implicit, and the line says which family is cheapest there.
     third = [_point(1e2, 1.0, explicit=1.0, implicit=8.0, position_based=4.0),
              _point(1e4, 9.0, explicit=32.0, implicit=8.0, position_based=2.0)]
-    h = finding(third)
-    assert h.ok is True and "the crossover at h·ω ≈ 3.74 at one substep" in h.text  # 9 ** (3/5): log 1/8 to log 4
-    assert "the cheapest frame at k = 1e+04 is position-based solves (`ref:position_based_scheme`, 2 µs)" in h.text
-    assert "the cheapest family overall: explicit substeps → position-based solves at h·ω ≈" in h.text
+    h = _claims(third)[1]
+    assert h.ok is True and "the cheapest frame there is position-based solves (`ref:position_based_scheme`, 2 µs)" in h.text
+    # The implicit pick's win resting on its solve's own error: said beside it.
+    rests = [ROWS[0], _point(1e4, 9.0, explicit=32.0, implicit=8.0)]
+    rests[1].entries[1].converged = {"method": "ref:implicit_scheme?tol=1e-5", "meets": False}
+    r = _claims(rests)[1]
+    assert r.ok is True and ("`ref:implicit_scheme` 4 × = 8 µs a frame (its win rests on the solve's own error: "
+                             "`ref:implicit_scheme?tol=1e-5` misses the tolerances)") in r.text
+    # No implicit solve meets them: the furthest search and why it ended.
+    none = [ROWS[0], _point(1e4, 9.0, explicit=32.0, implicit=None)]
+    none[1].entries[1].why = "16 substeps would cost 2 µs a frame; position error 0.05 > 0.015 at 8 substeps"
+    n = _claims(none)[1]
+    assert n.ok is False and ("no implicit solve meets them (1 searched, ended on cost; the furthest, "
+                              "`ref:implicit_scheme` to 8 substeps: position error 0.05 > 0.015 at 8 substeps); "
+                              "explicit substeps do: `ref:explicit_scheme` 4 × = 32 µs a frame") in n.text
+    # The energy alone asked: the second claim is not judged, and says so with no mark.
+    e = _claims(ROWS, error_rel=None)[1]
+    assert e.ok is None and "not judged: the sweep asked no accuracy tolerance" in e.text and MARK not in e.text
 
 
 def test_the_section_and_the_chart_are_drawn_from_the_cells(tmp_path):

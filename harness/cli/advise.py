@@ -13,6 +13,7 @@ from harness import validate
 from harness.measures.advise import ERROR_REL, HORIZON, MAX_SUBSTEPS, Request, advise, rests_on_solve, solve_note
 from harness.measures.sweep import CAP, CLOCK, FACTOR, POINTS, family_costs, family_name, parse_grid, run_sweep
 from harness.cli.measure_args import emit
+from harness.sweep_findings import seed_claims
 
 
 def add_parser(sub):
@@ -187,7 +188,7 @@ def sweep_lines(sw):
            f"at {r.hz:g} Hz over {r.horizon:g}: {r.tolerances_text(sw.length_scale)}")
     yield (f"each method: substeps 1..{r.max_substeps}, then doubled until it meets them, its frame would cost "
            f"> {sw.factor:g} x the cheapest, or > {sw.cap} substeps; cost = substeps x compiled kernel / engine "
-           f"step, {CLOCK.upper()} clock")
+           f"step (a library solve, ?solver=: the Python loop that runs it), {CLOCK.upper()} clock")
     yield ""
     families = list(dict.fromkeys(e.family for p in sw.points for e in p.entries))
     cells = []
@@ -218,6 +219,11 @@ def sweep_lines(sw):
                f"({c.to_method}) between {g.param}={c.below:.3g} and {c.above:.3g}: "
                f"{'about' if c.interpolated else 'midway,'} {g.param} = {c.value:.3g}, h*omega = {c.homega_one:.3g} "
                f"at one substep{rests}")
+    yield ""
+    yield "the seed's claims (stiff cloth to implicit Euler), judged at the stiffest value:"
+    for claim in seed_claims(sw.points, g.param, r.energy_tol, r.accuracy) if sw.points else ():
+        verdict = {True: "holds", False: "does not hold", None: "-"}[claim.ok]
+        yield f"  {claim.name}: {verdict}; {claim.text.replace('`', '')}"
     yield ""
     yield ("every method (substeps: us per frame; cost@S: S substeps would pass the factor, not run; cap@S: past "
            "the most substeps):")

@@ -38,6 +38,9 @@ def _lines(r):
     evals = fmt(r.force_evals_per_step, ".4g") if r.force_evals_per_step is not None else \
         f"not counted ({r.force_evals_reason})"
     yield f"  force evaluations per step: {evals}; solves per step: {fmt(r.solves_per_step, '.4g')}"
+    if r.solver is not None:
+        yield (f"  its solve's iterations per step: {fmt(r.solver_iterations_per_step, '.4g')}; solves stopped short "
+               f"of their tolerance: {r.unconverged_solves} over {r.count_steps} steps")
     label = "engine s/step" if r.as_stepped is not None else "wall time per step"
     yield (f"  {label}: {r.s_per_step * 1e9:.1f} ns (median {r.median_s_per_step * 1e9:.1f}, "
            f"spread {fmt(r.rel_spread, '.1%')}; {r.timing})")

@@ -21,7 +21,12 @@ cheapest frame (cost per frame = s x cost per step). At each level, one rule for
   class by ``harness.measures.energy.classify``.
 * **position error**: ``max_n max_i |q_i(t_n) - q_i,true(t_n)|``, absolute, in the scene's
   units, against the exact solution or the scene's reference (``harness.measures.error.true_state``),
-  up to the scene's reference horizon. Judged by default: within ERROR_REL (5%) of the scene's
+  at the frames (t_n = n / hz, the states a viewer sees) up to the scene's reference horizon. The
+  true state is asked for at every frame of that horizon whatever the substeps, the same times for
+  every level and method, so a reference solve (a stiff cloth's DOP853, dearer than the whole
+  search on a large sheet) is solved once per scene and frame rate and read from its cache after;
+  the run's size, which ``stability.GROWTH`` bounds, is held against the true state's at the same
+  frames. Judged by default: within ERROR_REL (5%) of the scene's
   length scale (``Scene.length_scale``: the 4 x 4 cloth's 0.3 width, the spring's amplitude), or an
   absolute ``error_tol``; a request with neither (``error_rel`` None) judges the energy alone,
   and its verdict says so first. An energy tolerance alone is kept by a method that damps as the
@@ -181,14 +186,38 @@ def _energy_error(traj, scene: Scene) -> tuple[float | None, bool | None]:
     return float(abs(dev[i]) / scale), bool(dev[i] > 0.0)
 
 
-def _position_error(traj, scene: Scene) -> float | None:
-    if scene.own_run_reference:
-        return None  # no reference to hold the run against (a file only one engine loads)
-    keep = traj.t <= trusted_until(scene)
-    q_true, _, _ = true_state(scene, traj.t[keep])
-    with np.errstate(all="ignore"):
-        err = np.abs(traj.q[keep, 0, :] - q_true)
-    return float(np.max(err)) if err.size and np.all(np.isfinite(err)) else None
+class _Frames:
+    """A run held against the true state at the frames (module docstring), asked for once and
+    only where a figure needs it."""
+
+    def __init__(self, traj, scene: Scene, request: "Request", substeps: int):
+        self.traj, self.scene, self.request, self.substeps = traj, scene, request, substeps
+        self._truth = None
+
+    def truth(self) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) true at every frame t = n / hz within the horizon and the scene's reference horizon."""
+        if self._truth is None:
+            r = self.request
+            frames = int(math.floor(min(r.horizon, trusted_until(self.scene)) * r.hz + 1e-9))
+            q, v, _ = true_state(self.scene, np.arange(frames + 1) / r.hz)
+            self._truth = (q, v)
+        return self._truth
+
+    def true_size(self) -> float:
+        from harness.measures.common import scaled_state
+
+        q, v = self.truth()
+        return float(np.max(np.linalg.norm(scaled_state(self.scene, q, v), axis=-1)))
+
+    def position_error(self) -> float | None:
+        if self.scene.own_run_reference:
+            return None  # no reference to hold the run against (a file only one engine loads)
+        q_true, _ = self.truth()
+        step = self.traj.step
+        rows = np.flatnonzero((step % self.substeps == 0) & (step // self.substeps < len(q_true)))
+        with np.errstate(all="ignore"):
+            err = np.abs(self.traj.q[rows, 0, :] - q_true[step[rows] // self.substeps])
+        return float(np.max(err)) if err.size and np.all(np.isfinite(err)) else None
 
 
 def _pct(x: float) -> str:
@@ -281,9 +310,13 @@ def advise_method(method, scene: Scene, request: Request, *, timeout: float | No
     return out
 
 
-def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, timeout, reference: bool = True) -> Row:
+def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, timeout, reference: bool = True,
+         count: bool = True) -> Row:
     """One substep count measured: stability first (no run for a step known unstable), then the
-    horizon run's energy, position error and counted evaluations, judged against the request."""
+    horizon run's energy, position error and counted evaluations, judged against the request.
+    ``count`` False: no evaluations counted where the run did not count them (a sweep, which
+    prints none, skips the interpreted counting run: on a large cloth its Python conjugate
+    gradients are dearer than the whole search)."""
     from harness.execution.simulate import simulate
     from harness.measures.stability import blew_up, spectral_test
 
@@ -303,8 +336,9 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
         row.why = f"{traj.status}: {traj.detail}"
         return row
     reference = reference or request.accuracy
+    frames = _Frames(traj, scene, request, s)
     if reference:
-        blown, _, what = blew_up(traj, scene) if traj.ok else (True, math.inf, "")
+        blown, _, what = blew_up(traj, scene, frames.true_size) if traj.ok else (True, math.inf, "")
     else:  # judged by its energy alone (advise_method's ``reference``)
         blown, what = not traj.ok, ""
     if blown:
@@ -315,10 +349,10 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
     row.energy_error, row.energy_gained = _energy_error(traj, scene)
     row.energy_class = _energy_class(traj, scene)
     if reference:
-        row.position_error = _position_error(traj, scene)
+        row.position_error = frames.position_error()
     if traj.force_evals is not None:
         row.evals_per_frame = traj.force_evals / steps * s
-    else:  # counted as the cost measure counts them: a counting run where the mode has one
+    elif count:  # counted as the cost measure counts them: a counting run where the mode has one
         from harness.measures.cost import counted_evaluations
 
         counted = counted_evaluations(method, scene, h, steps=min(steps, COUNT_STEPS), timeout=timeout)
@@ -339,7 +373,7 @@ def classed(scene: Scene, horizon: float) -> bool:
 
 
 def convergence(method, scene: Scene, request: Request, row: Row, advice: MethodAdvice, timeout=None,
-                reference: bool = True) -> dict | None:
+                reference: bool = True, count: bool = True) -> dict | None:
     """The row's method run again at the row's substeps with its convergence knob tightened
     (``harness.methods.tightened``), judged as the row was: ``{"method", "meets", "why", "energy_error",
     "position_error"}``; None for a method with no knob (nothing iterates short of its answer)."""
@@ -349,7 +383,7 @@ def convergence(method, scene: Scene, request: Request, row: Row, advice: Method
     if tight is None:
         return None
     probe = MethodAdvice(tight.id, limit_verdict=advice.limit_verdict)
-    r = _row(tight, scene, request, row.substeps, probe, timeout, reference)
+    r = _row(tight, scene, request, row.substeps, probe, timeout, reference, count)
     return {"method": tight.id, "meets": r.meets, "why": r.why or ("" if r.meets else r.status),
             "energy_error": r.energy_error, "position_error": r.position_error}
 

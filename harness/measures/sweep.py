@@ -163,10 +163,11 @@ def frame_cost(method, scene, h: float, pilot: float | None, injected=None) -> t
     return res["s_per_step"], f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
 
 
-def start(method, scene, request: Request, *, timeout=None, injected=None) -> tuple[MethodAdvice, str, float | None]:
+def start(method, scene, request: Request, *, timeout=None,
+          injected=None) -> tuple[MethodAdvice, str, float | None, str]:
     """A method's search before its first level: its stability limit on a linear scene (which
-    skips the runs of levels known unstable, as the advice does), its family and its pilot cost
-    per step at one substep a frame."""
+    skips the runs of levels known unstable, as the advice does), its family, its pilot cost
+    per step at one substep a frame and, for an implicit method, its solve in words."""
     from harness.measures.advise import _limit
     from harness.measures.common import resolve
 
@@ -176,7 +177,16 @@ def start(method, scene, request: Request, *, timeout=None, injected=None) -> tu
         out.homega_limit, out.limit_verdict, out.limit_searched = _limit(method, scene, request, timeout)
     except InvalidInput as exc:  # the one-step map cannot be measured: each step is judged by its run
         out.limit_verdict = f"not measured ({exc})"
-    return out, family_of(method), pilot_cost(method, scene, 1.0 / request.hz, injected)
+    family = family_of(method)
+    return out, family, pilot_cost(method, scene, 1.0 / request.hz, injected), solve_of(method, scene, family)
+
+
+def solve_of(method, scene, family: str) -> str:
+    """An implicit method's linear solve in words: a library solve's (``reference.solvers``, with
+    its settings), else its scene's own kernel's (``Scene.solve_text``); "" for another family."""
+    if family != "implicit":
+        return ""
+    return method.describe().get("solver") or scene.solve_text
 
 
 def level(method, scene, request: Request, advice: MethodAdvice, substeps: int, ceiling: float | None, *,
@@ -198,14 +208,14 @@ def level(method, scene, request: Request, advice: MethodAdvice, substeps: int, 
     if ceiling is not None and pilot is not None and substeps * pilot > ceiling:
         out["ended"] = "cost"
         return out
-    row = _row(method, scene, request, substeps, advice, timeout, reference=False)
+    row = _row(method, scene, request, substeps, advice, timeout, reference=False, count=False)
     out["row"] = row
     if row.status in ("crashed", "timed_out"):
         out["ended"] = row.status
     elif row.meets:
         out["ended"] = "met"
         out["cost_per_step_s"], out["timing"] = frame_cost(method, scene, h, pilot, injected)
-        row.converged = convergence(method, scene, request, row, advice, timeout, reference=False)
+        row.converged = convergence(method, scene, request, row, advice, timeout, reference=False, count=False)
     return out
 
 
@@ -231,8 +241,8 @@ def sweep_value(scene, value: float, request: Request, methods: list, *, factor:
     for m, res in zip(methods, call_all(call, [(_start_one, (m, scene, request, timeout, injected, plugins))
                                                 for m in methods])):
         if isinstance(res, tuple):
-            advices[m], family, pilot[m] = res
-            entries[m] = SweepEntry(m, family, "", cost_per_step_s=pilot[m])
+            advices[m], family, pilot[m], solve = res
+            entries[m] = SweepEntry(m, family, "", cost_per_step_s=pilot[m], solve=solve)
             pending[m] = 1
         else:  # the worker failed: its status and why
             status = getattr(res, "status", "crashed")
@@ -265,6 +275,8 @@ def sweep_value(scene, value: float, request: Request, methods: list, *, factor:
                 _cut(e, s, pilot[m], ceiling, factor)
             elif row is not None:
                 e.searched = s
+                if e.energy_substeps is None and within_energy(row, request):
+                    e.energy_substeps = s  # the levels run in order 1, 2, 4, ...: the first is the fewest
                 if res["ended"] == "met":
                     e.ended, e.substeps, e.h, e.homega = "met", s, row.h, row.homega
                     e.cost_per_step_s = res["cost_per_step_s"]
@@ -281,6 +293,12 @@ def sweep_value(scene, value: float, request: Request, methods: list, *, factor:
                 pending[m] = 2 * s
     point.entries = [entries[m] for m in methods]
     return point
+
+
+def within_energy(row, request: Request) -> bool:
+    """Whether a level's run was stable and within the energy tolerance, whatever its position error."""
+    return (row.stable and request.energy_tol is not None and row.energy_error is not None
+            and row.energy_error <= request.energy_tol)
 
 
 def _cut(e: SweepEntry, s: int, per_step: float, ceiling: float, factor: float) -> None:
@@ -420,7 +438,16 @@ class Sweep:
                 "request": asdict(self.request), "length_scale": self.length_scale, "factor": self.factor,
                 "cap": self.cap, "clock": CLOCK,
                 "points": [p.as_dict() for p in self.points],
-                "crossovers": [c.as_dict() for c in self.crossovers], "left_out": self.left_out}
+                "crossovers": [c.as_dict() for c in self.crossovers], "left_out": self.left_out,
+                "claims": [asdict(c) for c in self.claims]}
+
+    @property
+    def claims(self) -> list:
+        """The seed's two claims judged on this sweep (``harness.sweep_findings.seed_claims``)."""
+        from harness.sweep_findings import seed_claims
+
+        return list(seed_claims(self.points, self.grid.param, self.request.energy_tol, self.request.accuracy)
+                    if self.points else ())
 
 
 def run_sweep(scene, grid: Grid, request: Request, patterns=None, *, factor: float = FACTOR, cap: int = CAP,

@@ -230,13 +230,22 @@ ADVISE = {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 16}
 SWEEP = {"grid": "k=1e2..1e6:9", "hz": 60.0, "request": {"horizon": 2.0, "energy_tol": 0.5, "max_substeps": 16},
          "methods": ("ref:leapfrog", "ref:rk4", "ref:implicit_euler", "ref:linearly_implicit_euler", "ref:xpbd"),
          "factor": 10.0, "cap": 4096}
+#: The library solves the larger sheets' implicit schemes take beside the scene's own kernel
+#: (``reference.solvers``), their settings written into the ids so that every figure names them:
+#: from 16 x 16 one of them is the implicit family's cheapest frame (a factorization, Liu et al.'s
+#: prefactored passes, block-Jacobi conjugate gradients at 1e-3); on the 4 x 4 sheet the scene's
+#: compiled banded factorization is, at a tenth of their Python loop's cost (docs/findings.md).
+SWEEP_SOLVES = ("ref:linearly_implicit_euler?solver=direct",
+                "ref:linearly_implicit_euler?maxiter=100&solver=pcg_jacobi&tol=1e-3",
+                "ref:implicit_euler?iterations=10&solver=local_global")
 #: The 32 x 32 sheet at five values of k, not nine: its implicit solves' runs at stiff k are the
 #: sweeps' dearest, and its task's other cells share the task's time limit (docs/findings.md).
 CLOTH_SWEEP = {**SWEEP, "sizes": tuple({"label": f"{n} x {n}", "params": size, "task": task, **extra}
                                        for n, size, task, extra in
                                        zip((4, 16, 32), cloth_sizes((4, 16, 32)),
                                            ("ref:leapfrog", "ref:semi_implicit_euler", "ref:rk4"),
-                                           ({}, {}, {"grid": "k=1e2..1e6:5"})))}
+                                           ({}, {"methods": SWEEP["methods"] + SWEEP_SOLVES},
+                                            {"grid": "k=1e2..1e6:5", "methods": SWEEP["methods"] + SWEEP_SOLVES})))}
 NET_SWEEP = {**SWEEP, "sizes": ({"label": "4 x 4", "params": {}, "task": "ref:leapfrog"},)}
 CHAIN_SWEEP = {**SWEEP, "sizes": ({"label": "N = 32", "params": {}, "task": "ref:leapfrog"},)}
 
