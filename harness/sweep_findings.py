@@ -135,8 +135,10 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
     def frame(e) -> str:
         return f"`{e.method}` {e.substeps} × = {_us(e.cost_per_frame_s)} a frame{_solve(e)}"
 
+    tried = [e for e in p.entries if e.family == IMPLICIT]
+    if imp is None and not tried:
+        return Claim(name, None, f"not judged: no implicit solve was searched {_at(p, param)}")
     if imp is None:
-        tried = [e for e in p.entries if e.family == IMPLICIT]
         far = max(tried, key=lambda e: (e.searched, e.method))
         ended = sorted({e.ended for e in tried})
         text = (f"{_at(p, param)} no implicit solve meets them ({len(tried)} searched, ended on "
