@@ -126,6 +126,8 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
     if not accuracy:
         return Claim(name, None, "not judged: the sweep asked no accuracy tolerance (the energy alone)")
     p = points[-1]
+    if not any(e.family == IMPLICIT for e in p.entries):
+        return Claim(name, None, f"not judged: no implicit solve was searched {_at(p, param)}")
     costs = family_costs(p)
     imp, exp = costs.get(IMPLICIT), costs.get(EXPLICIT)
     bounded = [e for e in p.entries if e.family == EXPLICIT and e.ended in ("cost", "cap")]

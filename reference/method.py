@@ -86,8 +86,13 @@ class RefMethod:
     @property
     def options_declared(self) -> dict:
         """The options of its solve (``reference.solvers.options_for``); the counts a constrained or
-        position-based scheme takes are declared by ``harness.methods``."""
-        return solvers.options_for(self.scheme)
+        position-based scheme takes are declared by ``harness.methods``. A convergence knob
+        (``Option.tighten``) is declared only where the solve it chose takes it: local/global
+        passes tighten their passes, conjugate gradients their tolerance, a factorization nothing."""
+        chosen = self.solver
+        takes = chosen.solver.takes if chosen is not None else ()
+        return {name: option if option.tighten is None or name in takes else replace(option, tighten=None)
+                for name, option in solvers.options_for(self.scheme).items()}
 
     def available(self) -> tuple[bool, str]:
         return True, ""

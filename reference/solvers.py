@@ -92,10 +92,15 @@ SOLVERS = {s.name: s for s in (
 )}
 
 #: Every option a solve takes, declared once.
+#: The tolerance and the passes are the solves' convergence knobs (``Option.tighten``): a verdict a
+#: solve wins is checked again a hundred times tighter, or at ten times the passes
+#: (``harness.methods.tightened``); the iteration cap stays, so a capped solve is checked as capped.
 OPTIONS = {
-    "tol": Option("tol", float, 1e-16, 0.5, "conjugate gradients stop at this residual, relative to the right-hand side"),
-    "maxiter": Option("maxiter", int, 1, MOST, "conjugate gradients stop after this many iterations (flagged)"),
-    "iterations": Option("iterations", int, 1, MOST, "local/global passes per step"),
+    "tol": Option("tol", float, 1e-16, 0.5, "conjugate gradients stop at this residual, relative to the right-hand side",
+                  default=TOL, tighten=0.01),
+    "maxiter": Option("maxiter", int, 1, MOST, "conjugate gradients stop after this many iterations (flagged)",
+                      default=MAXITER),
+    "iterations": Option("iterations", int, 1, MOST, "local/global passes per step", default=PASSES, tighten=10),
 }
 
 

@@ -290,3 +290,22 @@ def test_the_report_judges_both_claims_per_size_from_the_measured_sweep(tmp_path
     assert ("`ref:linearly_implicit_euler` stays within energy error ≤ 0.5 at 8 substeps, solve: the scene's banded "
             "LDL^T, compiled (21 unknowns); explicit substeps need 64 (`ref:leapfrog`): steps 8 x shorter") in survives
     assert usable.startswith("- ✓ `cloth` 3 x 3") and "implicit 100 x cheaper" in usable
+
+
+@pytest.mark.parametrize("method, tight", [
+    ("ref:implicit_euler?iterations=10&solver=local_global", "ref:implicit_euler?iterations=100&solver=local_global"),
+    ("ref:implicit_euler?solver=local_global", "ref:implicit_euler?iterations=100&solver=local_global"),
+    ("ref:linearly_implicit_euler?maxiter=100&solver=pcg_jacobi&tol=1e-3",
+     "ref:linearly_implicit_euler?maxiter=100&solver=pcg_jacobi&tol=1e-5"),
+    ("ref:linearly_implicit_euler?solver=pcg_amg", "ref:linearly_implicit_euler?solver=pcg_amg&tol=1e-5"),
+    ("ref:linearly_implicit_euler?solver=direct", None),   # exact to roundoff: nothing to converge
+    ("ref:linearly_implicit_euler", None),                 # the scene's own solve, to its own 1e-14
+])
+def test_a_library_solve_is_checked_at_ten_times_its_passes_or_a_tolerance_a_hundred_times_tighter(method, tight):
+    """Issue 42's convergence check covers the library solves: the knob is the one the chosen solve
+    takes (local/global passes, conjugate gradients' tolerance; the cap stays), so a sweep or an
+    advice they win is run again converged further."""
+    from harness.methods import tightened
+
+    t = tightened(get_method(method))
+    assert (None if t is None else t.id) == tight

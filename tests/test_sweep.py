@@ -137,6 +137,7 @@ def test_the_command_prints_the_sweep_and_its_json(injected, capsys):
     # Each pick with its energy and position error (leapfrog at 1/60: h*omega/2 squared, and its phase).
     assert "ref:leapfrog 1 x 0.01 (E 6.9e-05, x 9.2e-05)" in out
     assert "no crossover: the cheapest family is explicit substeps at every value" in out
+    assert "the seed's claims" not in out  # one family searched: nothing to set against the other
     row = next(line for line in out.splitlines() if line.strip().startswith("ref:semi_implicit_euler"))
     assert row.split()[1:] == ["16:", "0.16", "32:", "0.32"]
     assert main([*argv, "--json"]) == 0
@@ -293,6 +294,9 @@ def test_the_second_claim_holds_the_cheapest_frames_that_meet_every_tolerance_an
     assert n.ok is False and ("no implicit solve meets them (1 searched, ended on cost; the furthest, "
                               "`ref:implicit_scheme` to 8 substeps: position error 0.05 > 0.015 at 8 substeps); "
                               "explicit substeps do: `ref:explicit_scheme` 4 × = 32 µs a frame") in n.text
+    # No implicit solve searched (a sweep of explicit schemes): neither claim is judged.
+    alone = [_point(1e2, 1.0, explicit=1.0), _point(1e4, 9.0, explicit=4.0)]
+    assert [f.ok for f in _claims(alone)] == [None, None]
     # The energy alone asked: the second claim is not judged, and says so with no mark.
     e = _claims(ROWS, error_rel=None)[1]
     assert e.ok is None and "not judged: the sweep asked no accuracy tolerance" in e.text and MARK not in e.text
@@ -364,3 +368,20 @@ def test_the_nightly_cell_is_measured_in_its_named_task_only(injected):
     assert [p.value for p in points] == [1.0, 4.0]
     assert [(e.method, e.ended, e.substeps) for e in points[1].entries] == [
         ("ref:leapfrog", "met", 1), ("ref:semi_implicit_euler", "met", 32)]
+
+
+def test_the_command_prints_both_claims_under_its_table_and_in_its_json():
+    from harness.measures.sweep import Sweep
+
+    cloth = make_scene("cloth", n=4, m=4)
+    stiff = _point(1e4, 9.0, energy={"explicit": 32, "implicit": 2}, explicit=32.0, implicit=8.0)
+    sw = Sweep("cloth", {}, parse_grid("k=1e2..1e4:3", cloth), Request(hz=60, horizon=2, energy_tol=0.5).checked(),
+               10.0, 4096, ROWS[:2] + [stiff], [], 0.3)
+    lines = list(sweep_lines(sw))
+    at = lines.index("the seed's claims (stiff cloth to implicit Euler), judged at the stiffest value:")
+    assert lines[at + 1].startswith("  implicit Euler survives where explicit steps must be tiny (energy tolerance): "
+                                    "holds; at k = 1e+04")
+    assert lines[at + 2].startswith("  implicit Euler is the cheaper usable frame (accuracy tolerance too): holds;")
+    assert "`" not in lines[at + 1] + lines[at + 2]
+    claims = sw.as_dict()["claims"]
+    assert [c["ok"] for c in claims] == [True, True] and claims[0]["text"].endswith("(≥ the 10 x the claim asks)")

@@ -219,11 +219,13 @@ def sweep_lines(sw):
                f"({c.to_method}) between {g.param}={c.below:.3g} and {c.above:.3g}: "
                f"{'about' if c.interpolated else 'midway,'} {g.param} = {c.value:.3g}, h*omega = {c.homega_one:.3g} "
                f"at one substep{rests}")
-    yield ""
-    yield "the seed's claims (stiff cloth to implicit Euler), judged at the stiffest value:"
-    for claim in seed_claims(sw.points, g.param, r.energy_tol, r.accuracy) if sw.points else ():
-        verdict = {True: "holds", False: "does not hold", None: "-"}[claim.ok]
-        yield f"  {claim.name}: {verdict}; {claim.text.replace('`', '')}"
+    searched = {e.family for p in sw.points for e in p.entries}
+    if {"explicit", "implicit"} <= searched:  # the seed's claims set the two families against each other
+        yield ""
+        yield "the seed's claims (stiff cloth to implicit Euler), judged at the stiffest value:"
+        for claim in seed_claims(sw.points, g.param, r.energy_tol, r.accuracy):
+            verdict = {True: "holds", False: "does not hold", None: "-"}[claim.ok]
+            yield f"  {claim.name}: {verdict}; {claim.text.replace('`', '')}"
     yield ""
     yield ("every method (substeps: us per frame; cost@S: S substeps would pass the factor, not run; cap@S: past "
            "the most substeps):")

@@ -4,8 +4,9 @@ every value, and where the cheapest family changes.
 
 A scene's suite entry lists its sweeps in ``extras.sweep``: the grid and the request, and
 ``sizes``, one per sweep, each the scene's parameters at that size and the method whose task
-measures it (and its own ``grid`` or ``methods`` where it takes others) (a sweep covers every method, so one task holds it; the sizes go to different
-tasks, so that they run side by side). The cell's value is the first crossover's h*omega at one
+measures it, and its own ``grid``, ``methods``, ``request`` or ``factor`` where it takes others (a
+sweep covers every method, so one task holds it; the sizes go to different tasks, so that they run
+side by side). The cell's value is the first crossover's h*omega at one
 substep (None where the cheapest family never changes); its figures carry every value's entries
 (``records.advice.SweepFigures``), which the chart, the report's section and the finding read.
 """
@@ -37,8 +38,8 @@ def _run(ctx) -> list:
     size = sweeps_of(ctx)[0]
     scene = make_scene(ctx.task.scene, **{**ctx.task.params, **size["params"]})
     grid = parse_grid(size.get("grid", settings["grid"]), scene)
-    request = Request(hz=settings["hz"], **settings["request"]).checked()
-    factor, cap = settings.get("factor", FACTOR), settings.get("cap", CAP)
+    request = Request(hz=settings["hz"], **size.get("request", settings["request"])).checked()
+    factor, cap = size.get("factor", settings.get("factor", FACTOR)), settings.get("cap", CAP)
     res = run_sweep(scene, grid, request, list(size.get("methods", settings["methods"])), factor=factor, cap=cap,
                     timeout=ctx.suite.cell_timeout, pool=False)
     cross = res.crossovers
