@@ -138,8 +138,6 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
         return f"`{e.method}` {e.substeps} × = {_us(e.cost_per_frame_s)} a frame{_solve(e)}"
 
     tried = [e for e in p.entries if e.family == IMPLICIT]
-    if imp is None and not tried:
-        return Claim(name, None, f"not judged: no implicit solve was searched {_at(p, param)}")
     if imp is None:
         far = max(tried, key=lambda e: (e.searched, e.method))
         ended = sorted({e.ended for e in tried})
