@@ -1,0 +1,101 @@
+"""A contact mode (one engine integrator with its contact model) and the two loops every pose runs:
+``record_loop`` (every step's state, with a blow-up caught where it happens) and ``timed_loop``
+(the same steps again, nothing recorded, the process CPU clock around the engine's calls)."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+from records.contact import ContactRun
+from records.trajectory import OK, UNSTABLE
+
+from .._engine import engine_version, import_engine
+
+#: A state further than this from the origin (m) is a blow-up: every scene's bodies stay within a
+#: few metres of it (a ball thrown a few times its drop height is an energy gain, measured as one).
+RUNAWAY_M = 100.0
+
+
+@dataclass(frozen=True)
+class ContactMode:
+    """One engine integrator with its contact model. ``run(mode, scene, dt) -> ContactRun`` poses
+    and steps it; ``scenes`` are the contact scenes it poses and ``unsupported`` says why not the
+    others; ``settings`` are the contact settings every run of the mode uses (a run adds those it
+    derives from the scene, e.g. MuJoCo's solref from e); ``own_process``: every run needs a fresh
+    process (an engine whose settings are process-wide, pybullet's contact breaking threshold);
+    ``dims``: 2 for a planar engine (pymunk)."""
+
+    engine: str
+    mode: str
+    dist: str
+    run: Callable
+    scenes: tuple[str, ...]
+    unsupported: Mapping[str, str] = field(default_factory=dict)
+    settings: Mapping[str, object] = field(default_factory=dict)
+    doc: str = ""
+    own_process: bool = False
+    dims: int = 3
+    module: str = ""
+
+    @property
+    def id(self) -> str:
+        return f"{self.engine}:{self.mode}"
+
+    def available(self) -> tuple[bool, str]:
+        if engine_version(self.dist) is None:
+            return False, f"{self.dist} is not installed"
+        try:
+            import_engine(self.module or self.engine)
+        except Exception as exc:  # an engine that cannot import is unavailable, never a crash
+            return False, f"{self.dist} does not import: {type(exc).__name__}: {exc}"
+        return True, ""
+
+    def supports(self, scene_id: str) -> tuple[bool, str]:
+        if scene_id in self.scenes:
+            return True, ""
+        return False, self.unsupported.get(scene_id, f"{self.id} does not pose {scene_id}")
+
+
+def record_loop(mode: ContactMode, scene, dt: float, step: Callable[[], None],
+                read: Callable[[], tuple[np.ndarray, np.ndarray]], settings: dict, loop: str,
+                time_again: Callable[[int], float] | None = None) -> ContactRun:
+    """Step ``steps = ceil(duration / dt)`` times, reading (centres, velocities) (each (bodies, 3))
+    before the first and after every step. A non-finite state, or one past ``RUNAWAY_M``, stops the
+    run as ``unstable`` at that step. ``time_again(steps)``, where given, steps a fresh copy of the
+    pose that many times with nothing recorded and returns its CPU seconds (``timed_loop``)."""
+    steps = int(math.ceil(scene.duration / dt - 1e-9))
+    c0, v0 = read()
+    bodies = len(c0)
+    centres = np.empty((steps + 1, bodies, 3))
+    velocities = np.empty((steps + 1, bodies, 3))
+    centres[0], velocities[0] = c0, v0
+    status, detail, failed = OK, "", None
+    n = steps
+    for i in range(1, steps + 1):
+        step()
+        c, v = read()
+        centres[i], velocities[i] = c, v
+        if not (np.all(np.isfinite(c)) and np.all(np.isfinite(v))) or np.max(np.abs(c)) > RUNAWAY_M:
+            status, failed, n = UNSTABLE, i, i
+            detail = (f"state {'not finite' if not np.all(np.isfinite(c)) else f'past {RUNAWAY_M:g} m'} at step {i} "
+                      f"(t = {i * dt:.4g} s)")
+            break
+    run = ContactRun(scene.id, mode.id, dt, np.arange(n + 1) * dt, centres[:n + 1], velocities[:n + 1],
+                     loop=loop, settings=dict(settings), status=status, detail=detail, failed_step=failed,
+                     engine_version=engine_version(mode.dist))
+    if status == OK and time_again is not None:
+        run.loop_cpu_s = time_again(steps)
+    return run
+
+
+def timed_loop(step: Callable[[], None], steps: int) -> float:
+    """CPU seconds of ``steps`` calls of ``step`` (the process clock: a neighbour's load does not
+    count, a wait does not either)."""
+    t0 = time.process_time()
+    for _ in range(steps):
+        step()
+    return time.process_time() - t0

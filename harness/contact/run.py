@@ -1,0 +1,84 @@
+"""Running a contact mode on a contact scene: validated first (the mode, the scene and its
+parameters, the step; one line naming the bad field), then in a worker process, so that a crash,
+a hang or a blow-up is a recorded run (``crashed`` / ``timed_out`` / ``unstable``, with where and
+why), never a dead harness. A mode whose settings are process-wide (``ContactMode.own_process``)
+gets a fresh worker for every run; the others may share the caller's (a nightly task's worker)."""
+from __future__ import annotations
+
+import importlib
+import math
+
+from records import InvalidInput
+from records.contact import ContactRun
+from records.trajectory import CRASHED, TIMED_OUT
+
+#: The three steps every mode is reported at, and the ladder its largest step in tolerance is
+#: searched on (s).
+REPORT_DTS = (1 / 1000, 1 / 240, 1 / 60)
+LADDER = (1 / 4000, 1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
+
+#: Seconds one run may take.
+TIMEOUT_S = 120.0
+
+
+def contact_modes() -> dict:
+    from adapters.contact import CONTACT_MODES
+
+    return CONTACT_MODES
+
+
+def get_mode(mode_id: str):
+    modes = contact_modes()
+    try:
+        return modes[mode_id]
+    except KeyError:
+        raise InvalidInput(f"unknown contact mode {mode_id!r} (valid: {', '.join(modes)})") from None
+
+
+def check_dt(dt) -> float:
+    try:
+        x = float(dt)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"dt={dt!r} is not a number (allowed: (0, 0.1] s)") from None
+    if not (math.isfinite(x) and 0.0 < x <= 0.1):
+        raise InvalidInput(f"dt={dt} is out of range (allowed: (0, 0.1] s)")
+    return x
+
+
+def _step_in_worker(mode_id: str, scene_id: str, params: dict, dt: float) -> ContactRun:
+    from scenarios.contact import make_contact_scene
+
+    mode = get_mode(mode_id)
+    scene = make_contact_scene(scene_id, **params)
+    module = importlib.import_module(mode.run.__module__)
+    return getattr(module, mode.run.__name__)(mode, scene, dt)
+
+
+def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: float = 1 / 240,
+                timeout: float = TIMEOUT_S, isolated: bool = True) -> ContactRun:
+    """One run, validated first; ``isolated`` False steps in this process unless the mode needs one
+    of its own (a nightly task's worker is already isolated)."""
+    from scenarios.contact import make_contact_scene
+
+    mode = get_mode(mode_id)
+    scene = make_contact_scene(scene_id, **(params or {}))
+    dt = check_dt(dt)
+    ok, why = mode.available()
+    if not ok:
+        raise InvalidInput(f"contact mode {mode_id} is unavailable: {why}")
+    ok, why = mode.supports(scene.id)
+    if not ok:
+        raise InvalidInput(f"contact mode {mode_id} does not pose {scene.id}: {why}")
+    args = (mode_id, scene.id, dict(scene.values), dt)
+    if not isolated and not mode.own_process:
+        try:
+            return _step_in_worker(*args)
+        except Exception as exc:  # an engine's exception is the run's result
+            return ContactRun.failed(scene.id, mode_id, dt, CRASHED, f"{type(exc).__name__}: {exc}")
+    from harness.execution.isolation import WorkerFailure, run_in_worker
+
+    out = run_in_worker(_step_in_worker, args, timeout=timeout)
+    if isinstance(out, WorkerFailure):
+        status = TIMED_OUT if out.status == TIMED_OUT else CRASHED
+        return ContactRun.failed(scene.id, mode_id, dt, status, out.detail)
+    return out
