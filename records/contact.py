@@ -84,3 +84,34 @@ class ContactFigures(Figures):
     passes: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     detail: str | None = None
+
+
+@dataclass(frozen=True)
+class ContactCellFigures(Figures):
+    """The nightly's ``contact`` cell: one engine mode on one contact scene at every step of the
+    ladder (``harness.contact.run.LADDER``). ``runs``: each step's ``ContactFigures`` as stored
+    (``to_data``), with its ``status``; ``largest``: for each judged figure, the largest step of the
+    ladder at which it and every shorter step is ✓ (None: not even the shortest); the cell's value
+    is the largest step at which every figure is. ``settings`` and ``doc``: the mode's contact
+    settings and what it is."""
+
+    scene: str = ""
+    params: dict = field(default_factory=dict)
+    runs: list = field(default_factory=list)
+    largest: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
+    doc: str | None = None
+    engine_version: str | None = None
+
+
+@dataclass(frozen=True)
+class PenaltyFigures(Figures):
+    """The nightly's ``penalty`` cell: one reference scheme on the penalty ball
+    (``harness.contact.penalty``), a row per (e, h*omega_c); the cell's value is the largest
+    h*omega_c of the grid up to which a perfectly elastic bounce stays within the tolerance."""
+
+    rows: list = field(default_factory=list)
+    grid: list = field(default_factory=list)
+    omega_c: float | None = None
+    tolerance: float | None = None
+    gain: float | None = None

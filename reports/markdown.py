@@ -236,13 +236,13 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
     notes_of_model = sorted({c.model_note for (s, _), ms in piv.items() if s == scene for c in ms.values()
                              if c.model_note})
     cols = columns()
-    lines = [f"### `{scene}`", "", *(f"**{note}.**" for note in notes_of_model), *([""] if notes_of_model else []),
-             "| method | status | " + " | ".join(c.header for c in cols) + " |",
-             "|---|---|" + "---|" * len(cols)]
+    lines = [f"### `{scene}`", "", *(f"**{note}.**" for note in notes_of_model), *([""] if notes_of_model else [])]
+    tabled = {m.name for m in measures() if m.columns or m.made_by or m.run is not None}
+    rows = [(method, ms) for (s, method), ms in sorted(piv.items()) if s == scene and set(ms) & tabled]
+    if rows:  # a scene whose cells are all of measures with no columns (contact) shows their sections alone
+        lines += ["| method | status | " + " | ".join(c.header for c in cols) + " |", "|---|---|" + "---|" * len(cols)]
     notes = Footnotes()
-    for (s, method), ms in sorted(piv.items()):
-        if s != scene:
-            continue
+    for method, ms in rows:
         energy = ms.get("energy")
         statuses = sorted({r.status for r in ms.values() if r.status != "ok"})
         status = ", ".join(statuses) if statuses else "ok"
@@ -250,7 +250,8 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
             status += f" (energy run: step {energy.figures.failed_step})"
         cells = [f"`{method}`", status, *(c.text(ms, notes.mark) for c in cols)]
         lines.append("| " + " | ".join(cells) + " |")
-    lines.append("")
+    if rows:
+        lines.append("")
     lines += notes.lines()
     for m in measures():
         if m.section is not None:

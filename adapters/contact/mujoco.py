@@ -40,6 +40,8 @@ def zeta_for(e: float) -> float:
     """The damping ratio whose linear spring-dashpot restores a fraction e of the speed."""
     if e <= 0.0:
         return 1.0
+    if e >= 1.0:
+        return 0.0
     lg = math.log(e)
     return -lg / math.sqrt(math.pi ** 2 + lg * lg)
 

@@ -15,6 +15,7 @@ from records import InvalidInput
 from harness.nightly import cells as _cells  # noqa: F401 (registers the built-in measures every command reads)
 
 COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision", "advise", "model",
+            "contact",
             "nightly", "compare", "history", "bounds", "bisect"]
 
 

@@ -75,6 +75,10 @@ def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: flo
             return _step_in_worker(*args)
         except Exception as exc:  # an engine's exception is the run's result
             return ContactRun.failed(scene.id, mode_id, dt, CRASHED, f"{type(exc).__name__}: {exc}")
+    import multiprocessing
+
+    if multiprocessing.current_process().daemon:  # a nightly pool's worker may start no worker of its own
+        return _in_subprocess(args, timeout)
     from harness.execution.isolation import WorkerFailure, run_in_worker
 
     out = run_in_worker(_step_in_worker, args, timeout=timeout)
@@ -82,3 +86,32 @@ def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: flo
         status = TIMED_OUT if out.status == TIMED_OUT else CRASHED
         return ContactRun.failed(scene.id, mode_id, dt, status, out.detail)
     return out
+
+
+def _in_subprocess(args: tuple, timeout: float) -> ContactRun:
+    """The run in a fresh Python process (``python -m harness.contact.one``): what a daemonic
+    process (a nightly pool's worker) uses for a mode that needs a process of its own."""
+    import os
+    import pickle
+    import subprocess
+    import sys
+    import tempfile
+
+    mode_id, scene_id, _, dt = args
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
+    with tempfile.TemporaryDirectory(prefix="harness-contact-") as tmp:
+        out = os.path.join(tmp, "run.pickle")
+        with open(os.path.join(tmp, "args.pickle"), "wb") as fh:
+            pickle.dump((args, out), fh)
+        try:
+            done = subprocess.run([sys.executable, "-m", "harness.contact.one", os.path.join(tmp, "args.pickle")],
+                                  cwd=tmp, env=env, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            return ContactRun.failed(scene_id, mode_id, dt, TIMED_OUT, f"no result within {timeout:g} s; process killed")
+        if not os.path.exists(out):
+            tail = (done.stderr or done.stdout or "")[-500:].strip().splitlines()
+            return ContactRun.failed(scene_id, mode_id, dt, CRASHED,
+                                     f"the process exited {done.returncode}: {tail[-1] if tail else 'no output'}")
+        with open(out, "rb") as fh:
+            return pickle.load(fh)

@@ -111,6 +111,11 @@ def run_task(task) -> list[Cell]:
         return [guard(task, "bound", lambda: _bound(task))]
     if task.kind == "cost":  # a cell's cost measured again, in a fresh worker (the nightly's re-measure)
         return [guard(task, "cost", lambda: _cost_again(task))]
+    if task.kind in ("contact", "penalty"):  # an engine mode on a contact scene; a scheme on the penalty ground
+        from harness.nightly.measures import contact_cells
+
+        run = contact_cells.contact_task if task.kind == "contact" else contact_cells.penalty_task
+        return guard_many(task, [task.kind], lambda: run(task))
     return _scene_task(task)
 
 

@@ -59,6 +59,9 @@ def plan(tasks: list, suite) -> KernelPlan:
         to_compile.setdefault(loop.name, not loop.compiled)
 
     for task in tasks:
+        if task.kind == "penalty":  # a scheme on the penalty ground: its loop, and no baseline
+            need(reference.METHODS[scheme_name(task.method)], make_scene(task.scene))
+            continue
         if task.kind != "cell":
             continue
         scene = scene_of(task)

@@ -48,8 +48,10 @@ DEFAULT_OUT = Path("results/latest")
 class Task:
     """A self-contained unit of work: everything a worker needs to produce its cells."""
 
-    kind: str                  # "cell" (a scene x method), "bound" (one reviewed energy bound) or "cost"
-                               # (a cell's cost alone, measured again before a slowdown is reported)
+    kind: str                  # "cell" (a scene x method), "bound" (one reviewed energy bound), "cost"
+                               # (a cell's cost alone, measured again before a slowdown is reported),
+                               # "contact" (an engine mode on a contact scene) or "penalty" (a scheme
+                               # on the penalty ground: harness.nightly.measures.contact_cells)
     scene: str
     method: str
     family: str
@@ -68,8 +70,8 @@ class Task:
         return f"{self.kind} {self.scene} {self.method}{extra}"
 
     def measures(self) -> list[str]:
-        if self.kind == "bound":
-            return ["bound"]
+        if self.kind in ("bound", "contact", "penalty"):
+            return [self.kind]
         from harness.nightly.cells import measures_for
 
         return measures_for(self)
@@ -105,6 +107,8 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
                 continue
             tasks.append(Task("cell", scene_id, mid, m.family, dict(spec.params), suite, plugins=plugins,
                               timings=timings, source=spec.source))
+    if suite.contact:
+        tasks += contact_tasks(suite, plugins, skipped)
     if suite.bounds:
         for b in bounds_mod.load(bounds_path):
             m = methods.get(b.method)
@@ -113,6 +117,30 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
                 continue
             tasks.append(Task("bound", b.scene, b.method, m.family, {}, suite, b.dt, b.steps, b.bound, plugins))
     return tasks, skipped
+
+
+def contact_tasks(suite: Suite, plugins: tuple, skipped: list) -> list[Task]:
+    """The suite's contact tasks (``Suite.contact``): each engine mode it selects on each contact
+    scene the mode poses, and each scheme on the penalty ground."""
+    from harness.contact.run import contact_modes
+    from harness.nightly.measures.contact_cells import cell_scene
+
+    settings, tasks = suite.contact, []
+    for scene_id, params in settings["scenes"]:
+        name = cell_scene(scene_id, params)
+        for mode_id, mode in contact_modes().items():
+            if settings.get("modes") is not None and mode_id not in settings["modes"]:
+                continue
+            ok, why = mode.available()
+            if ok:
+                ok, why = mode.supports(scene_id)
+            if not ok:
+                skipped.append({"scene": name, "method": mode_id, "reason": why})
+                continue
+            tasks.append(Task("contact", name, mode_id, mode.engine, dict(params), suite, plugins=plugins))
+    for scheme in settings.get("penalty", ()):
+        tasks.append(Task("penalty", "bounce", scheme, "ref", {}, suite, plugins=plugins))
+    return tasks
 
 
 def schedule(tasks: list[Task], expected_s: dict[str, float]) -> list[Task]:

@@ -104,6 +104,10 @@ class Suite:
     bounds: bool = True                      # measure the reviewed energy bounds
     frame_rates: tuple[float, ...] = (60.0,)  # frame rates of the advice cells (scenes with ``advise``)
     identify: bool = True                    # identity table for engine modes
+    contact: dict | None = None              # the contact cells (harness.nightly.measures.contact_cells): ``scenes``
+                                             # ((contact scene, params), ...), ``modes`` (None: every available
+                                             # mode), ``ladder`` (the steps), ``penalty`` (schemes on the penalty
+                                             # ground), ``grid`` (its h*omega_c); None: none
     schemes_declare: bool = False            # a reference scheme runs on the scenes it declares for this suite
                                              # (``reference.Scheme.suites[name]``), and nowhere else; False: on
                                              # every scene (``methods`` and the scenes' ``skip`` aside)
@@ -284,6 +288,22 @@ def engines_left_out(scene: str) -> tuple[str, ...]:
     return tuple(m for m in (*DRAKE_MODES, *NEWTON_MODES) if m not in ENGINES_KEPT.get(scene, ()))
 
 
+#: The contact cells (harness.nightly.measures.contact_cells): a ball at e = 0.8 and at e = 1, the slide,
+#: the box at rest and the stack, each engine mode at every step of the ladder (1/2000 s to 1/60 s; the
+#: report shows 1/1000, 1/240 and 1/60), and the reference schemes on the penalty ground over the issue's
+#: grid of h*omega_c. The standard suite runs MuJoCo in its integrators with the pyramidal cone (and Euler
+#: with the elliptic), the full suite every mode and a finer ladder.
+CONTACT_SCENES = (("ball", {"e": 0.8}), ("ball", {"e": 1.0}), ("slide", {}), ("rest", {}), ("stack", {}))
+CONTACT_LADDER = (1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60)
+CONTACT_LADDER_FULL = (1 / 4000, 1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
+PENALTY_SCHEMES = ("ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocity_verlet", "ref:rk4",
+                   "ref:implicit_midpoint", "ref:implicit_euler")
+STANDARD_CONTACT_MODES = ("mujoco:euler", "mujoco:implicitfast", "mujoco:rk4", "mujoco:discrete",
+                          "mujoco:euler?cone=elliptic")
+CONTACT = {"scenes": CONTACT_SCENES, "modes": STANDARD_CONTACT_MODES, "ladder": CONTACT_LADDER,
+           "penalty": PENALTY_SCHEMES}
+CONTACT_FULL = {"scenes": CONTACT_SCENES, "modes": None, "ladder": CONTACT_LADDER_FULL, "penalty": PENALTY_SCHEMES}
+
 SUITES: dict[str, Suite] = {
     "smoke": Suite(
         "smoke",
@@ -319,7 +339,7 @@ SUITES: dict[str, Suite] = {
                                skip=engines_left_out("cloth"), advise=CLOTH_ADVISE,
                                extras=SceneExtras(small_steps=SMALL_STEPS), with_options=SMALL_STEP_XPBD),
         },
-        stability_rtol=STANDARD_STABILITY_RTOL, schemes_declare=True,
+        stability_rtol=STANDARD_STABILITY_RTOL, schemes_declare=True, contact=CONTACT,
     ),
     "full": Suite(
         "full",
@@ -353,6 +373,6 @@ SUITES: dict[str, Suite] = {
                                     order_periods=2.0),
         },
         cost_repeats=9, cost_steps=100_000, series_points=1000, stability_steps=5000, cell_timeout=900.0,
-        stability_homega_max=1000.0, frame_rates=(60.0, 240.0, 1000.0),
+        stability_homega_max=1000.0, frame_rates=(60.0, 240.0, 1000.0), contact=CONTACT_FULL,
     ),
 }

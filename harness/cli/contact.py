@@ -1,0 +1,199 @@
+"""``harness contact``: the engines on the contact scenes, and the reference schemes on a penalty
+ground.
+
+    harness contact ball --set e=1 [--modes mujoco:euler,...] [--dt 1/1000,1/240,1/60]
+    harness contact --penalty [--methods ref:implicit_euler,...] [--grid 0.01,0.1,1,10] [--set omega_c=1000]
+    harness contact --advise [--hz 60]
+
+Every input is checked before any engine is touched (one line naming the bad field and the valid
+choices, exit 2); an engine's crash, hang or blow-up is a row of its own.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+from fractions import Fraction
+
+from records import InvalidInput
+from scenarios import parse_overrides
+
+from harness import validate
+from harness.measures.frames import jsonable
+
+
+def add_parser(sub):
+    p = sub.add_parser("contact", help="contact: bounce, slide, rest and stack in every engine; the penalty table")
+    p.add_argument("scene", nargs="?", help="ball, slide, rest or stack (all four where none is given)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="a scene parameter (e, mu, h0, ...)")
+    p.add_argument("--modes", help="engine contact modes, comma-separated (default: every available one)")
+    p.add_argument("--dt", default="1/1000,1/240,1/60", help="steps in seconds, comma-separated (fractions allowed)")
+    p.add_argument("--penalty", action="store_true", help="the reference schemes on a penalty ground instead")
+    p.add_argument("--methods", help="--penalty: the reference schemes, comma-separated")
+    p.add_argument("--grid", help="--penalty: h*omega_c values, comma-separated (default: 0.01 to 100)")
+    p.add_argument("--advise", action="store_true", help="which mode bounces, slides and rests within tolerance, "
+                   "cheapest first, at --hz")
+    p.add_argument("--hz", default="60", help="--advise: the frame rate")
+    p.add_argument("--json", action="store_true", help="print the rows as JSON")
+    return p
+
+
+def _numbers(field: str, text: str) -> list[float]:
+    out = []
+    for item in str(text).split(","):
+        item = item.strip()
+        try:
+            x = float(Fraction(item))
+        except (ValueError, ZeroDivisionError):
+            raise InvalidInput(f"{field} {item!r} is not a number (write e.g. 0.001 or 1/1000)") from None
+        if not (math.isfinite(x) and x > 0):
+            raise InvalidInput(f"{field} {item!r} is out of range (allowed: > 0, finite)")
+        out.append(x)
+    if not out:
+        raise InvalidInput(f"{field} is empty")
+    return out
+
+
+def run(args) -> int:
+    if args.penalty:
+        return _penalty(args)
+    from scenarios.contact import CONTACT_SCENES, make_contact_scene
+
+    from harness.contact.run import check_dt, contact_modes
+
+    scenes = [args.scene] if args.scene else list(CONTACT_SCENES)
+    if args.advise:
+        scenes = ["ball", "slide", "stack"]
+        hz = validate.positive_finite("--hz", args.hz)
+        dts = [1.0 / hz]
+    else:
+        dts = [check_dt(x) for x in _numbers("--dt", args.dt)]
+    overrides = parse_overrides(args.set)
+    params = {}
+    for s in scenes:
+        if s not in CONTACT_SCENES:
+            raise InvalidInput(f"unknown contact scene {s!r} (valid: {', '.join(CONTACT_SCENES)})")
+        mine = {k: v for k, v in overrides.items() if k in CONTACT_SCENES[s].params}
+        if args.scene:
+            mine = overrides
+        params[s] = dict(make_contact_scene(s, **mine).values)
+    modes = contact_modes()
+    chosen = None
+    if args.modes:
+        chosen = [m.strip() for m in args.modes.split(",") if m.strip()]
+        for m in chosen:
+            if m not in modes:
+                raise InvalidInput(f"--modes: unknown contact mode {m!r} (valid: {', '.join(modes)})")
+    from harness.contact.study import advise, study
+
+    df = study({s: params[s] for s in scenes}, chosen, dts)
+    if args.advise:
+        out = advise(df, dts[0])
+        if args.json:
+            json.dump(jsonable(out), sys.stdout, indent=1)
+            print()
+            return 0
+        for line in _advice_lines(out, df):
+            print(line)
+        return 0
+    if args.json:
+        json.dump(jsonable(df.to_dict(orient="records")), sys.stdout, indent=1)
+        print()
+        return 0
+    for line in _lines(df):
+        print(line)
+    return 0
+
+
+def _fmt(x) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "-"
+    if isinstance(x, list):
+        if all(isinstance(v, int) for v in x):
+            return ",".join(str(v) for v in x) if x else "none"
+        return " ".join(f"{v:.3f}" for v in x) if x else "none"
+    return f"{x:.4g}"
+
+
+_SHOWN = {"ball": ("restitution", "apex_ratio", "gained"), "slide": ("stop", "creep"),
+          "rest": ("penetration", "drift", "kinetic"), "stack": ("penetration", "drift", "kinetic")}
+
+
+def _lines(df):
+    for scene, rows in df.groupby("scene", sort=False):
+        truth = rows.iloc[0].truth
+        shown = _SHOWN[scene]
+        yield f"{scene} ({', '.join(f'{k}={v:g}' for k, v in rows.iloc[0].params.items())}): truth " + ", ".join(
+            f"{k} {_fmt(truth[k])}" for k in shown if k in truth)
+        yield f"  {'mode':32} {'dt':>8}  " + "  ".join(f"{k:>30}" if k == "restitution" else f"{k:>11}" for k in shown) \
+            + "  verdict      CPU s/s"
+        for _, r in rows.iterrows():
+            if r.status != "ok":
+                yield f"  {r.method:32} {r['dt']:8.5f}  {r.detail}"
+                continue
+            failed = sorted(k for k, v in r.passes.items() if not v)
+            verdict = "within" if not failed else "x " + ",".join(failed)
+            cells = "  ".join(f"{_fmt(r[k]):>30}" if k == "restitution" else f"{_fmt(r[k]):>11}" for k in shown)
+            yield f"  {r.method:32} {r['dt']:8.5f}  {cells}  {verdict:12} {_fmt(r.cpu_per_s)}"
+        yield ""
+
+
+def _advice_lines(out, df):
+    yield (f"at dt = {out['dt']:.5g} s: within every tolerance on ball, slide and stack (cheapest first, engine "
+           "loop CPU s per simulated s summed over the three):")
+    for m in out["within"]:
+        yield f"  {m}: {out['cost'][m]:.3g}"
+    if not out["within"]:
+        yield "  none"
+    for m, bad in sorted(out["failing"].items()):
+        yield f"  not {m}: outside a tolerance on {', '.join(bad)}"
+
+
+def _penalty(args) -> int:
+    from scenarios import make_scene
+
+    from harness.contact.penalty import GRID, SCHEMES, penalty_table, seed_claim
+    from harness.methods import get_method
+
+    methods = [m.strip() for m in args.methods.split(",")] if args.methods else list(SCHEMES)
+    for m in methods:
+        if not m.startswith("ref:"):
+            raise InvalidInput(f"--methods: {m!r} is not a reference scheme (the penalty ground is stepped by ref:NAME)")
+        get_method(m)
+    grid = _numbers("--grid", args.grid) if args.grid else list(GRID)
+    overrides = parse_overrides(args.set)
+    unknown = sorted(set(overrides) - {"omega_c"})
+    if unknown:
+        raise InvalidInput(f"--set {unknown[0]}: the penalty table takes omega_c only (e is 1 and 0.8, the rest the "
+                           "scene's defaults)")
+    omega_c = make_scene("bounce", **overrides).values["omega_c"]
+    df = penalty_table(methods, grid=grid, omega_c=omega_c)
+    if args.json:
+        json.dump(jsonable({"rows": df.to_dict(orient="records"),
+                            "seed_claim": seed_claim(df) if {"ref:implicit_euler", "ref:semi_implicit_euler"} <= set(methods) else None}),
+                  sys.stdout, indent=1)
+        print()
+        return 0
+    for e, rows in df.groupby("e", sort=False):
+        print(f"e = {e:g} (omega_c = {omega_c:g} rad/s): mean restitution of five bounces; "
+              "+ gains energy, x blows up, ~ scatters, ! unconverged solve")
+        print(f"  {'scheme':26} " + " ".join(f"{g:>9g}" for g in grid))
+        for m, r in rows.groupby("method", sort=False):
+            by = {x.homega: x for _, x in r.iterrows()}
+            print(f"  {m:26} " + " ".join(f"{_penalty_cell(by[g]):>9}" for g in grid))
+        print()
+    if {"ref:implicit_euler", "ref:semi_implicit_euler"} <= set(methods):
+        claim = seed_claim(df)
+        where = ", ".join(f"h*omega_c {hw:g}: {claim['symplectic'][hw]:.3f} vs {claim['implicit'][hw]:.3f}"
+                          for hw in claim["where"])
+        print("the seed's claim, implicit Euler makes lively bounces go dead: "
+              + (f"holds ({where}: semi-implicit vs implicit Euler, e = 1)" if claim["holds"] else "not seen"))
+    return 0
+
+
+def _penalty_cell(r) -> str:
+    if r.verdict == "blows up":
+        return "x"
+    mark = {"within": "", "gains energy": "+", "scatters": "~", "dead": "dead", "loses energy": ""}[r.verdict]
+    unconverged = r.unconverged is not None and r.unconverged == r.unconverged and r.unconverged > 0  # NaN: not solved
+    return f"{r.mean_restitution:.3f}{mark}{'!' if unconverged else ''}"

@@ -1,0 +1,110 @@
+"""What the judge says of the contact cells: the seed's "lively bounces go dead" on the penalty
+ground (``penalty`` cells), and per contact scene which engine modes keep every figure within its
+tolerance at the frame rate a game steps at, with the cheapest of those that bounce, slide and
+rest (``contact`` cells)."""
+from __future__ import annotations
+
+from records.findings import MARK, Finding
+
+#: The frame rate the advice answers for.
+ADVICE_DT = 1 / 60
+#: The seed's claim, quoted.
+SEED_CLAIM = "lively bounces go dead"
+
+
+def _rows(piv, scene, measure):
+    return {m: ms[measure] for (s, m), ms in piv.items() if s == scene and measure in ms and ms[measure].status == "ok"}
+
+
+def penalty_findings(scene: str, piv: dict) -> list[Finding]:
+    """The seed's claim that implicit Euler makes "lively bounces go dead", judged where
+    semi-implicit Euler (the games' default, symplectic) still keeps a perfectly elastic bounce
+    within the tolerance: it holds where implicit Euler's bounce keeps under half its speed."""
+    import pandas as pd
+
+    from .penalty import seed_claim
+
+    cells = _rows(piv, scene, "penalty")
+    if "ref:implicit_euler" not in cells or "ref:semi_implicit_euler" not in cells:
+        return []
+    df = pd.DataFrame([r for c in cells.values() for r in c.figures.rows])
+    claim = seed_claim(df)
+    imp, sym = claim["implicit"], claim["symplectic"]
+    omega = cells["ref:implicit_euler"].figures.omega_c
+    if claim["holds"]:
+        hw = claim["where"]
+        shown = ", ".join(f"h·ω_c = {x:g}: {sym[x]:.3f} against {imp[x]:.3f}" for x in hw)
+        rests = ""
+        if claim["unconverged"]:
+            rests = ("; implicit Euler's Newton iteration did not converge at "
+                     + ", ".join(f"{n} step(s) at h·ω_c = {x:g}" for x, n in claim["unconverged"].items())
+                     + " (the kink of the ground's force), so those figures rest on an unconverged solve")
+        text = (f"{MARK} The seed: implicit Euler makes \"{SEED_CLAIM}\". On a penalty ground (ω_c = {omega:g} rad/s, "
+                f"e = 1) semi-implicit Euler keeps the bounce within tolerance where implicit Euler keeps under half "
+                f"its speed ({shown}: mean restitution, semi-implicit against implicit){rests}.")
+    else:
+        text = (f"{MARK} The seed: implicit Euler makes \"{SEED_CLAIM}\". Not seen on a penalty ground "
+                f"(ω_c = {omega:g} rad/s, e = 1): at no h·ω_c of the grid does semi-implicit Euler keep the bounce "
+                f"within tolerance while implicit Euler keeps under half its speed (implicit: "
+                + ", ".join(f"{x:g}: {v:.3f}" for x, v in imp.items() if v is not None) + ").")
+    return [Finding(text, claim["holds"], scene, "ref:implicit_euler")]
+
+
+def contact_findings(scene: str, piv: dict) -> list[Finding]:
+    """Per contact scene: the modes that gain energy at a bounce (a ✗ whatever the tolerance), and
+    at 60 Hz the modes within every tolerance. On the first ball scene, the advice across scenes:
+    the cheapest mode that bounces, slides and rests within tolerance at 60 Hz."""
+    cells = _rows(piv, scene, "contact")
+    if not cells:
+        return []
+    out = []
+    gained = {m: sorted({r["dt"] for r in c.figures.runs if r.get("gained")}) for m, c in cells.items()}
+    for m, dts in gained.items():
+        if dts:
+            out.append(Finding(f"{MARK} `{m}` on `{scene}` gains energy at a bounce at dt = "
+                               + ", ".join(f"1/{1 / d:.0f} s" for d in dts) + ".", False, scene, m))
+    at60 = {m: _at(c.figures.runs, ADVICE_DT) for m, c in cells.items()}
+    ok = sorted(m for m, r in at60.items() if r is not None and r.get("passes") and all(r["passes"].values()))
+    out.append(Finding(f"`{scene}` at 60 Hz: " + (f"within every tolerance: {', '.join(f'`{m}`' for m in ok)}"
+                                                  if ok else "no engine mode is within every tolerance") + ".",
+                       None, scene))
+    if scene == _first_ball(piv):
+        out.append(_advice(piv))
+    return out
+
+
+def _at(runs, dt):
+    return next((r for r in runs if abs(r["dt"] - dt) <= 1e-9 * dt), None)
+
+
+def _first_ball(piv) -> str | None:
+    balls = sorted({s for (s, _), ms in piv.items() if "contact" in ms and ms["contact"].figures.scene == "ball"})
+    return balls[0] if balls else None
+
+
+def _advice(piv) -> Finding:
+    """At 60 Hz, the modes within every tolerance on a ball, the slide and the stack, cheapest first
+    (the sum of the engine loop's CPU per simulated second over the three)."""
+    by_mode: dict[str, dict[str, dict | None]] = {}
+    for (s, m), ms in piv.items():
+        c = ms.get("contact")
+        if c is None or c.status != "ok":
+            continue
+        kind = c.figures.scene
+        if kind in ("ball", "slide", "stack"):
+            by_mode.setdefault(m, {})[s] = _at(c.figures.runs, ADVICE_DT)
+    kinds_needed = {s for (s, _), ms in piv.items() if "contact" in ms
+                    and ms["contact"].figures.scene in ("ball", "slide", "stack")}
+    fine = []
+    for m, runs in by_mode.items():
+        if set(runs) != kinds_needed:
+            continue
+        if all(r is not None and r.get("passes") and all(r["passes"].values()) for r in runs.values()):
+            fine.append((sum(r.get("cpu_per_s") or 0.0 for r in runs.values()), m))
+    if not fine:
+        return Finding(f"{MARK} Advice at 60 Hz: no engine mode bounces, slides and rests within every tolerance "
+                       f"({', '.join(sorted(kinds_needed))}).", False)
+    fine.sort()
+    best = ", ".join(f"`{m}` ({c:.3g} CPU s per simulated s over the {len(kinds_needed)} scenes)" for c, m in fine)
+    return Finding(f"{MARK} Advice at 60 Hz: within every tolerance on {', '.join(sorted(kinds_needed))}, cheapest "
+                   f"first: {best}.", True)

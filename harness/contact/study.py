@@ -1,0 +1,109 @@
+"""The engines on the contact scenes: each mode at each step of a ladder, measured against the
+scene's truth, and what follows from the ladder: for each figure the largest step at which it
+holds (at that step and every shorter one), and at a frame rate the cheapest mode that bounces,
+slides and rests within the tolerances.
+
+Rows travel as a tidy DataFrame, one per (scene, mode, dt).
+"""
+from __future__ import annotations
+
+from dataclasses import asdict
+
+from records.contact import ContactFigures
+from scenarios.contact import TOLERANCES, make_contact_scene
+
+from .figures import contact_figures, within
+from .run import LADDER, REPORT_DTS, contact_modes, run_contact
+
+
+def measure_mode(mode_id: str, scene_id: str, params: dict | None = None, dts=LADDER,
+                 isolated: bool = True, timeout: float | None = None) -> list[ContactFigures]:
+    """The mode's figures at every step of ``dts`` (each run validated, then stepped; a failed run
+    is its figures' ``detail``)."""
+    from .run import TIMEOUT_S
+
+    scene = make_contact_scene(scene_id, **(params or {}))
+    out = []
+    for dt in dts:
+        run = run_contact(mode_id, scene_id, params, dt, timeout=timeout or TIMEOUT_S, isolated=isolated)
+        figures = contact_figures(scene, run)
+        out.append(figures if run.status == "ok" else _failed(figures, run))
+    return out
+
+
+def _failed(figures: ContactFigures, run) -> ContactFigures:
+    from dataclasses import replace
+
+    return replace(figures, detail=f"{run.status}: {run.detail}")
+
+
+def status_of(figures: ContactFigures) -> str:
+    """ok, or the failed run's status (the first word of its detail)."""
+    if figures.passes:
+        return "ok"
+    return (figures.detail or "crashed:").split(":")[0]
+
+
+def largest(runs: list[ContactFigures]) -> dict:
+    """For each judged figure, and for all of them ("all"), the largest step at which it is ✓ at
+    that step and at every shorter one of the runs (None where not at the shortest)."""
+    ordered = sorted(runs, key=lambda f: f.dt)
+    names = sorted({k for f in ordered for k in f.passes})
+    out = {}
+    for name in [*names, "all"]:
+        best = None
+        for f in ordered:
+            ok = within(f) if name == "all" else f.passes.get(name)
+            if not ok:
+                break
+            best = f.dt
+        out[name] = best
+    return out
+
+
+def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = True):
+    """Every available mode that poses each scene, at each step: a tidy DataFrame, one row per
+    (scene, mode, dt), with every figure, its ✓/✗ and the mode's contact settings."""
+    import pandas as pd
+
+    rows = []
+    for scene_id, params in scenes.items():
+        for mode_id, mode in contact_modes().items():
+            if modes is not None and mode_id not in modes:
+                continue
+            if not mode.supports(scene_id)[0] or not mode.available()[0]:
+                continue
+            for f in measure_mode(mode_id, scene_id, params, dts, isolated=isolated):
+                rows.append(row_of(mode_id, f))
+    return pd.DataFrame(rows)
+
+
+def row_of(mode_id: str, f: ContactFigures) -> dict:
+    d = asdict(f)
+    return {"scene": f.scene, "method": mode_id, "dt": f.dt, "status": status_of(f), "within": within(f), **{
+        k: d[k] for k in ("restitution", "apex_ratio", "gained", "stop", "creep", "penetration", "drift", "kinetic",
+                          "cpu_per_s", "detail", "passes", "settings", "params", "truth")}}
+
+
+#: What "bounces, slides and rests" asks of a mode: the ball at e = 0.8, the slide and the stack
+#: (the box at rest is the stack's bottom box alone).
+ADVICE_SCENES = ("ball", "slide", "stack")
+
+
+def advise(df, dt: float) -> dict:
+    """At one step: the modes within every tolerance on every scene of ``ADVICE_SCENES`` they pose,
+    cheapest first (the sum of their CPU per simulated second over those scenes), and those that
+    are not, with the scenes that fail. ``df``: ``study``'s rows."""
+    at = df[(df.dt - dt).abs() <= 1e-12 * dt]
+    within_all, failing = [], {}
+    for mode, rows in at.groupby("method"):
+        posed = rows[rows.scene.isin(ADVICE_SCENES)]
+        if set(posed.scene) != set(ADVICE_SCENES):
+            continue
+        bad = sorted(posed[posed.within != True].scene)  # noqa: E712 (None: the run failed)
+        if bad:
+            failing[mode] = bad
+        else:
+            within_all.append((float(posed.cpu_per_s.sum()), mode))
+    return {"dt": dt, "within": [m for _, m in sorted(within_all)],
+            "cost": {m: c for c, m in within_all}, "failing": failing, "tolerances": asdict(TOLERANCES)}

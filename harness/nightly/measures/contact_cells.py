@@ -1,0 +1,161 @@
+"""The nightly's contact cells (issue: the bounce, the slide and the stack in every engine).
+
+* ``contact``: one engine mode on one contact scene (``scenarios.contact``) at every step of the
+  suite's ladder, measured against the scene's truth (``harness.contact``); the value is the
+  largest step at which every figure holds (and at every shorter step). A task of kind
+  ``contact`` measures it.
+* ``penalty``: one reference scheme on the penalty ball (``scenarios.bounce``) over the grid of
+  h*omega_c at e = 1 and 0.8; the value is the largest h*omega_c up to which a perfectly elastic
+  bounce stays within the tolerance. A task of kind ``penalty`` measures it.
+
+A suite asks for them in ``Suite.contact``: ``scenes`` ({cell scene: (contact scene, params)}),
+``modes`` (None: every available mode that poses a scene), ``ladder`` (the steps), ``penalty`` (the
+schemes) and ``grid``. Neither cell runs in a scene task: their ``run`` is None and the tasks of
+their kinds call ``contact_task`` and ``penalty_task``.
+"""
+from __future__ import annotations
+
+from records.contact import ContactCellFigures, PenaltyFigures
+from records.findings import Finding
+from records.measures import Measure, Worse
+
+from harness.nightly.cell_kit import make_cell, plain
+
+#: The penalty grid of the standard suite: the issue's log grid.
+PENALTY_RESTITUTIONS = (1.0, 0.8)
+
+
+def scene_of_cell(name: str) -> str:
+    """The contact scene of a cell's scene name (``ball_e1`` -> ``ball``)."""
+    return name.split("_")[0]
+
+
+def cell_scene(scene_id: str, params: dict) -> str:
+    """A cell's scene name: the contact scene, with each parameter that differs from its default
+    (``ball`` at e = 1 -> ``ball_e1``)."""
+    from scenarios.contact import CONTACT_SCENES
+
+    defaults = CONTACT_SCENES[scene_id].params
+    return scene_id + "".join(f"_{k}{v:g}" for k, v in sorted(params.items()) if v != defaults[k].default)
+
+
+def contact_task(task) -> list:
+    from harness.contact.run import LADDER
+    from harness.contact.study import largest, measure_mode
+    from harness.contact.run import contact_modes
+
+    settings = task.suite.contact
+    ladder = tuple(settings.get("ladder", LADDER))
+    mode = contact_modes()[task.method]
+    runs = measure_mode(task.method, scene_of_cell(task.scene), task.params, ladder, isolated=False,
+                        timeout=task.suite.cell_timeout)
+    best = largest(runs)
+    ok = [f for f in runs if f.passes]
+    status = "ok" if ok else "crashed"
+    detail = "" if ok else "; ".join(sorted({f.detail or "" for f in runs}))[:500]
+    version = next((f.settings.get("version") for f in runs if f.settings.get("version")), None)
+    figures = ContactCellFigures(scene=scene_of_cell(task.scene), params=dict(task.params),
+                                 runs=[plain({**f.to_data(), "status": _status(f)}) for f in runs],
+                                 largest=best, settings=plain(dict(mode.settings)), doc=mode.doc or None,
+                                 engine_version=version)
+    return [make_cell(task, "contact", status, best.get("all"), None, detail=detail, figures=figures)]
+
+
+def _status(f) -> str:
+    from harness.contact.study import status_of
+
+    return status_of(f)
+
+
+def penalty_task(task) -> list:
+    from harness.contact.penalty import GAIN, GRID, TOLERANCE, row
+
+    settings = task.suite.contact
+    grid = tuple(settings.get("grid", GRID))
+    omega_c = settings.get("omega_c", 1000.0)
+    rows = [row(task.method, e, hw, omega_c) for e in PENALTY_RESTITUTIONS for hw in grid]
+    elastic = sorted((r for r in rows if r["e"] == 1.0), key=lambda r: r["homega"])
+    best = None
+    for r in elastic:
+        if r["verdict"] != "within":
+            break
+        best = r["homega"]
+    figures = PenaltyFigures(rows=plain(rows), grid=list(grid), omega_c=omega_c, tolerance=TOLERANCE, gain=GAIN)
+    return [make_cell(task, "penalty", "ok", best, None, figures=figures)]
+
+
+def _contact_worse(before, after, comparison) -> Worse | None:
+    """A figure that held at a step now fails there (an energy gained at a bounce among them), or
+    the largest step at which everything holds got shorter."""
+    was = {round(r["dt"], 12): r for r in before.figures.runs}
+    for r in after.figures.runs:
+        old = was.get(round(r["dt"], 12))
+        if old is None:
+            continue
+        lost = sorted(k for k, v in (old.get("passes") or {}).items() if v and not (r.get("passes") or {}).get(k))
+        if lost:
+            return Worse("contact", before.value, after.value,
+                         f"at dt = {r['dt']:.4g} s {', '.join(lost)} held and now fails")
+    if before.value is not None and (after.value is None or after.value < before.value * (1 - 1e-9)):
+        return Worse("contact", before.value, after.value,
+                     f"largest step within every tolerance {before.value:.4g} s -> "
+                     f"{'none' if after.value is None else f'{after.value:.4g} s'}")
+    return None
+
+
+def _penalty_worse(before, after, comparison) -> Worse | None:
+    if before.value is not None and (after.value is None or after.value < before.value):
+        return Worse("penalty", before.value, after.value,
+                     f"an elastic bounce stays within the tolerance up to h*omega_c {before.value:g} -> "
+                     f"{'none' if after.value is None else f'{after.value:g}'}")
+    return None
+
+
+def _contact_findings(scene, piv) -> list:
+    from harness.contact.findings import contact_findings
+
+    return contact_findings(scene, piv)
+
+
+def _contact_section(scene, piv):
+    from reports.contact_section import contact_lines
+
+    return contact_lines(scene, piv)
+
+
+def _contact_chart(cells, scene, path):
+    from reports.contact_section import contact_chart
+
+    return contact_chart(cells, scene, path)
+
+
+def _penalty_section(scene, piv):
+    from reports.contact_section import penalty_lines
+
+    return penalty_lines(scene, piv)
+
+
+def _penalty_findings(scene, piv) -> list[Finding]:
+    from harness.contact.findings import penalty_findings
+
+    return penalty_findings(scene, piv)
+
+
+def _penalty_chart(cells, scene, path):
+    from reports.contact_section import penalty_chart
+
+    return penalty_chart(cells, scene, path)
+
+
+MEASURES = [
+    Measure("contact", ContactCellFigures, "an engine mode on a contact scene at every step of a ladder, against "
+            "the analytic truth: restitution per bounce, stop distance, penetration, drift, kinetic energy, cost "
+            "per simulated second, and the largest step within every tolerance", regression=_contact_worse,
+            findings=_contact_findings, section=_contact_section, chart=_contact_chart, trend="largest dt in tolerance",
+            higher_is_worse=False),
+    Measure("penalty", PenaltyFigures, "a reference scheme on a penalty ground: restitution against h*omega_c "
+            "beside the exact one", regression=_penalty_worse, findings=_penalty_findings,
+            section=_penalty_section, chart=_penalty_chart, trend="largest h*omega_c within tolerance",
+            higher_is_worse=False),
+]
+

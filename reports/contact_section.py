@@ -1,0 +1,238 @@
+"""The contact cells in the report: under each contact scene's heading, every engine mode's figures
+at the report's three steps against the analytic truth, the largest step within each tolerance and
+the settings behind them; under the penalty ball, each reference scheme's restitution against
+h*omega_c with the seed's claim. Charts: restitution (or the scene's figure) against the step per
+mode, and restitution against h*omega_c per scheme. Everything is read from the cells
+(``records.contact``); the claims are judged in ``harness.contact.findings``."""
+from __future__ import annotations
+
+import math
+
+from .text import fmt
+
+#: The steps the report shows every mode at (a subset of the ladder).
+REPORT_DTS = (1 / 1000, 1 / 240, 1 / 60)
+
+#: Per scene: (heading, the figures of a row), each figure (label, key, how it is printed).
+FIGURES = {
+    "ball": (("restitution per bounce", "restitution", "list"), ("H5/H0", "apex_ratio", "num"),
+             ("gained at", "gained", "bounces")),
+    "slide": (("stop distance (m)", "stop", "num"), ("creep (m)", "creep", "num")),
+    "rest": (("penetration (m)", "penetration", "num"), ("drift (m)", "drift", "num"), ("kinetic (J)", "kinetic", "num")),
+    "stack": (("penetration (m)", "penetration", "num"), ("drift (m)", "drift", "num"),
+              ("kinetic (J)", "kinetic", "num")),
+}
+TRUTH = {"ball": ("apex_ratio", "H5/H0 = e^10"), "slide": ("stop", "v0²/(2 μ g)")}
+
+
+def _cells(scene: str, piv: dict, measure: str) -> list:
+    return sorted((ms[measure] for (s, _), ms in piv.items() if s == scene and measure in ms), key=lambda c: c.method)
+
+
+def _dt_text(dt) -> str:
+    return "–" if dt is None else f"1/{1 / dt:.0f} s"
+
+
+def _value(kind: str, v) -> str:
+    if v is None:
+        return "–"
+    if kind == "list":
+        return " ".join(f"{x:.3f}" for x in v) if v else "none"
+    if kind == "bounces":
+        return ", ".join(str(b) for b in v) if v else "none"
+    return fmt(v)
+
+
+def _at(runs: list, dt: float):
+    return next((r for r in runs if abs(r["dt"] - dt) <= 1e-9 * dt), None)
+
+
+def _mark(ok) -> str:
+    return "✓" if ok else ("✗" if ok is not None else "")
+
+
+def contact_lines(scene: str, piv: dict) -> list[str]:
+    """The contact section of one contact scene (its cells' scene name, e.g. ``ball_e1``)."""
+    cells = _cells(scene, piv, "contact")
+    if not cells:
+        return []
+    f0 = cells[0].figures
+    kind = f0.scene
+    figures = FIGURES[kind]
+    truth = f0.runs[0].get("truth", {}) if f0.runs else {}
+    params = ", ".join(f"{k} = {v:g}" for k, v in f0.params.items()) or "the scene's defaults"
+    tol = f0.runs[0].get("tolerances", {}) if f0.runs else {}
+    lines = [f"**Contact: `{kind}`** ({params}). Truth: " + _truth_text(kind, truth) + ". Tolerances: "
+             + _tol_text(kind, tol) + ". CPU seconds per simulated second are the engine loop's alone "
+             "(process CPU clock, a second pass with nothing recorded).", "",
+             "| mode | step | " + " | ".join(label for label, _, _ in figures) + " | ✓/✗ | CPU s per s |",
+             "|---|---|" + "---|" * len(figures) + "---|---|"]
+    for c in cells:
+        for dt in REPORT_DTS:
+            r = _at(c.figures.runs, dt)
+            if r is None:
+                continue
+            if r.get("status") != "ok":
+                lines.append(f"| `{c.method}` | {_dt_text(dt)} | " + " | ".join("–" for _ in figures)
+                             + f" | {r.get('status')}: {r.get('detail') or ''} | – |")
+                continue
+            passes = r.get("passes") or {}
+            failed = sorted(k for k, v in passes.items() if not v)
+            verdict = "✓" if not failed else "✗ " + ", ".join(failed)
+            lines.append(f"| `{c.method}` | {_dt_text(dt)} | "
+                         + " | ".join(_value(k, r.get(key)) for _, key, k in figures)
+                         + f" | {verdict} | {fmt(r.get('cpu_per_s'))} |")
+    lines += ["", "Largest step of the ladder within each tolerance (there and at every shorter step):", ""]
+    names = sorted({k for c in cells for k in c.figures.largest if k != "all"})
+    lines += ["| mode | every figure | " + " | ".join(names) + " |", "|---|---|" + "---|" * len(names)]
+    for c in cells:
+        best = c.figures.largest
+        lines.append(f"| `{c.method}` | {_dt_text(best.get('all'))} | " + " | ".join(_dt_text(best.get(n)) for n in names)
+                     + " |")
+    lines += ["", "Settings behind the figures, as each pose stated them (those every mode of an engine shares "
+              "once, then each mode's own):", ""]
+    by_engine: dict[str, list] = {}
+    for c in cells:
+        r = next((r for r in c.figures.runs if r.get("settings")), None)
+        by_engine.setdefault(c.method.split(":")[0], []).append((c.method, (r or {}).get("settings") or c.figures.settings))
+    for engine, modes in by_engine.items():
+        shared = {k: v for k, v in modes[0][1].items() if all(k in s and s[k] == v for _, s in modes)}
+        if len(modes) > 1 and shared:
+            lines.append(f"- {engine}, every mode: " + "; ".join(f"{k}: {v}" for k, v in shared.items()))
+        for method, settings in modes:
+            own = {k: v for k, v in settings.items() if len(modes) == 1 or k not in shared}
+            lines.append(f"- `{method}`: " + ("; ".join(f"{k}: {v}" for k, v in own.items()) or "as above"))
+    return lines + [""]
+
+
+def _truth_text(kind: str, truth: dict) -> str:
+    if kind == "ball":
+        return (f"restitution {truth.get('restitution', float('nan')):g} a bounce, H5/H0 "
+                f"{truth.get('apex_ratio', float('nan')):.4g}")
+    if kind == "slide":
+        return f"stops after {truth.get('stop', float('nan')):.4g} m (v0²/(2 μ g)) in {truth.get('stop_time', 0):.3g} s, then stays"
+    return "no penetration, drift or kinetic energy"
+
+
+def _tol_text(kind: str, tol: dict) -> str:
+    if kind == "ball":
+        return (f"each bounce within {tol.get('restitution')} of e, H5/H0 within {tol.get('apex_ratio', 0):.0%}, "
+                f"no apex above the one before by more than {tol.get('gain', 0):.0%}")
+    if kind == "slide":
+        return f"stop within {tol.get('stop', 0):.0%}, creep ≤ {tol.get('creep')} m"
+    return f"penetration and drift ≤ {tol.get('penetration')} m, kinetic energy ≤ {tol.get('kinetic')} J"
+
+
+def contact_chart(cells, scene: str, path) -> bool:
+    """The scene's figure against the step, one line per mode (log step axis): the mean
+    restitution for the ball (the requested e dashed), the stop distance for the slide (the truth
+    dashed), the penetration at rest."""
+    from . import charts
+
+    plt = charts.plt
+    rows = [c for c in cells if c.measure == "contact" and c.status == "ok" and c.figures.runs]
+    if not rows:
+        return False
+    kind = rows[0].figures.scene
+    key, label = {"ball": ("restitution", "mean restitution per bounce"), "slide": ("stop", "stop distance (m)"),
+                  "rest": ("penetration", "penetration (m)"), "stack": ("penetration", "penetration (m)")}[kind]
+    styles = charts.method_styles(c.method for c in rows)
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    drawn = False
+    for c in rows:
+        pts = []
+        for r in sorted(c.figures.runs, key=lambda r: r["dt"]):
+            v = r.get(key)
+            if r.get("status") != "ok" or v is None:
+                continue
+            v = sum(v) / len(v) if isinstance(v, list) and v else v
+            if isinstance(v, (int, float)) and math.isfinite(v):
+                pts.append((r["dt"], v))
+        if pts:
+            drawn = True
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], label=c.method, markersize=4, **styles[c.method])
+    if not drawn:
+        plt.close(fig)
+        return False
+    truth = rows[0].figures.runs[0].get("truth", {})
+    if kind == "ball":
+        ax.axhline(truth.get("restitution", 1.0), color="0.4", linestyle="--", label="requested e")
+    elif kind == "slide":
+        ax.axhline(truth.get("stop"), color="0.4", linestyle="--", label="v0²/(2 μ g)")
+    else:
+        ax.set_yscale("symlog", linthresh=1e-6)
+    ax.set_xscale("log")
+    ax.set_xlabel("step dt (s)")
+    ax.set_ylabel(label)
+    ax.set_title(f"{scene}: {label} against the step (each engine mode)")
+    charts._legend_outside(ax)
+    return charts._save(fig, path)
+
+
+def penalty_lines(scene: str, piv: dict) -> list[str]:
+    """The penalty table: per scheme and e, the mean restitution and verdict at each h*omega_c."""
+    cells = [c for c in _cells(scene, piv, "penalty") if c.status == "ok"]
+    if not cells:
+        return []
+    f0 = cells[0].figures
+    grid = list(f0.grid)
+    lines = [f"**The reference schemes on a penalty ground** (ω_c = {f0.omega_c:g} rad/s, a spring–dashpot "
+             "under the ball's lowest point): the mean restitution of five bounces against h·ω_c, each bounce "
+             f"judged against the exact motion's (within {f0.tolerance}); ↑ a bounce whose apex rose above the one "
+             f"before by more than {f0.gain:.0%}, ✗ blew up, ~ the bounces scatter about the mean, "
+             "† the implicit solve did not converge at some step (the figure rests on it).", ""]
+    for e in sorted({r["e"] for c in cells for r in c.figures.rows}, reverse=True):
+        exact = next((r for c in cells for r in c.figures.rows if r["e"] == e), None)
+        lines += [f"e = {e:g} (exact restitution with gravity in the contact: "
+                  f"{sum(exact['exact_restitution']) / len(exact['exact_restitution']):.4f})", "",
+                  "| scheme | " + " | ".join(f"{g:g}" for g in grid) + " |", "|---|" + "---|" * len(grid)]
+        for c in cells:
+            rows = {r["homega"]: r for r in c.figures.rows if r["e"] == e}
+            lines.append(f"| `{c.method}` | " + " | ".join(_penalty_cell(rows.get(g)) for g in grid) + " |")
+        lines.append("")
+    return lines
+
+
+def _penalty_cell(r) -> str:
+    if r is None:
+        return "–"
+    if r["verdict"] == "blows up":
+        return "✗"
+    mark = {"within": "✓", "gains energy": "↑", "scatters": "~", "dead": "dead", "loses energy": ""}[r["verdict"]]
+    dagger = " †" if r.get("unconverged") else ""
+    return f"{r['mean_restitution']:.3f} {mark}{dagger}".strip()
+
+
+def penalty_chart(cells, scene: str, path) -> bool:
+    """Mean restitution against h*omega_c, one line per scheme, one panel per e; the exact value
+    dashed; blow-ups marked at the top."""
+    from . import charts
+
+    plt = charts.plt
+    rows = [c for c in cells if c.measure == "penalty" and c.status == "ok" and c.figures.rows]
+    if not rows:
+        return False
+    es = sorted({r["e"] for c in rows for r in c.figures.rows}, reverse=True)
+    styles = charts.method_styles(c.method for c in rows)
+    fig, axes = plt.subplots(1, len(es), figsize=(5.5 * len(es) + 2.5, 4.5), squeeze=False)
+    for ax, e in zip(axes[0], es):
+        for c in rows:
+            pts = sorted((r["homega"], r["mean_restitution"]) for r in c.figures.rows
+                         if r["e"] == e and r["mean_restitution"] is not None)
+            if pts:
+                ax.plot([p[0] for p in pts], [min(p[1], 3.0) for p in pts], label=c.method, markersize=4,
+                        **styles[c.method])
+            up = [r["homega"] for r in c.figures.rows if r["e"] == e and r["verdict"] == "blows up"]
+            if up:
+                ax.plot(up, [3.0] * len(up), linestyle="none", marker="x", color=styles[c.method].get("color"))
+        exact = next(r for c in rows for r in c.figures.rows if r["e"] == e)
+        ax.axhline(sum(exact["exact_restitution"]) / len(exact["exact_restitution"]), color="0.4", linestyle="--",
+                   label="exact")
+        ax.set_xscale("log")
+        ax.set_ylim(0, 3.1)
+        ax.set_xlabel("h·ω_c")
+        ax.set_ylabel("mean restitution (clipped at 3; x: blew up)")
+        ax.set_title(f"penalty ground, e = {e:g}")
+    charts._legend_outside(axes[0][-1])
+    return charts._save(fig, path)
+
