@@ -4,7 +4,7 @@ from __future__ import annotations
 from records import InvalidInput
 
 from .scene import Param, Scene, no_solve, no_velocity_dependence
-from .bounce import Bounce
+from .penalty_ball import PenaltyBall
 from .chain import Chain
 from .cloth import Cloth, Net
 from .cloth_flex import ClothFlex
@@ -20,7 +20,7 @@ from .solar_system import SolarSystem
 from .spring import Spring
 
 SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
-    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope, SolarSystem, Cloth, Net, Bounce,
+    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope, SolarSystem, Cloth, Net, PenaltyBall,
 )}
 
 

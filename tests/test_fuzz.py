@@ -236,6 +236,16 @@ def argv_for(draw, command: str, paths: dict) -> tuple[list[str], bool]:
             if draw(st.booleans()):
                 argv.append(switch)
         return argv, False
+    if command == "contact":  # every line poisoned: a valid one steps every engine, too slow to fuzz
+        kind = draw(st.sampled_from(["scene", "penalty", "advise"]))
+        if kind == "scene":
+            argv = ["contact", draw(st.sampled_from(["ball", "slide", "rest", "stack"]))]
+            argv += _poisoned(draw, {"--set": set_values(), "--modes": name}, {"--dt": bad})
+        elif kind == "penalty":
+            argv = ["contact", "--penalty"] + _poisoned(draw, {"--methods": name}, {"--grid": bad})
+        else:
+            argv = ["contact", "--advise"] + _poisoned(draw, {"--modes": name}, {"--hz": bad})
+        return argv, True
     raise AssertionError(f"no fuzzing for command {command!r}: add it")
 
 
@@ -246,7 +256,8 @@ def _fuzz(command: str, paths: dict, data) -> None:
 
 def test_every_command_is_fuzzed():
     assert set(COMMANDS) == {"run", "list", "bench", "identify", "energy", "order", "stability", "cost",
-                             "workprecision", "advise", "model", "nightly", "compare", "history", "bounds", "bisect"}
+                             "workprecision", "advise", "model", "contact", "nightly", "compare", "history", "bounds",
+                             "bisect"}
 
 
 @pytest.mark.parametrize("command", COMMANDS)

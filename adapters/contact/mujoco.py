@@ -27,7 +27,7 @@ INTEGRATORS = {"euler": "Euler", "implicit": "implicit", "implicitfast": "implic
                "discrete": "discrete"}
 CONES = ("pyramidal", "elliptic")
 #: The contact's natural frequency (rad/s): a static penetration of g / omega_c^2 = 0.25 mm under
-#: gravity; a contact lasting pi / omega_c = 16 ms, which a 60 Hz step (h omega_c = 3.3) does not
+#: gravity; a contact pi / omega_c long, which a 60 Hz step (h omega_c = 3.3) does not
 #: resolve and a 1 kHz step (0.2) does.
 OMEGA_C = 200.0
 #: The constant impedance (solimp dmin = dmax): 1 - d of gravity acts inside the contact.

@@ -166,7 +166,7 @@ def _penalty(args) -> int:
     if unknown:
         raise InvalidInput(f"--set {unknown[0]}: the penalty table takes omega_c only (e is 1 and 0.8, the rest the "
                            "scene's defaults)")
-    omega_c = make_scene("bounce", **overrides).values["omega_c"]
+    omega_c = make_scene("penalty_ball", **overrides).values["omega_c"]
     df = penalty_table(methods, grid=grid, omega_c=omega_c)
     if args.json:
         json.dump(jsonable({"rows": df.to_dict(orient="records"),

@@ -1,4 +1,4 @@
-"""The reference schemes on a penalty ground (``scenarios.bounce``): the restitution each achieves
+"""The reference schemes on a penalty ground (``scenarios.penalty_ball``): the restitution each achieves
 against h*omega_c, beside the exact one; the seed's "lively bounces go dead" as a number.
 
 A scheme is stepped on its compiled loop (the same bits as interpreted) from the drop through
@@ -87,7 +87,7 @@ def unconverged_steps(method_id: str, scene, x, v, dt: float) -> int | None:
     residual = RESIDUALS.get(method_id)
     if residual is None:
         return None
-    from scenarios.bounce import accel
+    from scenarios.penalty_ball import accel
 
     p = scene.pvec
     r = residual(accel, p, x[:-1], v[:-1], x[1:], v[1:], dt)
@@ -102,9 +102,9 @@ def row(method_id: str, e: float, homega: float, omega_c: float = 1000.0, h0: fl
     from harness.execution.simulate import simulate
     from harness.methods import get_method
     from scenarios import make_scene
-    from scenarios.bounce import zeta_for
+    from scenarios.penalty_ball import zeta_for
 
-    scene = make_scene("bounce", omega_c=omega_c, zeta=zeta_for(e), h0=h0)
+    scene = make_scene("penalty_ball", omega_c=omega_c, zeta=zeta_for(e), h0=h0)
     exact = scene.apexes(bounces)
     g = scene.values["g"]
     # Through the last measured apex, and a flight beyond (an ideal bounce's flights shrink by e).

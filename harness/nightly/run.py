@@ -139,7 +139,7 @@ def contact_tasks(suite: Suite, plugins: tuple, skipped: list) -> list[Task]:
                 continue
             tasks.append(Task("contact", name, mode_id, mode.engine, dict(params), suite, plugins=plugins))
     for scheme in settings.get("penalty", ()):
-        tasks.append(Task("penalty", "bounce", scheme, "ref", {}, suite, plugins=plugins))
+        tasks.append(Task("penalty", settings["penalty_scene"], scheme, "ref", {}, suite, plugins=plugins))
     return tasks
 
 

@@ -107,7 +107,8 @@ class Suite:
     contact: dict | None = None              # the contact cells (harness.nightly.measures.contact_cells): ``scenes``
                                              # ((contact scene, params), ...), ``modes`` (None: every available
                                              # mode), ``ladder`` (the steps), ``penalty`` (schemes on the penalty
-                                             # ground), ``grid`` (its h*omega_c); None: none
+                                             # ground, the scene ``penalty_scene``), ``grid`` (its h*omega_c);
+                                             # None: none
     schemes_declare: bool = False            # a reference scheme runs on the scenes it declares for this suite
                                              # (``reference.Scheme.suites[name]``), and nowhere else; False: on
                                              # every scene (``methods`` and the scenes' ``skip`` aside)
@@ -301,8 +302,8 @@ PENALTY_SCHEMES = ("ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocit
 STANDARD_CONTACT_MODES = ("mujoco:euler", "mujoco:implicitfast", "mujoco:rk4", "mujoco:discrete",
                           "mujoco:euler?cone=elliptic")
 CONTACT = {"scenes": CONTACT_SCENES, "modes": STANDARD_CONTACT_MODES, "ladder": CONTACT_LADDER,
-           "penalty": PENALTY_SCHEMES}
-CONTACT_FULL = {"scenes": CONTACT_SCENES, "modes": None, "ladder": CONTACT_LADDER_FULL, "penalty": PENALTY_SCHEMES}
+           "penalty": PENALTY_SCHEMES, "penalty_scene": "penalty_ball"}
+CONTACT_FULL = {**CONTACT, "modes": None, "ladder": CONTACT_LADDER_FULL}
 
 SUITES: dict[str, Suite] = {
     "smoke": Suite(

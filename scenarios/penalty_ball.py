@@ -52,8 +52,8 @@ def restitution_of(zeta: float) -> float:
     return math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta * zeta))
 
 
-class Bounce(Scene):
-    id = "bounce"
+class PenaltyBall(Scene):
+    id = "penalty_ball"
     title = "ball on a penalty (spring-dashpot) ground, 1 DOF; exact piecewise solution with every apex"
     params = {
         "g": Param(9.81, "gravity (m/s^2)", lo=0.0, lo_open=True),
