@@ -14,8 +14,12 @@ Every setting is set and stated (docs/engines.md has each default's measured eff
 * friction is combined by product: the plane 1, each box mu (1 for rest and stack), the ball 0;
 * ``collision_slop`` 0 (default 0.1: an overlap of up to that much is left alone, so a body rests
   sunk in the plane or in the box below);
-* ``collision_bias`` and ``space.iterations`` at Chipmunk's values, set explicitly; ``space.damping``
-  1 (none) and sleeping off (``sleep_time_threshold`` infinite).
+* ``space.iterations`` 100 (default 10: a box at rest sinks g h^2-deep into the plane and stays);
+* ``collision_bias`` at Chipmunk's value, set explicitly; ``space.damping`` 1 (none) and sleeping
+  off (``sleep_time_threshold`` infinite), Chipmunk's defaults, set explicitly.
+
+The rebound is an exact velocity impulse: at the step the ball turns, its velocity is -e times
+the velocity before the step, to roundoff.
 
 The engine's loop is a Python loop of ``space.step(dt)`` alone (Chipmunk has none of its own).
 """
