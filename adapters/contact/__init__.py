@@ -14,8 +14,8 @@ Importing this package imports no engine.
 from __future__ import annotations
 
 from ._mode import ContactMode, record_loop, timed_loop
-from . import mujoco
+from . import mujoco, pybullet, pymunk
 
-CONTACT_MODES: dict[str, ContactMode] = {**mujoco.MODES}
+CONTACT_MODES: dict[str, ContactMode] = {**mujoco.MODES, **pybullet.MODES, **pymunk.MODES}
 
 __all__ = ["CONTACT_MODES", "ContactMode", "record_loop", "timed_loop"]
