@@ -1,0 +1,277 @@
+"""Contact: the scenes and their truth, the figures a run is measured by (on runs whose answer is
+known), the penalty ground and its table (the seed's "lively bounces go dead"), MuJoCo's poses
+and its traps, the nightly's contact and penalty cells, their regression rule, the report's
+section and ``harness contact``'s refusals."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from records import InvalidInput
+from records.cell import Cell
+from records.contact import ContactCellFigures, ContactRun
+from records.measures import Comparison
+from scenarios import make_scene
+from scenarios.contact import TOLERANCES, make_contact_scene
+from scenarios.penalty_ball import restitution_of, zeta_for
+
+from harness.contact.figures import apexes, contact_figures
+from harness.contact.penalty import row, unconverged_steps
+
+
+# ----------------------------------------------------------------------------- scenes
+@pytest.mark.parametrize("scene_id, params, field", [
+    ("ball", {"e": 1.5}, "e=1.5"), ("ball", {"e": -0.1}, "e=-0.1"), ("ball", {"e": float("nan")}, "e=nan"),
+    ("slide", {"mu": -0.5}, "mu=-0.5"), ("slide", {"mu": 0}, "mu=0"), ("slide", {"v0": float("inf")}, "v0=inf"),
+    ("rest", {"bogus": 1}, "'bogus'"), ("floor", {}, "'floor'"),
+])
+def test_bad_contact_input_is_one_line_naming_the_field(scene_id, params, field):
+    with pytest.raises(InvalidInput) as err:
+        make_contact_scene(scene_id, **params)
+    line = str(err.value)
+    assert field in line and "\n" not in line and ("allowed" in line or "valid" in line)
+
+
+def test_the_scenes_state_their_truth():
+    ball = make_contact_scene("ball", e=0.8)
+    t = ball.truth()
+    assert t["apexes"][3] == pytest.approx(0.8 ** 6) and t["apex_ratio"] == pytest.approx(0.8 ** 10)
+    assert ball.flight(1) == pytest.approx(2 * 0.8 * math.sqrt(2 * 9.81) / 9.81)
+    assert ball.duration > ball.impacts()[-2] + ball.flight(5) / 2  # the last apex is recorded
+    slide = make_contact_scene("slide")
+    assert slide.truth()["stop"] == pytest.approx(2.0 ** 2 / (2 * 0.5 * 9.81))
+    assert [c[2] for c in make_contact_scene("stack").initial_centres()] == pytest.approx([0.1, 0.3, 0.5])
+
+
+# ----------------------------------------------------------------------------- figures
+def ideal_ball(e: float, dt: float, sink: float = 0.0) -> tuple:
+    """The exact motion of a point ball bouncing with restitution e off z = 0 (each rebound an
+    instant speed reversal), sampled every dt: the ball scene's centres and velocities."""
+    scene = make_contact_scene("ball", e=e)
+    g, r = scene.g, scene.radius
+    t = np.arange(0.0, scene.duration, dt)
+    z, v = np.empty_like(t), np.empty_like(t)
+    t0, h = 0.0, scene.h0
+    u = 0.0
+    impacts = scene.impacts()
+    starts = [0.0] + impacts
+    for i, ti in enumerate(t):
+        k = np.searchsorted(impacts, ti, side="right")
+        s = ti - starts[k]
+        u = 0.0 if k == 0 else e ** k * math.sqrt(2 * g * scene.h0)
+        z[i] = (scene.h0 if k == 0 else 0.0) + u * s - 0.5 * g * s * s
+        v[i] = u - g * s
+    centres = np.zeros((len(t), 1, 3))
+    vel = np.zeros((len(t), 1, 3))
+    centres[:, 0, 2], vel[:, 0, 2] = z + r - sink, v
+    return scene, ContactRun("ball", "test", dt, t, centres, vel)
+
+
+@pytest.mark.parametrize("e", [0.8, 1.0])
+def test_the_ball_figures_read_the_true_restitution_from_an_exact_motion(e):
+    scene, run = ideal_ball(e, 1e-4)
+    f = contact_figures(scene, run)
+    assert f.restitution == pytest.approx([e] * 5, abs=1e-3)
+    assert f.apex_ratio == pytest.approx(e ** 10, rel=1e-2) and f.gained == []
+    assert all(f.passes.values())
+    assert f.intervals == pytest.approx([scene.flight(n) for n in range(1, 6)], abs=2e-4)
+
+
+def test_a_gain_at_a_bounce_is_a_cross_and_a_dead_ball_bounces_zero():
+    scene, run = ideal_ball(0.8, 1e-3)
+    z = run.centres[:, 0, 2]
+    i = np.argmax(run.t > scene.impacts()[2])  # after the third impact the ball rises twice as high: above apex 2
+    run.centres[i:, 0, 2] = scene.radius + (z[i:] - scene.radius) * 2.0
+    f = contact_figures(scene, run)
+    assert 3 in f.gained and f.passes["gain"] is False
+    scene, run = ideal_ball(0.8, 1e-3)
+    after = run.t > scene.impacts()[1]
+    run.centres[after, 0, 2], run.velocities[after, 0, 2] = scene.radius, 0.0  # dead after the second impact
+    f = contact_figures(scene, run)
+    assert f.restitution[2:] == [0.0, 0.0, 0.0] and f.passes["restitution"] is False
+
+
+def test_apexes_count_an_impact_a_long_step_carries_out_of_the_contact():
+    """A step that reverses the velocity may also lift the ball out: the impact is still counted."""
+    z = np.array([1.0, 0.5, 0.02, 0.3, 0.5, 0.3, 0.01])
+    v = np.array([0.0, -3.0, -4.0, 3.0, 1.0, -1.0, -3.0])
+    heights, impacts = apexes(z, v, floor=0.05)
+    assert impacts == [3] and heights == [1.0, 0.5]
+
+
+def test_slide_and_rest_figures_on_known_runs():
+    scene = make_contact_scene("slide")
+    dt = 1e-3
+    t = np.arange(0.0, scene.duration, dt)
+    a = scene.mu * scene.g
+    v = np.maximum(scene.v0 - a * t, 0.0)
+    x = np.where(t < scene.stop_time, scene.v0 * t - 0.5 * a * t * t, scene.truth()["stop"])
+    c = np.zeros((len(t), 1, 3))
+    vel = np.zeros((len(t), 1, 3))
+    c[:, 0, 0], c[:, 0, 2], vel[:, 0, 0] = x, scene.half, v
+    f = contact_figures(scene, ContactRun("slide", "t", dt, t, c, vel))
+    assert f.stop == pytest.approx(scene.truth()["stop"], rel=1e-3) and f.creep == 0.0 and all(f.passes.values())
+    stack = make_contact_scene("stack")
+    c = np.repeat(np.array(stack.initial_centres())[None], 5, axis=0)
+    c[3, 0, 2] -= 2e-3  # the bottom box 2 mm into the plane at one step
+    vel = np.zeros_like(c)
+    vel[-1, 2, 0] = 0.01
+    f = contact_figures(stack, ContactRun("stack", "t", 0.01, np.arange(5) * 0.01, c, vel))
+    assert f.penetration == pytest.approx(2e-3) and f.drift == pytest.approx(2e-3)
+    assert f.kinetic == pytest.approx(0.5 * 1e-4) and f.passes == {"penetration": False, "drift": False,
+                                                                      "kinetic": False}
+
+
+# ----------------------------------------------------------------------------- the penalty ground
+def test_the_penalty_ground_exact_motion():
+    assert restitution_of(zeta_for(0.8)) == pytest.approx(0.8, abs=1e-14)
+    elastic = make_scene("penalty_ball")
+    assert elastic.apexes(5) == pytest.approx([1.0] * 6, abs=1e-12)
+    q, v = elastic.closed_form(np.linspace(0, 5, 50001))
+    energy = elastic.energy(q, v)
+    assert np.ptp(energy) < 1e-12 * energy[0]  # conserved across every contact, gravity in the contact kept
+    damped = make_scene("penalty_ball", zeta=zeta_for(0.8))
+    e_n = np.sqrt(np.array(damped.apexes(5)[1:]) / np.array(damped.apexes(5)[:-1]))
+    # gravity inside the contact takes a little from the ideal e: g / (omega_c v) = 2.2e-3 of it
+    assert np.all(np.abs(e_n - 0.8) < 3e-3) and np.all(e_n < 0.8)
+
+
+def test_the_penalty_rows_show_each_scheme_where_it_fails():
+    """Semi-implicit Euler keeps a perfectly elastic bounce at h*omega_c = 1; explicit Euler gains
+    at every bounce; implicit Euler loses most of the speed there (the seed's claim), RK4 beyond its
+    limit blows up."""
+    assert row("ref:semi_implicit_euler", 1.0, 1.0)["verdict"] == "within"
+    assert row("ref:explicit_euler", 1.0, 0.3)["verdict"] == "gains energy"
+    imp = row("ref:implicit_euler", 1.0, 1.0)
+    assert imp["verdict"] == "loses energy" and imp["mean_restitution"] < 0.5
+    assert row("ref:rk4", 1.0, 100.0)["verdict"] == "blows up"
+
+
+def test_an_implicit_solve_that_stops_on_the_kink_is_counted():
+    """Implicit Euler's Newton iteration on the ground's kink: at h*omega_c = 10 (e = 0.8) some steps do
+    not satisfy the step's equation; a step that does has a residual of roundoff."""
+    r = row("ref:implicit_euler", 0.8, 10.0)
+    assert r["unconverged"] and r["unconverged"] > 0
+    assert row("ref:implicit_euler", 0.8, 0.3)["unconverged"] == 0
+    scene = make_scene("penalty_ball")
+    x0, v0, h = np.array([-0.01]), np.array([-1.0]), 1e-3
+    # one exact implicit Euler step of the linear contact, solved by hand
+    w, g, k = scene.values["omega_c"], scene.values["g"], scene.values["omega_c"] ** 2
+    v1 = (v0 - h * g - h * k * x0) / (1 + h * h * k)
+    x1 = x0 + h * v1
+    assert unconverged_steps("ref:implicit_euler", scene, np.r_[x0, x1], np.r_[v0, v1], h) == 0
+    assert unconverged_steps("ref:implicit_euler", scene, np.r_[x0, x1 + 1e-3], np.r_[v0, v1], h) == 1
+    assert unconverged_steps("ref:semi_implicit_euler", scene, np.r_[x0, x1], np.r_[v0, v1], h) is None
+    assert w > 0
+
+
+# ----------------------------------------------------------------------------- MuJoCo
+def test_mujoco_poses_every_scene_and_its_default_solref_does_not_bounce():
+    """Every scene at 1 ms; the ball at e = 0.8 keeps each bounce within tolerance with RK4. With
+    MuJoCo's default contact (solref 0.02 1: critically damped) the same ball does not bounce."""
+    from harness.contact.run import run_contact
+
+    for scene_id in ("ball", "slide", "rest", "stack"):
+        run = run_contact("mujoco:rk4", scene_id, {}, 1e-3, isolated=False)
+        assert run.status == "ok" and run.loop_cpu_s > 0 and run.settings["solver converged"]
+    f = contact_figures(make_contact_scene("ball"), run_contact("mujoco:rk4", "ball", {"e": 0.8}, 1e-3,
+                                                                 isolated=False))
+    assert f.passes["restitution"] and f.passes["gain"]
+    import mujoco
+
+    from adapters.contact.mujoco import _xml
+
+    scene = make_contact_scene("ball", e=0.8)
+    xml = _xml("Euler", "pyramidal", scene, 1e-3)
+    default = xml.replace(xml[xml.index(' solref="'):xml.index(' margin=')], "")  # MuJoCo's own solref, solimp
+    m = mujoco.MjModel.from_xml_string(default)
+    assert list(m.geom_solref[0]) == [0.02, 1.0]
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, 0)
+    z = []
+    for _ in range(int(1.5 / 1e-3)):
+        mujoco.mj_step(m, d)
+        z.append(d.qpos[0] - scene.radius)
+    after = np.array(z)[int(0.6 / 1e-3):]  # past the first impact (0.45 s)
+    assert after.max() < 0.01 * scene.h0  # no rebound worth the name: not a centimetre of a metre's drop
+
+
+# ----------------------------------------------------------------------------- the nightly's cells
+def _suite(**contact):
+    from harness.nightly.suites import SUITES
+
+    return dataclasses.replace(SUITES["smoke"], contact={"scenes": (("ball", {"e": 1.0}),), "modes": ("mujoco:rk4",),
+                                                         "ladder": (1 / 1000, 1 / 240), "penalty": (),
+                                                         "penalty_scene": "penalty_ball", **contact})
+
+
+def test_the_nightly_contact_and_penalty_cells():
+    from harness.judge import judge
+    from harness.nightly.cells import run_task
+    from harness.nightly.run import Task, build_tasks
+
+    suite = _suite(penalty=("ref:semi_implicit_euler", "ref:implicit_euler"), grid=(1.0,))
+    tasks, _ = build_tasks(dataclasses.replace(suite, bounds=False, scenes={}))
+    assert [(t.kind, t.scene, t.method) for t in tasks] == [
+        ("contact", "ball_e1", "mujoco:rk4"), ("penalty", "penalty_ball", "ref:semi_implicit_euler"),
+        ("penalty", "penalty_ball", "ref:implicit_euler")]
+    cells = [c for t in tasks for c in run_task(t)]
+    contact = cells[0]
+    assert contact.measure == "contact" and contact.status == "ok" and len(contact.figures.runs) == 2
+    assert contact.value == 1 / 1000 and contact.figures.largest["gain"] == 1 / 1000  # RK4 gains at 1/240
+    assert [c.value for c in cells[1:]] == [1.0, None]
+    found = judge(cells).findings
+    seed = [f for f in found if "lively bounces go dead" in f.text]
+    assert len(seed) == 1 and seed[0].ok is True and "h·ω_c = 1" in seed[0].text
+    assert any("gains energy at a bounce" in f.text and f.ok is False for f in found)
+    # the report shows both sections and draws both charts
+    import pathlib
+    import tempfile
+
+    from reports.markdown import render
+
+    with tempfile.TemporaryDirectory() as out:
+        text, written = render({"run_id": 1, "suite": "smoke", "started": "", "finished": "", "status": "complete",
+                                "measurement_version": 1}, cells, judge(cells), pathlib.Path(out))
+    assert "**Contact: `ball`** (e = 1" in text and "The reference schemes on a penalty ground" in text
+    assert "| `mujoco:rk4` | 1/1000 s |" in text and "| `ref:implicit_euler` | 0.140 |" in text
+    assert {"charts/run1-ball_e1-contact.png", "charts/run1-penalty_ball-penalty.png"} <= set(written)
+
+
+def _contact_cell(runs, value):
+    return Cell("ball", "mujoco:euler", "mujoco", "contact", value=value,
+                figures=ContactCellFigures(scene="ball", runs=runs))
+
+
+def test_a_contact_regression_is_a_figure_that_held_and_fails_or_a_shorter_largest_step():
+    from records.measures import measures
+
+    rule = next(m for m in measures() if m.name == "contact").regression
+    ok = {"dt": 1e-3, "passes": {"gain": True, "restitution": True}}
+    gains = {"dt": 1e-3, "passes": {"gain": False, "restitution": True}}
+    worse = rule(_contact_cell([ok], 1e-3), _contact_cell([gains], 1e-3), Comparison())
+    assert worse is not None and "gain held and now fails" in worse.detail
+    assert rule(_contact_cell([ok], 1e-3), _contact_cell([ok], 1e-3), Comparison()) is None
+    shorter = rule(_contact_cell([ok], 1 / 240), _contact_cell([ok], 1e-3), Comparison())
+    assert shorter is not None and "largest step" in shorter.detail
+
+
+@pytest.mark.parametrize("argv, field", [
+    (["contact", "ball", "--set", "e=2"], "e=2"), (["contact", "slide", "--set", "mu=-1"], "mu=-1"),
+    (["contact", "ball", "--dt", "nan"], "--dt"), (["contact", "ball", "--modes", "mujoco:nope"], "--modes"),
+    (["contact", "--penalty", "--grid", "-1"], "--grid"), (["contact", "--penalty", "--set", "zeta=0.1"], "zeta"),
+    (["contact", "--advise", "--hz", "0"], "--hz"),
+])
+def test_harness_contact_refuses_bad_input_in_one_line(argv, field, capsys):
+    from harness.cli import main
+
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and field in err[0]
+
+
+def test_tolerances_are_stated():
+    assert TOLERANCES.restitution == 0.05 and TOLERANCES.penetration == 1e-3
