@@ -275,3 +275,21 @@ def test_harness_contact_refuses_bad_input_in_one_line(argv, field, capsys):
 
 def test_tolerances_are_stated():
     assert TOLERANCES.restitution == 0.05 and TOLERANCES.penetration == 1e-3
+
+
+def test_a_run_that_needs_a_process_of_its_own_gets_one_from_a_pool_worker():
+    """A nightly pool's worker is daemonic: a mode whose settings are process-wide (pybullet) is
+    stepped in a child forked for the run, with the same bits as in a fresh worker; the child's
+    exception is a crashed run, and one past its limit is killed and timed out."""
+    pytest.importorskip("pybullet")
+    from harness.contact.run import _in_fork, run_contact
+
+    mode = "pybullet:sequential_impulse"
+    args = (mode, "ball", dict(make_contact_scene("ball").values), 1 / 240)
+    forked = _in_fork(args, 60.0)
+    fresh = run_contact(mode, "ball", {}, 1 / 240, isolated=True)
+    assert forked.status == "ok" and np.array_equal(forked.centres, fresh.centres)
+    crashed = _in_fork((mode, "ball", {"e": 7.0}, 1 / 240), 60.0)
+    assert crashed.status == "crashed" and "e=7" in crashed.detail
+    late = _in_fork(args, 1e-3)
+    assert late.status == "timed_out"

@@ -78,7 +78,7 @@ def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: flo
     import multiprocessing
 
     if multiprocessing.current_process().daemon:  # a nightly pool's worker may start no worker of its own
-        return _in_subprocess(args, timeout)
+        return _in_fork(args, timeout)
     from harness.execution.isolation import WorkerFailure, run_in_worker
 
     out = run_in_worker(_step_in_worker, args, timeout=timeout)
@@ -88,30 +88,53 @@ def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: flo
     return out
 
 
-def _in_subprocess(args: tuple, timeout: float) -> ContactRun:
-    """The run in a fresh Python process (``python -m harness.contact.one``): what a daemonic
-    process (a nightly pool's worker) uses for a mode that needs a process of its own."""
+
+def _in_fork(args: tuple, timeout: float) -> ContactRun:
+    """The run in a child forked from this process (``os.fork``: a daemonic process, a nightly
+    pool's worker, may start no ``multiprocessing`` worker of its own). The child inherits the
+    engine as imported, never as run: this process steps no mode that needs a process of its
+    own itself. It writes the run pickled to a file and exits; past ``timeout`` it is killed."""
     import os
     import pickle
-    import subprocess
-    import sys
+    import signal
     import tempfile
+    import time
 
     mode_id, scene_id, _, dt = args
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
     with tempfile.TemporaryDirectory(prefix="harness-contact-") as tmp:
         out = os.path.join(tmp, "run.pickle")
-        with open(os.path.join(tmp, "args.pickle"), "wb") as fh:
-            pickle.dump((args, out), fh)
-        try:
-            done = subprocess.run([sys.executable, "-m", "harness.contact.one", os.path.join(tmp, "args.pickle")],
-                                  cwd=tmp, env=env, capture_output=True, text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            return ContactRun.failed(scene_id, mode_id, dt, TIMED_OUT, f"no result within {timeout:g} s; process killed")
+        pid = os.fork()
+        if pid == 0:  # the child: never returns
+            code = 0
+            try:
+                os.chdir(tmp)
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, 1)
+                os.dup2(devnull, 2)
+                try:
+                    run = _step_in_worker(*args)
+                except Exception as exc:  # the engine's exception is the run's result
+                    run = ContactRun.failed(scene_id, mode_id, dt, CRASHED, f"{type(exc).__name__}: {exc}")
+                with open(out + ".tmp", "wb") as fh:
+                    pickle.dump(run, fh)
+                os.replace(out + ".tmp", out)
+            except BaseException:
+                code = 1
+            finally:
+                os._exit(code)
+        deadline = time.monotonic() + timeout
+        while True:
+            done, status = os.waitpid(pid, os.WNOHANG)
+            if done:
+                break
+            if time.monotonic() > deadline:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+                return ContactRun.failed(scene_id, mode_id, dt, TIMED_OUT, f"no result within {timeout:g} s; process killed")
+            time.sleep(0.002)
         if not os.path.exists(out):
-            tail = (done.stderr or done.stdout or "")[-500:].strip().splitlines()
-            return ContactRun.failed(scene_id, mode_id, dt, CRASHED,
-                                     f"the process exited {done.returncode}: {tail[-1] if tail else 'no output'}")
+            how = (f"killed by signal {os.WTERMSIG(status)}" if os.WIFSIGNALED(status)
+                   else f"exited {os.WEXITSTATUS(status)}")
+            return ContactRun.failed(scene_id, mode_id, dt, CRASHED, f"the process {how} without a result")
         with open(out, "rb") as fh:
             return pickle.load(fh)
