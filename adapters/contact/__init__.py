@@ -15,7 +15,9 @@ from __future__ import annotations
 
 from ._mode import ContactMode, record_loop, timed_loop
 from . import mujoco
+from . import drake, newton, rebound
 
 CONTACT_MODES: dict[str, ContactMode] = {**mujoco.MODES}
+CONTACT_MODES.update({**drake.MODES, **newton.MODES, **rebound.MODES})
 
 __all__ = ["CONTACT_MODES", "ContactMode", "record_loop", "timed_loop"]
