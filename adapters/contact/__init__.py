@@ -14,8 +14,9 @@ Importing this package imports no engine.
 from __future__ import annotations
 
 from ._mode import ContactMode, record_loop, timed_loop
-from . import mujoco, pybullet, pymunk
+from . import drake, mujoco, newton, pybullet, pymunk, rebound
 
-CONTACT_MODES: dict[str, ContactMode] = {**mujoco.MODES, **pybullet.MODES, **pymunk.MODES}
+CONTACT_MODES: dict[str, ContactMode] = {**mujoco.MODES, **pybullet.MODES, **pymunk.MODES, **drake.MODES,
+                                         **newton.MODES, **rebound.MODES}
 
 __all__ = ["CONTACT_MODES", "ContactMode", "record_loop", "timed_loop"]
