@@ -1,7 +1,7 @@
 """A contact run measured against its scene's analytic truth (``scenarios.contact``).
 
 * ball: the apexes are the largest recorded heights of the ball's lowest point between impacts
-  (an impact: the ball moving down, then up); restitution per bounce sqrt(H_n / H_(n-1)) and
+  (an impact: the ball moving down, then up, having risen since the impact before); restitution per bounce sqrt(H_n / H_(n-1)) and
   H_bounces / H0, never a velocity ratio read from samples, which is ambiguous by g h / v. A bounce
   gains energy where its apex exceeds the one before by more than ``Tolerances.gain``. A ball that
   stops bouncing has restitution 0 for the bounces it did not make.
@@ -25,20 +25,23 @@ from scenarios.contact import TOLERANCES, ContactScene, Tolerances
 STOPPED = 1e-3
 
 
-def apexes(z: np.ndarray, vz: np.ndarray, floor: float) -> tuple[list[float], list[int]]:
+def apexes(z: np.ndarray, vz: np.ndarray, lift: float) -> tuple[list[float], list[int]]:
     """The recorded maxima of ``z`` (heights above the plane) between impacts, and the steps of the
-    impacts themselves (the step where the velocity turns from down to up while touching: the
-    step before or the step itself at or below ``floor``, since a long step that reverses the
-    velocity may also carry the ball back out): apex 0 is the start, apex n the largest height
-    after impact n."""
+    impacts themselves: apex 0 is the start, apex n the largest height after impact n. An impact
+    is the velocity turning from down to up (in flight gravity never turns it) after the ball has
+    risen above ``lift`` since the impact before: a soft contact's chatter, which never lifts the
+    ball, is not a bounce; a long step that reverses the velocity far from the plane still is one."""
     impacts = []
-    down = False
+    down, lifted = False, bool(z[0] > lift)
     for i in range(1, len(z)):
+        if z[i] > lift:
+            lifted = True
         if vz[i] < 0.0:
             down = True
-        elif down and vz[i] > 0.0 and min(z[i - 1], z[i]) <= floor:
-            impacts.append(i)
-            down = False
+        elif down and vz[i] > 0.0:
+            if lifted:
+                impacts.append(i)
+            down, lifted = False, False
     heights = [float(z[0])]
     for j, i in enumerate(impacts):
         end = impacts[j + 1] if j + 1 < len(impacts) else len(z)
@@ -49,10 +52,9 @@ def apexes(z: np.ndarray, vz: np.ndarray, floor: float) -> tuple[list[float], li
 def ball_figures(scene, run: ContactRun, tol: Tolerances = TOLERANCES) -> dict:
     z = run.centres[:, 0, 2] - scene.radius
     vz = run.velocities[:, 0, 2]
-    # An impact happens within a contact layer: a penalty or soft contact lets the ball sink a
-    # little; a rebound whose lowest point is above this was not a touch of the plane.
-    floor = 0.05 * scene.h0 * scene.e ** (2 * scene.bounces) + 1e-3
-    heights, impacts = apexes(z, vz, floor)
+    # A bounce lifts the ball: a twentieth of the last apex the truth has, and a millimetre.
+    lift = 0.05 * scene.h0 * scene.e ** (2 * scene.bounces) + 1e-3
+    heights, impacts = apexes(z, vz, lift)
     n = scene.bounces
     h = heights[:n + 1] + [0.0] * (n + 1 - len(heights))
     e_n = [math.sqrt(max(h[i], 0.0) / h[i - 1]) if h[i - 1] > 0 else 0.0 for i in range(1, n + 1)]
