@@ -293,14 +293,18 @@ def engines_left_out(scene: str) -> tuple[str, ...]:
 #: the box at rest and the stack, each engine mode at every step of the ladder (1/2000 s to 1/60 s; the
 #: report shows 1/1000, 1/240 and 1/60), and the reference schemes on the penalty ground over the issue's
 #: grid of h*omega_c. The standard suite runs MuJoCo in its integrators with the pyramidal cone (and Euler
-#: with the elliptic), pybullet and pymunk; the full suite every mode and a longer ladder.
+#: with the elliptic), pybullet, pymunk, Drake's SAP and REBOUND; the full suite every mode and a longer
+#: ladder: Newton's Warp kernels step these scenes' bodies at a CPU second or more per simulated second
+#: (a ladder of one scene costs a minute), and Drake's TAMSI and continuous plants add little the
+#: standard suite's SAP does not show.
 CONTACT_SCENES = (("ball", {"e": 0.8}), ("ball", {"e": 1.0}), ("slide", {}), ("rest", {}), ("stack", {}))
 CONTACT_LADDER = (1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60)
 CONTACT_LADDER_FULL = (1 / 4000, 1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
 PENALTY_SCHEMES = ("ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocity_verlet", "ref:rk4",
                    "ref:implicit_midpoint", "ref:implicit_euler")
 STANDARD_CONTACT_MODES = ("mujoco:euler", "mujoco:implicitfast", "mujoco:rk4", "mujoco:discrete",
-                          "mujoco:euler?cone=elliptic", "pybullet:sequential_impulse", "pymunk:sequential_impulse")
+                          "mujoco:euler?cone=elliptic", "pybullet:sequential_impulse", "pymunk:sequential_impulse",
+                          "drake:sap", "rebound:hardsphere")
 CONTACT = {"scenes": CONTACT_SCENES, "modes": STANDARD_CONTACT_MODES, "ladder": CONTACT_LADDER,
            "penalty": PENALTY_SCHEMES, "penalty_scene": "penalty_ball"}
 CONTACT_FULL = {**CONTACT, "modes": None, "ladder": CONTACT_LADDER_FULL}
