@@ -9,7 +9,10 @@ grid's stiffest value (``seed_claims``; ``harness advise --sweep`` prints the sa
   an explicit search that ended first, on its cost or substep bound, needs at least its next level).
   ✓ where it does; ✗ where no implicit solve stays within it up to the most substeps searched, or
   an explicit scheme does at fewer than ``TINY`` times the implicit solve's substeps; not judged
-  where every implicit search ended on its cost bound before one did.
+  where every implicit search ended on its cost bound before one did. The claim is about
+  stability, not cost: where the searches leave it open, the stiffest value's implicit searches
+  that the cost bound cut are run on for it alone (``harness.measures.sweep.probe_survival``), so
+  that a machine's timings cannot turn it.
 * **the cheaper usable frame** (the accuracy tolerance too): the implicit family's cheapest frame
   that meets every tolerance is cheaper than the explicit family's (an explicit family whose
   searches all ended on the cost or the substep bound counts as dearer). ✓ / ✗ at the stiffest
@@ -94,8 +97,9 @@ def survives(points, param: str, energy_tol: float | None, accuracy: bool = True
                                   f"{_at(p, param)} ({tried})")
     s_i, m_i = steps[IMPLICIT][0]
     e_i = next(e for e in implicit if e.method == m_i)
+    probed = " (run past its search's cost bound for this claim alone)" if s_i in tuple(e_i.probed or ()) else ""
     said = (f"`{m_i}` stays within energy error ≤ {energy_tol:g} at {s_i} substep{'s' if s_i > 1 else ''}"
-            f"{_solve(e_i, e_i.substeps == s_i)}")
+            f"{probed}{_solve(e_i, e_i.substeps == s_i)}")
     tried = [e for e in p.entries if e.family == EXPLICIT]
     if not tried:
         return Claim(name, None, f"not judged: no explicit scheme was searched {_at(p, param)}; {said}")

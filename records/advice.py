@@ -103,6 +103,9 @@ class SweepEntry:
     #: (whatever its position error): the seed's first claim reads it (``harness.sweep_findings``).
     energy_substeps: int | None = None
     solve: str = ""                 # an implicit method's linear solve, in words (its library's and settings)
+    #: The levels run past the cost bound to find ``energy_substeps`` alone (the survival probe,
+    #: ``harness.measures.sweep.probe_survival``): the first claim is about stability, not cost.
+    probed: tuple = ()
 
     @property
     def rests_on_solve(self) -> bool:

@@ -385,3 +385,25 @@ def test_the_command_prints_both_claims_under_its_table_and_in_its_json():
     assert "`" not in lines[at + 1] + lines[at + 2]
     claims = sw.as_dict()["claims"]
     assert [c["ok"] for c in claims] == [True, True] and claims[0]["text"].endswith("(≥ the 10 x the claim asks)")
+
+
+def test_the_first_claim_probes_survival_past_the_cost_bound_so_timings_cannot_turn_it(tmp_path, monkeypatch):
+    """Implicit Euler made dear (injected) has its search cut by the cost bound before it runs a level;
+    at the stiffest value it is run on past the bound for the first claim alone, up to ten times fewer
+    substeps than the explicit schemes need, and survives there: ✓, said to be probed. Its frame and
+    cost stay the search's (not met)."""
+    from harness.sweep_findings import survives
+
+    path = tmp_path / "timings.json"
+    path.write_text(json.dumps({"s_per_step": {"ref:leapfrog": 1e-7, "ref:rk4": 4e-7, "*": 1e-2}}))
+    monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
+    cloth = make_scene("cloth", n=4, m=4)
+    request = Request(hz=60, horizon=2, energy_tol=0.5, max_substeps=16)
+    sw = run_sweep(cloth, parse_grid("k=1e5..1e6:2", cloth), request, ["ref:leapfrog", "ref:rk4", "ref:implicit_euler"],
+                   pool=False)
+    soft, stiff = sw.points
+    imp = {e.method: e for e in stiff.entries}["ref:implicit_euler"]
+    assert imp.ended == "cost" and imp.substeps is None and imp.probed and imp.energy_substeps == imp.probed[-1]
+    assert not {e.method: e for e in soft.entries}["ref:implicit_euler"].probed  # the stiffest value only
+    claim = survives(sw.points, "k", 0.5, accuracy=False)
+    assert claim.ok is True and "run past its search's cost bound" in claim.text

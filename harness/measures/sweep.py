@@ -220,14 +220,15 @@ def level(method, scene, request: Request, advice: MethodAdvice, substeps: int, 
 
 
 def sweep_value(scene, value: float, request: Request, methods: list, *, factor: float = FACTOR, cap: int = CAP,
-                call=None, timeout=None, injected=None) -> SweepPoint:
+                call=None, timeout=None, injected=None, survival: bool = False) -> SweepPoint:
     """Every method of ``methods`` (ids) at one value (``scene`` built at it), cheapest first:
     each method's levels 1, 2, 4, ... are run in the order of their frames' cost (substeps x the
     method's last pilot cost per step), so that the cheapest frame that meets the tolerances is
     found before any costlier level runs, and a level whose frame would pass ``factor`` times it
     is not run (``cost``); past ``cap`` substeps a search ends (``cap``). ``call(fn, args)`` runs
     one step of the search (default: in this process); where it has ``jobs`` > 1, that many of
-    the cheapest pending levels run side by side."""
+    the cheapest pending levels run side by side. ``survival``: the stiffest value's, where the
+    seed's first claim is judged: ``probe_survival`` runs after the search."""
     from harness.methods import active_plugins
 
     call = call or _in_process
@@ -292,7 +293,48 @@ def sweep_value(scene, value: float, request: Request, methods: list, *, factor:
             else:
                 pending[m] = 2 * s
     point.entries = [entries[m] for m in methods]
+    if survival:
+        probe_survival(point, scene, request, advices, call, timeout, injected, plugins)
     return point
+
+
+#: The seed's first claim asks an implicit solve to survive with steps this many times longer than
+#: the explicit schemes need (``harness.sweep_findings.TINY``).
+SURVIVAL_RATIO = 10
+
+
+def probe_survival(point: SweepPoint, scene, request: Request, advices: dict, call, timeout, injected,
+                   plugins=()) -> None:
+    """The seed's first claim is about stability, not cost: where no implicit solve is yet known
+    to stay within the energy tolerance at ``SURVIVAL_RATIO`` times fewer substeps than the explicit
+    schemes need, run the levels the cost bound cut of each implicit search that met nothing,
+    from its cut level up to that many fewer substeps, for ``energy_substeps`` alone (recorded in
+    ``probed``; the entry's frame, cost and verdict are the search's). Nothing runs where the claim
+    is settled either way by what was measured (a solve already survives there, or the explicit
+    need is too few for any)."""
+    explicit = [e for e in point.entries if e.family == "explicit"]
+    implicit = [e for e in point.entries if e.family == "implicit"]
+    if not explicit or not implicit or request.energy_tol is None:
+        return
+    needs = [e.energy_substeps if e.energy_substeps is not None else (e.next_substeps or 2 * max(e.searched, 1))
+             for e in explicit]
+    most = min(needs) // SURVIVAL_RATIO
+    if any(e.energy_substeps is not None and e.energy_substeps <= most for e in implicit) or most < 1:
+        return
+    for e in implicit:
+        if e.ended != "cost" or e.energy_substeps is not None or e.method not in advices:
+            continue
+        s = e.next_substeps or 1
+        while s <= most:
+            res = call_all(call, [(_level_one, (e.method, scene, request, advices[e.method], s, None, timeout, injected,
+                                                plugins))])[0]
+            if not isinstance(res, dict) or res["row"] is None:
+                break
+            e.probed = (*e.probed, s)
+            if within_energy(res["row"], request):
+                e.energy_substeps = s
+                break
+            s *= 2
 
 
 def within_energy(row, request: Request) -> bool:
@@ -475,12 +517,13 @@ def run_sweep(scene, grid: Grid, request: Request, patterns=None, *, factor: flo
 
         with WorkerPool(max(1, min(jobs, len(ids) or 1))) as workers:
             call = _PoolCall(workers, timeout, jobs)
-            for v, s in zip(grid.values, scenes):
+            for i, (v, s) in enumerate(zip(grid.values, scenes)):
                 points.append(sweep_value(s, v, request, ids, factor=factor, cap=cap, call=call, timeout=timeout,
-                                          injected=injected))
+                                          injected=injected, survival=i == len(scenes) - 1))
     else:
-        for v, s in zip(grid.values, scenes):
-            points.append(sweep_value(s, v, request, ids, factor=factor, cap=cap, timeout=timeout, injected=injected))
+        for i, (v, s) in enumerate(zip(grid.values, scenes)):
+            points.append(sweep_value(s, v, request, ids, factor=factor, cap=cap, timeout=timeout, injected=injected,
+                                      survival=i == len(scenes) - 1))
     scales = {s.length_scale for s in scenes}
     return Sweep(scene.id, {k: v for k, v in scene.values.items() if k != grid.param}, grid, request, factor, cap,
                  points, left, scales.pop() if len(scales) == 1 else None)
