@@ -18,7 +18,7 @@ from harness.sweep_findings import seed_claims
 
 def add_parser(sub):
     p = sub.add_parser("advise", help="the cheapest method and substeps that meet tolerances at a frame rate")
-    p.add_argument("scene")
+    p.add_argument("scene", help="a scene, or contact: the engines' ball, slide and stack (harness contact)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene parameter")
     p.add_argument("--hz", required=True, help="frames per unit of simulated time (60 for 60 Hz)")
     p.add_argument("--horizon", default=str(HORIZON), help=f"simulated time to hold the tolerances over "
@@ -62,6 +62,12 @@ def position_tolerance(text) -> tuple[float | str | None, float | None]:
 
 
 def run(args) -> int:
+    if args.scene == "contact":  # the contact scenes: which engine mode bounces, slides and rests, cheapest first
+        from harness.cli.contact import advise_contact, contact_modes_matching
+
+        hz = validate.positive_finite("--hz", args.hz)
+        patterns = [p.strip() for item in args.methods or () for p in item.split(",") if p.strip()]
+        return advise_contact(1.0 / hz, contact_modes_matching(patterns), as_json=args.json)
     error_tol, error_rel = position_tolerance(args.error_tol)
     request = Request(hz=args.hz, horizon=args.horizon, energy_tol=args.energy_tol, error_tol=error_tol,
                       max_substeps=args.max_substeps, error_rel=error_rel).checked()

@@ -84,18 +84,11 @@ def run(args) -> int:
         for m in chosen:
             if m not in modes:
                 raise InvalidInput(f"--modes: unknown contact mode {m!r} (valid: {', '.join(modes)})")
-    from harness.contact.study import advise, study
+    if args.advise:
+        return advise_contact(dts[0], chosen, {s: params[s] for s in scenes}, args.json)
+    from harness.contact.study import study
 
     df = study({s: params[s] for s in scenes}, chosen, dts)
-    if args.advise:
-        out = advise(df, dts[0])
-        if args.json:
-            json.dump(jsonable(out), sys.stdout, indent=1)
-            print()
-            return 0
-        for line in _advice_lines(out, df):
-            print(line)
-        return 0
     if args.json:
         json.dump(jsonable(df.to_dict(orient="records")), sys.stdout, indent=1)
         print()
@@ -138,7 +131,41 @@ def _lines(df):
         yield ""
 
 
-def _advice_lines(out, df):
+def advise_contact(dt: float, modes=None, scenes=None, as_json: bool = False) -> int:
+    """The contact advice at one step (``harness contact --advise``, ``harness advise contact``):
+    the modes within every tolerance on the ball, the slide and the stack, cheapest first."""
+    from scenarios.contact import make_contact_scene
+
+    from harness.contact.study import ADVICE_SCENES, advise, study
+
+    scenes = scenes or {s: dict(make_contact_scene(s).values) for s in ADVICE_SCENES}
+    out = advise(study(scenes, modes, [dt]), dt)
+    if as_json:
+        json.dump(jsonable(out), sys.stdout, indent=1)
+        print()
+        return 0
+    for line in _advice_lines(out):
+        print(line)
+    return 0
+
+
+def contact_modes_matching(patterns) -> list[str] | None:
+    """The contact modes ``patterns`` name (ids or shell patterns, ``mujoco:*``); None: every one."""
+    import fnmatch
+
+    from harness.contact.run import contact_modes
+
+    if not patterns:
+        return None
+    modes = list(contact_modes())
+    chosen = [m for m in modes if any(fnmatch.fnmatchcase(m, p) for p in patterns)]
+    missing = [p for p in patterns if not any(fnmatch.fnmatchcase(m, p) for m in modes)]
+    if missing:
+        raise InvalidInput(f"--methods: {missing[0]!r} names no contact mode (valid: {', '.join(modes)})")
+    return chosen
+
+
+def _advice_lines(out):
     yield (f"at dt = {out['dt']:.5g} s: within every tolerance on ball, slide and stack (cheapest first, engine "
            "loop CPU s per simulated s summed over the three):")
     for m in out["within"]:
@@ -146,7 +173,7 @@ def _advice_lines(out, df):
     if not out["within"]:
         yield "  none"
     for m, bad in sorted(out["failing"].items()):
-        yield f"  not {m}: outside a tolerance on {', '.join(bad)}"
+        yield f"  not {m}: " + "; ".join(f"{scene} ({', '.join(figs)})" for scene, figs in bad.items())
 
 
 def _penalty(args) -> int:

@@ -93,14 +93,16 @@ ADVICE_SCENES = ("ball", "slide", "stack")
 def advise(df, dt: float) -> dict:
     """At one step: the modes within every tolerance on every scene of ``ADVICE_SCENES`` they pose,
     cheapest first (the sum of their CPU per simulated second over those scenes), and those that
-    are not, with the scenes that fail. ``df``: ``study``'s rows."""
+    are not, with the scenes and figures that fail ({mode: {scene: [figures]}}). ``df``: ``study``'s
+    rows."""
     at = df[(df.dt - dt).abs() <= 1e-12 * dt]
     within_all, failing = [], {}
     for mode, rows in at.groupby("method"):
         posed = rows[rows.scene.isin(ADVICE_SCENES)]
         if set(posed.scene) != set(ADVICE_SCENES):
             continue
-        bad = sorted(posed[posed.within != True].scene)  # noqa: E712 (None: the run failed)
+        bad = {r.scene: (sorted(k for k, v in r.passes.items() if not v) if r.passes else [r.status])
+               for r in posed.itertuples() if r.within is not True}  # None: the run failed
         if bad:
             failing[mode] = bad
         else:
