@@ -203,7 +203,7 @@ def _penalty(args) -> int:
         return 0
     for e, rows in df.groupby("e", sort=False):
         print(f"e = {e:g} (omega_c = {omega_c:g} rad/s): mean restitution of five bounces; "
-              "+ gains energy, x blows up, ~ scatters, ! unconverged solve")
+              "+ gains energy, - loses it, x blows up, ~ scatters, ! unconverged solve; no mark: within")
         print(f"  {'scheme':26} " + " ".join(f"{g:>9g}" for g in grid))
         for m, r in rows.groupby("method", sort=False):
             by = {x.homega: x for _, x in r.iterrows()}
@@ -221,6 +221,6 @@ def _penalty(args) -> int:
 def _penalty_cell(r) -> str:
     if r.verdict == "blows up":
         return "x"
-    mark = {"within": "", "gains energy": "+", "scatters": "~", "dead": "dead", "loses energy": ""}[r.verdict]
+    mark = {"within": "", "gains energy": "+", "scatters": "~", "dead": "dead", "loses energy": "-"}[r.verdict]
     unconverged = r.unconverged is not None and r.unconverged == r.unconverged and r.unconverged > 0  # NaN: not solved
     return f"{r.mean_restitution:.3f}{mark}{'!' if unconverged else ''}"
