@@ -52,8 +52,9 @@ def apexes(z: np.ndarray, vz: np.ndarray, lift: float) -> tuple[list[float], lis
 def ball_figures(scene, run: ContactRun, tol: Tolerances = TOLERANCES) -> dict:
     z = run.centres[:, 0, 2] - scene.radius
     vz = run.velocities[:, 0, 2]
-    # A bounce lifts the ball: a twentieth of the last apex the truth has, and a millimetre.
-    lift = 0.05 * scene.h0 * scene.e ** (2 * scene.bounces) + 1e-3
+    # A bounce lifts the ball clear of a contact's chatter (a soft contact's sink, g / omega_c^2, is a
+    # fraction of a millimetre in every pose): a few millimetres of a metre's drop.
+    lift = 2e-3 + 1e-3 * scene.h0
     heights, impacts = apexes(z, vz, lift)
     n = scene.bounces
     h = heights[:n + 1] + [0.0] * (n + 1 - len(heights))
