@@ -124,9 +124,11 @@ def _tol_text(kind: str, tol: dict) -> str:
 
 
 def contact_chart(cells, scene: str, path) -> bool:
-    """The scene's figure against the step, one line per mode (log step axis): the mean
-    restitution for the ball (the requested e dashed), the stop distance for the slide (the truth
-    dashed), the penetration at rest."""
+    """The scene's figure against the step, one line per mode (log step axis): the first bounce's
+    restitution for the ball (the requested e dashed; clipped at 1.5, a run that gained energy at a
+    bounce circled: a mean over bounces would count a ball thrown four times its height and never
+    back within the run as e), the stop distance for the slide (the truth dashed), the penetration
+    at rest."""
     from . import charts
 
     plt = charts.plt
@@ -134,7 +136,7 @@ def contact_chart(cells, scene: str, path) -> bool:
     if not rows:
         return False
     kind = rows[0].figures.scene
-    key, label = {"ball": ("restitution", "mean restitution per bounce"), "slide": ("stop", "stop distance (m)"),
+    key, label = {"ball": ("restitution", "first bounce's restitution"), "slide": ("stop", "stop distance (m)"),
                   "rest": ("penetration", "penetration (m)"), "stack": ("penetration", "penetration (m)")}[kind]
     styles = charts.method_styles(c.method for c in rows)
     fig, ax = plt.subplots(figsize=(8, 4.5))
@@ -145,18 +147,24 @@ def contact_chart(cells, scene: str, path) -> bool:
             v = r.get(key)
             if r.get("status") != "ok" or v is None:
                 continue
-            v = sum(v) / len(v) if isinstance(v, list) and v else v
+            v = min(v[0], 1.5) if isinstance(v, list) and v else v
             if isinstance(v, (int, float)) and math.isfinite(v):
-                pts.append((r["dt"], v))
+                pts.append((r["dt"], v, bool(r.get("gained"))))
         if pts:
             drawn = True
             ax.plot([p[0] for p in pts], [p[1] for p in pts], label=c.method, markersize=4, **styles[c.method])
+            gains = [p for p in pts if p[2]]
+            if gains:
+                ax.plot([p[0] for p in gains], [p[1] for p in gains], linestyle="none", marker="o", markersize=10,
+                        markerfacecolor="none", color=styles[c.method].get("color"))
     if not drawn:
         plt.close(fig)
         return False
     truth = rows[0].figures.runs[0].get("truth", {})
     if kind == "ball":
         ax.axhline(truth.get("restitution", 1.0), color="0.4", linestyle="--", label="requested e")
+        ax.plot([], [], linestyle="none", marker="o", markersize=10, markerfacecolor="none", color="0.3",
+                label="energy gained at a bounce")
     elif kind == "slide":
         ax.axhline(truth.get("stop"), color="0.4", linestyle="--", label="v0²/(2 μ g)")
     else:
