@@ -97,6 +97,8 @@ UNSUPPORTED_ALL = {
             "relative angles mapped to the scene's Cartesian state)",
     "cloth_flex": "MuJoCo's flex membrane: Newton's triangles are another membrane law (tri_ke, tri_ka), not the "
                   "same model",
+    "penalty_ball": "the reference schemes' contact, a spring-dashpot under x = 0: Newton's own contact poses a "
+                    "ball in harness contact (adapters/contact/newton.py)",
 }
 
 #: Why a particle or maximal-coordinate solver runs no model file: the file's joints are the

@@ -88,15 +88,15 @@ class ContactFigures(Figures):
 
 @dataclass(frozen=True)
 class ContactCellFigures(Figures):
-    """The nightly's ``contact`` cell: one engine mode on one contact scene at every step of the
-    ladder (``harness.contact.run.LADDER``). ``runs``: each step's ``ContactFigures`` as stored
-    (``to_data``), with its ``status``; ``largest``: for each judged figure, the largest step of the
+    """The nightly's ``contact`` cell: one engine mode on one contact scene (``scene_params`` its
+    parameters) at every step of the ladder (``harness.contact.run.LADDER``). ``runs``: each step's
+    ``ContactFigures`` as stored (``to_data``), with its ``status``; ``largest``: for each judged figure, the largest step of the
     ladder at which it and every shorter step is ✓ (None: not even the shortest); the cell's value
     is the largest step at which every figure is. ``settings`` and ``doc``: the mode's contact
     settings and what it is."""
 
     scene: str = ""
-    params: dict = field(default_factory=dict)
+    scene_params: dict = field(default_factory=dict)
     runs: list = field(default_factory=list)
     largest: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)

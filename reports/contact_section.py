@@ -60,7 +60,7 @@ def contact_lines(scene: str, piv: dict) -> list[str]:
     kind = f0.scene
     figures = FIGURES[kind]
     truth = f0.runs[0].get("truth", {}) if f0.runs else {}
-    params = ", ".join(f"{k} = {v:g}" for k, v in f0.params.items()) or "the scene's defaults"
+    params = ", ".join(f"{k} = {v:g}" for k, v in f0.scene_params.items()) or "the scene's defaults"
     tol = f0.runs[0].get("tolerances", {}) if f0.runs else {}
     lines = [f"**Contact: `{kind}`** ({params}). Truth: " + _truth_text(kind, truth) + ". Tolerances: "
              + _tol_text(kind, tol) + ". CPU seconds per simulated second are the engine loop's alone "

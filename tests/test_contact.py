@@ -298,3 +298,15 @@ def test_a_run_that_needs_a_process_of_its_own_gets_one_from_a_pool_worker():
     assert crashed.status == "crashed" and "e=7" in crashed.detail
     late = _in_fork(args, 1e-3)
     assert late.status == "timed_out"
+
+
+def test_harness_list_names_the_contact_scenes_and_modes():
+    from harness.cli.list import contact_catalogue
+
+    cat = contact_catalogue()
+    assert set(cat["contact_scenes"]) == {"ball", "slide", "rest", "stack"}
+    assert cat["contact_scenes"]["ball"]["params"]["e"]["allowed"] == "[0, 1]"
+    modes = cat["contact_modes"]
+    assert {"mujoco:discrete", "pybullet:sequential_impulse", "pymunk:sequential_impulse", "drake:sap",
+            "newton:xpbd", "rebound:hardsphere"} <= set(modes)
+    assert "slide" in modes["rebound:hardsphere"]["unsupported"] and modes["mujoco:rk4"]["doc"]

@@ -127,10 +127,19 @@ def _dissipation(scene) -> dict:
             "derived": "critically damped about the resting load: d = 2 omega_c / g, tau = 2 / omega_c"}
 
 
+class _NoDeformableNote(logging.Filter):
+    """Drops the one warning a half space draws (deformable bodies, none here, cannot touch it) and
+    nothing else: Drake's log is process-wide, and its parser's warnings are what another adapter
+    reads (``adapters._drake_model.parser_warnings``)."""
+
+    def filter(self, record) -> bool:
+        return "half spaces are not currently supported for deformable contact" not in record.getMessage()
+
+
 def _quiet_drake() -> None:
-    # A half space is registered for every geometry role; Drake warns once that deformable bodies
-    # (none here) cannot touch it.
-    logging.getLogger("drake").setLevel(logging.ERROR)
+    log = logging.getLogger("drake")
+    if not any(isinstance(f, _NoDeformableNote) for f in log.filters):
+        log.addFilter(_NoDeformableNote())
 
 
 class _Pose:

@@ -37,7 +37,25 @@ def catalogue() -> dict:
         methods[mid] = entry
     listed = {m.name: {"doc": m.doc, "figures": m.figures.__name__, "made_by": m.made_by, "trend": m.trend,
                        "columns": [c.header for c in m.columns]} for m in measures()}
-    return {"scenes": scenes, "methods": methods, "measures": listed}
+    return {"scenes": scenes, "methods": methods, "measures": listed, **contact_catalogue()}
+
+
+def contact_catalogue() -> dict:
+    """The contact scenes (their parameters and truth) and the engines' contact modes (what each is,
+    the scenes it poses and why not the others), which ``harness contact`` runs."""
+    from scenarios.contact import CONTACT_SCENES
+
+    from harness.contact.run import contact_modes
+
+    scenes = {sid: {"title": cls.title, "params": {k: {"value": p.default, "allowed": p.allowed()}
+                                                    for k, p in cls.params.items()}}
+              for sid, cls in CONTACT_SCENES.items()}
+    modes = {}
+    for mid, mode in contact_modes().items():
+        ok, why = mode.available()
+        modes[mid] = {"doc": mode.doc, "available": ok, "scenes": list(mode.scenes),
+                      "unsupported": dict(mode.unsupported), **({} if ok else {"unavailable_reason": why})}
+    return {"contact_scenes": scenes, "contact_modes": modes}
 
 
 def run(args) -> int:
@@ -52,6 +70,16 @@ def run(args) -> int:
         if s["model_note"]:
             print(f"  {'':16s} {s['model_note']}")
         print(f"  {'':16s} omega={s['omega']:.4g} (h*omega at 60 Hz: {s['omega'] / 60.0:.3g})  params: {params}")
+    print("\nContact scenes (harness contact)")
+    for sid, s in cat["contact_scenes"].items():
+        params = ", ".join(f"{k}={v['value']:g} {v['allowed']}" for k, v in s["params"].items())
+        print(f"  {sid:16s} {s['title']}\n  {'':16s} params: {params}")
+    print("\nContact modes")
+    for mid, m in cat["contact_modes"].items():
+        state = "" if m["available"] else f"  [unavailable: {m['unavailable_reason']}]"
+        print(f"  {mid:42s} {m['doc'].splitlines()[0] if m['doc'] else ''}{state}")
+        for s, r in m["unsupported"].items():
+            print(f"  {'':42s}   unsupported on {s}: {r}")
     print("\nMeasures")
     for name, m in cat["measures"].items():
         print(f"  {name:22s} {m['doc']}" + (f" (made by the {m['made_by']} run)" if m["made_by"] else ""))

@@ -54,7 +54,7 @@ def contact_task(task) -> list:
     status = "ok" if ok else "crashed"
     detail = "" if ok else "; ".join(sorted({f.detail or "" for f in runs}))[:500]
     version = next((f.settings.get("version") for f in runs if f.settings.get("version")), None)
-    figures = ContactCellFigures(scene=scene_of_cell(task.scene), params=dict(task.params),
+    figures = ContactCellFigures(scene=scene_of_cell(task.scene), scene_params=dict(task.params),
                                  runs=[plain({**f.to_data(), "status": _status(f)}) for f in runs],
                                  largest=best, settings=plain(dict(mode.settings)), doc=mode.doc or None,
                                  engine_version=version)
