@@ -38,9 +38,11 @@ def solve(q, v, t, p, alpha, beta, r):
 
 def zeta_for(e: float) -> float:
     """The damping ratio whose spring-dashpot restores the fraction e of the speed (gravity
-    neglected in the contact)."""
+    neglected in the contact); 1, critical damping, where e = 0 (no rebound)."""
     if e >= 1.0:
         return 0.0
+    if e <= 0.0:
+        return 1.0
     lg = math.log(e)
     return -lg / math.sqrt(math.pi ** 2 + lg * lg)
 

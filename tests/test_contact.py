@@ -216,7 +216,7 @@ def _suite(**contact):
 def test_the_nightly_contact_and_penalty_cells():
     from harness.judge import judge
     from harness.nightly.cells import run_task
-    from harness.nightly.run import Task, build_tasks
+    from harness.nightly.run import build_tasks
 
     suite = _suite(penalty=("ref:semi_implicit_euler", "ref:implicit_euler"), grid=(1.0,))
     tasks, _ = build_tasks(dataclasses.replace(suite, bounds=False, scenes={}))

@@ -16,9 +16,9 @@ iterations are checked against its cap after every step.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
+
+from scenarios.penalty_ball import zeta_for
 
 from .._engine import import_engine
 from ._mode import ContactMode, record_loop, timed_loop
@@ -34,16 +34,6 @@ OMEGA_C = 200.0
 IMPEDANCE = 0.9999
 SOLVER_ITERATIONS = 100
 SOLVER_TOLERANCE = 1e-10
-
-
-def zeta_for(e: float) -> float:
-    """The damping ratio whose linear spring-dashpot restores a fraction e of the speed."""
-    if e <= 0.0:
-        return 1.0
-    if e >= 1.0:
-        return 0.0
-    lg = math.log(e)
-    return -lg / math.sqrt(math.pi ** 2 + lg * lg)
 
 
 def _requested_e(scene) -> float:
