@@ -28,7 +28,6 @@ The engine's loop is a Python loop of ``stepSimulation`` alone (Bullet has none 
 """
 from __future__ import annotations
 
-
 import numpy as np
 
 from .._engine import engine_version, import_engine
