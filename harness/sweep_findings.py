@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from records.advice import family_name
+from records.advice import family_crossover, family_name
 from records.findings import MARK, Finding
 
 #: The seed's claim, as the findings quote it.
@@ -124,15 +124,13 @@ def survives(points, param: str, energy_tol: float | None, accuracy: bool = True
 
 
 def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
-    from harness.measures.sweep import family_costs, family_crossover
-
     name = "implicit Euler is the cheaper usable frame (accuracy tolerance too)"
     if not accuracy:
         return Claim(name, None, "not judged: the sweep asked no accuracy tolerance (the energy alone)")
     p = points[-1]
     if not any(e.family == IMPLICIT for e in p.entries):
         return Claim(name, None, f"not judged: no implicit solve was searched {_at(p, param)}")
-    costs = family_costs(p)
+    costs = p.family_costs()
     imp, exp = costs.get(IMPLICIT), costs.get(EXPLICIT)
     bounded = [e for e in p.entries if e.family == EXPLICIT and e.ended in ("cost", "cap")]
     if imp is None and exp is None:

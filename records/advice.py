@@ -3,6 +3,7 @@ substeps (``harness.measures.advise`` measures them; the nightly stores them in 
 the report and ``harness advise`` print them)."""
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 from typing import ClassVar
 
@@ -130,6 +131,13 @@ class SweepPoint:
         ok = [e for e in self.entries if e.ended == "met" and e.cost_per_frame_s is not None]
         return sorted(ok, key=lambda e: (e.cost_per_frame_s, e.method))
 
+    def family_costs(self) -> dict[str, SweepEntry]:
+        """Each family's cheapest entry that meets the tolerances at this value."""
+        out: dict[str, SweepEntry] = {}
+        for e in self.met:
+            out.setdefault(e.family, e)
+        return out
+
     @property
     def cheapest(self) -> SweepEntry | None:
         met = self.met
@@ -209,3 +217,54 @@ class SweepFigures(Figures):
 
     def sweep_crossovers(self) -> list[Crossover]:
         return [Crossover(**c) for c in self.crossovers or []]
+
+
+# ----------------------------------------------------------------------------- the crossover
+def crossovers(points: list[SweepPoint]) -> list[Crossover]:
+    """Where the cheapest method's family changes between neighbouring values of the grid
+    (``harness.measures.sweep``'s docstring): one ``Crossover`` per change, in grid order. A value where no method
+    meets the tolerances breaks the chain (no change is read across it)."""
+    out = []
+    for a, b in zip(points, points[1:]):
+        ca, cb = a.cheapest, b.cheapest
+        if ca is None or cb is None or ca.family == cb.family:
+            continue
+        fa, fb = a.family_costs(), b.family_costs()
+        t, interpolated = 0.5, False
+        old, new = ca.family, cb.family
+        if all(f in costs for f in (old, new) for costs in (fa, fb)):
+            d0 = math.log(fa[old].cost_per_frame_s / fa[new].cost_per_frame_s)  # < 0: the old family cheaper
+            d1 = math.log(fb[old].cost_per_frame_s / fb[new].cost_per_frame_s)  # > 0: the new one
+            if d0 < 0.0 < d1:
+                t, interpolated = d0 / (d0 - d1), True
+        value = math.exp(math.log(a.value) + t * (math.log(b.value) - math.log(a.value)))
+        homega = math.exp(math.log(a.homega_one) + t * (math.log(b.homega_one) - math.log(a.homega_one)))
+        out.append(Crossover(a.value, b.value, old, new, ca.method, cb.method, value, homega, interpolated))
+    return out
+
+
+def family_crossover(points: list[SweepPoint], a: str, b: str) -> Crossover | None:
+    """Where family ``b``'s cheapest frame first becomes cheaper than family ``a``'s, ``a`` cheaper
+    at the value before (whatever a third family does): interpolated log-log as ``crossovers``.
+    A family with no frame that meets the tolerances at a value but whose search ended on the
+    cost or the cap bound there counts as dearer than every frame met; None where ``b`` never
+    takes over from ``a`` on the grid."""
+    def cost(p, fam):
+        e = p.family_costs().get(fam)
+        if e is not None:
+            return e.cost_per_frame_s, e.method
+        bounded = any(x.family == fam and x.ended in ("cost", "cap") for x in p.entries)
+        return (math.inf, None) if bounded else (None, None)
+
+    for p, q in zip(points, points[1:]):
+        (a0, ma), (b0, _), (a1, _), (b1, mb) = cost(p, a), cost(p, b), cost(q, a), cost(q, b)
+        if None in (a0, b0, a1, b1) or not (a0 < b0 and b1 < a1):
+            continue
+        t, interpolated = 0.5, False
+        if all(math.isfinite(x) for x in (a0, b0, a1, b1)):
+            d0, d1 = math.log(a0 / b0), math.log(a1 / b1)
+            t, interpolated = d0 / (d0 - d1), True
+        value = math.exp(math.log(p.value) + t * (math.log(q.value) - math.log(p.value)))
+        homega = math.exp(math.log(p.homega_one) + t * (math.log(q.homega_one) - math.log(p.homega_one)))
+        return Crossover(p.value, q.value, a, b, ma, mb, value, homega, interpolated)
+    return None

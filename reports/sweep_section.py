@@ -67,7 +67,7 @@ def sweep_section(scene: str, piv: dict) -> list[str]:
                   f"| {f.param} | h·ω at 1 substep | " + " | ".join(family_name(k) for k in families) + " | cheapest |",
                   "|---|---|" + "---|" * len(families) + "---|"]
         for p in points:
-            from_family = _family_costs(p)
+            from_family = p.family_costs()
             cols = [(f"`{e.method}` {e.substeps} × = {_us(e.cost_per_frame_s)} (E {_fmt(e.energy_error, '.2g')}, "
                      f"x {_fmt(e.position_error, '.2g')}){RESTS if e.rests_on_solve else ''}" if e else "–")
                     for e in (from_family.get(k) for k in families)]
@@ -94,13 +94,6 @@ def sweep_section(scene: str, piv: dict) -> list[str]:
 
 #: The mark of a pick whose win rests on its solve's own error (escaped: a bare * is emphasis in markdown).
 RESTS = " \\*"
-
-
-def _family_costs(point) -> dict:
-    out: dict = {}
-    for e in point.met:
-        out.setdefault(e.family, e)
-    return out
 
 
 #: What the section says of each bound that ended a search.
@@ -158,7 +151,7 @@ def sweep_chart(cells, scene: str, path) -> bool:
                 ax.scatter(*zip(*cut), marker="^", facecolors="none", edgecolors=style["color"], s=22, linewidths=0.8)
         families = list(dict.fromkeys(e.family for p in points for e in p.entries))
         for k in families:
-            band = [(p.value, _family_costs(p)[k].cost_per_frame_s * 1e6) for p in points if k in _family_costs(p)]
+            band = [(p.value, p.family_costs()[k].cost_per_frame_s * 1e6) for p in points if k in p.family_costs()]
             if band:
                 ax.plot(*zip(*band), color=FAMILY_COLOURS.get(k, "0.5"), linewidth=7, alpha=0.18,
                         solid_capstyle="round", label=f"cheapest: {family_name(k)}")

@@ -11,7 +11,7 @@ from scenarios import make_scene, parse_overrides
 
 from harness import validate
 from harness.measures.advise import ERROR_REL, HORIZON, MAX_SUBSTEPS, Request, advise, rests_on_solve, solve_note
-from harness.measures.sweep import CAP, CLOCK, FACTOR, POINTS, family_costs, family_name, parse_grid, run_sweep
+from harness.measures.sweep import CAP, CLOCK, FACTOR, POINTS, family_name, parse_grid, run_sweep
 from harness.cli.measure_args import emit
 from harness.sweep_findings import seed_claims
 
@@ -199,7 +199,7 @@ def sweep_lines(sw):
     families = list(dict.fromkeys(e.family for p in sw.points for e in p.entries))
     cells = []
     for p in sw.points:
-        costs = family_costs(p)
+        costs = p.family_costs()
         cells.append([_pick(e) if e else "-" for e in (costs.get(f) for f in families)])
     w = [max([len(family_name(f))] + [len(row[i]) for row in cells]) for i, f in enumerate(families)]
     yield (f"  {g.param:>9s} {'h*omega@1':>9s}  " + "  ".join(f"{family_name(f):{w[i]}s}" for i, f in enumerate(families))
