@@ -11,6 +11,9 @@ from .trajectory import CRASHED, OK, TIMED_OUT, UNSTABLE
 
 STATUSES = (OK, UNSTABLE, CRASHED, TIMED_OUT)
 
+#: The three steps every contact mode is reported at (s): the harness's runs and the report's tables.
+REPORT_DTS = (1 / 1000, 1 / 240, 1 / 60)
+
 
 @dataclass
 class ContactRun:
@@ -62,11 +65,13 @@ class ContactFigures(Figures):
     stopped, m), ``stop_time`` (s), ``creep`` (what it moved after, m); rest and stack:
     ``penetration``, ``drift`` (m), ``kinetic`` (J, at the end). ``cpu_per_s``: the engine loop's
     CPU seconds per simulated second. ``truth``: the scene's analytic figures; ``settings``: the
-    engine's contact settings as the pose stated them."""
+    engine's contact settings as the pose stated them; ``status`` the run's (``detail`` says where
+    and why a run failed) and ``engine_version`` the engine release that ran."""
 
     scene: str = ""
     params: dict = field(default_factory=dict)
     dt: float | None = None
+    status: str = OK
     restitution: list | None = None
     apex_ratio: float | None = None
     gained: list | None = None
@@ -84,6 +89,7 @@ class ContactFigures(Figures):
     passes: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
     detail: str | None = None
+    engine_version: str | None = None
 
 
 @dataclass(frozen=True)

@@ -8,10 +8,9 @@ from __future__ import annotations
 
 import math
 
-from .text import fmt
+from records.contact import REPORT_DTS
 
-#: The steps the report shows every mode at (a subset of the ladder).
-REPORT_DTS = (1 / 1000, 1 / 240, 1 / 60)
+from .text import fmt
 
 #: Per scene: (heading, the figures of a row), each figure (label, key, how it is printed).
 FIGURES = {
@@ -19,9 +18,8 @@ FIGURES = {
              ("gained at", "gained", "bounces")),
     "slide": (("stop distance (m)", "stop", "num"), ("creep (m)", "creep", "num")),
     "rest": (("penetration (m)", "penetration", "num"), ("drift (m)", "drift", "num"), ("kinetic (J)", "kinetic", "num")),
-    "stack": (("penetration (m)", "penetration", "num"), ("drift (m)", "drift", "num"),
-              ("kinetic (J)", "kinetic", "num")),
 }
+FIGURES["stack"] = FIGURES["rest"]
 TRUTH = {"ball": ("apex_ratio", "H5/H0 = e^10"), "slide": ("stop", "v0²/(2 μ g)")}
 
 

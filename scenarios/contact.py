@@ -76,6 +76,10 @@ class ContactScene:
                                f"(valid: {', '.join(self.params)})")
         self.values = {name: spec.check(name, overrides.get(name, spec.default))
                        for name, spec in self.params.items()}
+        self._validate()
+
+    def _validate(self) -> None:
+        """Cross-parameter checks; raise InvalidInput."""
 
     def __getattr__(self, name):
         values = self.__dict__.get("values", {})
@@ -169,10 +173,6 @@ class Slide(ContactScene):
     def _validate(self):
         if self.mu == 0.0:
             raise InvalidInput("parameter mu=0 never stops the box (allowed: (0, 1] for the slide)")
-
-    def __init__(self, **overrides):
-        super().__init__(**overrides)
-        self._validate()
 
     @property
     def duration(self) -> float:

@@ -122,7 +122,7 @@ def _lines(df):
             + "  verdict      CPU s/s"
         for _, r in rows.iterrows():
             if r.status != "ok":
-                yield f"  {r.method:32} {r['dt']:8.5f}  {r.detail}"
+                yield f"  {r.method:32} {r['dt']:8.5f}  {r.status}: {r.detail}"
                 continue
             failed = sorted(k for k, v in r.passes.items() if not v)
             verdict = "within" if not failed else "x " + ",".join(failed)

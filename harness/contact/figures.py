@@ -107,8 +107,9 @@ def contact_figures(scene: ContactScene, run: ContactRun, tol: Tolerances = TOLE
     """The run's figures against the scene's truth (all None but the settings where it failed)."""
     from dataclasses import asdict
 
-    common = dict(scene=scene.id, params=dict(scene.values), dt=run.dt, truth=scene.truth(),
-                  tolerances=asdict(tol), settings=dict(run.settings), loop=run.loop or None)
+    common = dict(scene=scene.id, params=dict(scene.values), dt=run.dt, status=run.status, truth=scene.truth(),
+                  tolerances=asdict(tol), settings=dict(run.settings), loop=run.loop or None,
+                  engine_version=run.engine_version)
     if run.status != OK:
         return ContactFigures(**common, detail=run.detail)
     got = MEASURE[scene.id](scene, run, tol)

@@ -5,16 +5,13 @@ why), never a dead harness. A mode whose settings are process-wide (``ContactMod
 gets a fresh worker for every run; the others may share the caller's (a nightly task's worker)."""
 from __future__ import annotations
 
-import importlib
 import math
 
 from records import InvalidInput
-from records.contact import ContactRun
+from records.contact import REPORT_DTS, ContactRun  # noqa: F401 (the steps every mode is reported at)
 from records.trajectory import CRASHED, TIMED_OUT
 
-#: The three steps every mode is reported at, and the ladder its largest step in tolerance is
-#: searched on (s).
-REPORT_DTS = (1 / 1000, 1 / 240, 1 / 60)
+#: The ladder of steps each mode's largest step in tolerance is searched on (s).
 LADDER = (1 / 4000, 1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
 
 #: Seconds one run may take.
@@ -48,10 +45,7 @@ def check_dt(dt) -> float:
 def _step_in_worker(mode_id: str, scene_id: str, params: dict, dt: float) -> ContactRun:
     from scenarios.contact import make_contact_scene
 
-    mode = get_mode(mode_id)
-    scene = make_contact_scene(scene_id, **params)
-    module = importlib.import_module(mode.run.__module__)
-    return getattr(module, mode.run.__name__)(mode, scene, dt)
+    return get_mode(mode_id).run(get_mode(mode_id), make_contact_scene(scene_id, **params), dt)
 
 
 def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: float = 1 / 240,

@@ -23,25 +23,8 @@ def measure_mode(mode_id: str, scene_id: str, params: dict | None = None, dts=LA
     from .run import TIMEOUT_S
 
     scene = make_contact_scene(scene_id, **(params or {}))
-    out = []
-    for dt in dts:
-        run = run_contact(mode_id, scene_id, params, dt, timeout=timeout or TIMEOUT_S, isolated=isolated)
-        figures = contact_figures(scene, run)
-        out.append(figures if run.status == "ok" else _failed(figures, run))
-    return out
-
-
-def _failed(figures: ContactFigures, run) -> ContactFigures:
-    from dataclasses import replace
-
-    return replace(figures, detail=f"{run.status}: {run.detail}")
-
-
-def status_of(figures: ContactFigures) -> str:
-    """ok, or the failed run's status (the first word of its detail)."""
-    if figures.passes:
-        return "ok"
-    return (figures.detail or "crashed:").split(":")[0]
+    return [contact_figures(scene, run_contact(mode_id, scene_id, params, dt, timeout=timeout or TIMEOUT_S,
+                                               isolated=isolated)) for dt in dts]
 
 
 def largest(runs: list[ContactFigures]) -> dict:
@@ -80,7 +63,7 @@ def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = 
 
 def row_of(mode_id: str, f: ContactFigures) -> dict:
     d = asdict(f)
-    return {"scene": f.scene, "method": mode_id, "dt": f.dt, "status": status_of(f), "within": within(f), **{
+    return {"scene": f.scene, "method": mode_id, "dt": f.dt, "status": f.status, "within": within(f), **{
         k: d[k] for k in ("restitution", "apex_ratio", "gained", "stop", "creep", "penetration", "drift", "kinetic",
                           "cpu_per_s", "detail", "passes", "settings", "params", "truth")}}
 

@@ -52,19 +52,13 @@ def contact_task(task) -> list:
     best = largest(runs)
     ok = [f for f in runs if f.passes]
     status = "ok" if ok else "crashed"
-    detail = "" if ok else "; ".join(sorted({f.detail or "" for f in runs}))[:500]
-    version = next((f.settings.get("version") for f in runs if f.settings.get("version")), None)
+    detail = "" if ok else "; ".join(sorted({f"{f.status}: {f.detail}" for f in runs}))[:500]
+    version = next((f.engine_version for f in runs if f.engine_version), None)
     figures = ContactCellFigures(scene=scene_of_cell(task.scene), scene_params=dict(task.params),
-                                 runs=[plain({**f.to_data(), "status": _status(f)}) for f in runs],
+                                 runs=[plain(f.to_data()) for f in runs],
                                  largest=best, settings=plain(dict(mode.settings)), doc=mode.doc or None,
                                  engine_version=version)
     return [make_cell(task, "contact", status, best.get("all"), None, detail=detail, figures=figures)]
-
-
-def _status(f) -> str:
-    from harness.contact.study import status_of
-
-    return status_of(f)
 
 
 def penalty_task(task) -> list:
