@@ -310,3 +310,17 @@ def test_harness_list_names_the_contact_scenes_and_modes():
     assert {"mujoco:discrete", "pybullet:sequential_impulse", "pymunk:sequential_impulse", "drake:sap",
             "newton:xpbd", "rebound:hardsphere"} <= set(modes)
     assert "slide" in modes["rebound:hardsphere"]["unsupported"] and modes["mujoco:rk4"]["doc"]
+
+
+def test_the_advice_ranks_modes_within_every_tolerance_by_their_summed_cost():
+    from harness.contact.study import rank
+
+    ok = {"passes": {"restitution": True}, "status": "ok"}
+    by_mode = {"a": {"ball": {**ok, "cpu_per_s": 3.0}, "stack": {**ok, "cpu_per_s": 1.0}},
+               "b": {"ball": {**ok, "cpu_per_s": 1.0}, "stack": {**ok, "cpu_per_s": 1.0}},
+               "c": {"ball": {"passes": {"restitution": False, "gain": True}, "status": "ok", "cpu_per_s": 0.1},
+                     "stack": {"passes": {}, "status": "unstable", "cpu_per_s": None}},
+               "d": {"ball": {**ok, "cpu_per_s": 0.1}}}  # does not pose the stack: not advised either way
+    fine, failing = rank(by_mode, ("ball", "stack"))
+    assert fine == [(2.0, "b"), (4.0, "a")]
+    assert failing == {"c": {"ball": ["restitution"], "stack": ["unstable"]}}

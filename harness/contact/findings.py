@@ -85,22 +85,19 @@ def _first_ball(piv) -> str | None:
 def _advice(piv) -> Finding:
     """At 60 Hz, the modes within every tolerance on a ball, the slide and the stack, cheapest first
     (the sum of the engine loop's CPU per simulated second over the three)."""
-    by_mode: dict[str, dict[str, dict | None]] = {}
+    from .study import ADVICE_SCENES, rank
+
+    by_mode: dict[str, dict[str, dict]] = {}
     for (s, m), ms in piv.items():
         c = ms.get("contact")
-        if c is None or c.status != "ok":
+        if c is None or c.status != "ok" or c.figures.scene not in ADVICE_SCENES:
             continue
-        kind = c.figures.scene
-        if kind in ("ball", "slide", "stack"):
-            by_mode.setdefault(m, {})[s] = _at(c.figures.runs, ADVICE_DT)
-    kinds_needed = {s for (s, _), ms in piv.items() if "contact" in ms
-                    and ms["contact"].figures.scene in ("ball", "slide", "stack")}
-    fine = []
-    for m, runs in by_mode.items():
-        if set(runs) != kinds_needed:
-            continue
-        if all(r is not None and r.get("passes") and all(r["passes"].values()) for r in runs.values()):
-            fine.append((sum(r.get("cpu_per_s") or 0.0 for r in runs.values()), m))
+        r = _at(c.figures.runs, ADVICE_DT)
+        if r is not None:
+            by_mode.setdefault(m, {})[s] = r
+    kinds_needed = sorted({s for (s, _), ms in piv.items() if "contact" in ms
+                           and ms["contact"].figures.scene in ADVICE_SCENES})
+    fine, _ = rank(by_mode, kinds_needed)
     if not fine:
         return Finding(f"{MARK} Advice at 60 Hz: no engine mode bounces, slides and rests within every tolerance "
                        f"({', '.join(sorted(kinds_needed))}).", False)

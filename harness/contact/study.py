@@ -73,22 +73,30 @@ def row_of(mode_id: str, f: ContactFigures) -> dict:
 ADVICE_SCENES = ("ball", "slide", "stack")
 
 
-def advise(df, dt: float) -> dict:
-    """At one step: the modes within every tolerance on every scene of ``ADVICE_SCENES`` they pose,
-    cheapest first (the sum of their CPU per simulated second over those scenes), and those that
-    are not, with the scenes and figures that fail ({mode: {scene: [figures]}}). ``df``: ``study``'s
-    rows."""
-    at = df[(df.dt - dt).abs() <= 1e-12 * dt]
-    within_all, failing = [], {}
-    for mode, rows in at.groupby("method"):
-        posed = rows[rows.scene.isin(ADVICE_SCENES)]
-        if set(posed.scene) != set(ADVICE_SCENES):
+def rank(by_mode: dict[str, dict[str, dict]], needed) -> tuple[list[tuple[float, str]], dict]:
+    """The advice's rule, on each mode's run at one step per scene ({mode: {scene: run}}, a run
+    with its ``passes``, ``status`` and ``cpu_per_s``): the modes that pose every scene of
+    ``needed`` and are within every tolerance on each, as (the sum of their CPU per simulated
+    second over those scenes, mode), cheapest first; and the others, with the scenes and figures
+    that fail ({mode: {scene: [figures]}}; a failed run's status in place of its figures)."""
+    fine, failing = [], {}
+    for mode, runs in by_mode.items():
+        if not set(needed) <= set(runs):
             continue
-        bad = {r.scene: (sorted(k for k, v in r.passes.items() if not v) if r.passes else [r.status])
-               for r in posed.itertuples() if r.within is not True}  # None: the run failed
+        bad = {s: (sorted(k for k, v in r["passes"].items() if not v) if r["passes"] else [r["status"]])
+               for s, r in runs.items() if s in needed and not (r["passes"] and all(r["passes"].values()))}
         if bad:
             failing[mode] = bad
         else:
-            within_all.append((float(posed.cpu_per_s.sum()), mode))
-    return {"dt": dt, "within": [m for _, m in sorted(within_all)],
-            "cost": {m: c for c, m in within_all}, "failing": failing, "tolerances": asdict(TOLERANCES)}
+            fine.append((sum(runs[s]["cpu_per_s"] or 0.0 for s in needed), mode))
+    return sorted(fine), failing
+
+
+def advise(df, dt: float) -> dict:
+    """At one step: ``rank`` over ``ADVICE_SCENES`` (``df``: ``study``'s rows)."""
+    at = df[(df.dt - dt).abs() <= 1e-12 * dt]
+    by_mode = {mode: {r.scene: {"passes": r.passes, "status": r.status, "cpu_per_s": r.cpu_per_s}
+                      for r in rows.itertuples()} for mode, rows in at.groupby("method")}
+    fine, failing = rank(by_mode, ADVICE_SCENES)
+    return {"dt": dt, "within": [m for _, m in fine], "cost": {m: c for c, m in fine}, "failing": failing,
+            "tolerances": asdict(TOLERANCES)}
