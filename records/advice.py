@@ -222,8 +222,8 @@ class SweepFigures(Figures):
 # ----------------------------------------------------------------------------- the crossover
 def crossovers(points: list[SweepPoint]) -> list[Crossover]:
     """Where the cheapest method's family changes between neighbouring values of the grid
-    (``harness.measures.sweep``'s docstring): one ``Crossover`` per change, in grid order. A value where no method
-    meets the tolerances breaks the chain (no change is read across it)."""
+    (``harness.measures.sweep``'s docstring): one ``Crossover`` per change, in grid order. No change
+    is read across a value where no method meets the tolerances."""
     out = []
     for a, b in zip(points, points[1:]):
         ca, cb = a.cheapest, b.cheapest
