@@ -213,3 +213,32 @@ def test_a_pool_worker_whose_caller_is_killed_removes_its_folder_and_one_let_go_
     while folder.exists() and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not folder.exists()
+
+
+#: In a fresh process: a run that names its engines has a forkserver that imports those and no
+#: other, the first choice standing; the workers' sys.modules say what the server imported.
+NARROWED = """
+from harness.execution import isolation
+from tests.test_isolation import imported
+isolation.preload_engines({"pymunk"})
+isolation.preload_engines({"mujoco", "newton"})
+print(isolation.run_in_worker(imported, (("pymunk", "mujoco", "newton"),), timeout=60))
+"""
+
+
+def imported(names) -> list:
+    import sys
+
+    return [n for n in names if n in sys.modules]
+
+
+def test_a_run_that_names_its_engines_preloads_those_alone_and_the_first_choice_stands():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-c", NARROWED], cwd=root, capture_output=True, text=True, timeout=120,
+                         env={**os.environ, "PYTHONPATH": str(root)})
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split("\n")[-2] == "['pymunk']"

@@ -63,6 +63,23 @@ class WorkerFailure:
 
 _CONTEXT = None
 _LOCK = threading.Lock()
+#: The engine modules the forkserver imports (``preload_engines``); None: every installed engine.
+_ENGINES: tuple[str, ...] | None = None
+#: How ``preload_engines`` hands its choice to the server, which reads it as it starts.
+ENGINES_ENV = "HARNESS_PRELOAD_ENGINES"
+
+
+def preload_engines(modules) -> None:
+    """Have the forkserver import only these engine modules (``adapters`` modules, as
+    ``EngineMode.module`` names them): a run that knows its methods (a nightly of its suite) does
+    not pay an import of every installed engine in its server (Newton's is seconds). A worker still
+    imports any other engine it needs, on first use, each time. The first choice in a process
+    stands, and none is made once the server runs: a process whose server serves many runs of
+    different engines (a test session) names them all first."""
+    global _ENGINES
+    with _LOCK:
+        if _ENGINES is None and _CONTEXT is None:
+            _ENGINES = tuple(sorted(set(modules)))
 
 #: The directory holding this copy of the project's packages (the checkout, or site-packages).
 _PROJECT_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -81,15 +98,18 @@ def _context():
         if _CONTEXT is None:
             _CONTEXT = multiprocessing.get_context("forkserver")
             _CONTEXT.set_forkserver_preload(PRELOAD)
-        saved = os.environ.get("PYTHONPATH")
-        os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (_PROJECT_ROOT, saved) if p)
+        saved = {k: os.environ.get(k) for k in ("PYTHONPATH", ENGINES_ENV)}
+        os.environ["PYTHONPATH"] = os.pathsep.join(p for p in (_PROJECT_ROOT, saved["PYTHONPATH"]) if p)
+        if _ENGINES is not None:
+            os.environ[ENGINES_ENV] = ",".join(_ENGINES)
         try:
             multiprocessing.forkserver.ensure_running()
         finally:
-            if saved is None:
-                del os.environ["PYTHONPATH"]
-            else:
-                os.environ["PYTHONPATH"] = saved
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
     return _CONTEXT
 
 

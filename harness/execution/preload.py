@@ -1,11 +1,23 @@
-"""Imported once by the worker forkserver (see ``isolation.PRELOAD``): every installed engine,
-with its import-time output silenced, so that each worker forked from the server starts with
+"""Imported once by the worker forkserver (see ``isolation.PRELOAD``): the installed engines,
+with their import-time output silenced, so that each worker forked from the server starts with
 the engines loaded (an engine's import is a noticeable share of a short task; the server pays it
-once)."""
+once). Every engine, unless the process that started the server named the ones its run uses
+(``isolation.preload_engines``, passed in ``$HARNESS_PRELOAD_ENGINES``)."""
 import contextlib
+import os
 
 from adapters import ENGINE_METHODS, import_engine
 
-for _module in sorted({m.module for m in ENGINE_METHODS.values()}):
+#: Submodules an adapter imports where it builds a model (an engine's top-level import does not
+#: load them): a worker forked without them imports them afresh, on every one-step map a
+#: stability search runs in a worker of its own.
+SUBMODULES = {"pydrake": ("pydrake.geometry", "pydrake.math", "pydrake.multibody.parsing", "pydrake.multibody.plant",
+                          "pydrake.multibody.tree", "pydrake.systems.analysis", "pydrake.systems.framework")}
+
+_NAMED = os.environ.get("HARNESS_PRELOAD_ENGINES")
+_MODULES = {m.module for m in ENGINE_METHODS.values()}
+for _module in sorted(_MODULES if _NAMED is None else _MODULES & set(filter(None, _NAMED.split(",")))):
     with contextlib.suppress(Exception):
         import_engine(_module)
+        for _sub in SUBMODULES.get(_module, ()):
+            import_engine(_sub)
