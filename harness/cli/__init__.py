@@ -33,8 +33,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _preload_the_engine_named(args) -> None:
+    """A command about one method (``--method ENGINE:MODE``, ``ref:NAME``) has its workers' server
+    import that method's engine alone (``harness.execution.isolation.preload_engines``): every
+    installed engine's import is seconds a command of one engine need not wait for."""
+    method = getattr(args, "method", None)
+    if isinstance(method, str):
+        from adapters import ENGINE_METHODS
+        from harness.execution.isolation import preload_engines
+
+        engine = method.split(":")[0]
+        preload_engines({mode.module for mid, mode in ENGINE_METHODS.items() if mid.split(":")[0] == engine})
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    _preload_the_engine_named(args)
     try:
         return int(args._run(args) or 0)
     except InvalidInput as exc:
