@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test nightly bench install clean
+.PHONY: test test-slow nightly bench install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -20,6 +20,11 @@ install: $(STAMP)
 # CPU-bound, and its tests are independent of the load beside them.
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n auto --dist worksteal
+
+# The long studies `make test` leaves out (marked slow: every scheme's kernel on every scene, every
+# engine mode's own build, model-file and cluster nightlies, a bisection over releases).
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -q -n auto --dist worksteal -m slow
 
 bench: $(STAMP)
 	$(BIN)/harness bench

@@ -237,7 +237,13 @@ def first_supported_scene(method):
     return next(make_scene(sid) for sid in SCENES if method.supports(make_scene(sid))[0])
 
 
-@pytest.mark.parametrize("method_id", list(adapters.ENGINE_METHODS))
+#: Newton's VBD and Featherstone solvers build Warp kernels of their own for seconds: their
+#: declarations are checked by ``make test-slow``.
+SLOW_TO_BUILD = ("newton:vbd", "newton:featherstone")
+
+
+@pytest.mark.parametrize("method_id", [m if m not in SLOW_TO_BUILD else pytest.param(m, marks=pytest.mark.slow)
+                                       for m in adapters.ENGINE_METHODS])
 def test_every_engine_mode_declares_itself_and_records_version_and_settings(method_id):
     method = adapters.ENGINE_METHODS[method_id]
     assert method.id == method_id and method.isolated and method.family == method.engine == method_id.split(":")[0]

@@ -110,7 +110,7 @@ def test_omega_max_in_closed_form():
     assert scene.omega == pytest.approx(expected, rel=1e-12)
 
 
-@pytest.mark.parametrize("params", [{}, {"n": 15, "m": 14}])
+@pytest.mark.parametrize("params", [{}, pytest.param({"n": 15, "m": 14}, marks=pytest.mark.slow)])
 def test_both_solves_are_the_dense_solve(params):
     """The banded LDL^T and conjugate gradients against numpy's dense solve of I + (h^2/m) K on
     the falling sheet (the reference state at t = 1.4, where compressed springs make the matrix

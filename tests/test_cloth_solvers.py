@@ -236,6 +236,7 @@ def test_the_full_suite_sweeps_the_larger_sheets_with_the_library_solves():
     assert [get_method(m).id for m in SWEEP_SOLVES] == list(SWEEP_SOLVES)
 
 
+@pytest.mark.slow
 def test_a_sweep_cell_takes_its_size_s_own_methods(injected_costs):
     """A size's ``methods`` replace the sweep's: the library solve is searched and meets the
     tolerance (its cost injected: the verdict is the search's, not the machine's)."""

@@ -20,6 +20,7 @@ def figures(mode, scene, params, dt):
     return run, contact_figures(make_contact_scene(scene, **params), run)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dt", REPORT_DTS)
 @pytest.mark.parametrize("mode", MODES)
 def test_the_ball_runs_at_every_report_step(mode, dt):
@@ -32,6 +33,7 @@ def test_the_ball_runs_at_every_report_step(mode, dt):
         assert abs(f.restitution[0] - 0.8) < 0.05, f.restitution
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", ["slide", "rest", "stack"])
 @pytest.mark.parametrize("mode", MODES)
 def test_the_boxes_run(mode, scene):

@@ -99,6 +99,7 @@ def dask_dead_run(tmp_path_factory):
     return tmp, result, suite
 
 
+@pytest.mark.slow
 def test_dask_smoke_run_matches_the_local_run_cell_for_cell(local_run, dask_run):
     """Tolerance: none. Both runs execute the same code on the same machine, and every accuracy
     number is a deterministic floating-point computation (no randomness, no threads in a scheme),

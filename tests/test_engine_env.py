@@ -48,6 +48,7 @@ def toy(tmp_path, monkeypatch):
     return folders, (lambda dist: list(TOY_VERSIONS)), ensure, ensured
 
 
+@pytest.mark.slow
 def test_bisect_finds_the_toys_first_changed_release_in_log2_steps(toy):
     folders, releases, ensure, ensured = toy
     argv = bisect_cli.cell_argv("trajectory", "spring", "toyengine:euler", "0.1", "200", [])

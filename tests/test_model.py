@@ -294,6 +294,7 @@ def _models_suite(paths):
                                               for k, v in suite.scenes.items()})
 
 
+@pytest.mark.slow
 def test_the_nightly_stores_reports_and_trends_two_model_files(tmp_path):
     """Two files (an MJCF written here, pybullet_data's cartpole URDF), three runs: the model cells
     are stored under the files' hashed ids, reported, compared run to run with no regression; an

@@ -176,6 +176,7 @@ def test_a_file_mujoco_refuses_but_bullet_loads_is_measured_in_bullet_with_mujoc
     assert res["error_max"] is not None and res["error_max"] > 0
 
 
+@pytest.mark.slow
 def test_harness_model_on_a_file_mujoco_refuses_reports_mujocos_reason_and_stores_nothing_on_failure(tmp_path):
     db = tmp_path / "h.sqlite"
     out = subprocess.run([sys.executable, "-m", "harness", "model", str(HOPPER), "--variant", "conservative",

@@ -59,7 +59,8 @@ def test_xpbd_passes_converge_to_the_implicit_euler_step_on_the_chain():
 
 
 @pytest.mark.parametrize("scheme", [PBD, XPBD, JACOBI], ids=["pbd", "xpbd", "xpbd_jacobi"])
-@pytest.mark.parametrize("scene_id", ["spring", "chain", "rope", "cloth", "net"])
+@pytest.mark.parametrize("scene_id", ["spring", "chain", *(pytest.param(s, marks=pytest.mark.slow)
+                                                         for s in ("rope", "cloth", "net"))])
 def test_compiled_is_the_interpreted_run_bit_for_bit(scheme, scene_id):
     scene = make_scene(scene_id, **({"n": 4, "m": 4} if scene_id in ("cloth", "net") else {}))
     opts = {"substeps": 3, "iterations": 2}

@@ -183,7 +183,16 @@ COMPILED_CASES = ([(s, "kepler") for s in FREE] + [("verlet_constrained", "rope"
                      if s not in ("kepler", "solar_system") and not make_scene(s).constrained])
 
 
-@pytest.mark.parametrize("scheme_id,scene_id", COMPILED_CASES)
+#: The pairs ``make test`` runs (one explicit tableau, one symplectic and one implicit scheme on
+#: kepler, the constrained projection, implicit midpoint on the small scenes); the rest of the
+#: matrix compiles a kernel each for seconds and is marked slow (``make test-slow``).
+COMPILED_FAST = {("rk4", "kepler"), ("leapfrog", "kepler"), ("implicit_euler", "kepler"), ("verlet_constrained", "rope"),
+                 *(("implicit_midpoint", s) for s in ("spring", "damped_spring", "pendulum", "chain", "projectile",
+                                                      "penalty_ball"))}
+
+
+@pytest.mark.parametrize("scheme_id,scene_id", [c if c in COMPILED_FAST else pytest.param(*c, marks=pytest.mark.slow)
+                                                for c in COMPILED_CASES])
 def test_compiled_path_matches_interpreted_path(scheme_id, scene_id):
     # The cloth and the net at 3 x 3: an interpreted banded solve of the default 8 x 8 takes ~0.1 s,
     # and 200 interpreted implicit-midpoint steps of the 8 x 8 net 18 CPU-s.
@@ -281,7 +290,8 @@ def test_radau_iia2_damps_the_spring_by_its_stability_function_at_any_step(h, st
     assert np.all(ratio < 1.0)
 
 
-@pytest.mark.parametrize("scene_id", ["spring", "damped_spring", "pendulum", "chain", "cloth"])
+@pytest.mark.parametrize("scene_id", ["spring", "damped_spring", "pendulum", "chain",
+                                      pytest.param("cloth", marks=pytest.mark.slow)])
 def test_radau_iia2_compiled_is_the_interpreted_run_bit_for_bit(scene_id):
     """The compiled loop steps the interpreted run's states, bit for bit (its kernels are copied
     from the step's source): the same passes, the same stop, on a linear scene (iterated to
