@@ -59,18 +59,25 @@ def test_stability_steps_the_compiled_run_not_the_interpreter(stepped):
     assert stepped["interpreted_steps"] == 0
 
 
-def test_identify_steps_every_candidate_it_runs_in_full_on_the_compiled_run(stepped, monkeypatch):
+@pytest.mark.parametrize("cached", [True, False], ids=["loops_cached", "cache_empty"])
+def test_identify_steps_every_candidate_it_runs_in_full_on_the_compiled_run(stepped, monkeypatch, cached):
+    """A candidate's full run takes its compiled loop where the kernel cache holds it, and is
+    interpreted (the same bits) where it does not: a candidate never compiles. The cache's state
+    is the test's (``_loop_compiled``), so the count does not depend on what ran before."""
     from harness.measures import identify as ident
 
     monkeypatch.setattr(ident, "_CANDIDATES", {})
     monkeypatch.setattr(ident, "_stored", lambda key, run: run())  # no candidate run read from the disk
+    monkeypatch.setattr(ident, "_loop_compiled", lambda ref, scene: cached)
     code, out, _ = cli("identify", "spring", "--method", "ref:leapfrog", "--steps", "200", "--json")
     assert code in (0, 1), out  # 1: no other scheme matches
     res = json.loads(out)
-    # The method's own run and each candidate's in full, on the compiled loop; the screen's short
-    # runs step ``reference.integrate`` itself (interpreted), never the method's backend.
-    runs = 1 + sum(c["steps"] == res["steps"] for c in res["candidates"])
-    assert stepped["compiled"] == runs
+    # The method's own run, and each candidate's in full where its loop is cached, on the compiled
+    # loop; the screen's short runs step ``reference.integrate`` itself (interpreted), never the
+    # method's backend.
+    full = sum(c["steps"] == res["steps"] for c in res["candidates"])
+    assert full >= 1
+    assert stepped["compiled"] == 1 + (full if cached else 0)
 
 
 @pytest.mark.parametrize("argv", [

@@ -1,6 +1,6 @@
 """The nightly on a Dask cluster: the same cells as a local run, lost workers, bad schedulers.
 
-Two smoke nightlies run once for the module: one in local worker processes, one on
+Two nightlies of a small suite (``SUITE``) run once for the module: one in local worker processes, one on
 ``--scheduler local:2`` with ``tests/dask_faults.py`` preloaded into the Dask workers (Dask's own
 ``distributed.worker.preload``), so that one task kills its worker once and another kills it
 on every attempt. Comparing the two covers both "same numbers as a local run" and "a killed
@@ -27,7 +27,8 @@ from harness.execution.isolation import ORPHAN_GRACE_S, WorkerFailure, run_in_wo
 from harness.nightly.cells import run_task
 from harness.nightly.run import Task, build_tasks
 from harness.history.storage import History
-from harness.nightly.suites import SUITES
+from harness.nightly.run import run_nightly
+from harness.nightly.suites import SUITES, SceneSpec, Suite
 from tests.shared_fixture import built_once
 from records.cell import FIGURES
 
@@ -35,6 +36,14 @@ FAULTS = str(Path(__file__).with_name("dask_faults.py"))
 KILLED_ONCE = "cell spring ref:rk4"              # its worker dies on the first attempt only
 KILLED_ALWAYS = "cell spring ref:implicit_euler"  # its worker dies on every attempt
 KEY = ["scene", "method", "measure", "dt"]
+
+
+#: The cluster's run and its local twin: the least suite with every kind of task the cluster must
+#: carry (two reference schemes and two engine modes, each with every measure), ``KILLED_ONCE`` among them.
+SUITE = Suite("dask-smoke", scenes={"spring": SceneSpec(periods=2, order_span=2.0,
+                                                        advise=SUITES["smoke"].scenes["spring"].advise)},
+              methods=("ref:semi_implicit_euler", "ref:rk4", "mujoco:euler", "pymunk:applied_force"),
+              cost_repeats=3, bounds=False, frame_rates=SUITES["smoke"].frame_rates)
 
 
 def nightly_argv(tmp, *extra):
@@ -47,10 +56,16 @@ def stored(tmp):
     return runs, history.cells(int(runs.run_id.iloc[-1]))
 
 
+def _nightly(tmp, **where) -> int:
+    """``SUITE``'s nightly, its exit code as ``harness nightly`` gives it (1: a regression)."""
+    result = run_nightly(SUITE, tmp / "out", tmp / "h.sqlite", **where)
+    return 1 if result["regressions"] else 0
+
+
 def _local_run(tmp):
     with pytest.MonkeyPatch.context() as mp:
         mp.delenv(distributed.ENV_VAR, raising=False)
-        code = main(nightly_argv(tmp, "--jobs", "2"))
+        code = _nightly(tmp, jobs=2)
     return tmp, code
 
 
@@ -77,7 +92,7 @@ def worker_kills(tmp, plan: dict):
 
 def _dask_run(tmp):
     with worker_kills(tmp, {KILLED_ONCE: 1}):
-        code = main(nightly_argv(tmp, "--scheduler", "local:2"))
+        code = _nightly(tmp, scheduler="local:2")
     return tmp, code
 
 
@@ -89,9 +104,6 @@ def dask_run(tmp_path_factory):
 @pytest.fixture(scope="module")
 def dask_dead_run(tmp_path_factory):
     """One task, whose worker dies on every attempt, on ``local:2``."""
-    from harness.nightly.run import run_nightly
-    from harness.nightly.suites import SceneSpec, Suite
-
     tmp = tmp_path_factory.mktemp("dask_dead")
     suite = Suite("dead", scenes={"spring": SceneSpec(periods=1)}, methods=(KILLED_ALWAYS.split()[-1],), bounds=False)
     with worker_kills(tmp, {KILLED_ALWAYS: 99}):
@@ -99,7 +111,6 @@ def dask_dead_run(tmp_path_factory):
     return tmp, result, suite
 
 
-@pytest.mark.slow
 def test_dask_smoke_run_matches_the_local_run_cell_for_cell(local_run, dask_run):
     """Tolerance: none. Both runs execute the same code on the same machine, and every accuracy
     number is a deterministic floating-point computation (no randomness, no threads in a scheme),
@@ -115,7 +126,7 @@ def test_dask_smoke_run_matches_the_local_run_cell_for_cell(local_run, dask_run)
     local = local.fillna({"dt": -1.0}).set_index(KEY).sort_index()
     on_dask = on_dask.fillna({"dt": -1.0}).set_index(KEY).sort_index()
     assert list(local.index) == list(on_dask.index)
-    tasks, _ = build_tasks(SUITES["smoke"])
+    tasks, _ = build_tasks(SUITE)
     assert len(local) == sum(len(t.measures()) for t in tasks)
     for key, a in local.iterrows():
         b = on_dask.loc[key]
@@ -140,7 +151,7 @@ def test_a_killed_worker_costs_its_cell_one_retry_and_every_cell_is_stored_once(
     runs, cells = stored(tmp)
     assert runs.complete.tolist() == [1]
     assert not cells.duplicated(KEY).any()
-    tasks, _ = build_tasks(SUITES["smoke"])
+    tasks, _ = build_tasks(SUITE)
     expected = Counter((t.scene, t.method, m) for t in tasks for m in t.measures())
     assert Counter(zip(cells.scene, cells.method, cells.measure)) == expected
 
