@@ -190,6 +190,7 @@ def test_stiff_by_default_at_60_hz():
     ("semi_implicit_euler", 2.0, 0.75),
     ("leapfrog", 2.0, 0.75),
 ])
+@pytest.mark.slow
 def test_largest_stable_step_against_the_hessians_omega(small, scheme_id, theory, low):
     """The finite-horizon search (as for every nonlinear scene) against theory / omega_max, with
     omega_max from the Hessian at the initial state (172.18 at 4 x 4)."""

@@ -144,6 +144,7 @@ def test_the_net_in_its_plane(sheet):
 
 
 # ----------------------------------------------------------------------------- identified, counted, timed
+@pytest.mark.slow
 def test_identified_as_the_scheme_it_solves(sheet):
     """``harness identify``: at tol 1e-12 the method matches linearly implicit Euler within the
     identification's roundoff tolerance (1e-9 of the state); at 1e-6 it matches nothing and

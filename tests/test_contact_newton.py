@@ -50,6 +50,7 @@ def test_the_penalty_damping_follows_e():
         assert newton_contact.restitution_of(newton_contact.zeta_for(e)) == pytest.approx(e, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_xpbd_ignores_restitution_unless_enabled():
     """Newton's default ``enable_restitution=False``: XPBD's ball stops at the first impact
     (measured: apex below 1 mm), where with it enabled it bounces at e."""

@@ -21,6 +21,7 @@ from scenarios import make_scene
 from theory import ENGINE_ORDER, ENGINE_STABILITY, ORDER_TOL, STABILITY_RTOL, UNBOUNDED
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method_id", list(ENGINE_STABILITY))
 def test_engine_largest_stable_dt_on_spring(method_id):
     spring = make_scene("spring")

@@ -186,6 +186,7 @@ def test_omega_is_the_largest_natural_frequency_of_a_linear_model(linear_file):
     assert scene.omega == pytest.approx(omega_max_from_eigenvalues(scene), rel=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode, limit", [("euler", 2.0), ("implicitfast", 2.0), ("rk4", 2.0 * math.sqrt(2.0))])
 def test_linear_model_stability_limit_is_theory_over_omega_max(linear_file, mode, limit):
     scene = ModelScene(linear_file)

@@ -148,6 +148,7 @@ def test_the_conservative_variant_keeps_armature_and_gravity_and_switches_off_wh
 
 @pytest.mark.parametrize("mode, limit", [("mujoco:euler", 2.0), ("mujoco:implicitfast", 2.0),
                                          ("mujoco:rk4", 2.0 * math.sqrt(2.0))])
+@pytest.mark.slow
 def test_the_chains_largest_stable_step_at_small_amplitude_is_the_schemes_limit_over_omega_max(chain, mode, limit):
     from scipy.linalg import eigh
 

@@ -60,6 +60,7 @@ OTHER = {"semi_implicit_euler": "implicit_euler", "implicit_euler": "semi_implic
 
 @pytest.mark.parametrize("mode, scene_id, scheme_id", SPRING_IDENTITIES,
                          ids=[f"{m}-{s}" for m, s, _ in SPRING_IDENTITIES])
+@pytest.mark.slow
 def test_each_newton_solver_is_its_scheme_on_the_spring_to_float32_rounding(mode, scene_id, scheme_id):
     scene = make_scene(scene_id)
     h = scene.period / 100

@@ -326,6 +326,7 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
 
 
 # ----------------------------------------------------------------------------- the rope's limits
+@pytest.mark.slow
 def test_mujoco_implicit_blows_up_on_the_rope_where_its_companions_run_on():
     """At the standard suite's nominal timestep (h*omega = 0.1, N = 5), MuJoCo's implicit mode
     gains energy and blows up at step 2434, past the 1,257-step energy run; euler, implicitfast
