@@ -266,7 +266,8 @@ def test_every_engine_mode_declares_itself_and_records_version_and_settings(meth
     assert run.meta.settings and json.dumps(run.meta.settings)
 
 
-@pytest.mark.parametrize("method_id", [m for m in adapters.ENGINE_METHODS if not m.startswith("rebound:")])
+@pytest.mark.parametrize("method_id", [m if m not in SLOW_TO_BUILD else pytest.param(m, marks=pytest.mark.slow)
+                                       for m in adapters.ENGINE_METHODS if not m.startswith("rebound:")])
 def test_one_model_set_to_each_state_steps_as_a_fresh_one(method_id):
     """``EngineMode.one_steps`` (one model, ``set_state`` before each step; what the one-step
     map uses) against a model built at each state: bitwise the same, on every linear scene the

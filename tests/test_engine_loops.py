@@ -41,8 +41,15 @@ def _assert_bitwise(a, b) -> None:
         assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
 
 
+#: Newton's VBD solver builds Warp kernels of its own for seconds: its loops are checked by
+#: ``make test-slow``.
+SLOW_TO_BUILD = ("newton:vbd",)
+
+
 @pytest.mark.parametrize("run", sorted(RUNS))
-@pytest.mark.parametrize("method_id,scene_id", CASES, ids=[f"{m}-{s}" for m, s in CASES])
+@pytest.mark.parametrize("method_id,scene_id", [pytest.param(m, s, id=f"{m}-{s}",
+                                                             marks=[pytest.mark.slow] if m in SLOW_TO_BUILD else [])
+                                                for m, s in CASES])
 def test_engine_loop_is_the_per_step_path_bitwise(method_id, scene_id, run):
     homega, steps, every = RUNS[run]
     engine_loop, per_step = _both(method_id, scene_id, homega, steps, every)

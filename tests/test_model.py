@@ -273,7 +273,7 @@ def test_harness_model_on_the_unit_spring_file(tmp_path):
         assert f"| `mujoco:{mode}` | ok |" in text
     assert (out / "report.md").is_file() and any((out / "charts").glob("*stability.png"))
     code, js, _ = cli("model", DEFAULT_FILE, "--out", str(out), "--hz", "0", "--json", "--variant", "conservative",
-                      "--methods", "mujoco:*")
+                      "--methods", "mujoco:euler,mujoco:rk4")
     data = json.loads(js)
     stab = {c["method"]: c["value"] for c in data["cells"] if c["measure"] == "stability"}
     assert stab["mujoco:euler"] == pytest.approx(2.0, rel=2e-3)  # the spring scene's 2 (h*omega)
@@ -460,3 +460,19 @@ def test_pybullet_is_measured_against_its_own_refined_run():
     pend = variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml")), "conservative")
     res = observed_order("pybullet:semi_implicit", pend)
     assert res["order"] == pytest.approx(1.0, abs=0.1)
+
+
+def test_a_model_run_tries_the_loaders_of_the_engines_it_steps_alone(monkeypatch):
+    """``harness model --methods mujoco:*`` neither tries another engine's loader (an import of
+    seconds) nor compares another engine's mode; the nightly's models try every engine's."""
+    from harness.nightly import models
+    from scenarios.model import DEFAULT_FILE
+
+    tried = []
+    real = models.cannot_load_all
+    monkeypatch.setattr(models, "cannot_load_all", lambda scenes, engines=models.MODEL_ENGINES:
+                        tried.append(engines) or real(scenes, engines))
+    suite = models.model_suite([DEFAULT_FILE], ("conservative",), methods=["mujoco:*"])
+    assert tried == [("mujoco",)]
+    assert all(not spec.extras.cross_engine and not spec.cannot_load for spec in suite.scenes.values())
+    assert {m.split(":")[0] for m in suite.methods} == {"mujoco"}

@@ -66,7 +66,11 @@ def run(args) -> int:
     hz, request = _request(args)
     variants = tuple(dict.fromkeys(variants))
     patterns = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
-    engine_modes(patterns)  # a bad --methods pattern is refused before any engine loads the file
+    modes = engine_modes(patterns)  # a bad --methods pattern is refused before any engine loads the file
+    import adapters
+    from harness.execution.isolation import preload_engines
+
+    preload_engines({adapters.ENGINE_METHODS[m].module for m in modes if m in adapters.ENGINE_METHODS})
     scenes = model_scenes(args.path, variants, keep=keep, off=off, **params)  # the file checked first: InvalidInput
     out = Path(args.out) if args.out else Path("results/model") / scenes[0].file.name
     suite = model_suite([args.path], variants, request, hz, keep=keep, off=off, methods=patterns, **params)

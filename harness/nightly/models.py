@@ -75,8 +75,8 @@ def cannot_load(scene: ModelScene) -> dict[str, str]:
     return cannot_load_all([scene])[0]
 
 
-def cannot_load_all(scenes: list) -> list[dict[str, str]]:
-    """For each scene, {engine: why} for each engine of MODEL_ENGINES that cannot build it (its
+def cannot_load_all(scenes: list, engines=MODEL_ENGINES) -> list[dict[str, str]]:
+    """For each scene, {engine: why} for each of ``engines`` (MODEL_ENGINES') that cannot build it (its
     loader's own message). Each engine tries every scene in one worker process (an engine's import
     is most of its cost: Newton's and Drake's take seconds); where that worker fails (a loader
     crashed or hung), each scene is tried in a worker of its own, so a crash costs nothing but
@@ -85,7 +85,7 @@ def cannot_load_all(scenes: list) -> list[dict[str, str]]:
     from harness.methods import all_methods
 
     out = [{} for _ in scenes]
-    for engine in MODEL_ENGINES:
+    for engine in engines:
         # The engine's first mode that poses a model file (Newton's particle solvers do not).
         posed = [(i, scene, next((m for mid, m in all_methods().items()
                                   if mid.startswith(f"{engine}:") and m.supports(scene)[0]), None))
@@ -110,14 +110,16 @@ def cannot_load_all(scenes: list) -> list[dict[str, str]]:
 
 
 def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep=(), off=(),
-                **params) -> dict[str, SceneSpec]:
+                engines=MODEL_ENGINES, **params) -> dict[str, SceneSpec]:
     """{scene id: its spec} for the file's variants. ``advise`` (Request fields but hz) asks for
-    the advice on the conservative variant. Each engine's loader is tried first (``cannot_load_all``)."""
+    the advice on the conservative variant. The loader of each of ``engines`` (the engines a run
+    steps the file in) is tried first (``cannot_load_all``); an engine the run does not step is
+    neither tried nor compared."""
     specs = {}
     scenes = model_scenes(path, variants, keep, off, **params)
-    for scene, unloaded in zip(scenes, cannot_load_all(scenes)):
+    for scene, unloaded in zip(scenes, cannot_load_all(scenes, engines)):
         dt = scene.own_timestep
-        loaded = tuple(m for m in CROSS_ENGINE if m.split(":")[0] not in unloaded)
+        loaded = tuple(m for m in CROSS_ENGINE if m.split(":")[0] in engines and m.split(":")[0] not in unloaded)
         both = scene.conservative and len(loaded) > 1 and loaded[0] == CROSS_ENGINE[0]
         specs[scene.id] = SceneSpec(
             params=dict(scene.values), dt=dt, horizon=dt * MODEL_ENERGY_STEPS,
@@ -167,9 +169,10 @@ def model_suite(paths, variants=tuple(VARIANTS), advise: dict | None = None, fra
     (``engine_modes(methods)``)."""
     frame_rates = tuple(frame_rates) if advise is not None else ()
     modes = engine_modes(methods)  # a bad pattern is refused before any engine loads the file
+    engines = tuple(e for e in MODEL_ENGINES if any(m.split(":", 1)[0] == e for m in modes))
     scenes = {}
     for path in paths:
-        scenes.update(model_specs(path, variants, advise if frame_rates else None, keep, off, **params))
+        scenes.update(model_specs(path, variants, advise if frame_rates else None, keep, off, engines, **params))
     return Suite("model", scenes, methods=modes, cost_repeats=3, bounds=False, identify=False,
                  frame_rates=tuple(frame_rates))
 
