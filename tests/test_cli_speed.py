@@ -69,6 +69,16 @@ def test_identify_steps_every_candidate_it_runs_in_full_on_the_compiled_run(step
     monkeypatch.setattr(ident, "_CANDIDATES", {})
     monkeypatch.setattr(ident, "_stored", lambda key, run: run())  # no candidate run read from the disk
     monkeypatch.setattr(ident, "_loop_compiled", lambda ref, scene: cached)
+    # Which path each run takes is the question, not its bits (the same either way: held by
+    # tests/test_compiled_runs.py): a run sent to the compiled loop is counted there and stepped by
+    # the interpreter, so that no candidate's loop compiles here on an empty cache.
+    from reference import integrate as interpreted
+
+    def compiled_path(scheme, scene, dt, steps, every=1, counted=False, **kw):
+        stepped["compiled"] += 1
+        return interpreted(scheme, scene, dt, steps, every, **kw)
+
+    monkeypatch.setattr(ref_method, "integrate_compiled", compiled_path)
     code, out, _ = cli("identify", "spring", "--method", "ref:leapfrog", "--steps", "200", "--json")
     assert code in (0, 1), out  # 1: no other scheme matches
     res = json.loads(out)

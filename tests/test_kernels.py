@@ -290,6 +290,7 @@ print(json.dumps({"q": q.tolist(), "v": v.tolist(), "level": int(config.OPT), "s
 """
 
 
+@pytest.mark.slow
 def test_kernels_compile_at_level_2_unless_numba_opt_says_otherwise_and_the_level_keys_the_file(tmp_path):
     """The harness compiles at LLVM level 2 (``reference._numba_config``), a run records the
     level, and ``$NUMBA_OPT`` overrides it; a kernel compiled at one level is never loaded at

@@ -196,6 +196,7 @@ def test_linear_model_stability_limit_is_theory_over_omega_max(linear_file, mode
     assert res.dt_max == pytest.approx(limit / w, rel=0.01)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["euler", "rk4"])
 def test_the_unit_spring_as_a_file_gives_the_spring_scenes_figures(mode):
     """scenarios/data/unit_spring.xml is the spring scene written as MJCF (k = m = x0 = 1, v0 = 0)."""

@@ -43,7 +43,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from scipy.stats import norm
 
 from records import InvalidInput
 from records.cell import figures_of
@@ -282,6 +281,8 @@ def explained_by_machine(before: list[Point], after: list[Point], level_before: 
     ca, cb = _calibration_level(before), _calibration_level(after)
     move = abs(math.log(cb / ca)) if ca and cb else 0.0
     z = max(0.0, dx - move) / (noise * math.sqrt(1.0 / len(before) + 1.0 / len(after)))
+    from scipy.stats import norm  # here: scipy.stats is most of this module's import time
+
     confidence = float(1.0 - 2.0 * norm.sf(z))
     if z < KEEP_Z:
         return (f"within the machine's noise: the calibration moved {cb / ca - 1:+.0%} across it" if move

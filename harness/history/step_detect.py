@@ -60,7 +60,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import median_abs_deviation, norm
 
 #: Noise units a step must explain (gamma / s) ...
 PENALTY = 6.0
@@ -138,6 +137,8 @@ def cell_noise(x: np.ndarray) -> float:
     """The cell's noise in log units (module docstring)."""
     if len(x) < MIN_POINTS_FOR_NOISE:
         return PRIOR_NOISE
+    from scipy.stats import median_abs_deviation  # here: scipy.stats is most of this module's import time
+
     return max(NOISE_FLOOR, float(median_abs_deviation(np.diff(x), scale="normal")) / math.sqrt(2.0))
 
 
@@ -199,5 +200,11 @@ def detect_steps(values, spreads=None, noise_floor: float = 0.0) -> Fit:
         (a0, a1), (b0, b1) = bounds[k - 1], bounds[k]
         dx = abs(math.log(levels[k]) - math.log(levels[k - 1]))
         z = dx / (s * math.sqrt(1.0 / (a1 - a0) + 1.0 / (b1 - b0)))
-        steps.append(Step(b0, levels[k - 1], levels[k], float(1.0 - 2.0 * norm.sf(z))))
+        steps.append(Step(b0, levels[k - 1], levels[k], float(1.0 - 2.0 * _norm_sf(z))))
     return Fit(tuple(bounds), tuple(levels), tuple(steps), s, tuple(float(v) for v in s_i))
+
+
+def _norm_sf(z: float) -> float:
+    from scipy.stats import norm  # here: scipy.stats is most of this module's import time
+
+    return norm.sf(z)
