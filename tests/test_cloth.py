@@ -237,6 +237,7 @@ def test_linearly_implicit_euler_takes_one_solve_on_the_cloth_where_backward_eul
     assert li.energy[-1, 0] < li.energy[0, 0] and be.energy[-1, 0] < be.energy[0, 0]
 
 
+@pytest.mark.slow
 def test_linearly_implicit_euler_first_order_against_the_reference(small):
     """The observed order on the nonlinear cloth against the DOP853 reference: 1 within the
     house's 0.15 (measured 0.970 over 20 periods of omega_max)."""
@@ -318,6 +319,7 @@ def test_rk4_on_the_standard_cloth_has_no_order_below_the_floor_not_an_unstable_
     assert "| `ref:rk4` | ok |" in "\n".join(scene_section("cloth", piv, {}))
 
 
+@pytest.mark.slow
 def test_the_full_suites_cloth_has_a_scaling_cell_and_finding():
     """The cloth's cost against its size is a nightly cell of the full suite (16 x 16 to 32 x 32,
     the implicit schemes), judged as the chain's is; run here at small sizes."""

@@ -6,13 +6,16 @@ imported. Each solver's kernels compile on first use, forward passes only, and a
 under the harness cache."""
 from __future__ import annotations
 
+import importlib.util
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-pytest.importorskip("newton")
+# Skipped without Newton, which is imported where a test uses it: its import is seconds of every
+# worker's collection.
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("newton") is None, reason="newton is not installed")
 
 import adapters  # noqa: E402
 from adapters import newton as adapter  # noqa: E402
@@ -77,6 +80,7 @@ def test_identify_names_xpbd_implicit_euler_at_float32():
     assert "ref:semi_implicit_euler" not in res.matches
 
 
+@pytest.mark.slow
 def test_identify_names_xpbd_the_jacobi_xpbd_scheme_on_the_cloth():
     """Newton's SolverXPBD projects the cloth's springs in parallel (each pass sums every spring's
     correction, then applies them): on the 4 x 4 cloth (k = 1000) over the scene's identification

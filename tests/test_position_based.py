@@ -258,6 +258,7 @@ def test_the_small_steps_cell_is_measured_and_reported():
     assert "Small steps on `rope`" in text and "| rope | n substeps x 1 pass beat" in text
 
 
+@pytest.mark.slow
 def test_a_soft_cloths_small_steps_cell_runs_the_study_again_with_stiff_springs():
     """The 3 x 3 cloth with the default soft shear and bending springs is not the paper's case
     (its reference stretches them more than 1%): its stretch rows say so, and the cell runs the

@@ -70,11 +70,6 @@ def _loads_in_worker(method_id: str, scenes: list) -> list[str]:
     return out
 
 
-def cannot_load(scene: ModelScene) -> dict[str, str]:
-    """{engine: why} for each engine of MODEL_ENGINES that cannot build the scene (``cannot_load_all``)."""
-    return cannot_load_all([scene])[0]
-
-
 def cannot_load_all(scenes: list, engines=MODEL_ENGINES) -> list[dict[str, str]]:
     """For each scene, {engine: why} for each of ``engines`` (MODEL_ENGINES') that cannot build it (its
     loader's own message). Each engine tries every scene in one worker process (an engine's import
