@@ -481,3 +481,10 @@ def test_a_model_run_tries_the_loaders_of_the_engines_it_steps_alone(monkeypatch
     assert tried == [("mujoco",)]
     assert all(not spec.extras.cross_engine and not spec.cannot_load for spec in suite.scenes.values())
     assert {m.split(":")[0] for m in suite.methods} == {"mujoco"}
+    # A nightly suite that names its methods tries their engines' loaders; one that names none, every one.
+    from harness.nightly.suites import Suite
+
+    tried.clear()
+    models.with_models(Suite("models", {}, methods=("mujoco:euler", "pybullet:semi_implicit")), [DEFAULT_FILE])
+    models.with_models(Suite("models", {}, methods=None), [DEFAULT_FILE])
+    assert tried == [("mujoco", "pybullet"), models.MODEL_ENGINES]

@@ -150,10 +150,13 @@ def engine_modes(patterns=None) -> tuple[str, ...]:
 
 def with_models(suite: Suite, paths, **params) -> Suite:
     """``suite`` with the files' variants added as scenes (engine modes only run them: a
-    reference scheme has no force kernel to step on a model)."""
+    reference scheme has no force kernel to step on a model); the loaders tried are those of the
+    engines the suite runs (every model engine where it names no methods)."""
     scenes = dict(suite.scenes)
+    engines = MODEL_ENGINES if suite.methods is None else \
+        tuple(e for e in MODEL_ENGINES if any(m.split(":", 1)[0] == e for m in suite.methods))
     for path in paths:
-        for sid, spec in model_specs(path, **params).items():
+        for sid, spec in model_specs(path, engines=engines, **params).items():
             scenes[sid] = replace(spec, methods=engine_modes())
     return replace(suite, scenes=scenes)
 
