@@ -36,7 +36,7 @@ def dask_setup(worker):
     if not plan or getattr(original, "kills_worker", False):
         return
 
-    def run_cell_task(task, timeout, run_task):
+    def run_cell_task(task, timeout, run_task, *engines):
         kills = plan.get(task.label, 0)
         if kills:
             path = attempts_file(directory, task.label)
@@ -45,7 +45,7 @@ def dask_setup(worker):
                 f.write(f"{'killed' if dies else 'ran'} {os.getpid()}\n")
             if dies:
                 os.kill(os.getpid(), signal.SIGKILL)
-        return original(task, timeout, run_task)
+        return original(task, timeout, run_task, *engines)
 
     run_cell_task.kills_worker = True
     # The client pickles harness.execution.distributed.run_cell_task by name, so the worker runs this one.

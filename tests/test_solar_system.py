@@ -30,6 +30,7 @@ from harness.measures.workprecision import chart_ready, error_at_equal_cost, wor
 from reference import METHODS, integrate
 from records import Trajectory
 from scenarios import make_scene
+from tests.shared_fixture import built_once
 
 pytest.importorskip("rebound")
 
@@ -196,9 +197,7 @@ INJECTED = {"s_per_step": {"ref:explicit_euler": 1.3e-7, "ref:leapfrog": 4.6e-7,
                            "rebound:leapfrog": 1.9e-7, "rebound:whfast": 1.08e-6, "rebound:ias15": 3.3e-5}}
 
 
-@pytest.fixture(scope="module")
-def nightly_cells(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("solar_nightly")
+def _solar_nightly(tmp):
     history = History(tmp / "h.sqlite")
     run_id = history.start_run(started="now", suite="solar_test", git_commit=None, versions={}, machine={},
                                settings={})
@@ -219,6 +218,12 @@ def nightly_cells(tmp_path_factory):
             history.add_cell(run_id, c)
         with_failure = report_run(history, run_id, tmp / "out2").read_text()
     return cells, report, with_failure
+
+
+@pytest.fixture(scope="module")
+def nightly_cells(tmp_path_factory):
+    """The nightly's tasks on the solar system and their report, built once a test run."""
+    return built_once(tmp_path_factory, "solar-nightly", _solar_nightly)
 
 
 def test_every_nightly_measure_runs_on_the_solar_system(nightly_cells):

@@ -114,11 +114,14 @@ def resolve_scheduler(option: str | None, jobs_given: bool) -> tuple[str, str] |
 
 
 # ----------------------------------------------------------------------------- worker side
-def run_cell_task(task, timeout, run_task):
+def run_cell_task(task, timeout, run_task, engines=None):
     """Runs in the Dask worker: ``run_task(task)`` (the nightly's ``harness.nightly.cells.run_task``,
-    pickled by name) in an isolated child process, as a local run does."""
-    from harness.execution.isolation import run_in_worker
+    pickled by name) in an isolated child process, as a local run does; the worker's forkserver
+    imports ``engines``, the run's (``isolation.preload_engines``; None: every installed one)."""
+    from harness.execution.isolation import preload_engines, run_in_worker
 
+    if engines is not None:
+        preload_engines(engines)
     return run_in_worker(run_task, (task,), timeout=timeout)
 
 
@@ -232,7 +235,10 @@ class DaskExecutor:
         from distributed.utils import CancelledError
         from distributed.utils import TimeoutError as DaskTimeout
 
+        from harness.execution.isolation import engine_modules
+
         token = uuid.uuid4().hex[:8]
+        engines = sorted(engine_modules(t.method for t in tasks))
         queue = list(enumerate(tasks))[::-1]
         in_flight = {}
         no_workers_since = None
@@ -248,7 +254,7 @@ class DaskExecutor:
             # At most one task per worker thread, so a dying worker is charged only its own cell.
             while queue and len(in_flight) < max(slots, 1):
                 i, task = queue.pop()
-                fut = self.client.submit(run_cell_task, task, timeout, self.run_task, pure=False,
+                fut = self.client.submit(run_cell_task, task, timeout, self.run_task, engines, pure=False,
                                          key=f"{task.label} [{token}-{i}]")
                 in_flight[fut] = task
             try:

@@ -69,6 +69,15 @@ _ENGINES: tuple[str, ...] | None = None
 ENGINES_ENV = "HARNESS_PRELOAD_ENGINES"
 
 
+def engine_modules(method_ids) -> set[str]:
+    """The engine modules (``EngineMode.module``: ``pydrake`` for ``drake:``) that these method ids
+    step; a reference scheme or a plug-in's mode names none."""
+    from adapters import ENGINE_METHODS
+
+    modules = {mid.split(":")[0]: mode.module for mid, mode in ENGINE_METHODS.items()}
+    return {modules[m.split(":")[0]] for m in method_ids if m.split(":")[0] in modules}
+
+
 def preload_engines(modules) -> None:
     """Have the forkserver import only these engine modules (``adapters`` modules, as
     ``EngineMode.module`` names them): a run that knows its methods (a nightly of its suite) does

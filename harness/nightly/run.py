@@ -168,10 +168,10 @@ class LocalExecutor:
 
     def run(self, tasks: list[Task], timeout: float):
         from harness.nightly.cells import run_task
-        from harness.execution.isolation import preload_engines
+        from harness.execution.isolation import engine_modules, preload_engines
         from harness.execution.pool import WorkerPool
 
-        preload_engines(engine_modules(tasks))
+        preload_engines(engine_modules(t.method for t in tasks))
         with WorkerPool(self.jobs) as pool, ThreadPoolExecutor(self.jobs) as threads:
             futures = {threads.submit(pool.call_with_stats, run_task, (t,), timeout=timeout): t for t in tasks}
             try:
@@ -186,14 +186,6 @@ class LocalExecutor:
 
     def close(self):
         pass
-
-
-def engine_modules(tasks) -> set[str]:
-    """The engine modules the tasks' methods step (``EngineMode.module``: ``pydrake`` for ``drake:``)."""
-    from adapters import ENGINE_METHODS
-
-    modules = {m.split(":")[0]: mode.module for m, mode in ENGINE_METHODS.items()}
-    return {modules[t.method.split(":")[0]] for t in tasks if t.method.split(":")[0] in modules}
 
 
 def make_executor(jobs: int | None, scheduler: str | None):
