@@ -39,11 +39,9 @@ def _preload_the_engine_named(args) -> None:
     installed engine's import is seconds a command of one engine need not wait for."""
     method = getattr(args, "method", None)
     if isinstance(method, str):
-        from adapters import ENGINE_METHODS
-        from harness.execution.isolation import preload_engines
+        from harness.execution.isolation import engine_modules, preload_engines
 
-        engine = method.split(":")[0]
-        preload_engines({mode.module for mid, mode in ENGINE_METHODS.items() if mid.split(":")[0] == engine})
+        preload_engines(engine_modules([method]))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -67,10 +67,9 @@ def run(args) -> int:
     variants = tuple(dict.fromkeys(variants))
     patterns = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
     modes = engine_modes(patterns)  # a bad --methods pattern is refused before any engine loads the file
-    import adapters
-    from harness.execution.isolation import preload_engines
+    from harness.execution.isolation import engine_modules, preload_engines
 
-    preload_engines({adapters.ENGINE_METHODS[m].module for m in modes if m in adapters.ENGINE_METHODS})
+    preload_engines(engine_modules(modes))
     scenes = model_scenes(args.path, variants, keep=keep, off=off, **params)  # the file checked first: InvalidInput
     out = Path(args.out) if args.out else Path("results/model") / scenes[0].file.name
     suite = model_suite([args.path], variants, request, hz, keep=keep, off=off, methods=patterns, **params)

@@ -2,11 +2,12 @@
 with their import-time output silenced, so that each worker forked from the server starts with
 the engines loaded (an engine's import is a noticeable share of a short task; the server pays it
 once). Every engine, unless the process that started the server named the ones its run uses
-(``isolation.preload_engines``, passed in ``$HARNESS_PRELOAD_ENGINES``)."""
+(``isolation.preload_engines``, passed in ``isolation.ENGINES_ENV``)."""
 import contextlib
 import os
 
 from adapters import ENGINE_METHODS, import_engine
+from harness.execution.isolation import ENGINES_ENV
 
 #: Submodules an adapter imports where it builds a model (an engine's top-level import does not
 #: load them): a worker forked without them imports them afresh, on every one-step map a
@@ -14,7 +15,7 @@ from adapters import ENGINE_METHODS, import_engine
 SUBMODULES = {"pydrake": ("pydrake.geometry", "pydrake.math", "pydrake.multibody.parsing", "pydrake.multibody.plant",
                           "pydrake.multibody.tree", "pydrake.systems.analysis", "pydrake.systems.framework")}
 
-_NAMED = os.environ.get("HARNESS_PRELOAD_ENGINES")
+_NAMED = os.environ.get(ENGINES_ENV)
 _MODULES = {m.module for m in ENGINE_METHODS.values()}
 for _module in sorted(_MODULES if _NAMED is None else _MODULES & set(filter(None, _NAMED.split(",")))):
     with contextlib.suppress(Exception):
