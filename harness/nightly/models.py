@@ -148,13 +148,18 @@ def engine_modes(patterns=None) -> tuple[str, ...]:
     return tuple(dict.fromkeys(chosen))
 
 
+def engines_of(method_ids) -> tuple[str, ...]:
+    """The model engines (MODEL_ENGINES' order) that these method ids step."""
+    families = {m.split(":", 1)[0] for m in method_ids}
+    return tuple(e for e in MODEL_ENGINES if e in families)
+
+
 def with_models(suite: Suite, paths, **params) -> Suite:
     """``suite`` with the files' variants added as scenes (engine modes only run them: a
     reference scheme has no force kernel to step on a model); the loaders tried are those of the
     engines the suite runs (every model engine where it names no methods)."""
     scenes = dict(suite.scenes)
-    engines = MODEL_ENGINES if suite.methods is None else \
-        tuple(e for e in MODEL_ENGINES if any(m.split(":", 1)[0] == e for m in suite.methods))
+    engines = MODEL_ENGINES if suite.methods is None else engines_of(suite.methods)
     for path in paths:
         for sid, spec in model_specs(path, engines=engines, **params).items():
             scenes[sid] = replace(spec, methods=engine_modes())
@@ -167,7 +172,7 @@ def model_suite(paths, variants=tuple(VARIANTS), advise: dict | None = None, fra
     (``engine_modes(methods)``)."""
     frame_rates = tuple(frame_rates) if advise is not None else ()
     modes = engine_modes(methods)  # a bad pattern is refused before any engine loads the file
-    engines = tuple(e for e in MODEL_ENGINES if any(m.split(":", 1)[0] == e for m in modes))
+    engines = engines_of(modes)
     scenes = {}
     for path in paths:
         scenes.update(model_specs(path, variants, advise if frame_rates else None, keep, off, engines, **params))
