@@ -142,14 +142,15 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
     nb = q.shape[1]
     n = q.shape[0]
     # One array a step, as XPBD's: x (returned as q), the anchors' rows, the multipliers' rows,
-    # x_old, u (returned as v), then a pass's summed corrections (a row per point); the state
-    # copied in, then only the array read (``_position_based``).
+    # x_old, u (returned as v), then a pass's summed corrections, a row per row of x and of the
+    # anchors (``row``: the anchors' are summed into and never applied, so a 1-D pass writes both
+    # ends alike); the state copied in, then only the array read (``_position_based``).
     fixed = anchors.shape[0] * d
     lam = n + fixed  # the first multiplier's row
     x_old = lam + ends.shape[0]
     u = x_old + n
     delta = u + n
-    work = np.empty((delta + n, nb))
+    work = np.empty((delta + n + fixed, nb))
     work[:n] = q
     work[u:u + n] = v
     for a in range(anchors.shape[0]):
@@ -170,13 +171,26 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
             for b in range(nb):
                 work[lam + c, b] = 0.0
         for _ in range(iterations):
-            for r in range(n):
+            for r in range(n + fixed):
                 for b in range(nb):
                     work[delta + r, b] = 0.0
             for c in range(ends.shape[0]):
-                _correction(work, delta, row(ends[c, 0], n, d), ends[c, 0] >= 0, row(ends[c, 1], n, d),
-                            ends[c, 1] >= 0, d, rest[c], point_inv_mass(inv_mass, ends[c, 0]),
-                            point_inv_mass(inv_mass, ends[c, 1]), lam + c, tilde[c], denominator[c], relaxation)
+                ra = row(ends[c, 0], n, d)
+                rb = row(ends[c, 1], n, d)
+                wa = point_inv_mass(inv_mass, ends[c, 0])
+                wb = point_inv_mass(inv_mass, ends[c, 1])
+                if d > 1:
+                    _correction(work, delta, ra, ends[c, 0] >= 0, rb, ends[c, 1] >= 0, d, rest[c], wa, wb,
+                                lam + c, tilde[c], denominator[c], relaxation)
+                    continue
+                # d = 1: C = x_b - x_a - rest, gradient 1, written out (no call, no branch: it
+                # vectorises over the batch); an anchor's correction goes to its own row, unused.
+                for b in range(nb):
+                    dl = relaxation * ((-(work[rb, b] - work[ra, b] - rest[c]) - tilde[c] * work[lam + c, b])
+                                       / denominator[c])
+                    work[lam + c, b] = work[lam + c, b] + dl
+                    work[delta + ra, b] = work[delta + ra, b] - wa * dl * 1.0
+                    work[delta + rb, b] = work[delta + rb, b] + wb * dl * 1.0
             for r in range(n):
                 for b in range(nb):
                     work[r, b] = work[r, b] + work[delta + r, b]
@@ -188,36 +202,31 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
 
 
 def _correction(work, delta, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde, denominator, relaxation):
-    """One constraint's correction over the batch, read from the positions in ``work`` (``row``:
-    an anchor's rows after the points') and added into the summed corrections, ``work``'s rows
-    from ``delta`` on (a free end's rows; an anchor is never corrected): C = |x_b - x_a| - rest, g = (x_b - x_a)/|x_b - x_a| (C = 0, g = 0 where
-    the points coincide) where d > 1; C = x_b - x_a - rest, g = 1 where d = 1; then
-    dl = relaxation (-C - alpha~ lambda) / (w_a + w_b + alpha~), lambda += dl,
-    dx_a -= w_a dl g, dx_b += w_b dl g."""
+    """One constraint's correction over the batch, d > 1, read from the positions in ``work``
+    (``row``: an anchor's rows after the points') and added into the summed corrections,
+    ``work``'s rows from ``delta`` on (a free end's rows; an anchor is never corrected):
+    C = |x_b - x_a| - rest, g = (x_b - x_a)/|x_b - x_a| (C = 0, g = 0 where the points coincide);
+    then dl = relaxation (-C - alpha~ lambda) / (w_a + w_b + alpha~), lambda += dl,
+    dx_a -= w_a dl g, dx_b += w_b dl g. (The 1-D case the step writes out.)"""
     for b in range(work.shape[1]):
         g0 = work[rb, b] - work[ra, b]
-        g1 = 0.0
+        g1 = work[rb + 1, b] - work[ra + 1, b]
         g2 = 0.0
-        if d == 1:
-            cv = g0 - rest
-            g0 = 1.0
+        length2 = g0 * g0 + g1 * g1
+        if d == 3:
+            g2 = work[rb + 2, b] - work[ra + 2, b]
+            length2 = length2 + g2 * g2
+        length = np.sqrt(length2)
+        cv = 0.0
+        if length == 0.0:
+            g0 = 0.0
+            g1 = 0.0
+            g2 = 0.0
         else:
-            g1 = work[rb + 1, b] - work[ra + 1, b]
-            length2 = g0 * g0 + g1 * g1
-            if d == 3:
-                g2 = work[rb + 2, b] - work[ra + 2, b]
-                length2 = length2 + g2 * g2
-            length = np.sqrt(length2)
-            cv = 0.0
-            if length == 0.0:
-                g0 = 0.0
-                g1 = 0.0
-                g2 = 0.0
-            else:
-                cv = length - rest
-                g0 = g0 / length
-                g1 = g1 / length
-                g2 = g2 / length
+            cv = length - rest
+            g0 = g0 / length
+            g1 = g1 / length
+            g2 = g2 / length
         dl = relaxation * ((-cv - tilde * work[lam, b]) / denominator)
         work[lam, b] = work[lam, b] + dl
         for k in range(d):
