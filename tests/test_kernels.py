@@ -345,3 +345,16 @@ def test_the_bench_judges_rk4_against_semi_implicit_euler_by_the_floors_ratio_of
     assert met["value"] == pytest.approx(4.12) and met["bound"] == pytest.approx(RK4_OVER_SIE_SLACK * 4.12)
     assert met["met"]
     assert not verdict(targets(rows(2.06, 1.0)))["met"]
+
+
+def test_the_bench_holds_every_kernel_to_one_and_a_half_times_its_floor():
+    """Issue 41's target, with the rows injected: a kernel 1.4 times its floor is met, 1.6 missed,
+    on one spring and on the batch alike."""
+    from harness.bench.kernels import FLOOR_RATIO_TARGET, targets
+
+    assert FLOOR_RATIO_TARGET == 1.5
+    row = {"method": "ref:xpbd", "single_ns_per_step": 1.0, "single_floor_ns_per_step": 1.0,
+           "single_ratio_to_floor": 1.4, "batch1000_ratio_to_floor": 1.6,
+           "batch1000_ns_per_spring_step": 1.0, "batch1000_floor_ns_per_spring_step": 1.0}
+    judged = {t["target"]: t["met"] for t in targets([row])}
+    assert judged == {"ref:xpbd 1 spring / floor": True, "ref:xpbd 1000 springs / floor": False}

@@ -7,8 +7,9 @@ Each figure is the minimum over the repeats of one call of the whole loop (200,0
 one spring, 2,000 on the batch) divided by its steps: the kernel's own time per step, the
 call from Python spread over the loop. The ratio kernel/floor is the figure that matters.
 
-Targets (issue 11), judged here and printed met/MISSED, never asserted by a timed test:
-every scheme within ``FLOOR_RATIO_TARGET`` of its floor on one spring and on the batch;
+Targets, judged here and printed met/MISSED, never asserted by a timed test: every scheme
+within ``FLOOR_RATIO_TARGET`` of its floor on one spring and on the batch (issue 41; issue 11
+asked for 2);
 semi-implicit Euler at most ``SIE_SINGLE_TARGET_NS`` per step on one spring and
 ``SIE_BATCH_TARGET_NS`` per spring-step on the batch; RK4 per spring-step on the batch at most
 ``RK4_OVER_SIE_SLACK`` times the ratio of the two floors measured in the same run (the schemes' own
@@ -20,7 +21,7 @@ from __future__ import annotations
 from reference import CLOCKS, METHODS, floor_timer, step_timer
 from scenarios import make_scene
 
-FLOOR_RATIO_TARGET = 2.0
+FLOOR_RATIO_TARGET = 1.5
 SIE_SINGLE_TARGET_NS = 10.0
 SIE_BATCH_TARGET_NS = 0.4
 RK4_OVER_SIE_SLACK = 1.25
