@@ -40,11 +40,12 @@ def _deviation(mode: str, scheme_id: str, scene, h: float, steps: int) -> float:
 
 
 #: (mode, scene, scheme, tolerance) over 1000 steps at 100 a period (h omega = 0.063) from x0 = 1.
-#: Measured (newton 1.8.0, warp 1.19.0, CPU): semi_implicit 4.2e-7 and 1.6e-7, featherstone 8.6e-7 and
-#: 2.4e-7 (the semi-implicit step's own float32 roundoff, about 7 and 15 u32 walking over 1000
-#: steps); xpbd 3.8e-6 and 2.0e-6, vbd 6.3e-6 and 4.4e-6 (their velocity is (x_new - x) / h: u32 / (h
-#: omega) = 9.5e-7 a step). Held to 2e-5 (336 u32, three times the largest), where the nearest other
-#: scheme is 2.3e-2 away (asserted below it).
+#: Measured (newton 1.8.0, warp 1.19.0, CPU, the spring's anchor at ``adapter.REACH`` = 20
+#: amplitudes): semi_implicit 7.7e-7 and 9.8e-7, featherstone 8.6e-7 and 2.4e-7 (the semi-implicit
+#: step's own float32 roundoff, walking over 1000 steps; the particle spring's length s + x is
+#: rounded to 2^-24 of s); xpbd 4.1e-6 and 1.9e-6, vbd 8.1e-6 and 3.5e-6 (their velocity is
+#: (x_new - x) / h: u32 / (h omega) = 9.5e-7 a step). Held to 2e-5 (336 u32, 2.5 times the
+#: largest), where the nearest other scheme is 2.3e-2 away (asserted below it).
 SPRING_IDENTITIES = [
     ("semi_implicit", "spring", "semi_implicit_euler"),
     ("semi_implicit", "damped_spring", "semi_implicit_euler"),
@@ -69,6 +70,25 @@ def test_each_newton_solver_is_its_scheme_on_the_spring_to_float32_rounding(mode
     h = scene.period / 100
     assert _deviation(mode, scheme_id, scene, h, 1000) <= SPRING_TOL
     assert _deviation(mode, OTHER[scheme_id], scene, h, 1000) >= APART
+
+
+def test_the_spring_is_linear_as_far_out_as_the_stability_criterion_looks():
+    """The finite horizon calls a run stable while its size stays within GROWTH (10) times the true
+    solution's: the particle spring must be the linear spring that far out, its anchor beyond it.
+    Semi-implicit Euler's orbit from (1, 0) at h omega = y has size up to 1/sqrt(1 - y/2) in
+    (q, v/omega) (its invariant q^2 - y q v + v^2 = 1, omega = 1), which passes 2 amplitudes at
+    y = sqrt(3): with the anchor at twice the amplitude the mass crossed it there, and Newton's
+    semi-implicit Euler read a limit of 1.73 where the criterion gives 2 (1 - 1/GROWTH^2) = 1.98.
+    At y = 1.9 the run is stable and grows as theory says, to float32 rounding; at 1.99 it is not."""
+    from harness.measures.stability import GROWTH, finite_horizon_test
+
+    spring = make_scene("spring")
+    assert adapter.spring_rest(spring) >= 2 * GROWTH * 1.0
+    mode = adapters.ENGINE_METHODS["newton:semi_implicit"]
+    for y, stable in ((1.9, True), (1.99, False)):
+        ok, info = finite_horizon_test(mode, spring, y / spring.omega, steps=1000)
+        assert ok is stable
+        assert info["growth"] == pytest.approx(1.0 / math.sqrt(1.0 - y / 2.0), rel=1e-4)
 
 
 def test_identify_names_xpbd_implicit_euler_at_float32():
