@@ -30,12 +30,15 @@ def point_inv_mass(inv_mass, i):
     return 0.0
 
 
-def project(work, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde, denominator, share):
+def project(work, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde, denominator, share, into, relaxation):
     """One pass of one constraint over the batch, d > 1, its ends' rows ``ra``, ``rb`` in
     ``work`` (``row``; an anchor's not ``free``, never written): C = |x_b - x_a| - rest and its
     gradient g = (x_b - x_a)/|x_b - x_a| (C = 0 and g = 0 where the points coincide), then XPBD's
-    dl = (-C - alpha~ lambda) / (w_a + w_b + alpha~), lambda += dl where ``lam`` is a row of
-    work, else (lam < 0) PBD's dl = -share C; x_a -= w_a dl g, x_b += w_b dl g. (The 1-D case,
+    dl = relaxation (-C - alpha~ lambda) / (w_a + w_b + alpha~), lambda += dl where ``lam`` is a
+    row of work, else (lam < 0) PBD's dl = -share C; then the corrections -w_a dl g and w_b dl g
+    added into the ends' rows ``into`` rows on: the positions themselves (``into`` 0, Gauss-Seidel:
+    the next constraint reads them), or a pass's summed corrections (Jacobi XPBD, applied after the
+    pass). Relaxation 1 where the scheme has none (a product with 1 is exact). (The 1-D case,
     C = x_b - x_a - rest with g = 1, the schemes write out.)"""
     for b in range(work.shape[1]):
         g0 = work[rb, b] - work[ra, b]
@@ -58,16 +61,16 @@ def project(work, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde, denominat
             g1 = g1 / length
             g2 = g2 / length
         if lam >= 0:
-            dl = (-cv - tilde * work[lam, b]) / denominator
+            dl = relaxation * ((-cv - tilde * work[lam, b]) / denominator)
             work[lam, b] = work[lam, b] + dl
         else:
             dl = -share * cv
         for k in range(d):
             g = g0 if k == 0 else (g1 if k == 1 else g2)
             if a_free:
-                work[ra + k, b] = work[ra + k, b] - wa * dl * g
+                work[into + ra + k, b] = work[into + ra + k, b] - wa * dl * g
             if b_free:
-                work[rb + k, b] = work[rb + k, b] + wb * dl * g
+                work[into + rb + k, b] = work[into + rb + k, b] + wb * dl * g
 
 
 def nth_root(a, n):

@@ -93,7 +93,7 @@ def pbd(accel, constraints, substeps, iterations, state, t, h, p):
                 wa = point_inv_mass(inv_mass, ends[c, 0])
                 wb = point_inv_mass(inv_mass, ends[c, 1])
                 if d > 1:
-                    project(work, ra, a_free, rb, b_free, d, rest[c], wa, wb, -1, 0.0, 0.0, share[c])
+                    project(work, ra, a_free, rb, b_free, d, rest[c], wa, wb, -1, 0.0, 0.0, share[c], 0, 1.0)
                     continue
                 # d = 1: C = x_b - x_a - rest, gradient 1; an anchor written back as read.
                 for b in range(nb):

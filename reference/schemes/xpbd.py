@@ -96,7 +96,7 @@ def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
                 wa = point_inv_mass(inv_mass, ends[c, 0])
                 wb = point_inv_mass(inv_mass, ends[c, 1])
                 if d > 1:
-                    project(work, ra, a_free, rb, b_free, d, rest[c], wa, wb, lam + c, tilde[c], denominator[c], 0.0)
+                    project(work, ra, a_free, rb, b_free, d, rest[c], wa, wb, lam + c, tilde[c], denominator[c], 0.0, 0, 1.0)
                     continue
                 # d = 1: C = x_b - x_a - rest, gradient 1; an anchor written back as read.
                 for b in range(nb):

@@ -7,7 +7,7 @@ from records.method_id import Option
 
 from ..kinds import COUNT_BASE, PositionBased
 from .._scheme import Floor, scheme
-from ._position_based import point_inv_mass, row
+from ._position_based import point_inv_mass, project, row
 
 #: Substeps and Jacobi passes per step unless the caller sets ``substeps``/``iterations``: the
 #: passes are Newton's SolverXPBD default (``iterations=2``), the solver this scheme is the
@@ -180,8 +180,9 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
                 wa = point_inv_mass(inv_mass, ends[c, 0])
                 wb = point_inv_mass(inv_mass, ends[c, 1])
                 if d > 1:
-                    _correction(work, delta, ra, ends[c, 0] >= 0, rb, ends[c, 1] >= 0, d, rest[c], wa, wb,
-                                lam + c, tilde[c], denominator[c], relaxation)
+                    # Summed into the corrections' rows, from delta on.
+                    project(work, ra, ends[c, 0] >= 0, rb, ends[c, 1] >= 0, d, rest[c], wa, wb, lam + c, tilde[c],
+                            denominator[c], 0.0, delta, relaxation)
                     continue
                 # d = 1: C = x_b - x_a - rest, gradient 1, written out (no call, no branch: it
                 # vectorises over the batch); an anchor's correction goes to its own row, unused.
@@ -200,38 +201,3 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
                 work[u + r, b] = (work[r, b] - work[x_old + r, b]) / hs
     return (work[:n], work[u:u + n])
 
-
-def _correction(work, delta, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde, denominator, relaxation):
-    """One constraint's correction over the batch, d > 1, read from the positions in ``work``
-    (``row``: an anchor's rows after the points') and added into the summed corrections,
-    ``work``'s rows from ``delta`` on (a free end's rows; an anchor is never corrected):
-    C = |x_b - x_a| - rest, g = (x_b - x_a)/|x_b - x_a| (C = 0, g = 0 where the points coincide);
-    then dl = relaxation (-C - alpha~ lambda) / (w_a + w_b + alpha~), lambda += dl,
-    dx_a -= w_a dl g, dx_b += w_b dl g. (The 1-D case the step writes out.)"""
-    for b in range(work.shape[1]):
-        g0 = work[rb, b] - work[ra, b]
-        g1 = work[rb + 1, b] - work[ra + 1, b]
-        g2 = 0.0
-        length2 = g0 * g0 + g1 * g1
-        if d == 3:
-            g2 = work[rb + 2, b] - work[ra + 2, b]
-            length2 = length2 + g2 * g2
-        length = np.sqrt(length2)
-        cv = 0.0
-        if length == 0.0:
-            g0 = 0.0
-            g1 = 0.0
-            g2 = 0.0
-        else:
-            cv = length - rest
-            g0 = g0 / length
-            g1 = g1 / length
-            g2 = g2 / length
-        dl = relaxation * ((-cv - tilde * work[lam, b]) / denominator)
-        work[lam, b] = work[lam, b] + dl
-        for k in range(d):
-            g = g0 if k == 0 else (g1 if k == 1 else g2)
-            if a_free:
-                work[delta + ra + k, b] = work[delta + ra + k, b] - wa * dl * g
-            if b_free:
-                work[delta + rb + k, b] = work[delta + rb + k, b] + wb * dl * g
