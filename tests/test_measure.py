@@ -543,3 +543,29 @@ def test_cli_missing_argument_exits_2():
         main(["cost", "spring", "--method", "ref:rk4"])
     assert exc.value.code == 2
     assert err.getvalue().count("\n") == 1 and "--dt" in err.getvalue()
+
+
+class RoundingDelegate(Delegate):
+    """A delegate whose states come back rounded, as a float32 engine's (Newton's) do, here to
+    half precision so that no step size hides it: its one-step map is not affine to the check's
+    tolerance."""
+
+    def simulate(self, scene, dt, steps, every=1):
+        traj = super().simulate(scene, dt, steps, every)
+        with np.errstate(over="ignore"):  # a run that blows up rounds to inf, as it would overflow
+            traj.q = traj.q.astype(np.float16).astype(float)
+            traj.v = traj.v.astype(np.float16).astype(float)
+        return traj
+
+
+def test_a_map_that_cannot_be_measured_is_said_in_the_commands_lines_not_a_traceback(spring):
+    """A rounding method on a linear scene (a float32 engine): the spectral radius does not apply, the finite horizon
+    judges, and the one-step map attached at the limit says why it has no eigenvalues (the
+    command's lines read them, and raised a KeyError for Newton's modes)."""
+    from harness.cli.stability import _lines
+
+    res = stability.largest_stable_dt(RoundingDelegate("semi_implicit_euler"), spring, steps=200, lo=0.3, hi=4.0)
+    assert res.criterion == "finite_horizon" and res.verdict == "limited"
+    assert res.spectral["rho"] is None and res.spectral["reason"]
+    lines = list(_lines(res))
+    assert lines[-1].startswith("  one-step map at dt ") and "not measured (" in lines[-1]
