@@ -200,4 +200,3 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
             for b in range(nb):
                 work[u + r, b] = (work[r, b] - work[x_old + r, b]) / hs
     return (work[:n], work[u:u + n])
-
