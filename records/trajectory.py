@@ -6,10 +6,12 @@ with the same formula for every method.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: Outcomes of a run. A failure is a result, never an exception out of the harness.
 OK, UNSTABLE, CRASHED, TIMED_OUT, UNSUPPORTED = "ok", "unstable", "crashed", "timed_out", "unsupported"
@@ -167,6 +169,8 @@ class Trajectory:
 
     def to_frame(self) -> pd.DataFrame:
         """Tidy table: one row per recorded state (and batch member, if more than one)."""
+        import pandas as pd  # here: a run that never tabulates (a command's start, a worker) need not import pandas
+
         T, B, n = self.q.shape
         cols: dict[str, np.ndarray] = {}
         if B > 1:

@@ -20,7 +20,6 @@ from collections import OrderedDict
 from typing import Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 #: One cache per (scene id, parameter values, what is solved): scenes are cheap to construct.
 _CACHE: dict[tuple, "SegmentedSolution"] = {}
@@ -48,6 +47,8 @@ class SegmentedSolution:
 
     def _solve(self, k: int):
         t0 = k * self.segment
+        from scipy.integrate import solve_ivp  # here: a process that never solves a reference need not import it
+
         sol = solve_ivp(self.rhs, (t0, t0 + self.segment), self.starts[k], method="DOP853",
                         rtol=self.rtol, atol=self.atol, dense_output=True)
         if not sol.success:  # pragma: no cover - a failed reference must never pass silently

@@ -38,8 +38,6 @@ per node: between 12 x 12 and 16 x 16 (docs/performance.md).
 import math
 
 import numpy as np
-from scipy.sparse import coo_matrix, csr_matrix
-from scipy.sparse.linalg import eigsh
 
 from .scene import Param, Scene, SparseForm
 from ._solutions import SegmentedSolution, cached
@@ -370,6 +368,8 @@ class _Sheet:
         self.indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // self.size, minlength=self.size))]
                                      ).astype(np.int32)
         entries = len(np.concatenate(sign))
+        from scipy.sparse import coo_matrix  # here: scipy.sparse is a large import a process without a cloth never needs
+
         self.assemble = coo_matrix((np.concatenate(sign), (slot[:entries], np.concatenate(source))),
                                    shape=(len(unique), block.size)).tocsr()
         self.diagonal = slot[entries:]
@@ -565,6 +565,8 @@ class Cloth(Scene):
             cols.append(cc.ravel())
             vals.append(sign * blocks[keep].ravel())
         size = self.ndof
+        from scipy.sparse import coo_matrix
+
         return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                           shape=(size, size)).tocsr()
 
@@ -574,6 +576,8 @@ class Cloth(Scene):
         if hess.shape[0] <= 600:
             lam = float(np.linalg.eigvalsh(hess.toarray())[-1])
         else:
+            from scipy.sparse.linalg import eigsh
+
             lam = float(eigsh(hess, k=1, which="LA", return_eigenvectors=False, tol=1e-10)[0])
         return math.sqrt(max(lam, 0.0) / self.node_mass)
 
@@ -621,7 +625,7 @@ class Cloth(Scene):
         return rhs
 
     @staticmethod
-    def _incidence(a, b, free) -> csr_matrix:
+    def _incidence(a, b, free):  # -> a scipy CSR matrix
         """The free nodes' rows of the springs' incidence (+1 where a spring starts at the node,
         -1 where it ends), each row's springs stored in the order a node-by-node accumulation
         takes them (first those it starts, then those it ends, each in spring order): its product
@@ -635,6 +639,8 @@ class Cloth(Scene):
             cols += [starts, ends]
             vals += [np.ones(len(starts)), -np.ones(len(ends))]
             indptr.append(indptr[-1] + len(starts) + len(ends))
+        from scipy.sparse import csr_matrix
+
         return csr_matrix((np.concatenate(vals), np.concatenate(cols), np.array(indptr)), shape=(len(free), len(a)))
 
     def _reference(self, rtol=REFERENCE_RTOL) -> SegmentedSolution:

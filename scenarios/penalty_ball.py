@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .scene import Param, Scene
 from ._oscillator import damped_oscillator
@@ -111,6 +110,8 @@ class PenaltyBall(Scene):
             if k is None:  # it comes to rest in the contact
                 phases.append((t, "contact", 0.0, v, math.inf))
                 break
+            from scipy.optimize import brentq  # here: only the truth of a bounce needs it, and it is a large import
+
             out = brentq(x_at, grid[k - 1], grid[k], xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=200)
             phases.append((t, "contact", 0.0, v, t + out))
             _, vo = damped_oscillator(np.array([out]), w, z, eq, v)

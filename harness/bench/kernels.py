@@ -18,7 +18,7 @@ fixed number there judged the machine rather than the kernels).
 """
 from __future__ import annotations
 
-from reference import CLOCKS, METHODS, floor_timer, step_timer
+from reference import CLOCKS, METHODS, step_timer
 from scenarios import make_scene
 
 FLOOR_RATIO_TARGET = 1.5
@@ -40,6 +40,8 @@ def on_the_spring() -> list[str]:
 
 def _pair(scheme_id: str, steps: int, batch: int, repeats: int) -> tuple[float, float]:
     """(kernel, floor) seconds per step, min over interleaved repeats."""
+    from reference import floor_timer  # here: the floors import numba, which a command's parser need not
+
     spring = make_scene("spring")
     k, m = spring.values["k"], spring.values["m"]
     x0, v0 = spring.values["x0"], spring.values["v0"]
