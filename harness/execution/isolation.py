@@ -37,9 +37,11 @@ from records.trajectory import CRASHED, TIMED_OUT
 #: Seconds an engine run may take when the caller gives no limit.
 DEFAULT_TIMEOUT_S = 60.0
 
-#: Modules the forkserver imports once, so that a worker starts without importing them.
-PRELOAD = ["numpy", "records", "scenarios", "reference", "adapters", "harness.methods", "harness.execution.isolation",
-           "harness.execution.preload"]
+#: Modules the forkserver imports once, so that a worker starts without importing them: the
+#: harness's own, and the large libraries they import only where used (scipy's solvers and sparse
+#: matrices, pandas), which a worker forked without them would import afresh, each.
+PRELOAD = ["numpy", "scipy.integrate", "scipy.optimize", "scipy.sparse.linalg", "pandas", "records", "scenarios",
+           "reference", "adapters", "harness.methods", "harness.execution.isolation", "harness.execution.preload"]
 
 #: How much of the worker's captured output a failure keeps.
 OUTPUT_TAIL_CHARS = 2000
