@@ -16,10 +16,13 @@ The rule:
   state array allocated and recorded) and a Python loop of ``mj_step``; REBOUND one
   ``sim.steps(N)`` (IAS15, adaptive, whose dt is the output interval: a loop of
   ``sim.integrate(k dt)``); pybullet a loop of ``stepSimulation``; pymunk a loop of ``space.step``
-  (a mode's ``velocity_func`` runs inside it). Where the mode applies the scene's force from
+  (a mode's ``velocity_func`` runs inside it); Drake one ``Simulator.AdvanceTo(t + N dt)``; Newton a
+  loop of ``clear_forces`` and ``solver.step`` with the two states swapped, as Newton's examples
+  step (on the CPU Warp captures no graph: this is the least loop there is). Where the mode applies the scene's force from
   Python before every step (pybullet; ``pymunk:applied_force``), a second bare loop does just
   that and steps (``bare loop + force``): the least Python can do for that mode.
-* **Steps**: N such that the bare loop runs about ``RUN_S`` (20 ms), at least ``MIN_STEPS``;
+* **Steps**: N such that the bare loop runs about ``RUN_S`` (20 ms), at least ``MIN_STEPS`` where
+  those take at most ``MAX_RUN_S`` (0.1 s);
   ``repeats`` (7) interleaved repeats (harness, bare, harness, bare, ...), minimum of each.
 * **Clock**: the CPU time of this process (``time.process_time``), which other processes on a
   shared core do not inflate (everything here runs in one thread).
@@ -46,6 +49,10 @@ TARGET = 1.3
 DT = 0.01
 RUN_S = 0.02
 MIN_STEPS = 20_000
+#: A run of MIN_STEPS longer than this (an engine whose step takes more than 5 us: Drake's
+#: continuous plants, Newton's Warp kernels from Python) is cut to this long, still five times
+#: RUN_S.
+MAX_RUN_S = 0.1
 MAX_STEPS = 2_000_000
 REPEATS = 7
 FALLBACK_SCENES = ("spring", "kepler", "pendulum", "damped_spring", "chain")
@@ -147,6 +154,27 @@ def _bare_loops(mode, scene: Scene) -> tuple[list[_Bare], str]:
 
             loops.append(_Bare("bare loop + force", forced, lambda: None))
         return loops, "a Python loop of space.step (velocity_func runs inside it); with the force set first"
+    if mode.engine == "drake":
+        sim = model.sim
+
+        def advanced(n):  # one AdvanceTo over the n steps, as a user writes it
+            sim.AdvanceTo(sim.get_context().get_time() + n * DT)
+
+        return [_Bare("AdvanceTo(t + N dt)", advanced, close)], "one Simulator.AdvanceTo(t + N dt) call"
+    if mode.engine == "newton":
+        solver, control = model.solver, model.control
+
+        def stepped(n):  # Newton's examples' loop: clear the forces, step, swap the states
+            s0, s1 = model.s0, model.s1
+            step = solver.step
+            for _ in range(n):
+                s0.clear_forces()
+                step(s0, s1, control, None, DT)
+                s0, s1 = s1, s0
+            model.s0, model.s1 = s0, s1
+
+        return [_Bare("solver.step loop", stepped, close)], \
+            "a Python loop of state.clear_forces(); solver.step(s0, s1, control, None, dt); swap"
     close()
     raise ValueError(f"no bare loop for engine {mode.engine}")
 
@@ -168,7 +196,7 @@ def bench_mode(mode, *, repeats: int = REPEATS) -> dict:
         t = time.perf_counter()
         bare[0].once(pilot)
         per = (time.perf_counter() - t) / pilot  # only sizes N
-        n = int(min(MAX_STEPS, max(MIN_STEPS, RUN_S / max(per, 1e-12))))
+        n = int(min(MAX_STEPS, max(min(MIN_STEPS, MAX_RUN_S / max(per, 1e-12)), RUN_S / max(per, 1e-12))))
         engine = _Timing(mode, scene, DT, n, CLOCK, "engine")
         stepped = _Timing(mode, scene, DT, min(n, HARNESS_TIME_STEPS), CLOCK, "harness")
         for _ in range(repeats):
