@@ -49,9 +49,9 @@ TARGET = 1.3
 DT = 0.01
 RUN_S = 0.02
 MIN_STEPS = 20_000
-#: A run of MIN_STEPS longer than this (an engine whose step takes more than 5 us: Drake's
-#: continuous plants, Newton's Warp kernels from Python) is cut to this long, still five times
-#: RUN_S.
+#: A run of MIN_STEPS longer than this (a step dearer than MAX_RUN_S / MIN_STEPS: Drake's
+#: continuous plants, Newton's Warp kernels launched from Python) is cut to this long, still five
+#: times RUN_S.
 MAX_RUN_S = 0.1
 MAX_STEPS = 2_000_000
 REPEATS = 7
