@@ -268,7 +268,7 @@ def test_every_engine_has_a_bare_loop_that_steps_its_model(mode_id):
     """``harness bench --engines`` (every mode by default) reaches each engine's bare loops: each
     runs a few steps on the model the adapter built, and closes (Drake and Newton had none: the
     command raised there, after the modes before them had been timed)."""
-    from harness.bench.engines import DT, _bare_loops, bench_scene
+    from harness.bench.engines import _bare_loops, bench_scene
 
     mode = adapters.ENGINE_METHODS[mode_id]
     scene = bench_scene(mode)

@@ -18,9 +18,10 @@ The rule:
   ``sim.integrate(k dt)``); pybullet a loop of ``stepSimulation``; pymunk a loop of ``space.step``
   (a mode's ``velocity_func`` runs inside it); Drake one ``Simulator.AdvanceTo(t + N dt)``; Newton a
   loop of ``clear_forces`` and ``solver.step`` with the two states swapped, as Newton's examples
-  step (on the CPU Warp captures no graph: this is the least loop there is). Where the mode applies the scene's force from
-  Python before every step (pybullet; ``pymunk:applied_force``), a second bare loop does just
-  that and steps (``bare loop + force``): the least Python can do for that mode.
+  step (the adapter's own ``steps``: on the CPU Warp captures no graph, so no loop is less). Where
+  the mode applies the scene's force from Python before every step (pybullet;
+  ``pymunk:applied_force``), a second bare loop does just that and steps (``bare loop + force``):
+  the least Python can do for that mode.
 * **Steps**: N such that the bare loop runs about ``RUN_S`` (20 ms), at least ``MIN_STEPS`` where
   those take at most ``MAX_RUN_S`` (0.1 s);
   ``repeats`` (7) interleaved repeats (harness, bare, harness, bare, ...), minimum of each.
@@ -162,18 +163,8 @@ def _bare_loops(mode, scene: Scene) -> tuple[list[_Bare], str]:
 
         return [_Bare("AdvanceTo(t + N dt)", advanced, close)], "one Simulator.AdvanceTo(t + N dt) call"
     if mode.engine == "newton":
-        solver, control = model.solver, model.control
-
-        def stepped(n):  # Newton's examples' loop: clear the forces, step, swap the states
-            s0, s1 = model.s0, model.s1
-            step = solver.step
-            for _ in range(n):
-                s0.clear_forces()
-                step(s0, s1, control, None, DT)
-                s0, s1 = s1, s0
-            model.s0, model.s1 = s0, s1
-
-        return [_Bare("solver.step loop", stepped, close)], \
+        # The adapter's own steps are that loop already, with nothing else in it.
+        return [_Bare("solver.step loop", model.steps, close)], \
             "a Python loop of state.clear_forces(); solver.step(s0, s1, control, None, dt); swap"
     close()
     raise ValueError(f"no bare loop for engine {mode.engine}")
@@ -195,8 +186,8 @@ def bench_mode(mode, *, repeats: int = REPEATS) -> dict:
             b.once(pilot)  # warm-up
         t = time.perf_counter()
         bare[0].once(pilot)
-        per = (time.perf_counter() - t) / pilot  # only sizes N
-        n = int(min(MAX_STEPS, max(min(MIN_STEPS, MAX_RUN_S / max(per, 1e-12)), RUN_S / max(per, 1e-12))))
+        per = max((time.perf_counter() - t) / pilot, 1e-12)  # only sizes N
+        n = int(min(MAX_STEPS, max(min(MIN_STEPS, MAX_RUN_S / per), RUN_S / per)))
         engine = _Timing(mode, scene, DT, n, CLOCK, "engine")
         stepped = _Timing(mode, scene, DT, min(n, HARNESS_TIME_STEPS), CLOCK, "harness")
         for _ in range(repeats):
