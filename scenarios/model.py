@@ -39,6 +39,7 @@ import numpy as np
 
 from records import InvalidInput
 
+from ._contact_pairs import collidable_pairs
 from ._mass_matrix import mass_matrix_variation as _mass_matrix_variation
 from ._model_reference import RefinedRunReference
 from .scene import Param, Scene
@@ -145,9 +146,9 @@ def features_found(m) -> dict[str, str]:
     import mujoco
 
     found = {}
-    collide = int(np.count_nonzero((m.geom_contype != 0) | (m.geom_conaffinity != 0)))
-    if collide or m.npair:
-        found["contact"] = f"{collide} colliding geoms" + (f", {m.npair} explicit pairs" if m.npair else "")
+    pairs = collidable_pairs(m)
+    if pairs:
+        found["contact"] = f"{len(pairs)} collidable geom pairs" + (f" ({m.npair} explicit)" if m.npair else "")
     damped = int(np.count_nonzero(m.dof_damping)) + int(np.count_nonzero(m.tendon_damping))
     if damped or m.opt.density or m.opt.viscosity:
         found["damping"] = f"{damped} damped dofs/tendons" + (", fluid drag" if m.opt.density or m.opt.viscosity

@@ -5,7 +5,13 @@ The file's variants run as the nightly runs a suite (``harness.nightly.models.mo
 the same cells, tables and charts, written to ``--out`` (``report.md``, ``charts/``). The history
 is a temporary file unless ``--db`` names one, so a model run stores nothing unless asked to.
 Printed: what the model has that perturbs an integrator, what each variant switched off, its
-initial state and reference, each variant's table, and the advice (``--hz``)."""
+initial state and reference, each variant's table, and the advice (``--hz``).
+
+Without ``--full`` (or one of its flags) the command asks the question a robot's user brings
+(``harness.control_step``): at the file's own timestep and integrator, the control step
+(``--frame-skip`` or ``--env``'s), seeded controls and the environment's starts, how far each
+control step is from the converged one, what another integrator or substeps would change, and at
+what cost, with the predictable horizon and the contacts."""
 from __future__ import annotations
 
 import json
@@ -19,8 +25,28 @@ from harness import validate
 
 
 def add_parser(sub):
-    p = sub.add_parser("model", help="every measure on your own MJCF or URDF model, in MuJoCo, pybullet, Drake and Newton")
-    p.add_argument("path", help="the model file: MJCF (.xml) or URDF (.urdf)")
+    from scenarios.environments import ENVIRONMENTS
+
+    p = sub.add_parser("model", help="your own MJCF or URDF model at its control step (MuJoCo); --full: every "
+                                     "measure in MuJoCo, pybullet, Drake and Newton")
+    p.add_argument("path", nargs="?", default=None,
+                   help="the model file: MJCF (.xml) or URDF (.urdf); optional with --env (its packaged file)")
+    q = p.add_argument_group("the control-step question (the default; seconds to a minute on 2 cores)")
+    q.add_argument("--env", default=None, metavar="NAME",
+                   help=f"an environment's setting: its file, frame skip and reset ({', '.join(ENVIRONMENTS)})")
+    q.add_argument("--frame-skip", default=None, metavar="N",
+                   help="physics steps per control step, the control held (default 1, or --env's)")
+    q.add_argument("--controls", default="seeded", metavar="seeded|zero|FILE",
+                   help="seeded: U(ctrlrange) a control step (default); zero: passive; FILE: .npy/.csv, a row a "
+                        "control step")
+    q.add_argument("--seeds", default="3", metavar="N", help="starts (and control sequences) drawn, seeds 0..N-1")
+    q.add_argument("--reset-noise", default=None, metavar="SCALE",
+                   help="qpos0 + U(-SCALE, SCALE) on qpos and qvel (default 0.01, or --env's reset)")
+    q.add_argument("--horizon", default="2", metavar="SECONDS", help="each seed's run (default 2 s)")
+    q.add_argument("--states", default="40", metavar="N", help="transition states per seed (default 40)")
+    p.add_argument("--full", action="store_true",
+                   help="the full study instead: every measure, variants as written and conservative, every engine "
+                        "(minutes); implied by --variant, --keep, --off, --perturb, --hz, --energy-tol, --methods, --db")
     p.add_argument("--variant", action="append", metavar="NAME",
                    help=f"which variants to measure (repeatable; default both: {', '.join(VARIANTS)})")
     p.add_argument("--keep", action="append", metavar="FEATURE",
@@ -28,11 +54,12 @@ def add_parser(sub):
     p.add_argument("--off", action="append", metavar="FEATURE",
                    help=f"switch this feature off in every variant, e.g. gravity or armature (repeatable; one of "
                         f"{', '.join(FEATURES)})")
-    p.add_argument("--seed", default="0", help="seed of the initial perturbation (a model with no keyframe)")
+    p.add_argument("--seed", default="0", help="the first seed: the question's starts and controls use seeds SEED.."
+                                                 "SEED+N-1; --full: the seed of its initial perturbation")
     p.add_argument("--perturb", default=None, help="its standard deviation (qpos and qvel; default 0.5)")
     p.add_argument("--hz", action="append", metavar="HZ",
                    help="frame rate of the advice on the conservative variant (repeatable; default 60; 0: none)")
-    p.add_argument("--energy-tol", default="1e-3", help="the advice's energy tolerance")
+    p.add_argument("--energy-tol", default=None, help="the advice's energy tolerance (default 1e-3)")
     p.add_argument("--out", default=None, help="report directory (default results/model/<file name>)")
     p.add_argument("--db", default=None, help="SQLite history to store the run in (default: none kept)")
     p.add_argument("--jobs", default="2", help="worker processes")
@@ -48,11 +75,134 @@ def _request(args) -> tuple[tuple[float, ...], dict | None]:
     hz = tuple(h for h in hz if h > 0.0)
     if not hz:
         return (), None
-    tol = validate.positive_finite("--energy-tol", args.energy_tol)
+    tol = validate.positive_finite("--energy-tol", args.energy_tol if args.energy_tol is not None else "1e-3")
     return hz, {"energy_tol": tol, "horizon": 10.0, "max_substeps": 16}
 
 
+FULL_FLAGS = ("variant", "keep", "off", "perturb", "hz", "methods", "db", "energy_tol")
+
+
+def wants_full(args) -> bool:
+    return bool(args.full or any(getattr(args, f) is not None for f in FULL_FLAGS))
+
+
 def run(args) -> int:
+    if args.path is None and args.env is None:
+        from records import InvalidInput
+
+        raise InvalidInput("path: a model file is needed (an .xml or .urdf), or --env NAME for an environment's own")
+    if not wants_full(args):
+        return run_question(args)
+    if args.path is None:
+        from scenarios.environments import environment
+
+        args.path = environment(args.env).path()
+    return run_full(args)
+
+
+def question_setting(args):
+    """(model file, ControlSetting, StudyConfig) from the arguments, every field checked."""
+    from scenarios.control_setting import CONTROL_MODES, DEFAULT_RESET, ControlSetting
+    from scenarios.environments import ResetNoise, environment
+    from scenarios.model import read_model_file
+
+    from harness.control_step import StudyConfig
+
+    env = environment(args.env) if args.env else None
+    path = args.path or env.path()
+    mf = read_model_file(path)
+    frame_skip = validate.count("--frame-skip", args.frame_skip, 1, 10_000) if args.frame_skip is not None else (
+        env.frame_skip if env else 1)
+    seeds = validate.count("--seeds", args.seeds, 1, 100)
+    seed0 = validate.count("--seed", args.seed, 0, 2**32 - 1 - seeds)
+    if args.controls not in CONTROL_MODES:
+        ControlSetting.read_controls(args.controls)  # a bad file is refused before MuJoCo compiles the model
+    if args.reset_noise is not None:
+        scale = float(args.reset_noise) if str(args.reset_noise) in ("0", "0.0") else \
+            validate.positive_finite("--reset-noise", args.reset_noise)
+        reset = ResetNoise(scale, scale, "uniform")
+    else:
+        reset = env.reset if env else DEFAULT_RESET
+    horizon = validate.positive_finite("--horizon", args.horizon)
+    if horizon > 60:
+        from records import InvalidInput
+
+        raise InvalidInput(f"--horizon={args.horizon} is out of range (allowed: > 0, at most 60 s)")
+    states = validate.count("--states", args.states, 1, 10_000)
+    jobs = validate.count("--jobs", args.jobs, 1, 64)
+    source = env.source if env else "harness defaults (no --env)"
+    if env and (args.frame_skip is not None or args.reset_noise is not None):
+        source += "; changed by --frame-skip/--reset-noise"
+    setting = ControlSetting(frame_skip=frame_skip, controls=args.controls, reset=reset,
+                             root_position=env.root_position if env else 1,
+                             seeds=tuple(seed0 + i for i in range(seeds)),
+                             environment=env.name if env else None, source=source)
+    return mf, setting, StudyConfig(horizon_s=horizon, states_per_seed=states, threads=jobs)
+
+
+def engines_note(m) -> list[str]:
+    """Why the question runs MuJoCo alone, and what --full does with the other engines."""
+    from scenarios._contact_pairs import collidable_pairs
+
+    if collidable_pairs(m):
+        return ["Drake, Newton and pybullet are not in this question: Drake's parser builds no contact geometry "
+                "for a model file (no SceneGraph) and Newton's loader runs with contacts off, so neither steps the "
+                "robot this file describes, and pybullet builds its own masses and inertias from the geoms. "
+                "`harness model --full` runs them, each row of a model stepped without its contacts marked so."]
+    return ["The model has no collidable pair: `harness model --full` compares MuJoCo with Drake, Newton and "
+            "pybullet on it, each engine's built model checked against MuJoCo's."]
+
+
+def run_question(args) -> int:
+    from scenarios.model import compile_model
+
+    from harness.control_step import run_study, verdict
+    from reports import control_step_section as section
+
+    mf, setting, config = question_setting(args)
+    m = compile_model(mf)
+    setting = setting.checked(m)
+    out = Path(args.out) if args.out else Path("results/model") / mf.name
+    study = run_study(m, setting, config, progress=sys.stderr, path=mf.path)
+    words = verdict(study)
+    note = engines_note(m)
+    frame = study.frame()
+    out.mkdir(parents=True, exist_ok=True)
+    frame.to_csv(out / "control_step.csv", index=False)
+    drew = section.chart(study, out / "charts" / "control_step_error_cost.png")
+    report = out / "report.md"
+    report.write_text(section.markdown(study, words, "charts/control_step_error_cost.png" if drew else None, note))
+    if args.json:
+        from harness.measures.frames import jsonable
+
+        print(json.dumps(jsonable({"model": {"file": mf.path, "sha256": mf.sha256}, "setting": study.setting,
+                                   "reference": {"h": study.reference.h, "level": study.reference.level,
+                                                 "error_median": study.reference.error.median,
+                                                 "error_p95": study.reference.error.p95,
+                                                 "converged": study.reference.converged,
+                                                 "history": study.reference.history, "why": study.reference.why},
+                                   "collidable_pairs": study.pairs, "predictable_horizon_s": study.horizon,
+                                   "run_s": study.horizon_s, "verdict": words, "engines": note,
+                                   "candidates": frame.to_dict(orient="records"), "report": str(report),
+                                   "wall_s": study.wall_s}), indent=1, default=str))
+        return 0
+    print(f"model {mf.path} (sha256 {mf.sha256[:16]}...): {m.nv} dof, {m.nu} actuators")
+    for line in section.header_lines(study):
+        print(line)
+    print()
+    for line in words:
+        print(line)
+    print()
+    for line in section.text_table(study):
+        print(line)
+    print()
+    for line in note:
+        print(line)
+    print(f"report: {report} ({study.wall_s:.1f} s)")
+    return 0
+
+
+def run_full(args) -> int:
     from harness.nightly.models import engine_modes, model_scenes, model_suite
     from harness.nightly.run import run_nightly
 

@@ -1,0 +1,498 @@
+"""The question a robot's user brings to a model file: at my timestep, integrator and control step,
+how far is each control step from the converged one, what would another integrator or a smaller
+step change, and at what cost?
+
+Contact-rich motion is chaotic: two accurate simulations part after a second or so, so a
+trajectory error at 5 s measures the chaos, not the integrator. The study therefore measures,
+after Erez, Tassa & Todorov (2015, "Simulation tools for model-based robotics"), **one control step
+at a time** from states the motion visits, and a trajectory only inside its predictable horizon:
+
+* **States**: each seed's start (``scenarios.control_setting``) run for ``horizon_s`` under its
+  controls by the reference's coarsest level; ``states_per_seed`` control-step boundaries of that
+  run, evenly spaced, with the control of the step that follows each.
+* **Reference transition**: MuJoCo's RK4 over one control step at ``h / 2^k``, k from
+  ``REF_FIRST`` (finer than every candidate) up, never coarser than the file's step ``h``. Its
+  **error** is the difference of its own last two levels. It is refined until that error is at
+  most ``REF_FRACTION`` of every candidate's (median and 95th percentile over the states), until
+  ``REF_LAST``, or until it stops falling (a contact switching within the step limits RK4 to first
+  order); it is **converged** when its error is at most ``REF_FRACTION`` of the baseline's, and
+  only then is any candidate judged. A candidate within 1/``REF_FRACTION`` of the reference's error
+  is "at the reference's resolution", an upper bound, not a figure.
+* **Transition error** of a candidate: the same states and controls, one control step, against the
+  reference: per state the RMS over coordinates of the difference divided by each coordinate's
+  spread (its standard deviation over the visited states, floored at ``SPREAD_FLOOR`` of the median
+  spread: a coordinate that never moves is not divided by zero), for the observation, qpos and
+  qvel; median and 95th percentile over states and seeds. Relative to the spread is what a policy
+  with normalised inputs sees.
+* **Predictable horizon**: the reference run at two levels (``h / 2^REF_FIRST`` and half of it)
+  from each start; the time their observation difference first exceeds ``HORIZON_FRACTION`` of the
+  spread. A candidate's trajectory error (its own run against the finer reference, the largest over
+  the control steps) is reported inside it only.
+* **Contacts** along each candidate's own run, every physics step: contacts a step (mean, max),
+  the share of steps in contact, the deepest penetration of a step (median over steps in contact,
+  max); the reference's from its coarser run. A model with no collidable pair has no contact figure.
+* **Cost**: MuJoCo's own loop (``adapters._mujoco_control``), seconds per control step, the ratio to
+  the baseline's measured in the same run.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from adapters._mujoco_control import EVALUATIONS, Candidate, Stepper, available_integrators, full_state, \
+    integrator_name
+
+#: The reference's first level: h / 2^3, finer than the finest candidate (h / 4).
+REF_FIRST = 3
+#: The finest level tried: h / 2^7.
+REF_LAST = 7
+#: The reference's error must be at most this share of the error it judges.
+REF_FRACTION = 0.1
+#: The references part when their observation difference reaches this share of the spread.
+HORIZON_FRACTION = 0.1
+#: A coordinate's spread is at least this share of the median coordinate's.
+SPREAD_FLOOR = 1e-3
+#: The reference stops refining when a halving cuts its error by less than this factor.
+STALL = 0.7
+
+
+@dataclass
+class StudyConfig:
+    horizon_s: float = 2.0
+    states_per_seed: int = 40
+    substeps: tuple[int, ...] = (1, 2, 4)
+    integrators: tuple[str, ...] | None = None
+    threads: int = 2
+    timing_steps: int = 100
+    repeats: int = 3
+    budget_s: float = 40.0            # the reference's refinement stops past this wall time
+    timings: dict | None = None       # injected seconds per control step by candidate name (tests)
+
+
+@dataclass
+class Figures:
+    median: float
+    p95: float
+
+    @staticmethod
+    def of(x: np.ndarray) -> "Figures":
+        x = np.asarray(x, dtype=float)
+        if x.size == 0 or not np.all(np.isfinite(x)):
+            return Figures(math.nan, math.nan)
+        return Figures(float(np.median(x)), float(np.percentile(x, 95)))
+
+
+@dataclass
+class ContactFigures:
+    mean: float
+    max: int
+    share: float
+    penetration_median: float
+    penetration_max: float
+
+
+@dataclass
+class CandidateResult:
+    candidate: Candidate
+    baseline: bool
+    physics_steps: int                    # mj_step calls a control step
+    evaluations: int                      # force evaluations a control step
+    obs: Figures | None = None            # transition error, relative to the spread
+    qpos: Figures | None = None
+    qvel: Figures | None = None
+    resolved: bool = True                 # above the reference's resolution
+    unstable_transitions: int = 0
+    run_status: str = "ok"                # ok, or unstable at t = ... (seed)
+    trajectory_error: float | None = None  # the largest inside the predictable horizon (median over seeds)
+    contacts: ContactFigures | None = None
+    cost_s: float = math.nan              # seconds per control step
+    same_bits_as: str | None = None       # another candidate whose transitions are bit for bit these
+
+    def row(self) -> dict:
+        c = self.contacts
+        return {"candidate": self.candidate.name, "integrator": self.candidate.integrator,
+                "substeps": self.candidate.substeps, "baseline": self.baseline,
+                "physics_steps_per_control": self.physics_steps, "evaluations_per_control": self.evaluations,
+                "obs_err_median": _f(self.obs, "median"), "obs_err_p95": _f(self.obs, "p95"),
+                "qpos_err_median": _f(self.qpos, "median"), "qpos_err_p95": _f(self.qpos, "p95"),
+                "qvel_err_median": _f(self.qvel, "median"), "qvel_err_p95": _f(self.qvel, "p95"),
+                "resolved": self.resolved, "unstable_transitions": self.unstable_transitions,
+                "run_status": self.run_status, "trajectory_error_in_horizon": self.trajectory_error,
+                "contacts_mean": c.mean if c else None, "contacts_max": c.max if c else None,
+                "in_contact_share": c.share if c else None,
+                "penetration_median_m": c.penetration_median if c else None,
+                "penetration_max_m": c.penetration_max if c else None,
+                "cost_s_per_control": self.cost_s, "same_bits_as": self.same_bits_as}
+
+
+def _f(fig, name):
+    return None if fig is None else getattr(fig, name)
+
+
+@dataclass
+class Reference:
+    level: int                            # h / 2^level
+    h: float
+    error: Figures                        # the difference of its last two levels (observation)
+    history: list = field(default_factory=list)  # (level, median, p95) per level compared
+    converged: bool = False
+    why: str = ""
+
+    def describe(self) -> str:
+        return (f"MuJoCo RK4 at h/{2 ** self.level} = {self.h:.3g} s, refined from h/{2 ** REF_FIRST}: its own last "
+                f"halving differs by {self.error.median:.2g} (median; 95th percentile {self.error.p95:.2g}) of the "
+                f"observation's spread a control step")
+
+
+@dataclass
+class Study:
+    file: str
+    setting: dict
+    timestep: float
+    integrator: str
+    frame_skip: int
+    control_step: float
+    pairs: int
+    nstates: int
+    reference: Reference
+    horizon: list                          # per seed: seconds until the references part (None: not within the run)
+    horizon_s: float
+    candidates: list
+    contacts_reference: ContactFigures | None
+    velocity_terms: str = ""
+    wall_s: float = 0.0
+    spread_floor: float = SPREAD_FLOOR
+
+    @property
+    def baseline(self) -> CandidateResult:
+        return next(c for c in self.candidates if c.baseline)
+
+    def by_name(self, name: str) -> CandidateResult | None:
+        return next((c for c in self.candidates if c.candidate.name == name), None)
+
+    def frame(self):
+        import pandas as pd
+
+        return pd.DataFrame([c.row() for c in self.candidates])
+
+    def predictable(self) -> tuple[float | None, float | None]:
+        """(median, shortest) predictable horizon over the seeds; None where the references did not
+        part within the run (the horizon is at least the run)."""
+        parted = [h for h in self.horizon if h is not None]
+        if len(parted) < len(self.horizon) / 2:
+            return None, (min(parted) if parted else None)
+        full = sorted(h if h is not None else math.inf for h in self.horizon)
+        med = float(np.median(full))
+        return (med if math.isfinite(med) else None), min(parted)
+
+
+def _progress(stream, text):
+    if stream is not None:
+        print(text, file=stream, flush=True)
+
+
+def _spread(x: np.ndarray) -> np.ndarray:
+    s = np.std(x.reshape(-1, x.shape[-1]), axis=0)
+    moving = s[s > 0]
+    floor = SPREAD_FLOOR * float(np.median(moving)) if moving.size else 1.0
+    return np.maximum(s, max(floor, 1e-300))
+
+
+def _relative(a: np.ndarray, b: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    with np.errstate(all="ignore"):
+        e = np.sqrt(np.mean(((a - b) / sigma) ** 2, axis=-1))
+    return np.where(np.isfinite(e), e, np.inf)
+
+
+def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr, path: str = "") -> Study:
+    """The study on the compiled model ``m`` (the file as written) at ``setting`` (module docstring)."""
+    from scenarios._contact_pairs import collidable_pairs
+
+    config = config or StudyConfig()
+    t_start = time.perf_counter()
+    setting = setting.checked(m)
+    h = float(m.opt.timestep)
+    F = int(setting.frame_skip)
+    Tc = F * h
+    ncontrol = max(2, int(math.ceil(config.horizon_s / Tc - 1e-9)))
+    base_integrator = integrator_name(m)
+    integrators = tuple(config.integrators or available_integrators())
+    if base_integrator not in integrators:
+        integrators = (base_integrator, *integrators)
+    stepper = Stepper(m, config.threads)
+    pairs = len(collidable_pairs(m))
+    seeds = list(setting.seeds)
+    s0 = np.stack([full_state(m, *setting.start(m, s)) for s in seeds])
+    U = np.stack([setting.sequence(m, s, ncontrol) for s in seeds])          # (nseed, ncontrol, nu)
+
+    def obs(states):
+        return setting.observation(stepper.qpos(states), stepper.qvel(states))
+
+    # --- the reference's two runs: the states visited, and the predictable horizon
+    _progress(progress, f"[model] reference runs: RK4 at h/{2 ** REF_FIRST} and h/{2 ** (REF_FIRST + 1)} over "
+                        f"{ncontrol} control steps x {len(seeds)} seeds")
+    per = F * 2 ** REF_FIRST
+    coarse = stepper.run("rk4", h / 2 ** REF_FIRST, per, s0, U)
+    fine = stepper.run("rk4", h / 2 ** (REF_FIRST + 1), 2 * per, s0, U)
+    at_c = np.concatenate([s0[:, None], coarse[:, per - 1::per]], axis=1)     # (nseed, ncontrol + 1, nstate)
+    at_f = np.concatenate([s0[:, None], fine[:, 2 * per - 1::2 * per]], axis=1)
+    finite = np.all(np.isfinite(at_c), axis=-1)
+    sig_obs = _spread(obs(at_c[finite]))
+    sig_q = _spread(stepper.qpos(at_c[finite]))
+    sig_v = _spread(stepper.qvel(at_c[finite]))
+    apart = _relative(obs(at_c), obs(at_f), sig_obs)                          # (nseed, ncontrol + 1)
+    horizon = []
+    for i in range(len(seeds)):
+        over = np.nonzero(apart[i] > HORIZON_FRACTION)[0]
+        horizon.append(float(over[0] * Tc) if over.size else None)
+
+    # --- the states the transitions start from
+    take = np.unique(np.linspace(0, ncontrol - 1, min(config.states_per_seed, ncontrol)).round().astype(int))
+    states, u = [], []
+    for i in range(len(seeds)):
+        ok = take[np.all(np.isfinite(at_c[i, take]), axis=-1)]
+        states.append(at_c[i, ok])
+        u.append(U[i, ok])
+    states = np.concatenate(states)
+    u = np.concatenate(u)
+
+    # --- candidates' transitions
+    _progress(progress, f"[model] transitions: {len(states)} states, {len(integrators)} integrators x substeps "
+                        f"{', '.join(map(str, config.substeps))}")
+    results, trans = [], {}
+    for integ in integrators:
+        for s in config.substeps:
+            c = Candidate(integ, s)
+            trans[c.name] = stepper.transition(integ, h / s, F * s, states, u)
+            results.append(CandidateResult(c, integ == base_integrator and s == 1, F * s, F * s * EVALUATIONS[integ]))
+    for r in results:
+        for other in results:
+            if other is r:
+                break
+            if np.array_equal(trans[r.candidate.name], trans[other.candidate.name]):
+                r.same_bits_as = other.candidate.name
+                break
+
+    def errors(T, ref):
+        return (_relative(obs(T), obs(ref), sig_obs), _relative(stepper.qpos(T), stepper.qpos(ref), sig_q),
+                _relative(stepper.qvel(T), stepper.qvel(ref), sig_v))
+
+    # --- the reference transition, refined from h / 2^REF_FIRST down
+    levels = {REF_FIRST: stepper.transition("rk4", h / 2 ** REF_FIRST, F * 2 ** REF_FIRST, states, u)}
+    history, why, k = [], "", REF_FIRST
+    while True:
+        k += 1
+        _progress(progress, f"[model] reference transition at h/{2 ** k}")
+        levels[k] = stepper.transition("rk4", h / 2 ** k, F * 2 ** k, states, u)
+        e = Figures.of(_relative(obs(levels[k - 1]), obs(levels[k]), sig_obs))
+        history.append((k, e.median, e.p95))
+        cand = [Figures.of(errors(trans[r.candidate.name], levels[k])[0]) for r in results]
+        smallest_med = min((f.median for f in cand if f.median > 0), default=math.inf)
+        smallest_p95 = min((f.p95 for f in cand if f.p95 > 0), default=math.inf)
+        if e.median <= REF_FRACTION * smallest_med and e.p95 <= REF_FRACTION * smallest_p95:
+            why = "its error is at most a tenth of every candidate's"
+            break
+        if k >= REF_LAST:
+            why = f"the finest level tried (h/{2 ** REF_LAST})"
+            break
+        if len(history) >= 2 and e.median > STALL * history[-2][1] and e.p95 > STALL * history[-2][2]:
+            why = "a halving no longer cuts its error (contact switching within a step limits it)"
+            break
+        if time.perf_counter() - t_start > config.budget_s:
+            why = f"the refinement's time budget ({config.budget_s:g} s)"
+            break
+    ref_states = levels[k]
+    ref_err = Figures.of(_relative(obs(levels[k - 1]), obs(ref_states), sig_obs))
+    reference = Reference(k, h / 2 ** k, ref_err, history, why=why)
+
+    for r in results:
+        eo, eq, ev = errors(trans[r.candidate.name], ref_states)
+        r.unstable_transitions = int(np.count_nonzero(~np.isfinite(eo) | (eo == np.inf)))
+        r.obs, r.qpos, r.qvel = Figures.of(eo[np.isfinite(eo)]), Figures.of(eq[np.isfinite(eq)]), \
+            Figures.of(ev[np.isfinite(ev)])
+        r.resolved = (r.obs.median > ref_err.median / REF_FRACTION) if math.isfinite(r.obs.median) else True
+    base = next(r for r in results if r.baseline)
+    reference.converged = bool(ref_err.median <= REF_FRACTION * base.obs.median
+                               and ref_err.p95 <= REF_FRACTION * base.obs.p95)
+
+    # --- each candidate's own run: stability, trajectory error inside the horizon, contacts, cost
+    _progress(progress, "[model] runs: each candidate from every start, its contacts and its cost")
+    contacts_ref, timed = None, []
+    if pairs:
+        n, depth = stepper.contacts(coarse)
+        contacts_ref = _contact_figures(n, depth)
+    for r in results:
+        c = r.candidate
+        run = stepper.run(c.integrator, h / c.substeps, F * c.substeps, s0, U)
+        per_c = F * c.substeps
+        at = np.concatenate([s0[:, None], run[:, per_c - 1::per_c]], axis=1)
+        bad = ~np.all(np.isfinite(run), axis=-1)
+        stable_controls = ncontrol
+        if bad.any():
+            i, j = np.argwhere(bad)[0]
+            r.run_status = f"unstable at t = {(j + 1) * h / c.substeps:.4g} s (seed {seeds[i]})"
+            stable_controls = max(1, int(np.argmax(bad.any(axis=0))) // per_c)
+        worst = []
+        for i in range(len(seeds)):
+            end = ncontrol if horizon[i] is None else int(round(horizon[i] / Tc))
+            e = _relative(obs(at[i, :end + 1]), obs(at_f[i, :end + 1]), sig_obs)
+            worst.append(float(np.max(e)))
+        r.trajectory_error = float(np.median(worst))
+        if pairs:
+            n, depth = stepper.contacts(run)
+            r.contacts = _contact_figures(n, depth)
+        timed.append((r, min(config.timing_steps, stable_controls)))
+    # Repeats go round the candidates, so that each one's fastest run is drawn from across the
+    # measurement, not from one moment of the machine.
+    for _ in range(max(1, config.repeats)):
+        for r, steps in timed:
+            c = r.candidate
+            if config.timings and c.name in config.timings:
+                r.cost_s = float(config.timings[c.name])
+                continue
+            t = stepper.time_per_control_step(c.integrator, h / c.substeps, F * c.substeps, s0[0], U[0, :steps], 1)
+            r.cost_s = t if math.isnan(r.cost_s) else min(r.cost_s, t)
+    return Study(file=path, setting=setting.describe(m), timestep=h, integrator=base_integrator,
+                 frame_skip=F, control_step=Tc, pairs=pairs, nstates=len(states), reference=reference,
+                 horizon=horizon, horizon_s=ncontrol * Tc, candidates=results, contacts_reference=contacts_ref,
+                 velocity_terms=velocity_terms(m), wall_s=time.perf_counter() - t_start)
+
+
+def velocity_terms(m) -> str:
+    """What of the model depends on velocity in a way MuJoCo's implicit integrators treat
+    implicitly beyond Euler: Euler already integrates joint damping implicitly (eulerdamp)."""
+    import mujoco
+
+    found = []
+    if np.any(m.tendon_damping):
+        found.append("tendon damping")
+    if m.opt.density or m.opt.viscosity:
+        found.append("fluid drag")
+    if m.nu and (np.any(np.asarray(m.actuator_biasprm)[:, 2]) or np.any(np.asarray(m.actuator_gainprm)[:, 2])):
+        found.append("actuators with velocity gains")
+    eulerdamp = not m.opt.disableflags & int(getattr(mujoco.mjtDisableBit, "mjDSBL_EULERDAMP", 0))
+    if np.any(m.dof_damping) and not eulerdamp:
+        found.append("joint damping (eulerdamp off)")
+    if found:
+        return ", ".join(found)
+    if np.any(m.dof_damping):
+        return "none beyond joint damping, which Euler integrates implicitly too (eulerdamp)"
+    return "none"
+
+
+def _contact_figures(n: np.ndarray, depth: np.ndarray) -> ContactFigures:
+    ok = n >= 0
+    n, depth = n[ok], depth[ok]
+    touching = n > 0
+    pen = depth[touching]
+    return ContactFigures(mean=float(np.mean(n)) if n.size else math.nan, max=int(np.max(n)) if n.size else 0,
+                          share=float(np.mean(touching)) if n.size else math.nan,
+                          penetration_median=float(np.median(pen)) if pen.size else 0.0,
+                          penetration_max=float(np.max(pen)) if pen.size else 0.0)
+
+
+# ------------------------------------------------------------------ the verdict
+def verdict(study: Study) -> list[str]:
+    """The answer in words, each figure from the study (module docstring)."""
+    b = study.baseline
+    setting = (f"{study.integrator}, h = {study.timestep:g} s, {study.frame_skip} step"
+               f"{'s' if study.frame_skip > 1 else ''} a control step of {study.control_step:g} s")
+    ref = study.reference
+    if not ref.converged:
+        return [f"At your setting ({setting}) no candidate is judged: the reference did not converge "
+                f"({ref.describe()}; stopped at {ref.why}), which is more than a tenth of the baseline's own error "
+                f"({b.obs.median:.2g} median, {b.obs.p95:.2g} 95th percentile)."]
+    lines = [f"At your setting ({setting}) each control step is {b.obs.median:.2g} off, median over "
+             f"{study.nstates} states from {len(study.horizon)} seeds (95th percentile {b.obs.p95:.2g}), in units "
+             f"of the observation's spread: {_share(b.obs.median)}."]
+    same = [r for r in study.candidates if r.candidate.substeps == 1 and not r.baseline]
+    for r in same:
+        if r.same_bits_as == b.candidate.name or (b.same_bits_as and r.same_bits_as == b.same_bits_as):
+            lines.append(f"{r.candidate.integrator} is bit for bit {study.integrator} here: every transition the same "
+                         f"bits{_why_same(r.candidate.integrator, study.integrator, study.velocity_terms)}.")
+            continue
+        twin = study.by_name(r.same_bits_as) if r.same_bits_as else None
+        if twin is not None and twin.candidate.substeps == 1:
+            lines.append(f"{r.candidate.integrator} is bit for bit {twin.candidate.integrator} here"
+                         f"{_why_same(r.candidate.integrator, twin.candidate.integrator, study.velocity_terms)}.")
+            continue
+        lines.append(f"{r.candidate.integrator} at the same step {_change(b, r)}.")
+    half = study.by_name(f"{study.integrator} x2")
+    if half is not None:
+        lines.append(f"A halved step ({study.integrator} x2) {_change(b, half)}.")
+        why = _limited(b, half)
+        if why:
+            lines.append(why)
+    med, shortest = study.predictable()
+    if med is None and shortest is None:
+        lines.append(f"Predictable horizon: the references (RK4 at h/{2 ** REF_FIRST} and h/{2 ** (REF_FIRST + 1)}) "
+                     f"stay within {HORIZON_FRACTION:g} of the spread over the whole run ({study.horizon_s:g} s): "
+                     f"trajectory errors are judged over all of it.")
+    elif med is None:
+        lines.append(f"Predictable horizon: most seeds' references stay within {HORIZON_FRACTION:g} of the spread "
+                     f"over the run ({study.horizon_s:g} s); the shortest parts at {shortest:.3g} s.")
+    else:
+        lines.append(f"Predictable horizon: the references part by {HORIZON_FRACTION:g} of the spread after "
+                     f"{med:.3g} s (median over seeds; shortest {shortest:.3g} s): trajectory errors are judged only "
+                     f"before it, and past it a trajectory error measures the chaos of the motion, not the integrator.")
+    return lines
+
+
+def _share(x: float) -> str:
+    if x >= 0.5:
+        return "as large as the spread itself"
+    for frac, words in ((0.2, "about a quarter"), (0.05, "about a tenth"), (0.02, "a few hundredths"),
+                        (0.005, "about a hundredth")):
+        if x >= frac:
+            return f"{words} of it"
+    return "well under a hundredth of it"
+
+
+def _why_same(a: str, b: str, terms: str) -> str:
+    if {a, b} <= {"euler", "implicitfast", "implicit"} and terms.startswith("none"):
+        return f" (velocity-dependent forces it would treat implicitly: {terms})"
+    return ""
+
+
+#: Each integrator's order on smooth motion: what a halved step would buy without contact.
+ORDER = {"euler": 1, "implicitfast": 1, "implicit": 1, "rk4": 4, "discrete": 1}
+
+
+def _x(f: float) -> str:
+    return f"{f:,.0f}" if f >= 1000 else f"{f:.3g}"
+
+
+def _change(b: CandidateResult, r: CandidateResult) -> str:
+    cost = r.cost_s / b.cost_s if b.cost_s > 0 else math.nan
+    if r.run_status != "ok" and b.run_status == "ok":
+        return f"its run is {r.run_status}, at {cost:.2g} x the cost"
+    if not r.resolved:
+        return (f"the error falls below the reference's resolution (under {r.obs.median:.2g}; "
+                f"{b.obs.median / max(r.obs.median, 1e-300):.3g} x or more) for {cost:.2g} x the cost")
+    factor = b.obs.median / r.obs.median if r.obs.median > 0 else math.inf
+    p95 = f"95th percentile {_x(b.obs.p95 / r.obs.p95)} x" if r.obs.p95 > 0 else "95th percentile 0"
+    if 0.8 <= factor <= 1.25:
+        return f"leaves the error about as it is ({factor:.3g} x; {p95}) for {cost:.2g} x the cost"
+    if factor > 1:
+        return f"cuts the error {_x(factor)} x (median; {p95}) for {cost:.2g} x the cost"
+    return (f"raises the error {_x(1 / factor)} x (median; 95th percentile {_x(r.obs.p95 / b.obs.p95)} x) at "
+            f"{cost:.2g} x the cost")
+
+
+def _limited(b: CandidateResult, half: CandidateResult) -> str | None:
+    """Where a halved step buys less than the integrator's order promises: what limits it."""
+    p = ORDER.get(b.candidate.integrator)
+    if p is None or not half.resolved or not (half.obs.median > 0 and half.obs.p95 > 0):
+        return None
+    med, p95 = b.obs.median / half.obs.median, b.obs.p95 / half.obs.p95
+    if med < 0.5 * 2 ** p:
+        return (f"{b.candidate.integrator}'s order {p} would cut it {2 ** p} x on smooth motion; it cuts "
+                f"{med:.3g} x here: contact, not the integrator's order, limits what a finer step buys.")
+    if p95 < 0.5 * 2 ** p:
+        return (f"The 95th percentile (the control steps in which a contact starts or ends) falls only "
+                f"{p95:.3g} x where the order promises {2 ** p} x: there contact limits what a finer step buys.")
+    return None
