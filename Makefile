@@ -11,7 +11,7 @@ $(BIN)/python:
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[engines,distributed,test]"
+	$(BIN)/python -m pip install --quiet -e ".[engines,distributed,models,test]"
 	touch $(STAMP)
 
 install: $(STAMP)

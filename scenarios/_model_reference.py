@@ -2,14 +2,18 @@
 variant, the step halved until two successive halvings agree.
 
 Over [0, T] (T the scene's ``reference_horizon``, or further where asked), level k steps
-h_k = h_0 / 2^k with h_0 = T / ceil(T omega / H0_OMEGA) (so h_0 omega <= 0.1 and the levels
-share their grid points). Levels are compared on level k's grid in the error measure's own
+h_k = h_0 / 2^k with h_0 = T / max(ceil(T omega / H0_OMEGA), ceil(T / h_model)) (so h_0 omega <= 0.1,
+h_0 is never coarser than the model's own timestep h_model, and the levels share their grid
+points). Levels are compared on level k's grid in the error measure's own
 norm, ``max_n ||y_k(t_n) - y_{k+1}(t_n)|| / max_n ||y_{k+1}(t_n)||`` with y = (q, v/omega);
 halving stops once that difference is at most REFERENCE_RTOL, after MAX_HALVINGS, or where
 the difference stops falling (roundoff, or a model that is not smooth: a contact switching on
 moves the point of the switch by the step). The finer level is the reference and the last
 difference its **estimated error** (for a smooth model RK4's error falls 16-fold per halving,
-so the finer level is better than that: the estimate is an upper bound).
+so the finer level is better than that: the estimate is an upper bound). A reference whose
+estimated error is above REFERENCE_JUDGES has not converged (a chaotic contact-rich motion over
+the horizon, or a model that is not smooth): it judges no cell, and the cells say so
+(``judges``).
 
 The scene supplies ``engine_model()`` (a fresh compiled model), ``engine_state(q, v)`` (its
 coordinates -> MuJoCo's qpos, qvel) and ``scene_state(qpos, qvel)`` (back): the identity for a
@@ -29,6 +33,8 @@ import numpy as np
 
 #: Two successive halvings agreeing to this (relative, the error measure's norm) end the refinement.
 REFERENCE_RTOL = 1e-11
+#: A reference whose last two levels differ by more than this (relative) judges nothing.
+REFERENCE_JUDGES = 1e-2
 #: h_0 omega of the coarsest level.
 H0_OMEGA = 0.1
 MAX_HALVINGS = 12
@@ -49,6 +55,11 @@ class Grid:
     halvings: int
     converged: bool              # the difference reached REFERENCE_RTOL
     history: list                # (h, difference to the next level) per level compared
+
+    @property
+    def judges(self) -> bool:
+        """Whether its error is small enough to judge another run against (REFERENCE_JUDGES)."""
+        return math.isfinite(self.error) and self.error <= REFERENCE_JUDGES
 
     def describe(self) -> str:
         how = "agreed" if self.converged else "stopped"
@@ -104,7 +115,8 @@ def reference_grid(scene, t_end: float | None = None) -> Grid:
     m.opt.integrator = int(mujoco.mjtIntegrator.mjINT_RK4)
     m.opt.disableflags |= int(getattr(mujoco.mjtDisableBit, "mjDSBL_AUTORESET", 0))  # absent in older releases (2.3.7, 3.0.0)
     d = mujoco.MjData(m)
-    n0 = max(8, math.ceil(T * scene.omega / H0_OMEGA))
+    own = getattr(scene, "own_timestep", None)
+    n0 = max(8, math.ceil(T * scene.omega / H0_OMEGA), math.ceil(T / own - 1e-9) if own else 0)
     prev, history = None, []
     best = None
     for k in range(MAX_HALVINGS + 1):
@@ -184,3 +196,9 @@ class RefinedRunReference:
 
     def reference_error(self, t) -> float | None:
         return reference_grid(self).error
+
+    def reference_judges(self) -> bool:
+        return reference_grid(self).judges
+
+    def reference_description(self) -> str:
+        return reference_grid(self).describe()

@@ -203,6 +203,11 @@ class Scene:
         None: the measure's rule (0 for an exact solution, its stated floor for a solve)."""
         return None
 
+    def reference_judges(self) -> bool:
+        """Whether ``reference_solution`` converged enough to judge a run against: a refined run
+        that did not converge (its halvings still apart) judges nothing."""
+        return True
+
     #: Where set, a run whose energy rose past this many times the scene's energy scale has
     #: blown up (``runaway``), whatever its size: a stability criterion of its own.
     runaway_limit: ClassVar[float | None] = None

@@ -113,14 +113,15 @@ def test_the_id_is_the_file_name_and_content_hash(tmp_path, linear_file):
 def test_features_found_and_switched_off_on_the_double_pendulum():
     path = pybullet_data("mjcf/inverted_double_pendulum.xml")
     written = ModelScene(path)
-    assert set(written.found) == {"contact", "damping", "actuators", "limits", "gravity"}
+    # Its geoms have contype bits, yet no pair of them can collide (parent filter): no contact.
+    assert set(written.found) == {"damping", "actuators", "limits", "gravity"}
     assert written.switched_off == []
     cons = variant(written, "conservative")
     # What dissipates or injects energy goes; gravity, a conservative force, stays unless asked.
-    assert cons.switched_off == ["contact", "damping", "actuators", "limits"] and cons.kept == ["gravity"]
+    assert cons.switched_off == ["damping", "actuators", "limits"] and cons.kept == ["gravity"]
     assert not cons.engine_model().opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
     cons = variant(written, "conservative", off=("gravity",))
-    assert cons.switched_off == ["contact", "damping", "actuators", "limits", "gravity"]
+    assert cons.switched_off == ["damping", "actuators", "limits", "gravity"]
     assert cons.id.endswith("~conservative-gravity")
     m = cons.engine_model()
     bits = mujoco.mjtDisableBit

@@ -126,6 +126,13 @@ def trajectory_error(traj: Trajectory, scene: Scene) -> dict:
         err = np.linalg.norm(y - y_true, axis=-1) / scale
     accuracy = reference_accuracy(scene, t, source)
     error_max = float(np.max(err))
+    if source != "exact" and not scene.reference_judges():
+        # A reference that did not converge judges nothing: its error is no bound on anything.
+        return {"error_max": None, "error_final": None, "t_final": float(traj.t[-1]), "t_compared": float(t[-1]),
+                "horizon": None if horizon == float("inf") else horizon, "compared_all": bool(keep.all()),
+                "scale": scale, "source": source, "series": err, "series_t": t, "reference_error": accuracy,
+                "below_reference": False, "not_judged": f"not judged: the reference did not converge "
+                                                        f"({scene.reference_description()})"}
     return {"error_max": error_max, "error_final": float(err[-1]), "t_final": float(traj.t[-1]),
             "t_compared": float(t[-1]), "horizon": None if horizon == float("inf") else horizon,
             "compared_all": bool(keep.all()), "scale": scale, "source": source, "series": err, "series_t": t,

@@ -125,7 +125,9 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
                  "status": res["status"], "force_evals": res["force_evals"]}
         floor = ROUNDOFF_FACTOR * EPS * steps
         accuracy = res["reference_error"] or 0.0
-        if not res["status"] == "ok" or err is None or not math.isfinite(err):
+        if res["status"] == "ok" and res.get("not_judged"):
+            point["reason"] = res["not_judged"]
+        elif not res["status"] == "ok" or err is None or not math.isfinite(err):
             point["reason"] = f"unstable ({res['status']})"
         elif err >= EXCLUDE_ERROR:
             point["reason"] = f"past stability: error {err:.3g} >= {EXCLUDE_ERROR:g}"

@@ -173,6 +173,8 @@ def _energy_and_error(task, method, scene, dt, spec, suite, runs: dict | None = 
     value, detail = (finite(err["error_max"]) if err else None), traj.detail
     if err and err["below_reference"]:
         value, detail = None, f"below the reference's accuracy ({err['reference_error']:.2g})"
+    elif err and err.get("not_judged"):
+        value, detail = None, err["not_judged"]
     error = make_cell(task, "error", traj.status, value, dt, steps, detail, ErrorFigures.pick(err))
     return [energy, error]
 
@@ -185,7 +187,9 @@ def _order(task, method, scene, spec) -> Cell:
     status, detail = "ok", ""
     if order is None or not np.isfinite(order):
         status, detail = "unstable", "too few usable points"
-        if len(res["points"]) < 2 and excluded and all(p["reason"].startswith("roundoff floor") for p in excluded):
+        if excluded and all(p["reason"].startswith("not judged") for p in excluded):
+            status, detail = "ok", excluded[0]["reason"]
+        elif len(res["points"]) < 2 and excluded and all(p["reason"].startswith("roundoff floor") for p in excluded):
             # Nothing failed: the method is more accurate than the floor at every dt of the sweep
             # (SABA(10,6,4) on the solar system), or at all but the one largest, which alone gives no
             # slope (RK4 on the standard cloth), so it has no measurable order here.

@@ -1,0 +1,302 @@
+"""``harness model``'s control-step question (``harness/control_step.py``) on the models users run:
+Gymnasium's and dm_control's MuJoCo files from their registry packages, at their environments'
+settings. Each headline is reproduced by an independent route: collidable pairs by MuJoCo's own
+collision driver with every geom's margin made huge; the verdict's factors by a plain ``mj_step``
+loop written here, which shares nothing with the study but MuJoCo."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+
+from records import InvalidInput  # noqa: E402
+from scenarios._contact_pairs import collidable_pairs  # noqa: E402
+from scenarios.control_setting import ControlSetting  # noqa: E402
+from scenarios.environments import ENVIRONMENTS, environment  # noqa: E402
+from scenarios.model import compile_model, read_model_file  # noqa: E402
+
+from harness.control_step import REF_FIRST, REF_FRACTION, StudyConfig, run_study, verdict  # noqa: E402
+from tests.test_cli import cli  # noqa: E402
+
+#: The timings every study here is given: the verdicts' cost ratios never depend on the machine's
+#: load (EVALUATIONS-proportional, as MuJoCo's loop is to first order).
+def _timings(frame_skip):
+    per = {"euler": 1.0, "implicitfast": 1.05, "implicit": 1.5, "rk4": 3.6, "discrete": 1.1}
+    return {f"{i} x{s}": 1e-5 * per[i] * s * frame_skip for i in per for s in (1, 2, 4)}
+
+
+def _setting(env, seeds=(0, 1)):
+    e = environment(env)
+    return ControlSetting(frame_skip=e.frame_skip, reset=e.reset, root_position=e.root_position, seeds=seeds,
+                          environment=e.name, source=e.source)
+
+
+_STUDIES: dict = {}
+
+
+def study_of(env, horizon=1.0, states=12):
+    key = (env, horizon, states)
+    if key not in _STUDIES:
+        m = compile_model(read_model_file(environment(env).path()))
+        e = environment(env)
+        _STUDIES[key] = run_study(m, _setting(env), StudyConfig(horizon_s=horizon, states_per_seed=states,
+                                                                 timings=_timings(e.frame_skip), threads=1),
+                                  progress=None, path=e.path())
+    return _STUDIES[key]
+
+
+# ------------------------------------------------------------------ collidable pairs
+def _pairs_by_collision_driver(path):
+    """Every geom pair MuJoCo's own collision driver reports once each geom's margin is 1000 m
+    (set before compiling, so the bodies' bounding volumes include it): the pairs it may collide."""
+    import warnings
+
+    warnings.filterwarnings("ignore", message=".*settotalmass.*")
+    spec = mujoco.MjSpec.from_file(path)
+    for g in spec.geoms:
+        g.margin, g.gap = 1e3, 0.0
+    for p in spec.pairs:  # an explicit pair carries its own margin
+        p.margin, p.gap = 1e3, 0.0
+    m = spec.compile()
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    return {tuple(sorted((int(c.geom1), int(c.geom2)))) for c in d.contact[:d.ncon]}
+
+
+@pytest.mark.parametrize("env", list(ENVIRONMENTS))
+def test_collidable_pairs_are_those_mujocos_collision_driver_takes(env):
+    path = environment(env).path()
+    assert set(collidable_pairs(compile_model(read_model_file(path)))) == _pairs_by_collision_driver(path)
+
+
+def test_inverted_double_pendulum_has_no_collidable_pair_though_its_geoms_have_contype():
+    m = compile_model(read_model_file(environment("InvertedDoublePendulum-v5").path()))
+    assert np.count_nonzero(m.geom_contype | m.geom_conaffinity) >= 5  # what the old count reported
+    assert collidable_pairs(m) == []
+
+
+def test_exclude_parent_and_explicit_pairs_are_filtered_as_mujoco_filters_them(tmp_path):
+    xml = """<mujoco><worldbody><geom name="floor" type="plane" size="5 5 .1"/>
+      <body name="a" pos="0 0 1"><freejoint/><geom name="ga" size=".1"/>
+        <body name="b" pos="0 0 .3"><joint type="hinge"/><geom name="gb" size=".1"/></body></body>
+      <body name="c" pos="1 0 1"><freejoint/><geom name="gc" size=".1"/></body>
+      <body name="e" pos="2 0 1"><freejoint/><geom name="ge" size=".1" contype="2" conaffinity="2"/></body>
+      </worldbody><contact><exclude body1="c" body2="a"/><pair geom1="ge" geom2="floor"/></contact></mujoco>"""
+    path = tmp_path / "filters.xml"
+    path.write_text(xml)
+    m = mujoco.MjModel.from_xml_path(str(path))
+    names = {tuple(sorted((mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, a),
+                           mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, b)))) for a, b in collidable_pairs(m)}
+    # a-b: parent; a-c: excluded; e: bits 2 collide with nothing but its explicit pair with the floor
+    assert names == {("floor", "ga"), ("floor", "gb"), ("floor", "gc"), ("gb", "gc"), ("floor", "ge")}
+    assert set(collidable_pairs(m)) == _pairs_by_collision_driver(str(path))
+
+
+def test_model_features_count_pairs_not_geoms():
+    from scenarios.model import features_found
+
+    assert "contact" not in features_found(compile_model(read_model_file(
+        environment("InvertedDoublePendulum-v5").path())))
+    hopper = features_found(compile_model(read_model_file(environment("Hopper-v5").path())))
+    assert hopper["contact"] == "7 collidable geom pairs"
+
+
+# ------------------------------------------------------------------ the settings
+def test_presets_are_the_environments_own_settings():
+    """Read from the packages' sources, not copied: each preset's frame skip and reset scale are
+    the defaults in its environment's constructor."""
+    import importlib.util
+    import os
+    import re
+
+    gym = os.path.dirname(importlib.util.find_spec("gymnasium").origin)
+    for e in ENVIRONMENTS.values():
+        if e.package != "gymnasium":
+            continue
+        module = e.source.split("envs/mujoco/")[1].split(".py")[0]
+        text = open(os.path.join(gym, "envs", "mujoco", f"{module}.py")).read()
+        assert int(re.search(r"frame_skip: int = (\d+)", text).group(1)) == e.frame_skip
+        assert float(re.search(r"reset_noise_scale: float = ([0-9.e-]+)", text).group(1)) == e.reset.qpos_scale
+        assert f'"{e.file}"' in text
+
+
+def test_seeded_controls_are_within_each_ctrlrange_and_held_per_control_step():
+    m = compile_model(read_model_file(environment("Ant-v5").path()))
+    U = _setting("Ant-v5").sequence(m, 3, 50)
+    lo, hi = m.actuator_ctrlrange[:, 0], m.actuator_ctrlrange[:, 1]
+    assert U.shape == (50, m.nu) and np.all(U >= lo) and np.all(U <= hi)
+    assert np.array_equal(U, _setting("Ant-v5").sequence(m, 3, 50))  # seeded
+    q, v = _setting("Ant-v5").start(m, 0)
+    assert np.max(np.abs(np.delete(q - m.qpos0, range(3, 7)))) <= 0.1  # Ant-v5's U(-0.1, 0.1), the quaternion renormalised
+
+
+# ------------------------------------------------------------------ the study on the robots
+@pytest.mark.parametrize("env", ["Hopper-v5", "HalfCheetah-v5", "Ant-v5", "Humanoid-v5", "dm_control/walker"])
+def test_every_integrator_and_substep_is_measured_at_the_environments_setting(env):
+    s = study_of(env)
+    m = compile_model(read_model_file(environment(env).path()))
+    assert s.timestep == m.opt.timestep and s.frame_skip == environment(env).frame_skip
+    # the reference: never coarser than the file's step, its error its own halving's
+    assert s.reference.h <= m.opt.timestep / 2 ** (REF_FIRST + 1)
+    assert s.reference.converged
+    assert s.reference.error.median <= REF_FRACTION * s.baseline.obs.median
+    names = {r.candidate.name for r in s.candidates}
+    assert {f"{i} x{k}" for i in ("euler", "implicitfast", "implicit", "rk4", "discrete") for k in (1, 2, 4)} <= names
+    for r in s.candidates:
+        assert r.run_status == "ok", (r.candidate.name, r.run_status)  # no mode called unstable where it runs
+        assert r.unstable_transitions == 0
+        assert math.isfinite(r.obs.median) and math.isfinite(r.trajectory_error)
+        assert r.contacts is not None and r.contacts.max >= 0
+    assert s.pairs > 0 and s.contacts_reference.share > 0  # these robots touch the floor
+    text = " ".join(verdict(s))
+    assert "each control step is" in text and "Predictable horizon" in text
+
+
+def _plain_states(m, frame_skip, reset, root, seeds=(0, 1), n_control=20, every=2):
+    """States along a run of RK4 at h/8 with seeded uniform controls, by a plain mj_step loop."""
+    h = m.opt.timestep
+    mr = mujoco.MjModel.from_xml_path(_plain_states.path)
+    mr.opt.integrator, mr.opt.timestep = mujoco.mjtIntegrator.mjINT_RK4, h / 8
+    d = mujoco.MjData(mr)
+    out = []
+    for seed in seeds:
+        rng = np.random.default_rng(1000 + seed)
+        mujoco.mj_resetData(mr, d)
+        d.qpos[:] += rng.uniform(-reset, reset, mr.nq)
+        d.qvel[:] += rng.uniform(-reset, reset, mr.nv)
+        for j in range(n_control):
+            u = rng.uniform(mr.actuator_ctrlrange[:, 0], mr.actuator_ctrlrange[:, 1])
+            if j % every == 0:
+                out.append((d.qpos.copy(), d.qvel.copy(), u))
+            d.ctrl[:] = u
+            mujoco.mj_step(mr, d, nstep=8 * frame_skip)
+    return out
+
+
+def _plain_step(path, integrator, h, nstep, q, v, u):
+    m = mujoco.MjModel.from_xml_path(path)
+    m.opt.integrator, m.opt.timestep = integrator, h
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:], d.ctrl[:] = q, v, u
+    mujoco.mj_step(m, d, nstep=nstep)
+    return np.concatenate([d.qpos, d.qvel])
+
+
+def test_half_cheetah_verdict_holds_against_a_plain_mujoco_loop():
+    """HalfCheetah-v5 (Euler, 0.01 s, frame skip 5): the study says each control step is about a
+    tenth of the spread off, RK4 at the same step cuts the median tens of times, implicitfast is bit
+    for bit Euler. A plain loop here (its own states, seeds and spread; RK4 at h/32 as truth)
+    must agree on the size of each within a factor of 2 (other states, other seeds)."""
+    env = environment("HalfCheetah-v5")
+    path = env.path()
+    s = study_of("HalfCheetah-v5")
+    m = mujoco.MjModel.from_xml_path(path)
+    h, F = m.opt.timestep, env.frame_skip
+    _plain_states.path = path
+    states = _plain_states(m, F, 0.1, 1)
+    E, R, IF = mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_RK4, mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    truth = np.array([_plain_step(path, R, h / 32, 32 * F, q, v, u) for q, v, u in states])
+    euler = np.array([_plain_step(path, E, h, F, q, v, u) for q, v, u in states])
+    rk4 = np.array([_plain_step(path, R, h, F, q, v, u) for q, v, u in states])
+    fast = np.array([_plain_step(path, IF, h, F, q, v, u) for q, v, u in states])
+    obs = np.concatenate([np.array([q for q, _, _ in states])[:, 1:], np.array([v for _, v, _ in states])], axis=1)
+    keep = np.r_[1:m.nq, m.nq:m.nq + m.nv]
+    sigma = np.maximum(obs.std(axis=0), 1e-3 * np.median(obs.std(axis=0)))
+
+    def err(x):
+        return np.median(np.sqrt(np.mean(((x[:, keep] - truth[:, keep]) / sigma) ** 2, axis=1)))
+
+    assert np.array_equal(euler, fast)
+    assert s.by_name("implicitfast x1").same_bits_as == "euler x1"
+    e_plain, factor_plain = err(euler), err(euler) / err(rk4)
+    assert 0.5 < s.baseline.obs.median / e_plain < 2.0
+    assert 0.05 < e_plain < 0.2  # about a tenth of the spread
+    factor = s.baseline.obs.median / s.by_name("rk4 x1").obs.median
+    assert factor_plain > 10 and 0.5 < factor / factor_plain < 2.0
+    text = " ".join(verdict(s))
+    assert "implicitfast is bit for bit euler" in text and "rk4 at the same step cuts the error" in text
+
+
+def test_humanoid_references_part_within_seconds_and_trajectory_errors_stop_there():
+    s = study_of("Humanoid-v5", horizon=1.5, states=6)
+    parted = [h for h in s.horizon if h is not None]
+    assert parted and max(parted) < 1.5  # contact-rich motion: the two references part within the run
+    assert "Predictable horizon: the references part" in " ".join(verdict(s))
+
+
+def test_a_reference_that_does_not_converge_judges_nothing(monkeypatch):
+    """With a demand no refinement meets (its error at most 1e-12 of the baseline's), the reference
+    is not converged: the verdict says so and no candidate's error is printed as a figure."""
+    import harness.control_step as cs
+    from reports.control_step_section import table_rows
+
+    monkeypatch.setattr(cs, "REF_FRACTION", 1e-12)
+    m = compile_model(read_model_file(environment("Hopper-v5").path()))
+    s = cs.run_study(m, _setting("Hopper-v5"), StudyConfig(horizon_s=0.3, states_per_seed=4, timings=_timings(4),
+                                                            threads=1, substeps=(1,), integrators=("rk4", "euler")),
+                     progress=None)
+    assert not s.reference.converged and s.reference.level == cs.REF_LAST
+    words = cs.verdict(s)
+    assert len(words) == 1 and "no candidate is judged: the reference did not converge" in words[0]
+    assert all(row[3] == "not judged" for row in table_rows(s)[:2])
+
+
+# ------------------------------------------------------------------ the command
+def test_harness_model_default_question_on_hopper(tmp_path):
+    code, out, err = cli("model", "--env", "Hopper-v5", "--horizon", "0.5", "--states", "8", "--seeds", "2",
+                         "--out", str(tmp_path), "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["collidable_pairs"] == 7 and data["reference"]["converged"]
+    assert data["reference"]["h"] <= 0.002 / 16
+    assert data["setting"]["frame_skip"] == 4 and data["setting"]["control_step_s"] == pytest.approx(0.008)
+    assert len(data["candidates"]) == 15 and any(c["baseline"] and c["integrator"] == "rk4" for c in data["candidates"])
+    assert (tmp_path / "report.md").is_file() and (tmp_path / "control_step.csv").is_file()
+    assert (tmp_path / "charts" / "control_step_error_cost.png").stat().st_size > 0
+    report = (tmp_path / "report.md").read_text()
+    assert report.index("## The answer") < report.index("## Each integrator")
+    assert "Drake, Newton and pybullet are not in this question" in report
+
+
+def test_controls_from_a_file(tmp_path):
+    m = compile_model(read_model_file(environment("Hopper-v5").path()))
+    table = np.tile(np.linspace(-1, 1, m.nu), (5, 1))
+    np.save(tmp_path / "u.npy", table)
+    code, out, err = cli("model", "--env", "Hopper-v5", "--controls", str(tmp_path / "u.npy"), "--horizon", "0.2",
+                         "--states", "4", "--seeds", "1", "--out", str(tmp_path / "o"), "--json")
+    assert code == 0, err
+    assert "from" in json.loads(out)["setting"]["controls"]
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--env", "Hopper-v9"], "unknown --env 'Hopper-v9' (valid: Hopper-v5"),
+    (["--env", "Hopper-v5", "--frame-skip", "0"], "--frame-skip=0 is out of range"),
+    (["--env", "Hopper-v5", "--seeds", "x"], "--seeds='x' is not an integer"),
+    (["--env", "Hopper-v5", "--horizon", "-1"], "--horizon=-1 is out of range"),
+    (["--env", "Hopper-v5", "--controls", "nope.npy"], "--controls 'nope.npy': no such file"),
+    ([], "path: a model file is needed"),
+])
+def test_bad_input_is_one_line_before_any_engine_runs(tmp_path, argv, says):
+    code, out, err = cli("model", *argv, "--out", str(tmp_path / "out"))
+    assert code == 2 and out == "" and says in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_controls_file_with_the_wrong_width_is_refused(tmp_path):
+    np.save(tmp_path / "u.npy", np.zeros((4, 7)))
+    code, _, err = cli("model", "--env", "Hopper-v5", "--controls", str(tmp_path / "u.npy"), "--out", str(tmp_path / "o"))
+    assert code == 2 and "7 columns, the model has 3 actuators" in err
+
+
+def test_packaged_model_without_its_package_names_the_extra(monkeypatch):
+    import importlib.util
+
+    from scenarios import environments
+
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)
+    with pytest.raises(InvalidInput, match=r"integrator-harness\[models\]"):
+        environments.packaged_model("gymnasium", "hopper.xml")
