@@ -2,8 +2,8 @@
 how far is each control step from the converged one, what would another integrator or a smaller
 step change, and at what cost?
 
-Contact-rich motion is chaotic: two accurate simulations part after a second or so, so a
-trajectory error at 5 s measures the chaos, not the integrator. The study therefore measures,
+Contact-rich motion is chaotic: two accurate simulations of it part, so a trajectory error
+long after they part measures the chaos, not the integrator. The study therefore measures,
 after Erez, Tassa & Todorov (2015, "Simulation tools for model-based robotics"), **one control step
 at a time** from states the motion visits, and a trajectory only inside its predictable horizon:
 

@@ -250,8 +250,8 @@ def test_a_urdf_through_newtons_loader_is_mujocos_model_to_float32_rounding():
     than ANATOMY_RTOL_FLOAT32 (measured: the pole's mass 1.5e-8 and the mass matrix 2.2e-8 off,
     float32's storing and summing), and newton:featherstone follows mujoco:euler over 100 of the
     file's own steps to 3.9e-8 in q (|q| <= 0.13) and 7.1e-8 in v (|v| <= 0.32), measured: the
-    float32 roundoff of 100 steps, held to 1e-6. As written, its contacts and the slider's limits
-    are kept by MuJoCo: notes, never silent (no collision pass; a limit as a penalty spring)."""
+    float32 roundoff of 100 steps, held to 1e-6. As written, the slider's limits are kept by
+    MuJoCo: a note, never silent (a limit as a penalty spring); no pair of its links can collide."""
     path = _pybullet_data("cartpole.urdf")
     scene, differences, built, newton_mode, mujoco = _newton_and_mujoco(path, "conservative")
     assert differences == [] and built["precision"] == "float32"
@@ -265,7 +265,8 @@ def test_a_urdf_through_newtons_loader_is_mujocos_model_to_float32_rounding():
     _, written, built, _, _ = _newton_and_mujoco(path, "as_written")
     assert written == []  # the limits [-15, 15] are Newton's too
     said = " ".join(built["notes"])
-    assert "keeps contact" in said and "penalty spring" in said
+    # No pair of its links can collide (MuJoCo's parent filter): no contact to note.
+    assert "keeps contact" not in said and "penalty spring" in said
 
 
 def test_what_newton_does_not_apply_in_an_mjcf_is_listed_never_silent(tmp_path):
