@@ -300,3 +300,22 @@ def test_packaged_model_without_its_package_names_the_extra(monkeypatch):
     monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)
     with pytest.raises(InvalidInput, match=r"integrator-harness\[models\]"):
         environments.packaged_model("gymnasium", "hopper.xml")
+
+
+# ------------------------------------------------------------------ the nightly
+def test_nightly_appends_each_environments_question_to_its_report(tmp_path):
+    from harness.cli.nightly import control_step_sections
+
+    report = tmp_path / "report.md"
+    report.write_text("# nightly\n")
+    control_step_sections([environment("Hopper-v5")], report,
+                          StudyConfig(horizon_s=0.3, states_per_seed=4, threads=1, timings=_timings(4)))
+    text = report.read_text()
+    assert "## Model files at their control step" in text and "### Hopper-v5" in text
+    assert "#### The answer" in text and "each control step is" in text
+    assert (tmp_path / "control_step_Hopper-v5.csv").is_file()
+
+
+def test_nightly_refuses_an_unknown_environment_before_anything_runs(tmp_path):
+    code, out, err = cli("nightly", "--model-env", "Nope-v1", "--out", str(tmp_path / "o"), "--db", str(tmp_path / "db"))
+    assert code == 2 and "unknown --env 'Nope-v1'" in err and not (tmp_path / "db").exists()

@@ -37,6 +37,9 @@ def add_parser(sub):
                    help="run the suite once per engine release, each on an environment of its own kept in the "
                         "harness cache, and report what changed between releases (repeatable; beside those "
                         "[tool.harness] engines lists in ./pyproject.toml)")
+    p.add_argument("--model-env", action="append", metavar="NAME",
+                   help="an environment's model file at its own control step, frame skip and reset (harness model "
+                        "--env NAME's question; repeatable): its verdict and table join the report")
     p.add_argument("--json", action="store_true", help="print the run summary as JSON")
     return p
 
@@ -59,6 +62,11 @@ def run(args) -> int:
         from records import InvalidInput
 
         raise InvalidInput(outside[0])
+    from scenarios.environments import environment
+
+    envs = [environment(name) for name in (args.model_env or [])]  # an unknown name: one line, before anything runs
+    for env in envs:
+        env.path()  # its package installed
     models = configured_models() + list(args.model or [])
     if models:  # every file read and checked (and each engine's loader tried) before the history is opened
         suite = with_models(SUITES[suite], models)
@@ -79,6 +87,8 @@ def run(args) -> int:
         print(f"harness: error: {exc}; the run is left incomplete (never compared, the previous report kept)",
               file=sys.stderr)
         return 3
+    if envs:
+        control_step_sections(envs, Path(result["report"]))
     regs = result["regressions"]
     if args.json:
         print(json.dumps({"run_id": result["run_id"], "previous": result["previous"], "report": str(result["report"]),
@@ -112,3 +122,36 @@ def _matrix(args, suite: str, engines: list[str]) -> int:
             print(f"{run['engine']} {run['version']}: run {run['run_id']}, report {run['report']}")
         print(f"matrix report: {result['report']}")
     return 1 if regs else 0
+
+
+def control_step_sections(envs, report: Path, config=None) -> None:
+    """Each environment's control-step question (``harness.control_step``) appended to the
+    report, its table beside it as CSV; a study that fails is a line saying how, never a dead run."""
+    import traceback
+
+    from scenarios.control_setting import ControlSetting
+    from scenarios.model import compile_model, read_model_file
+
+    from harness.control_step import run_study, verdict
+    from reports import control_step_section as section
+
+    lines = ["", "## Model files at their control step", ""]
+    for env in envs:
+        try:
+            mf = read_model_file(env.path())
+            m = compile_model(mf)
+            setting = ControlSetting(frame_skip=env.frame_skip, reset=env.reset, root_position=env.root_position,
+                                     environment=env.name, source=env.source)
+            study = run_study(m, setting, config, progress=sys.stderr, path=mf.path)
+        except Exception as exc:  # recorded, never a dead report
+            lines += [f"### {env.name}", "", f"crashed: {type(exc).__name__}: {' '.join(str(exc).split())}", ""]
+            traceback.print_exc(file=sys.stderr)
+            continue
+        slug = env.name.replace("/", "_")
+        study.frame().to_csv(report.parent / f"control_step_{slug}.csv", index=False)
+        drew = section.chart(study, report.parent / "charts" / f"control_step_{slug}.png")
+        body = section.markdown(study, verdict(study), f"charts/control_step_{slug}.png" if drew else None, [])
+        lines += [f"### {env.name}", "", *(("#### " + ln[3:]) if ln.startswith("## ") else ln
+                                            for ln in body.split("\n")[1:])]
+    with open(report, "a") as fh:
+        fh.write("\n".join(lines) + "\n")
