@@ -164,6 +164,7 @@ class Study:
     candidates: list
     contacts_reference: ContactFigures | None
     velocity_terms: str = ""
+    past_termination: float = 0.0         # share of the states after the environment's default termination
     wall_s: float = 0.0
     spread_floor: float = SPREAD_FLOOR
 
@@ -252,11 +253,16 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
 
     # --- the states the transitions start from
     take = np.unique(np.linspace(0, ncontrol - 1, min(config.states_per_seed, ncontrol)).round().astype(int))
-    states, u = [], []
+    env = _environment(setting.environment)
+    states, u, past = [], [], 0
     for i in range(len(seeds)):
         ok = take[np.all(np.isfinite(at_c[i, take]), axis=-1)]
         states.append(at_c[i, ok])
         u.append(U[i, ok])
+        if env is not None:
+            ended = np.nonzero(env.terminated(stepper.qpos(at_c[i])))[0]
+            if ended.size:
+                past += int(np.count_nonzero(ok >= ended[0]))
     states = np.concatenate(states)
     u = np.concatenate(u)
 
@@ -359,7 +365,14 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
     return Study(file=path, setting=setting.describe(m), timestep=h, integrator=base_integrator,
                  frame_skip=F, control_step=Tc, pairs=pairs, nstates=len(states), reference=reference,
                  horizon=horizon, horizon_s=ncontrol * Tc, candidates=results, contacts_reference=contacts_ref,
-                 velocity_terms=velocity_terms(m), wall_s=time.perf_counter() - t_start)
+                 velocity_terms=velocity_terms(m), past_termination=past / max(1, len(states)),
+                 wall_s=time.perf_counter() - t_start)
+
+
+def _environment(name):
+    from scenarios.environments import ENVIRONMENTS
+
+    return ENVIRONMENTS.get(name) if name else None
 
 
 def velocity_terms(m) -> str:
@@ -427,6 +440,10 @@ def verdict(study: Study) -> list[str]:
         why = _limited(b, half)
         if why:
             lines.append(why)
+    if study.past_termination > 0:
+        lines.append(f"{100 * study.past_termination:.0f}% of these states come after the episode would have ended "
+                     f"(Gymnasium's terminate_when_unhealthy, on by default): the figures include the robot fallen "
+                     f"and lying in contact.")
     med, shortest = study.predictable()
     if med is None and shortest is None:
         lines.append(f"Predictable horizon: the references (RK4 at h/{2 ** REF_FIRST} and h/{2 ** (REF_FIRST + 1)}) "
@@ -458,6 +475,8 @@ def _why_same(a: str, b: str, terms: str) -> str:
     return ""
 
 
+#: A median below this share of the spread is near roundoff for a ratio.
+TINY = 1e-6
 #: Each integrator's order on smooth motion: what a halved step would buy without contact.
 ORDER = {"euler": 1, "implicitfast": 1, "implicit": 1, "rk4": 4, "discrete": 1}
 
@@ -474,6 +493,12 @@ def _change(b: CandidateResult, r: CandidateResult) -> str:
         return (f"the error falls below the reference's resolution (under {r.obs.median:.2g}; "
                 f"{b.obs.median / max(r.obs.median, 1e-300):.3g} x or more) for {cost:.2g} x the cost")
     factor = b.obs.median / r.obs.median if r.obs.median > 0 else math.inf
+    if min(b.obs.median, r.obs.median) < TINY and r.obs.p95 > 0:
+        # Ratios of medians near roundoff say little: the 95th percentile leads.
+        f95 = b.obs.p95 / r.obs.p95
+        word = "cuts" if f95 > 1 else "raises"
+        return (f"{word} the 95th percentile {_x(max(f95, 1 / f95))} x (the medians, {b.obs.median:.2g} and "
+                f"{r.obs.median:.2g}, too far apart in size for a ratio to mean much) {'for' if f95 > 1 else 'at'} {cost:.2g} x the cost")
     p95 = f"95th percentile {_x(b.obs.p95 / r.obs.p95)} x" if r.obs.p95 > 0 else "95th percentile 0"
     if 0.8 <= factor <= 1.25:
         return f"leaves the error about as it is ({factor:.3g} x; {p95}) for {cost:.2g} x the cost"
@@ -493,6 +518,6 @@ def _limited(b: CandidateResult, half: CandidateResult) -> str | None:
         return (f"{b.candidate.integrator}'s order {p} would cut it {2 ** p} x on smooth motion; it cuts "
                 f"{med:.3g} x here: contact, not the integrator's order, limits what a finer step buys.")
     if p95 < 0.5 * 2 ** p:
-        return (f"The 95th percentile (the control steps in which a contact starts or ends) falls only "
+        return (f"The 95th percentile (the control steps in which a contact or a joint limit switches) falls only "
                 f"{p95:.3g} x where the order promises {2 ** p} x: there contact limits what a finer step buys.")
     return None

@@ -45,6 +45,7 @@ class ControlSetting:
     seeds: tuple[int, ...] = (0, 1, 2)
     environment: str | None = None    # the preset it came from, if any
     source: str = "harness defaults"
+    keyframe: bool = True             # start from the first keyframe where the file has one
     _table: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     @staticmethod
@@ -69,7 +70,7 @@ class ControlSetting:
             raise InvalidInput(f"--controls {self.controls!r}: {table.shape[1]} columns, the model has {m.nu} "
                                f"actuators (one column each)")
         return ControlSetting(self.frame_skip, self.controls, self.reset, self.root_position, self.seeds,
-                              self.environment, self.source, table)
+                              self.environment, self.source, self.keyframe, table)
 
     def control_step(self, m) -> float:
         return self.frame_skip * float(m.opt.timestep)
@@ -89,8 +90,9 @@ class ControlSetting:
         import mujoco
 
         rng = np.random.default_rng((seed, 0))
-        q = (m.key_qpos[0] if m.nkey else m.qpos0).copy()
-        v = (m.key_qvel[0] if m.nkey else np.zeros(m.nv)).copy()
+        key = m.nkey and self.keyframe
+        q = (m.key_qpos[0] if key else m.qpos0).copy()
+        v = (m.key_qvel[0] if key else np.zeros(m.nv)).copy()
         r = self.reset
         q += rng.uniform(-r.qpos_scale, r.qpos_scale, m.nq)
         v += (rng.uniform(-r.qvel_scale, r.qvel_scale, m.nv) if r.velocity == "uniform"
@@ -116,12 +118,15 @@ class ControlSetting:
             controls = f"from {self.controls}, one row per control step, repeated from its start"
         if m.nu == 0:
             controls = "none (the model has no actuators)"
-        start = "the first keyframe" if m.nkey else "qpos0"
+        start = "the first keyframe" if m.nkey and self.keyframe else "qpos0"
         return {"control_step_s": self.control_step(m), "frame_skip": self.frame_skip, "timestep_s": float(m.opt.timestep),
                 "controls": controls,
                 "start": f"{self.reset.describe().replace('qpos0', start)} (numpy default_rng((seed, 0)))",
                 "seeds": list(self.seeds), "observation": f"qpos less its first {self.root_position} entries "
-                                                           f"(the root's position), then qvel",
+                                                           f"(the root's position), then qvel: the state part of "
+                                                           f"Gymnasium's observation (Ant and Humanoid add contact "
+                                                           f"forces and body quantities; Hopper and Walker2d clip "
+                                                           f"qvel at 10)",
                 "environment": self.environment, "source": self.source, "ctrl_low": lo.tolist(),
                 "ctrl_high": hi.tolist()}
 

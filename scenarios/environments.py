@@ -51,15 +51,32 @@ class Environment:
     reset: ResetNoise
     root_position: int    # leading qpos entries the observation leaves out (the root's x, y)
     source: str           # where in the package each number was read
+    keyframe: bool = True  # starts from the first keyframe where the file has one (Gymnasium: qpos0)
+    #: Gymnasium's default termination (terminate_when_unhealthy): (qpos index of the root's
+    #: height, its healthy range, qpos index of its angle or None, that range); None: never ends.
+    healthy: tuple | None = None
+
+    def terminated(self, qpos) -> "np.ndarray":
+        """Whether each state (rows of qpos) is past the environment's default termination."""
+        import numpy as np
+
+        qpos = np.asarray(qpos)
+        if self.healthy is None:
+            return np.zeros(qpos.shape[:-1], dtype=bool)
+        zi, (zlo, zhi), ai, arange = self.healthy
+        ok = (qpos[..., zi] > zlo) & (qpos[..., zi] < zhi)
+        if ai is not None:
+            ok &= (qpos[..., ai] > arange[0]) & (qpos[..., ai] < arange[1])
+        return ~ok
 
     def path(self) -> str:
         return packaged_model(self.package, self.file)
 
 
-def _gym(name, file, frame_skip, noise, velocity, root, module):
+def _gym(name, file, frame_skip, noise, velocity, root, module, healthy=None):
     return Environment(name, "gymnasium", file, frame_skip, ResetNoise(noise, noise, velocity), root,
                        f"gymnasium 1.4.0 envs/mujoco/{module}.py: frame_skip={frame_skip}, reset_noise_scale={noise:g}, "
-                       f"qvel noise {velocity}")
+                       f"qvel noise {velocity}", keyframe=False, healthy=healthy)
 
 
 def _dmc(name, file, frame_skip, control_timestep):
@@ -70,11 +87,11 @@ def _dmc(name, file, frame_skip, control_timestep):
 
 
 ENVIRONMENTS: dict[str, Environment] = {e.name: e for e in (
-    _gym("Hopper-v5", "hopper.xml", 4, 5e-3, "uniform", 1, "hopper_v5"),
-    _gym("Walker2d-v5", "walker2d_v5.xml", 4, 5e-3, "uniform", 1, "walker2d_v5"),
+    _gym("Hopper-v5", "hopper.xml", 4, 5e-3, "uniform", 1, "hopper_v5", (1, (0.7, float("inf")), 2, (-0.2, 0.2))),
+    _gym("Walker2d-v5", "walker2d_v5.xml", 4, 5e-3, "uniform", 1, "walker2d_v5", (1, (0.8, 2.0), 2, (-1.0, 1.0))),
     _gym("HalfCheetah-v5", "half_cheetah.xml", 5, 0.1, "normal", 1, "half_cheetah_v5"),
-    _gym("Ant-v5", "ant.xml", 5, 0.1, "normal", 2, "ant_v5"),
-    _gym("Humanoid-v5", "humanoid.xml", 5, 1e-2, "uniform", 2, "humanoid_v5"),
+    _gym("Ant-v5", "ant.xml", 5, 0.1, "normal", 2, "ant_v5", (2, (0.2, 1.0), None, None)),
+    _gym("Humanoid-v5", "humanoid.xml", 5, 1e-2, "uniform", 2, "humanoid_v5", (2, (1.0, 2.0), None, None)),
     _gym("Swimmer-v5", "swimmer.xml", 4, 0.1, "uniform", 2, "swimmer_v5"),
     _gym("InvertedDoublePendulum-v5", "inverted_double_pendulum.xml", 5, 0.1, "normal", 0,
          "inverted_double_pendulum_v5"),

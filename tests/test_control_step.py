@@ -32,7 +32,7 @@ def _timings(frame_skip):
 def _setting(env, seeds=(0, 1)):
     e = environment(env)
     return ControlSetting(frame_skip=e.frame_skip, reset=e.reset, root_position=e.root_position, seeds=seeds,
-                          environment=e.name, source=e.source)
+                          environment=e.name, source=e.source, keyframe=e.keyframe)
 
 
 _STUDIES: dict = {}

@@ -136,7 +136,8 @@ def question_setting(args):
     setting = ControlSetting(frame_skip=frame_skip, controls=args.controls, reset=reset,
                              root_position=env.root_position if env else 1,
                              seeds=tuple(seed0 + i for i in range(seeds)),
-                             environment=env.name if env else None, source=source)
+                             environment=env.name if env else None, source=source,
+                             keyframe=env.keyframe if env else True)
     return mf, setting, StudyConfig(horizon_s=horizon, states_per_seed=states, threads=jobs)
 
 
