@@ -31,7 +31,7 @@ at a time** from states the motion visits, and a trajectory only inside its pred
 * **Contacts** along each candidate's own run, every physics step: contacts a step (mean, max),
   the share of steps in contact, the deepest penetration of a step (median over steps in contact,
   max); the reference's from its coarser run. A model with no collidable pair has no contact figure.
-* **Cost**: MuJoCo's own loop (``adapters._mujoco_control``), seconds per control step, the ratio to
+* **Cost**: MuJoCo's own loop (``adapters.mujoco_control``), seconds per control step, the ratio to
   the baseline's measured in the same run.
 """
 from __future__ import annotations
@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from adapters._mujoco_control import EVALUATIONS, Candidate, Stepper, available_integrators, full_state, \
+from adapters.mujoco_control import EVALUATIONS, Candidate, Stepper, available_integrators, full_state, \
     integrator_name
 
 #: The reference's first level: h / 2^3, finer than the finest candidate (h / 4).
@@ -68,9 +68,11 @@ class StudyConfig:
     integrators: tuple[str, ...] | None = None
     threads: int = 2
     timing_steps: int = 100
-    repeats: int = 3
+    repeats: int = 5
     budget_s: float = 40.0            # the reference's refinement stops past this wall time
     timings: dict | None = None       # injected seconds per control step by candidate name (tests)
+    within_episode: bool = True       # judge only states before the environment's default termination
+    min_sample_s: float = 0.005       # a timing sample runs its control steps again until it lasts this long
 
 
 @dataclass
@@ -109,7 +111,17 @@ class CandidateResult:
     run_status: str = "ok"                # ok, or unstable at t = ... (seed)
     trajectory_error: float | None = None  # the largest inside the predictable horizon (median over seeds)
     contacts: ContactFigures | None = None
-    cost_s: float = math.nan              # seconds per control step
+    obs_errors: np.ndarray | None = field(default=None, repr=False)  # per state, the observation's error
+    cost_s: float = math.nan              # seconds per control step: the fastest sample
+    cost_samples: list = field(default_factory=list)  # one per repeat
+
+    @property
+    def cost_spread(self) -> float:
+        """(second fastest - fastest) / fastest of the cost samples: how well the fastest, the
+        figure, is pinned down (the median moves with every neighbour on a shared machine)."""
+        x = np.sort(np.asarray(self.cost_samples, dtype=float))
+        x = x[np.isfinite(x)]
+        return float(x[1] / x[0] - 1.0) if x.size > 1 and x[0] > 0 else math.nan
     same_bits_as: str | None = None       # another candidate whose transitions are bit for bit these
 
     def row(self) -> dict:
@@ -126,7 +138,7 @@ class CandidateResult:
                 "in_contact_share": c.share if c else None,
                 "penetration_median_m": c.penetration_median if c else None,
                 "penetration_max_m": c.penetration_max if c else None,
-                "cost_s_per_control": self.cost_s, "same_bits_as": self.same_bits_as}
+                "cost_s_per_control": self.cost_s, "cost_spread": self.cost_spread, "same_bits_as": self.same_bits_as}
 
 
 def _f(fig, name):
@@ -165,6 +177,9 @@ class Study:
     contacts_reference: ContactFigures | None
     velocity_terms: str = ""
     past_termination: float = 0.0         # share of the states after the environment's default termination
+    episodes: list | None = None          # per seed: when its episode ended (None: it lasted the run)
+    switches: np.ndarray | None = None    # per state: a contact or a joint limit switches within the control step
+    within_episode: bool = True
     wall_s: float = 0.0
     spread_floor: float = SPREAD_FLOOR
 
@@ -211,7 +226,7 @@ def _relative(a: np.ndarray, b: np.ndarray, sigma: np.ndarray) -> np.ndarray:
 
 def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr, path: str = "") -> Study:
     """The study on the compiled model ``m`` (the file as written) at ``setting`` (module docstring)."""
-    from scenarios._contact_pairs import collidable_pairs
+    from scenarios import collidable_pairs
 
     config = config or StudyConfig()
     t_start = time.perf_counter()
@@ -251,18 +266,23 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
         over = np.nonzero(apart[i] > HORIZON_FRACTION)[0]
         horizon.append(float(over[0] * Tc) if over.size else None)
 
-    # --- the states the transitions start from
-    take = np.unique(np.linspace(0, ncontrol - 1, min(config.states_per_seed, ncontrol)).round().astype(int))
+    # --- where each seed's episode ends (the environment's default termination), and the states
+    # the transitions start from: inside the episodes unless asked otherwise
     env = _environment(setting.environment)
-    states, u, past = [], [], 0
+    ends = []                                                                # control steps of each episode
     for i in range(len(seeds)):
+        ended = np.nonzero(env.terminated(stepper.qpos(at_c[i])))[0] if env is not None else np.zeros(0, int)
+        ends.append(int(ended[0]) if ended.size else ncontrol)
+    usable = ends if config.within_episode else [ncontrol] * len(seeds)
+    states, u, past, total = [], [], 0, 0
+    for i in range(len(seeds)):
+        n_i = max(1, usable[i])
+        take = np.unique(np.linspace(0, n_i - 1, min(config.states_per_seed, n_i)).round().astype(int))
         ok = take[np.all(np.isfinite(at_c[i, take]), axis=-1)]
         states.append(at_c[i, ok])
         u.append(U[i, ok])
-        if env is not None:
-            ended = np.nonzero(env.terminated(stepper.qpos(at_c[i])))[0]
-            if ended.size:
-                past += int(np.count_nonzero(ok >= ended[0]))
+        past += int(np.count_nonzero(ok >= ends[i]))
+        total += len(ok)
     states = np.concatenate(states)
     u = np.concatenate(u)
 
@@ -318,55 +338,87 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
     for r in results:
         eo, eq, ev = errors(trans[r.candidate.name], ref_states)
         r.unstable_transitions = int(np.count_nonzero(~np.isfinite(eo) | (eo == np.inf)))
+        r.obs_errors = eo
         r.obs, r.qpos, r.qvel = Figures.of(eo[np.isfinite(eo)]), Figures.of(eq[np.isfinite(eq)]), \
             Figures.of(ev[np.isfinite(ev)])
         r.resolved = (r.obs.median > ref_err.median / REF_FRACTION) if math.isfinite(r.obs.median) else True
     base = next(r for r in results if r.baseline)
+    switches = _switches(m, stepper, states, ref_states)
     reference.converged = bool(ref_err.median <= REF_FRACTION * base.obs.median
                                and ref_err.p95 <= REF_FRACTION * base.obs.p95)
 
     # --- each candidate's own run: stability, trajectory error inside the horizon, contacts, cost
     _progress(progress, "[model] runs: each candidate from every start, its contacts and its cost")
+
+    def in_episode(run, per_step):
+        """The physics steps of each seed's run inside the states the study judges (``usable``)."""
+        return [run[i, :max(1, usable[i] * per_step)] for i in range(len(seeds))]
+
     contacts_ref, timed = None, []
     if pairs:
-        n, depth = stepper.contacts(coarse)
-        contacts_ref = _contact_figures(n, depth)
+        contacts_ref = _contact_figures(*map(np.concatenate, zip(*map(stepper.contacts, in_episode(coarse, per)))))
     for r in results:
         c = r.candidate
-        run = stepper.run(c.integrator, h / c.substeps, F * c.substeps, s0, U)
         per_c = F * c.substeps
+        run = stepper.run(c.integrator, h / c.substeps, per_c, s0, U)
         at = np.concatenate([s0[:, None], run[:, per_c - 1::per_c]], axis=1)
         bad = ~np.all(np.isfinite(run), axis=-1)
-        stable_controls = ncontrol
         if bad.any():
             i, j = np.argwhere(bad)[0]
             r.run_status = f"unstable at t = {(j + 1) * h / c.substeps:.4g} s (seed {seeds[i]})"
-            stable_controls = max(1, int(np.argmax(bad.any(axis=0))) // per_c)
         worst = []
         for i in range(len(seeds)):
-            end = ncontrol if horizon[i] is None else int(round(horizon[i] / Tc))
+            end = usable[i] if horizon[i] is None else min(usable[i], int(round(horizon[i] / Tc)))
             e = _relative(obs(at[i, :end + 1]), obs(at_f[i, :end + 1]), sig_obs)
             worst.append(float(np.max(e)))
         r.trajectory_error = float(np.median(worst))
         if pairs:
-            n, depth = stepper.contacts(run)
-            r.contacts = _contact_figures(n, depth)
-        timed.append((r, min(config.timing_steps, stable_controls)))
-    # Repeats go round the candidates, so that each one's fastest run is drawn from across the
-    # measurement, not from one moment of the machine.
+            r.contacts = _contact_figures(*map(np.concatenate, zip(*map(stepper.contacts, in_episode(run, per_c)))))
+        # timed over every seed's judged control steps up to its first non-finite state
+        steps = [min(usable[i], int(np.argmax(bad[i])) // per_c if bad[i].any() else ncontrol,
+                     max(1, config.timing_steps // len(seeds))) for i in range(len(seeds))]
+        timed.append((r, [U[i, :steps[i]] for i in range(len(seeds))]))
+    # Repeats go round the candidates, so that each one's samples are drawn from across the
+    # measurement, not from one moment of the machine; the fastest is the figure, the spread kept.
     for _ in range(max(1, config.repeats)):
-        for r, steps in timed:
+        for r, controls in timed:
             c = r.candidate
             if config.timings and c.name in config.timings:
-                r.cost_s = float(config.timings[c.name])
-                continue
-            t = stepper.time_per_control_step(c.integrator, h / c.substeps, F * c.substeps, s0[0], U[0, :steps], 1)
-            r.cost_s = t if math.isnan(r.cost_s) else min(r.cost_s, t)
+                r.cost_samples.append(float(config.timings[c.name]))
+            else:
+                r.cost_samples.append(stepper.time_per_control_step(c.integrator, h / c.substeps, F * c.substeps,
+                                                                    s0, controls, config.min_sample_s))
+    for r, _ in timed:
+        r.cost_s = float(np.nanmin(r.cost_samples))
     return Study(file=path, setting=setting.describe(m), timestep=h, integrator=base_integrator,
                  frame_skip=F, control_step=Tc, pairs=pairs, nstates=len(states), reference=reference,
                  horizon=horizon, horizon_s=ncontrol * Tc, candidates=results, contacts_reference=contacts_ref,
-                 velocity_terms=velocity_terms(m), past_termination=past / max(1, len(states)),
+                 velocity_terms=velocity_terms(m), past_termination=past / max(1, total), switches=switches,
+                 episodes=[e * Tc if e < ncontrol else None for e in ends] if env and env.healthy else None,
+                 within_episode=config.within_episode,
                  wall_s=time.perf_counter() - t_start)
+
+
+def _switches(m, stepper, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Per transition, whether the constraints that are not smooth change over it: the number of
+    contacts MuJoCo finds, or which limited hinge and slide joints are past their range."""
+    import mujoco
+
+    n0, _ = stepper.contacts(start)
+    n1, _ = stepper.contacts(end)
+    out = n0 != n1
+    lim = [j for j in range(m.njnt) if m.jnt_limited[j] and int(m.jnt_type[j]) in
+           (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
+    if lim:
+        adr = np.asarray(m.jnt_qposadr)[lim]
+        lo, hi = np.asarray(m.jnt_range)[lim].T
+
+        def active(states):
+            q = stepper.qpos(states)[:, adr]
+            return (q <= lo) | (q >= hi)
+
+        out |= np.any(active(start) != active(end), axis=1)
+    return out
 
 
 def _environment(name):
@@ -437,10 +489,17 @@ def verdict(study: Study) -> list[str]:
     half = study.by_name(f"{study.integrator} x2")
     if half is not None:
         lines.append(f"A halved step ({study.integrator} x2) {_change(b, half)}.")
-        why = _limited(b, half)
+        why = _limited(b, half, study.switches)
         if why:
             lines.append(why)
-    if study.past_termination > 0:
+    if study.within_episode and study.episodes is not None:
+        ended = [e for e in study.episodes if e is not None]
+        if ended:
+            lines.append(f"States are taken inside each episode: under these controls the environment ends "
+                         f"{len(ended)} of {len(study.episodes)} episodes (terminate_when_unhealthy, on by default) at "
+                         f"{', '.join(f'{e:.3g} s' for e in ended)}; the fallen states after are left out "
+                         f"(--past-termination keeps them).")
+    elif study.past_termination > 0:
         lines.append(f"{100 * study.past_termination:.0f}% of these states come after the episode would have ended "
                      f"(Gymnasium's terminate_when_unhealthy, on by default): the figures include the robot fallen "
                      f"and lying in contact.")
@@ -455,7 +514,7 @@ def verdict(study: Study) -> list[str]:
     else:
         lines.append(f"Predictable horizon: the references part by {HORIZON_FRACTION:g} of the spread after "
                      f"{med:.3g} s (median over seeds; shortest {shortest:.3g} s): trajectory errors are judged only "
-                     f"before it, and past it a trajectory error measures the chaos of the motion, not the integrator.")
+                     f"before it (and before the episode's end), and past it a trajectory error measures the chaos of the motion, not the integrator.")
     return lines
 
 
@@ -485,34 +544,65 @@ def _x(f: float) -> str:
     return f"{f:,.0f}" if f >= 1000 else f"{f:.3g}"
 
 
+def _cost(b: CandidateResult, r: CandidateResult) -> str:
+    """The cost ratio in words: "about the same cost" where it lies within the timing spread."""
+    ratio = r.cost_s / b.cost_s if b.cost_s > 0 else math.nan
+    spread = np.nanmax([b.cost_spread, r.cost_spread, 0.0])
+    if 1.0 / (1.0 + spread) <= ratio <= 1.0 + spread:
+        return f"about the same cost ({ratio:.2g} x, within the timing spread of {100 * spread:.0f}%)"
+    return f"{ratio:.2g} x the cost"
+
+
 def _change(b: CandidateResult, r: CandidateResult) -> str:
-    cost = r.cost_s / b.cost_s if b.cost_s > 0 else math.nan
+    cost = _cost(b, r)
     if r.run_status != "ok" and b.run_status == "ok":
-        return f"its run is {r.run_status}, at {cost:.2g} x the cost"
+        return f"its run is {r.run_status}, at {cost}"
     if not r.resolved:
         return (f"the error falls below the reference's resolution (under {r.obs.median:.2g}; "
-                f"{b.obs.median / max(r.obs.median, 1e-300):.3g} x or more) for {cost:.2g} x the cost")
+                f"{b.obs.median / max(r.obs.median, 1e-300):.3g} x or more) for {cost}")
     factor = b.obs.median / r.obs.median if r.obs.median > 0 else math.inf
     if min(b.obs.median, r.obs.median) < TINY and r.obs.p95 > 0:
         # Ratios of medians near roundoff say little: the 95th percentile leads.
         f95 = b.obs.p95 / r.obs.p95
         word = "cuts" if f95 > 1 else "raises"
-        return (f"{word} the 95th percentile {_x(max(f95, 1 / f95))} x (the medians, {b.obs.median:.2g} and "
-                f"{r.obs.median:.2g}, too far apart in size for a ratio to mean much) {'for' if f95 > 1 else 'at'} {cost:.2g} x the cost")
+        return (f"{word} the 95th percentile {_x(max(f95, 1 / f95))} x (medians {b.obs.median:.2g} and "
+                f"{r.obs.median:.2g}: one is tiny, so the 95th percentile leads) "
+                f"{'for' if f95 > 1 else 'at'} {cost}")
     p95 = f"95th percentile {_x(b.obs.p95 / r.obs.p95)} x" if r.obs.p95 > 0 else "95th percentile 0"
     if 0.8 <= factor <= 1.25:
-        return f"leaves the error about as it is ({factor:.3g} x; {p95}) for {cost:.2g} x the cost"
+        return f"leaves the error about as it is ({factor:.3g} x; {p95}) for {cost}"
     if factor > 1:
-        return f"cuts the error {_x(factor)} x (median; {p95}) for {cost:.2g} x the cost"
+        return f"cuts the error {_x(factor)} x (median; {p95}) for {cost}"
     return (f"raises the error {_x(1 / factor)} x (median; 95th percentile {_x(r.obs.p95 / b.obs.p95)} x) at "
-            f"{cost:.2g} x the cost")
+            f"{cost}")
 
 
-def _limited(b: CandidateResult, half: CandidateResult) -> str | None:
-    """Where a halved step buys less than the integrator's order promises: what limits it."""
+def _limited(b: CandidateResult, half: CandidateResult, switches) -> str | None:
+    """Where a halved step buys less than the integrator's order promises, on which control steps
+    and what they have in common: per state, the ratio of the two errors."""
     p = ORDER.get(b.candidate.integrator)
-    if p is None or not half.resolved or not (half.obs.median > 0 and half.obs.p95 > 0):
+    if p is None or not half.resolved or b.obs_errors is None or half.obs_errors is None:
         return None
+    eb, eh = np.asarray(b.obs_errors), np.asarray(half.obs_errors)
+    ok = np.isfinite(eb) & np.isfinite(eh) & (eh > 0)
+    if not ok.any():
+        return None
+    ratio = eb[ok] / eh[ok]
+    full = ratio >= 0.5 * 2 ** p
+    share = float(np.mean(full))
+    if share >= 0.95:
+        return None
+    rest = ~full
+    sw = np.asarray(switches)[ok] if switches is not None else None
+    why = (f"; {100 * float(np.mean(sw[rest])):.0f}% of those see a contact or a joint limit switch within the step "
+           f"(against {100 * float(np.mean(sw[full])):.0f}% of the others)" if sw is not None and full.any() else
+           (f"; {100 * float(np.mean(sw[rest])):.0f}% of them see a contact or a joint limit switch within the step"
+            if sw is not None else ""))
+    there = f" (a median {float(np.median(ratio[full])):.3g} x there)" if full.any() else ""
+    return (f"A halved step buys what {b.candidate.integrator}'s order {p} promises (at least half of {2 ** p} x) on "
+            f"{100 * share:.0f}% of the control steps{there}; on the other {100 * (1 - share):.0f}% it buys "
+            f"{float(np.median(ratio[rest])):.3g} x (median){why}. On those steps contact, more than the integrator's "
+            f"order, limits what a finer step buys.")
     med, p95 = b.obs.median / half.obs.median, b.obs.p95 / half.obs.p95
     if med < 0.5 * 2 ** p:
         return (f"{b.candidate.integrator}'s order {p} would cut it {2 ** p} x on smooth motion; it cuts "

@@ -34,7 +34,11 @@ def header_lines(study) -> list[str]:
              f"reference: {ref.describe()}; stopped at {ref.why}; "
              + ("converged: at most a tenth of the baseline's error" if ref.converged else
                 "NOT converged: more than a tenth of the baseline's error, so no candidate is judged"),
-             f"transitions: one control step from {study.nstates} states on the reference's runs, against the reference"]
+             f"transitions: one control step from {study.nstates} states on the reference's runs, against the reference"
+             + ("" if study.episodes is None else
+                (", inside each episode (ends: " + ", ".join("> run" if e is None else f"{e:.3g} s" for e in study.episodes)
+                 + "; Gymnasium's terminate_when_unhealthy)" if study.within_episode else
+                 f", {100 * study.past_termination:.0f}% of them after the episode's end (--past-termination)"))]
     med, shortest = study.predictable()
     if med is None and shortest is None:
         lines.append(f"predictable horizon: beyond the run ({study.horizon_s:g} s) for every seed")
@@ -47,7 +51,7 @@ def header_lines(study) -> list[str]:
 
 COLUMNS = ("candidate", "steps/ctrl", "evals/ctrl", "error median", "error p95", "qpos p95", "qvel p95",
            "traj. error in horizon", "run", "contacts/step", "in contact", "penetration median / max (mm)",
-           "cost/ctrl (µs)", "cost ratio")
+           "cost/ctrl (µs, fastest; median +%)", "cost ratio")
 
 
 def table_rows(study) -> list[list[str]]:
@@ -66,7 +70,8 @@ def table_rows(study) -> list[list[str]]:
             med, p95 = "not judged", "not judged"
         rows.append([name, str(r.physics_steps), str(r.evaluations), med, p95,
                      _g(r.qpos.p95) if r.qpos else "-", _g(r.qvel.p95) if r.qvel else "-",
-                     _g(r.trajectory_error), r.run_status, *contact, f"{1e6 * r.cost_s:.1f}",
+                     _g(r.trajectory_error), r.run_status, *contact,
+                     f"{1e6 * r.cost_s:.1f}" + (f" (+{100 * r.cost_spread:.0f}%)" if math.isfinite(r.cost_spread) else ""),
                      f"{r.cost_s / base:.2f}" if base > 0 else "-"])
     ref = study.contacts_reference
     if ref is not None:
@@ -89,7 +94,8 @@ def markdown(study, verdict: list[str], chart: str | None, engines_note: list[st
     out += ["| " + " | ".join(r) + " |" for r in table_rows(study)]
     out += ["", "Errors are relative to the observation's spread (module `harness/control_step.py`); cost is MuJoCo's "
                 "own loop, `mj_step(m, d, nstep=steps/ctrl)` once a control step, wall clock (`time.perf_counter`), "
-                "the fastest of its repeats, on seed 0's run; the cost ratio is to your setting's, measured in the "
+                "over every seed's judged control steps, the fastest of its repeats (the median's excess beside it); "
+                "the cost ratio is to your setting's, measured in the "
                 "same run."]
     if chart:
         out += ["", f"![error against cost]({chart})"]

@@ -13,6 +13,8 @@ from .kepler import Kepler
 from .model import FEATURES, SUFFIXES, VARIANTS, ModelScene, read_model_file, variant
 from ._bullet_model import BulletModelScene, open_model
 from ._mass_matrix import full_mass_matrix
+from ._contact_pairs import collidable_pairs
+from ._model_reference import REFERENCE_JUDGES
 from .pendulum import Pendulum
 from .projectile import Projectile
 from .rope import Rope
@@ -68,5 +70,5 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ModelScene", "BulletModelScene", "open_model", "full_mass_matrix", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
+__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ModelScene", "BulletModelScene", "open_model", "full_mass_matrix", "collidable_pairs", "REFERENCE_JUDGES", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
            "no_solve", "no_velocity_dependence"]

@@ -14,7 +14,7 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 from records import InvalidInput  # noqa: E402
-from scenarios._contact_pairs import collidable_pairs  # noqa: E402
+from scenarios import collidable_pairs  # noqa: E402
 from scenarios.control_setting import ControlSetting  # noqa: E402
 from scenarios.environments import ENVIRONMENTS, environment  # noqa: E402
 from scenarios.model import compile_model, read_model_file  # noqa: E402
@@ -226,6 +226,89 @@ def test_humanoid_references_part_within_seconds_and_trajectory_errors_stop_ther
     parted = [h for h in s.horizon if h is not None]
     assert parted and max(parted) < 1.5  # contact-rich motion: the two references part within the run
     assert "Predictable horizon: the references part" in " ".join(verdict(s))
+
+
+def _humanoid_episode_states(path, F, seeds=(0, 1, 2), every=2):
+    """States of plain RK4 runs at h/8 from Humanoid-v5's reset (qpos0 + U(-0.01, 0.01)), seeded
+    uniform controls, up to where Gymnasium would end the episode (torso height outside (1, 2))."""
+    m = mujoco.MjModel.from_xml_path(path)
+    h = m.opt.timestep
+    m.opt.integrator, m.opt.timestep = mujoco.mjtIntegrator.mjINT_RK4, h / 8
+    d = mujoco.MjData(m)
+    out = []
+    for seed in seeds:
+        rng = np.random.default_rng(2000 + seed)
+        mujoco.mj_resetData(m, d)
+        d.qpos[:] += rng.uniform(-0.01, 0.01, m.nq)
+        d.qvel[:] += rng.uniform(-0.01, 0.01, m.nv)
+        for j in range(400):
+            if not 1.0 < d.qpos[2] < 2.0:
+                break
+            u = rng.uniform(m.actuator_ctrlrange[:, 0], m.actuator_ctrlrange[:, 1])
+            if j % every == 0:
+                out.append((d.qpos.copy(), d.qvel.copy(), u))
+            d.ctrl[:] = u
+            mujoco.mj_step(m, d, nstep=8 * F)
+    return out
+
+
+def test_humanoid_inside_its_episodes_a_halved_rk4_step_buys_its_order_on_most_steps_and_little_on_the_rest():
+    """Inside Gymnasium's episodes (the fallen states after them left out), a halved RK4 step cuts
+    the Humanoid's transition error by about 2^4 = 16 on most control steps and by little where a
+    contact or a limit switches: the per-state ratios are two populations. A plain loop here (its
+    own states and seeds, RK4 at h/32 as the truth) must find the same two: the share of steps that
+    get at least half the order's 16 x, and that gain's median."""
+    env = environment("Humanoid-v5")
+    path = env.path()
+    s = study_of("Humanoid-v5")
+    assert s.within_episode and s.past_termination == 0 and all(e is not None for e in s.episodes)
+    m = mujoco.MjModel.from_xml_path(path)
+    h, F, R = m.opt.timestep, env.frame_skip, mujoco.mjtIntegrator.mjINT_RK4
+    states = _humanoid_episode_states(path, F)
+    truth = np.array([_plain_step(path, R, h / 32, 32 * F, q, v, u) for q, v, u in states])
+    one = np.array([_plain_step(path, R, h, F, q, v, u) for q, v, u in states])
+    half = np.array([_plain_step(path, R, h / 2, 2 * F, q, v, u) for q, v, u in states])
+    obs = np.concatenate([np.array([q for q, _, _ in states])[:, 2:], np.array([v for _, v, _ in states])], axis=1)
+    keep = np.r_[2:m.nq, m.nq:m.nq + m.nv]
+    sigma = np.maximum(obs.std(axis=0), 1e-3 * np.median(obs.std(axis=0)))
+
+    def err(x):
+        return np.sqrt(np.mean(((x[:, keep] - truth[:, keep]) / sigma) ** 2, axis=1))
+
+    plain = err(one) / err(half)
+    study = s.baseline.obs_errors / s.by_name("rk4 x2").obs_errors
+    for ratio in (plain, study):
+        full = ratio >= 8
+        assert 0.2 < np.mean(full) < 0.95  # two populations, neither empty
+        assert 12 < np.median(ratio[full]) < 28 and np.median(ratio[~full]) < 4
+    assert abs(np.mean(plain >= 8) - np.mean(study >= 8)) < 0.35  # other states, other seeds
+    assert "buys what rk4's order 4 promises" in " ".join(verdict(s))
+
+
+def test_hopper_contact_figures_match_a_plain_loops_count():
+    """Contacts a step of Euler's own runs: the study collides each state after a step; a plain
+    loop reads d.ncon after each mj_step (the contacts of the state before it). Over the same
+    runs the two means agree to a step's shift."""
+    env = environment("Hopper-v5")
+    s = study_of("Hopper-v5", horizon=1.0, states=12)
+    r = s.by_name("euler x1")
+    m = mujoco.MjModel.from_xml_path(env.path())
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    d = mujoco.MjData(m)
+    setting = _setting("Hopper-v5")
+    counts = []
+    for i, seed in enumerate(setting.seeds):
+        q, v = setting.start(m, seed)
+        mujoco.mj_resetData(m, d)
+        d.qpos[:], d.qvel[:] = q, v
+        U = setting.sequence(m, seed, int(round(1.0 / (env.frame_skip * m.opt.timestep))))
+        end = int(round(s.episodes[i] / (env.frame_skip * m.opt.timestep))) if s.episodes[i] is not None else len(U)
+        for u in U[:max(1, end)]:
+            d.ctrl[:] = u
+            for _ in range(env.frame_skip):
+                mujoco.mj_step(m, d)
+                counts.append(d.ncon)
+    assert r.contacts.mean == pytest.approx(np.mean(counts), abs=0.1)
 
 
 def test_a_reference_that_does_not_converge_judges_nothing(monkeypatch):

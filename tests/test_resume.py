@@ -125,7 +125,9 @@ def killed_and_resumed(tmp: Path, bounds: Path, where: str) -> dict:
     seen["runs"] = list(History(tmp / "h.sqlite").runs(complete_only=False).run_id)
     seen["complete"] = list(History(tmp / "h.sqlite").runs().run_id)
     seen["cells"] = cells_of(tmp / "h.sqlite")
-    seen["report"] = (tmp / "out" / "report.md").read_text()
+    report = tmp / "out" / "report.md"
+    assert report.is_file(), ("the resumed run wrote no report", seen["resume_returncode"], seen["resume_stderr"][-3000:])
+    seen["report"] = report.read_text()
     return seen
 
 

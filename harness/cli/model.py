@@ -44,6 +44,9 @@ def add_parser(sub):
                    help="qpos0 + U(-SCALE, SCALE) on qpos and qvel (default 0.01, or --env's reset)")
     q.add_argument("--horizon", default="2", metavar="SECONDS", help="each seed's run (default 2 s)")
     q.add_argument("--states", default="40", metavar="N", help="transition states per seed (default 40)")
+    q.add_argument("--past-termination", action="store_true",
+                   help="judge states after the environment would end the episode too (the robot fallen); by "
+                        "default an --env with a termination rule is judged inside its episodes")
     p.add_argument("--full", action="store_true",
                    help="the full study instead: every measure, variants as written and conservative, every engine "
                         "(minutes); implied by --variant, --keep, --off, --perturb, --hz, --energy-tol, --methods, --db")
@@ -138,12 +141,13 @@ def question_setting(args):
                              seeds=tuple(seed0 + i for i in range(seeds)),
                              environment=env.name if env else None, source=source,
                              keyframe=env.keyframe if env else True)
-    return mf, setting, StudyConfig(horizon_s=horizon, states_per_seed=states, threads=jobs)
+    return mf, setting, StudyConfig(horizon_s=horizon, states_per_seed=states, threads=jobs,
+                                    within_episode=not args.past_termination)
 
 
 def engines_note(m) -> list[str]:
     """Why the question runs MuJoCo alone, and what --full does with the other engines."""
-    from scenarios._contact_pairs import collidable_pairs
+    from scenarios import collidable_pairs
 
     if collidable_pairs(m):
         return ["Drake, Newton and pybullet are not in this question: Drake's parser builds no contact geometry "
@@ -183,7 +187,8 @@ def run_question(args) -> int:
                                                  "converged": study.reference.converged,
                                                  "history": study.reference.history, "why": study.reference.why},
                                    "collidable_pairs": study.pairs, "predictable_horizon_s": study.horizon,
-                                   "run_s": study.horizon_s, "verdict": words, "engines": note,
+                                   "run_s": study.horizon_s, "episodes_s": study.episodes,
+                                   "within_episode": study.within_episode, "verdict": words, "engines": note,
                                    "candidates": frame.to_dict(orient="records"), "report": str(report),
                                    "wall_s": study.wall_s}), indent=1, default=str))
         return 0
@@ -285,7 +290,7 @@ def header_lines(scenes, cells) -> list[str]:
         ref = sorted({c.figures.reference_error for c in cells if c.scene == s.id and c.measure == "error"
                       and c.status == "ok" and c.figures.reference_error is not None
                       and "own run" not in (c.figures.source or "")})
-        from scenarios._model_reference import REFERENCE_JUDGES
+        from scenarios import REFERENCE_JUDGES
 
         said = f"estimated error {ref[0]:.2g}" if ref else "not reached (no error cell against it finished)"
         if ref and ref[0] > REFERENCE_JUDGES:

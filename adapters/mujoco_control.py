@@ -23,10 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-#: MuJoCo's integrators by the names its XML uses, in the order tables list them.
+from .mujoco import MODES
+
+#: MuJoCo's integrators (the adapter's mode names), in the order tables list them.
 INTEGRATOR_NAMES = ("euler", "implicitfast", "implicit", "rk4", "discrete")
-_ENUM = {"euler": "mjINT_EULER", "implicitfast": "mjINT_IMPLICITFAST", "implicit": "mjINT_IMPLICIT",
-         "rk4": "mjINT_RK4", "discrete": "mjINT_DISCRETE"}
+_ENUM = {name: f"mjINT_{MODES[name].upper()}" for name in INTEGRATOR_NAMES}
 #: Force (acceleration) evaluations per mj_step.
 EVALUATIONS = {"euler": 1, "implicitfast": 1, "implicit": 1, "rk4": 4, "discrete": 1}
 
@@ -162,21 +163,28 @@ class Stepper:
                 depth[i] = max(0.0, -float(np.min(d.contact.dist[:n])))
         return ncon.reshape(states.shape[:-1]), depth.reshape(states.shape[:-1])
 
-    def time_per_control_step(self, integrator: str, h: float, per_control: int, s0: np.ndarray, U: np.ndarray,
-                              repeats: int = 3) -> float:
+    def time_per_control_step(self, integrator: str, h: float, per_control: int, starts, controls,
+                              min_s: float = 0.0) -> float:
         """Seconds per control step of MuJoCo's own loop, ``mj_step(m, d, nstep=per_control)`` once a
-        control step over the rows of ``U`` from ``s0``: the fastest of ``repeats`` runs."""
+        control step: from each of ``starts`` over the rows of its ``controls``, all of them, and
+        again from the starts until the sample has run ``min_s`` (a clock tick is no measurement)."""
         import mujoco
 
         m, _ = self.model(integrator, h)
         d = mujoco.MjData(m)
         spec = state_spec()
-        best = math.inf
-        for _ in range(max(1, repeats)):
-            mujoco.mj_setState(m, d, s0, spec)
-            t0 = time.perf_counter()
-            for u in U:
-                d.ctrl[:] = u
-                mujoco.mj_step(m, d, nstep=per_control)
-            best = min(best, (time.perf_counter() - t0) / len(U))
-        return best
+        total, n = 0.0, 0
+        if not any(len(U) for U in controls):
+            return math.nan
+        while n == 0 or total < min_s:
+            for s0, U in zip(starts, controls):
+                if len(U) == 0:
+                    continue
+                mujoco.mj_setState(m, d, s0, spec)
+                t0 = time.perf_counter()
+                for u in U:
+                    d.ctrl[:] = u
+                    mujoco.mj_step(m, d, nstep=per_control)
+                total += time.perf_counter() - t0
+                n += len(U)
+        return total / n
