@@ -316,7 +316,7 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
         levels[k] = stepper.transition("rk4", h / 2 ** k, F * 2 ** k, states, u)
         e = Figures.of(_relative(obs(levels[k - 1]), obs(levels[k]), sig_obs))
         history.append((k, e.median, e.p95))
-        cand = [Figures.of(errors(trans[r.candidate.name], levels[k])[0]) for r in results]
+        cand = [Figures.of(_relative(obs(trans[r.candidate.name]), obs(levels[k]), sig_obs)) for r in results]
         smallest_med = min((f.median for f in cand if f.median > 0), default=math.inf)
         smallest_p95 = min((f.p95 for f in cand if f.p95 > 0), default=math.inf)
         if e.median <= REF_FRACTION * smallest_med and e.p95 <= REF_FRACTION * smallest_p95:
@@ -534,6 +534,9 @@ def _why_same(a: str, b: str, terms: str) -> str:
     return ""
 
 
+#: A contact or limit switch is named as what limits a halved step only where it is this much
+#: (a share) more common on the steps that miss their order than on those that get it.
+SWITCH_MARGIN = 0.25
 #: A median below this share of the spread is near roundoff for a ratio.
 TINY = 1e-6
 #: Each integrator's order on smooth motion: what a halved step would buy without contact.
@@ -593,16 +596,21 @@ def _limited(b: CandidateResult, half: CandidateResult, switches) -> str | None:
     if share >= 0.95:
         return None
     rest = ~full
-    sw = np.asarray(switches)[ok] if switches is not None else None
-    why = (f"; {100 * float(np.mean(sw[rest])):.0f}% of those see a contact or a joint limit switch within the step "
-           f"(against {100 * float(np.mean(sw[full])):.0f}% of the others)" if sw is not None and full.any() else
-           (f"; {100 * float(np.mean(sw[rest])):.0f}% of them see a contact or a joint limit switch within the step"
-            if sw is not None else ""))
     there = f" (a median {float(np.median(ratio[full])):.3g} x there)" if full.any() else ""
-    return (f"A halved step buys what {b.candidate.integrator}'s order {p} promises (at least half of {2 ** p} x) on "
+    head = (f"A halved step buys what {b.candidate.integrator}'s order {p} promises (at least half of {2 ** p} x) on "
             f"{100 * share:.0f}% of the control steps{there}; on the other {100 * (1 - share):.0f}% it buys "
-            f"{float(np.median(ratio[rest])):.3g} x (median){why}. On those steps contact, more than the integrator's "
-            f"order, limits what a finer step buys.")
+            f"{float(np.median(ratio[rest])):.3g} x (median)")
+    if switches is None:
+        return head + "."
+    sw = np.asarray(switches)[ok]
+    on_rest = float(np.mean(sw[rest]))
+    on_full = float(np.mean(sw[full])) if full.any() else 0.0
+    seen = (f"; {100 * on_rest:.0f}% of those see a contact or a joint limit switch within the step, against "
+            f"{100 * on_full:.0f}% of the others")
+    if full.any() and on_rest < on_full + SWITCH_MARGIN:
+        return head + seen + (": switches are as common where the order holds, so they do not tell what "
+                              "limits the rest.")
+    return head + seen + ". On those steps contact, more than the integrator's order, limits what a finer step buys."
     med, p95 = b.obs.median / half.obs.median, b.obs.p95 / half.obs.p95
     if med < 0.5 * 2 ** p:
         return (f"{b.candidate.integrator}'s order {p} would cut it {2 ** p} x on smooth motion; it cuts "

@@ -51,7 +51,7 @@ def header_lines(study) -> list[str]:
 
 COLUMNS = ("candidate", "steps/ctrl", "evals/ctrl", "error median", "error p95", "qpos p95", "qvel p95",
            "traj. error in horizon", "run", "contacts/step", "in contact", "penetration median / max (mm)",
-           "cost/ctrl (µs, fastest; median +%)", "cost ratio")
+           "cost/ctrl (µs, fastest; next fastest +%)", "cost ratio")
 
 
 def table_rows(study) -> list[list[str]]:
@@ -94,7 +94,7 @@ def markdown(study, verdict: list[str], chart: str | None, engines_note: list[st
     out += ["| " + " | ".join(r) + " |" for r in table_rows(study)]
     out += ["", "Errors are relative to the observation's spread (module `harness/control_step.py`); cost is MuJoCo's "
                 "own loop, `mj_step(m, d, nstep=steps/ctrl)` once a control step, wall clock (`time.perf_counter`), "
-                "over every seed's judged control steps, the fastest of its repeats (the median's excess beside it); "
+                "over every seed's judged control steps, the fastest of its repeats (the next fastest's excess beside it); "
                 "the cost ratio is to your setting's, measured in the "
                 "same run."]
     if chart:
@@ -110,10 +110,7 @@ def chart(study, path: Path) -> bool:
     per substep level; your setting circled."""
     if not study.reference.converged:
         return False
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from reports.charts import _save, plt
 
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     series: dict[str, list] = {}
@@ -138,10 +135,9 @@ def chart(study, path: Path) -> bool:
     ax.set_yscale("log")
     ax.set_xlabel("cost per control step (µs, wall clock: MuJoCo's mj_step loop, fastest of repeats)")
     ax.set_ylabel("transition error, median (of the observation's spread)")
-    ax.set_title(f"{Path(study.file).name}: one control step ({study.control_step:g} s) against the reference",
-                 fontsize=9)
+    twins = sorted({f"{r.candidate.integrator} = {study.by_name(r.same_bits_as).candidate.integrator}"
+                    for r in study.candidates if r.same_bits_as and study.by_name(r.same_bits_as)})
+    ax.set_title(f"{Path(study.file).name}: one control step ({study.control_step:g} s) against the reference"
+                 + (f"\nnot drawn, the same bits: {', '.join(twins)}" if twins else ""), fontsize=9)
     ax.legend(fontsize=7)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90, bbox_inches="tight")
-    plt.close(fig)
-    return path.stat().st_size > 0
+    return _save(fig, path)

@@ -20,7 +20,7 @@ states all of it, so that every figure of ``harness model`` can say what it was 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -69,8 +69,13 @@ class ControlSetting:
         if table.shape[1] != m.nu:
             raise InvalidInput(f"--controls {self.controls!r}: {table.shape[1]} columns, the model has {m.nu} "
                                f"actuators (one column each)")
-        return ControlSetting(self.frame_skip, self.controls, self.reset, self.root_position, self.seeds,
-                              self.environment, self.source, self.keyframe, table)
+        return replace(self, _table=table)
+
+    @classmethod
+    def for_environment(cls, env, **overrides) -> "ControlSetting":
+        """An environment's own setting (``scenarios.environments``), fields overridden by name."""
+        return cls(**{"frame_skip": env.frame_skip, "reset": env.reset, "root_position": env.root_position,
+                      "environment": env.name, "source": env.source, "keyframe": env.keyframe, **overrides})
 
     def control_step(self, m) -> float:
         return self.frame_skip * float(m.opt.timestep)

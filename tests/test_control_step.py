@@ -31,8 +31,7 @@ def _timings(frame_skip):
 
 def _setting(env, seeds=(0, 1)):
     e = environment(env)
-    return ControlSetting(frame_skip=e.frame_skip, reset=e.reset, root_position=e.root_position, seeds=seeds,
-                          environment=e.name, source=e.source, keyframe=e.keyframe)
+    return ControlSetting.for_environment(e, seeds=seeds)
 
 
 _STUDIES: dict = {}
@@ -156,19 +155,21 @@ def test_every_integrator_and_substep_is_measured_at_the_environments_setting(en
     assert "each control step is" in text and "Predictable horizon" in text
 
 
-def _plain_states(m, frame_skip, reset, root, seeds=(0, 1), n_control=20, every=2):
-    """States along a run of RK4 at h/8 with seeded uniform controls, by a plain mj_step loop."""
-    h = m.opt.timestep
-    mr = mujoco.MjModel.from_xml_path(_plain_states.path)
-    mr.opt.integrator, mr.opt.timestep = mujoco.mjtIntegrator.mjINT_RK4, h / 8
+def _plain_states(path, frame_skip, reset, seeds=(0, 1), n_control=20, every=2, healthy=None, rng_base=1000):
+    """States along runs of RK4 at h/8 with seeded uniform controls, by a plain mj_step loop from
+    qpos0 + U(-reset, reset); each run stops where ``healthy(qpos)`` first fails (a termination)."""
+    mr = mujoco.MjModel.from_xml_path(path)
+    mr.opt.integrator, mr.opt.timestep = mujoco.mjtIntegrator.mjINT_RK4, mr.opt.timestep / 8
     d = mujoco.MjData(mr)
     out = []
     for seed in seeds:
-        rng = np.random.default_rng(1000 + seed)
+        rng = np.random.default_rng(rng_base + seed)
         mujoco.mj_resetData(mr, d)
         d.qpos[:] += rng.uniform(-reset, reset, mr.nq)
         d.qvel[:] += rng.uniform(-reset, reset, mr.nv)
         for j in range(n_control):
+            if healthy is not None and not healthy(d.qpos):
+                break
             u = rng.uniform(mr.actuator_ctrlrange[:, 0], mr.actuator_ctrlrange[:, 1])
             if j % every == 0:
                 out.append((d.qpos.copy(), d.qvel.copy(), u))
@@ -196,8 +197,7 @@ def test_half_cheetah_verdict_holds_against_a_plain_mujoco_loop():
     s = study_of("HalfCheetah-v5")
     m = mujoco.MjModel.from_xml_path(path)
     h, F = m.opt.timestep, env.frame_skip
-    _plain_states.path = path
-    states = _plain_states(m, F, 0.1, 1)
+    states = _plain_states(path, F, 0.1)
     E, R, IF = mujoco.mjtIntegrator.mjINT_EULER, mujoco.mjtIntegrator.mjINT_RK4, mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     truth = np.array([_plain_step(path, R, h / 32, 32 * F, q, v, u) for q, v, u in states])
     euler = np.array([_plain_step(path, E, h, F, q, v, u) for q, v, u in states])
@@ -228,30 +228,6 @@ def test_humanoid_references_part_within_seconds_and_trajectory_errors_stop_ther
     assert "Predictable horizon: the references part" in " ".join(verdict(s))
 
 
-def _humanoid_episode_states(path, F, seeds=(0, 1, 2), every=2):
-    """States of plain RK4 runs at h/8 from Humanoid-v5's reset (qpos0 + U(-0.01, 0.01)), seeded
-    uniform controls, up to where Gymnasium would end the episode (torso height outside (1, 2))."""
-    m = mujoco.MjModel.from_xml_path(path)
-    h = m.opt.timestep
-    m.opt.integrator, m.opt.timestep = mujoco.mjtIntegrator.mjINT_RK4, h / 8
-    d = mujoco.MjData(m)
-    out = []
-    for seed in seeds:
-        rng = np.random.default_rng(2000 + seed)
-        mujoco.mj_resetData(m, d)
-        d.qpos[:] += rng.uniform(-0.01, 0.01, m.nq)
-        d.qvel[:] += rng.uniform(-0.01, 0.01, m.nv)
-        for j in range(400):
-            if not 1.0 < d.qpos[2] < 2.0:
-                break
-            u = rng.uniform(m.actuator_ctrlrange[:, 0], m.actuator_ctrlrange[:, 1])
-            if j % every == 0:
-                out.append((d.qpos.copy(), d.qvel.copy(), u))
-            d.ctrl[:] = u
-            mujoco.mj_step(m, d, nstep=8 * F)
-    return out
-
-
 def test_humanoid_inside_its_episodes_a_halved_rk4_step_buys_its_order_on_most_steps_and_little_on_the_rest():
     """Inside Gymnasium's episodes (the fallen states after them left out), a halved RK4 step cuts
     the Humanoid's transition error by about 2^4 = 16 on most control steps and by little where a
@@ -264,7 +240,8 @@ def test_humanoid_inside_its_episodes_a_halved_rk4_step_buys_its_order_on_most_s
     assert s.within_episode and s.past_termination == 0 and all(e is not None for e in s.episodes)
     m = mujoco.MjModel.from_xml_path(path)
     h, F, R = m.opt.timestep, env.frame_skip, mujoco.mjtIntegrator.mjINT_RK4
-    states = _humanoid_episode_states(path, F)
+    states = _plain_states(path, F, 0.01, seeds=(0, 1, 2), n_control=400, rng_base=2000,
+                           healthy=lambda q: 1.0 < q[2] < 2.0)  # Humanoid-v5's healthy_z_range
     truth = np.array([_plain_step(path, R, h / 32, 32 * F, q, v, u) for q, v, u in states])
     one = np.array([_plain_step(path, R, h, F, q, v, u) for q, v, u in states])
     half = np.array([_plain_step(path, R, h / 2, 2 * F, q, v, u) for q, v, u in states])

@@ -136,11 +136,9 @@ def question_setting(args):
     source = env.source if env else "harness defaults (no --env)"
     if env and (args.frame_skip is not None or args.reset_noise is not None):
         source += "; changed by --frame-skip/--reset-noise"
-    setting = ControlSetting(frame_skip=frame_skip, controls=args.controls, reset=reset,
-                             root_position=env.root_position if env else 1,
-                             seeds=tuple(seed0 + i for i in range(seeds)),
-                             environment=env.name if env else None, source=source,
-                             keyframe=env.keyframe if env else True)
+    asked = {"frame_skip": frame_skip, "controls": args.controls, "reset": reset, "source": source,
+             "seeds": tuple(seed0 + i for i in range(seeds))}
+    setting = ControlSetting.for_environment(env, **asked) if env else ControlSetting(**asked)
     return mf, setting, StudyConfig(horizon_s=horizon, states_per_seed=states, threads=jobs,
                                     within_episode=not args.past_termination)
 
@@ -153,7 +151,8 @@ def engines_note(m) -> list[str]:
         return ["Drake, Newton and pybullet are not in this question: Drake's parser builds no contact geometry "
                 "for a model file (no SceneGraph) and Newton's loader runs with contacts off, so neither steps the "
                 "robot this file describes, and pybullet builds its own masses and inertias from the geoms. "
-                "`harness model --full` runs them, each row of a model stepped without its contacts marked so."]
+                "`harness model --full` runs Drake and Newton on the file's contact-free (conservative) variant only, "
+                "and pybullet on both, its built model compared with MuJoCo's."]
     return ["The model has no collidable pair: `harness model --full` compares MuJoCo with Drake, Newton and "
             "pybullet on it, each engine's built model checked against MuJoCo's."]
 

@@ -140,8 +140,7 @@ def control_step_sections(envs, report: Path, config=None) -> None:
         try:
             mf = read_model_file(env.path())
             m = compile_model(mf)
-            setting = ControlSetting(frame_skip=env.frame_skip, reset=env.reset, root_position=env.root_position,
-                                     environment=env.name, source=env.source, keyframe=env.keyframe)
+            setting = ControlSetting.for_environment(env)
             study = run_study(m, setting, config, progress=sys.stderr, path=mf.path)
         except Exception as exc:  # recorded, never a dead report
             lines += [f"### {env.name}", "", f"crashed: {type(exc).__name__}: {' '.join(str(exc).split())}", ""]
