@@ -134,11 +134,57 @@ class Stepper:
         controls = np.repeat(u[:, None, :], nstep, axis=1)
         return self.rollout(integrator, h, states, controls)[:, -1, :]
 
+    def transition_path(self, integrator: str, h: float, nstep: int, states: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """As ``transition``, every step's state: (nbatch, nstep, nstate)."""
+        return self.rollout(integrator, h, states, np.repeat(u[:, None, :], nstep, axis=1))
+
     def run(self, integrator: str, h: float, per_control: int, s0: np.ndarray, U: np.ndarray) -> np.ndarray:
         """A run from ``s0`` (nbatch, nstate) under the control sequences ``U`` (nbatch, ncontrol, nu),
         ``per_control`` steps a control step: the states after every step (nbatch, ncontrol x per_control, nstate)."""
         controls = np.repeat(U, per_control, axis=1)
         return self.rollout(integrator, h, s0, controls)
+
+    def observe(self, states: np.ndarray, spec, integrator: str | None = None, h: float | None = None,
+                before: np.ndarray | None = None, controls: np.ndarray | None = None) -> np.ndarray:
+        """What a policy sees of each state (rows of ``states``), by ``spec``
+        (``scenarios.environments.Observation``): qpos less the root's position, qvel (clipped where
+        the spec says), then the spec's extras after ``mj_forward`` and ``mj_rnePostConstraint`` at
+        the state itself. Where ``before`` (the states one physics step earlier, with their
+        ``controls``) is given, the extras are Gymnasium's instead: read after ``mj_step`` of
+        ``integrator`` at ``h`` from ``before``, from what that step's last forward pass left (for
+        Euler the state before; for RK4 its last stage)."""
+        import mujoco
+
+        q, v = self.qpos(states), self.qvel(states)
+        if spec.qvel_clip:
+            v = np.clip(v, -spec.qvel_clip, spec.qvel_clip)
+        parts = [q[..., spec.root_position:], v]
+        if spec.extras:
+            m, datas = self.model(integrator or "euler", h or float(self.base.opt.timestep))
+            d = datas[0]
+            flat = (states if before is None else before).reshape(-1, self.nstate)
+            u = None if controls is None else np.asarray(controls).reshape(len(flat), -1)
+            rows = []
+            for n, st in enumerate(flat):
+                if not np.all(np.isfinite(st)):
+                    rows.append(None)
+                    continue
+                mujoco.mj_setState(m, d, st, state_spec())
+                if before is None:
+                    mujoco.mj_forward(m, d)
+                else:
+                    d.ctrl[:] = u[n]
+                    mujoco.mj_step(m, d)
+                mujoco.mj_rnePostConstraint(m, d)
+                row = []
+                for name, first, clip in spec.extras:
+                    x = np.asarray(getattr(d, name))[first:].ravel()
+                    row.append(np.clip(x, *clip) if clip else x)
+                rows.append(np.concatenate(row))
+            width = next((len(r) for r in rows if r is not None), 0)
+            extra = np.array([r if r is not None else np.full(width, np.nan) for r in rows])
+            parts.append(extra.reshape(*states.shape[:-1], width))
+        return np.concatenate(parts, axis=-1)
 
     def contacts(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(contacts, deepest penetration in m) of each state (rows of ``states``)."""

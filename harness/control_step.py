@@ -179,6 +179,7 @@ class Study:
     past_termination: float = 0.0         # share of the states after the environment's default termination
     episodes: list | None = None          # per seed: when its episode ended (None: it lasted the run)
     switches: np.ndarray | None = None    # per state: a contact or a joint limit switches within the control step
+    observation_lag: Figures | None = None  # the extras as Gymnasium reads them, a physics step late, against the state's
     within_episode: bool = True
     wall_s: float = 0.0
     spread_floor: float = SPREAD_FLOOR
@@ -245,8 +246,29 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
     s0 = np.stack([full_state(m, *setting.start(m, s)) for s in seeds])
     U = np.stack([setting.sequence(m, s, ncontrol) for s in seeds])          # (nseed, ncontrol, nu)
 
-    def obs(states):
-        return setting.observation(stepper.qpos(states), stepper.qvel(states))
+    spec = setting.observation
+
+    def obs_after(path):
+        """The observation after the last of ``path``'s steps (nbatch, nstep, nstate), of that state."""
+        return stepper.observe(path[:, -1], spec)
+
+    def obs_run(run, per_step):
+        """The observation at each control-step boundary of runs from ``s0``, the start first."""
+        return np.concatenate([stepper.observe(s0[:, None], spec), stepper.observe(run[:, per_step - 1::per_step], spec)],
+                              axis=1)
+
+    # --- where each seed's episode ends: the environment's termination tested after every control
+    # step of your own setting's run (not the reset state), as the environment tests it
+    per_b = F
+    own = stepper.run(base_integrator, h, per_b, s0, U)[:, per_b - 1::per_b]   # (nseed, ncontrol, nstate)
+    ends = []                                                                # control steps of each episode
+    for i in range(len(seeds)):
+        if setting.termination is None:
+            ends.append(ncontrol)
+            continue
+        ended = np.nonzero(setting.termination.terminated(stepper.qpos(own[i]), stepper.qvel(own[i])))[0]
+        ends.append(int(ended[0]) + 1 if ended.size else ncontrol)
+    usable = ends if config.within_episode else [ncontrol] * len(seeds)
 
     # --- the reference's two runs: the states visited, and the predictable horizon
     _progress(progress, f"[model] reference runs: RK4 at h/{2 ** REF_FIRST} and h/{2 ** (REF_FIRST + 1)} over "
@@ -256,24 +278,21 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
     fine = stepper.run("rk4", h / 2 ** (REF_FIRST + 1), 2 * per, s0, U)
     at_c = np.concatenate([s0[:, None], coarse[:, per - 1::per]], axis=1)     # (nseed, ncontrol + 1, nstate)
     at_f = np.concatenate([s0[:, None], fine[:, 2 * per - 1::2 * per]], axis=1)
-    finite = np.all(np.isfinite(at_c), axis=-1)
-    sig_obs = _spread(obs(at_c[finite]))
-    sig_q = _spread(stepper.qpos(at_c[finite]))
-    sig_v = _spread(stepper.qvel(at_c[finite]))
-    apart = _relative(obs(at_c), obs(at_f), sig_obs)                          # (nseed, ncontrol + 1)
+    obs_c, obs_f = obs_run(coarse, per), obs_run(fine, 2 * per)
+    # each coordinate's spread over the states judged: inside the episodes unless asked otherwise
+    judged = np.concatenate([at_c[i, :usable[i] + 1] for i in range(len(seeds))])
+    judged_obs = np.concatenate([obs_c[i, :usable[i] + 1] for i in range(len(seeds))])
+    finite = np.all(np.isfinite(judged), axis=-1)
+    sig_obs = _spread(judged_obs[finite])
+    sig_q = _spread(stepper.qpos(judged[finite]))
+    sig_v = _spread(stepper.qvel(judged[finite]))
+    apart = _relative(obs_c, obs_f, sig_obs)                                  # (nseed, ncontrol + 1)
     horizon = []
     for i in range(len(seeds)):
         over = np.nonzero(apart[i] > HORIZON_FRACTION)[0]
         horizon.append(float(over[0] * Tc) if over.size else None)
 
-    # --- where each seed's episode ends (the environment's default termination), and the states
-    # the transitions start from: inside the episodes unless asked otherwise
-    env = _environment(setting.environment)
-    ends = []                                                                # control steps of each episode
-    for i in range(len(seeds)):
-        ended = np.nonzero(env.terminated(stepper.qpos(at_c[i])))[0] if env is not None else np.zeros(0, int)
-        ends.append(int(ended[0]) if ended.size else ncontrol)
-    usable = ends if config.within_episode else [ncontrol] * len(seeds)
+    # --- the states the transitions start from
     states, u, past, total = [], [], 0, 0
     for i in range(len(seeds)):
         n_i = max(1, usable[i])
@@ -289,11 +308,18 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
     # --- candidates' transitions
     _progress(progress, f"[model] transitions: {len(states)} states, {len(integrators)} integrators x substeps "
                         f"{', '.join(map(str, config.substeps))}")
-    results, trans = [], {}
+    results, trans, obs_t, lagged = [], {}, {}, None
     for integ in integrators:
         for s in config.substeps:
             c = Candidate(integ, s)
-            trans[c.name] = stepper.transition(integ, h / s, F * s, states, u)
+            path_c = stepper.transition_path(integ, h / s, F * s, states, u)
+            trans[c.name] = path_c[:, -1]
+            obs_t[c.name] = obs_after(path_c)
+            if integ == base_integrator and s == 1 and spec.extras:
+                # Gymnasium reads the extras after mj_step from what that step's last forward pass
+                # left (a physics step, or RK4's last stage, before): how far that alone moves them
+                before = path_c[:, -2] if path_c.shape[1] > 1 else states
+                lagged = stepper.observe(path_c[:, -1], spec, integ, h, before, u)
             results.append(CandidateResult(c, integ == base_integrator and s == 1, F * s, F * s * EVALUATIONS[integ]))
     for r in results:
         for other in results:
@@ -303,20 +329,26 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
                 r.same_bits_as = other.candidate.name
                 break
 
-    def errors(T, ref):
-        return (_relative(obs(T), obs(ref), sig_obs), _relative(stepper.qpos(T), stepper.qpos(ref), sig_q),
-                _relative(stepper.qvel(T), stepper.qvel(ref), sig_v))
+    # --- the reference transition, refined from h / 2^REF_FIRST down; the level after the first
+    # kept step by step, where the contacts and limits that switch within a control step are read
+    levels, obs_l = {}, {}
 
-    # --- the reference transition, refined from h / 2^REF_FIRST down
-    levels = {REF_FIRST: stepper.transition("rk4", h / 2 ** REF_FIRST, F * 2 ** REF_FIRST, states, u)}
-    history, why, k = [], "", REF_FIRST
+    def level(k):
+        path_k = stepper.transition_path("rk4", h / 2 ** k, F * 2 ** k, states, u)
+        levels[k], obs_l[k] = path_k[:, -1], obs_after(path_k)
+        return path_k
+
+    level(REF_FIRST)
+    history, why, k, ref_path = [], "", REF_FIRST, None
     while True:
         k += 1
         _progress(progress, f"[model] reference transition at h/{2 ** k}")
-        levels[k] = stepper.transition("rk4", h / 2 ** k, F * 2 ** k, states, u)
-        e = Figures.of(_relative(obs(levels[k - 1]), obs(levels[k]), sig_obs))
+        path_k = level(k)
+        if ref_path is None:
+            ref_path = path_k
+        e = Figures.of(_relative(obs_l[k - 1], obs_l[k], sig_obs))
         history.append((k, e.median, e.p95))
-        cand = [Figures.of(_relative(obs(trans[r.candidate.name]), obs(levels[k]), sig_obs)) for r in results]
+        cand = [Figures.of(_relative(obs_t[r.candidate.name], obs_l[k], sig_obs)) for r in results]
         smallest_med = min((f.median for f in cand if f.median > 0), default=math.inf)
         smallest_p95 = min((f.p95 for f in cand if f.p95 > 0), default=math.inf)
         if e.median <= REF_FRACTION * smallest_med and e.p95 <= REF_FRACTION * smallest_p95:
@@ -332,18 +364,22 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
             why = f"the refinement's time budget ({config.budget_s:g} s)"
             break
     ref_states = levels[k]
-    ref_err = Figures.of(_relative(obs(levels[k - 1]), obs(ref_states), sig_obs))
+    ref_err = Figures.of(_relative(obs_l[k - 1], obs_l[k], sig_obs))
     reference = Reference(k, h / 2 ** k, ref_err, history, why=why)
 
     for r in results:
-        eo, eq, ev = errors(trans[r.candidate.name], ref_states)
+        T = trans[r.candidate.name]
+        eo = _relative(obs_t[r.candidate.name], obs_l[k], sig_obs)
+        eq = _relative(stepper.qpos(T), stepper.qpos(ref_states), sig_q)
+        ev = _relative(stepper.qvel(T), stepper.qvel(ref_states), sig_v)
         r.unstable_transitions = int(np.count_nonzero(~np.isfinite(eo) | (eo == np.inf)))
         r.obs_errors = eo
         r.obs, r.qpos, r.qvel = Figures.of(eo[np.isfinite(eo)]), Figures.of(eq[np.isfinite(eq)]), \
             Figures.of(ev[np.isfinite(ev)])
         r.resolved = (r.obs.median > ref_err.median / REF_FRACTION) if math.isfinite(r.obs.median) else True
     base = next(r for r in results if r.baseline)
-    switches = _switches(m, stepper, states, ref_states)
+    lag = Figures.of(_relative(lagged, obs_t[base.candidate.name], sig_obs)) if lagged is not None else None
+    switches = _switches(m, stepper, states, ref_path)
     reference.converged = bool(ref_err.median <= REF_FRACTION * base.obs.median
                                and ref_err.p95 <= REF_FRACTION * base.obs.p95)
 
@@ -361,7 +397,7 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
         c = r.candidate
         per_c = F * c.substeps
         run = stepper.run(c.integrator, h / c.substeps, per_c, s0, U)
-        at = np.concatenate([s0[:, None], run[:, per_c - 1::per_c]], axis=1)
+        obs_r = obs_run(run, per_c)
         bad = ~np.all(np.isfinite(run), axis=-1)
         if bad.any():
             i, j = np.argwhere(bad)[0]
@@ -369,7 +405,7 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
         worst = []
         for i in range(len(seeds)):
             end = usable[i] if horizon[i] is None else min(usable[i], int(round(horizon[i] / Tc)))
-            e = _relative(obs(at[i, :end + 1]), obs(at_f[i, :end + 1]), sig_obs)
+            e = _relative(obs_r[i, :end + 1], obs_f[i, :end + 1], sig_obs)
             worst.append(float(np.max(e)))
         r.trajectory_error = float(np.median(worst))
         if pairs:
@@ -394,37 +430,30 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
                  frame_skip=F, control_step=Tc, pairs=pairs, nstates=len(states), reference=reference,
                  horizon=horizon, horizon_s=ncontrol * Tc, candidates=results, contacts_reference=contacts_ref,
                  velocity_terms=velocity_terms(m), past_termination=past / max(1, total), switches=switches,
-                 episodes=[e * Tc if e < ncontrol else None for e in ends] if env and env.healthy else None,
+                 observation_lag=lag,
+                 episodes=[e * Tc if e < ncontrol else None for e in ends] if setting.termination else None,
                  within_episode=config.within_episode,
                  wall_s=time.perf_counter() - t_start)
 
 
-def _switches(m, stepper, start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """Per transition, whether the constraints that are not smooth change over it: the number of
-    contacts MuJoCo finds, or which limited hinge and slide joints are past their range."""
+def _switches(m, stepper, start: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """Per transition, whether a constraint that is not smooth switches within it, at any step of
+    ``path`` (nbatch, nstep, nstate): the number of contacts MuJoCo finds changes, or a limited
+    hinge or slide joint crosses its range's end."""
     import mujoco
 
-    n0, _ = stepper.contacts(start)
-    n1, _ = stepper.contacts(end)
-    out = n0 != n1
+    seq = np.concatenate([start[:, None], path], axis=1)                      # (nbatch, nstep + 1, nstate)
+    n, _ = stepper.contacts(seq)
+    out = np.any(n[:, 1:] != n[:, :-1], axis=1)
     lim = [j for j in range(m.njnt) if m.jnt_limited[j] and int(m.jnt_type[j]) in
            (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))]
     if lim:
         adr = np.asarray(m.jnt_qposadr)[lim]
         lo, hi = np.asarray(m.jnt_range)[lim].T
-
-        def active(states):
-            q = stepper.qpos(states)[:, adr]
-            return (q <= lo) | (q >= hi)
-
-        out |= np.any(active(start) != active(end), axis=1)
+        q = stepper.qpos(seq)[..., adr]
+        active = (q <= lo) | (q >= hi)
+        out |= np.any(active[:, 1:] != active[:, :-1], axis=(1, 2))
     return out
-
-
-def _environment(name):
-    from scenarios.environments import ENVIRONMENTS
-
-    return ENVIRONMENTS.get(name) if name else None
 
 
 def velocity_terms(m) -> str:
@@ -496,15 +525,28 @@ def verdict(study: Study) -> list[str]:
         ended = [e for e in study.episodes if e is not None]
         if ended:
             lines.append(f"States are taken inside each episode: under these controls the environment ends "
-                         f"{len(ended)} of {len(study.episodes)} episodes (terminate_when_unhealthy, on by default) at "
-                         f"{', '.join(f'{e:.3g} s' for e in ended)}; the fallen states after are left out "
-                         f"(--past-termination keeps them).")
+                         f"{len(ended)} of {len(study.episodes)} episodes (terminate_when_unhealthy, on by default) "
+                         f"at {', '.join(f'{e:.3g} s' for e in ended)} of your own setting's run, so these figures "
+                         f"describe the first {max(ended):.2g} s after a reset at most; the fallen states after are "
+                         f"left out (--past-termination keeps them).")
     elif study.past_termination > 0:
         lines.append(f"{100 * study.past_termination:.0f}% of these states come after the episode would have ended "
                      f"(Gymnasium's terminate_when_unhealthy, on by default): the figures include the robot fallen "
                      f"and lying in contact.")
+    if study.observation_lag is not None:
+        g = study.observation_lag
+        lines.append(f"The observation's extras (contact forces, body quantities) are judged at each state; Gymnasium "
+                     f"reads them after mj_step from what that step's last forward pass left, up to a physics step "
+                     f"({study.timestep:g} s) earlier, which alone moves what your policy sees by {g.median:.2g} of the spread (median; 95th "
+                     f"percentile {g.p95:.2g}) at your setting: a lag no integrator removes, only a smaller step.")
     med, shortest = study.predictable()
-    if med is None and shortest is None:
+    ended = [e for e in (study.episodes or []) if e is not None] if study.within_episode else []
+    if ended and len(ended) == len(study.horizon) and all(
+            hz is None or hz >= e for hz, e in zip(study.horizon, study.episodes)):
+        lines.append(f"Predictable horizon: every episode ends before its two references (RK4 at h/{2 ** REF_FIRST} "
+                     f"and h/{2 ** (REF_FIRST + 1)}) part by {HORIZON_FRACTION:g} of the spread: within an episode "
+                     f"the motion is predictable, and trajectory errors are judged over all of it.")
+    elif med is None and shortest is None:
         lines.append(f"Predictable horizon: the references (RK4 at h/{2 ** REF_FIRST} and h/{2 ** (REF_FIRST + 1)}) "
                      f"stay within {HORIZON_FRACTION:g} of the spread over the whole run ({study.horizon_s:g} s): "
                      f"trajectory errors are judged over all of it.")
@@ -537,6 +579,8 @@ def _why_same(a: str, b: str, terms: str) -> str:
 #: A contact or limit switch is named as what limits a halved step only where it is this much
 #: (a share) more common on the steps that miss their order than on those that get it.
 SWITCH_MARGIN = 0.25
+#: A timing whose fastest two repeats differ by more than this is told beside the work it measures.
+NOISY = 0.25
 #: A median below this share of the spread is near roundoff for a ratio.
 TINY = 1e-6
 #: Each integrator's order on smooth motion: what a halved step would buy without contact.
@@ -548,12 +592,15 @@ def _x(f: float) -> str:
 
 
 def _cost(b: CandidateResult, r: CandidateResult) -> str:
-    """The cost ratio in words: "about the same cost" where it lies within the timing spread."""
+    """The cost ratio in words; where the clock moved more than NOISY between repeats, the work
+    ratio beside it (mj_step calls and force evaluations, which no load moves)."""
     ratio = r.cost_s / b.cost_s if b.cost_s > 0 else math.nan
-    spread = np.nanmax([b.cost_spread, r.cost_spread, 0.0])
-    if 1.0 / (1.0 + spread) <= ratio <= 1.0 + spread:
-        return f"about the same cost ({ratio:.2g} x, within the timing spread of {100 * spread:.0f}%)"
-    return f"{ratio:.2g} x the cost"
+    spread = float(np.nanmax([b.cost_spread, r.cost_spread, 0.0]))
+    said = f"{ratio:.2g} x the cost"
+    if spread > NOISY:
+        said += (f" (the clock moved {100 * spread:.0f}% between repeats here; {r.physics_steps / b.physics_steps:.2g} "
+                 f"x the mj_step calls, {r.evaluations / b.evaluations:.2g} x the force evaluations)")
+    return said
 
 
 def _change(b: CandidateResult, r: CandidateResult) -> str:
@@ -581,8 +628,9 @@ def _change(b: CandidateResult, r: CandidateResult) -> str:
 
 
 def _limited(b: CandidateResult, half: CandidateResult, switches) -> str | None:
-    """Where a halved step buys less than the integrator's order promises, on which control steps
-    and what they have in common: per state, the ratio of the two errors."""
+    """Where a halved step buys less than the integrator's order promises: on how many control
+    steps, by how much, and how often a contact or a joint limit switches within those steps and
+    within the others (per state, the ratio of the two errors)."""
     p = ORDER.get(b.candidate.integrator)
     if p is None or not half.resolved or b.obs_errors is None or half.obs_errors is None:
         return None
@@ -592,25 +640,24 @@ def _limited(b: CandidateResult, half: CandidateResult, switches) -> str | None:
         return None
     ratio = eb[ok] / eh[ok]
     full = ratio >= 0.5 * 2 ** p
-    share = float(np.mean(full))
-    if share >= 0.95:
+    if np.mean(full) >= 0.95:
         return None
     rest = ~full
-    there = f" (a median {float(np.median(ratio[full])):.3g} x there)" if full.any() else ""
-    head = (f"A halved step buys what {b.candidate.integrator}'s order {p} promises (at least half of {2 ** p} x) on "
-            f"{100 * share:.0f}% of the control steps{there}; on the other {100 * (1 - share):.0f}% it buys "
-            f"{float(np.median(ratio[rest])):.3g} x (median)")
+    n, n_full, n_rest = len(ratio), int(full.sum()), int(rest.sum())
+    gain = float(np.median(ratio[rest]))
+    buys = f"buys {gain:.3g} x (median)" if gain >= 1 else f"makes the error {1 / gain:.3g} x worse (median)"
+    there = f", a median {float(np.median(ratio[full])):.3g} x there" if n_full else ""
+    out = (f"Per control step, a halved step buys at least half of what {b.candidate.integrator}'s order {p} "
+           f"promises ({2 ** p} x) on {n_full} of {n}{there}; on the other {n_rest} it {buys}.")
     if switches is None:
-        return head + "."
+        return out
     sw = np.asarray(switches)[ok]
-    on_rest = float(np.mean(sw[rest]))
-    on_full = float(np.mean(sw[full])) if full.any() else 0.0
-    seen = (f"; {100 * on_rest:.0f}% of those see a contact or a joint limit switch within the step, against "
-            f"{100 * on_full:.0f}% of the others")
-    if full.any() and on_rest < on_full + SWITCH_MARGIN:
-        return head + seen + (": switches are as common where the order holds, so they do not tell what "
-                              "limits the rest.")
-    return head + seen + ". On those steps contact, more than the integrator's order, limits what a finer step buys."
+    out += (f" A contact or a joint limit switches within {int(sw[rest].sum())} of those {n_rest} and within "
+            f"{int(sw[full].sum())} of the {n_full} others (read at every h/{2 ** (REF_FIRST + 1)} step of the reference)")
+    on_rest, on_full = float(np.mean(sw[rest])), (float(np.mean(sw[full])) if n_full else 0.0)
+    if on_rest >= on_full + SWITCH_MARGIN:
+        return out + ": the steps that miss their order are mostly steps where the contact set changes."
+    return out + ": switches are about as common where the order holds, so they do not tell what limits the rest."
     med, p95 = b.obs.median / half.obs.median, b.obs.p95 / half.obs.p95
     if med < 0.5 * 2 ** p:
         return (f"{b.candidate.integrator}'s order {p} would cut it {2 ** p} x on smooth motion; it cuts "

@@ -14,8 +14,9 @@ states all of it, so that every figure of ``harness model`` can say what it was 
 * **starts** (``reset``): the model's first keyframe (else ``qpos0``) plus the environment's reset
   noise, one start per seed, drawn from ``numpy.random.default_rng((seed, 0))``; quaternions of free
   and ball joints normalised after the noise, as ``mj_step`` normalises them;
-* **observation**: what a policy sees of the state, Gymnasium's default: ``qpos`` less the root's
-  ``root_position`` leading entries (its x, and y for a free root), then ``qvel``.
+* **observation**: what a policy sees of the state (``scenarios.environments.Observation``):
+  Gymnasium's default where an environment is named, else ``qpos`` less the root's x, then ``qvel``;
+* **termination**: where an environment ends its episodes (``Termination``), none otherwise.
 """
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ import numpy as np
 
 from records import InvalidInput
 
-from .environments import ResetNoise
+from .environments import Observation, ResetNoise, Termination
 
 CONTROL_MODES = ("seeded", "zero")
 #: The reset noise where no environment sets one: small against a joint's range, as Gymnasium's
@@ -41,7 +42,8 @@ class ControlSetting:
     frame_skip: int = 1
     controls: str = "seeded"          # seeded, zero, or a path
     reset: ResetNoise = DEFAULT_RESET
-    root_position: int = 1
+    observation: Observation = Observation(1)
+    termination: Termination | None = None
     seeds: tuple[int, ...] = (0, 1, 2)
     environment: str | None = None    # the preset it came from, if any
     source: str = "harness defaults"
@@ -74,8 +76,8 @@ class ControlSetting:
     @classmethod
     def for_environment(cls, env, **overrides) -> "ControlSetting":
         """An environment's own setting (``scenarios.environments``), fields overridden by name."""
-        return cls(**{"frame_skip": env.frame_skip, "reset": env.reset, "root_position": env.root_position,
-                      "environment": env.name, "source": env.source, "keyframe": env.keyframe, **overrides})
+        return cls(**{"frame_skip": env.frame_skip, "reset": env.reset, "observation": env.observation,
+                      "termination": env.termination, "environment": env.name, "source": env.source, "keyframe": env.keyframe, **overrides})
 
     def control_step(self, m) -> float:
         return self.frame_skip * float(m.opt.timestep)
@@ -107,9 +109,6 @@ class ControlSetting:
         mujoco.mj_normalizeQuat(m, d.qpos)
         return d.qpos.copy(), v
 
-    def observation(self, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
-        return np.concatenate([qpos[..., self.root_position:], qvel], axis=-1)
-
     def describe(self, m) -> dict:
         lo, hi = _control_range(m)
         unlimited = int(np.count_nonzero(~_ctrl_limited(m))) if m.nu else 0
@@ -127,11 +126,8 @@ class ControlSetting:
         return {"control_step_s": self.control_step(m), "frame_skip": self.frame_skip, "timestep_s": float(m.opt.timestep),
                 "controls": controls,
                 "start": f"{self.reset.describe().replace('qpos0', start)} (numpy default_rng((seed, 0)))",
-                "seeds": list(self.seeds), "observation": f"qpos less its first {self.root_position} entries "
-                                                           f"(the root's position), then qvel: the state part of "
-                                                           f"Gymnasium's observation (Ant and Humanoid add contact "
-                                                           f"forces and body quantities; Hopper and Walker2d clip "
-                                                           f"qvel at 10)",
+                "seeds": list(self.seeds), "observation": self.observation.describe(),
+                "termination": _describe_termination(self.termination),
                 "environment": self.environment, "source": self.source, "ctrl_low": lo.tolist(),
                 "ctrl_high": hi.tolist()}
 
@@ -151,3 +147,16 @@ def _control_range(m) -> tuple[np.ndarray, np.ndarray]:
     lo = np.where(limited, rng[:, 0], -1.0)
     hi = np.where(limited, rng[:, 1], 1.0)
     return lo, hi
+
+
+def _describe_termination(t) -> str:
+    if t is None:
+        return "none (episodes end only by time)"
+    out = f"qpos[{t.z}] (the root's height) {'in' if t.closed else 'strictly in'} {t.z_range}"
+    if t.angle is not None:
+        out += f", qpos[{t.angle}] (its angle) in {t.angle_range}"
+    if t.state_range is not None:
+        out += f", state_vector()[2:] in {t.state_range}"
+    if t.finite:
+        out += ", the state finite"
+    return "healthy while " + out + " (Gymnasium's terminate_when_unhealthy)"

@@ -5,7 +5,9 @@ A reinforcement-learning environment fixes more than the model file says: Gymnas
 ``MujocoEnv`` steps ``frame_skip`` physics steps per action (``mj_step(model, data,
 nstep=frame_skip)``) with the action held, and resets to ``init_qpos + U(-s, s)`` (``init_qpos`` is
 MuJoCo's ``qpos0``) with the velocity noise uniform or Gaussian by environment; its observation
-leaves out the root's x (and y) position. dm_control's suite sets a control timestep that is a
+leaves out the root's x (and y) position and adds, for Ant and Humanoid, body quantities and contact
+forces (``Observation``); an episode ends where the robot is unhealthy (``Termination``).
+dm_control's suite sets a control timestep that is a
 whole number of the file's physics steps. ``ENVIRONMENTS`` holds these per environment, each with
 the line of the source it was read from; ``harness model --env NAME`` runs a model at them.
 
@@ -41,6 +43,60 @@ class ResetNoise:
 
 
 @dataclass(frozen=True)
+class Observation:
+    """What a policy sees, as Gymnasium's ``_get_obs`` builds it by default: ``qpos`` less its
+    ``root_position`` leading entries (the root's x, and y), ``qvel`` (clipped to ``qvel_clip`` where
+    set: Hopper, Walker2d), then ``extras``: fields of ``mjData`` read after ``mj_rnePostConstraint``,
+    each ``(field, first row, clip or None)`` (Ant: ``clip(cfrc_ext, -1, 1)``; Humanoid: ``cinert``,
+    ``cvel``, ``qfrc_actuator[6:]``, ``cfrc_ext``, rows from 1, the world's left out)."""
+
+    root_position: int = 1
+    qvel_clip: float | None = None
+    extras: tuple = ()
+
+    def describe(self) -> str:
+        parts = [f"qpos less its first {self.root_position} entries (the root's position)",
+                 "qvel" + (f" clipped to +-{self.qvel_clip:g}" if self.qvel_clip else "")]
+        for name, first, clip in self.extras:
+            parts.append(f"{name}[{first}:]" + (f" clipped to [{clip[0]:g}, {clip[1]:g}]" if clip else ""))
+        return ", ".join(parts)
+
+
+@dataclass(frozen=True)
+class Termination:
+    """Gymnasium's default termination (``terminate_when_unhealthy``) as its ``is_healthy`` tests
+    it after each step: the root's height ``qpos[z]`` within ``z_range`` (open, or ``closed`` as
+    Ant's), its angle ``qpos[angle]`` within ``angle_range`` where set, every entry of
+    ``state_vector()[2:]`` within ``state_range`` where set (Hopper), the state finite (Ant)."""
+
+    z: int
+    z_range: tuple
+    angle: int | None = None
+    angle_range: tuple | None = None
+    state_range: tuple | None = None
+    closed: bool = False
+    finite: bool = False
+
+    def terminated(self, qpos, qvel):
+        import numpy as np
+
+        qpos, qvel = np.asarray(qpos), np.asarray(qvel)
+        z = qpos[..., self.z]
+        lo, hi = self.z_range
+        ok = (lo <= z) & (z <= hi) if self.closed else (lo < z) & (z < hi)
+        if self.angle is not None:
+            a = qpos[..., self.angle]
+            ok &= (self.angle_range[0] < a) & (a < self.angle_range[1])
+        state = np.concatenate([qpos, qvel], axis=-1)
+        if self.state_range is not None:
+            rest = state[..., 2:]
+            ok &= np.all((self.state_range[0] < rest) & (rest < self.state_range[1]), axis=-1)
+        if self.finite:
+            ok &= np.all(np.isfinite(state), axis=-1)
+        return ~ok
+
+
+@dataclass(frozen=True)
 class Environment:
     """One environment's setting of its model (module docstring)."""
 
@@ -49,53 +105,48 @@ class Environment:
     file: str             # the file's name in that package's assets
     frame_skip: int       # physics steps per control step, the action held
     reset: ResetNoise
-    root_position: int    # leading qpos entries the observation leaves out (the root's x, y)
+    observation: Observation
     source: str           # where in the package each number was read
     keyframe: bool = True  # starts from the first keyframe where the file has one (Gymnasium: qpos0)
-    #: Gymnasium's default termination (terminate_when_unhealthy): (qpos index of the root's
-    #: height, its healthy range, qpos index of its angle or None, that range); None: never ends.
-    healthy: tuple | None = None
-
-    def terminated(self, qpos) -> "np.ndarray":
-        """Whether each state (rows of qpos) is past the environment's default termination."""
-        import numpy as np
-
-        qpos = np.asarray(qpos)
-        if self.healthy is None:
-            return np.zeros(qpos.shape[:-1], dtype=bool)
-        zi, (zlo, zhi), ai, arange = self.healthy
-        ok = (qpos[..., zi] > zlo) & (qpos[..., zi] < zhi)
-        if ai is not None:
-            ok &= (qpos[..., ai] > arange[0]) & (qpos[..., ai] < arange[1])
-        return ~ok
+    termination: Termination | None = None  # None: episodes end only by time
 
     def path(self) -> str:
         return packaged_model(self.package, self.file)
 
 
-def _gym(name, file, frame_skip, noise, velocity, root, module, healthy=None):
-    return Environment(name, "gymnasium", file, frame_skip, ResetNoise(noise, noise, velocity), root,
+def _gym(name, file, frame_skip, noise, velocity, observation, module, termination=None, note=""):
+    return Environment(name, "gymnasium", file, frame_skip, ResetNoise(noise, noise, velocity), observation,
                        f"gymnasium 1.4.0 envs/mujoco/{module}.py: frame_skip={frame_skip}, reset_noise_scale={noise:g}, "
-                       f"qvel noise {velocity}", keyframe=False, healthy=healthy)
+                       f"qvel noise {velocity}{note}", keyframe=False, termination=termination)
 
 
 def _dmc(name, file, frame_skip, control_timestep):
-    return Environment(name, "dm_control", file, frame_skip, ResetNoise(0.01, 0.01, "uniform"), 1,
+    return Environment(name, "dm_control", file, frame_skip, ResetNoise(0.01, 0.01, "uniform"), Observation(1),
                        f"dm_control 1.0.50 suite/{name.split('/')[1]}.py: control timestep "
                        f"{control_timestep:g} s = {frame_skip} x the file's timestep; its reset (random joint angles, "
-                       f"a fall to the floor) is not reproduced: the harness starts from qpos0 with U(-0.01, 0.01)")
+                       f"a fall to the floor) and its observation (body orientations, heights) are not reproduced: "
+                       f"the harness starts from qpos0 with U(-0.01, 0.01) and observes qpos less the root's x, qvel")
 
 
+_WALKING = Observation(1, qvel_clip=10.0)
+_INF = float("inf")
 ENVIRONMENTS: dict[str, Environment] = {e.name: e for e in (
-    _gym("Hopper-v5", "hopper.xml", 4, 5e-3, "uniform", 1, "hopper_v5", (1, (0.7, float("inf")), 2, (-0.2, 0.2))),
-    _gym("Walker2d-v5", "walker2d_v5.xml", 4, 5e-3, "uniform", 1, "walker2d_v5", (1, (0.8, 2.0), 2, (-1.0, 1.0))),
-    _gym("HalfCheetah-v5", "half_cheetah.xml", 5, 0.1, "normal", 1, "half_cheetah_v5"),
-    _gym("Ant-v5", "ant.xml", 5, 0.1, "normal", 2, "ant_v5", (2, (0.2, 1.0), None, None)),
-    _gym("Humanoid-v5", "humanoid.xml", 5, 1e-2, "uniform", 2, "humanoid_v5", (2, (1.0, 2.0), None, None)),
-    _gym("Swimmer-v5", "swimmer.xml", 4, 0.1, "uniform", 2, "swimmer_v5"),
-    _gym("InvertedDoublePendulum-v5", "inverted_double_pendulum.xml", 5, 0.1, "normal", 0,
-         "inverted_double_pendulum_v5"),
-    _gym("InvertedPendulum-v5", "inverted_pendulum.xml", 2, 0.01, "uniform", 0, "inverted_pendulum_v5"),
+    _gym("Hopper-v5", "hopper.xml", 4, 5e-3, "uniform", _WALKING, "hopper_v5",
+         Termination(1, (0.7, _INF), 2, (-0.2, 0.2), state_range=(-100.0, 100.0))),
+    _gym("Walker2d-v5", "walker2d_v5.xml", 4, 5e-3, "uniform", _WALKING, "walker2d_v5",
+         Termination(1, (0.8, 2.0), 2, (-1.0, 1.0))),
+    _gym("HalfCheetah-v5", "half_cheetah.xml", 5, 0.1, "normal", Observation(1), "half_cheetah_v5"),
+    _gym("Ant-v5", "ant.xml", 5, 0.1, "normal", Observation(2, extras=(("cfrc_ext", 1, (-1.0, 1.0)),)), "ant_v5",
+         Termination(2, (0.2, 1.0), closed=True, finite=True)),
+    _gym("Humanoid-v5", "humanoid.xml", 5, 1e-2, "uniform",
+         Observation(2, extras=(("cinert", 1, None), ("cvel", 1, None), ("qfrc_actuator", 6, None),
+                                ("cfrc_ext", 1, None))), "humanoid_v5", Termination(2, (1.0, 2.0))),
+    _gym("Swimmer-v5", "swimmer.xml", 4, 0.1, "uniform", Observation(2), "swimmer_v5"),
+    _gym("InvertedDoublePendulum-v5", "inverted_double_pendulum.xml", 5, 0.1, "normal", Observation(0),
+         "inverted_double_pendulum_v5", note="; its observation (sines, cosines, constraint forces) and termination "
+                                             "(the tip's height) not reproduced: qpos, qvel observed, no termination"),
+    _gym("InvertedPendulum-v5", "inverted_pendulum.xml", 2, 0.01, "uniform", Observation(0), "inverted_pendulum_v5",
+         note="; its termination (|pole angle| > 0.2) not reproduced"),
     _dmc("dm_control/cartpole", "cartpole.xml", 1, 0.01),
     _dmc("dm_control/walker", "walker.xml", 10, 0.025),
     _dmc("dm_control/cheetah", "cheetah.xml", 1, 0.01),
