@@ -144,15 +144,15 @@ class Stepper:
         controls = np.repeat(U, per_control, axis=1)
         return self.rollout(integrator, h, s0, controls)
 
-    def observe(self, states: np.ndarray, spec, integrator: str | None = None, h: float | None = None,
-                before: np.ndarray | None = None, controls: np.ndarray | None = None) -> np.ndarray:
-        """What a policy sees of each state (rows of ``states``), by ``spec``
-        (``scenarios.environments.Observation``): qpos less the root's position, qvel (clipped where
-        the spec says), then the spec's extras after ``mj_forward`` and ``mj_rnePostConstraint`` at
-        the state itself. Where ``before`` (the states one physics step earlier, with their
-        ``controls``) is given, the extras are Gymnasium's instead: read after ``mj_step`` of
-        ``integrator`` at ``h`` from ``before``, from what that step's last forward pass left (for
-        Euler the state before; for RK4 its last stage)."""
+    def observe(self, states: np.ndarray, spec, controls: np.ndarray, integrator: str | None = None,
+                h: float | None = None, before: np.ndarray | None = None) -> np.ndarray:
+        """What a policy sees of each state (rows of ``states``, each with the control that was held
+        into it, rows of ``controls``), by ``spec`` (``scenarios.environments.Observation``): qpos
+        less the root's position, qvel (clipped where the spec says), then the spec's extras after
+        ``mj_forward`` and ``mj_rnePostConstraint`` at the state itself (the actuator forces under
+        its control). Where ``before`` (the states one physics step earlier) is given, the extras are
+        Gymnasium's instead: read after ``mj_step`` of ``integrator`` at ``h`` from ``before``, from
+        what that step's last forward pass left (for Euler the state before; for RK4 its last stage)."""
         import mujoco
 
         q, v = self.qpos(states), self.qvel(states)
@@ -163,17 +163,17 @@ class Stepper:
             m, datas = self.model(integrator or "euler", h or float(self.base.opt.timestep))
             d = datas[0]
             flat = (states if before is None else before).reshape(-1, self.nstate)
-            u = None if controls is None else np.asarray(controls).reshape(len(flat), -1)
+            u = np.asarray(controls, dtype=float).reshape(len(flat), -1)
             rows = []
             for n, st in enumerate(flat):
                 if not np.all(np.isfinite(st)):
                     rows.append(None)
                     continue
                 mujoco.mj_setState(m, d, st, state_spec())
+                d.ctrl[:] = u[n]
                 if before is None:
                     mujoco.mj_forward(m, d)
                 else:
-                    d.ctrl[:] = u[n]
                     mujoco.mj_step(m, d)
                 mujoco.mj_rnePostConstraint(m, d)
                 row = []

@@ -249,13 +249,14 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
     spec = setting.observation
 
     def obs_after(path):
-        """The observation after the last of ``path``'s steps (nbatch, nstep, nstate), of that state."""
-        return stepper.observe(path[:, -1], spec)
+        """The observation after the last of ``path``'s steps (nbatch, nstep, nstate) under ``u``."""
+        return stepper.observe(path[:, -1], spec, u)
 
     def obs_run(run, per_step):
-        """The observation at each control-step boundary of runs from ``s0``, the start first."""
-        return np.concatenate([stepper.observe(s0[:, None], spec), stepper.observe(run[:, per_step - 1::per_step], spec)],
-                              axis=1)
+        """The observation at each control-step boundary of runs from ``s0`` under ``U``, the start
+        first (its controls 0, as after a reset)."""
+        start = stepper.observe(s0[:, None], spec, np.zeros((len(s0), 1, m.nu)))
+        return np.concatenate([start, stepper.observe(run[:, per_step - 1::per_step], spec, U)], axis=1)
 
     # --- where each seed's episode ends: the environment's termination tested after every control
     # step of your own setting's run (not the reset state), as the environment tests it
@@ -319,7 +320,7 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
                 # Gymnasium reads the extras after mj_step from what that step's last forward pass
                 # left (a physics step, or RK4's last stage, before): how far that alone moves them
                 before = path_c[:, -2] if path_c.shape[1] > 1 else states
-                lagged = stepper.observe(path_c[:, -1], spec, integ, h, before, u)
+                lagged = stepper.observe(path_c[:, -1], spec, u, integ, h, before)
             results.append(CandidateResult(c, integ == base_integrator and s == 1, F * s, F * s * EVALUATIONS[integ]))
     for r in results:
         for other in results:

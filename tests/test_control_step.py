@@ -422,7 +422,7 @@ def test_the_observation_is_gymnasiums_own(name, monkeypatch):
     mujoco.mj_getState(m, d, end, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     from adapters.mujoco_control import integrator_name
 
-    ours = stepper.observe(end[None], e.observation, integrator_name(m), m.opt.timestep, before[None], u[None])[0]
+    ours = stepper.observe(end[None], e.observation, u[None], integrator_name(m), m.opt.timestep, before[None])[0]
     assert ours.shape == obs.shape
     np.testing.assert_allclose(ours, obs, rtol=1e-9, atol=1e-9)
     assert full_state(m, q, v).shape == end.shape
