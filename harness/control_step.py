@@ -260,8 +260,8 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
 
     # --- where each seed's episode ends: the environment's termination tested after every control
     # step of your own setting's run (not the reset state), as the environment tests it
-    per_b = F
-    own = stepper.run(base_integrator, h, per_b, s0, U)[:, per_b - 1::per_b]   # (nseed, ncontrol, nstate)
+    own_run = stepper.run(base_integrator, h, F, s0, U)
+    own = own_run[:, F - 1::F]                                                # (nseed, ncontrol, nstate)
     ends = []                                                                # control steps of each episode
     for i in range(len(seeds)):
         if setting.termination is None:
@@ -397,7 +397,7 @@ def run_study(m, setting, config: StudyConfig | None = None, progress=sys.stderr
     for r in results:
         c = r.candidate
         per_c = F * c.substeps
-        run = stepper.run(c.integrator, h / c.substeps, per_c, s0, U)
+        run = own_run if r.baseline else stepper.run(c.integrator, h / c.substeps, per_c, s0, U)
         obs_r = obs_run(run, per_c)
         bad = ~np.all(np.isfinite(run), axis=-1)
         if bad.any():

@@ -29,6 +29,7 @@ def header_lines(study) -> list[str]:
              f"starts: {s['start']}, seeds {', '.join(map(str, s['seeds']))}; run {study.horizon_s:g} s each",
              f"observation: {s['observation']}; errors are RMS over its coordinates of the difference over each "
              f"coordinate's spread on the visited states",
+             f"episodes: {s['termination']}",
              f"contact: {study.pairs} collidable geom pairs (MuJoCo's filters: contype/conaffinity, parent and weld, "
              f"<exclude>, <pair>)",
              f"reference: {ref.describe()}; stopped at {ref.why}; "
