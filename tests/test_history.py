@@ -8,6 +8,7 @@ step slowed; each nightly in a process of its own, as ``harness nightly`` runs.
 import contextlib
 import io
 import json
+import math
 import os
 import shutil
 import sqlite3
@@ -108,6 +109,25 @@ def test_a_short_history_uses_the_prior_noise():
     assert fit.noise == step_detect.PRIOR_NOISE and [s.index for s in fit.steps] == [2]
     with pytest.raises(ValueError):
         step_detect.detect_steps([4.0, 0.0, 4.0])
+
+
+def test_the_prior_and_the_floor_are_policy_and_set_what_a_history_reports():
+    """Issue 52: PRIOR_NOISE and NOISE_FLOOR are policy (step_detect's docstring), and what they set
+    holds: a young series reports the newest night as a level from exp(PENALTY x PRIOR_NOISE) on; a
+    series that agrees exactly is credited NOISE_FLOOR, never zero noise, the newest night a level
+    from exp(PENALTY x NOISE_FLOOR) on and a level held over nights a regression from
+    exp(REGRESSION_NOISE x NOISE_FLOOR) on."""
+    young = math.exp(step_detect.PENALTY * step_detect.PRIOR_NOISE)
+    assert step_detect.detect_steps([4.0, 4.0, 4.0 * young * 0.98]).steps == ()
+    fit = step_detect.detect_steps([4.0, 4.0, 4.0 * young * 1.02])
+    assert fit.noise == step_detect.PRIOR_NOISE and [s.index for s in fit.steps] == [2]
+    lone = math.exp(step_detect.PENALTY * step_detect.NOISE_FLOOR)
+    assert step_detect.detect_steps([4.0] * 9).noise == step_detect.NOISE_FLOOR
+    assert step_detect.detect_steps([4.0] * 8 + [4.0 * lone * 0.98]).steps == ()
+    assert [s.index for s in step_detect.detect_steps([4.0] * 8 + [4.0 * lone * 1.02]).steps] == [8]
+    held = math.exp(step_detect.REGRESSION_NOISE * step_detect.NOISE_FLOOR)
+    assert step_detect.detect_steps([4.0] * 6 + [4.0 * held * 0.99] * 6).regression() is None
+    assert step_detect.detect_steps([4.0] * 6 + [4.0 * held * 1.01] * 6).regression() is not None
 
 
 # ----------------------------------------------------------------------------- compare, synthetic history

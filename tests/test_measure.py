@@ -365,13 +365,42 @@ def test_injected_timings_make_the_ratio_and_its_spread(spring, tmp_path, monkey
 
 def test_a_slow_compiled_loop_is_timed_over_fewer_steps(spring, monkeypatch):
     # Past the budget a repeat runs fewer steps, never under REF_MIN_STEPS, and the explicit-Euler
-    # baseline timed beside it runs the same loop length.
+    # baseline timed beside it runs the same loop length. (A clock read to 1e-12 s: the policy's
+    # budget is the one in effect.)
+    monkeypatch.setattr(cost, "clock_resolution", lambda clock: 1e-12)
     monkeypatch.setattr(cost, "REF_RUN_BUDGET_S", 1e-9)
     res = cost.cost_per_step("ref:rk4", spring, 0.01, repeats=2)
     assert res.time_steps == cost.REF_MIN_STEPS == res.baseline["time_steps"]
     monkeypatch.setattr(cost, "REF_RUN_BUDGET_S", 10.0)
     res = cost.cost_per_step("ref:rk4", spring, 0.01, repeats=1)
     assert res.time_steps == cost.REF_TIME_STEPS == res.baseline["time_steps"]
+
+
+def test_the_run_budget_is_the_policy_unless_the_clocks_measured_resolution_needs_longer(spring, monkeypatch):
+    """Issue 52: the budget is a policy (REF_RUN_BUDGET_S), lengthened to the run whose share the
+    clock's measured resolution is at most MAX_CLOCK_SHARE; the resolution is recorded."""
+    for clock in ("wall", "cpu"):
+        r = cost.clock_resolution(clock)
+        assert 0 < r < cost.REF_RUN_BUDGET_S * cost.MAX_CLOCK_SHARE  # a clock read to the microsecond or finer
+        assert cost.run_budget(cost.REF_RUN_BUDGET_S, clock) == cost.REF_RUN_BUDGET_S
+    with pytest.raises(InvalidInput, match=r"^clock 'sundial' is not one of \['cpu', 'wall'\]$"):
+        cost.clock_resolution("sundial")
+    # A coarse clock (a tick of 1e-3 s) needs runs of 1 s: a tiny policy budget no longer cuts the loop.
+    monkeypatch.setattr(cost, "clock_resolution", lambda clock: 1e-3)
+    assert cost.run_budget(1e-9, "wall") == pytest.approx(1e-3 / cost.MAX_CLOCK_SHARE)
+    monkeypatch.setattr(cost, "REF_RUN_BUDGET_S", 1e-9)
+    res = cost.cost_per_step("ref:rk4", spring, 0.01, repeats=1)
+    assert res.time_steps == cost.REF_TIME_STEPS and res.clock_resolution_s == 1e-3
+    assert res.baseline["clock_resolution_s"] == 1e-3
+
+
+def test_the_measured_clock_resolution_is_recorded_and_not_with_injected_timings(spring, tmp_path, monkeypatch):
+    res = cost.cost_per_step("ref:rk4", spring, 0.01, time_steps=20_000, repeats=1, clock="cpu")
+    assert res.clock_resolution_s == cost.clock_resolution("cpu") > 0
+    path = tmp_path / "timings.json"
+    path.write_text(json.dumps({"s_per_step": {"*": 4e-8}}))
+    monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
+    assert cost.cost_per_step("ref:rk4", spring, 0.01, time_steps=20_000, repeats=1).clock_resolution_s is None
 
 
 def test_cost_through_the_engine_interface(spring):

@@ -42,7 +42,10 @@ def test_the_built_in_measures_are_registered_in_the_order_a_task_runs_them():
     assert {"constraint", "damping", "stability_vs_damping", "scaling", "brouwer", "cross_engine"} <= set(names)
     assert [c.header for c in columns()][:5] == ["max \\|ΔE/E\\|", "energy", "max global error", "order",
                                                  "largest stable h·ω"]
-    assert set(trended()) == {"energy", "error", "order", "stability", "cost"}
+    # The task's own measures the history trends; a measure added to harness/nightly/measures
+    # declares its own ``trend`` and joins them without this line changing.
+    assert {"energy", "error", "order", "stability", "cost"} <= set(trended())
+    assert not {"identity", "advise"} & set(trended())
     with pytest.raises(ValueError, match="already registered"):
         register(Measure("energy"))
 

@@ -18,11 +18,9 @@ whichever is declared. A regression is, in run B against run A:
 * ``slowdown``: the cost ratio to explicit Euler worsens beyond the spread of its repeats:
   ratio_B > ratio_A * (1 + spread_A + spread_B + PROCESS_SPREAD), a run's spread being that
   of its interleaved repeats' ratios, (max - min) / min. Repeats in one process miss how
-  much one process differs from the next (where the allocator and the compiled code land):
-  the smoke suite's ratios on its one scene, measured in 34 fresh worker processes with the
-  code unchanged, spread by max/min 1.09-1.11 (explicit and semi-implicit Euler), 1.13
-  (leapfrog), 1.17 (pymunk), 1.21 (MuJoCo), 1.24 (implicit Euler) and 1.34 (RK4), while the
-  repeats within a process spread by 0.4-14%. PROCESS_SPREAD = 0.5 covers that with room:
+  much one process differs from the next (where the allocator and the compiled code land:
+  docs/performance.md, "Process-to-process noise", gives the spreads measured in fresh worker
+  processes with the code unchanged). PROCESS_SPREAD = 0.5 is policy, above those spreads with room:
   a slowdown is flagged from 1.5x on, gross changes (a kernel no longer compiled, a step
   doing twice the work), not noise. The calibration timed beside each cost cell
   (``harness.measures.calibration``) widens that by how far it moved between the two runs, and

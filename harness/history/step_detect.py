@@ -30,14 +30,28 @@ The noise. The point's own noise is ``s_i = max(s, ln(1 + spread_i) / SPREAD_PER
 cell's noise, or the night's measured spread (a range of repeats, about two standard
 deviations) where larger: a noisy night weighs less. The cell's noise ``s`` is not the spread
 of repeats within one process, which misses how much one process differs from the next
-(``harness.history.compare``: 0.4-14% within, max/min 1.09-1.34 over 34 processes). From
-``MIN_POINTS_FOR_NOISE`` points on it is estimated from the series itself: the median
-absolute deviation of successive differences (``scipy.stats.median_abs_deviation``, gaussian
-scale) over sqrt 2, which a step (one difference) or a steady drift (every difference alike)
-does not inflate; with fewer points it is ``PRIOR_NOISE``, the noisiest process-to-process
-spread measured (RK4's max/min 1.34 over 34 processes: ln 1.34 / 4.1, 4.1 sigma being the
-expected range of 34 gaussian draws, is 0.07). Either way it is at least ``NOISE_FLOOR``
-(explicit Euler's 1.09 over 34 processes: 0.02).
+(``harness.history.compare``; the figures are in docs/performance.md). It is measured, where
+the series can say it: from ``MIN_POINTS_FOR_NOISE`` points on, the median absolute deviation
+of successive differences (``scipy.stats.median_abs_deviation``, gaussian scale) over sqrt 2,
+which a step (one difference) or a steady drift (every difference alike) does not inflate; and
+where the newest night was measured again in fresh processes
+(``harness.nightly.run.remeasure_slowdowns``), the process-to-process noise they show is the
+least it may be (``noise_floor``). Two values are policy, not measurements of one machine:
+
+* ``PRIOR_NOISE`` (0.07, log units) is the noise of a series too short to say its own (under
+  five successive differences, a median absolute deviation says little). It sets what a young
+  history may report: the newest night as a level of its own from exp(``PENALTY`` x 0.07) - 1,
+  about 52%, the two newest from exp(``PENALTY`` / 2 x 0.07) - 1, about 23%. A young history
+  reports large changes only; the smaller wait until the series says its own noise. The value is set at the largest
+  process-to-process spread recorded for a cost cell (docs/performance.md), so that what a
+  change of process alone can do is not reported before the series can tell it apart.
+* ``NOISE_FLOOR`` (0.02, log units) is the least noise a cell is credited with, however steady
+  its series: the history's resolution. A series whose nights agree more closely than one
+  process's figure can stand for (identical figures, injected timings: a median absolute
+  deviation of zero) would otherwise report any change at all as a certain step. With it the
+  newest night alone is a level of its own from exp(``PENALTY`` x 0.02) - 1, about 13%, and a
+  level held over several nights a regression from exp(``REGRESSION_NOISE`` x 0.02) - 1, about
+  4%: changes of a few percent in a cost ratio are below what the harness claims to resolve.
 
 A **regression** (``regression``) is asv's rule with the noise as its threshold: the latest
 level is above the best (lowest) level before it by more than ``REGRESSION_NOISE`` noise
@@ -69,9 +83,11 @@ PENALTY_PER_LOG = 1.5
 REGRESSION_NOISE = 2.0
 #: Points from which the cell's noise is estimated from the series (5 successive differences).
 MIN_POINTS_FOR_NOISE = 6
-#: The cell's noise (log units) with fewer points: RK4's process-to-process spread on the spring.
+#: Policy (module docstring): the cell's noise (log units) with fewer points, so that a young
+#: history reports only changes beyond what a change of process can do.
 PRIOR_NOISE = 0.07
-#: The least noise (log units) a cell is credited with: explicit Euler's process-to-process spread.
+#: Policy (module docstring): the least noise (log units) a cell is credited with, the history's
+#: resolution; a series that agrees exactly would otherwise make any change a certain step.
 NOISE_FLOOR = 0.02
 #: A night's measured spread is the range of its 3-9 repeats, (max - min) / min: about this many
 #: of their standard deviations (the expected range of 3 gaussian draws is 1.7 sigma, of 9, 3.0).
@@ -148,7 +164,7 @@ def _segment_costs(x: np.ndarray, w: np.ndarray, start: int) -> tuple[np.ndarray
     The medians are ``numpy.quantile(..., 0.5, weights=..., method="inverted_cdf")`` of each
     segment (the smallest value whose cumulative weight reaches half the total; the test holds
     the two equal), computed for all the segments from one start at once: numpy's weighted
-    quantile walks the rows of a 2-D input in Python, 10x slower on a 60-night history."""
+    quantile walks the rows of a 2-D input in Python, one row at a time (docs/performance.md)."""
     xs, ws = x[start:], w[start:]
     n = len(xs)
     order = np.argsort(xs, kind="stable")

@@ -2,9 +2,10 @@
 
 A cost figure is a ratio (the method's time per step over compiled explicit Euler's, timed in
 interleaved repeats), which cancels a machine that is uniformly slower. What it does not cancel
-is a machine whose *kinds* of code slow unequally: with another CPU-bound process sharing this
-project's 2-core machine, an engine stepped from Python (``pymunk:applied_force``) moved by
--38% against the compiled baseline between two runs of one commit. So every cost cell times,
+is a machine whose *kinds* of code slow unequally: with another CPU-bound process sharing the
+machine, an engine stepped from Python (``pymunk:applied_force``) can move against the compiled
+baseline between two runs of one commit by far more than its repeats spread
+(docs/performance.md records the case). So every cost cell times,
 in the same interleaved repeats, a fixed pair that spans those kinds of code:
 
 * ``python``: explicit Euler on the unit spring stepped in a plain Python loop

@@ -1,6 +1,9 @@
 """Cost of a step: force evaluations (counted) and wall time, and the ratio to explicit Euler.
 
-The rule, one way for each kind of method:
+The rule, one way for each kind of method. The figures that shaped it (how long the runs took,
+how far repeats spread, which kernels hit the budget) were measured on one machine and live in
+docs/performance.md ("The cost measure's rule and the figures behind it"); this docstring says
+what the code does and why.
 
 * **Force evaluations per step** are counted, never declared: a run of ``count_steps``
   steps (default 100) through the runner, ``Trajectory.force_evals / steps run``. The
@@ -16,23 +19,21 @@ The rule, one way for each kind of method:
 * **Wall time per step**, reference schemes: the compiled path
   (:func:`reference._compiled.time_per_step`, the same step functions compiled by numba),
   one warm-up call (it compiles, or loads the pair's kernels from the disk cache), then ``repeats`` (5) timed runs of ``time_steps``
-  (100,000) steps; the figure is the **minimum** over repeats (the least-disturbed run, as
-  timeit and asv take it). A kernel so slow that a run would take longer than
-  REF_RUN_BUDGET_S (0.02 s, judged from a pilot run of REF_PILOT_STEPS, 2,000) runs fewer
-  steps, at least REF_MIN_STEPS (5,000): a slow kernel (Kepler's implicit midpoint, the solar
-  system's RK4) says in one budget's run what 100,000 steps would say, since the call's fixed
-  cost is then a negligible share of a run and the clock reads to the nanosecond. A scheme that
-  chose a library solve (``ref:implicit_euler?solver=direct``, ``reference.solvers``), which numba
-  cannot compile, is timed by the same rule on the Python loop that runs it, and its ``timing``
-  says so.
+  (REF_TIME_STEPS, 100,000) steps; the figure is the **minimum** over repeats (the least-disturbed
+  run, as timeit and asv take it). A kernel so slow that a run would last longer than the run
+  budget (``run_budget``, below; judged from a pilot run of REF_PILOT_STEPS, 2,000) runs fewer
+  steps, at least REF_MIN_STEPS (5,000): one budget's run says what the full run would say,
+  since the call's fixed cost is then a negligible share of a run and the clock's resolution a
+  smaller one still. A scheme that chose a library solve (``ref:implicit_euler?solver=direct``,
+  ``reference.solvers``), which numba cannot compile, is timed by the same rule on the Python
+  loop that runs it, and its ``timing`` says so.
 * **Wall time per step**, engine modes, two figures, each ``method.simulate`` timed in this
   process (no worker): one warm-up call of up to ENGINE_PILOT_STEPS (500) steps, then
   ``repeats`` timed runs of N steps and of 0 steps; the figure is ``(min t(N) - min t(0)) / N``.
   An engine mode's runs are timed with its model built off the clock (``EngineMode.timed_run``):
   on a shared core, building the model jitters by more than a short run of the engine's own
-  loop takes (1,000 WHFast steps on the solar system came out at a negative time per step with
-  the building subtracted). A plugin's whole ``simulate`` is timed and t(0) takes the
-  building out.
+  loop takes, and subtracting it can leave a negative time per step. A plugin's whole
+  ``simulate`` is timed and t(0) takes the building out.
 
   - ``s_per_step``, **engine s/step**: the engine's own loop (``loop="engine"``:
     ``mujoco.rollout``, REBOUND's ``sim.steps(n)``, a Python loop calling only the step
@@ -47,10 +48,22 @@ The rule, one way for each kind of method:
   A run that diverges within the N steps (the engine's warning, or the harness's criterion)
   is timed over the steps before it, and the timing says so: its step-by-step replay, which
   finds the failing step, is no cost of a step.
-  A model so slow that N steps would take longer than ENGINE_RUN_BUDGET_S (0.02 s, judged
-  from a pilot of the warm-up's steps, the model built off the clock) is timed over fewer steps, at least ENGINE_MIN_STEPS (200): a 32-body
-  chain stepped from Python would spend 10,000 steps x 6 runs saying what one budget's run
-  says (the CPU clock reads to the microsecond, a run of that budget to 5e-5 of itself; the spread between repeats is the machine's, 1-5%).
+  A model so slow that N steps would last longer than the run budget (judged from a pilot of
+  the warm-up's steps, the model built off the clock) is timed over fewer steps, at least
+  ENGINE_MIN_STEPS (200): a slow model (a long chain stepped from Python) says in one budget's
+  run what N steps would, at a fraction of the measure's time.
+* **The run budget** is a policy, not a measurement: a timed repeat is cut to at most
+  REF_RUN_BUDGET_S or ENGINE_RUN_BUDGET_S (0.02 s each) where its asked steps would last
+  longer, which bounds what a cost cell spends on a slow kernel (``repeats`` runs of it, of its
+  baseline beside it and of the calibration). What the budget must be long against is the
+  clock: a run is read as two clock readings, so it is known to about the clock's resolution.
+  That resolution is measured at the start of the run (``clock_resolution``: the least
+  positive difference between successive readings, the cost of a reading included), recorded
+  in every timing (``clock_resolution_s``), and the budget in effect is
+  ``run_budget``: the policy's, or ``1 / MAX_CLOCK_SHARE`` times the resolution where that is
+  longer, so that the clock's rounding is at most MAX_CLOCK_SHARE (a thousandth) of a run,
+  below the spread between repeats that the cell records beside it. On a clock that reads to
+  the microsecond or finer the policy's budget is the one in effect.
 * **Clock**: wall time (``time.perf_counter``) by default; ``clock="cpu"`` reads the CPU
   time of the process (``time.process_time``) instead, which other processes sharing the
   core do not inflate (the nightly runs its cells side by side on shared cores). The
@@ -60,26 +73,29 @@ The rule, one way for each kind of method:
 * **Ratio to explicit Euler**: ``ref:explicit_euler`` timed by the compiled rule above
   on the same scene at the same dt in the same call, on the same clock, its repeats
   interleaved with the method's (method, baseline, method, baseline, ...): a machine that
-  slows for a while slows both of a pair. On a shared machine a worker's compiled explicit
-  Euler can run nearly twice as slow for seconds on end, on the CPU clock too
-  (docs/performance.md). The ratio is the median of the pairs' ratios, its
-  ``ratio_spread`` (max - min) / min of them.
+  slows for a while slows both of a pair, the CPU clock included (docs/performance.md records
+  such a stretch). A reference scheme's baseline runs the scheme's loop length, since a
+  shorter loop carries more of the call's fixed cost per step. The ratio is the median of the
+  pairs' ratios, its ``ratio_spread`` (max - min) / min of them.
 * **Calibration**: a fixed workload pair (``harness.measures.calibration``: explicit Euler in a
   plain Python loop over its compiled kernel) timed in the same interleaved repeats, so that
   the history can tell a method's step from the machine's (``harness.history.series``).
 * **Injected timings** (``harness.measures.injected``): with ``HARNESS_INJECT_TIMINGS`` naming a JSON file (or ``injected``
   given), the timed runs still run but their figures are the file's: ``s_per_step`` by method
   id (``"*"`` for any other), each repeat multiplied by ``jitter`` (cycled), and the
-  ``calibration`` pair. The clock is then recorded as ``injected``. Tests of verdicts drawn from
-  timings use it, so that no test's outcome depends on the machine's load.
+  ``calibration`` pair. The clock is then recorded as ``injected`` (and no resolution). Tests
+  of verdicts drawn from timings use it, so that no test's outcome depends on the machine's load.
 """
 from __future__ import annotations
 
+import functools
+import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from records import Method
+from records import InvalidInput, Method
 from records.result import Result
 
 import reference
@@ -94,18 +110,62 @@ from harness.measures.injected import INJECT_VAR, calibration_injected, injected
 COUNT_STEPS = 100
 REF_TIME_STEPS = 100_000
 REF_PILOT_STEPS = 2_000
+#: Policy (module docstring, the run budget): the longest a compiled loop's timed repeat runs where
+#: its asked steps would run longer, what a cost cell may spend on a slow kernel. ``run_budget``
+#: lengthens it where the clock's measured resolution needs a longer run.
 REF_RUN_BUDGET_S = 0.02
+#: Policy: the fewest steps a cut repeat runs, so that the call's fixed cost stays a small share.
 REF_MIN_STEPS = 5_000
 ENGINE_TIME_STEPS = 10_000
 HARNESS_TIME_STEPS = 2_000
 ENGINE_PILOT_STEPS = 500
+#: Policy: the same budget for an engine mode's timed repeat (the model built off the clock).
 ENGINE_RUN_BUDGET_S = 0.02
+#: Policy: the fewest steps a cut engine repeat runs.
 ENGINE_MIN_STEPS = 200
+#: Policy: the largest share of a timed run the clock's resolution may be (a run read to a
+#: thousandth of itself, below the spread between repeats the cell records).
+MAX_CLOCK_SHARE = 1e-3
+#: Clock ticks read to measure its resolution (the least positive difference between readings).
+RESOLUTION_TICKS = 20
+#: Readings at most while measuring it; a clock that never ticks in them falls back to its declared
+#: resolution (``time.get_clock_info``).
+RESOLUTION_READS = 1_000_000
 REPEATS = 5
 #: 0-step runs timed at most, beyond one per repeat, where none is faster than the fastest timed
 #: run (``_Timing._resolve_setup``).
 SETUP_RETRIES = 50
 BASELINE = "ref:explicit_euler"
+
+
+@functools.cache
+def clock_resolution(clock: str) -> float:
+    """Seconds: the least positive difference between successive readings of ``clock`` ("wall" or
+    "cpu"), over ``RESOLUTION_TICKS`` ticks: the resolution a timed run is read to, the cost of a
+    reading included. Measured once per process, at its first timing; at least the resolution
+    the platform declares for the clock."""
+    if clock not in CLOCKS:
+        raise InvalidInput(f"clock {clock!r} is not one of {sorted(CLOCKS)}")
+    now = CLOCKS[clock]
+    declared = time.get_clock_info(now.__name__).resolution
+    least, ticks, last = math.inf, 0, now()
+    for _ in range(RESOLUTION_READS):
+        t = now()
+        if t != last:
+            if t > last:
+                least = min(least, t - last)
+            last, ticks = t, ticks + 1
+            if ticks >= RESOLUTION_TICKS:
+                break
+    return max(declared, least) if math.isfinite(least) else declared
+
+
+def run_budget(policy_s: float, clock: str) -> float:
+    """Seconds a timed repeat may last before it is cut: the policy's ``policy_s``, or where longer
+    the run over which ``clock``'s measured resolution is ``MAX_CLOCK_SHARE`` of it."""
+    return max(policy_s, clock_resolution(clock) / MAX_CLOCK_SHARE)
+
+
 def _spread(times: list[float]) -> dict:
     lo = min(times)
     return {"s_per_step": lo, "median_s_per_step": float(np.median(times)), "repeats_s_per_step": list(times),
@@ -172,8 +232,9 @@ class _Timing:
             self.warmup_s, self._once, self.scheme_timing = method.step_timer(scene, dt, self.n, clock=clock)
             if budget:
                 per_step = self._once(min(self.n, REF_PILOT_STEPS))
-                if per_step * self.n > REF_RUN_BUDGET_S:
-                    self.n = max(min(REF_MIN_STEPS, self.n), int(REF_RUN_BUDGET_S / per_step))
+                budget_s = run_budget(REF_RUN_BUDGET_S, clock)
+                if per_step * self.n > budget_s:
+                    self.n = max(min(REF_MIN_STEPS, self.n), int(budget_s / per_step))
         else:
             self.asked = int(steps or (ENGINE_TIME_STEPS if loop == "engine" else HARNESS_TIME_STEPS))
             self.method, self.scene, self.dt = method, scene, dt
@@ -184,12 +245,12 @@ class _Timing:
             if loop == "engine":
                 self.engine_loop = (warm.meta.settings or {}).get("engine_loop")  # where the engine says
             # The pilot: the warm-up's steps timed again with the model built off the clock (the
-            # warm-up also builds it, which on MuJoCo's rope is most of 500 steps' time).
+            # warm-up also builds it, which can be most of the pilot's time on a large model).
             self.n = pilot
             pilot_s = (self._run_s(pilot) - self._run_s(0)) / self.n
-            n = self.asked
-            if pilot_s * self.asked > ENGINE_RUN_BUDGET_S:
-                n = max(ENGINE_MIN_STEPS, int(ENGINE_RUN_BUDGET_S / pilot_s))
+            n, budget_s = self.asked, run_budget(ENGINE_RUN_BUDGET_S, clock)
+            if pilot_s * self.asked > budget_s:
+                n = max(ENGINE_MIN_STEPS, int(budget_s / pilot_s))
             self.n = self.n if self.stopped else min(n, self.asked)
 
     def repeat(self) -> None:
@@ -230,9 +291,10 @@ class _Timing:
         adds time, so that run took at least a 0-step run's time plus its steps'; a 0-step minimum
         above it means every 0-step run was slowed, which on a loaded machine happens where the
         timed run is a few steps long (MuJoCo's Euler on a spring past its limit diverges at step
-        27, so 26 steps are timed against a setup a fifth as long), and would make the cost per
-        step negative. Up to ``SETUP_RETRIES`` more; where none resolves it, the runs are taken
-        whole (``setup_unresolved``): an upper bound, said in the timing."""
+        27, so 26 steps are timed against a setup that is a good share of their time:
+        docs/performance.md), and would make the cost per step negative. Up to ``SETUP_RETRIES``
+        more; where none resolves it, the runs are taken whole (``setup_unresolved``): an upper
+        bound, said in the timing."""
         if self.scheme is not None or self.injected_value is not None or not self.times:
             return
         for _ in range(SETUP_RETRIES):
@@ -258,7 +320,8 @@ class _Timing:
         if self.injected_value is not None:
             timing, clock = f"injected from ${INJECT_VAR}, not measured (the runs timed: {timing})", "injected"
         out = {"timing": f"{timing}; {self.stopped}" if self.stopped else timing, "clock": clock,
-               "time_steps": self.n, "warmup_s": self.warmup_s, **_spread(self.per_step())}
+               "time_steps": self.n, "warmup_s": self.warmup_s, **_spread(self.per_step()),
+               "clock_resolution_s": None if clock == "injected" else clock_resolution(clock)}
         if self.scheme is None:
             out["setup_s"] = min(self.empty)
             out["time_steps_asked"] = self.asked
@@ -322,6 +385,7 @@ class CostResult(Result):
     calibration_python_s_per_step: float | None = None
     calibration_compiled_s_per_step: float | None = None
     calibration_clock: str | None = None
+    clock_resolution_s: float | None = None   # the clock's resolution, measured (``clock_resolution``)
     setup_s: float | None = None              # an engine mode's: building the model, off the clock
     time_steps_asked: int | None = None
     loop: str | None = None
@@ -379,7 +443,7 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
         out["ratio_to_explicit_euler"] = None
         return CostResult(**out)
     # A reference scheme and its baseline run the same compiled loop length: a shorter loop
-    # carries more of the call's fixed cost per step (1.3x per step at 2,000 steps, measured).
+    # carries more of the call's fixed cost per step (docs/performance.md has the figure).
     base_steps = timing.n if timing.scheme is not None else REF_TIME_STEPS
     base = _Timing(baseline_method, scene, dt, base_steps, clock, budget=timing.scheme is None, injected=injected)
     for i in range(repeats):
@@ -416,4 +480,5 @@ def explicit_euler_baseline(scene: Scene, dt: float, *, repeats: int = REPEATS, 
                             steps: int = REF_TIME_STEPS) -> dict:
     res = time_per_step(reference.METHODS["explicit_euler"], scene, dt, steps, repeats=repeats, clock=clock)
     return {"method": BASELINE, "timing": _COMPILED_TIMING, "clock": clock,
-            "time_steps": steps, "warmup_s": res["warmup_s"], **_spread(res["repeats"])}
+            "time_steps": steps, "warmup_s": res["warmup_s"], **_spread(res["repeats"]),
+            "clock_resolution_s": clock_resolution(clock)}
