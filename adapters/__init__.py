@@ -1,4 +1,9 @@
-"""Engine adapters: one module per engine; ``ENGINE_METHODS[id]`` is an engine mode.
+"""Engine adapters: one package per engine (``adapters/<engine>/``), each declaring its ``Engine``
+entry (``ENGINE``: its modes, poses, model builder, bare loops, releases and distributions), joined
+here in ``ENGINES``; ``ENGINE_METHODS[id]`` is an engine mode, and ``ENGINE_DISTS`` the
+distributions whose release an engine's numbers depend on. Every list of engines the harness keeps
+(packages recorded and compared, the fingerprint, the version tables, the model-file loaders, the
+bench's bare loops) is read from ``ENGINES``.
 
 Importing this package imports no engine: each engine is imported when a mode is asked
 whether it is available or is stepped (and then with its import-time output silenced,
@@ -7,20 +12,26 @@ whether it is available or is stepped (and then with its import-time output sile
 
 What every adapter shares, by idea: ``_mode.py`` (the engine mode, a ``records.Method``),
 ``_model.py`` (what a built engine model declares), ``_loops.py`` (the two loops that turn a model
-into a trajectory), ``_engine.py`` (an engine's quiet import, its release and the releases an
-adapter supports) and ``_posing.py`` (what several poses compute alike).
+into a trajectory), ``_engine.py`` (an engine's quiet import, its release, the releases an adapter
+supports and the ``Engine`` entry) and ``_posing.py`` (what several poses compute alike).
 """
 from __future__ import annotations
 
 from records.trajectory import output_marks
 
 from . import drake, mujoco, newton, pybullet, pymunk, rebound
-from ._engine import EngineVersions, engine_version, import_engine, version_key
+from ._engine import Engine, EngineVersions, engine_version, import_engine, version_key
 from ._loops import drive
 from ._mode import EngineMode
 from ._model import EngineModel, Model, SteppedModel, declared
 
-ENGINE_METHODS: dict[str, EngineMode] = {**mujoco.METHODS, **pybullet.METHODS, **pymunk.METHODS, **rebound.METHODS, **drake.METHODS, **newton.METHODS}
+#: Every built-in engine by id, each package's ``ENGINE``, one line.
+ENGINES: dict[str, Engine] = {e.id: e for e in (mujoco.ENGINE, pybullet.ENGINE, pymunk.ENGINE, rebound.ENGINE,
+                                                drake.ENGINE, newton.ENGINE)}
+ENGINE_METHODS: dict[str, EngineMode] = {mid: mode for e in ENGINES.values() for mid, mode in e.methods.items()}
+#: Every engine's distributions, each engine's own first: what the harness records and compares.
+ENGINE_DISTS: tuple[str, ...] = tuple(dict.fromkeys(d for e in ENGINES.values() for d in e.dists))
 
-__all__ = ["ENGINE_METHODS", "EngineMode", "EngineModel", "EngineVersions", "Model", "SteppedModel", "declared",
-           "drive", "engine_version", "import_engine", "output_marks", "version_key"]
+__all__ = ["ENGINES", "ENGINE_DISTS", "ENGINE_METHODS", "Engine", "EngineMode", "EngineModel", "EngineVersions",
+           "Model", "SteppedModel", "declared", "drive", "engine_version", "import_engine", "output_marks",
+           "version_key"]

@@ -1,5 +1,6 @@
 """An engine's installation, as every adapter asks about it: its import with the engine's own
-output silenced, the release installed, and the releases an adapter supports.
+output silenced, the release installed, the releases an adapter supports, and the ``Engine`` entry
+each engine package declares.
 """
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import os
 import re
 import sys
 from dataclasses import dataclass
+from typing import Callable, Mapping
 
 
 @contextlib.contextmanager
@@ -120,3 +122,38 @@ class EngineVersions:
         tested = f"; tested on {', '.join(self.tested)}" if self.tested else ""
         return f"{dist} {version} is outside the versions its adapter supports ({dist}{self}{tested})"
 
+
+@dataclass(frozen=True)
+class Engine:
+    """One engine, declared once in its package (``adapters/<engine>/``, as ``ENGINE``): everything
+    the harness lists by engine is read from these entries (``adapters.ENGINES``), never written
+    out again by hand.
+
+    ``id``: the family its method ids carry (``drake`` in ``drake:radau3``); ``module``: what is
+    imported (``pydrake``); ``dists``: the distributions whose release its numbers depend on, the
+    engine's own first (its release, ``dist``), then any it computes through (Newton's Warp);
+    ``versions``: the releases its adapter supports; ``methods``: its modes by id; ``poses``: how it
+    poses each scene (``POSES``); ``build``: its model builder, ``build(engine, mode, scene, dt,
+    count=False)``; ``bare_loops``: its bare loops for ``harness bench --engines``,
+    ``bare_loops(mode, engine, model, scene, dt) -> ([(name, once(n)), ...], what they are)`` on a
+    model ``build`` made, the first the target's; ``model_loader``: how it loads a user's model file
+    (None: it loads none); ``loader_without_contact``: why that loader's models step without their
+    contacts (None: with them); ``submodules``: what its adapter imports where it builds a model
+    beyond the engine's top-level import (a worker's server preloads them)."""
+
+    id: str
+    module: str
+    dists: tuple[str, ...]
+    versions: EngineVersions
+    methods: Mapping[str, object]
+    poses: Mapping[str, object]
+    build: Callable
+    bare_loops: Callable | None = None
+    model_loader: str | None = None
+    loader_without_contact: str | None = None
+    submodules: tuple[str, ...] = ()
+
+    @property
+    def dist(self) -> str:
+        """The engine's own distribution: its release is the engine's."""
+        return self.dists[0]

@@ -1,7 +1,7 @@
 """The engine mode: one integrator mode of one engine as a ``records.Method``, usable wherever a
 ``ref:`` method is, every capability declared, and stepped through its adapter's ``build``.
 
-An engine module (``adapters/mujoco.py``, ...) provides ``build(engine_module, mode, scene, dt,
+An engine module (``adapters/mujoco/``, ...) provides ``build(engine_module, mode, scene, dt,
 count=False)`` returning a model (``adapters._model``) and one :class:`EngineMode` per mode in
 its ``METHODS``; ``simulate`` steps the model through one of the loops of ``adapters._loops`` and
 records with the trajectory what ran: the engine, its release and the settings read back.

@@ -31,7 +31,7 @@ at a time** from states the motion visits, and a trajectory only inside its pred
 * **Contacts** along each candidate's own run, every physics step: contacts a step (mean, max),
   the share of steps in contact, the deepest penetration of a step (median over steps in contact,
   max); the reference's from its coarser run. A model with no collidable pair has no contact figure.
-* **Cost**: MuJoCo's own loop (``adapters.mujoco_control``), seconds per control step, the ratio to
+* **Cost**: MuJoCo's own loop (``adapters.mujoco.control``), seconds per control step, the ratio to
   the baseline's measured in the same run.
 """
 from __future__ import annotations
@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from adapters.mujoco_control import EVALUATIONS, Candidate, Stepper, available_integrators, full_state, \
+from adapters.mujoco.control import EVALUATIONS, Candidate, Stepper, available_integrators, full_state, \
     integrator_name
 
 #: The reference's first level: h / 2^3, finer than the finest candidate (h / 4).

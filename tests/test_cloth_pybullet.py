@@ -15,7 +15,7 @@ import pytest
 
 from adapters import ENGINE_METHODS
 from adapters import import_engine
-from adapters._pybullet_cloth import LOAD, MAX_DISPLACEMENT, grid_mesh, mesh_edges
+from adapters.pybullet.cloth import LOAD, MAX_DISPLACEMENT, grid_mesh, mesh_edges
 from harness.cli import main
 from harness.measures.common import started_at
 from harness.measures.identify import identify

@@ -400,7 +400,7 @@ def test_the_observation_is_gymnasiums_own(name, monkeypatch):
     """env.step's observation from a harness start and control equals the study's observation of
     the same step as Gymnasium reads it (qpos, clipped qvel, the extras from what the last
     mj_step's forward pass left), to roundoff."""
-    from adapters.mujoco_control import Stepper, full_state
+    from adapters.mujoco.control import Stepper, full_state
 
     env = _gymnasium_env(name, monkeypatch)
     env.reset(seed=0)
@@ -420,7 +420,7 @@ def test_the_observation_is_gymnasiums_own(name, monkeypatch):
     mujoco.mj_step(m, d)
     end = np.empty(stepper.nstate)
     mujoco.mj_getState(m, d, end, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    from adapters.mujoco_control import integrator_name
+    from adapters.mujoco.control import integrator_name
 
     ours = stepper.observe(end[None], e.observation, u[None], integrator_name(m), m.opt.timestep, before[None])[0]
     assert ours.shape == obs.shape

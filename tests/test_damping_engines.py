@@ -88,7 +88,7 @@ def _one_step_mujoco(integrator, scene, q, v, h):
 @pytest.mark.parametrize("integrator, implicit_part", [("Euler", "joint"), ("implicit", "diagonal"),
                                                        ("implicitfast", "diagonal")])
 def test_mujoco_makes_only_part_of_the_chains_damping_implicit(integrator, implicit_part):
-    """The damped chain's reasons (adapters/mujoco.py ``_NO_MATCH``): one step from a generic
+    """The damped chain's reasons (adapters/mujoco/ ``_NO_MATCH``): one step from a generic
     state is v + h (M + h D')^-1 f with D' the joint damping only (Euler) or the diagonal of the
     full damping matrix (implicit, implicitfast), to roundoff (measured 3.6e-15 on velocities
     of ~1e4 h); the full matrix is off by 0.1 and more."""

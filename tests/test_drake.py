@@ -1,4 +1,4 @@
-"""Drake's fixed-step integrators (adapters/drake.py) are the schemes the harness names them, measured
+"""Drake's fixed-step integrators (adapters/drake/) are the schemes the harness names them, measured
 against the reference schemes (the harness's own, independent of Drake): identities on the spring at
 a binary-fraction step and on the pendulum, observed orders and stability limits on the unit spring,
 and the step doubling of Drake's implicit_euler. Skipped where pydrake cannot be imported."""

@@ -1,4 +1,4 @@
-"""Newton's solvers (adapters/newton.py) are the schemes the harness names them, measured against
+"""Newton's solvers (adapters/newton/) are the schemes the harness names them, measured against
 the reference schemes run from Newton's float32 inputs (dt and parameters rounded to float32, the
 states rounded: ``harness.measures.identify``), with float32 tolerances; every perturbing default
 is off; every scene a mode does not pose has its one-line reason. Skipped where newton cannot be

@@ -12,7 +12,8 @@ The rule:
   :mod:`harness.measures.cost`'s rule ((min t(N) - min t(0)) / N of ``simulate``, model building not
   counted).
 * **Bare loops** on a model the adapter built (the same engine settings, the same physics),
-  nothing else in the loop: MuJoCo ``mujoco.rollout`` (one call, as a user writes it, the
+  nothing else in the loop, each engine's own (``adapters/<engine>/bench.py``, its
+  ``Engine.bare_loops``): MuJoCo ``mujoco.rollout`` (one call, as a user writes it, the
   state array allocated and recorded) and a Python loop of ``mj_step``; REBOUND one
   ``sim.steps(N)`` (IAS15, adaptive, whose dt is the output interval: a loop of
   ``sim.integrate(k dt)``); pybullet a loop of ``stepSimulation``; pymunk a loop of ``space.step``
@@ -37,8 +38,6 @@ The rule:
 from __future__ import annotations
 
 import time
-
-import numpy as np
 
 from scenarios import Scene, make_scene
 
@@ -81,99 +80,24 @@ class _Bare:
 
 
 def _bare_loops(mode, scene: Scene) -> tuple[list[_Bare], str]:
-    """The bare loops of ``mode`` (the first is the target's) and a line saying what they are."""
+    """The bare loops of ``mode`` (the first is the target's) and a line saying what they are: its
+    engine's own (``adapters.Engine.bare_loops``), on a model the adapter built."""
+    import adapters
+
+    entry = adapters.ENGINES.get(mode.engine)
+    if entry is None or entry.bare_loops is None:
+        raise ValueError(f"no bare loop for engine {mode.engine}")
     engine, model = mode._model(scene, DT)
-    close = model.close
-    if mode.engine == "mujoco":
-        mj = engine
-        from mujoco import rollout
-        m, d = model.m, model.d
-        full = int(mj.mjtState.mjSTATE_FULLPHYSICS)
-
-        def rolled(n):
-            rollout.rollout(m, d, _state(mj, m, d, full), nstep=n)
-
-        def stepped(n):
-            step = mj.mj_step
-            for _ in range(n):
-                step(m, d)
-
-        return [_Bare("mujoco.rollout", rolled, close), _Bare("mj_step loop", stepped, lambda: None)], \
-            "mujoco.rollout(m, d, state, nstep=N); a Python loop of mj_step(m, d)"
-    if mode.engine == "rebound":
-        sim = model.sim
-        if mode.adaptive:  # dt is the output interval: its step call is integrate(k dt)
-            def intervals(n):
-                integrate, k0 = sim.integrate, model.n
-                for k in range(k0 + 1, k0 + n + 1):
-                    integrate(k * DT)
-                model.n = k0 + n
-
-            return [_Bare("integrate(k dt) loop", intervals, close)], "a Python loop of sim.integrate(k dt)"
-
-        def steps(n):
-            sim.steps(n)
-
-        return [_Bare("sim.steps(N)", steps, close)], "one sim.steps(N) call"
-    if mode.engine == "pybullet":
-        p, cid, body = model.p, model.cid, model.body
-        k = model.k
-
-        def stepped(n):
-            step = p.stepSimulation
-            for _ in range(n):
-                step(physicsClientId=cid)
-
-        def forced(n):
-            step, get, apply, frame = p.stepSimulation, p.getBasePositionAndOrientation, p.applyExternalForce, p.WORLD_FRAME
-            for _ in range(n):
-                pos = get(body, physicsClientId=cid)[0]
-                apply(body, -1, [-k * pos[0], 0.0, 0.0], pos, frame, physicsClientId=cid)
-                step(physicsClientId=cid)
-
-        loops = [_Bare("stepSimulation loop", stepped, close)]
-        if scene.id == "spring":
-            loops.append(_Bare("bare loop + force", forced, lambda: None))
-        return loops, "a Python loop of stepSimulation; the same with the spring force read and applied"
-    if mode.engine == "pymunk":
-        space = model.space
-
-        def stepped(n):
-            step = space.step
-            for _ in range(n):
-                step(DT)
-
-        loops = [_Bare("space.step loop", stepped, close)]
-        if model.apply_before_step is not None:
-            apply = model.apply_before_step
-
-            def forced(n):
-                step = space.step
-                for _ in range(n):
-                    apply()
-                    step(DT)
-
-            loops.append(_Bare("bare loop + force", forced, lambda: None))
-        return loops, "a Python loop of space.step (velocity_func runs inside it); with the force set first"
-    if mode.engine == "drake":
-        sim = model.sim
-
-        def advanced(n):  # one AdvanceTo over the n steps, as a user writes it
-            sim.AdvanceTo(sim.get_context().get_time() + n * DT)
-
-        return [_Bare("AdvanceTo(t + N dt)", advanced, close)], "one Simulator.AdvanceTo(t + N dt) call"
-    if mode.engine == "newton":
-        # The adapter's own steps are that loop already, with nothing else in it.
-        return [_Bare("solver.step loop", model.steps, close)], \
-            "a Python loop of state.clear_forces(); solver.step(s0, s1, control, None, dt); swap"
-    close()
-    raise ValueError(f"no bare loop for engine {mode.engine}")
+    try:
+        loops, doc = entry.bare_loops(mode, engine, model, scene, DT)
+    except BaseException:
+        model.close()
+        raise
+    return [_Bare(name, once, model.close if i == 0 else _nothing) for i, (name, once) in enumerate(loops)], doc
 
 
-def _state(mj, m, d, full: int):
-    state = np.empty(mj.mj_stateSize(m, full))
-    mj.mj_getState(m, d, state, full)
-    return state
+def _nothing() -> None:
+    pass
 
 
 def bench_mode(mode, *, repeats: int = REPEATS) -> dict:

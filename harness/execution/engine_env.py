@@ -64,9 +64,10 @@ def env_dir(dist: str, version: str) -> Path:
 def engines() -> dict[str, str]:
     """Engine name -> its distribution, for every engine mode the harness knows (the adapters'
     and those of the plugins in ``$HARNESS_PLUGINS``)."""
+    from adapters import ENGINES
     from harness.methods import all_methods
 
-    out: dict[str, str] = {}
+    out: dict[str, str] = {e.id: e.dist for e in ENGINES.values()}
     for method in all_methods().values():
         dist = getattr(method, "dist", None) or getattr(getattr(method, "inner", None), "dist", None)
         engine = getattr(method, "engine", None) or getattr(getattr(method, "inner", None), "engine", None)

@@ -11,14 +11,16 @@ import subprocess
 from importlib import metadata
 from pathlib import Path
 
+from adapters import ENGINE_DISTS
 from records.run import NUMBA_OPT_KEY
 
-#: Packages whose version the numbers depend on: a Dask worker must run the client's.
-COMPUTING_PACKAGES = ("numpy", "scipy", "numba", "mujoco", "pybullet", "pymunk", "rebound")
+#: Packages whose version the numbers depend on: a Dask worker must run the client's. The engines'
+#: are every ``adapters.ENGINES`` entry's distributions.
+COMPUTING_PACKAGES = ("numpy", "scipy", "numba", *ENGINE_DISTS)
 
 #: Packages whose version every run records (the report's appendix, the history's comparisons).
-RECORDED_PACKAGES = ("integrator-harness", "numpy", "scipy", "numba", "pandas", "matplotlib", "mujoco", "pybullet",
-                     "pymunk", "rebound", "dask", "distributed")
+RECORDED_PACKAGES = ("integrator-harness", "numpy", "scipy", "numba", "pandas", "matplotlib", *ENGINE_DISTS,
+                     "dask", "distributed")
 
 #: The project's packages whose code a worker runs; their digest must match the client's.
 CODE_PACKAGES = ("records", "scenarios", "reference", "adapters", "harness")

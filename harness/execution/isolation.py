@@ -74,9 +74,9 @@ ENGINES_ENV = "HARNESS_PRELOAD_ENGINES"
 def engine_modules(method_ids) -> set[str]:
     """The engine modules (``EngineMode.module``: ``pydrake`` for ``drake:``) that these method ids
     step; a reference scheme or a plug-in's mode names none."""
-    from adapters import ENGINE_METHODS
+    from adapters import ENGINES
 
-    modules = {mid.split(":")[0]: mode.module for mid, mode in ENGINE_METHODS.items()}
+    modules = {e.id: e.module for e in ENGINES.values()}
     return {modules[m.split(":")[0]] for m in method_ids if m.split(":")[0] in modules}
 
 

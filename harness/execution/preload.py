@@ -6,17 +6,16 @@ once). Every engine, unless the process that started the server named the ones i
 import contextlib
 import os
 
-from adapters import ENGINE_METHODS, import_engine
+from adapters import ENGINES, import_engine
 from harness.execution.isolation import ENGINES_ENV
 
 #: Submodules an adapter imports where it builds a model (an engine's top-level import does not
-#: load them): a worker forked without them imports them afresh, on every one-step map a
-#: stability search runs in a worker of its own.
-SUBMODULES = {"pydrake": ("pydrake.geometry", "pydrake.math", "pydrake.multibody.parsing", "pydrake.multibody.plant",
-                          "pydrake.multibody.tree", "pydrake.systems.analysis", "pydrake.systems.framework")}
+#: load them; ``Engine.submodules``): a worker forked without them imports them afresh, on every
+#: one-step map a stability search runs in a worker of its own.
+SUBMODULES = {e.module: e.submodules for e in ENGINES.values() if e.submodules}
 
 _NAMED = os.environ.get(ENGINES_ENV)
-_MODULES = {m.module for m in ENGINE_METHODS.values()}
+_MODULES = {e.module for e in ENGINES.values()}
 for _module in sorted(_MODULES if _NAMED is None else _MODULES & set(filter(None, _NAMED.split(",")))):
     with contextlib.suppress(Exception):
         import_engine(_module)

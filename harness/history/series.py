@@ -22,8 +22,8 @@ in the runs themselves (``explained_by_machine``):
 
 * **nothing changed**: a step between two runs whose code (commit and the code digest: a dirty
   tree's commit says nothing), the packages the cell depends on (plugins included) and the
-  platform are all the same is the machine's, whatever its size: it is listed as machine noise
-  with no confidence claimed, and never makes a regression;
+  platform (its host included) are all the same is the machine's, whatever its size: it is listed
+  as machine noise with no confidence claimed, and never makes a regression;
 * **the calibration moved**: every cost cell times a fixed calibration pair beside it
   (``harness.measures.calibration``: the interpreter over the compiled kernel). A step of the
   cell's cost ratio is credited with how far the calibration's level moved across it (a
@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from adapters import ENGINES
 from records import InvalidInput
 from records.cell import figures_of
 from records.measures import get, trended
@@ -58,10 +59,14 @@ from harness.history.storage import MEASUREMENT_VERSION, History, engine_series
 MIN_RUNS = 3
 #: Runs judged by default: about two months of nights.
 WINDOW = 60
-#: Packages whose version a cell's figures depend on, by method family (all cells: these and Python).
-FAMILY_PACKAGES = {"mujoco": ("mujoco",), "pybullet": ("pybullet",), "pymunk": ("pymunk",), "rebound": ("rebound",)}
+#: Packages whose version a cell's figures depend on, by method family (all cells: these and Python):
+#: each engine's distributions (``adapters.ENGINES``).
+FAMILY_PACKAGES = {e.id: e.dists for e in ENGINES.values()}
 COMMON_PACKAGES = ("python", "numpy", "scipy", "numba", NUMBA_OPT_KEY)
-PLATFORM_KEYS = ("system", "machine", "processor")
+#: What a run records of its machine (``harness.execution.environment.run_metadata``) that a figure
+#: may depend on: the host ("node") with its platform, so that two hosts of one platform are two.
+PLATFORM_KEYS = ("node", "system", "machine", "processor")
+_PLATFORM_NAMES = {"node": "host"}
 
 
 @dataclass(frozen=True)
@@ -236,6 +241,15 @@ def _same_code(run_a: RunRecord, run_b: RunRecord) -> bool:
     return not b.endswith("+dirty")
 
 
+def _version(versions: dict, pkg: str) -> str | None:
+    """``pkg``'s version in a run's ``versions``: its own entry, else the one the nightly records
+    under ``versions["engines"]`` (a run from before the package was recorded on its own)."""
+    if pkg in versions:
+        return versions[pkg]
+    engines = versions.get("engines")
+    return engines.get(pkg) if isinstance(engines, dict) else None
+
+
 def what_differs(run_a: RunRecord | dict, run_b: RunRecord | dict, family: str, deterministic: bool = True) -> str:
     """What differs between two runs that a cell of ``family`` depends on: the code, package
     versions (plugins' included), the platform; or that nothing does (``NOTHING_DIFFERS``; for a
@@ -248,12 +262,13 @@ def what_differs(run_a: RunRecord | dict, run_b: RunRecord | dict, family: str, 
     va, vb = run_a.versions, run_b.versions
     plugins = sorted(k for k in {*va, *vb} if k.startswith("plugin "))
     for pkg in (*COMMON_PACKAGES, *FAMILY_PACKAGES.get(family, ()), *plugins):
-        if va.get(pkg) != vb.get(pkg):
-            out.append(f"{pkg} {va.get(pkg)} -> {vb.get(pkg)}")
+        a, b = _version(va, pkg), _version(vb, pkg)
+        if a != b:
+            out.append(f"{pkg} {a} -> {b}")
     ma, mb = run_a.machine, run_b.machine
     plat = [k for k in PLATFORM_KEYS if ma.get(k) != mb.get(k)]
     if plat:
-        out.append("platform " + ", ".join(f"{k} {ma.get(k)} -> {mb.get(k)}" for k in plat))
+        out.append("platform " + ", ".join(f"{_PLATFORM_NAMES.get(k, k)} {ma.get(k)} -> {mb.get(k)}" for k in plat))
     if out:
         return "; ".join(out)
     return NOTHING_DIFFERS + (": the figure is not deterministic" if deterministic else "")

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from adapters import ENGINES
 from records.cell import CELL_COLUMNS as _CELL_COLUMNS, Cell, to_json
 
 #: Bump when a measure's definition changes: results across versions are not comparable.
@@ -109,8 +110,9 @@ def _tidy(df: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-#: The engines' distributions of a run that recorded none under ``versions["engines"]``.
-ENGINE_DISTS = ("mujoco", "pybullet", "pymunk", "rebound")
+#: The engines' distributions of a run that recorded none under ``versions["engines"]``: each
+#: ``adapters.ENGINES`` entry's own (``Engine.dist``), as the nightly records them.
+ENGINE_DISTS = tuple(e.dist for e in ENGINES.values())
 
 
 def engine_series(versions: dict) -> tuple:

@@ -22,6 +22,7 @@ import tomllib
 from dataclasses import replace
 from pathlib import Path
 
+from adapters import ENGINES
 from records import InvalidInput
 from scenarios import VARIANTS, ModelScene, open_model, variant
 
@@ -34,13 +35,13 @@ MODEL_STABILITY_STEPS = 1000
 #: this relative width (1e-4: a limit to 0.01%, where the built-in scenes' 1e-6 takes 7 more runs).
 MODEL_STABILITY_BELOW = 64.0
 MODEL_STABILITY_RTOL = 1e-4
-#: The engines that load a model file.
-MODEL_ENGINES = ("mujoco", "pybullet", "drake", "newton")
-#: The engines whose loaders step a model file without its contacts (Drake's parser builds no
-#: SceneGraph collision geometry here, Newton's runs with contacts off): a variant that keeps
-#: contacts is not theirs to run, so no row of theirs sits beside a contact run of MuJoCo's.
-WITHOUT_CONTACT = {"drake": "Drake's parser here builds no contact geometry (no SceneGraph)",
-                   "newton": "Newton's model-file loader here runs with contacts off"}
+#: The engines that load a model file (those whose ``Engine`` names a ``model_loader``).
+MODEL_ENGINES = tuple(e.id for e in ENGINES.values() if e.model_loader)
+#: The engines whose loaders step a model file without its contacts (``Engine.loader_without_contact``:
+#: Drake's parser builds no SceneGraph collision geometry here, Newton's runs with contacts off): a
+#: variant that keeps contacts is not theirs to run, so no row of theirs sits beside a contact run of
+#: MuJoCo's.
+WITHOUT_CONTACT = {e.id: e.loader_without_contact for e in ENGINES.values() if e.loader_without_contact}
 #: The modes the cross-engine cells step from the same state: MuJoCo's first, each other one
 #: compared with it where its engine loads the file (a cell each).
 CROSS_ENGINE = ("mujoco:euler", "pybullet:semi_implicit", "drake:semi_explicit_euler", "newton:featherstone")

@@ -34,10 +34,11 @@ import numpy as np
 from records.method import NO_BEHAVIOUR, Behaviour
 from scenarios import Scene
 
-from ._engine import EngineVersions
-from ._mode import EngineMode
-from ._model import SteppedModel
-from ._posing import chain_force, unwrap
+from .._engine import Engine, EngineVersions
+from .._mode import EngineMode
+from .._model import SteppedModel
+from .._posing import chain_force, unwrap
+from . import bench
 
 # ----------------------------------------------------------------------------- which scenes each mode poses
 # Which scenes each pymunk mode poses, and why not the others: the reasons ``harness list`` and
@@ -567,3 +568,9 @@ METHODS = {m.id: m for m in (
           {"joint": "PinJoint, default error_bias and max_bias"},
           {"pendulum": "the pin joint's error correction (error_bias, max_bias) moves the bob between steps"}),
 )}
+
+#: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
+ENGINE = Engine(
+    id="pymunk", module="pymunk", dists=("pymunk",), versions=VERSIONS, methods=METHODS, poses=POSES,
+    build=build, bare_loops=bench.bare_loops,
+)

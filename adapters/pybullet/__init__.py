@@ -3,7 +3,7 @@ spring, the projectile (a free multibody with a force applied each step, as user
 the pendulum (a revolute joint, the reduced-coordinate way), the spring chain (a fixed base
 with one prismatic link per mass, every link a child of the base, the spring forces applied
 as joint forces each step: Bullet has no spring between bodies) and the triangulated cloth (a
-mass-spring soft body in Bullet's deformable world, ``adapters._pybullet_cloth``).
+mass-spring soft body in Bullet's deformable world, ``adapters.pybullet.cloth``).
 
 Defaults that silently change the physics are switched off and recorded (docs/engines.md):
 linear/angular damping 0.04 -> 0, the velocity clamp (100, and any finite clamp would hide a
@@ -28,11 +28,12 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._engine import EngineVersions
-from ._mode import EngineMode
-from ._model import SteppedModel
-from ._posing import chain_force
-from ._pybullet_cloth import SoftBodyCloth, refusal
+from .._engine import Engine, EngineVersions
+from .._mode import EngineMode
+from .._model import SteppedModel
+from .._posing import chain_force
+from .cloth import SoftBodyCloth, refusal
+from . import bench
 
 #: How the engine's own loop steps a scene whose force is applied from Python (recorded with every run).
 ENGINE_LOOP_APPLIED = ("from Python every step (Bullet has no spring or drag element): position (and velocity where "
@@ -106,6 +107,8 @@ class _Bullet(SteppedModel):
     settable = True
     FORCE = ""
     ENGINE_LOOP = ENGINE_LOOP_APPLIED
+    #: Whether the scene's force is the spring's -k x alone (``harness bench``'s ``bare loop + force``).
+    spring_alone = False
 
     def __init__(self, p, scene: Scene, dt: float):
         self.p = p
@@ -291,6 +294,10 @@ class _FreeBody(_Bullet):
 class _Spring(_FreeBody):
     def _force(self, pos, vel):
         return [-self.k * pos[0] - self.c * vel[0], 0.0, 0.0]  # -k x - c v along x
+
+    @property
+    def spring_alone(self) -> bool:
+        return self.c == 0.0
 
     def steps(self, n: int) -> None:
         if self.c != 0.0:
@@ -547,3 +554,10 @@ METHODS = {
                   "gravity": "scene's g along -z, else 0"},
     ),
 }
+
+#: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
+ENGINE = Engine(
+    id="pybullet", module="pybullet", dists=("pybullet",), versions=VERSIONS, methods=METHODS, poses=POSES,
+    build=build, bare_loops=bench.bare_loops,
+    model_loader="loadMJCF, or loadURDF with URDF_USE_INERTIA_FROM_FILE and a fixed base",
+)

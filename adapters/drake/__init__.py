@@ -17,7 +17,7 @@ Minimal models, Drake's own physics: one body on one joint of the world, nothing
 * ``projectile``: the scene's (x, y), y up, are Drake's x and z: a massless carriage on a
   ``PrismaticJoint`` along x carries the body of mass m on a ``PrismaticJoint`` along z, each
   joint's damping the scene's linear drag c (force -c v on each axis), gravity the scene's g along -z.
-* ``model``: a model file as Drake's parser builds it (``adapters/_drake_model.py``).
+* ``model``: a model file as Drake's parser builds it (``adapters/drake/model.py``).
 
 Every default that would change the physics is set off or set to the scene's value and recorded
 in each run's settings: gravity (Drake's default is 9.81 along -z), the plant's time step
@@ -54,9 +54,10 @@ from scenarios import Scene
 from records.method import NO_BEHAVIOUR, Behaviour
 from records.method_id import TOLERANCE, Option
 
-from ._engine import EngineVersions
-from ._mode import EngineMode
-from ._model import SteppedModel
+from .._engine import Engine, EngineVersions
+from .._mode import EngineMode
+from .._model import SteppedModel
+from . import bench
 
 #: The releases this adapter supports: ``ResetIntegratorFromFlags`` by scheme name and
 #: ``DiscreteContactApproximation`` (SAP, lagged, similar) are in every release from 1.22;
@@ -293,10 +294,10 @@ class _Model(SteppedModel):
 class _FileModel(_Model):
     """A model file (``harness model``) as Drake's parser builds it, stepped as every scene is; its
     coordinates mapped to the scene's by joint name and its anatomy read back from the plant
-    (``adapters/_drake_model.py``)."""
+    (``adapters/drake/model.py``)."""
 
     def _plant(self, pydrake, scene: Scene, time_step: float):
-        from . import _drake_model
+        from . import model as _drake_model
 
         plant, gravity, self._facts = _drake_model.build_plant(scene, time_step)
         self._names, self._coordinates = list(scene.dof_names), None
@@ -306,19 +307,19 @@ class _FileModel(_Model):
     def _index(self):
         # Read from the finalized plant, at the first state put into it.
         if self._coordinates is None:
-            from . import _drake_model
+            from . import model as _drake_model
 
             self._coordinates = _drake_model.coordinates(self.plant, self._names)
         return self._coordinates
 
     def __init__(self, pydrake, mode: str, scene: Scene, dt: float, **options):
         super().__init__(pydrake, mode, scene, dt, **options)
-        from . import _drake_model
+        from . import model as _drake_model
 
         self.settings.update(_drake_model.settings(self.plant, self._facts))
 
     def anatomy(self) -> dict:
-        from . import _drake_model
+        from . import model as _drake_model
 
         context = self.plant.GetMyContextFromRoot(self.sim.get_context())
         return _drake_model.anatomy(self.plant, context, self._index, self._names, self._facts,
@@ -347,7 +348,7 @@ POSES = {
                   "damping c", _chain),
     "projectile": Pose("a massless carriage on a PrismaticJoint along x carrying mass m on a PrismaticJoint along z, "
                        "each joint's damping the drag c", _projectile),
-    "model": Pose("the file as pydrake's Parser builds it, no SceneGraph (adapters/_drake_model.py)", None, _FileModel),
+    "model": Pose("the file as pydrake's Parser builds it, no SceneGraph (adapters/drake/model.py)", None, _FileModel),
 }
 SCENES = tuple(POSES)
 
@@ -423,3 +424,13 @@ METHODS = {
     )
     for mode in MODES
 }
+
+#: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
+ENGINE = Engine(
+    id="drake", module="pydrake", dists=("drake",), versions=VERSIONS, methods=METHODS, poses=POSES,
+    build=build, bare_loops=bench.bare_loops,
+    model_loader="pydrake.multibody.parsing.Parser.AddModels, no SceneGraph",
+    loader_without_contact="Drake's parser here builds no contact geometry (no SceneGraph)",
+    submodules=("pydrake.geometry", "pydrake.math", "pydrake.multibody.parsing", "pydrake.multibody.plant",
+                "pydrake.multibody.tree", "pydrake.systems.analysis", "pydrake.systems.framework"),
+)

@@ -40,9 +40,10 @@ from records.method import Behaviour
 from scenarios import Scene
 from scenarios import full_mass_matrix
 
-from ._engine import EngineVersions, import_engine
-from ._mode import EngineMode
-from ._model import EngineModel
+from .._engine import Engine, EngineVersions, import_engine
+from .._mode import EngineMode
+from .._model import EngineModel
+from . import bench
 
 #: The releases this adapter supports and was measured on: 2.3.7 is the oldest whose Python
 #: bindings have everything the models use (mjtState, rollout's state layout, the warning hook).
@@ -586,3 +587,10 @@ METHODS = {
     )
     for mode, name in MODES.items()
 }
+
+#: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
+ENGINE = Engine(
+    id="mujoco", module="mujoco", dists=("mujoco",), versions=VERSIONS, methods=METHODS, poses=POSES,
+    build=build, bare_loops=bench.bare_loops,
+    model_loader="MuJoCo's own compiler (MJCF, or URDF as MuJoCo compiles it)",
+)

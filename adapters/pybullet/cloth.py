@@ -40,7 +40,7 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._model import SteppedModel
+from .._model import SteppedModel
 
 #: loadSoftBody's arguments beside the scene's mass, stiffness and spacing: every force but the
 #: springs' elasticity off. springBendingStiffness must be 0 itself: pybullet always passes it

@@ -1,6 +1,6 @@
 """A model file (``harness model``) in Drake: the file as Drake's own parser builds it
 (``pydrake.multibody.parsing.Parser.AddModels``, URDF or MJCF), in a ``MultibodyPlant``; what
-``adapters/drake.py``'s file model steps and reads back.
+``adapters/drake/__init__.py``'s file model steps and reads back.
 
 * **The plant**: the file parsed with no ``SceneGraph`` (no geometry is registered, so nothing
   collides in any variant); a URDF's root links welded to the world, as MuJoCo compiles a URDF and

@@ -27,7 +27,7 @@ Minimal models, Newton's own physics:
   and rest length, no triangles; gravity along the last axis (the net lies in the x-y plane).
 * ``model`` (featherstone): a model file as Newton's own loaders build it (``add_urdf`` /
   ``add_mjcf``), in the joint coordinates, mapped to the scene's by joint name; what the loader
-  ignores or SolverFeatherstone does not apply is listed (``adapters/_newton_model.py``). The
+  ignores or SolverFeatherstone does not apply is listed (``adapters/newton/model.py``). The
   particle and maximal-coordinate solvers step free bodies held by penalty or relaxed joints: they
   run no model file, each with its reason.
 
@@ -64,9 +64,10 @@ import numpy as np
 
 from scenarios import Scene
 
-from ._engine import EngineVersions, quiet_fds
-from ._mode import EngineMode
-from ._model import SteppedModel
+from .._engine import Engine, EngineVersions, quiet_fds
+from .._mode import EngineMode
+from .._model import SteppedModel
+from . import bench
 
 #: The releases this adapter supports: the 1.x solver constructors (SolverSemiImplicit's
 #: ``enable_tri_contact``, SolverXPBD's ``iterations``, SolverVBD's ``iterations``) and
@@ -326,7 +327,7 @@ _PRISMATIC = JointPose("one body of mass m on a prismatic joint along x, joint s
 _REVOLUTE = JointPose("a point mass m at L below a revolute joint about y (inertia zero), gravity g along -z",
                       lambda p: (0.0, 0.0, -p["g"]), _revolute)
 #: A model file's joints, as Newton's loaders build them (``_FileModel``).
-_FILE_JOINTS = JointPose("the file as Newton's own loaders build it (adapters/_newton_model.py)", None, None)
+_FILE_JOINTS = JointPose("the file as Newton's own loaders build it (adapters/newton/model.py)", None, None)
 
 
 def _solver(newton, mode: str, model):
@@ -456,10 +457,10 @@ class _Model(SteppedModel):
 class _FileModel(_Model):
     """A model file (``harness model``) as Newton's loaders build it, stepped by SolverFeatherstone
     in the joint coordinates; its coordinates mapped to the scene's by joint name and its anatomy
-    read back from the model and the solver (``adapters/_newton_model.py``)."""
+    read back from the model and the solver (``adapters/newton/model.py``)."""
 
     def _joint_model(self, newton, scene: Scene):
-        from . import _newton_model
+        from . import model as _newton_model
 
         model, gravity, self._facts = _newton_model.build_model(newton, scene)
         self._names = list(scene.dof_names)
@@ -481,7 +482,7 @@ class _FileModel(_Model):
     def anatomy(self) -> dict:
         """What Newton built, at the model's current state: one step from it into a scratch state
         fills SolverFeatherstone's mass matrix and motion subspaces (the state itself unchanged)."""
-        from . import _newton_model
+        from . import model as _newton_model
 
         scratch = self.model.state()
         with quiet_fds():
@@ -579,3 +580,11 @@ METHODS = {
 
 #: Style3D is not a mode: it poses no scene (``_STYLE3D``).
 NOT_MODES = {"style3d": _STYLE3D}
+
+#: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
+ENGINE = Engine(
+    id="newton", module="newton", dists=("newton", "warp-lang"), versions=VERSIONS, methods=METHODS, poses=POSES,
+    build=build, bare_loops=bench.bare_loops,
+    model_loader="ModelBuilder.add_urdf / add_mjcf, stepped by SolverFeatherstone",
+    loader_without_contact="Newton's model-file loader here runs with contacts off",
+)

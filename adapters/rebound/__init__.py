@@ -34,9 +34,10 @@ from records.method import Behaviour
 from records.method_id import TOLERANCE, Option
 from scenarios import Scene
 
-from ._engine import EngineVersions
-from ._mode import EngineMode
-from ._model import SteppedModel
+from .._engine import Engine, EngineVersions
+from .._mode import EngineMode
+from .._model import SteppedModel
+from . import bench
 
 _NOT_GRAVITY = "not a gravitational N-body problem (an additional_forces callback would be our force, not REBOUND's)"
 UNSUPPORTED = {s: _NOT_GRAVITY for s in ("spring", "damped_spring", "pendulum", "projectile", "chain", "rope",
@@ -271,3 +272,9 @@ METHODS = {
     )
     for mode in MODES
 }
+
+#: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
+ENGINE = Engine(
+    id="rebound", module="rebound", dists=("rebound",), versions=VERSIONS, methods=METHODS, poses=POSES,
+    build=build, bare_loops=bench.bare_loops,
+)

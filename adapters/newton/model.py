@@ -1,6 +1,6 @@
 """A model file (``harness model``) in Newton: the file as Newton's own loaders build it
 (``ModelBuilder.add_urdf`` / ``add_mjcf``), stepped by SolverFeatherstone in the joint
-coordinates, in float32; what ``adapters/newton.py``'s file model steps and reads back.
+coordinates, in float32; what ``adapters/newton/__init__.py``'s file model steps and reads back.
 
 * **The model**: a URDF loaded with its root fixed (``floating=False``, Newton's URDF default,
   as MuJoCo compiles a URDF) and its fixed joints collapsed (``collapse_fixed_joints=True``: the

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .mujoco import MODES
+from . import MODES
 
 #: MuJoCo's integrators (the adapter's mode names), in the order tables list them.
 INTEGRATOR_NAMES = ("euler", "implicitfast", "implicit", "rk4", "discrete")
