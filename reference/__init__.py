@@ -13,7 +13,9 @@ and time a scheme's hand-written floor (``Scheme.floor``; imported, with numba, 
 
 A scheme is one file of ``schemes/`` (or one tableau entry): its step and everything declared of
 it (``Scheme``: its claims, ``Floor``, its recurrence on the damped ``oscillator``, the scenes it
-joins in a suite, ``EVERY_SCENE``).
+joins in a suite, ``EVERY_SCENE``). A splitting is declared as its drifts and kicks (``Splitting``,
+``splitting_scheme``), a scheme taken n times at h/n as ``substepped(scheme, n)``: the step, floor,
+recurrence and claims follow.
 """
 from __future__ import annotations
 
@@ -26,6 +28,8 @@ from ._numba_config import opt_level as kernel_opt_level
 from ._scheme import EVERY_SCENE, Floor, Scheme
 from .kinds import KINDS, Kind
 from .tableau import Tableau, tableau_scheme
+from .splitting import DRIFT, KICK, Splitting, splitting_scheme
+from .substepped import substepped
 from .method import RefMethod
 from .schemes.forest_ruth import forest_ruth
 from .schemes.implicit_euler import implicit_euler
@@ -70,6 +74,7 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["METHODS", "Scheme", "Floor", "EVERY_SCENE", "Kind", "KINDS", "Tableau", "tableau_scheme", "RefMethod", "carried_map", "integrate",
+__all__ = ["METHODS", "Scheme", "Floor", "EVERY_SCENE", "Kind", "KINDS", "Tableau", "tableau_scheme", "Splitting",
+           "splitting_scheme", "DRIFT", "KICK", "substepped", "RefMethod", "carried_map", "integrate",
            "integrate_compiled", "bitwise_why", "cache_state", "compile_notices", "kernel_cache_dir", "kernel_opt_level", "CLOCKS", "step_timer",
            "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]

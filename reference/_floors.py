@@ -1,6 +1,7 @@
 """The floors, compiled and driven: each scheme's hand-written loop of scalars on the unit spring
-(``Scheme.floor``, a ``reference._scheme.Floor``, declared in the scheme's file or, for a tableau,
-generated from it).
+(``Scheme.floor``, a ``reference._scheme.Floor``, declared in the scheme's file or, for a tableau, a
+splitting or a substepped scheme, generated from its declaration, the spring's k and m read from the
+floor's arguments as the kernel reads them from the scene's).
 
 What a compiled step can cost at best on this machine: the scheme's updates written out by hand
 for the spring, the state carried in registers on one spring and stepped over contiguous arrays,

@@ -22,7 +22,8 @@ floor (``Floor``: the step written by hand on the unit spring, which ``harness b
 kernel against), its recurrence on the damped oscillator (``amplification``, and the stability
 limit there in closed form where one exists, ``damping_limit``; ``reference.oscillator``), and the
 scenes it joins in the suites that ask (``suites``). A tableau's floor and recurrence follow from
-its tableau.
+its tableau, a splitting's from its drifts and kicks (``reference.splitting``), a substepped
+scheme's from the scheme it substeps (``reference.substepped``).
 """
 from __future__ import annotations
 
@@ -142,6 +143,10 @@ class Scheme:
     doc: str = field(default="", compare=False)
     #: The Butcher tableau an explicit Runge-Kutta scheme is declared as (``reference.tableau``).
     tableau: object = field(default=None, compare=False)
+    #: The drifts and kicks a splitting scheme is declared as (``reference.splitting``).
+    splitting: object = field(default=None, compare=False)
+    #: ``(scheme, n)`` where this scheme is n steps of h/n of that one (``reference.substepped``).
+    substepped_from: tuple | None = field(default=None, compare=False)
     #: The step by hand on the unit spring (``Floor``); None where the spring is not the scheme's.
     floor: Floor | None = field(default=None, compare=False)
     amplification: Callable | None = field(default=None, compare=False)

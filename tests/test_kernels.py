@@ -24,7 +24,9 @@ ON_THE_SPRING = sorted(sid for sid, s in METHODS.items() if s.floor is not None)
 
 
 def test_every_unconstrained_scheme_has_a_floor():
-    assert set(ON_THE_SPRING) == {sid for sid, s in METHODS.items() if not s.constrained}
+    # From the registry as it is when asked (a scheme registered by a test too: tests/test_contributing.py).
+    assert {sid for sid, s in METHODS.items() if s.floor is not None} == \
+        {sid for sid, s in METHODS.items() if not s.constrained}
 
 
 #: The floors ``make test`` holds a kernel to, one scheme of each kind; every other floor is

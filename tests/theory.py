@@ -3,6 +3,14 @@ number comes from: one table for tests/test_measure.py and tests/test_measure_en
 
 Sources: issue 4 ("Tests that must hold") and the theory section of docs/engines.md (unit
 spring, omega = 1).
+
+The table is the independent oracle: written from the textbooks, apart from what each scheme
+declares or derives of itself (a splitting's or a tableau's limit, a substepped scheme's n times its
+scheme's), so a derivation that goes wrong fails here. A new scheme therefore adds its line here,
+to ``REF_ORDER`` and ``REF_STABILITY`` at least (tests/test_measure.py fails until every
+unconstrained scheme has both), and where it is measured there, to ``REF_ENERGY`` and ``REF_EVALS``
+(docs/contributing.md, "A scheme"). The other inventories of the schemes are read from the
+registry (``reference.METHODS``).
 """
 import math
 

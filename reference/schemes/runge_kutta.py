@@ -2,7 +2,9 @@
 order and energy behaviour, its formulas, the scenes it joins. The step, the force evaluations (its
 stages), the stability limit on the spring, the recurrence on the damped spring and the floor of
 ``harness bench`` follow from the tableau (``reference.tableau``). ``reference.METHODS`` holds
-every entry of ``TABLEAUS``."""
+every entry of ``TABLEAUS``. An entry with an embedded row (``b_hat``: Bogacki-Shampine 3(2),
+Dormand-Prince 5(4)) also runs error-controlled (``reference.tableau.error_controlled``); its fixed
+step never reads the row."""
 import math
 
 from .._scheme import EVERY_SCENE
@@ -72,7 +74,7 @@ Kutta's third-order method (Drake's runge_kutta3 without its error estimate):
 
 bogacki_shampine3 = tableau_scheme(
     "bogacki_shampine3", A=[[0, 0, 0], ["1/2", 0, 0], [0, "3/4", 0]], b=["2/9", "1/3", "4/9"], c=[0, "1/2", "3/4"],
-    order=3, energy_claim="decays", module=_MODULE, suites=WHERE_DRAKE_RUNS, doc="""\
+    b_hat=["7/24", "1/4", "1/3", "1/8"], order=3, energy_claim="decays", module=_MODULE, suites=WHERE_DRAKE_RUNS, doc="""\
 Bogacki-Shampine's third-order method (its fourth, first-same-as-last stage only feeds the error
 estimate, so at a fixed step it is three stages):
 
@@ -92,6 +94,7 @@ dormand_prince5 = tableau_scheme(
        ["19372/6561", "-25360/2187", "64448/6561", "-212/729", 0, 0],
        ["9017/3168", "-355/33", "46732/5247", "49/176", "-5103/18656", 0]],
     b=["35/384", 0, "500/1113", "125/192", "-2187/6784", "11/84"], c=[0, "1/5", "3/10", "4/5", "8/9", 1],
+    b_hat=["5179/57600", 0, "7571/16695", "393/640", "-92097/339200", "187/2100", "1/40"],
     order=5, energy_claim="decays", module=_MODULE, suites=WHERE_DRAKE_RUNS, doc="""\
 Dormand-Prince 5(4), its fifth-order solution (Drake's runge_kutta5; the seventh, first-same-as-last
 stage only feeds the error estimate, so at a fixed step it is six stages):
