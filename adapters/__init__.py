@@ -11,7 +11,8 @@ whether it is available or is stepped (and then with its import-time output sile
 ``drive`` and ``output_marks`` are how every mode's run is stepped and recorded.
 
 What every adapter shares, by idea: ``_mode.py`` (the engine mode, a ``records.Method``),
-``_model.py`` (what a built engine model declares), ``_loops.py`` (the two loops that turn a model
+``_model.py`` (what a built engine model declares), ``_contact.py`` (a contact mode, a pose of a
+contact scene and the two loops every contact pose runs), ``_loops.py`` (the two loops that turn a model
 into a trajectory), ``_engine.py`` (an engine's quiet import, its release, the releases an adapter
 supports and the ``Engine`` entry) and ``_posing.py`` (what several poses compute alike).
 """
@@ -20,6 +21,7 @@ from __future__ import annotations
 from records.trajectory import output_marks
 
 from . import drake, mujoco, newton, pybullet, pymunk, rebound
+from ._contact import BOX, SPHERE, ContactMode, ContactPose, record_loop, timed_loop
 from ._engine import Engine, EngineVersions, engine_version, import_engine, version_key
 from ._loops import drive
 from ._mode import EngineMode
@@ -29,9 +31,11 @@ from ._model import EngineModel, Model, SteppedModel, declared
 ENGINES: dict[str, Engine] = {e.id: e for e in (mujoco.ENGINE, pybullet.ENGINE, pymunk.ENGINE, rebound.ENGINE,
                                                 drake.ENGINE, newton.ENGINE)}
 ENGINE_METHODS: dict[str, EngineMode] = {mid: mode for e in ENGINES.values() for mid, mode in e.methods.items()}
+#: Every engine's contact modes (each engine's ``contact.py``): an integrator with its contact model.
+CONTACT_MODES: dict[str, ContactMode] = {mid: m for e in ENGINES.values() for mid, m in e.contact_modes.items()}
 #: Every engine's distributions, each engine's own first: what the harness records and compares.
 ENGINE_DISTS: tuple[str, ...] = tuple(dict.fromkeys(d for e in ENGINES.values() for d in e.dists))
 
-__all__ = ["ENGINES", "ENGINE_DISTS", "ENGINE_METHODS", "Engine", "EngineMode", "EngineModel", "EngineVersions",
+__all__ = ["BOX", "CONTACT_MODES", "SPHERE", "ContactMode", "ContactPose", "ENGINES", "ENGINE_DISTS", "ENGINE_METHODS", "Engine", "EngineMode", "EngineModel", "EngineVersions",
            "Model", "SteppedModel", "declared", "drive", "engine_version", "import_engine", "output_marks",
            "version_key"]

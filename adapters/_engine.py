@@ -11,7 +11,7 @@ import importlib.metadata
 import os
 import re
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
 
@@ -139,7 +139,9 @@ class Engine:
     model ``build`` made, the first the target's; ``model_loader``: how it loads a user's model file
     (None: it loads none); ``loader_without_contact``: why that loader's models step without their
     contacts (None: with them); ``submodules``: what its adapter imports where it builds a model
-    beyond the engine's top-level import (a worker's server preloads them)."""
+    beyond the engine's top-level import (a worker's server preloads them); ``contact_modes``: its
+    contact modes by id (``adapters/<engine>/contact.py``'s ``MODES``: each integrator with its
+    contact model, posing the contact scenes its ``POSES`` there names)."""
 
     id: str
     module: str
@@ -152,6 +154,7 @@ class Engine:
     model_loader: str | None = None
     loader_without_contact: str | None = None
     submodules: tuple[str, ...] = ()
+    contact_modes: Mapping[str, object] = field(default_factory=dict)
 
     @property
     def dist(self) -> str:

@@ -1,13 +1,14 @@
-"""What an engine's contact run hands back (``ContactRun``) and what the harness measured of it
-(``ContactFigures``, the ``contact`` cell's figures)."""
+"""What an engine's contact run hands back (a ``Trajectory``: ``ContactTrajectory``) and what the
+harness measured of it (``ContactFigures``, one run's; ``ContactCellFigures``, the ``contact``
+cell's figures)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from .figures import Figures
-from .trajectory import CRASHED, OK, TIMED_OUT, UNSTABLE
+from .trajectory import CRASHED, OK, TIMED_OUT, UNSTABLE, RunMeta, Trajectory
 
 STATUSES = (OK, UNSTABLE, CRASHED, TIMED_OUT)
 
@@ -16,72 +17,95 @@ REPORT_DTS = (1 / 1000, 1 / 240, 1 / 60)
 
 
 @dataclass
-class ContactRun:
-    """One engine mode's run of a contact scene at one step.
+class ContactTrajectory(Trajectory):
+    """One engine mode's run of a contact scene at one step: a ``Trajectory`` whose state is the
+    scene's (``scenarios.contact``): q every body's centre, v its linear velocity, flattened
+    (body i's x, y, z at q[..., 3 i : 3 i + 3]), z up (a 2-D pose fills y with 0), recorded at
+    every step from t = 0. ``meta.settings``: every contact setting the pose chose or read back
+    (restitution and its combining rule, friction, damping, the contact model's parameters,
+    speculative margins), stated with the results; ``meta.loop`` what the engine's loop is;
+    ``loop_cpu_s``: the process CPU time of that loop over the same steps with nothing recorded
+    (a second pass), so that the cost is the engine's and not the recording's. ``status``:
+    ``ok``, or ``unstable`` (a non-finite or runaway state, at ``failed_step``), ``crashed``,
+    ``timed_out``, with ``detail`` saying where and why."""
 
-    ``t`` (n,) the recorded times, from 0 (the initial state) at every step; ``centres`` and
-    ``velocities`` (n, bodies, 3): each body's centre and linear velocity, z up (a 2-D pose fills
-    y with 0). ``loop_cpu_s``: the process CPU time of the engine's own stepping loop over the
-    same steps with nothing recorded (a second pass), so that the cost is the engine's and not
-    the recording's; ``loop`` says what that loop is. ``settings``: every contact setting the
-    pose chose or read back (restitution and its combining rule, friction, damping, the contact
-    model's parameters, speculative margins), stated with the results. ``status``: ``ok``, or
-    ``unstable`` (a non-finite or runaway state, at ``failed_step``), ``crashed``, ``timed_out``,
-    with ``detail`` saying where and why.
-    """
-
-    scene: str
-    method: str
-    dt: float
-    t: np.ndarray
-    centres: np.ndarray
-    velocities: np.ndarray
     loop_cpu_s: float | None = None
-    loop: str = ""
-    settings: dict = field(default_factory=dict)
-    status: str = OK
-    detail: str = ""
-    failed_step: int | None = None
-    engine_version: str | None = None
-
-    @property
-    def steps(self) -> int:
-        return max(len(self.t) - 1, 0)
 
     @classmethod
-    def failed(cls, scene: str, method: str, dt: float, status: str, detail: str, **kw) -> "ContactRun":
+    def of(cls, scene, method: str, dt: float, t, centres, velocities, *, loop: str = "", settings=None,
+           status: str = OK, detail: str = "", failed_step: int | None = None, engine_version: str | None = None,
+           steps: int | None = None, loop_cpu_s: float | None = None) -> "ContactTrajectory":
+        """The run of ``scene`` (a contact scene, or its id: then its energy is not computed) from
+        each body's recorded centres and velocities, (n, bodies, 3) each."""
+        t = np.asarray(t, dtype=float)
+        centres, velocities = np.asarray(centres, dtype=float), np.asarray(velocities, dtype=float)
+        n = len(t)
+        q = centres.reshape(n, 1, int(np.prod(centres.shape[1:])))
+        v = velocities.reshape(n, 1, int(np.prod(velocities.shape[1:])))
+        energy = (np.asarray(scene.energy(q, v), dtype=float).reshape(n, 1) if hasattr(scene, "energy") and n
+                  else np.zeros((n, 1)))
+        scene_id = scene if isinstance(scene, str) else scene.id
+        meta = RunMeta(backend="engine", steps_run=max(n - 1, 0), loop=loop or None, engine_version=engine_version,
+                       settings=dict(settings or {}),
+                       params={} if isinstance(scene, str) else dict(scene.values))
+        return cls(scene_id, method, dt, max(n - 1, 0) if steps is None else steps, 1, np.arange(n), t, q, v, energy,
+                   status=status, detail=detail, failed_step=failed_step, meta=meta, loop_cpu_s=loop_cpu_s)
+
+    @classmethod
+    def failed(cls, scene: str, method: str, dt: float, status: str, detail: str, **kw) -> "ContactTrajectory":
         empty = np.zeros((0, 1, 3))
-        return cls(scene, method, dt, np.zeros(0), empty, empty, status=status, detail=detail, **kw)
+        return cls.of(scene, method, dt, np.zeros(0), empty, empty, status=status, detail=detail, **kw)
+
+    @property
+    def centres(self) -> np.ndarray:
+        """(n, bodies, 3): each body's centre at each recorded step."""
+        return self.q.reshape(len(self.t), self.q.shape[-1] // 3, 3)
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """(n, bodies, 3): each body's linear velocity at each recorded step."""
+        return self.v.reshape(len(self.t), self.v.shape[-1] // 3, 3)
+
+    @property
+    def settings(self) -> dict:
+        if self.meta.settings is None:
+            self.meta.settings = {}
+        return self.meta.settings
+
+    @property
+    def loop(self) -> str:
+        return self.meta.loop or ""
+
+    @property
+    def engine_version(self) -> str | None:
+        return self.meta.engine_version
+
+    @property
+    def steps_recorded(self) -> int:
+        """The steps the recorded states span (all of them where the run ended well)."""
+        return max(len(self.t) - 1, 0)
+
+
+def _figure_keys() -> set[str]:
+    return {f.name for f in fields(ContactFigures)}
 
 
 @dataclass(frozen=True)
 class ContactFigures(Figures):
-    """A contact run measured against its scene's truth (``harness.contact.figures``). Each figure
-    is None where the scene does not pose it; ``passes`` names each judged figure's ✓ (True) or ✗.
-
-    ball: ``restitution`` (per bounce, sqrt(H_n / H_(n-1)) from the recorded apexes),
-    ``apex_ratio`` (H_bounces / H0), ``gained`` (the bounces whose apex exceeds the one before),
-    ``intervals`` (the flights between impacts, s); slide: ``stop`` (the distance to where it
-    stopped, m), ``stop_time`` (s), ``creep`` (what it moved after, m); rest and stack:
-    ``penetration``, ``drift`` (m), ``kinetic`` (J, at the end). ``cpu_per_s``: the engine loop's
-    CPU seconds per simulated second. ``truth``: the scene's analytic figures; ``settings``: the
-    engine's contact settings as the pose stated them; ``status`` the run's (``detail`` says where
-    and why a run failed) and ``engine_version`` the engine release that ran."""
+    """A contact run measured against its scene's truth (``harness.contact.figures``): ``values``
+    the figures the scene's judge gives ({name: value}, the scene's ``FIGURES``; stored each
+    under its own name beside the other fields, and read as attributes, ``f.restitution``);
+    ``passes`` names each judged figure's ✓ (True) or ✗; ``cpu_per_s`` the engine loop's CPU
+    seconds per simulated second; ``truth`` the scene's analytic figures; ``tolerances`` the
+    tolerances it was judged by; ``settings`` the engine's contact settings as the pose stated
+    them; ``status`` the run's (``detail`` says where and why a run failed, or why a figure is
+    missing) and ``engine_version`` the engine release that ran."""
 
     scene: str = ""
     params: dict = field(default_factory=dict)
     dt: float | None = None
     status: str = OK
-    restitution: list | None = None
-    apex_ratio: float | None = None
-    gained: list | None = None
-    intervals: list | None = None
-    stop: float | None = None
-    stop_time: float | None = None
-    creep: float | None = None
-    penetration: float | None = None
-    drift: float | None = None
-    kinetic: float | None = None
+    values: dict = field(default_factory=dict)
     cpu_per_s: float | None = None
     loop: str | None = None
     truth: dict = field(default_factory=dict)
@@ -91,15 +115,37 @@ class ContactFigures(Figures):
     detail: str | None = None
     engine_version: str | None = None
 
+    def __getattr__(self, name):
+        values = self.__dict__.get("values") or {}
+        if name in values:
+            return values[name]
+        raise AttributeError(name)
+
+    def to_data(self) -> dict:
+        """Flat: each figure under its own name beside the other fields (None figures left out)."""
+        out = {k: v for k, v in super().to_data().items() if k != "values"}
+        out.update({k: v for k, v in self.values.items() if v is not None})
+        return out
+
+    @classmethod
+    def from_data(cls, data: dict):
+        keys = _figure_keys() - {"values"}
+        mine = {k: v for k, v in data.items() if k in keys}
+        return cls(**mine, values={k: v for k, v in data.items() if k not in keys}), {}
+
 
 @dataclass(frozen=True)
 class ContactCellFigures(Figures):
-    """The nightly's ``contact`` cell: one engine mode on one contact scene (``scene_params`` its
-    parameters) at every step of the ladder (``harness.contact.run.LADDER``). ``runs``: each step's
-    ``ContactFigures`` as stored (``to_data``), with its ``status``; ``largest``: for each judged figure, the largest step of the
-    ladder at which it and every shorter step is ✓ (None: not even the shortest); the cell's value
-    is the largest step at which every figure is. ``settings`` and ``doc``: the mode's contact
-    settings and what it is."""
+    """The nightly's ``contact`` cell: one engine mode on one contact scene (``scene`` its id,
+    ``scene_params`` its parameters) at every step of the ladder (``harness.contact.run.LADDER``).
+    ``runs``: each step's ``ContactFigures`` as stored (``to_data``), with its ``status``;
+    ``largest``: for each judged figure, the largest step of the ladder at which it and every
+    shorter step is ✓ (None: not even the shortest); the cell's value is the largest step at which
+    every figure is. ``settings`` and ``doc``: the mode's contact settings and what it is.
+    What the report and the charts show of it is the scene's own declaration, carried here so
+    that the report reads records alone: ``declared`` its figures (``scenarios.contact.Figure``
+    as a dict each: name, column header and format, the truth it is compared with, the chart's
+    label), ``truth_text`` and ``tolerance_text`` its truth and tolerances in words."""
 
     scene: str = ""
     scene_params: dict = field(default_factory=dict)
@@ -108,6 +154,9 @@ class ContactCellFigures(Figures):
     settings: dict = field(default_factory=dict)
     doc: str | None = None
     engine_version: str | None = None
+    declared: list = field(default_factory=list)
+    truth_text: str | None = None
+    tolerance_text: str | None = None
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,12 @@
 """The contact cells in the report: under each contact scene's heading, every engine mode's figures
 at the report's three steps against the analytic truth, the largest step within each tolerance and
 the settings behind them; under the penalty ball, each reference scheme's restitution against
-h*omega_c with the seed's claim. Charts: restitution (or the scene's figure) against the step per
-mode, and restitution against h*omega_c per scheme. Everything is read from the cells
-(``records.contact``); the claims are judged in ``harness.contact.findings``."""
+h*omega_c with the seed's claim. Charts: the figure the scene charts (the ball's restitution, the
+slide's stop distance, ...) against the step per mode, and restitution against h*omega_c per
+scheme. Everything is read from the cells (``records.contact``), the columns, the truth and the
+chart included: each cell carries its scene's own declaration of its figures
+(``ContactCellFigures.declared``), so a new contact scene needs no table here. The claims are
+judged in ``harness.contact.findings``."""
 from __future__ import annotations
 
 import math
@@ -12,15 +15,9 @@ from records.contact import REPORT_DTS
 
 from .text import fmt
 
-#: Per scene: (heading, the figures of a row), each figure (label, key, how it is printed).
-FIGURES = {
-    "ball": (("restitution per bounce", "restitution", "list"), ("H5/H0", "apex_ratio", "num"),
-             ("gained at", "gained", "bounces")),
-    "slide": (("stop distance (m)", "stop", "num"), ("creep (m)", "creep", "num")),
-    "rest": (("penetration (m)", "penetration", "num"), ("drift (m)", "drift", "num"), ("kinetic (J)", "kinetic", "num")),
-}
-FIGURES["stack"] = FIGURES["rest"]
-TRUTH = {"ball": ("apex_ratio", "H5/H0 = e^10"), "slide": ("stop", "v0²/(2 μ g)")}
+def _columns(figures) -> list[tuple[str, str, str]]:
+    """The figures a cell's scene shows in its table, as it declared them: (header, key, format)."""
+    return [(d["header"], d["name"], d.get("fmt", "num")) for d in (figures.declared or []) if d.get("header")]
 
 
 def _cells(scene: str, piv: dict, measure: str) -> list:
@@ -56,12 +53,10 @@ def contact_lines(scene: str, piv: dict) -> list[str]:
         return []
     f0 = cells[0].figures
     kind = f0.scene
-    figures = FIGURES[kind]
-    truth = f0.runs[0].get("truth", {}) if f0.runs else {}
+    figures = _columns(f0)
     params = ", ".join(f"{k} = {v:g}" for k, v in f0.scene_params.items()) or "the scene's defaults"
-    tol = f0.runs[0].get("tolerances", {}) if f0.runs else {}
-    lines = [f"**Contact: `{kind}`** ({params}). Truth: " + _truth_text(kind, truth) + ". Tolerances: "
-             + _tol_text(kind, tol) + ". CPU seconds per simulated second are the engine loop's alone "
+    lines = [f"**Contact: `{kind}`** ({params}). Truth: " + (f0.truth_text or "–") + ". Tolerances: "
+             + (f0.tolerance_text or "–") + ". CPU seconds per simulated second are the engine loop's alone "
              "(process CPU clock, a second pass with nothing recorded).", "",
              "| mode | step | " + " | ".join(label for label, _, _ in figures) + " | ✓/✗ | CPU s per s |",
              "|---|---|" + "---|" * len(figures) + "---|---|"]
@@ -103,39 +98,22 @@ def contact_lines(scene: str, piv: dict) -> list[str]:
     return lines + [""]
 
 
-def _truth_text(kind: str, truth: dict) -> str:
-    if kind == "ball":
-        return (f"restitution {truth.get('restitution', float('nan')):g} a bounce, H5/H0 "
-                f"{truth.get('apex_ratio', float('nan')):.4g}")
-    if kind == "slide":
-        return f"stops after {truth.get('stop', float('nan')):.4g} m (v0²/(2 μ g)) in {truth.get('stop_time', 0):.3g} s, then stays"
-    return "no penetration, drift or kinetic energy"
-
-
-def _tol_text(kind: str, tol: dict) -> str:
-    if kind == "ball":
-        return (f"each bounce within {tol.get('restitution')} of e, H5/H0 within {tol.get('apex_ratio', 0):.0%}, "
-                f"no apex above the one before by more than {tol.get('gain', 0):.0%}")
-    if kind == "slide":
-        return f"stop within {tol.get('stop', 0):.0%}, creep ≤ {tol.get('creep')} m"
-    return f"penetration and drift ≤ {tol.get('penetration')} m, kinetic energy ≤ {tol.get('kinetic')} J"
-
-
 def contact_chart(cells, scene: str, path) -> bool:
-    """The scene's figure against the step, one line per mode (log step axis): the first bounce's
-    restitution for the ball (the requested e dashed; clipped at 1.5, a run that gained energy at a
-    bounce circled: a mean over bounces would count a ball thrown four times its height and never
-    back within the run as e), the stop distance for the slide (the truth dashed), the penetration
-    at rest."""
+    """The figure the scene charts (its declaration's ``chart``) against the step, one line per
+    mode (log step axis), the truth it declares dashed: the first bounce's restitution for the ball
+    (the requested e dashed; clipped at 1.5, a run that gained energy at a bounce circled: a mean
+    over bounces would count a ball thrown four times its height and never back within the run as
+    e), the stop distance for the slide (the truth dashed), the penetration at rest (symmetric log)."""
     from . import charts
 
     plt = charts.plt
     rows = [c for c in cells if c.measure == "contact" and c.status == "ok" and c.figures.runs]
     if not rows:
         return False
-    kind = rows[0].figures.scene
-    key, label = {"ball": ("restitution", "first bounce's restitution"), "slide": ("stop", "stop distance (m)"),
-                  "rest": ("penetration", "penetration (m)"), "stack": ("penetration", "penetration (m)")}[kind]
+    chart = next((d for d in (rows[0].figures.declared or []) if d.get("chart")), None)
+    if chart is None:
+        return False
+    key, label = chart["name"], chart["chart"]
     styles = charts.method_styles(c.method for c in rows)
     fig, ax = plt.subplots(figsize=(8, 4.5))
     drawn = False
@@ -159,13 +137,14 @@ def contact_chart(cells, scene: str, path) -> bool:
         plt.close(fig)
         return False
     truth = rows[0].figures.runs[0].get("truth", {})
-    if kind == "ball":
-        ax.axhline(truth.get("restitution", 1.0), color="0.4", linestyle="--", label="requested e")
+    if chart.get("chart_truth"):
+        truth_key, truth_label = chart["chart_truth"]
+        if truth.get(truth_key) is not None:
+            ax.axhline(truth[truth_key], color="0.4", linestyle="--", label=truth_label)
+    if any("gained" in r for c in rows for r in c.figures.runs):
         ax.plot([], [], linestyle="none", marker="o", markersize=10, markerfacecolor="none", color="0.3",
                 label="energy gained at a bounce")
-    elif kind == "slide":
-        ax.axhline(truth.get("stop"), color="0.4", linestyle="--", label="v0²/(2 μ g)")
-    else:
+    if chart.get("chart_log"):
         ax.set_yscale("symlog", linthresh=1e-6)
     ax.set_xscale("log")
     ax.set_xlabel("step dt (s)")

@@ -237,7 +237,9 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
                              if c.model_note})
     cols = columns()
     lines = [f"### `{scene}`", "", *(f"**{note}.**" for note in notes_of_model), *([""] if notes_of_model else [])]
-    tabled = {m.name for m in measures() if m.columns or m.made_by or m.run is not None}
+    # A measure without columns whose section is its table gives a method no row of its own: a suite's
+    # own tables (contact, penalty) show their sections alone; a scene task's (sweep) sit beside its energy row.
+    tabled = {m.name for m in measures() if m.columns or m.made_by or (m.run is not None and m.section is None)}
     rows = [(method, ms) for (s, method), ms in sorted(piv.items()) if s == scene and set(ms) & tabled]
     if rows:  # a scene whose cells are all of measures with no columns (contact) shows their sections alone
         lines += ["| method | status | " + " | ".join(c.header for c in cols) + " |", "|---|---|" + "---|" * len(cols)]

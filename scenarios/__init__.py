@@ -8,6 +8,8 @@ from .penalty_ball import PenaltyBall
 from .chain import Chain
 from .cloth import Cloth, Net
 from .cloth_flex import ClothFlex
+from .contact import ContactScene
+from .contact import SCENES as _CONTACT
 from .damped_spring import DampedSpring
 from .kepler import Kepler
 from .model import FEATURES, SUFFIXES, VARIANTS, ModelScene, read_model_file, variant
@@ -33,7 +35,16 @@ FILE_SCENES: dict[str, type[Scene]] = {ModelScene.id: ModelScene}
 #: Scenes whose force is one engine's own model posed on a built-in scene's grid (``cloth_flex``:
 #: MuJoCo's flexcomp membrane on the cloth's): not in SCENES, whose every scene has kernels the
 #: reference schemes step; each carries a ``model_note`` saying what it is not.
-ENGINE_SCENES: dict[str, type[Scene]] = {ClothFlex.id: ClothFlex}
+#: The contact scenes (``scenarios.contact``: the ball, the slide, the box at rest, the stack) are
+#: engine scenes too: only engines pose them (each engine's ``adapters/<engine>/contact.py``).
+ENGINE_SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (ClothFlex, *_CONTACT)}
+
+
+def contact_scenes() -> dict[str, type[ContactScene]]:
+    """The contact scenes: the engine scenes of the contact kind (``scenarios.contact.ContactScene``),
+    in registry order. Derived, never kept: a scene registered later (``ENGINE_SCENES[id] = cls``)
+    is one of them."""
+    return {sid: cls for sid, cls in ENGINE_SCENES.items() if issubclass(cls, ContactScene)}
 
 
 def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
@@ -70,5 +81,5 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ModelScene", "BulletModelScene", "open_model", "full_mass_matrix", "collidable_pairs", "REFERENCE_JUDGES", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
+__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ContactScene", "contact_scenes", "ModelScene", "BulletModelScene", "open_model", "full_mass_matrix", "collidable_pairs", "REFERENCE_JUDGES", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
            "no_solve", "no_velocity_dependence"]

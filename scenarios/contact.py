@@ -1,11 +1,19 @@
 """Contact scenes: a ball dropped on a plane, a box sliding with Coulomb friction, a box at rest and
-a stack of three, each with its analytic truth. The engines pose them (``adapters.contact``); the
+a stack of three, each with its analytic truth. The engines pose them (``adapters/<engine>/contact.py``); the
 harness measures what they did against the truth (``harness.contact.figures``).
 
-These are not ``Scene``s: no reference scheme steps a rigid contact, and their state is whatever
-bodies the engine keeps. A pose records, per step, the centre and linear velocity of each body
-(``records.contact.ContactRun``); the scene says what those should have done. The reference
-schemes meet contact on the penalty ball (``scenarios.penalty_ball``), whose ground is a spring-dashpot.
+A contact scene is a ``Scene`` that only engines step (``has_kernels`` False, as a model file):
+no reference scheme steps a rigid contact. Its parameters are checked by ``Scene``'s machinery;
+its state is its bodies' centres (q, flattened: body i at q[3 i : 3 i + 3]) and linear
+velocities (v); its horizon is ``duration``; and beside its truth it declares its judge: how
+each figure is computed from a run (``measure``), the truth each compares with, its tolerance,
+and how the tables and charts show it (``FIGURES``, each a ``Figure``). Every consumer (``harness
+contact``, its ``--json``, the nightly's ``contact`` cell, the report and its charts) reads these
+declarations, so a new contact scene is this one module plus one pose per engine that poses it
+(``adapters.<engine>.contact.POSES``). A pose records, per step, the centre and linear velocity
+of each body (a ``records.contact.ContactTrajectory``); the scene says what those should have
+done. The reference schemes meet contact on the penalty ball (``scenarios.penalty_ball``), whose
+ground is a spring-dashpot.
 
 Geometry shared by every engine (SI units, z up; the 2-D poses use x and z of it):
 
@@ -23,12 +31,14 @@ Geometry shared by every engine (SI units, z up; the 2-D poses use x and z of it
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import ClassVar
+
+import numpy as np
 
 from records import InvalidInput
 
-from .scene import Param
+from .scene import Param, Scene, no_solve
 
 
 @dataclass(frozen=True)
@@ -57,29 +67,61 @@ class Tolerances:
 
 TOLERANCES = Tolerances()
 
+#: Below this speed (m/s) a sliding box has stopped.
+STOPPED = 1e-3
 
-class ContactScene:
-    """A contact scene: its parameters (checked as a ``Scene``'s are, one line naming the bad
-    field), how long it runs, and its analytic truth."""
+
+@dataclass(frozen=True)
+class Figure:
+    """One figure a contact scene's judge gives of a run (``ContactScene.measure`` computes it),
+    as every table and chart shows it.
+
+    ``name``: its key in the run's figures, rows and ``--json``; ``header``: its column in the
+    report's table ("" : not a column of the tables, e.g. the flights between impacts, kept with
+    the run); ``fmt``: how a value is printed (``num``; ``list``, a figure per bounce to three
+    decimals; ``bounces``, integers); ``truth``: the key of the scene's ``truth()`` it is
+    compared with (shown beside the table); ``chart``: where set, the label of the chart of this
+    figure against the step (one figure a scene), ``chart_truth`` the truth drawn dashed on it
+    with its legend (key, label), ``chart_log`` a symmetric log axis (figures that are 0 in
+    truth)."""
+
+    name: str
+    header: str = ""
+    fmt: str = "num"
+    truth: str | None = None
+    chart: str = ""
+    chart_truth: tuple[str, str] | None = None
+    chart_log: bool = False
+
+    @property
+    def shown(self) -> bool:
+        return bool(self.header)
+
+
+def no_accel(q, v, t, p):  # pragma: no cover - only reached by a misuse
+    raise NotImplementedError("a contact scene's contact is the engine's: no reference kernel steps it")
+
+
+class ContactScene(Scene):
+    """A contact scene: a ``Scene`` only engines step (``has_kernels`` False). Its parameters are
+    checked as every scene's are; its state is its bodies' centres and velocities; it states how
+    long it runs (``duration``), its analytic truth (``truth``) and its judge: ``measure(run,
+    tol)`` gives each figure of ``FIGURES`` and each judged figure's ✓/✗ (``passes``), read by every
+    table, chart and cell that shows the scene."""
 
     id: ClassVar[str]
     title: ClassVar[str]
     params: ClassVar[dict[str, Param]]
     bodies: ClassVar[int] = 1
-    #: The figures its measure gives (``harness.contact.figures``).
-    figures: ClassVar[tuple[str, ...]]
+    #: The figures its judge gives, as the tables and charts show them.
+    FIGURES: ClassVar[tuple[Figure, ...]] = ()
+    has_kernels = False
+    accel = staticmethod(no_accel)
+    solve = staticmethod(no_solve)
 
-    def __init__(self, **overrides):
-        unknown = sorted(set(overrides) - set(self.params))
-        if unknown:
-            raise InvalidInput(f"unknown parameter {unknown[0]!r} for contact scene {self.id} "
-                               f"(valid: {', '.join(self.params)})")
-        self.values = {name: spec.check(name, overrides.get(name, spec.default))
-                       for name, spec in self.params.items()}
-        self._validate()
-
-    def _validate(self) -> None:
-        """Cross-parameter checks; raise InvalidInput."""
+    @property
+    def dof_names(self) -> tuple[str, ...]:
+        return tuple(f"{axis}{i}" for i in range(self.bodies) for axis in "xyz")
 
     def __getattr__(self, name):
         values = self.__dict__.get("values", {})
@@ -95,13 +137,66 @@ class ContactScene:
         """The analytic figures the run is judged against."""
         raise NotImplementedError
 
+    def measure(self, run, tol: Tolerances = TOLERANCES) -> dict:
+        """The run's figures ({name: value} for each of ``FIGURES``), with ``passes`` ({judged
+        figure: ✓ True or ✗ False}) and, where a figure could not be read, ``detail`` saying why.
+        ``run``: its recorded ``t``, ``centres`` and ``velocities`` ((n, bodies, 3) each)."""
+        raise NotImplementedError
+
+    def truth_text(self) -> str:
+        """The truth in words, as the report states it above the table."""
+        raise NotImplementedError
+
+    def tolerance_text(self, tol: dict) -> str:
+        """The tolerances (``asdict(Tolerances)``) in words, as the report states them."""
+        raise NotImplementedError
+
+    def tolerances(self, tol: Tolerances = TOLERANCES) -> dict:
+        """The tolerances stated with every run."""
+        return asdict(tol)
+
     def initial_centres(self) -> list[tuple[float, float, float]]:
         """Each body's centre at the start."""
         raise NotImplementedError
 
+    def initial_velocities(self) -> list[tuple[float, float, float]]:
+        """Each body's linear velocity at the start (at rest unless the scene says otherwise)."""
+        return [(0.0, 0.0, 0.0)] * self.bodies
+
+    @property
+    def gravity(self) -> tuple[float, float, float]:
+        """The field every body falls in (m/s^2): g down z."""
+        return (0.0, 0.0, -self.g)
+
+    def initial_state(self):
+        return (np.array(self.initial_centres(), dtype=float).reshape(-1),
+                np.array(self.initial_velocities(), dtype=float).reshape(-1))
+
+    def energy(self, q, v):
+        """Each body's kinetic energy (of its centre) and its potential in ``gravity``, summed."""
+        q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
+        x = q.reshape(*q.shape[:-1], -1, 3)
+        u = v.reshape(*v.shape[:-1], -1, 3)
+        field = np.asarray(self.gravity)
+        return self.mass * np.sum(0.5 * np.sum(u * u, axis=-1) - x @ field, axis=-1)
+
+    @property
+    def omega(self) -> float:
+        """sqrt(g / L), L the scene's size (``length_scale``): the rate of a fall through it. The
+        contact's own frequency is the engine's, not the scene's."""
+        return math.sqrt(self.g / self.length_scale)
+
+    @property
+    def length_scale(self) -> float:
+        return float(self.values.get("h0", self.values.get("half", 1.0)))
+
     def label(self) -> str:
         changed = {k: v for k, v in self.values.items() if v != self.params[k].default}
         return self.id + "".join(f" {k}={v:g}" for k, v in changed.items())
+
+    def declared(self) -> list[dict]:
+        """``FIGURES`` as plain dicts (what a stored cell carries for the report)."""
+        return [asdict(f) for f in self.FIGURES]
 
 
 _G = Param(9.81, "gravity (m/s^2)", lo=0.0, lo_open=True)
@@ -109,7 +204,37 @@ _MASS = Param(1.0, "mass of each body (kg)", lo=0.0, lo_open=True)
 _HALF = Param(0.1, "half the side of each cube (m)", lo=0.0, lo_open=True)
 
 
+def apexes(z: np.ndarray, vz: np.ndarray, lift: float) -> tuple[list[float], list[int]]:
+    """The recorded maxima of ``z`` (heights above the plane) between impacts, and the steps of the
+    impacts themselves: apex 0 is the start, apex n the largest height after impact n. An impact
+    is the velocity turning from down to up (in flight gravity never turns it) after the ball has
+    risen above ``lift`` since the impact before: a soft contact's chatter, which never lifts the
+    ball, is not a bounce; a long step that reverses the velocity far from the plane still is one."""
+    impacts = []
+    down, lifted = False, bool(z[0] > lift)
+    for i in range(1, len(z)):
+        if z[i] > lift:
+            lifted = True
+        if vz[i] < 0.0:
+            down = True
+        elif down and vz[i] > 0.0:
+            if lifted:
+                impacts.append(i)
+            down, lifted = False, False
+    heights = [float(z[0])]
+    for j, i in enumerate(impacts):
+        end = impacts[j + 1] if j + 1 < len(impacts) else len(z)
+        heights.append(float(np.max(z[i:end])))
+    return heights, impacts
+
+
 class Ball(ContactScene):
+    """The apexes are the largest recorded heights of the ball's lowest point between impacts
+    (``apexes``); restitution per bounce sqrt(H_n / H_(n-1)) and H_bounces / H0, never a velocity
+    ratio read from samples, which is ambiguous by g h / v. A bounce gains energy where its apex
+    exceeds the one before by more than ``Tolerances.gain``. A ball that stops bouncing has
+    restitution 0 for the bounces it did not make."""
+
     id = "ball"
     title = "a ball dropped on a plane at a requested restitution: apex n at e^(2n) h0"
     params = {
@@ -120,7 +245,13 @@ class Ball(ContactScene):
         "g": _G,
         "bounces": Param(5, "bounces measured", lo=1, hi=20, integer=True),
     }
-    figures = ("restitution", "apex_ratio", "gain", "interval")
+    FIGURES = (
+        Figure("restitution", "restitution per bounce", "list", truth="restitution",
+               chart="first bounce's restitution", chart_truth=("restitution", "requested e")),
+        Figure("apex_ratio", "H5/H0", truth="apex_ratio"),
+        Figure("gained", "gained at", "bounces"),
+        Figure("intervals"),
+    )
 
     def flight(self, n: int) -> float:
         """The flight after impact n (n >= 1) under an ideal impact law."""
@@ -155,8 +286,42 @@ class Ball(ContactScene):
     def initial_centres(self):
         return [(0.0, 0.0, self.h0 + self.radius)]
 
+    def measure(self, run, tol: Tolerances = TOLERANCES) -> dict:
+        z = run.centres[:, 0, 2] - self.radius
+        vz = run.velocities[:, 0, 2]
+        # A bounce lifts the ball clear of a contact's chatter (a soft contact's sink, g / omega_c^2, is a
+        # fraction of a millimetre in every pose): a few millimetres of a metre's drop.
+        lift = 2e-3 + 1e-3 * self.h0
+        heights, impacts = apexes(z, vz, lift)
+        n = self.bounces
+        h = heights[:n + 1] + [0.0] * (n + 1 - len(heights))
+        e_n = [math.sqrt(max(h[i], 0.0) / h[i - 1]) if h[i - 1] > 0 else 0.0 for i in range(1, n + 1)]
+        gained = [i for i in range(1, n + 1) if h[i] > h[i - 1] * (1.0 + tol.gain)]
+        times = run.t[impacts]
+        truth = self.truth()
+        ratio = h[n] / h[0] if h[0] > 0 else None
+        passes = {
+            "restitution": all(abs(x - self.e) <= tol.restitution for x in e_n),
+            "apex_ratio": (ratio is not None
+                           and abs(ratio - truth["apex_ratio"]) <= tol.apex_ratio * truth["apex_ratio"]),
+            "gain": not gained,
+        }
+        return {"restitution": e_n, "apex_ratio": ratio, "gained": gained,
+                "intervals": [float(b - a) for a, b in zip(times[:n], times[1:n + 1])], "passes": passes}
+
+    def truth_text(self) -> str:
+        truth = self.truth()
+        return f"restitution {truth['restitution']:g} a bounce, H5/H0 {truth['apex_ratio']:.4g}"
+
+    def tolerance_text(self, tol: dict) -> str:
+        return (f"each bounce within {tol.get('restitution')} of e, H5/H0 within {tol.get('apex_ratio', 0):.0%}, "
+                f"no apex above the one before by more than {tol.get('gain', 0):.0%}")
+
 
 class Slide(ContactScene):
+    """Where the box stopped: the first recorded step whose speed along x is below ``STOPPED``
+    (m/s) and stays below it to the end (its x from the start), and what it moved after."""
+
     id = "slide"
     title = "a box sliding with Coulomb friction: it stops after v0^2/(2 mu g)"
     params = {
@@ -168,7 +333,14 @@ class Slide(ContactScene):
         "g": _G,
         "t_end": Param(1.5, "duration (s); long enough to see it stop and stay", lo=0.0, lo_open=True),
     }
-    figures = ("stop", "creep")
+    FIGURES = (
+        Figure("stop", "stop distance (m)", truth="stop", chart="stop distance (m)",
+               chart_truth=("stop", "v0²/(2 μ g)")),
+        Figure("stop_time", truth="stop_time"),
+        Figure("creep", "creep (m)", truth="creep"),
+    )
+    #: The stop distance's formula, as the report states it.
+    STOP_FORMULA = "v0²/(2 μ g)"
 
     def _validate(self):
         if self.mu == 0.0:
@@ -179,22 +351,59 @@ class Slide(ContactScene):
         return max(self.t_end, 1.5 * self.stop_time)
 
     @property
+    def deceleration(self) -> float:
+        """The box's deceleration while it slides (m/s^2)."""
+        return self.mu * self.g
+
+    @property
     def stop_time(self) -> float:
-        return self.v0 / (self.mu * self.g)
+        return self.v0 / self.deceleration
 
     def truth(self) -> dict:
-        return {"stop": self.v0 ** 2 / (2.0 * self.mu * self.g), "stop_time": self.stop_time, "creep": 0.0}
+        return {"stop": self.v0 ** 2 / (2.0 * self.deceleration), "stop_time": self.stop_time, "creep": 0.0}
 
     def initial_centres(self):
         return [(0.0, 0.0, self.half)]
 
+    def initial_velocities(self):
+        return [(self.v0, 0.0, 0.0)]
+
+    def measure(self, run, tol: Tolerances = TOLERANCES) -> dict:
+        x = run.centres[:, 0, 0] - run.centres[0, 0, 0]
+        speed = np.abs(run.velocities[:, 0, 0])
+        moving = np.nonzero(speed >= STOPPED)[0]
+        truth = self.truth()
+        if len(moving) and moving[-1] == len(x) - 1:
+            return {"stop": None, "stop_time": None, "creep": None, "passes": {"stop": False, "creep": False},
+                    "detail": f"still moving at the end (t = {run.t[-1]:.3g} s, {speed[-1]:.3g} m/s)"}
+        i = int(moving[-1]) + 1 if len(moving) else 0
+        stop, creep = float(x[i]), float(np.max(np.abs(x[i:] - x[i])))
+        return {"stop": stop, "stop_time": float(run.t[i]), "creep": creep,
+                "passes": {"stop": abs(stop - truth["stop"]) <= tol.stop * truth["stop"], "creep": creep <= tol.creep}}
+
+    def truth_text(self) -> str:
+        truth = self.truth()
+        return (f"stops after {truth['stop']:.4g} m ({self.STOP_FORMULA}) in {truth['stop_time']:.3g} s, "
+                "then stays")
+
+    def tolerance_text(self, tol: dict) -> str:
+        return f"stop within {tol.get('stop', 0):.0%}, creep ≤ {tol.get('creep')} m"
+
 
 class Rest(ContactScene):
+    """The deepest penetration (into the plane, or of a box into the one below, from the centres:
+    the poses keep the boxes upright), the largest displacement of any body from where it was
+    placed, and the kinetic energy left at the end."""
+
     id = "rest"
     title = "a box at rest on a plane: no penetration, drift or kinetic energy"
     params = {"half": _HALF, "mass": _MASS, "g": _G,
               "t_end": Param(2.0, "duration (s)", lo=0.0, lo_open=True)}
-    figures = ("penetration", "drift", "kinetic")
+    FIGURES = (
+        Figure("penetration", "penetration (m)", truth="penetration", chart="penetration (m)", chart_log=True),
+        Figure("drift", "drift (m)", truth="drift"),
+        Figure("kinetic", "kinetic (J)", truth="kinetic"),
+    )
 
     @property
     def duration(self) -> float:
@@ -206,6 +415,25 @@ class Rest(ContactScene):
     def initial_centres(self):
         return [(0.0, 0.0, self.half)]
 
+    def measure(self, run, tol: Tolerances = TOLERANCES) -> dict:
+        half, mass = self.half, self.mass
+        z = run.centres[:, :, 2]
+        bottoms = z - half
+        below = np.concatenate([np.zeros((len(z), 1)), z[:, :-1] + half], axis=1)  # the plane, then each box's top
+        penetration = float(max(0.0, np.max(below - bottoms)))
+        start = run.centres[0]
+        drift = float(np.max(np.linalg.norm(run.centres - start[None], axis=2)))
+        kinetic = float(0.5 * mass * np.sum(run.velocities[-1] ** 2))
+        return {"penetration": penetration, "drift": drift, "kinetic": kinetic,
+                "passes": {"penetration": penetration <= tol.penetration, "drift": drift <= tol.drift,
+                           "kinetic": kinetic <= tol.kinetic}}
+
+    def truth_text(self) -> str:
+        return "no penetration, drift or kinetic energy"
+
+    def tolerance_text(self, tol: dict) -> str:
+        return f"penetration and drift ≤ {tol.get('penetration')} m, kinetic energy ≤ {tol.get('kinetic')} J"
+
 
 class Stack(Rest):
     id = "stack"
@@ -216,13 +444,17 @@ class Stack(Rest):
         return [(0.0, 0.0, (2 * i + 1) * self.half) for i in range(self.bodies)]
 
 
-CONTACT_SCENES: dict[str, type[ContactScene]] = {cls.id: cls for cls in (Ball, Slide, Rest, Stack)}
+#: The contact scenes this module defines, registered with the engine scenes (``scenarios.ENGINE_SCENES``).
+SCENES = (Ball, Slide, Rest, Stack)
 
 
 def make_contact_scene(scene_id: str, **overrides) -> ContactScene:
     """The contact scene ``scene_id`` with these parameters, or one line naming what is wrong."""
+    from . import contact_scenes
+
+    scenes = contact_scenes()
     try:
-        cls = CONTACT_SCENES[scene_id]
+        cls = scenes[scene_id]
     except KeyError:
-        raise InvalidInput(f"unknown contact scene {scene_id!r} (valid: {', '.join(CONTACT_SCENES)})") from None
+        raise InvalidInput(f"unknown contact scene {scene_id!r} (valid: {', '.join(scenes)})") from None
     return cls(**overrides)

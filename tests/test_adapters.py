@@ -528,16 +528,16 @@ def test_every_scene_an_engine_poses_is_one_pose_entry(module):
 
 def test_no_adapter_branches_on_a_scene_id():
     """A new scene is one ``POSES`` entry per engine: no adapter file, in any engine's package or
-    among the contact poses, compares a scene id (``EngineMode.supports`` and ``ContactMode.supports``,
-    each in a ``_mode.py``, read the declared list)."""
+    among the contact poses, compares a scene id (``EngineMode.supports`` in ``_mode.py`` and
+    ``ContactMode.supports`` in ``_contact.py`` read the declared list)."""
     import re
 
     pattern = re.compile(r"scene(_id|\.id|\.kind)\s*(==|!=|in\b|not in\b)")
     root = Path(adapters.__file__).parent
     hits = [f"{path.relative_to(root)}:{n}" for path in sorted(root.rglob("*.py"))
             for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
-    assert "_mode.py" in [h.split(":")[0] for h in hits], hits  # supports(): scene.kind in self.scenes
-    assert all(Path(h.split(":")[0]).name == "_mode.py" for h in hits), hits
+    assert sorted({h.split(":")[0] for h in hits}) == ["_contact.py", "_mode.py"], hits  # each supports()
+    assert len(hits) == 2, hits
 
 
 def test_a_plugin_model_with_only_the_required_members_gets_the_declared_defaults():

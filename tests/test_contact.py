@@ -12,7 +12,7 @@ import pytest
 
 from records import InvalidInput
 from records.cell import Cell
-from records.contact import ContactCellFigures, ContactRun
+from records.contact import ContactCellFigures, ContactTrajectory
 from records.measures import Comparison
 from scenarios import make_scene
 from scenarios.contact import TOLERANCES, make_contact_scene
@@ -46,6 +46,45 @@ def test_the_scenes_state_their_truth():
     assert [c[2] for c in make_contact_scene("stack").initial_centres()] == pytest.approx([0.1, 0.3, 0.5])
 
 
+def test_a_contact_scene_is_a_scene_its_state_the_bodies_centres_and_velocities():
+    """One registry of scenes: the contact scenes are engine scenes (only engines pose them), their
+    parameters checked by ``Scene``'s machinery, their state each body's centre and velocity."""
+    from scenarios import ENGINE_SCENES, Scene, contact_scenes
+
+    assert list(contact_scenes()) == ["ball", "slide", "rest", "stack"]
+    for sid, cls in contact_scenes().items():
+        scene = make_scene(sid)
+        assert isinstance(scene, Scene) and ENGINE_SCENES[sid] is cls and not scene.has_kernels
+        q, v = scene.initial_state()
+        assert q.tolist() == [x for c in scene.initial_centres() for x in c] and len(v) == len(q) == 3 * scene.bodies
+        assert scene.ndof == 3 * scene.bodies and scene.duration > 0 and scene.FIGURES
+        assert {f.truth for f in scene.FIGURES if f.truth} <= set(scene.truth())
+        assert sum(1 for f in scene.FIGURES if f.chart) == 1  # one figure a scene is charted
+    slide = make_scene("slide")
+    assert slide.initial_state()[1].tolist() == [slide.v0, 0.0, 0.0]
+    assert float(slide.energy(*slide.initial_state())) == pytest.approx(0.5 * slide.v0 ** 2 + slide.g * slide.half)
+
+
+def test_a_contact_run_is_a_trajectory_with_its_settings_as_metadata():
+    from records.trajectory import Trajectory
+
+    scene, run = ideal_ball(0.8, 1e-3)
+    assert isinstance(run, Trajectory) and run.q.shape == (len(run.t), 1, 3) and run.centres.shape == (len(run.t), 1, 3)
+    assert run.energy.shape == (len(run.t), 1) and run.meta.params == scene.values
+    in_flight = run.t < scene.impacts()[0]
+    assert np.ptp(run.energy[in_flight]) < 1e-9  # the scene's energy, computed from the state
+    failed = ContactTrajectory.failed("ball", "m", 0.01, "crashed", "why")
+    assert failed.status == "crashed" and failed.centres.shape == (0, 1, 3) and failed.settings == {}
+
+
+def test_harness_contact_lists_a_mode_asked_for_that_does_not_pose_the_scene(capsys):
+    from harness.cli import main
+
+    assert main(["contact", "slide", "--modes", "rebound:hardsphere", "--dt", "1/60"]) == 0
+    out = capsys.readouterr().out
+    assert "rebound:hardsphere" in out and "unsupported: REBOUND's particles are spheres" in out
+
+
 # ----------------------------------------------------------------------------- figures
 def ideal_ball(e: float, dt: float, sink: float = 0.0) -> tuple:
     """The exact motion of a point ball bouncing with restitution e off z = 0 (each rebound an
@@ -67,7 +106,7 @@ def ideal_ball(e: float, dt: float, sink: float = 0.0) -> tuple:
     centres = np.zeros((len(t), 1, 3))
     vel = np.zeros((len(t), 1, 3))
     centres[:, 0, 2], vel[:, 0, 2] = z + r - sink, v
-    return scene, ContactRun("ball", "test", dt, t, centres, vel)
+    return scene, ContactTrajectory.of(scene, "test", dt, t, centres, vel)
 
 
 @pytest.mark.parametrize("e", [0.8, 1.0])
@@ -117,14 +156,14 @@ def test_slide_and_rest_figures_on_known_runs():
     c = np.zeros((len(t), 1, 3))
     vel = np.zeros((len(t), 1, 3))
     c[:, 0, 0], c[:, 0, 2], vel[:, 0, 0] = x, scene.half, v
-    f = contact_figures(scene, ContactRun("slide", "t", dt, t, c, vel))
+    f = contact_figures(scene, ContactTrajectory.of(scene, "t", dt, t, c, vel))
     assert f.stop == pytest.approx(scene.truth()["stop"], rel=1e-3) and f.creep == 0.0 and all(f.passes.values())
     stack = make_contact_scene("stack")
     c = np.repeat(np.array(stack.initial_centres())[None], 5, axis=0)
     c[3, 0, 2] -= 2e-3  # the bottom box 2 mm into the plane at one step
     vel = np.zeros_like(c)
     vel[-1, 2, 0] = 0.01
-    f = contact_figures(stack, ContactRun("stack", "t", 0.01, np.arange(5) * 0.01, c, vel))
+    f = contact_figures(stack, ContactTrajectory.of(stack, "t", 0.01, np.arange(5) * 0.01, c, vel))
     assert f.penetration == pytest.approx(2e-3) and f.drift == pytest.approx(2e-3)
     assert f.kinetic == pytest.approx(0.5 * 1e-4) and f.passes == {"penetration": False, "drift": False,
                                                                       "kinetic": False}
@@ -187,7 +226,7 @@ def test_mujoco_poses_every_scene_and_its_default_solref_does_not_bounce():
     assert f.passes["restitution"] and f.passes["gain"]
     import mujoco
 
-    from adapters.contact.mujoco import _xml
+    from adapters.mujoco.contact import _xml
 
     scene = make_contact_scene("ball", e=0.8)
     xml = _xml("Euler", "pyramidal", scene, 1e-3)
@@ -220,9 +259,13 @@ def test_the_nightly_contact_and_penalty_cells():
 
     suite = _suite(penalty=("ref:semi_implicit_euler", "ref:implicit_euler"), grid=(1.0,))
     tasks, _ = build_tasks(dataclasses.replace(suite, bounds=False, scenes={}))
-    assert [(t.kind, t.scene, t.method) for t in tasks] == [
-        ("contact", "ball_e1", "mujoco:rk4"), ("penalty", "penalty_ball", "ref:semi_implicit_euler"),
-        ("penalty", "penalty_ball", "ref:implicit_euler")]
+    # cell tasks that name their one measure and carry their scene's id and parameters (no kind of their own)
+    assert [(t.kind, t.only, t.scene, t.scene_id, t.params, t.method) for t in tasks] == [
+        ("cell", ("contact",), "ball_e1", "ball", {"e": 1.0}, "mujoco:rk4"),
+        ("cell", ("penalty",), "penalty_ball", None, {}, "ref:semi_implicit_euler"),
+        ("cell", ("penalty",), "penalty_ball", None, {}, "ref:implicit_euler")]
+    assert [t.measures() for t in tasks] == [["contact"], ["penalty"], ["penalty"]]
+    assert tasks[0].label == "contact ball_e1 mujoco:rk4"
     cells = [c for t in tasks for c in run_task(t)]
     contact = cells[0]
     assert contact.measure == "contact" and contact.status == "ok" and len(contact.figures.runs) == 2

@@ -1,4 +1,4 @@
-"""Drake's contact poses (``adapters/contact/drake.py``): every mode poses every scene, the figures
+"""Drake's contact poses (``adapters/drake/contact.py``): every mode poses every scene, the figures
 measured to hold hold, and Drake's two traps (SAP's default dissipation kills the bounce; the
 default point stiffness launches the explicit integrator) are caught."""
 import math
@@ -7,8 +7,8 @@ import pytest
 
 pytest.importorskip("pydrake")
 
-from adapters.contact import CONTACT_MODES  # noqa: E402
-from adapters.contact import drake as drake_contact  # noqa: E402
+from adapters import CONTACT_MODES  # noqa: E402
+from adapters.drake import contact as drake_contact  # noqa: E402
 from harness.contact.figures import contact_figures  # noqa: E402
 from harness.contact.run import REPORT_DTS, run_contact  # noqa: E402
 from scenarios.contact import make_contact_scene  # noqa: E402

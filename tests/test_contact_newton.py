@@ -1,4 +1,4 @@
-"""Newton's contact poses (``adapters/contact/newton.py``): each solver poses every scene (the
+"""Newton's contact poses (``adapters/newton/contact.py``): each solver poses every scene (the
 ball at the three report steps, over one bounce to keep Warp on the CPU quick), the figures
 measured to hold hold, and XPBD's trap (no bounce unless ``enable_restitution``) is caught."""
 import importlib.util
@@ -9,8 +9,8 @@ import pytest
 # worker's collection.
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("newton") is None, reason="newton is not installed")
 
-from adapters.contact import CONTACT_MODES  # noqa: E402
-from adapters.contact import newton as newton_contact  # noqa: E402
+from adapters import CONTACT_MODES  # noqa: E402
+from adapters.newton import contact as newton_contact  # noqa: E402
 from harness.contact.figures import contact_figures  # noqa: E402
 from harness.contact.run import REPORT_DTS, run_contact  # noqa: E402
 from scenarios.contact import make_contact_scene  # noqa: E402

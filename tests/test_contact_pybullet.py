@@ -1,4 +1,4 @@
-"""pybullet's contact poses (``adapters.contact.pybullet``): every scene at the three report steps,
+"""pybullet's contact poses (``adapters.pybullet.contact``): every scene at the three report steps,
 the figures its settings get, and each default that changes the answer (the figures that default
 gives, measured 2026-11-27 on pybullet 3.2.7; docs/engines.md). Every run is in a process of its own:
 Bullet's contact breaking threshold is process-wide."""
@@ -16,7 +16,8 @@ import pytest
 
 pytest.importorskip("pybullet")
 
-from adapters.contact import CONTACT_MODES, pybullet as pose  # noqa: E402
+from adapters import CONTACT_MODES  # noqa: E402
+from adapters.pybullet import contact as pose  # noqa: E402
 from harness.contact.figures import contact_figures  # noqa: E402
 from harness.contact.run import REPORT_DTS, run_contact  # noqa: E402
 from harness.execution.isolation import WorkerFailure, run_in_worker  # noqa: E402
@@ -127,7 +128,8 @@ def test_the_breaking_threshold_outlives_the_client_that_set_it():
     0, not Bullet's 0.02: why every run sets it and runs in a process of its own."""
     code = (
         "import dataclasses, json\n"
-        "from adapters.contact import CONTACT_MODES, pybullet as pose\n"
+        "from adapters import CONTACT_MODES\n"
+        "from adapters.pybullet import contact as pose\n"
         "from harness.contact.figures import contact_figures\n"
         "from scenarios.contact import make_contact_scene\n"
         f"mode = CONTACT_MODES[{MODE!r}]\n"

@@ -1,4 +1,4 @@
-"""pymunk's contact poses (``adapters.contact.pymunk``, 2-D): every scene at the three report steps,
+"""pymunk's contact poses (``adapters.pymunk.contact``, 2-D): every scene at the three report steps,
 the exact velocity impulse of its rebound, the figures its settings get, and each default that
 changes the answer (measured 2026-11-27 on pymunk 7.3.1; docs/engines.md)."""
 from __future__ import annotations
@@ -10,7 +10,8 @@ import pytest
 
 pytest.importorskip("pymunk")
 
-from adapters.contact import CONTACT_MODES, pymunk as pose  # noqa: E402
+from adapters import CONTACT_MODES  # noqa: E402
+from adapters.pymunk import contact as pose  # noqa: E402
 from harness.contact.figures import contact_figures  # noqa: E402
 from harness.contact.run import REPORT_DTS, run_contact  # noqa: E402
 from scenarios.contact import TOLERANCES, make_contact_scene  # noqa: E402

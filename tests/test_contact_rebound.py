@@ -1,11 +1,11 @@
-"""REBOUND's contact pose (``adapters/contact/rebound.py``): the ball at the three report steps,
+"""REBOUND's contact pose (``adapters/rebound/contact.py``): the ball at the three report steps,
 its hard-sphere impulse exact, its restitution the requested one."""
 import numpy as np
 import pytest
 
 pytest.importorskip("rebound")
 
-from adapters.contact import CONTACT_MODES  # noqa: E402
+from adapters import CONTACT_MODES  # noqa: E402
 from harness.contact.figures import contact_figures  # noqa: E402
 from harness.contact.run import REPORT_DTS, run_contact  # noqa: E402
 from records import InvalidInput  # noqa: E402

@@ -425,6 +425,8 @@ METHODS = {
     for mode in MODES
 }
 
+from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
+
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
     id="drake", module="pydrake", dists=("drake",), versions=VERSIONS, methods=METHODS, poses=POSES,
@@ -433,4 +435,5 @@ ENGINE = Engine(
     loader_without_contact="Drake's parser here builds no contact geometry (no SceneGraph)",
     submodules=("pydrake.geometry", "pydrake.math", "pydrake.multibody.parsing", "pydrake.multibody.plant",
                 "pydrake.multibody.tree", "pydrake.systems.analysis", "pydrake.systems.framework"),
+    contact_modes=contact.MODES,
 )

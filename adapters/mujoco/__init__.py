@@ -588,9 +588,12 @@ METHODS = {
     for mode, name in MODES.items()
 }
 
+from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
+
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
     id="mujoco", module="mujoco", dists=("mujoco",), versions=VERSIONS, methods=METHODS, poses=POSES,
     build=build, bare_loops=bench.bare_loops,
     model_loader="MuJoCo's own compiler (MJCF, or URDF as MuJoCo compiles it)",
+    contact_modes=contact.MODES,
 )

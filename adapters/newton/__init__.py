@@ -101,7 +101,7 @@ UNSUPPORTED_ALL = {
     "cloth_flex": "MuJoCo's flex membrane: Newton's triangles are another membrane law (tri_ke, tri_ka), not the "
                   "same model",
     "penalty_ball": "the reference schemes' contact, a spring-dashpot under x = 0: Newton's own contact poses a "
-                    "ball in harness contact (adapters/contact/newton.py)",
+                    "ball in harness contact (adapters/newton/contact.py)",
 }
 
 #: Why a particle or maximal-coordinate solver runs no model file: the file's joints are the
@@ -581,10 +581,13 @@ METHODS = {
 #: Style3D is not a mode: it poses no scene (``_STYLE3D``).
 NOT_MODES = {"style3d": _STYLE3D}
 
+from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
+
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
     id="newton", module="newton", dists=("newton", "warp-lang"), versions=VERSIONS, methods=METHODS, poses=POSES,
     build=build, bare_loops=bench.bare_loops,
     model_loader="ModelBuilder.add_urdf / add_mjcf, stepped by SolverFeatherstone",
     loader_without_contact="Newton's model-file loader here runs with contacts off",
+    contact_modes=contact.MODES,
 )

@@ -555,9 +555,12 @@ METHODS = {
     ),
 }
 
+from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
+
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
     id="pybullet", module="pybullet", dists=("pybullet",), versions=VERSIONS, methods=METHODS, poses=POSES,
     build=build, bare_loops=bench.bare_loops,
     model_loader="loadMJCF, or loadURDF with URDF_USE_INERTIA_FROM_FILE and a fixed base",
+    contact_modes=contact.MODES,
 )

@@ -569,8 +569,11 @@ METHODS = {m.id: m for m in (
           {"pendulum": "the pin joint's error correction (error_bias, max_bias) moves the bob between steps"}),
 )}
 
+from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
+
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
     id="pymunk", module="pymunk", dists=("pymunk",), versions=VERSIONS, methods=METHODS, poses=POSES,
     build=build, bare_loops=bench.bare_loops,
+    contact_modes=contact.MODES,
 )

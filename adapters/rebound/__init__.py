@@ -273,8 +273,11 @@ METHODS = {
     for mode in MODES
 }
 
+from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
+
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
     id="rebound", module="rebound", dists=("rebound",), versions=VERSIONS, methods=METHODS, poses=POSES,
     build=build, bare_loops=bench.bare_loops,
+    contact_modes=contact.MODES,
 )

@@ -24,7 +24,8 @@ from harness.measures.frames import jsonable
 
 def add_parser(sub):
     p = sub.add_parser("contact", help="contact: bounce, slide, rest and stack in every engine; the penalty table")
-    p.add_argument("scene", nargs="?", help="ball, slide, rest or stack (all four where none is given)")
+    p.add_argument("scene", nargs="?", help="a contact scene: ball, slide, rest, stack, ... (harness list; every one "
+                   "where none is given)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="a scene parameter (e, mu, h0, ...)")
     p.add_argument("--modes", help="engine contact modes, comma-separated (default: every available one)")
     p.add_argument("--dt", default="1/1000,1/240,1/60", help="steps in seconds, comma-separated (fractions allowed)")
@@ -57,11 +58,13 @@ def _numbers(field: str, text: str) -> list[float]:
 def run(args) -> int:
     if args.penalty:
         return _penalty(args)
-    from scenarios.contact import CONTACT_SCENES, make_contact_scene
+    from scenarios import contact_scenes
+    from scenarios.contact import make_contact_scene
 
     from harness.contact.run import check_dt, contact_modes
 
-    scenes = [args.scene] if args.scene else list(CONTACT_SCENES)
+    known = contact_scenes()
+    scenes = [args.scene] if args.scene else list(known)
     if args.advise:
         scenes = ["ball", "slide", "stack"]
         hz = validate.positive_finite("--hz", args.hz)
@@ -71,9 +74,9 @@ def run(args) -> int:
     overrides = parse_overrides(args.set)
     params = {}
     for s in scenes:
-        if s not in CONTACT_SCENES:
-            raise InvalidInput(f"unknown contact scene {s!r} (valid: {', '.join(CONTACT_SCENES)})")
-        mine = {k: v for k, v in overrides.items() if k in CONTACT_SCENES[s].params}
+        if s not in known:
+            raise InvalidInput(f"unknown contact scene {s!r} (valid: {', '.join(known)})")
+        mine = {k: v for k, v in overrides.items() if k in known[s].params}
         if args.scene:
             mine = overrides
         params[s] = dict(make_contact_scene(s, **mine).values)
@@ -108,25 +111,32 @@ def _fmt(x) -> str:
     return f"{x:.4g}"
 
 
-_SHOWN = {"ball": ("restitution", "apex_ratio", "gained"), "slide": ("stop", "creep"),
-          "rest": ("penetration", "drift", "kinetic"), "stack": ("penetration", "drift", "kinetic")}
+def _shown(scene_id: str, params: dict) -> tuple[tuple[str, int], ...]:
+    """The scene's figures shown in the table, as it declares them (``scenarios.contact.Figure``):
+    (name, column width) each, a figure per bounce in a wide column."""
+    from scenarios.contact import make_contact_scene
+
+    return tuple((f.name, 30 if f.fmt == "list" else 11) for f in make_contact_scene(scene_id, **params).FIGURES
+                 if f.shown)
 
 
 def _lines(df):
     for scene, rows in df.groupby("scene", sort=False):
         truth = rows.iloc[0].truth
-        shown = _SHOWN[scene]
+        shown = _shown(scene, rows.iloc[0].params)
         yield f"{scene} ({', '.join(f'{k}={v:g}' for k, v in rows.iloc[0].params.items())}): truth " + ", ".join(
-            f"{k} {_fmt(truth[k])}" for k in shown if k in truth)
-        yield f"  {'mode':32} {'dt':>8}  " + "  ".join(f"{k:>30}" if k == "restitution" else f"{k:>11}" for k in shown) \
-            + "  verdict      CPU s/s"
+            f"{k} {_fmt(truth[k])}" for k, _ in shown if k in truth)
+        yield f"  {'mode':32} {'dt':>8}  " + "  ".join(f"{k:>{w}}" for k, w in shown) + "  verdict      CPU s/s"
         for _, r in rows.iterrows():
+            if r.status == "unsupported":
+                yield f"  {r.method:32} {'-':>8}  unsupported: {r.detail}"
+                continue
             if r.status != "ok":
                 yield f"  {r.method:32} {r['dt']:8.5f}  {r.status}: {r.detail}"
                 continue
             failed = sorted(k for k, v in r.passes.items() if not v)
             verdict = "within" if not failed else "x " + ",".join(failed)
-            cells = "  ".join(f"{_fmt(r[k]):>30}" if k == "restitution" else f"{_fmt(r[k]):>11}" for k in shown)
+            cells = "  ".join(f"{_fmt(r[k]):>{w}}" for k, w in shown)
             yield f"  {r.method:32} {r['dt']:8.5f}  {cells}  {verdict:12} {_fmt(r.cpu_per_s)}"
         yield ""
 
@@ -174,6 +184,8 @@ def _advice_lines(out):
         yield "  none"
     for m, bad in sorted(out["failing"].items()):
         yield f"  not {m}: " + "; ".join(f"{scene} ({', '.join(figs)})" for scene, figs in bad.items())
+    for m, why in sorted(out.get("unposed", {}).items()):
+        yield f"  not posed by {m}: " + "; ".join(f"{scene} ({reason})" for scene, reason in why.items())
 
 
 def _penalty(args) -> int:

@@ -5,7 +5,7 @@ import json
 
 from records import is_reference
 
-from scenarios import ENGINE_SCENES, SCENES
+from scenarios import ENGINE_SCENES, SCENES, contact_scenes
 
 from records.measures import measures
 
@@ -20,8 +20,10 @@ def add_parser(sub):
 
 def catalogue() -> dict:
     """Every scene and method; an engine's own model on a built-in grid (``ENGINE_SCENES``) is listed
-    with its note, and the modes that pose it name it in their ``supported_scenes``."""
-    scenes = {sid: cls().describe() for sid, cls in {**SCENES, **ENGINE_SCENES}.items()}
+    with its note, and the modes that pose it name it in their ``supported_scenes``. The contact
+    scenes, engine scenes too, are listed with the contact modes that pose them (``contact_catalogue``)."""
+    contact = contact_scenes()
+    scenes = {sid: cls().describe() for sid, cls in {**SCENES, **ENGINE_SCENES}.items() if sid not in contact}
     methods = {}
     for mid, m in all_methods().items():
         ok, why = m.available()
@@ -43,13 +45,12 @@ def catalogue() -> dict:
 def contact_catalogue() -> dict:
     """The contact scenes (their parameters and truth) and the engines' contact modes (what each is,
     the scenes it poses and why not the others), which ``harness contact`` runs."""
-    from scenarios.contact import CONTACT_SCENES
-
     from harness.contact.run import contact_modes
 
     scenes = {sid: {"title": cls.title, "params": {k: {"value": p.default, "allowed": p.allowed()}
-                                                    for k, p in cls.params.items()}}
-              for sid, cls in CONTACT_SCENES.items()}
+                                                    for k, p in cls.params.items()},
+                    "figures": [f.name for f in cls.FIGURES]}
+              for sid, cls in contact_scenes().items()}
     modes = {}
     for mid, mode in contact_modes().items():
         ok, why = mode.available()

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 
 from records import InvalidInput
-from records.contact import REPORT_DTS, ContactRun  # noqa: F401 (the steps every mode is reported at)
+from records.contact import REPORT_DTS, ContactTrajectory  # noqa: F401 (the steps every mode is reported at)
 from records.trajectory import CRASHED, TIMED_OUT
 
 #: The ladder of steps each mode's largest step in tolerance is searched on (s).
@@ -19,7 +19,7 @@ TIMEOUT_S = 120.0
 
 
 def contact_modes() -> dict:
-    from adapters.contact import CONTACT_MODES
+    from adapters import CONTACT_MODES
 
     return CONTACT_MODES
 
@@ -42,14 +42,20 @@ def check_dt(dt) -> float:
     return x
 
 
-def _step_in_worker(mode_id: str, scene_id: str, params: dict, dt: float) -> ContactRun:
+def _step_in_worker(mode_id: str, scene_id: str, params: dict, dt: float, plugins: tuple = ()) -> ContactTrajectory:
+    """The run, where it steps (a worker has the plugin modules of its caller loaded first: a
+    contact scene or pose a plugin registers is known there too)."""
     from scenarios.contact import make_contact_scene
 
+    if plugins:
+        from harness.methods import load_plugins
+
+        load_plugins(plugins)
     return get_mode(mode_id).run(get_mode(mode_id), make_contact_scene(scene_id, **params), dt)
 
 
 def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: float = 1 / 240,
-                timeout: float = TIMEOUT_S, isolated: bool = True) -> ContactRun:
+                timeout: float = TIMEOUT_S, isolated: bool = True) -> ContactTrajectory:
     """One run, validated first; ``isolated`` False steps in this process unless the mode needs one
     of its own (a nightly task's worker is already isolated)."""
     from scenarios.contact import make_contact_scene
@@ -63,12 +69,14 @@ def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: flo
     ok, why = mode.supports(scene.id)
     if not ok:
         raise InvalidInput(f"contact mode {mode_id} does not pose {scene.id}: {why}")
-    args = (mode_id, scene.id, dict(scene.values), dt)
+    from harness.methods import active_plugins
+
+    args = (mode_id, scene.id, dict(scene.values), dt, active_plugins())
     if not isolated and not mode.own_process:
         try:
             return _step_in_worker(*args)
         except Exception as exc:  # an engine's exception is the run's result
-            return ContactRun.failed(scene.id, mode_id, dt, CRASHED, f"{type(exc).__name__}: {exc}")
+            return ContactTrajectory.failed(scene.id, mode_id, dt, CRASHED, f"{type(exc).__name__}: {exc}")
     import multiprocessing
 
     if multiprocessing.current_process().daemon:  # a nightly pool's worker may start no worker of its own
@@ -78,12 +86,12 @@ def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: flo
     out = run_in_worker(_step_in_worker, args, timeout=timeout)
     if isinstance(out, WorkerFailure):
         status = TIMED_OUT if out.status == TIMED_OUT else CRASHED
-        return ContactRun.failed(scene.id, mode_id, dt, status, out.detail)
+        return ContactTrajectory.failed(scene.id, mode_id, dt, status, out.detail)
     return out
 
 
 
-def _in_fork(args: tuple, timeout: float) -> ContactRun:
+def _in_fork(args: tuple, timeout: float) -> ContactTrajectory:
     """The run in a child forked from this process (``os.fork``: a daemonic process, a nightly
     pool's worker, may start no ``multiprocessing`` worker of its own). The child inherits the
     engine as imported, never as run: this process steps no mode that needs a process of its
@@ -94,7 +102,7 @@ def _in_fork(args: tuple, timeout: float) -> ContactRun:
     import tempfile
     import time
 
-    mode_id, scene_id, _, dt = args
+    mode_id, scene_id, _, dt = args[:4]
     with tempfile.TemporaryDirectory(prefix="harness-contact-") as tmp:
         out = os.path.join(tmp, "run.pickle")
         pid = os.fork()
@@ -108,7 +116,7 @@ def _in_fork(args: tuple, timeout: float) -> ContactRun:
                 try:
                     run = _step_in_worker(*args)
                 except Exception as exc:  # the engine's exception is the run's result
-                    run = ContactRun.failed(scene_id, mode_id, dt, CRASHED, f"{type(exc).__name__}: {exc}")
+                    run = ContactTrajectory.failed(scene_id, mode_id, dt, CRASHED, f"{type(exc).__name__}: {exc}")
                 with open(out + ".tmp", "wb") as fh:
                     pickle.dump(run, fh)
                 os.replace(out + ".tmp", out)
@@ -124,11 +132,12 @@ def _in_fork(args: tuple, timeout: float) -> ContactRun:
             if time.monotonic() > deadline:
                 os.kill(pid, signal.SIGKILL)
                 os.waitpid(pid, 0)
-                return ContactRun.failed(scene_id, mode_id, dt, TIMED_OUT, f"no result within {timeout:g} s; process killed")
+                return ContactTrajectory.failed(scene_id, mode_id, dt, TIMED_OUT,
+                                                f"no result within {timeout:g} s; process killed")
             time.sleep(0.002)
         if not os.path.exists(out):
             how = (f"killed by signal {os.WTERMSIG(status)}" if os.WIFSIGNALED(status)
                    else f"exited {os.WEXITSTATUS(status)}")
-            return ContactRun.failed(scene_id, mode_id, dt, CRASHED, f"the process {how} without a result")
+            return ContactTrajectory.failed(scene_id, mode_id, dt, CRASHED, f"the process {how} without a result")
         with open(out, "rb") as fh:
             return pickle.load(fh)

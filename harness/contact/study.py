@@ -46,7 +46,9 @@ def largest(runs: list[ContactFigures]) -> dict:
 
 def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = True):
     """Every available mode that poses each scene, at each step: a tidy DataFrame, one row per
-    (scene, mode, dt), with every figure, its ✓/✗ and the mode's contact settings."""
+    (scene, mode, dt), with every figure the scene declares, its ✓/✗ and the mode's contact
+    settings. A mode asked for by name (``modes``) that does not pose a scene, or is not
+    installed, is a row of its own (status ``unsupported``, ``detail`` saying why), never dropped."""
     import pandas as pd
 
     rows = []
@@ -54,18 +56,43 @@ def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = 
         for mode_id, mode in contact_modes().items():
             if modes is not None and mode_id not in modes:
                 continue
-            if not mode.supports(scene_id)[0] or not mode.available()[0]:
+            ok, why = mode.available()
+            if ok:
+                ok, why = mode.supports(scene_id)
+            if not ok:
+                if modes is not None:
+                    rows.append(unsupported_row(scene_id, params, mode_id, why))
                 continue
             for f in measure_mode(mode_id, scene_id, params, dts, isolated=isolated):
                 rows.append(row_of(mode_id, f))
-    return pd.DataFrame(rows)
+    df = pd.DataFrame(rows)
+    # The columns in one order whatever the scenes: the run, every scene's figures, what it was judged by.
+    figures = [c for c in df.columns if c not in (*HEAD, *TAIL)]
+    return df[[c for c in (*HEAD, *figures, *TAIL) if c in df.columns]]
+
+
+#: A row's columns before and after its scene's figures.
+HEAD = ("scene", "method", "dt", "status", "within")
+TAIL = ("cpu_per_s", "detail", "passes", "settings", "params", "truth")
 
 
 def row_of(mode_id: str, f: ContactFigures) -> dict:
-    d = asdict(f)
-    return {"scene": f.scene, "method": mode_id, "dt": f.dt, "status": f.status, "within": within(f), **{
-        k: d[k] for k in ("restitution", "apex_ratio", "gained", "stop", "creep", "penetration", "drift", "kinetic",
-                          "cpu_per_s", "detail", "passes", "settings", "params", "truth")}}
+    """One run's row: the scene, the mode, the step, its status and verdict, then each figure its
+    scene declares (``scenarios.contact.Figure``; those shown in the tables), the engine loop's
+    cost, and what it was judged by."""
+    scene = make_contact_scene(f.scene, **f.params)
+    return {"scene": f.scene, "method": mode_id, "dt": f.dt, "status": f.status, "within": within(f),
+            **{d.name: f.values.get(d.name) for d in scene.FIGURES if d.shown},
+            "cpu_per_s": f.cpu_per_s, "detail": f.detail, "passes": f.passes, "settings": f.settings,
+            "params": f.params, "truth": f.truth}
+
+
+def unsupported_row(scene_id: str, params: dict, mode_id: str, why: str) -> dict:
+    """The row of a mode asked for that does not pose the scene (or is not installed): why not."""
+    scene = make_contact_scene(scene_id, **params)
+    return {"scene": scene_id, "method": mode_id, "dt": None, "status": "unsupported", "within": None,
+            "cpu_per_s": None, "detail": why, "passes": {}, "settings": {}, "params": dict(scene.values),
+            "truth": scene.truth()}
 
 
 #: What "bounces, slides and rests" asks of a mode: the ball at e = 0.8, the slide and the stack
@@ -93,10 +120,16 @@ def rank(by_mode: dict[str, dict[str, dict]], needed) -> tuple[list[tuple[float,
 
 
 def advise(df, dt: float) -> dict:
-    """At one step: ``rank`` over ``ADVICE_SCENES`` (``df``: ``study``'s rows)."""
-    at = df[(df.dt - dt).abs() <= 1e-12 * dt]
+    """At one step: ``rank`` over ``ADVICE_SCENES`` (``df``: ``study``'s rows); a mode asked for
+    that does not pose a scene is named in ``unposed`` with why ({mode: {scene: why}})."""
+    unposed: dict[str, dict[str, str]] = {}
+    if len(df):
+        for r in df[df.status == "unsupported"].itertuples():
+            unposed.setdefault(r.method, {})[r.scene] = r.detail
+        df = df[df.status != "unsupported"]
+    at = df[(df.dt - dt).abs() <= 1e-12 * dt] if len(df) else df
     by_mode = {mode: {r.scene: {"passes": r.passes, "status": r.status, "cpu_per_s": r.cpu_per_s}
-                      for r in rows.itertuples()} for mode, rows in at.groupby("method")}
+                      for r in rows.itertuples()} for mode, rows in at.groupby("method")} if len(at) else {}
     fine, failing = rank(by_mode, ADVICE_SCENES)
     return {"dt": dt, "within": [m for _, m in fine], "cost": {m: c for c, m in fine}, "failing": failing,
-            "tolerances": asdict(TOLERANCES)}
+            "unposed": unposed, "tolerances": asdict(TOLERANCES)}

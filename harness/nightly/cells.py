@@ -60,8 +60,12 @@ def context(task, method=None) -> TaskContext:
     from harness.methods import get_method
 
     suite = suite_of(task)
+    scene = make_scene(task.scene_id or task.scene, source=task.source, **task.params)
+    if getattr(task, "only", ()) and task.scene not in suite.scenes:
+        # A task of the suite's own tables (its contact cells, ``Task.only``): its measure reads the
+        # scene and the method id; no scene spec sets its step, and no scheme's claims judge it.
+        return TaskContext(task, suite, None, scene, claims=None)
     spec = suite.scenes[task.scene]
-    scene = make_scene(task.scene, source=task.source, **task.params)
     method = method or get_method(task.method, compiled_where_bitwise=True)
     dt = nominal_dt(spec, scene)
     # Runs too long to interpret on the compiled loop whatever its bits, not counted (the scene's spec).
@@ -70,7 +74,9 @@ def context(task, method=None) -> TaskContext:
 
 
 def _applies(measure, ctx) -> bool:
-    return measure.run is not None and (measure.applies is None or bool(measure.applies(ctx)))
+    only = getattr(ctx.task, "only", ())
+    return (measure.run is not None and (not only or measure.name in only)
+            and (measure.applies is None or bool(measure.applies(ctx))))
 
 
 def measures_for(task, method=None) -> list[str]:
@@ -111,11 +117,6 @@ def run_task(task) -> list[Cell]:
         return [guard(task, "bound", lambda: _bound(task))]
     if task.kind == "cost":  # a cell's cost measured again, in a fresh worker (the nightly's re-measure)
         return [guard(task, "cost", lambda: _cost_again(task))]
-    if task.kind in ("contact", "penalty"):  # an engine mode on a contact scene; a scheme on the penalty ground
-        from harness.nightly.measures import contact_cells
-
-        run = contact_cells.contact_task if task.kind == "contact" else contact_cells.penalty_task
-        return guard_many(task, [task.kind], lambda: run(task))
     return _scene_task(task)
 
 

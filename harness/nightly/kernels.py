@@ -49,9 +49,10 @@ def plan(tasks: list, suite) -> KernelPlan:
     scenes: dict[tuple, object] = {}
 
     def scene_of(task):
-        key = (task.scene, task.source, tuple(sorted((task.params or {}).items())))
+        sid = getattr(task, "scene_id", None) or task.scene
+        key = (sid, task.source, tuple(sorted((task.params or {}).items())))
         if key not in scenes:
-            scenes[key] = make_scene(task.scene, source=task.source, **(task.params or {}))
+            scenes[key] = make_scene(sid, source=task.source, **(task.params or {}))
         return scenes[key]
 
     def need(scheme, scene):
@@ -59,15 +60,14 @@ def plan(tasks: list, suite) -> KernelPlan:
         to_compile.setdefault(loop.name, not loop.compiled)
 
     for task in tasks:
-        if task.kind == "penalty":  # a scheme on the penalty ground: its loop, and no baseline
-            need(reference.METHODS[scheme_name(task.method)], make_scene(task.scene))
-            continue
         if task.kind != "cell":
             continue
         scene = scene_of(task)
         if not scene.has_kernels:  # a model file: only its engines step it, nothing compiles
             continue
-        if baseline.supports(scene)[0]:  # explicit Euler cannot pose a constrained scene: no ratio there
+        # The baseline is the cost cell's: a task of one other measure (the penalty table) times none.
+        timed = not getattr(task, "only", ()) or "cost" in task.only
+        if timed and baseline.supports(scene)[0]:  # explicit Euler cannot pose a constrained scene: no ratio there
             need(baseline.scheme, scene)
         if task.family == "ref":
             need(reference.METHODS[scheme_name(task.method)], scene)

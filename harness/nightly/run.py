@@ -48,10 +48,8 @@ DEFAULT_OUT = Path("results/latest")
 class Task:
     """A self-contained unit of work: everything a worker needs to produce its cells."""
 
-    kind: str                  # "cell" (a scene x method), "bound" (one reviewed energy bound), "cost"
-                               # (a cell's cost alone, measured again before a slowdown is reported),
-                               # "contact" (an engine mode on a contact scene) or "penalty" (a scheme
-                               # on the penalty ground: harness.nightly.measures.contact_cells)
+    kind: str                  # "cell" (a scene x method), "bound" (one reviewed energy bound) or "cost"
+                               # (a cell's cost alone, measured again before a slowdown is reported)
     scene: str
     method: str
     family: str
@@ -63,15 +61,23 @@ class Task:
     plugins: tuple[str, ...] = ()  # plugin modules the worker loads before it looks the method up
     timings: dict | None = None    # injected timings (``harness.measures.cost``), the clock's if None
     source: str | None = None      # the file of a scene built from one (a model file)
+    scene_id: str | None = None    # the scene's registry id where the cell's scene is named otherwise (a contact
+                                   # scene by the parameters that differ: the ball at e = 1 is ball_e1)
+    only: tuple[str, ...] = ()     # the measures the task measures where not every one that applies: a suite's
+                                   # contact tables (harness.nightly.measures.contact_cells), ("contact",) for an
+                                   # engine mode on a contact scene, ("penalty",) for a scheme on the penalty ground
 
     @property
     def label(self) -> str:
         extra = f" dt={self.dt:g} steps={self.steps}" if self.kind == "bound" else ""
-        return f"{self.kind} {self.scene} {self.method}{extra}"
+        # A task of a suite's own table is named by its measure (``contact ball_e1 mujoco:rk4``).
+        return f"{'+'.join(self.only) or self.kind} {self.scene} {self.method}{extra}"
 
     def measures(self) -> list[str]:
-        if self.kind in ("bound", "contact", "penalty"):
+        if self.kind == "bound":
             return [self.kind]
+        if self.only:
+            return list(self.only)
         from harness.nightly.cells import measures_for
 
         return measures_for(self)
@@ -121,7 +127,9 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
 
 def contact_tasks(suite: Suite, plugins: tuple, skipped: list) -> list[Task]:
     """The suite's contact tasks (``Suite.contact``): each engine mode it selects on each contact
-    scene the mode poses, and each scheme on the penalty ground."""
+    scene the mode poses (the ``contact`` measure), and each scheme on the penalty ground (the
+    ``penalty`` measure). A task carries its scene's id and parameters as they are; its cell's
+    scene is named by them (``cell_scene``), never parsed back."""
     from harness.contact.run import contact_modes
     from harness.nightly.measures.contact_cells import cell_scene
 
@@ -137,9 +145,11 @@ def contact_tasks(suite: Suite, plugins: tuple, skipped: list) -> list[Task]:
             if not ok:
                 skipped.append({"scene": name, "method": mode_id, "reason": why})
                 continue
-            tasks.append(Task("contact", name, mode_id, mode.engine, dict(params), suite, plugins=plugins))
+            tasks.append(Task("cell", name, mode_id, mode.engine, dict(params), suite, plugins=plugins,
+                              scene_id=scene_id, only=("contact",)))
     for scheme in settings.get("penalty", ()):
-        tasks.append(Task("penalty", settings["penalty_scene"], scheme, "ref", {}, suite, plugins=plugins))
+        tasks.append(Task("cell", settings["penalty_scene"], scheme, "ref", {}, suite, plugins=plugins,
+                          only=("penalty",)))
     return tasks
 
 
@@ -323,12 +333,11 @@ def _plain(x):
 
 
 def engine_versions() -> dict[str, str | None]:
-    """{distribution: installed version} of every engine an adapter drives: the run's series
-    (``harness.history.storage.engine_series``)."""
-    import adapters
-    from adapters import engine_version
+    """{distribution: installed version} of every engine an adapter drives (each ``adapters.ENGINES``
+    entry's own distribution): the run's series (``harness.history.storage.engine_series``)."""
+    from adapters import ENGINES, engine_version
 
-    return {dist: engine_version(dist) for dist in sorted({m.dist for m in adapters.ENGINE_METHODS.values()})}
+    return {dist: engine_version(dist) for dist in sorted(e.dist for e in ENGINES.values())}
 
 
 def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB,
@@ -447,8 +456,8 @@ def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regres
                         jobs: int | None) -> dict[str, list[float]]:
     """Each cost cell the verdict would call a slowdown, measured again ``REMEASURES`` times, each
     in a fresh worker process, before the verdict (asv re-runs a benchmark before it reports a
-    regression). One process's figure can sit 10-35% from another's with nothing changed (where
-    the allocator and the compiled code land: ``harness.history.compare``), which one night's
+    regression). One process's figure can sit well away from another's with nothing changed (where
+    the allocator and the compiled code land: ``harness.history.compare``, docs/performance.md), which one night's
     repeats, all in one process, cannot show. The stored cell becomes the median of the first
     measurement and the re-measurements, its spread theirs, and their range the cell's
     process-to-process noise (``process_noise``, log units), which the history takes as the
@@ -459,7 +468,7 @@ def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regres
     from harness.nightly.cells import run_task
 
     flagged = [r for r in regressions if r.kind == "slowdown" and r.measure == "cost"][:MAX_REMEASURED]
-    by_cell = {(t.scene, t.method): t for t in tasks if t.kind == "cell"}
+    by_cell = {(t.scene, t.method): t for t in tasks if t.kind == "cell" and not t.only}
     todo = [by_cell[(r.scene, r.method)] for r in flagged if (r.scene, r.method) in by_cell]
     if not todo:
         return {}
@@ -506,6 +515,8 @@ def _of_task(cell: Cell, task: Task) -> bool:
         return False
     if task.kind == "bound":
         return cell.measure == "bound" and cell.dt is not None and round(cell.dt, 15) == round(task.dt, 15)
+    if task.only:
+        return cell.measure in task.only
     return cell.measure != "bound"
 
 

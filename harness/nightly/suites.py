@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from adapters import ENGINE_METHODS
+from adapters import ENGINES
 from records import REFERENCE
 
 from harness.measures.scaling import cloth_sizes
@@ -272,8 +272,8 @@ CHAIN_SWEEP = {**SWEEP, "sizes": ({"label": "N = 32", "params": {}, "task": "ref
 #: midpoint, Kutta or Bogacki-Shampine); on the chain one explicit and one implicit mode, on the
 #: projectile the discrete plant (its drag implicit under SAP); Newton's XPBD on the cloth, beside
 #: the reference XPBD. The full suite runs every mode on every scene it poses.
-DRAKE_MODES = tuple(m for m in ENGINE_METHODS if m.startswith("drake:"))
-NEWTON_MODES = tuple(m for m in ENGINE_METHODS if m.startswith("newton:"))
+DRAKE_MODES = tuple(ENGINES["drake"].methods)
+NEWTON_MODES = tuple(ENGINES["newton"].methods)
 ENGINES_KEPT = {
     "damped_spring": ("drake:discrete_tamsi", "drake:discrete_sap"),
     "pendulum": ("drake:runge_kutta2", "drake:runge_kutta3", "drake:bogacki_shampine3", "drake:radau3"),

@@ -1,17 +1,19 @@
 """The nightly's contact cells (issue: the bounce, the slide and the stack in every engine).
 
 * ``contact``: one engine mode on one contact scene (``scenarios.contact``) at every step of the
-  suite's ladder, measured against the scene's truth (``harness.contact``); the value is the
-  largest step at which every figure holds (and at every shorter step). A task of kind
-  ``contact`` measures it.
+  suite's ladder, measured against the scene's truth by the scene's own judge (``harness.contact``);
+  the value is the largest step at which every figure holds (and at every shorter step). The cell
+  carries what the scene declares of its figures (``ContactCellFigures.declared``), which the
+  report and the charts read: a new contact scene needs no table here or there.
 * ``penalty``: one reference scheme on the penalty ball (``scenarios.penalty_ball``) over the grid of
   h*omega_c at e = 1 and 0.8; the value is the largest h*omega_c up to which a perfectly elastic
-  bounce stays within the tolerance. A task of kind ``penalty`` measures it.
+  bounce stays within the tolerance.
 
-A suite asks for them in ``Suite.contact``: ``scenes`` ({cell scene: (contact scene, params)}),
-``modes`` (None: every available mode that poses a scene), ``ladder`` (the steps), ``penalty`` (the
-schemes) and ``grid``. Neither cell runs in a scene task: their ``run`` is None and the tasks of
-their kinds call ``contact_task`` and ``penalty_task``.
+A suite asks for them in ``Suite.contact``: ``scenes`` ((contact scene, params), ...), ``modes``
+(None: every available mode that poses a scene), ``ladder`` (the steps), ``penalty`` (the
+schemes) and ``grid``. Their tasks (``harness.nightly.run.contact_tasks``) are cell tasks that name
+their one measure (``Task.only``) and carry their scene's id and parameters; each measure runs
+where its task names it, as every measure runs: from the registry.
 """
 from __future__ import annotations
 
@@ -25,46 +27,51 @@ from harness.nightly.cell_kit import make_cell, plain
 PENALTY_RESTITUTIONS = (1.0, 0.8)
 
 
-def scene_of_cell(name: str) -> str:
-    """The contact scene of a cell's scene name (``ball_e1`` -> ``ball``)."""
-    return name.split("_")[0]
-
-
 def cell_scene(scene_id: str, params: dict) -> str:
     """A cell's scene name: the contact scene, with each parameter that differs from its default
-    (``ball`` at e = 1 -> ``ball_e1``)."""
-    from scenarios.contact import CONTACT_SCENES
+    (``ball`` at e = 1 -> ``ball_e1``). A name only: the task carries the id and parameters."""
+    from scenarios.contact import make_contact_scene
 
-    defaults = CONTACT_SCENES[scene_id].params
+    defaults = type(make_contact_scene(scene_id)).params
     return scene_id + "".join(f"_{k}{v:g}" for k, v in sorted(params.items()) if v != defaults[k].default)
 
 
-def contact_task(task) -> list:
-    from harness.contact.run import LADDER
-    from harness.contact.study import largest, measure_mode
-    from harness.contact.run import contact_modes
+def _named(name: str):
+    """A measure that runs where its task names it (``Task.only``): a suite's contact table."""
+    return lambda ctx: name in getattr(ctx.task, "only", ())
 
-    settings = task.suite.contact
+
+def contact_run(ctx) -> list:
+    """The ``contact`` cell of an engine mode on a contact scene (``ctx.scene``, built from the
+    task's scene id and parameters)."""
+    from harness.contact.run import LADDER, contact_modes
+    from harness.contact.study import largest, measure_mode
+
+    task, scene = ctx.task, ctx.scene
+    settings = ctx.suite.contact
     ladder = tuple(settings.get("ladder", LADDER))
     mode = contact_modes()[task.method]
-    runs = measure_mode(task.method, scene_of_cell(task.scene), task.params, ladder, isolated=False,
-                        timeout=task.suite.cell_timeout)
+    runs = measure_mode(task.method, scene.id, task.params, ladder, isolated=False,
+                        timeout=ctx.suite.cell_timeout)
     best = largest(runs)
     ok = [f for f in runs if f.passes]
     status = "ok" if ok else "crashed"
     detail = "" if ok else "; ".join(sorted({f"{f.status}: {f.detail}" for f in runs}))[:500]
     version = next((f.engine_version for f in runs if f.engine_version), None)
-    figures = ContactCellFigures(scene=scene_of_cell(task.scene), scene_params=dict(task.params),
+    figures = ContactCellFigures(scene=scene.id, scene_params=dict(task.params),
                                  runs=[plain(f.to_data()) for f in runs],
                                  largest=best, settings=plain(dict(mode.settings)), doc=mode.doc or None,
-                                 engine_version=version)
+                                 engine_version=version, declared=plain(scene.declared()),
+                                 truth_text=scene.truth_text(), tolerance_text=scene.tolerance_text(scene.tolerances()))
     return [make_cell(task, "contact", status, best.get("all"), None, detail=detail, figures=figures)]
 
 
-def penalty_task(task) -> list:
+def penalty_run(ctx) -> list:
+    """The ``penalty`` cell of a reference scheme on the penalty ground."""
     from harness.contact.penalty import GAIN, GRID, TOLERANCE, row
 
-    settings = task.suite.contact
+    task = ctx.task
+    settings = ctx.suite.contact
     grid = tuple(settings.get("grid", GRID))
     omega_c = settings.get("omega_c", 1000.0)
     rows = [row(task.method, e, hw, omega_c) for e in PENALTY_RESTITUTIONS for hw in grid]
@@ -143,11 +150,12 @@ def _penalty_chart(cells, scene, path):
 
 MEASURES = [
     Measure("contact", ContactCellFigures, "an engine mode on a contact scene at every step of a ladder, against "
-            "the analytic truth: restitution per bounce, stop distance, penetration, drift, kinetic energy, cost "
-            "per simulated second, and the largest step within every tolerance", regression=_contact_worse,
+            "the analytic truth: the figures the scene declares (restitution per bounce, stop distance, penetration, "
+            "drift, kinetic energy, ...), cost per simulated second, and the largest step within every tolerance",
+            run=contact_run, applies=_named("contact"), regression=_contact_worse,
             findings=_contact_findings, section=_contact_section, chart=_contact_chart, higher_is_worse=False),
     Measure("penalty", PenaltyFigures, "a reference scheme on a penalty ground: restitution against h*omega_c "
-            "beside the exact one", regression=_penalty_worse, findings=_penalty_findings,
-            section=_penalty_section, chart=_penalty_chart, higher_is_worse=False),
+            "beside the exact one", run=penalty_run, applies=_named("penalty"), regression=_penalty_worse,
+            findings=_penalty_findings, section=_penalty_section, chart=_penalty_chart, higher_is_worse=False),
 ]
 

@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._contact import SPHERE, ContactMode, record_loop, timed_loop
 from .._engine import import_engine
-from ._mode import ContactMode, record_loop, timed_loop
 
 #: The planet's radius (m): the ground's curvature and the change of gravity over the drop are 1e-7 of them.
 PLANET_RADIUS = 1.0e7
@@ -37,6 +37,8 @@ INTEGRATOR = "leapfrog"
 _NOT_A_SPHERE = ("REBOUND's particles are spheres without orientation or friction, and a hard sphere resting on "
                  "a plane collides at every step: no box slides, rests or stacks")
 UNSUPPORTED = {"slide": _NOT_A_SPHERE, "rest": _NOT_A_SPHERE, "stack": _NOT_A_SPHERE}
+#: How REBOUND poses each contact scene (the scene's kind -> its ``ContactPose``): the ball alone.
+POSES = {"ball": SPHERE}
 
 
 class _Pose:
@@ -91,7 +93,7 @@ def run(mode: ContactMode, scene, dt: float):
 
 MODES = {
     "rebound:hardsphere": ContactMode(
-        "rebound", "hardsphere", "rebound", run, scenes=("ball",), unsupported=UNSUPPORTED,
+        "rebound", "hardsphere", "rebound", run, poses=POSES, unsupported=UNSUPPORTED,
         settings={"integrator": INTEGRATOR, "collision": "direct", "collision_resolve": "hardsphere"},
         doc="REBOUND's hard-sphere collision of the ball with a planet whose gravity is g; leapfrog; "
             "coefficient_of_restitution the requested e")

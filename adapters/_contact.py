@@ -1,6 +1,8 @@
-"""A contact mode (one engine integrator with its contact model) and the two loops every pose runs:
-``record_loop`` (every step's state, with a blow-up caught where it happens) and ``timed_loop``
-(the same steps again, nothing recorded, the process CPU clock around the engine's calls)."""
+"""A contact mode (one engine integrator with its contact model), how an engine poses a contact
+scene (``ContactPose``, one entry per scene in each engine's ``POSES``) and the two loops every
+pose runs: ``record_loop`` (every step's state, with a blow-up caught where it happens) and
+``timed_loop`` (the same steps again, nothing recorded, the process CPU clock around the engine's
+calls)."""
 from __future__ import annotations
 
 import math
@@ -10,10 +12,10 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from records.contact import ContactRun
+from records.contact import ContactTrajectory
 from records.trajectory import OK, UNSTABLE
 
-from .._engine import engine_version, import_engine
+from ._engine import engine_version, import_engine
 
 #: A state further than this from the origin (m) is a blow-up: every scene's bodies stay within a
 #: few metres of it (a ball thrown a few times its drop height is an energy gain, measured as one).
@@ -21,19 +23,36 @@ RUNAWAY_M = 100.0
 
 
 @dataclass(frozen=True)
+class ContactPose:
+    """How an engine poses one contact scene: the entry of the engine's ``POSES`` for the scene's
+    kind. ``shape``: ``sphere`` (the ball: a sphere of the scene's ``radius`` requested its
+    restitution ``e``, frictionless, held to z where the engine can hold it) or ``box`` (a cube of
+    side 2 ``half`` a body, at rest on contact, with the scene's friction ``mu``, or 1 where it has
+    none); the bodies start at the scene's ``initial_centres`` with its ``initial_velocities``,
+    in its ``gravity`` where the engine takes a field."""
+
+    shape: str
+
+
+SPHERE = ContactPose("sphere")
+BOX = ContactPose("box")
+
+
+@dataclass(frozen=True)
 class ContactMode:
-    """One engine integrator with its contact model. ``run(mode, scene, dt) -> ContactRun`` poses
-    and steps it; ``scenes`` are the contact scenes it poses and ``unsupported`` says why not the
-    others; ``settings`` are the contact settings every run of the mode uses (a run adds those it
-    derives from the scene, e.g. MuJoCo's solref from e); ``own_process``: every run needs a fresh
-    process (an engine whose settings are process-wide, pybullet's contact breaking threshold);
-    ``dims``: 2 for a planar engine (pymunk)."""
+    """One engine integrator with its contact model. ``run(mode, scene, dt) -> ContactTrajectory``
+    poses and steps it; ``poses`` ({scene kind: ``ContactPose``}, the engine's ``POSES``) are the
+    contact scenes it poses (``scenes``; a pose added to the engine's ``POSES`` is posed by each of
+    its modes) and ``unsupported`` says why not the others; ``settings`` are the contact settings
+    every run of the mode uses (a run adds those it derives from the scene, e.g. MuJoCo's solref
+    from e); ``own_process``: every run needs a fresh process (an engine whose settings are
+    process-wide, pybullet's contact breaking threshold); ``dims``: 2 for a planar engine (pymunk)."""
 
     engine: str
     mode: str
     dist: str
     run: Callable
-    scenes: tuple[str, ...]
+    poses: Mapping[str, ContactPose]
     unsupported: Mapping[str, str] = field(default_factory=dict)
     settings: Mapping[str, object] = field(default_factory=dict)
     doc: str = ""
@@ -45,6 +64,14 @@ class ContactMode:
     def id(self) -> str:
         return f"{self.engine}:{self.mode}"
 
+    @property
+    def scenes(self) -> tuple[str, ...]:
+        return tuple(self.poses)
+
+    def pose(self, scene) -> ContactPose:
+        """The engine's pose of ``scene`` (its kind's entry of ``poses``)."""
+        return self.poses[scene.kind]
+
     def available(self) -> tuple[bool, str]:
         if engine_version(self.dist) is None:
             return False, f"{self.dist} is not installed"
@@ -55,14 +82,14 @@ class ContactMode:
         return True, ""
 
     def supports(self, scene_id: str) -> tuple[bool, str]:
-        if scene_id in self.scenes:
+        if scene_id in self.poses:
             return True, ""
         return False, self.unsupported.get(scene_id, f"{self.id} does not pose {scene_id}")
 
 
 def record_loop(mode: ContactMode, scene, dt: float, step: Callable[[], None],
                 read: Callable[[], tuple[np.ndarray, np.ndarray]], settings: dict, loop: str,
-                time_again: Callable[[int], float] | None = None) -> ContactRun:
+                time_again: Callable[[int], float] | None = None) -> ContactTrajectory:
     """Step ``steps = ceil(duration / dt)`` times, reading (centres, velocities) (each (bodies, 3))
     before the first and after every step. A non-finite state, or one past ``RUNAWAY_M``, stops the
     run as ``unstable`` at that step. ``time_again(steps)``, where given, steps a fresh copy of the
@@ -84,9 +111,9 @@ def record_loop(mode: ContactMode, scene, dt: float, step: Callable[[], None],
             detail = (f"state {'not finite' if not np.all(np.isfinite(c)) else f'past {RUNAWAY_M:g} m'} at step {i} "
                       f"(t = {i * dt:.4g} s)")
             break
-    run = ContactRun(scene.id, mode.id, dt, np.arange(n + 1) * dt, centres[:n + 1], velocities[:n + 1],
-                     loop=loop, settings=dict(settings), status=status, detail=detail, failed_step=failed,
-                     engine_version=engine_version(mode.dist))
+    run = ContactTrajectory.of(scene, mode.id, dt, np.arange(n + 1) * dt, centres[:n + 1], velocities[:n + 1],
+                               loop=loop, settings=dict(settings), status=status, detail=detail, failed_step=failed,
+                               engine_version=engine_version(mode.dist), steps=steps)
     if status == OK and time_again is not None:
         run.loop_cpu_s = time_again(steps)
     return run

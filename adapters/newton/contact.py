@@ -39,8 +39,8 @@ import math
 
 import numpy as np
 
+from .._contact import BOX, SPHERE, ContactMode, record_loop, timed_loop
 from .._engine import import_engine, quiet_fds
-from ._mode import ContactMode, record_loop, timed_loop
 
 #: The contact's natural frequency (rad/s): MuJoCo's and Drake's poses' too.
 OMEGA_C = 200.0
@@ -49,6 +49,9 @@ FRICTION_GAIN = 1000.0
 XPBD_ITERATIONS = 2
 CONTACT_RELAXATION = 0.8
 SOLVERS = {"semi_implicit": "SolverSemiImplicit", "xpbd": "SolverXPBD"}
+#: How Newton poses each contact scene (the scene's kind -> its ``ContactPose``): a free body each, a
+#: sphere shape for the ball, a box shape for each box. A new contact scene is one entry here.
+POSES = {"ball": SPHERE, "slide": BOX, "rest": BOX, "stack": BOX}
 
 
 def restitution_of(zeta: float) -> float:
@@ -79,23 +82,24 @@ def zeta_for(e: float) -> float:
 
 
 def _material(scene) -> dict:
-    if scene.id == "ball":
+    if POSES[scene.kind] is SPHERE:
         zeta = zeta_for(scene.e)
         return {"ke": scene.mass * OMEGA_C ** 2, "kd": 2.0 * zeta * scene.mass * OMEGA_C, "zeta": zeta,
                 "restitution": float(scene.e), "mu": 0.0}
-    mu = {"slide": getattr(scene, "mu", 0.0)}.get(scene.id, 1.0)
+    mu = getattr(scene, "mu", 1.0)
     return {"ke": scene.mass * OMEGA_C ** 2 / 4.0, "kd": 2.0 * scene.mass * OMEGA_C / 4.0, "zeta": 1.0,
             "restitution": 0.0, "mu": mu}
 
 
 class _Pose:
     def __init__(self, mode: ContactMode, scene, dt: float, enable_restitution: bool = True):
-        from ..newton import _warp
+        from . import _warp
 
         newton = import_engine("newton")
         self.wp = wp = _warp(newton)
         solver_name = mode.settings["solver"]
         mat = _material(scene)
+        sphere = POSES[scene.kind] is SPHERE
         with quiet_fds():
             builder = newton.ModelBuilder(gravity=(0.0, 0.0, -scene.g), up_axis=newton.Axis.Z)
             cfg = newton.ModelBuilder.ShapeConfig(density=0.0, ke=mat["ke"], kd=mat["kd"], kf=FRICTION_GAIN,
@@ -105,7 +109,7 @@ class _Pose:
             self.bodies = []
             for centre in scene.initial_centres():
                 xform = wp.transform(wp.vec3(*centre), wp.quat_identity())
-                if scene.id == "ball":
+                if sphere:
                     r = scene.radius
                     inertia = wp.mat33(np.eye(3) * 0.4 * scene.mass * r * r)
                     body = builder.add_body(xform=xform, mass=scene.mass, inertia=inertia, lock_inertia=True)
@@ -131,14 +135,16 @@ class _Pose:
             self.contacts = self.pipeline.contacts()
             self.s0, self.s1 = model.state(), model.state()
             self.control = model.control()
-            if scene.id == "slide":
+            velocities = scene.initial_velocities()
+            if any(any(v) for v in velocities):
                 qd = self.s0.body_qd.numpy()
-                qd[0, :3] = (scene.v0, 0.0, 0.0)  # a body's velocity: linear, then angular
+                for i, v in enumerate(velocities):
+                    qd[i, :3] = v  # a body's velocity: linear, then angular
                 self.s0.body_qd.assign(qd)
         self.model, self.solver, self.dt, self.scene = model, solver, dt, scene
         self.settings = {
             "solver": SOLVERS[solver_name], "precision": "float32", "device": "cpu", **solver_settings,
-            "model": (f"{len(self.bodies)} free body(ies), a {'sphere' if scene.id == 'ball' else 'box'} shape each "
+            "model": (f"{len(self.bodies)} free body(ies), a {'sphere' if sphere else 'box'} shape each "
                       "(density 0, the body's mass and inertia set), add_ground_plane"),
             "gravity": [0.0, 0.0, -scene.g],
             "shape material (both shapes)": {"ke": mat["ke"], "kd": mat["kd"], "kf": FRICTION_GAIN, "mu": mat["mu"],
@@ -149,7 +155,7 @@ class _Pose:
             "used": ("ke, kd, kf, mu (penalty)" if solver_name == "semi_implicit"
                      else "restitution, mu (constraint projection; ke, kd, kf unused)"),
             "derived": (f"e = {scene.e:g} -> damping ratio {mat['zeta']:.6g} (damped on approach only), kd = 2 zeta m omega_c"
-                        if scene.id == "ball" else "critically damped resting contacts, ke a quarter of m omega_c^2 a corner"),
+                        if sphere else "critically damped resting contacts, ke a quarter of m omega_c^2 a corner"),
             "engine_loop": "pipeline.collide then solver.step from Python, one call each a step"}
 
     def step(self) -> None:
@@ -185,7 +191,7 @@ _DOC = {"semi_implicit": "Newton's SolverSemiImplicit on Warp (CPU, float32); pe
 
 MODES = {
     f"newton:{name}": ContactMode(
-        "newton", name, "newton", run, scenes=("ball", "slide", "rest", "stack"),
+        "newton", name, "newton", run, poses=POSES,
         settings={"solver": name, "precision": "float32", "device": "cpu"}, doc=_DOC[name])
     for name in SOLVERS
 }

@@ -30,8 +30,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._contact import BOX, SPHERE, ContactMode, record_loop, timed_loop
 from .._engine import engine_version, import_engine
-from ._mode import ContactMode, record_loop, timed_loop
+
+#: How pybullet poses each contact scene (the scene's kind -> its ``ContactPose``): the ball a sphere,
+#: each box a box, base-only multibodies. A new contact scene is one entry here.
+POSES = {"ball": SPHERE, "slide": BOX, "rest": BOX, "stack": BOX}
 
 #: ``setPhysicsEngineParameter`` settings of every run (the process-wide threshold among them).
 ENGINE_PARAMETERS = {
@@ -65,7 +69,8 @@ PLANE = {"restitution": 1.0, "lateralFriction": 1.0}
 
 def _pose(p, cid, scene, dt: float, settings: dict) -> list[int]:
     engine = {k: settings[k] for k in ENGINE_PARAMETERS if settings[k] is not None}
-    if scene.id == "ball" and settings["ball contactERP"] is not None:
+    sphere = POSES[scene.kind] is SPHERE
+    if sphere and settings["ball contactERP"] is not None:
         engine["contactERP"] = settings["ball contactERP"]
     p.setPhysicsEngineParameter(fixedTimeStep=dt, physicsClientId=cid, **engine)
     p.setGravity(0.0, 0.0, -scene.g, physicsClientId=cid)
@@ -73,7 +78,7 @@ def _pose(p, cid, scene, dt: float, settings: dict) -> list[int]:
     p.changeDynamics(plane, -1, physicsClientId=cid, **{k: settings[f"plane {k}"] for k in PLANE})
     dynamics = {k: settings[k] for k in BODY_DYNAMICS if settings[k] is not None}
     dynamics["activationState"] = p.ACTIVATION_STATE_DISABLE_SLEEPING
-    if scene.id == "ball":
+    if sphere:
         shape = p.createCollisionShape(p.GEOM_SPHERE, radius=scene.radius, physicsClientId=cid)
         own = {"restitution": scene.e, "lateralFriction": 0.0}
     else:
@@ -85,8 +90,9 @@ def _pose(p, cid, scene, dt: float, settings: dict) -> list[int]:
         b = p.createMultiBody(scene.mass, shape, basePosition=list(centre), physicsClientId=cid)
         p.changeDynamics(b, -1, physicsClientId=cid, **dynamics, **own)
         bodies.append(b)
-    if scene.id == "slide":
-        p.resetBaseVelocity(bodies[0], [scene.v0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
+    for b, v in zip(bodies, scene.initial_velocities()):
+        if any(v):
+            p.resetBaseVelocity(b, list(v), [0.0, 0.0, 0.0], physicsClientId=cid)
     return bodies
 
 
@@ -143,7 +149,7 @@ SETTINGS = {**ENGINE_PARAMETERS, "ball contactERP": BALL_CONTACT_ERP, **BODY_DYN
 
 MODES = {
     "pybullet:sequential_impulse": ContactMode(
-        "pybullet", "sequential_impulse", "pybullet", run, scenes=("ball", "slide", "rest", "stack"),
+        "pybullet", "sequential_impulse", "pybullet", run, poses=POSES,
         settings=SETTINGS, own_process=True,
         doc="Bullet's multibody sequential-impulse contact solver; restitution and friction combined by product, "
             "damping 0, contacts only once touching"),

@@ -29,11 +29,15 @@ import math
 
 import numpy as np
 
+from .._contact import BOX, SPHERE, ContactMode, record_loop, timed_loop
 from .._engine import engine_version, import_engine
-from ._mode import ContactMode, record_loop, timed_loop
 
 #: Half the plane's length along x (m): far beyond where any scene's body goes.
 PLANE_HALF_LENGTH = 50.0
+
+#: How pymunk poses each contact scene in the plane (the scene's kind -> its ``ContactPose``): the
+#: ball a Circle, each box a Poly.create_box. A new contact scene is one entry here.
+POSES = {"ball": SPHERE, "slide": BOX, "rest": BOX, "stack": BOX}
 
 SETTINGS = {
     "collision_slop": 0.0,
@@ -56,8 +60,9 @@ def _pose(pymunk, scene, settings: dict):
     plane.elasticity, plane.friction = settings["plane elasticity"], settings["plane friction"]
     space.add(plane)
     bodies = []
+    sphere = POSES[scene.kind] is SPHERE
     for x, _, z in scene.initial_centres():
-        if scene.id == "ball":
+        if sphere:
             body = pymunk.Body(scene.mass, pymunk.moment_for_circle(scene.mass, 0.0, scene.radius))
             shape = pymunk.Circle(body, scene.radius)
             shape.elasticity, shape.friction = scene.e, 0.0
@@ -69,8 +74,9 @@ def _pose(pymunk, scene, settings: dict):
         body.position = (x, z)
         space.add(body, shape)
         bodies.append(body)
-    if scene.id == "slide":
-        bodies[0].velocity = (scene.v0, 0.0)
+    for body, (vx, _, vz) in zip(bodies, scene.initial_velocities()):
+        if vx or vz:
+            body.velocity = (vx, vz)
     return space, bodies
 
 
@@ -104,7 +110,7 @@ def run(mode: ContactMode, scene, dt: float):
 
 MODES = {
     "pymunk:sequential_impulse": ContactMode(
-        "pymunk", "sequential_impulse", "pymunk", run, scenes=("ball", "slide", "rest", "stack"),
+        "pymunk", "sequential_impulse", "pymunk", run, poses=POSES,
         settings=SETTINGS, dims=2,
         doc="Chipmunk2D's sequential impulses in the plane; elasticity and friction combined by product, "
             "collision_slop 0"),

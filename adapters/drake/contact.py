@@ -55,11 +55,14 @@ import math
 
 import numpy as np
 
+from .._contact import BOX, SPHERE, ContactMode, record_loop, timed_loop
 from .._engine import import_engine
-from ._mode import ContactMode, record_loop, timed_loop
 
-#: The contact's natural frequency (rad/s): MuJoCo's poses' (``adapters.contact.mujoco``).
+#: The contact's natural frequency (rad/s): MuJoCo's poses' (``adapters.mujoco.contact``).
 OMEGA_C = 200.0
+#: How Drake poses each contact scene (the scene's kind -> its ``ContactPose``): the ball a sphere on a
+#: PrismaticJoint along z, each box a free body touching by its corners. A new contact scene is one entry here.
+POSES = {"ball": SPHERE, "slide": BOX, "rest": BOX, "stack": BOX}
 #: The corner spheres' radius as a fraction of the box's half side.
 CORNER = 0.01
 #: Our mode name -> the plant it builds: a discrete contact approximation, or the continuous plant's integrator.
@@ -117,7 +120,7 @@ def relaxation_for(e: float, omega: float) -> float:
 
 def _dissipation(scene) -> dict:
     """The pair's stiffness per contact, Hunt & Crossley d and relaxation time, with how they were derived."""
-    if scene.id == "ball":
+    if POSES[scene.kind] is SPHERE:
         speed = math.sqrt(2.0 * scene.g * scene.h0)
         return {"k": scene.mass * OMEGA_C ** 2, "d": hunt_crossley_for(scene.e, speed),
                 "tau": relaxation_for(scene.e, OMEGA_C),
@@ -166,8 +169,9 @@ class _Pose:
         if self.discrete:
             plant.set_discrete_contact_approximation(getattr(DiscreteContactApproximation, APPROXIMATIONS[approximation]))
         c = _dissipation(scene)
-        # The slide's mu; the ball's contact is frictionless (it only moves along z); the resting boxes' 1.
-        mu = {"ball": 0.0, "slide": getattr(scene, "mu", 0.0)}.get(scene.id, 1.0)
+        self.sphere = sphere = POSES[scene.kind] is SPHERE
+        # The ball's contact is frictionless (it only moves along z); a box's the scene's mu, or 1 where it has none.
+        mu = 0.0 if sphere else getattr(scene, "mu", 1.0)
 
         def material():
             p = ProximityProperties()
@@ -182,7 +186,7 @@ class _Pose:
         ground = plant.RegisterCollisionGeometry(plant.world_body(), HalfSpace.MakePose([0.0, 0.0, 1.0], [0.0, 0.0, 0.0]),
                                                  HalfSpace(), "ground", material())
         self.bodies = []
-        if scene.id == "ball":
+        if sphere:
             body = plant.AddRigidBody("ball", SpatialInertia.SolidSphereWithMass(scene.mass, scene.radius))
             plant.AddJoint(PrismaticJoint("z", plant.world_frame(), body.body_frame(), [0.0, 0.0, 1.0], damping=0.0))
             plant.RegisterCollisionGeometry(body, RigidTransform(), Sphere(scene.radius), "ball", material())
@@ -206,20 +210,22 @@ class _Pose:
                      "box-plane pairs filtered out")
         plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -scene.g])
         plant.Finalize()
-        if len(faces if scene.id != "ball" else []) > 1:
+        if len(faces if not sphere else []) > 1:
             scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().ExcludeWithin(GeometrySet(faces)))
         diagram = builder.Build()
         self.plant, self.dt, self.scene = plant, dt, scene
         self.sim = sim = Simulator(diagram)
         self.context = context = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
-        if scene.id == "ball":
+        if sphere:
             plant.SetPositions(context, [scene.h0 + scene.radius])
         else:
             for body, centre in zip(self.bodies, scene.initial_centres()):
                 plant.SetFreeBodyPose(context, body, RigidTransform(list(centre)))
-            if scene.id == "slide":
+            velocities = scene.initial_velocities()
+            if any(any(u) for u in velocities):
                 v = np.zeros(plant.num_velocities())
-                v[3] = scene.v0  # a free body's velocities: angular, then translational
+                for i, u in enumerate(velocities):
+                    v[6 * i + 3:6 * i + 6] = u  # a free body's velocities: angular, then translational
                 plant.SetVelocities(context, v)
         sim.set_target_realtime_rate(0.0)
         self.settings = {"plant": (f"discrete, time_step {dt!r}, {APPROXIMATIONS[approximation]}" if self.discrete
@@ -260,7 +266,7 @@ class _Pose:
     def read(self):
         q = self.plant.GetPositions(self.context)
         v = self.plant.GetVelocities(self.context)
-        if self.scene.id == "ball":
+        if self.sphere:
             return np.array([[0.0, 0.0, q[0]]]), np.array([[0.0, 0.0, v[0]]])
         nb = len(self.bodies)
         # Free bodies in the order added: (qw, qx, qy, qz, x, y, z) each, velocities (w, v) each.
@@ -304,7 +310,7 @@ _DOC = {"tamsi": "Drake's discrete plant under TAMSI; Hunt & Crossley point cont
 
 MODES = {
     f"drake:{name}": ContactMode(
-        "drake", name, "drake", run, scenes=("ball", "slide", "rest", "stack"),
+        "drake", name, "drake", run, poses=POSES,
         settings={"plant": name, "contact_model": "kPoint",
                   **({"integrator": INTEGRATOR, "fixed_step_mode": True} if name == "continuous" else {})},
         doc=_DOC[name], module="pydrake")

@@ -20,11 +20,9 @@ import numpy as np
 
 from scenarios.penalty_ball import zeta_for
 
+from .._contact import BOX, SPHERE, ContactMode, record_loop, timed_loop
 from .._engine import import_engine
-from ._mode import ContactMode, record_loop, timed_loop
-
-INTEGRATORS = {"euler": "Euler", "implicit": "implicit", "implicitfast": "implicitfast", "rk4": "RK4",
-               "discrete": "discrete"}
+from . import MODES as INTEGRATORS  # MuJoCo's integrators: each smooth mode's, posed in each cone
 CONES = ("pyramidal", "elliptic")
 #: The contact's natural frequency (rad/s): a static penetration of g / omega_c^2 = 0.25 mm under
 #: gravity; a contact pi / omega_c long, which a 60 Hz step (h omega_c = 3.3) does not
@@ -34,6 +32,10 @@ OMEGA_C = 200.0
 IMPEDANCE = 0.9999
 SOLVER_ITERATIONS = 100
 SOLVER_TOLERANCE = 1e-10
+
+#: How MuJoCo poses each contact scene (the scene's kind -> its ``ContactPose``): the ball a sphere on
+#: one slide joint along z, each box a cube on a free joint. A new contact scene is one entry here.
+POSES = {"ball": SPHERE, "slide": BOX, "rest": BOX, "stack": BOX}
 
 
 def _requested_e(scene) -> float:
@@ -46,14 +48,18 @@ def _solref(e: float) -> tuple[float, float]:
     return -OMEGA_C ** 2, -2.0 * zeta_for(e) * OMEGA_C
 
 
+def _gravity(scene) -> str:
+    return " ".join("0" if x == 0.0 else repr(float(x)) for x in scene.gravity)
+
+
 def _xml(integrator: str, cone: str, scene, dt: float) -> str:
     k, b = _solref(_requested_e(scene))
     contact = (f'solref="{k!r} {b!r}" solimp="{IMPEDANCE} {IMPEDANCE} 0.001 0.5 2" margin="0" gap="0"')
-    opt = (f'<option timestep="{dt!r}" integrator="{integrator}" cone="{cone}" gravity="0 0 {-scene.g!r}" '
+    opt = (f'<option timestep="{dt!r}" integrator="{integrator}" cone="{cone}" gravity="{_gravity(scene)}" '
            f'iterations="{SOLVER_ITERATIONS}" tolerance="{SOLVER_TOLERANCE}" impratio="1" noslip_iterations="0">'
            '<flag warmstart="enable"/></option>')
     floor = f'<geom name="floor" type="plane" size="0 0 1" condim="{{condim}}" friction="{{mu}} 0 0" {contact}/>'
-    if scene.id == "ball":
+    if POSES[scene.kind] is SPHERE:
         r, z0 = scene.radius, scene.h0 + scene.radius
         body = (f'<body name="b0" pos="0 0 0"><joint name="z" type="slide" axis="0 0 1" damping="0" armature="0"/>'
                 f'<geom type="sphere" size="{r!r}" pos="0 0 0" mass="{scene.mass!r}" condim="1" {contact}/></body>')
@@ -70,13 +76,13 @@ def _xml(integrator: str, cone: str, scene, dt: float) -> str:
 
 
 def _settings(mujoco, m, scene, integrator: str, cone: str) -> dict:
-    e = getattr(scene, "e", None)
     out = {"integrator": integrator, "cone": cone,
            "solref": [float(x) for x in m.geom_solref[0]], "solimp": [float(x) for x in m.geom_solimp[0]],
            "contact omega_c (rad/s)": OMEGA_C, "margin": float(m.geom_margin[0]), "gap": float(m.geom_gap[0]),
            "solver": "Newton", "iterations": int(m.opt.iterations), "tolerance": float(m.opt.tolerance),
            "impratio": float(m.opt.impratio), "noslip_iterations": int(m.opt.noslip_iterations)}
-    if e is not None:
+    if POSES[scene.kind] is SPHERE:
+        e = scene.e
         out["restitution"] = f"e = {e:g} -> damping ratio {zeta_for(e):.6g} (solref damping = 2 zeta omega_c)"
         out["joint"] = "one slide joint along z, condim 1 (frictionless)"
     else:
@@ -98,11 +104,16 @@ def run(mode: ContactMode, scene, dt: float):
         d = mujoco.MjData(m)
         if m.nkey:
             mujoco.mj_resetDataKeyframe(m, d, 0)
-        if scene.id == "slide":
-            d.qvel[0] = scene.v0
+        for i, v in enumerate(scene.initial_velocities()):  # a free joint's velocities: linear, then angular
+            if any(v):
+                if sphere:
+                    d.qvel[0] = v[2]
+                else:
+                    d.qvel[6 * i:6 * i + 3] = v
         mujoco.mj_forward(m, d)
         return m, d
 
+    sphere = POSES[scene.kind] is SPHERE
     m, d = fresh()
     nb = scene.bodies
     worst = [0]
@@ -112,7 +123,7 @@ def run(mode: ContactMode, scene, dt: float):
         worst[0] = max(worst[0], int(d.solver_niter[0]))
 
     def read():
-        if scene.id == "ball":
+        if sphere:
             c = np.array([[0.0, 0.0, d.qpos[0]]])
             v = np.array([[0.0, 0.0, d.qvel[0]]])
         else:
@@ -141,7 +152,7 @@ _DOC = ("MuJoCo {integrator} with the {cone} friction cone; contact a soft const
 MODES = {
     (f"mujoco:{name}" if cone == "pyramidal" else f"mujoco:{name}?cone={cone}"): ContactMode(
         "mujoco", name if cone == "pyramidal" else f"{name}?cone={cone}", "mujoco", run,
-        scenes=("ball", "slide", "rest", "stack"),
+        poses=POSES,
         settings={"integrator": name, "cone": cone},
         doc=_DOC.format(integrator=INTEGRATORS[name], cone=cone, omega=OMEGA_C))
     for name in INTEGRATORS for cone in CONES
