@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: test test-slow nightly bench install clean
+.PHONY: test test-slow lint nightly bench install clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -18,8 +18,13 @@ install: $(STAMP)
 
 # One pytest worker per core (pytest-xdist), tests handed out as workers free up: the suite is
 # CPU-bound, and its tests are independent of the load beside them.
-test: $(STAMP)
+test: $(STAMP) lint
 	$(BIN)/python -m pytest -q -n auto --dist worksteal
+
+# ruff's lint and format (pyproject.toml says which rules and why): part of `make test`.
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
 
 # The long studies `make test` leaves out (marked slow: every scheme's kernel on every scene, every
 # engine mode's own build, model-file and cluster nightlies, a bisection over releases).

@@ -16,6 +16,7 @@ contact scene and the two loops every contact pose runs), ``_loops.py`` (the two
 into a trajectory), ``_engine.py`` (an engine's quiet import, its release, the releases an adapter
 supports and the ``Engine`` entry) and ``_posing.py`` (what several poses compute alike).
 """
+
 from __future__ import annotations
 
 from records.trajectory import output_marks
@@ -28,14 +29,36 @@ from ._mode import EngineMode
 from ._model import EngineModel, Model, SteppedModel, declared
 
 #: Every built-in engine by id, each package's ``ENGINE``, one line.
-ENGINES: dict[str, Engine] = {e.id: e for e in (mujoco.ENGINE, pybullet.ENGINE, pymunk.ENGINE, rebound.ENGINE,
-                                                drake.ENGINE, newton.ENGINE)}
+ENGINES: dict[str, Engine] = {
+    e.id: e for e in (mujoco.ENGINE, pybullet.ENGINE, pymunk.ENGINE, rebound.ENGINE, drake.ENGINE, newton.ENGINE)
+}
 ENGINE_METHODS: dict[str, EngineMode] = {mid: mode for e in ENGINES.values() for mid, mode in e.methods.items()}
 #: Every engine's contact modes (each engine's ``contact.py``): an integrator with its contact model.
 CONTACT_MODES: dict[str, ContactMode] = {mid: m for e in ENGINES.values() for mid, m in e.contact_modes.items()}
 #: Every engine's distributions, each engine's own first: what the harness records and compares.
 ENGINE_DISTS: tuple[str, ...] = tuple(dict.fromkeys(d for e in ENGINES.values() for d in e.dists))
 
-__all__ = ["BOX", "CONTACT_MODES", "SPHERE", "ContactMode", "ContactPose", "ENGINES", "ENGINE_DISTS", "ENGINE_METHODS", "Engine", "EngineMode", "EngineModel", "EngineVersions",
-           "Model", "SteppedModel", "declared", "drive", "engine_version", "import_engine", "output_marks",
-           "version_key"]
+__all__ = [
+    "BOX",
+    "CONTACT_MODES",
+    "SPHERE",
+    "ContactMode",
+    "ContactPose",
+    "ENGINES",
+    "ENGINE_DISTS",
+    "ENGINE_METHODS",
+    "Engine",
+    "EngineMode",
+    "EngineModel",
+    "EngineVersions",
+    "Model",
+    "SteppedModel",
+    "declared",
+    "drive",
+    "engine_version",
+    "import_engine",
+    "output_marks",
+    "record_loop",
+    "timed_loop",
+    "version_key",
+]

@@ -3,12 +3,13 @@ scene (``ContactPose``, one entry per scene in each engine's ``POSES``) and the 
 pose runs: ``record_loop`` (every step's state, with a blow-up caught where it happens) and
 ``timed_loop`` (the same steps again, nothing recorded, the process CPU clock around the engine's
 calls)."""
+
 from __future__ import annotations
 
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -87,9 +88,16 @@ class ContactMode:
         return False, self.unsupported.get(scene_id, f"{self.id} does not pose {scene_id}")
 
 
-def record_loop(mode: ContactMode, scene, dt: float, step: Callable[[], None],
-                read: Callable[[], tuple[np.ndarray, np.ndarray]], settings: dict, loop: str,
-                time_again: Callable[[int], float] | None = None) -> ContactTrajectory:
+def record_loop(
+    mode: ContactMode,
+    scene,
+    dt: float,
+    step: Callable[[], None],
+    read: Callable[[], tuple[np.ndarray, np.ndarray]],
+    settings: dict,
+    loop: str,
+    time_again: Callable[[int], float] | None = None,
+) -> ContactTrajectory:
     """Step ``steps = ceil(duration / dt)`` times, reading (centres, velocities) (each (bodies, 3))
     before the first and after every step. A non-finite state, or one past ``RUNAWAY_M``, stops the
     run as ``unstable`` at that step. ``time_again(steps)``, where given, steps a fresh copy of the
@@ -108,12 +116,26 @@ def record_loop(mode: ContactMode, scene, dt: float, step: Callable[[], None],
         centres[i], velocities[i] = c, v
         if not (np.all(np.isfinite(c)) and np.all(np.isfinite(v))) or np.max(np.abs(c)) > RUNAWAY_M:
             status, failed, n = UNSTABLE, i, i
-            detail = (f"state {'not finite' if not np.all(np.isfinite(c)) else f'past {RUNAWAY_M:g} m'} at step {i} "
-                      f"(t = {i * dt:.4g} s)")
+            detail = (
+                f"state {'not finite' if not np.all(np.isfinite(c)) else f'past {RUNAWAY_M:g} m'} at step {i} "
+                f"(t = {i * dt:.4g} s)"
+            )
             break
-    run = ContactTrajectory.of(scene, mode.id, dt, np.arange(n + 1) * dt, centres[:n + 1], velocities[:n + 1],
-                               loop=loop, settings=dict(settings), status=status, detail=detail, failed_step=failed,
-                               engine_version=engine_version(mode.dist), steps=steps)
+    run = ContactTrajectory.of(
+        scene,
+        mode.id,
+        dt,
+        np.arange(n + 1) * dt,
+        centres[: n + 1],
+        velocities[: n + 1],
+        loop=loop,
+        settings=dict(settings),
+        status=status,
+        detail=detail,
+        failed_step=failed,
+        engine_version=engine_version(mode.dist),
+        steps=steps,
+    )
     if status == OK and time_again is not None:
         run.loop_cpu_s = time_again(steps)
     return run

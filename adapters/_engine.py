@@ -2,6 +2,7 @@
 output silenced, the release installed, the releases an adapter supports, and the ``Engine`` entry
 each engine package declares.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -12,7 +13,7 @@ import os
 import re
 import sys
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 
 @contextlib.contextmanager

@@ -16,6 +16,7 @@ Both give the same trajectory bitwise (``tests/test_engine_loops.py``). A run wh
 loop meets a diverged output state or an engine warning is run again from its start on the
 per-step path, which stops it at the exact step (``EngineMode.simulate``).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -50,29 +51,52 @@ def drive(model: Model, scene: Scene, method: str, dt: float, steps: int, every:
         rec_v.append(now[1])
 
     failed, detail = step_loop(lambda a, n: model.advance(), check, record, steps, every)
-    traj = _trajectory(scene, method, dt, steps, every, rec_step, rec_q, rec_v, UNSTABLE if failed else OK,
-                       detail, failed)
+    traj = _trajectory(
+        scene, method, dt, steps, every, rec_step, rec_q, rec_v, UNSTABLE if failed else OK, detail, failed
+    )
     traj.meta.loop = "harness: one advance() per step, state read after each"
     return traj
 
 
-def _trajectory(scene: Scene, method: str, dt: float, steps: int, every: int, rec_step, rec_q, rec_v,
-                status: str = OK, detail: str = "", failed: int | None = None) -> Trajectory:
+def _trajectory(
+    scene: Scene,
+    method: str,
+    dt: float,
+    steps: int,
+    every: int,
+    rec_step,
+    rec_q,
+    rec_v,
+    status: str = OK,
+    detail: str = "",
+    failed: int | None = None,
+) -> Trajectory:
     q_arr = np.asarray(rec_q)[:, None, :]
     v_arr = np.asarray(rec_v)[:, None, :]
     step_arr = np.array(rec_step, dtype=np.int64)
     with np.errstate(all="ignore"):
         energy = scene.energy(q_arr, v_arr)
     return Trajectory(
-        scene=scene.id, method=method, dt=dt, steps=steps, every=every,
-        step=step_arr, t=step_arr * dt, q=q_arr, v=v_arr, energy=energy,
-        status=status, detail=detail, failed_step=failed,
+        scene=scene.id,
+        method=method,
+        dt=dt,
+        steps=steps,
+        every=every,
+        step=step_arr,
+        t=step_arr * dt,
+        q=q_arr,
+        v=v_arr,
+        energy=energy,
+        status=status,
+        detail=detail,
+        failed_step=failed,
         meta=RunMeta(steps_run=(failed - 1) if failed else steps, params=dict(scene.values)),
     )
 
 
-def run_engine_loop(model: Model, scene: Scene, method: str, dt: float, steps: int,
-                    every: int = 1) -> Trajectory | None:
+def run_engine_loop(
+    model: Model, scene: Scene, method: str, dt: float, steps: int, every: int = 1
+) -> Trajectory | None:
     """The run through the engine's own loop (``model.run``), recorded as :func:`drive` records;
     None where the engine reported trouble or an output state diverged (the caller replays the
     run with :func:`drive`, which finds the step). A state that diverges and comes back within
@@ -99,8 +123,9 @@ def run_engine_loop(model: Model, scene: Scene, method: str, dt: float, steps: i
     def check(n):
         return divergence_detail(n, n * dt) if diverged(*rec[n]) else ""
 
-    failed, _ = step_loop(lambda a, b: None, (lambda n: "") if model.run_checks_divergence else check,
-                          record, steps, every, spans=True)
+    failed, _ = step_loop(
+        lambda a, b: None, (lambda n: "") if model.run_checks_divergence else check, record, steps, every, spans=True
+    )
     if failed:
         return None
     traj = _trajectory(scene, method, dt, steps, every, rec_step, np.array(rec_q), np.array(rec_v))

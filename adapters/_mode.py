@@ -6,10 +6,11 @@ count=False)`` returning a model (``adapters._model``) and one :class:`EngineMod
 its ``METHODS``; ``simulate`` steps the model through one of the loops of ``adapters._loops`` and
 records with the trajectory what ran: the engine, its release and the settings read back.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 
@@ -95,12 +96,15 @@ class EngineMode:
         """The options set (``options_set``) by name."""
         return dict(self.options_set)
 
-    def with_options(self, options: dict) -> "EngineMode":
+    def with_options(self, options: dict) -> EngineMode:
         """The same mode with ``options`` set (checked by the caller, ``harness.methods``); setting
         ``adaptive_with`` makes it adaptive."""
         merged = {**self.options, **options}
-        return replace(self, options_set=tuple(sorted(merged.items())),
-                       adaptive=self.adaptive or (self.adaptive_with is not None and self.adaptive_with in merged))
+        return replace(
+            self,
+            options_set=tuple(sorted(merged.items())),
+            adaptive=self.adaptive or (self.adaptive_with is not None and self.adaptive_with in merged),
+        )
 
     @property
     def family(self) -> str:
@@ -118,8 +122,10 @@ class EngineMode:
         try:
             engine = import_engine(self.module)
         except Exception as exc:  # ImportError, or a broken install (OSError from a shared library)
-            return False, (f"{self.module} cannot be imported ({type(exc).__name__}: {exc}); "
-                           f"install it with: pip install 'integrator-harness[{self.engine}]'")
+            return False, (
+                f"{self.module} cannot be imported ({type(exc).__name__}: {exc}); "
+                f"install it with: pip install 'integrator-harness[{self.engine}]'"
+            )
         has = True if self.present is None else self.present(engine)
         if has is not True:
             return False, has if isinstance(has, str) and has else f"not in {self.dist} {engine_version(self.dist)}"
@@ -136,7 +142,7 @@ class EngineMode:
             return (False, why) if why else (True, "")
         return False, self.unsupported.get(scene.kind, f"{self.id} has no model of scene {scene.id}")
 
-    def compiled_twin(self) -> "EngineMode":
+    def compiled_twin(self) -> EngineMode:
         """Itself: an engine mode already runs the engine's own loop."""
         return self
 
@@ -152,8 +158,9 @@ class EngineMode:
         # ``count`` is passed only when asked for, so that a plugin's build(engine, mode, scene, dt) still fits.
         return declared(self.build(engine, self.mode, scene, dt, **({"count": True} if count else {}), **self.options))
 
-    def simulate(self, scene: Scene, dt: float, steps: int, every: int = 1, *, loop: str = "engine",
-                 count: bool = False) -> Trajectory:
+    def simulate(
+        self, scene: Scene, dt: float, steps: int, every: int = 1, *, loop: str = "engine", count: bool = False
+    ) -> Trajectory:
         """Step the engine in this process (the harness calls this inside a worker process).
 
         ``loop`` is ``"engine"`` (the engine's own loop between output points) or ``"harness"``
@@ -188,8 +195,9 @@ class EngineMode:
         traj.meta.settings = dict(model.settings)
         return traj
 
-    def timed_run(self, scene: Scene, dt: float, steps: int, now: Callable[[], float],
-                  loop: str = "engine") -> tuple[float, int | None]:
+    def timed_run(
+        self, scene: Scene, dt: float, steps: int, now: Callable[[], float], loop: str = "engine"
+    ) -> tuple[float, int | None]:
         """(seconds on the clock ``now`` that one run of ``steps`` steps with a single output point
         takes through ``loop`` (as ``simulate`` runs it), the step it diverged at or None), the
         model built and closed outside the clock: what ``harness.measures.cost`` times, free of
@@ -233,8 +241,9 @@ class EngineMode:
                 q, v = model.state()
                 trouble = model.trouble()
                 if trouble is not None or diverged(q, v):
-                    out.append((None, f"one step from {y.tolist()} ended unstable: "
-                                      f"{trouble or divergence_detail(1, dt)}"))
+                    out.append(
+                        (None, f"one step from {y.tolist()} ended unstable: {trouble or divergence_detail(1, dt)}")
+                    )
                 else:
                     out.append((np.concatenate([q, v]), ""))
             return out
@@ -251,10 +260,17 @@ class EngineMode:
             model.close()
 
     def describe(self) -> dict:
-        return {"id": self.id, "family": self.engine, "engine": self.engine, "mode": self.mode,
-                "summary": self.summary, "engine_version": engine_version(self.dist),
-                "engine_versions": str(self.versions) if self.versions else None,
-                "settings": dict(self.settings), "supported_scenes": list(self.scenes), "adaptive": self.adaptive,
-                "precision": self.precision,
-                "doc": " ".join(self.doc.split())}
-
+        return {
+            "id": self.id,
+            "family": self.engine,
+            "engine": self.engine,
+            "mode": self.mode,
+            "summary": self.summary,
+            "engine_version": engine_version(self.dist),
+            "engine_versions": str(self.versions) if self.versions else None,
+            "settings": dict(self.settings),
+            "supported_scenes": list(self.scenes),
+            "adaptive": self.adaptive,
+            "precision": self.precision,
+            "doc": " ".join(self.doc.split()),
+        }

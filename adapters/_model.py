@@ -6,6 +6,7 @@ A model is the minimal engine model of one scene, set to the scene's initial sta
 advances one step of ``dt`` at a time (or many, through the engine's own loop) and reports its
 state in the scene's own coordinates (``adapters._loops`` turns it into a trajectory).
 """
+
 from __future__ import annotations
 
 from typing import Protocol
@@ -132,4 +133,3 @@ def run_by_steps(model, marks: np.ndarray) -> tuple[list[tuple[np.ndarray, np.nd
 
     failed, _ = step_loop(advance, check, lambda n: None, int(marks[-1]), 1, spans=True, marks=marks)
     return out, failed is None
-

@@ -1,10 +1,11 @@
 """What several adapters' poses share: a force applied from Python in one order of operations,
 and an angle made continuous.
 """
+
 from __future__ import annotations
 
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -2,6 +2,7 @@
 each scene's own checks): a mode that integrates as another scheme than its name suggests, or as
 explicit Euler, or as none; an energy gain or a blow-up at the nominal timestep, and a blow-up
 within the stability measure's horizon set beside the same engine's other modes."""
+
 from __future__ import annotations
 
 import math
@@ -30,19 +31,41 @@ def engine_findings(piv: dict) -> list[Finding]:
             expected = f.name_suggests
             if expected and matches and f"ref:{expected}" not in matches:
                 said = " = ".join(f"`{m}`" for m in matches)
-                out.append(Finding(f"`{method}` on `{scene}` integrates as **{said}** (max deviation {dev:.1e}), "
-                                   f"not the {expected.replace('_', ' ')} its name suggests.", None, scene, method))
+                out.append(
+                    Finding(
+                        f"`{method}` on `{scene}` integrates as **{said}** (max deviation {dev:.1e}), "
+                        f"not the {expected.replace('_', ' ')} its name suggests.",
+                        None,
+                        scene,
+                        method,
+                    )
+                )
             elif matches == ["ref:explicit_euler"]:
-                out.append(Finding(f"`{method}` on `{scene}` is **explicit Euler** (max deviation {dev:.1e}).",
-                                   None, scene, method))
+                out.append(
+                    Finding(
+                        f"`{method}` on `{scene}` is **explicit Euler** (max deviation {dev:.1e}).", None, scene, method
+                    )
+                )
             elif not matches and f.note:
                 out.append(Finding(f"`{method}` on `{scene}`: {f.note}", None, scene, method))
         if energy is not None and energy.status == "unstable" and energy.figures.failed_step:
-            out.append(Finding(f"`{method}` blows up on `{scene}` at the nominal timestep "
-                               f"(step {energy.figures.failed_step}).", None, scene, method))
+            out.append(
+                Finding(
+                    f"`{method}` blows up on `{scene}` at the nominal timestep (step {energy.figures.failed_step}).",
+                    None,
+                    scene,
+                    method,
+                )
+            )
         elif energy is not None and energy.status == "ok" and energy.figures.energy_class == "grows":
-            out.append(Finding(f"`{method}` gains energy on `{scene}` at the nominal timestep "
-                               f"(max |ΔE/E| {energy.value:.2e}).", None, scene, method))
+            out.append(
+                Finding(
+                    f"`{method}` gains energy on `{scene}` at the nominal timestep (max |ΔE/E| {energy.value:.2e}).",
+                    None,
+                    scene,
+                    method,
+                )
+            )
     return out
 
 
@@ -73,23 +96,34 @@ def blowups_at_nominal(piv: dict) -> list[Finding]:
                 t, e = np.asarray(n2.series["t"]), np.asarray(n2.series["energy"], dtype=float)
                 e_at = float(np.interp(t_fail, t, e))
                 kept = f", energy {e_at:.3g} (started at {e[0]:.3g})"
-            companions.append((m2, runs_on, (f"runs on{kept}" if runs_on else f"blew up too, at step {n2.failed_step}")))
+            companions.append(
+                (m2, runs_on, (f"runs on{kept}" if runs_on else f"blew up too, at step {n2.failed_step}"))
+            )
         limit = stab.value
         own = nominal.series["energy"] if nominal.has_series else []
         gained = f", its energy {own[0]:.3g} -> {own[-1]:.3g} before it" if len(own) > 1 else ""
-        text = (f"`{method}` on `{scene}` blows up at the nominal h·ω = {nominal.homega:.3g} (dt = "
-                f"{nominal.dt:.3g}) at step {step} of {nominal.steps}{gained} "
-                f"({nominal.detail or 'diverged'}); its largest stable h·ω there is {_g(limit, '.3g')}.")
+        text = (
+            f"`{method}` on `{scene}` blows up at the nominal h·ω = {nominal.homega:.3g} (dt = "
+            f"{nominal.dt:.3g}) at step {step} of {nominal.steps}{gained} "
+            f"({nominal.detail or 'diverged'}); its largest stable h·ω there is {_g(limit, '.3g')}."
+        )
         if companions:
-            text += " At that step the same engine's other modes, on the same model: " + "; ".join(
-                f"`{m}` {what}" for m, _, what in companions) + "."
+            text += (
+                " At that step the same engine's other modes, on the same model: "
+                + "; ".join(f"`{m}` {what}" for m, _, what in companions)
+                + "."
+            )
             steady = [m for m, ok, _ in companions if ok]
             if steady:
-                text += (f" Cause: the mode's integrator, not the scene's model ({', '.join(f'`{m}`' for m in steady)} "
-                         f"integrate the same model at the same dt). Use {'one of them' if len(steady) > 1 else 'it'}, "
-                         f"or h·ω <= {_g(limit, '.3g')} with `{method}`.")
+                text += (
+                    f" Cause: the mode's integrator, not the scene's model ({', '.join(f'`{m}`' for m in steady)} "
+                    f"integrate the same model at the same dt). Use {'one of them' if len(steady) > 1 else 'it'}, "
+                    f"or h·ω <= {_g(limit, '.3g')} with `{method}`."
+                )
             else:
-                text += (f" Cause: the scene's model at this timestep (every mode of the engine fails on it): "
-                         f"h·ω <= {_g(limit, '.3g')}.")
+                text += (
+                    f" Cause: the scene's model at this timestep (every mode of the engine fails on it): "
+                    f"h·ω <= {_g(limit, '.3g')}."
+                )
         out.append(Finding(text, None, scene, method))
     return out

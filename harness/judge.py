@@ -12,6 +12,7 @@ where it checks what a method was measured to do, it names the field of the meth
 behaviour (``Check.of``, ``records.method.Behaviour``) and applies to every method of the run
 that declares it, with what the declaration says.
 """
+
 from __future__ import annotations
 
 import math
@@ -68,8 +69,13 @@ def claim_checks(cells: dict) -> ClaimChecks:
         order_ok = claims.order is not None and abs(order.value - claims.order) <= ORDER_TOL
     if energy is not None and energy.figures.energy_class:
         energy_ok = claims.energy == energy.figures.energy_class
-    return ClaimChecks(claims=claims, evals=evals, order=order_ok, energy=energy_ok,
-                       homega=homega_ok(stab, claims.homega_max) if claims.known else None)
+    return ClaimChecks(
+        claims=claims,
+        evals=evals,
+        order=order_ok,
+        energy=energy_ok,
+        homega=homega_ok(stab, claims.homega_max) if claims.known else None,
+    )
 
 
 def bound_ok(cell: Cell) -> bool:
@@ -89,9 +95,13 @@ def verdict(cells: list[Cell], regressions=(), previous=None, trend=None) -> Ver
     the suite's judged history, whose latest accuracy changes are reported at once)."""
     changed = trend.latest_changes() if trend is not None else []
     judged = len(trend.runs) if previous is not None and trend is not None and trend.judged else None
-    return Verdict(previous=previous, regressions=tuple(r.line() for r in regressions), judged_runs=judged,
-                   changed=tuple(Change(c.scene, c.method, c.measure, ch.before, ch.after) for c, ch in changed),
-                   failed=tuple(failed_methods(cells)))
+    return Verdict(
+        previous=previous,
+        regressions=tuple(r.line() for r in regressions),
+        judged_runs=judged,
+        changed=tuple(Change(c.scene, c.method, c.measure, ch.before, ch.after) for c, ch in changed),
+        failed=tuple(failed_methods(cells)),
+    )
 
 
 # ----------------------------------------------------------------------------- the findings
@@ -124,9 +134,14 @@ def _names(methods) -> str:
 
 def _rows(piv: dict, scene: str, check: Check, statuses=("ok",)) -> dict:
     """{method: cell} of the check's measure on ``scene`` (of its methods, if it names any)."""
-    return {m: ms[check.measure] for (s, m), ms in sorted(piv.items())
-            if s == scene and check.measure in ms and (not check.methods or m in check.methods)
-            and ms[check.measure].status in statuses}
+    return {
+        m: ms[check.measure]
+        for (s, m), ms in sorted(piv.items())
+        if s == scene
+        and check.measure in ms
+        and (not check.methods or m in check.methods)
+        and ms[check.measure].status in statuses
+    }
 
 
 def _value(cell: Cell | None):
@@ -151,13 +166,16 @@ def stability_limits(check: Check, scene: str, piv: dict) -> list[Finding]:
     if never:
         parts.append(f"unstable at every h: {_names(never)}")
     if unresolved:
-        parts.append(f"no stable step resolved (growing at every step, by less than the search tells from 1): "
-                     f"{_names(unresolved)}")
+        parts.append(
+            f"no stable step resolved (growing at every step, by less than the search tells from 1): "
+            f"{_names(unresolved)}"
+        )
     if free:
         searched = max(stab[m].figures.homega_searched or 0 for m in free)
         parts.append(f"stable at every h searched (to h·ω = {searched:.3g}): {_names(free)}")
-    return [Finding(f"`{scene}`: largest stable h·ω on the stiffest mode, measured: " + "; ".join(parts) + ".",
-                    scene=scene)]
+    return [
+        Finding(f"`{scene}`: largest stable h·ω on the stiffest mode, measured: " + "; ".join(parts) + ".", scene=scene)
+    ]
 
 
 def survives_one_frame(check: Check, scene: str, piv: dict) -> list[Finding]:
@@ -181,9 +199,14 @@ def survives_one_frame(check: Check, scene: str, piv: dict) -> list[Finding]:
     if not survive and not need:
         return []
     explicit = [m for m in survive if is_reference(m) and not METHODS[scheme_name(m)].implicit]
-    return [Finding(f"`{scene}` at {check.expect:g} Hz: stable at one step a frame: {_names(survive) or 'none'} "
-                    f"{MARK}; substeps a frame each other method needs to be stable (measured limit): "
-                    + ", ".join(need) + ".", not explicit, scene)]
+    return [
+        Finding(
+            f"`{scene}` at {check.expect:g} Hz: stable at one step a frame: {_names(survive) or 'none'} "
+            f"{MARK}; substeps a frame each other method needs to be stable (measured limit): " + ", ".join(need) + ".",
+            not explicit,
+            scene,
+        )
+    ]
 
 
 def damping_beyond_the_limit(check: Check, scene: str, piv: dict) -> list[Finding]:
@@ -198,18 +221,27 @@ def damping_beyond_the_limit(check: Check, scene: str, piv: dict) -> list[Findin
         if not r.figures.stable:
             continue
         hi, lo = r.figures.highest or {}, r.figures.lowest or {}
-        out.append(Finding(
-            f"`{m}` on `{scene}` at {factor:g}x the explicit limit (h·ω_max = {_g(homega, '.4g')}): keeps "
-            f"{_g(r.value, '.3g')} of the energy after one step from the scene's state; per step its highest mode "
-            f"keeps {_g(hi.get('energy_factor'), '.3g')} of its energy (damping ratio ζ = "
-            f"{_g(hi.get('zeta'), '.3f')}), its lowest {_g(lo.get('energy_factor'), '.3g')} (ζ = "
-            f"{_g(lo.get('zeta'), '.3f')}); the exact motion keeps all of it (ζ = 0).", scene=scene, method=m))
+        out.append(
+            Finding(
+                f"`{m}` on `{scene}` at {factor:g}x the explicit limit (h·ω_max = {_g(homega, '.4g')}): keeps "
+                f"{_g(r.value, '.3g')} of the energy after one step from the scene's state; per step its highest mode "
+                f"keeps {_g(hi.get('energy_factor'), '.3g')} of its energy (damping ratio ζ = "
+                f"{_g(hi.get('zeta'), '.3f')}), its lowest {_g(lo.get('energy_factor'), '.3g')} (ζ = "
+                f"{_g(lo.get('zeta'), '.3f')}); the exact motion keeps all of it (ζ = 0).",
+                scene=scene,
+                method=m,
+            )
+        )
     growing = [m for m, r in damp.items() if r.figures.stable is False]
     if growing:
         rhos = [damp[m].figures.rho for m in growing if damp[m].figures.rho is not None]
-        out.append(Finding(f"`{scene}` at h·ω_max = {_g(homega, '.4g')}: {len(growing)} methods grow there (spectral "
-                           f"radius {_g(min(rhos), '.3g')} to {_g(max(rhos), '.3g')} per step): {_names(growing)}.",
-                           scene=scene))
+        out.append(
+            Finding(
+                f"`{scene}` at h·ω_max = {_g(homega, '.4g')}: {len(growing)} methods grow there (spectral "
+                f"radius {_g(min(rhos), '.3g')} to {_g(max(rhos), '.3g')} per step): {_names(growing)}.",
+                scene=scene,
+            )
+        )
     return out
 
 
@@ -220,18 +252,31 @@ def matches_only_from_a_generic_state(check: Check, scene: str, piv: dict) -> li
     (method,), (scheme,) = check.methods, check.against
     mine, theirs = piv.get((scene, method), MethodCells()), piv.get((scene, scheme), MethodCells())
     ident, dd, be = mine.identity, mine.cell(check.measure), theirs.cell(check.measure)
-    if not (ident is not None and ident.status == "ok" and ident.figures.match is None and dd is not None
-            and dd.status == "ok" and be is not None and be.status == "ok"):
+    if not (
+        ident is not None
+        and ident.status == "ok"
+        and ident.figures.match is None
+        and dd is not None
+        and dd.status == "ok"
+        and be is not None
+        and be.status == "ok"
+    ):
         return []
     rho_d = dd.figures.highest["rho"] if dd.figures.highest else None
     rho_b = be.figures.highest["rho"] if be.figures.highest else None
     apart = abs(rho_d / rho_b - 1.0) if rho_d is not None and rho_b else None
-    return [Finding(
-        f"`{method}` on `{scene}` is `{scheme}` only from a generic state: there its one-step map is `{scheme}`'s "
-        f"(highest mode's spectral radius within {_g(apart, '.1e')} relative), but from the scene's state it matches "
-        f"no scheme, since {check.note} (closest `{scheme}`, max deviation {_g(ident.value, '.2e')}), and keeps "
-        f"{_g(dd.value, '.3g')} of the energy after that first step at 100x the limit, where `{scheme}` keeps "
-        f"{_g(be.value, '.3g')}.", scene=scene, method=method)]
+    return [
+        Finding(
+            f"`{method}` on `{scene}` is `{scheme}` only from a generic state: there its one-step map is `{scheme}`'s "
+            f"(highest mode's spectral radius within {_g(apart, '.1e')} relative), but from the scene's state it "
+            "matches "
+            f"no scheme, since {check.note} (closest `{scheme}`, max deviation {_g(ident.value, '.2e')}), and keeps "
+            f"{_g(dd.value, '.3g')} of the energy after that first step at 100x the limit, where `{scheme}` keeps "
+            f"{_g(be.value, '.3g')}.",
+            scene=scene,
+            method=method,
+        )
+    ]
 
 
 def cost_against_size(check: Check, scene: str, piv: dict) -> list[Finding]:
@@ -241,9 +286,15 @@ def cost_against_size(check: Check, scene: str, piv: dict) -> list[Finding]:
         rows = r.figures.rows or []
         ns = [row["ndof"] for row in rows]
         per_dof = rows[-1]["ns_per_dof_step"] if rows else None
-        out.append(Finding(f"`{m}` on `{scene}`: cost per step grows as N^{r.value:.2f} over N = {min(ns)}…{max(ns)} "
-                           f"unknowns (log-log fit, r = {_g(r.figures.rvalue, '.4f')}; {_g(per_dof, '.3g')} ns per "
-                           f"unknown-step at N = {max(ns)}): {check.note}.", scene=scene, method=m))
+        out.append(
+            Finding(
+                f"`{m}` on `{scene}`: cost per step grows as N^{r.value:.2f} over N = {min(ns)}…{max(ns)} "
+                f"unknowns (log-log fit, r = {_g(r.figures.rvalue, '.4f')}; {_g(per_dof, '.3g')} ns per "
+                f"unknown-step at N = {max(ns)}): {check.note}.",
+                scene=scene,
+                method=m,
+            )
+        )
     return out
 
 
@@ -258,15 +309,29 @@ def constraint_drift(check: Check, scene: str, piv: dict) -> list[Finding]:
         f = r.figures
         k = f", {f.iterations} passes" if f.iterations else ""
         parts.append(f"`{m}`{k}: {_g(r.value, '.2e')} stretch, energy {_g(f.energy_change, '+.2%')}")
-    out = [Finding(f"`{scene}` over t = {_g(first.figures.t_final, '.3g')} at the nominal dt = {_g(first.dt, '.3g')}, "
-                   f"largest relative link stretch and energy change at the end: " + "; ".join(parts) + ".",
-                   scene=scene)]
+    out = [
+        Finding(
+            f"`{scene}` over t = {_g(first.figures.t_final, '.3g')} at the nominal dt = {_g(first.dt, '.3g')}, "
+            f"largest relative link stretch and energy change at the end: " + "; ".join(parts) + ".",
+            scene=scene,
+        )
+    ]
     for m, r in rows.items():
         by = r.figures.by_iterations
         if by:
-            out.append(Finding(f"`{m}` on `{scene}` against projection passes: " + "; ".join(
-                f"{b['iterations']}: stretch {_g(b['max_stretch'], '.2e')}, energy {_g(b['energy_change'], '+.2%')}"
-                for b in by) + ".", scene=scene, method=m))
+            out.append(
+                Finding(
+                    f"`{m}` on `{scene}` against projection passes: "
+                    + "; ".join(
+                        f"{b['iterations']}: stretch {_g(b['max_stretch'], '.2e')}, energy "
+                        f"{_g(b['energy_change'], '+.2%')}"
+                        for b in by
+                    )
+                    + ".",
+                    scene=scene,
+                    method=m,
+                )
+            )
     return out
 
 
@@ -286,11 +351,18 @@ def energy_classes(check: Check, scene: str, piv: dict) -> list[Finding]:
         return f"`{m}` {val:.1e} {r.figures.energy_class}" if val is not None else f"`{m}` {r.figures.energy_class}"
 
     named = [m for m in energy if m in check.methods]
-    ok = bool(named) and all(energy[m].status == "ok" and energy[m].figures.energy_class == check.expect
-                             for m in named)
-    return [Finding(f"`{scene}`, energy over {dt * steps:.3g} days at dt = {dt:g} (max |ΔE/E|, class): symplectic "
-                    + ", ".join(text(m) for m in named) + f": all {check.expect} {MARK}. Others: "
-                    + ", ".join(text(m) for m in energy if m not in check.methods) + ".", ok, scene)]
+    ok = bool(named) and all(energy[m].status == "ok" and energy[m].figures.energy_class == check.expect for m in named)
+    return [
+        Finding(
+            f"`{scene}`, energy over {dt * steps:.3g} days at dt = {dt:g} (max |ΔE/E|, class): symplectic "
+            + ", ".join(text(m) for m in named)
+            + f": all {check.expect} {MARK}. Others: "
+            + ", ".join(text(m) for m in energy if m not in check.methods)
+            + ".",
+            ok,
+            scene,
+        )
+    ]
 
 
 def energy_not_bounded(check: Check, scene: str, piv: dict) -> list[Finding]:
@@ -299,11 +371,17 @@ def energy_not_bounded(check: Check, scene: str, piv: dict) -> list[Finding]:
     for m, r in _rows(piv, scene, check).items():
         n = r.figures.numbers or {}
         nan = math.nan
-        out.append(Finding(
-            f"`{scene}`: `{m}`'s energy error is not bounded but {r.figures.energy_class} {MARK}: |ΔE/E| envelope "
-            f"{n.get('first_tenth_envelope', nan):.1e} over the first tenth of the run, "
-            f"{n.get('last_tenth_envelope', nan):.1e} over the last (secular rate {n.get('secular_rate', nan):.2e} "
-            f"per day).", r.figures.energy_class in check.expect, scene, m))
+        out.append(
+            Finding(
+                f"`{scene}`: `{m}`'s energy error is not bounded but {r.figures.energy_class} {MARK}: |ΔE/E| envelope "
+                f"{n.get('first_tenth_envelope', nan):.1e} over the first tenth of the run, "
+                f"{n.get('last_tenth_envelope', nan):.1e} over the last (secular rate {n.get('secular_rate', nan):.2e} "
+                f"per day).",
+                r.figures.energy_class in check.expect,
+                scene,
+                m,
+            )
+        )
     return out
 
 
@@ -323,11 +401,17 @@ def not_symplectic_where_mass_varies(check: Check, scene: str, piv: dict) -> lis
         cls, varies = r.figures.energy_class, (r.figures.numbers or {}).get("mass_matrix_varies")
         if cls is None or cls == claim or varies is None or varies <= check.tolerance:
             continue
-        out.append(Finding(
-            f"`{m}` on `{scene}`: energy {cls} (max |ΔE/E| {_g(_value(r), '.2g')}), not {claim} as `{scheme}` "
-            f"claims: semi-implicit in generalized velocity, not momentum (v+ = v + h M(q)⁻¹f, q+ = q + h v+): not "
-            f"symplectic where M(q) varies; M varies by {varies:.1%} over the run's configurations (largest "
-            f"relative change of v'Mv).", None, scene, m))
+        out.append(
+            Finding(
+                f"`{m}` on `{scene}`: energy {cls} (max |ΔE/E| {_g(_value(r), '.2g')}), not {claim} as `{scheme}` "
+                f"claims: semi-implicit in generalized velocity, not momentum (v+ = v + h M(q)⁻¹f, q+ = q + h v+): not "
+                f"symplectic where M(q) varies; M varies by {varies:.1%} over the run's configurations (largest "
+                f"relative change of v'Mv).",
+                None,
+                scene,
+                m,
+            )
+        )
     return out
 
 
@@ -337,10 +421,17 @@ def integrates_as(check: Check, scene: str, piv: dict) -> list[Finding]:
     for m, ident in _rows(piv, scene, check).items():
         match, dev = ident.figures.match, _value(ident)
         how = "bitwise" if dev == 0 else f"to {dev:.1e}"
-        out.append(Finding(
-            f"`{scene}`: `{m}` integrates as `{match}` ({how} over {int(ident.steps)} steps of dt = {ident.dt:.4g}) "
-            f"{MARK}; runner-up `{ident.figures.runner_up}` at {ident.figures.runner_up_deviation or math.nan:.1e}.",
-            match == check.expect, scene, m))
+        out.append(
+            Finding(
+                f"`{scene}`: `{m}` integrates as `{match}` ({how} over {int(ident.steps)} steps of dt = "
+                f"{ident.dt:.4g}) "
+                f"{MARK}; runner-up `{ident.figures.runner_up}` at "
+                f"{ident.figures.runner_up_deviation or math.nan:.1e}.",
+                match == check.expect,
+                scene,
+                m,
+            )
+        )
     return out
 
 
@@ -364,11 +455,17 @@ def advances_by_half_steps(check: Check, scene: str, piv: dict) -> list[Finding]
         t = list(sa["t"])
         i = next((k for k, tk in enumerate(t) if tk >= 1000 * mine.dt * (1 - 1e-9)), len(t) - 1)
         kept_mine, kept_theirs = sa["energy"][i] / sa["energy"][0], sb["energy"][i] / sb["energy"][0]
-        out.append(Finding(
-            f"`{scene}`: `{m}` is not `{plain}` at the step asked for but two of its half steps (identified as "
-            f"`{check.expect}`, to {_value(ident) or 0.0:.1e}) {MARK}: at t = {t[i]:.4g} (steps of dt = "
-            f"{mine.dt:.4g}) it keeps {kept_mine:.3g} of the energy where `{plain}` keeps {kept_theirs:.3g}, "
-            f"for twice its solves.", True, scene, m))
+        out.append(
+            Finding(
+                f"`{scene}`: `{m}` is not `{plain}` at the step asked for but two of its half steps (identified as "
+                f"`{check.expect}`, to {_value(ident) or 0.0:.1e}) {MARK}: at t = {t[i]:.4g} (steps of dt = "
+                f"{mine.dt:.4g}) it keeps {kept_mine:.3g} of the energy where `{plain}` keeps {kept_theirs:.3g}, "
+                f"for twice its solves.",
+                True,
+                scene,
+                m,
+            )
+        )
     return out
 
 
@@ -377,8 +474,15 @@ def energy_within(check: Check, scene: str, piv: dict) -> list[Finding]:
     out = []
     for m, r in _rows(piv, scene, check).items():
         if _value(r) is not None:
-            out.append(Finding(f"`{scene}`: `{m}` keeps max |ΔE/E| = {_value(r):.1e} over the run "
-                               f"(limit {check.tolerance:g}) {MARK}.", _value(r) <= check.tolerance, scene, m))
+            out.append(
+                Finding(
+                    f"`{scene}`: `{m}` keeps max |ΔE/E| = {_value(r):.1e} over the run "
+                    f"(limit {check.tolerance:g}) {MARK}.",
+                    _value(r) <= check.tolerance,
+                    scene,
+                    m,
+                )
+            )
     return out
 
 
@@ -407,16 +511,28 @@ def error_at_equal_cost(check: Check, scene: str, piv: dict) -> list[Finding]:
                 continue
             rows = at_equal_cost(mine, theirs)
             if not rows:
-                out.append(Finding(f"`{scene}`: `{method}` and `{other}` share no cost range in this run's sweeps.",
-                                   None, scene, method))
+                out.append(
+                    Finding(
+                        f"`{scene}`: `{method}` and `{other}` share no cost range in this run's sweeps.",
+                        None,
+                        scene,
+                        method,
+                    )
+                )
                 continue
             ratios = [r["ratio"] for r in rows]
             lo, hi = f"{min(ratios):.1e}", f"{max(ratios):.1e}"
             span = lo if lo == hi else f"{lo} to {hi}"
             points = f"{len(rows)} point{'s' if len(rows) > 1 else ''}"
-            out.append(Finding(f"`{scene}`, work-precision: at equal cost per simulated day, `{method}`'s max global "
-                               f"error is {span} times `{other}`'s ({points} of the order sweep) {MARK}.",
-                               max(ratios) < check.tolerance, scene, method))
+            out.append(
+                Finding(
+                    f"`{scene}`, work-precision: at equal cost per simulated day, `{method}`'s max global "
+                    f"error is {span} times `{other}`'s ({points} of the order sweep) {MARK}.",
+                    max(ratios) < check.tolerance,
+                    scene,
+                    method,
+                )
+            )
     return out
 
 
@@ -429,12 +545,21 @@ def cost_ratio(check: Check, scene: str, piv: dict) -> list[Finding]:
             if not (_value(lf) and _value(rk)):
                 continue
             ev_lf, ev_rk = lf.figures.force_evals_per_step, rk.figures.force_evals_per_step
-            evals = f"{ev_rk:g} against {ev_lf:g} counted force evaluations" if ev_lf and ev_rk else \
-                "evaluations not counted"
-            out.append(Finding(
-                f"`{scene}`, cost: `{method}` takes {_value(rk) / _value(lf):.2f}x `{other}`'s time per step "
-                f"(compiled, {_value(rk) * 1e6:.3g} µs against {_value(lf) * 1e6:.3g} µs, min of repeats; spreads "
-                f"{rk.figures.spread or 0:.0%} and {lf.figures.spread or 0:.0%}) for {evals}.", None, scene, method))
+            evals = (
+                f"{ev_rk:g} against {ev_lf:g} counted force evaluations"
+                if ev_lf and ev_rk
+                else "evaluations not counted"
+            )
+            out.append(
+                Finding(
+                    f"`{scene}`, cost: `{method}` takes {_value(rk) / _value(lf):.2f}x `{other}`'s time per step "
+                    f"(compiled, {_value(rk) * 1e6:.3g} µs against {_value(lf) * 1e6:.3g} µs, min of repeats; spreads "
+                    f"{rk.figures.spread or 0:.0%} and {lf.figures.spread or 0:.0%}) for {evals}.",
+                    None,
+                    scene,
+                    method,
+                )
+            )
     return out
 
 
@@ -447,17 +572,40 @@ def brouwer_law(check: Check, scene: str, piv: dict) -> list[Finding]:
         if r.value is None or not f.ci95:
             continue
         lo, hi = f.ci95
-        out.append(Finding(f"`{scene}`: `{m}`'s energy error over {f.realizations} realizations and "
-                           f"{f.periods:.3g} periods grows as t^{r.value:.2f} (95% interval {lo:.2f}–{hi:.2f}), "
-                           f"Brouwer's law t^{check.expect:g} {MARK}.", bool(lo <= check.expect <= hi), scene, m))
+        out.append(
+            Finding(
+                f"`{scene}`: `{m}`'s energy error over {f.realizations} realizations and "
+                f"{f.periods:.3g} periods grows as t^{r.value:.2f} (95% interval {lo:.2f}–{hi:.2f}), "
+                f"Brouwer's law t^{check.expect:g} {MARK}.",
+                bool(lo <= check.expect <= hi),
+                scene,
+                m,
+            )
+        )
     return out
 
 
 #: The findings a scene's table may name.
-FINDINGS = {f.__name__: f for f in (stability_limits, damping_beyond_the_limit, matches_only_from_a_generic_state,
-                                     cost_against_size, constraint_drift, survives_one_frame, energy_classes, energy_not_bounded,
-                                     integrates_as, energy_within, error_at_equal_cost, cost_ratio, brouwer_law,
-                                     not_symplectic_where_mass_varies, advances_by_half_steps)}
+FINDINGS = {
+    f.__name__: f
+    for f in (
+        stability_limits,
+        damping_beyond_the_limit,
+        matches_only_from_a_generic_state,
+        cost_against_size,
+        constraint_drift,
+        survives_one_frame,
+        energy_classes,
+        energy_not_bounded,
+        integrates_as,
+        energy_within,
+        error_at_equal_cost,
+        cost_ratio,
+        brouwer_law,
+        not_symplectic_where_mass_varies,
+        advances_by_half_steps,
+    )
+}
 
 #: The reference schemes the outer solar system's energy finding calls symplectic, beside every
 #: method that declares itself so (``Behaviour.symplectic``).
@@ -473,50 +621,56 @@ MASS_MATRIX_TOL = 1e-9
 #: scene: the row's fields it sets, or None where it declares nothing there. A method that sets
 #: none joins the row's own methods; one that sets some is a row of its own.
 DECLARED = {
-    "integrates_as": lambda m, scene: ({"expect": m.behaviour.integrates_as[scene]}
-                                       if scene in m.behaviour.integrates_as else None),
-    "half_steps_of": lambda m, scene: ({"against": (m.behaviour.half_steps_of,),
-                                        "expect": m.behaviour.integrates_as[scene]}
-                                       if m.behaviour.half_steps_of and scene in m.behaviour.integrates_as else None),
-    "from_a_generic_state": lambda m, scene: ({"against": (m.behaviour.from_a_generic_state[scene],),
-                                               "note": m.no_match.get(scene) or "the method gives no reason"}
-                                              if scene in m.behaviour.from_a_generic_state else None),
+    "integrates_as": lambda m, scene: (
+        {"expect": m.behaviour.integrates_as[scene]} if scene in m.behaviour.integrates_as else None
+    ),
+    "half_steps_of": lambda m, scene: (
+        {"against": (m.behaviour.half_steps_of,), "expect": m.behaviour.integrates_as[scene]}
+        if m.behaviour.half_steps_of and scene in m.behaviour.integrates_as
+        else None
+    ),
+    "from_a_generic_state": lambda m, scene: (
+        {
+            "against": (m.behaviour.from_a_generic_state[scene],),
+            "note": m.no_match.get(scene) or "the method gives no reason",
+        }
+        if scene in m.behaviour.from_a_generic_state
+        else None
+    ),
     "in_velocity": lambda m, scene: {"against": (m.behaviour.in_velocity,)} if m.behaviour.in_velocity else None,
     "symplectic": lambda m, scene: {} if m.behaviour.symplectic else None,
     "roundoff": lambda m, scene: {} if m.behaviour.roundoff else None,
-    "beats_at_equal_cost": lambda m, scene: ({"against": m.behaviour.beats_at_equal_cost}
-                                             if m.behaviour.beats_at_equal_cost else None),
+    "beats_at_equal_cost": lambda m, scene: (
+        {"against": m.behaviour.beats_at_equal_cost} if m.behaviour.beats_at_equal_cost else None
+    ),
 }
 
 #: Each scene's findings, in the order the report lists them. A key that ends in ":" holds the
 #: checks of every scene whose id starts with it (``model:``: every model file).
 SCENE_CHECKS: dict[str, tuple[Check, ...]] = {
-    "spring": (
-        Check("advances_by_half_steps", "identity", of="half_steps_of"),
-    ),
+    "spring": (Check("advances_by_half_steps", "identity", of="half_steps_of"),),
     "chain": (
         Check("stability_limits", "stability"),
         Check("damping_beyond_the_limit", "damping"),
         Check("matches_only_from_a_generic_state", "damping", of="from_a_generic_state"),
         Check("cost_against_size", "scaling", note="the tridiagonal solve is sparse"),
     ),
-    "rope": (
-        Check("constraint_drift", "constraint"),
-    ),
+    "rope": (Check("constraint_drift", "constraint"),),
     "cloth": (
         Check("stability_limits", "stability"),
         Check("survives_one_frame", "stability", expect=60.0),
         Check("integrates_as", "identity", of="integrates_as"),
-        Check("cost_against_size", "scaling", note="the sheet's sparse system, factorised in bands up to 600 "
-                                                   "unknowns and by conjugate gradients above"),
+        Check(
+            "cost_against_size",
+            "scaling",
+            note="the sheet's sparse system, factorised in bands up to 600 unknowns and by conjugate gradients above",
+        ),
     ),
     "net": (
         Check("stability_limits", "stability"),
         Check("integrates_as", "identity", of="integrates_as"),
     ),
-    "kepler": (
-        Check("brouwer_law", "brouwer", expect=0.5, of="roundoff"),
-    ),
+    "kepler": (Check("brouwer_law", "brouwer", expect=0.5, of="roundoff"),),
     "solar_system": (
         Check("energy_classes", "energy", methods=SOLAR_SYMPLECTIC, expect="bounded", of="symplectic"),
         Check("energy_not_bounded", "energy", methods=("ref:rk4",), expect=("decays", "grows", "drifts")),
@@ -526,17 +680,15 @@ SCENE_CHECKS: dict[str, tuple[Check, ...]] = {
         Check("error_at_equal_cost", "order", tolerance=1.0, of="beats_at_equal_cost"),
         Check("cost_ratio", "cost", methods=("ref:rk4",), against=("ref:leapfrog",)),
     ),
-    "model:": (
-        Check("not_symplectic_where_mass_varies", "energy", tolerance=MASS_MATRIX_TOL, of="in_velocity"),
-    ),
+    "model:": (Check("not_symplectic_where_mass_varies", "energy", tolerance=MASS_MATRIX_TOL, of="in_velocity"),),
 }
 
 
 def checks_of(scene: str) -> tuple[Check, ...]:
     """A scene's findings table: its own, then those of every id prefix it starts with."""
     return SCENE_CHECKS.get(scene, ()) + tuple(
-        check for key, checks in SCENE_CHECKS.items() if key.endswith(":") and scene.startswith(key)
-        for check in checks)
+        check for key, checks in SCENE_CHECKS.items() if key.endswith(":") and scene.startswith(key) for check in checks
+    )
 
 
 def declared_checks(check: Check, scene: str, piv: dict, methods: dict) -> list[Check]:
@@ -565,8 +717,13 @@ def scene_findings(piv: dict) -> list[Finding]:
     present = {s for s, _ in piv}
     order = [s for s in SCENE_CHECKS if s in present] + sorted(s for s in present if s not in SCENE_CHECKS)
     methods = all_methods()
-    out = [f for scene in order for row in checks_of(scene) for check in declared_checks(row, scene, piv, methods)
-           for f in FINDINGS[check.finding](check, scene, piv)]
+    out = [
+        f
+        for scene in order
+        for row in checks_of(scene)
+        for check in declared_checks(row, scene, piv, methods)
+        for f in FINDINGS[check.finding](check, scene, piv)
+    ]
     # What a registered measure draws from its own cells (records.measures.Measure.findings).
     return out + [f for scene in order for m in measures() if m.findings is not None for f in m.findings(scene, piv)]
 
@@ -580,7 +737,9 @@ def judge(cells: list[Cell], regressions=(), previous=None, trend=None) -> Judge
         if f.text not in seen:  # a line said twice is printed once
             seen.add(f.text)
             findings.append(f)
-    return Judgement(verdict=verdict(cells, regressions, previous, trend),
-                     claims={key: claim_checks(ms) for key, ms in piv.items() if key[1].startswith("ref:")},
-                     bounds={(c.scene, c.method, c.dt): bound_ok(c) for c in cells if c.measure == "bound"},
-                     findings=tuple(findings))
+    return Judgement(
+        verdict=verdict(cells, regressions, previous, trend),
+        claims={key: claim_checks(ms) for key, ms in piv.items() if key[1].startswith("ref:")},
+        bounds={(c.scene, c.method, c.dt): bound_ok(c) for c in cells if c.measure == "bound"},
+        findings=tuple(findings),
+    )

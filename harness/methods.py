@@ -7,10 +7,10 @@ questions (is it available, does it support a scene and if not why, ``simulate(s
 every)``) and declares every optional capability; a plugin's method that leaves some out gets
 their defaults here, once, where it is loaded (``as_method``).
 """
+
 from __future__ import annotations
 
 import importlib
-from dataclasses import replace
 import os
 
 import adapters
@@ -34,8 +34,10 @@ class CompletedMethod:
     def __init__(self, inner):
         missing = [name for name in REQUIRED if not hasattr(inner, name)]
         if missing:
-            raise InvalidInput(f"method {getattr(inner, 'id', inner)!r} has no {', '.join(missing)} "
-                               f"(a method has {', '.join(REQUIRED)})")
+            raise InvalidInput(
+                f"method {getattr(inner, 'id', inner)!r} has no {', '.join(missing)} "
+                f"(a method has {', '.join(REQUIRED)})"
+            )
         self.inner = inner
         self.id = inner.id
         self.family = getattr(inner, "family", None) or MethodId.parse(inner.id).family
@@ -93,8 +95,10 @@ def declared_options(method: Method) -> dict[str, Option]:
     (``EngineMode.options``); a plugin's method takes none."""
     if isinstance(method, RefMethod):
         scheme = method.scheme
-        counts = {name: Option(name, int, 1, MAX_ITERATIONS, default=default, tighten=KNOBS.get(name))
-                  for name, default in scheme.options.items()}
+        counts = {
+            name: Option(name, int, 1, MAX_ITERATIONS, default=default, tighten=KNOBS.get(name))
+            for name, default in scheme.options.items()
+        }
         return {**counts, **scheme.kind.parameters(scheme), **method.options_declared}
     return dict(getattr(method, "options_declared", None) or {})
 
@@ -127,8 +131,10 @@ def _with_options(method: Method, options: dict) -> Method:
     checked = {}
     for name, value in options.items():
         if name not in valid:
-            raise InvalidInput(f"unknown option {name!r} for method {MethodId.parse(method.id).base} "
-                               f"(valid: {', '.join(valid) or 'none'})")
+            raise InvalidInput(
+                f"unknown option {name!r} for method {MethodId.parse(method.id).base} "
+                f"(valid: {', '.join(valid) or 'none'})"
+            )
         checked[name] = valid[name].check(MethodId.parse(method.id).base, value)
     if not checked:
         return method
@@ -138,9 +144,9 @@ def _with_options(method: Method, options: dict) -> Method:
 #: Environment variable naming plugin modules (``module[,module]``) that add methods.
 PLUGINS_ENV = "HARNESS_PLUGINS"
 
-_PLUGIN_METHODS: dict[str, dict] = {}   # module name -> the methods it registered, completed (as_method)
+_PLUGIN_METHODS: dict[str, dict] = {}  # module name -> the methods it registered, completed (as_method)
 _PLUGIN_MEASURES: dict[str, tuple[Measure, ...]] = {}  # module name -> the measures it declares
-_TASK_PLUGINS: tuple[str, ...] = ()     # in a worker: the plugins its current task names
+_TASK_PLUGINS: tuple[str, ...] = ()  # in a worker: the plugins its current task names
 
 
 def plugin_names(value: str | None = None) -> tuple[str, ...]:
@@ -172,13 +178,17 @@ def load_plugins(names) -> dict[str, object]:
             if methods is None and declared is not None:
                 methods = {}
             if not isinstance(methods, dict):
-                raise InvalidInput(f"{PLUGINS_ENV}: plugin module {name!r} defines no METHODS dict "
-                                   "(method id -> method object) and no MEASURES list")
+                raise InvalidInput(
+                    f"{PLUGINS_ENV}: plugin module {name!r} defines no METHODS dict "
+                    "(method id -> method object) and no MEASURES list"
+                )
             _PLUGIN_MEASURES[name] = tuple(declared or ())
             for mid, m in methods.items():
                 if getattr(m, "id", None) != mid or _plugin_family(mid) is None:
-                    raise InvalidInput(f"{PLUGINS_ENV}: plugin {name!r} registers {mid!r} for a method whose id is "
-                                       f"{getattr(m, 'id', None)!r} (ids are family:mode, the family not 'ref')")
+                    raise InvalidInput(
+                        f"{PLUGINS_ENV}: plugin {name!r} registers {mid!r} for a method whose id is "
+                        f"{getattr(m, 'id', None)!r} (ids are family:mode, the family not 'ref')"
+                    )
             _PLUGIN_METHODS[name] = {mid: as_method(m) for mid, m in methods.items()}
         for measure in getattr(importlib.import_module(name), "MEASURES", None) or ():
             register_measure(measure)  # records.measures.Measure: registering it again changes nothing
@@ -218,8 +228,10 @@ def all_methods(compiled_where_bitwise: bool = False) -> dict[str, object]:
     the methods of the plugin modules in ``$HARNESS_PLUGINS``. ``compiled_where_bitwise``: the
     reference schemes step on their compiled loop wherever it computes the interpreted bits
     (``reference.RefMethod``); else interpreted."""
-    out: dict[str, Method] = {m.id: m for m in (RefMethod(s, compiled_where_bitwise=compiled_where_bitwise)
-                                                for s in reference.METHODS.values())}
+    out: dict[str, Method] = {
+        m.id: m
+        for m in (RefMethod(s, compiled_where_bitwise=compiled_where_bitwise) for s in reference.METHODS.values())
+    }
     out.update(adapters.ENGINE_METHODS)
     for mid, m in load_plugins(active_plugins()).items():
         if mid in out and out[mid] is not m:

@@ -9,6 +9,7 @@ or, without the fixture, ``from harness.pytest_plugin import assert_energy_bound
 The check is the nightly's: max |dE/E| against the scene's exact energy over the run; a run
 that blows up, crashes or times out fails the test with its status.
 """
+
 from __future__ import annotations
 
 import pytest
@@ -18,7 +19,9 @@ class EnergyBoundExceeded(AssertionError):
     pass
 
 
-def measure_max_rel_energy_error(method_id: str, scene_id: str, dt: float, steps: int, **params) -> tuple[float, str, str]:
+def measure_max_rel_energy_error(
+    method_id: str, scene_id: str, dt: float, steps: int, **params
+) -> tuple[float, str, str]:
     import numpy as np
 
     from harness import validate
@@ -48,7 +51,8 @@ def assert_energy_bound(method: str, scene: str, dt: float, steps: int, bound: f
         raise EnergyBoundExceeded(f"{method} on {scene} at dt={dt:g}: run {status}: {detail}")
     if not value <= bound:
         raise EnergyBoundExceeded(
-            f"{method} on {scene} at dt={dt:g} over {steps} steps: max |dE/E| = {value:.3e} > bound {bound:.3e}")
+            f"{method} on {scene} at dt={dt:g} over {steps} steps: max |dE/E| = {value:.3e} > bound {bound:.3e}"
+        )
     return value
 
 

@@ -23,6 +23,7 @@ Each line names the methods behind its figures and their solves (``SweepEntry.so
 with its settings, or the scene's own kernel), and the tolerances. Where a third family (a
 position-based solve) is the cheapest frame at the stiffest value, the second line says so.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,8 +33,7 @@ from records.advice import family_crossover, family_name
 from records.findings import MARK, Finding
 
 #: The seed's claim, as the findings quote it.
-CLAIM = ("the seed sends stiff cloth to implicit Euler \"where explicit methods would demand absurdly tiny "
-         "timesteps\"")
+CLAIM = 'the seed sends stiff cloth to implicit Euler "where explicit methods would demand absurdly tiny timesteps"'
 #: The families the claims count as explicit substepping and as implicit solving.
 EXPLICIT, IMPLICIT = "explicit", "implicit"
 #: "Absurdly tiny": the explicit schemes' step at least this many times shorter than the implicit
@@ -65,8 +65,11 @@ def _at(p, param: str) -> str:
 def _solve(e, checked: bool = True) -> str:
     """The entry's solve, and where its win rests on that solve's own error, the run that says so
     (``checked``: the convergence check ran at the substeps the line names)."""
-    rests = (f" (its win rests on the solve's own error: `{e.converged['method']}` misses the tolerances)"
-             if checked and e.rests_on_solve else "")
+    rests = (
+        f" (its win rests on the solve's own error: `{e.converged['method']}` misses the tolerances)"
+        if checked and e.rests_on_solve
+        else ""
+    )
     return (f", solve: {e.solve}" if e.solve else "") + rests
 
 
@@ -83,44 +86,64 @@ def survives(points, param: str, energy_tol: float | None, accuracy: bool = True
     p = points[-1]
     if energy_tol is None:
         return Claim(name, None, "not judged: the sweep asked no energy tolerance")
-    steps = {fam: sorted(((s, e.method) for e in p.entries if e.family == fam
-                          for s in [_energy_steps(e, accuracy)] if s is not None)) for fam in (EXPLICIT, IMPLICIT)}
+    steps = {
+        fam: sorted(
+            (s, e.method) for e in p.entries if e.family == fam for s in [_energy_steps(e, accuracy)] if s is not None
+        )
+        for fam in (EXPLICIT, IMPLICIT)
+    }
     implicit = [e for e in p.entries if e.family == IMPLICIT]
     if not implicit:
         return Claim(name, None, f"not judged: no implicit solve was searched {_at(p, param)}")
     if not steps[IMPLICIT]:
         tried = ", ".join(f"`{e.method}` to {e.searched} substeps" for e in implicit)
         if all(e.ended == "cost" for e in implicit):  # stopped for cost, not for want of a stable step
-            return Claim(name, None, f"not judged: every implicit search ended on its cost bound {_at(p, param)} "
-                                     f"before one stayed within the energy tolerance ({tried})")
-        return Claim(name, False, f"no implicit solve stays stable within energy error ≤ {energy_tol:g} "
-                                  f"{_at(p, param)} ({tried})")
+            return Claim(
+                name,
+                None,
+                f"not judged: every implicit search ended on its cost bound {_at(p, param)} "
+                f"before one stayed within the energy tolerance ({tried})",
+            )
+        return Claim(
+            name,
+            False,
+            f"no implicit solve stays stable within energy error ≤ {energy_tol:g} {_at(p, param)} ({tried})",
+        )
     s_i, m_i = steps[IMPLICIT][0]
     e_i = next(e for e in implicit if e.method == m_i)
     probed = " (run past its search's cost bound for this claim alone)" if s_i in tuple(e_i.probed or ()) else ""
-    said = (f"`{m_i}` stays within energy error ≤ {energy_tol:g} at {s_i} substep{'s' if s_i > 1 else ''}"
-            f"{probed}{_solve(e_i, e_i.substeps == s_i)}")
+    said = (
+        f"`{m_i}` stays within energy error ≤ {energy_tol:g} at {s_i} substep{'s' if s_i > 1 else ''}"
+        f"{probed}{_solve(e_i, e_i.substeps == s_i)}"
+    )
     tried = [e for e in p.entries if e.family == EXPLICIT]
     if not tried:
         return Claim(name, None, f"not judged: no explicit scheme was searched {_at(p, param)}; {said}")
     # An explicit search that ended before a level within the energy tolerance (on its cost or
     # substep bound) needs at least its next level: the fewest the family needs is bounded below.
-    bounds = sorted((e.next_substeps or 2 * max(e.searched, 1), e.method) for e in tried
-                    if _energy_steps(e, accuracy) is None)
+    bounds = sorted(
+        (e.next_substeps or 2 * max(e.searched, 1), e.method) for e in tried if _energy_steps(e, accuracy) is None
+    )
     need, m_e = min(steps[EXPLICIT][:1] + bounds[:1])
     exact = bool(steps[EXPLICIT]) and (not bounds or steps[EXPLICIT][0][0] < bounds[0][0])
     if exact:
         explicit = f"explicit substeps need {need} (`{m_e}`)"
     elif steps[EXPLICIT]:
         s_e, m_met = steps[EXPLICIT][0]
-        explicit = (f"explicit substeps need at least {need} (`{m_e}` not within it below {need}, its search ended "
-                    f"there; `{m_met}` within it at {s_e})")
+        explicit = (
+            f"explicit substeps need at least {need} (`{m_e}` not within it below {need}, its search ended "
+            f"there; `{m_met}` within it at {s_e})"
+        )
     else:
         explicit = f"no explicit scheme is within it below {need} substeps (`{m_e}` the first to stop)"
     ratio = need / s_i
     ok = ratio >= TINY
-    return Claim(name, ok, f"{_at(p, param)}: {said}; {explicit}: steps {'' if exact else 'at least '}"
-                           f"{ratio:.3g} x shorter ({'≥' if ok else '<'} the {TINY} x the claim asks)")
+    return Claim(
+        name,
+        ok,
+        f"{_at(p, param)}: {said}; {explicit}: steps {'' if exact else 'at least '}"
+        f"{ratio:.3g} x shorter ({'≥' if ok else '<'} the {TINY} x the claim asks)",
+    )
 
 
 def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
@@ -143,30 +166,43 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
     if imp is None:
         far = max(tried, key=lambda e: (e.searched, e.method))
         ended = sorted({e.ended for e in tried})
-        text = (f"{_at(p, param)} no implicit solve meets them ({len(tried)} searched, ended on "
-                f"{' / '.join(ended)}; the furthest, `{far.method}` to {far.searched} substeps: "
-                f"{far.why.split('; ')[-1] if far.why else far.ended}); explicit substeps do: {frame(exp)}")
+        text = (
+            f"{_at(p, param)} no implicit solve meets them ({len(tried)} searched, ended on "
+            f"{' / '.join(ended)}; the furthest, `{far.method}` to {far.searched} substeps: "
+            f"{far.why.split('; ')[-1] if far.why else far.ended}); explicit substeps do: {frame(exp)}"
+        )
         ok = False
     elif exp is None:
         if not bounded:
-            return Claim(name, None, f"not judged: no explicit scheme was searched {_at(p, param)}; "
-                                     f"implicit solves: {frame(imp)}")
-        text, ok = (f"{_at(p, param)} implicit solves meet them, {frame(imp)}; no explicit scheme does within "
-                    f"its cost bound"), True
+            return Claim(
+                name,
+                None,
+                f"not judged: no explicit scheme was searched {_at(p, param)}; implicit solves: {frame(imp)}",
+            )
+        text, ok = (
+            (f"{_at(p, param)} implicit solves meet them, {frame(imp)}; no explicit scheme does within its cost bound"),
+            True,
+        )
     else:
         ok = imp.cost_per_frame_s < exp.cost_per_frame_s
         ratio = exp.cost_per_frame_s / imp.cost_per_frame_s
-        text = (f"{_at(p, param)} implicit solves' cheapest frame that meets them, {frame(imp)}, against explicit "
-                f"substeps' {frame(exp)}: " + (f"implicit {ratio:.3g} x cheaper" if ok else
-                                               f"explicit {1 / ratio:.3g} x cheaper"))
+        text = (
+            f"{_at(p, param)} implicit solves' cheapest frame that meets them, {frame(imp)}, against explicit "
+            f"substeps' {frame(exp)}: "
+            + (f"implicit {ratio:.3g} x cheaper" if ok else f"explicit {1 / ratio:.3g} x cheaper")
+        )
     x = family_crossover(points, EXPLICIT, IMPLICIT)
     if x is not None:
-        text += (f"; implicit solves take over from explicit substeps at {param} ≈ {x.value:.3g} "
-                 f"(h·ω ≈ {x.homega_one:.3g} at one substep)")
+        text += (
+            f"; implicit solves take over from explicit substeps at {param} ≈ {x.value:.3g} "
+            f"(h·ω ≈ {x.homega_one:.3g} at one substep)"
+        )
     stiff = p.cheapest
     if stiff is not None and stiff.family not in (EXPLICIT, IMPLICIT):
-        text += (f"; the cheapest frame there is {family_name(stiff.family)} (`{stiff.method}`, "
-                 f"{_us(stiff.cost_per_frame_s)})")
+        text += (
+            f"; the cheapest frame there is {family_name(stiff.family)} (`{stiff.method}`, "
+            f"{_us(stiff.cost_per_frame_s)})"
+        )
     return Claim(name, ok, text)
 
 
@@ -187,10 +223,14 @@ def sweep_finding(cell) -> list[Finding]:
     if r.error_tol:
         tols.append(f"position error ≤ {r.error_tol:g}")
     elif r.error_rel:
-        tols.append(f"position error ≤ {100 * r.error_rel:g}% of the scene's length scale"
-                    + (f" ({pos:.3g})" if pos is not None else ""))
-    head = (f"{where}, {f.param} = {points[0].value:.3g}..{points[-1].value:.3g} at {f.hz:g} Hz over "
-            f"{r.horizon:g} s ({' and '.join(tols) or 'the tolerances'}): {CLAIM}")
+        tols.append(
+            f"position error ≤ {100 * r.error_rel:g}% of the scene's length scale"
+            + (f" ({pos:.3g})" if pos is not None else "")
+        )
+    head = (
+        f"{where}, {f.param} = {points[0].value:.3g}..{points[-1].value:.3g} at {f.hz:g} Hz over "
+        f"{r.horizon:g} s ({' and '.join(tols) or 'the tolerances'}): {CLAIM}"
+    )
     out = []
     for claim in seed_claims(points, f.param, r.energy_tol, bool(r.error_tol or r.error_rel)):
         mark = f"{MARK} " if claim.ok is not None else ""

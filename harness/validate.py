@@ -1,5 +1,6 @@
 """Input checks shared by every command: each raises InvalidInput with a one-line message
 naming the field and what it may be, before anything is stepped or any engine is touched."""
+
 from __future__ import annotations
 
 import math

@@ -1,6 +1,7 @@
 """The advice's records: one (method, substeps) row measured, and one method's search over
 substeps (``harness.measures.advise`` measures them; the nightly stores them in its advice cells,
 the report and ``harness advise`` print them)."""
+
 from __future__ import annotations
 
 import math
@@ -18,8 +19,8 @@ class Row:
     h: float
     homega: float
     stable: bool
-    status: str                     # ok, unstable, crashed, timed_out (of the horizon run, or "skipped")
-    rho: float | None = None        # spectral radius of the one-step map at h (linear scenes)
+    status: str  # ok, unstable, crashed, timed_out (of the horizon run, or "skipped")
+    rho: float | None = None  # spectral radius of the one-step map at h (linear scenes)
     energy_error: float | None = None
     energy_gained: bool | None = None
     energy_class: str | None = None
@@ -41,11 +42,11 @@ class MethodAdvice:
     tolerances with the fewest substeps (``best``, an index into ``rows``), or ``reason``."""
 
     method: str
-    status: str = "ok"              # ok, or crashed / timed_out where the search itself died
+    status: str = "ok"  # ok, or crashed / timed_out where the search itself died
     homega_limit: float | None = None
-    limit_verdict: str = "not measured"   # limited, unbounded (stable at every h*omega searched), unstable,
+    limit_verdict: str = "not measured"  # limited, unbounded (stable at every h*omega searched), unstable,
     #                                       unresolved (no stable step resolved: harness.measures.stability)
-    limit_searched: float | None = None   # the largest h*omega the limit search tried
+    limit_searched: float | None = None  # the largest h*omega the limit search tried
     cost_per_step_s: float | None = None
     cost_timing: str = ""
     evals_reason: str = ""
@@ -61,7 +62,7 @@ class MethodAdvice:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict) -> "MethodAdvice":
+    def from_dict(cls, d: dict) -> MethodAdvice:
         d = dict(d)
         rows = [Row(**r) for r in d.pop("rows", [])]
         return cls(rows=rows, **d)
@@ -70,9 +71,13 @@ class MethodAdvice:
 # ----------------------------------------------------------------------------- the sweep
 #: How a family (a method's declared kind, ``harness.measures.sweep``) is named in the tables and
 #: charts; a kind not listed is named by itself.
-FAMILY_NAMES = {"explicit": "explicit substeps", "implicit": "implicit solves",
-                "constrained": "constraint projections", "decay": "explicit substeps with exact decay",
-                "position_based": "position-based solves"}
+FAMILY_NAMES = {
+    "explicit": "explicit substeps",
+    "implicit": "implicit solves",
+    "constrained": "constraint projections",
+    "decay": "explicit substeps with exact decay",
+    "position_based": "position-based solves",
+}
 
 
 def family_name(kind: str) -> str:
@@ -87,7 +92,7 @@ class SweepEntry:
     method's; ``cap``, past the sweep's most substeps; ``crashed`` / ``timed_out``)."""
 
     method: str
-    family: str                     # what the method declares: a reference scheme's kind, an engine mode's
+    family: str  # what the method declares: a reference scheme's kind, an engine mode's
     ended: str = ""
     substeps: int | None = None
     h: float | None = None
@@ -96,14 +101,14 @@ class SweepEntry:
     cost_per_frame_s: float | None = None
     energy_error: float | None = None
     position_error: float | None = None
-    searched: int = 0               # the most substeps run
+    searched: int = 0  # the most substeps run
     next_substeps: int | None = None  # the level not run where the cost or the cap bound ended the search
     why: str = ""
-    converged: dict | None = None   # where met: its convergence knob tightened (``records.advice.Row.converged``)
+    converged: dict | None = None  # where met: its convergence knob tightened (``records.advice.Row.converged``)
     #: The fewest substeps, of the levels run, whose run was stable and within the energy tolerance
     #: (whatever its position error): the seed's first claim reads it (``harness.sweep_findings``).
     energy_substeps: int | None = None
-    solve: str = ""                 # an implicit method's linear solve, in words (its library's and settings)
+    solve: str = ""  # an implicit method's linear solve, in words (its library's and settings)
     #: The levels run past the cost bound to find ``energy_substeps`` alone (the survival probe,
     #: ``harness.measures.sweep.probe_survival``): the first claim is about stability, not cost.
     probed: tuple = ()
@@ -123,7 +128,7 @@ class SweepPoint:
     omega: float
     homega_one: float
     entries: list[SweepEntry] = field(default_factory=list)
-    position_tol: float | None = None   # the position tolerance at this value, absolute (None: not judged)
+    position_tol: float | None = None  # the position tolerance at this value, absolute (None: not judged)
 
     @property
     def met(self) -> list[SweepEntry]:
@@ -147,7 +152,7 @@ class SweepPoint:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict) -> "SweepPoint":
+    def from_dict(cls, d: dict) -> SweepPoint:
         d = dict(d)
         return cls(entries=[SweepEntry(**e) for e in d.pop("entries", [])], **d)
 
@@ -249,6 +254,7 @@ def family_crossover(points: list[SweepPoint], a: str, b: str) -> Crossover | No
     A family with no frame that meets the tolerances at a value but whose search ended on the
     cost or the cap bound there counts as dearer than every frame met; None where ``b`` never
     takes over from ``a`` on the grid."""
+
     def cost(p, fam):
         e = p.family_costs().get(fam)
         if e is not None:

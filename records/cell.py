@@ -13,6 +13,7 @@ their keys (``EnergyFigures.energy_class`` is stored as ``class``), ``claims``, 
 that is not written reads back as None. A history written before the figures were typed
 therefore loads unchanged.
 """
+
 from __future__ import annotations
 
 import json
@@ -21,25 +22,56 @@ from dataclasses import dataclass, field
 
 from records.advice import SweepFigures
 from records.figures import (  # noqa: F401 (the cell's records, re-exported: ``from records.cell import ...``)
-    AdviceFigures, BoundFigures, BrouwerFigures, Claims, ConstraintFigures, CostFigures, CrossEngineFigures,
-    DampingFigures, EnergyFigures, ErrorFigures, Figures, IdentityFigures, NominalRun, OrderFigures, Record,
-    ScalingFigures, SmallStepsFigures, StabilityFigures, StabilityVsDampingFigures, ToleranceFigures)
+    AdviceFigures,
+    BoundFigures,
+    BrouwerFigures,
+    Claims,
+    ConstraintFigures,
+    CostFigures,
+    CrossEngineFigures,
+    DampingFigures,
+    EnergyFigures,
+    ErrorFigures,
+    Figures,
+    IdentityFigures,
+    NominalRun,
+    OrderFigures,
+    Record,
+    ScalingFigures,
+    SmallStepsFigures,
+    StabilityFigures,
+    StabilityVsDampingFigures,
+    ToleranceFigures,
+)
 
 #: Each measure's figures type, as storage reads its cells: those declared in records here, so that
 #: a reader with nothing of the harness loaded gets them; a type declared in a measure's own module
 #: (a plugin's) is added when the measure is registered (``records.measures.register``). An
 #: unknown measure's cells read as bare ``Figures``.
 FIGURES: dict[str, type[Figures]] = {
-    "energy": EnergyFigures, "error": ErrorFigures, "order": OrderFigures, "stability": StabilityFigures,
-    "cost": CostFigures, "identity": IdentityFigures, "advise": AdviceFigures, "bound": BoundFigures,
-    "constraint": ConstraintFigures, "damping": DampingFigures, "stability_vs_damping": StabilityVsDampingFigures,
-    "scaling": ScalingFigures, "brouwer": BrouwerFigures, "cross_engine": CrossEngineFigures,
-    "small_steps": SmallStepsFigures, "tolerance": ToleranceFigures, "sweep": SweepFigures,
+    "energy": EnergyFigures,
+    "error": ErrorFigures,
+    "order": OrderFigures,
+    "stability": StabilityFigures,
+    "cost": CostFigures,
+    "identity": IdentityFigures,
+    "advise": AdviceFigures,
+    "bound": BoundFigures,
+    "constraint": ConstraintFigures,
+    "damping": DampingFigures,
+    "stability_vs_damping": StabilityVsDampingFigures,
+    "scaling": ScalingFigures,
+    "brouwer": BrouwerFigures,
+    "cross_engine": CrossEngineFigures,
+    "small_steps": SmallStepsFigures,
+    "tolerance": ToleranceFigures,
+    "sweep": SweepFigures,
 }
 
 
 def _figures_type(measure: str) -> type[Figures]:
     return FIGURES.get(measure, Figures)
+
 
 #: The columns of a cell, in the tidy DataFrame and in the SQLite ``cells`` table.
 CELL_COLUMNS = ("scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value", "wall_s", "data")
@@ -89,9 +121,9 @@ class Cell:
     detail: str = ""
     figures: Figures | None = None
     claims: Claims | None = None
-    kernels: dict | None = None              # compiled kernels this cell's measure compiled or loaded
+    kernels: dict | None = None  # compiled kernels this cell's measure compiled or loaded
     extra: dict = field(default_factory=dict)
-    model_note: str | None = None            # the scene is another force model on a built-in grid (Scene.model_note)
+    model_note: str | None = None  # the scene is another force model on a built-in grid (Scene.model_note)
 
     def __post_init__(self):
         if self.figures is None:
@@ -124,27 +156,51 @@ class Cell:
         params = data.pop("params", None) or {}
         note = data.pop("model_note", None)
         figures, extra = _figures_type(measure).from_data(data)
-        return {"figures": figures, "extra": extra, "kernels": kernels, "params": dict(params), "model_note": note,
-                "claims": Claims.from_data(claims)[0] if isinstance(claims, dict) else None}
+        return {
+            "figures": figures,
+            "extra": extra,
+            "kernels": kernels,
+            "params": dict(params),
+            "model_note": note,
+            "claims": Claims.from_data(claims)[0] if isinstance(claims, dict) else None,
+        }
 
     # ------------------------------------------------------------------ the tidy DataFrame row
     def to_row(self) -> dict:
         """The tidy row: every column of ``CELL_COLUMNS``, ``data`` as a dict."""
-        return {"scene": self.scene, "method": self.method, "family": self.family, "measure": self.measure,
-                "dt": self.dt, "steps": self.steps, "status": self.status, "detail": self.detail,
-                "value": self.value, "wall_s": self.wall_s, "data": self.data()}
+        return {
+            "scene": self.scene,
+            "method": self.method,
+            "family": self.family,
+            "measure": self.measure,
+            "dt": self.dt,
+            "steps": self.steps,
+            "status": self.status,
+            "detail": self.detail,
+            "value": self.value,
+            "wall_s": self.wall_s,
+            "data": self.data(),
+        }
 
     @classmethod
-    def from_row(cls, row) -> "Cell":
+    def from_row(cls, row) -> Cell:
         """From a tidy row (a dict, or a DataFrame row: missing numbers may read as NaN)."""
         get = row.get
         steps = _number(get("steps"))
         detail = get("detail")
-        return cls(scene=row["scene"], method=row["method"], family=row["family"], measure=row["measure"],
-                   status=row["status"], dt=_number(get("dt")), steps=None if steps is None else int(steps),
-                   value=_number(get("value")), wall_s=_number(get("wall_s")) or 0.0,
-                   detail=detail if isinstance(detail, str) else "",
-                   **cls._split(row["measure"], get("data")))
+        return cls(
+            scene=row["scene"],
+            method=row["method"],
+            family=row["family"],
+            measure=row["measure"],
+            status=row["status"],
+            dt=_number(get("dt")),
+            steps=None if steps is None else int(steps),
+            value=_number(get("value")),
+            wall_s=_number(get("wall_s")) or 0.0,
+            detail=detail if isinstance(detail, str) else "",
+            **cls._split(row["measure"], get("data")),
+        )
 
     # ------------------------------------------------------------------ the SQLite row
     def to_db_row(self) -> dict:
@@ -155,11 +211,15 @@ class Cell:
         return row
 
     @classmethod
-    def from_db_row(cls, row) -> "Cell":
+    def from_db_row(cls, row) -> Cell:
         """From a ``cells`` row (a mapping of its columns, ``data`` as JSON text)."""
         data = row["data"]
-        return cls.from_row({**{c: row[c] for c in CELL_COLUMNS if c != "data"},
-                             "data": json.loads(data) if isinstance(data, str) and data else {}})
+        return cls.from_row(
+            {
+                **{c: row[c] for c in CELL_COLUMNS if c != "data"},
+                "data": json.loads(data) if isinstance(data, str) and data else {},
+            }
+        )
 
 
 def figures_of(row) -> Figures:
@@ -172,7 +232,7 @@ class MethodCells(dict):
     """{measure: cell} of one scene x method; the measures the findings read by name are
     attributes (None where the method has no such cell)."""
 
-    def cell(self, measure: str) -> "Cell | None":
+    def cell(self, measure: str) -> Cell | None:
         return self[measure] if measure in self else None
 
     energy = property(lambda self: self.cell("energy"))

@@ -1,6 +1,7 @@
 """What an engine's contact run hands back (a ``Trajectory``: ``ContactTrajectory``) and what the
 harness measured of it (``ContactFigures``, one run's; ``ContactCellFigures``, the ``contact``
 cell's figures)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
@@ -32,9 +33,24 @@ class ContactTrajectory(Trajectory):
     loop_cpu_s: float | None = None
 
     @classmethod
-    def of(cls, scene, method: str, dt: float, t, centres, velocities, *, loop: str = "", settings=None,
-           status: str = OK, detail: str = "", failed_step: int | None = None, engine_version: str | None = None,
-           steps: int | None = None, loop_cpu_s: float | None = None) -> "ContactTrajectory":
+    def of(
+        cls,
+        scene,
+        method: str,
+        dt: float,
+        t,
+        centres,
+        velocities,
+        *,
+        loop: str = "",
+        settings=None,
+        status: str = OK,
+        detail: str = "",
+        failed_step: int | None = None,
+        engine_version: str | None = None,
+        steps: int | None = None,
+        loop_cpu_s: float | None = None,
+    ) -> ContactTrajectory:
         """The run of ``scene`` (a contact scene, or its id: then its energy is not computed) from
         each body's recorded centres and velocities, (n, bodies, 3) each."""
         t = np.asarray(t, dtype=float)
@@ -42,17 +58,40 @@ class ContactTrajectory(Trajectory):
         n = len(t)
         q = centres.reshape(n, 1, int(np.prod(centres.shape[1:])))
         v = velocities.reshape(n, 1, int(np.prod(velocities.shape[1:])))
-        energy = (np.asarray(scene.energy(q, v), dtype=float).reshape(n, 1) if hasattr(scene, "energy") and n
-                  else np.zeros((n, 1)))
+        energy = (
+            np.asarray(scene.energy(q, v), dtype=float).reshape(n, 1)
+            if hasattr(scene, "energy") and n
+            else np.zeros((n, 1))
+        )
         scene_id = scene if isinstance(scene, str) else scene.id
-        meta = RunMeta(backend="engine", steps_run=max(n - 1, 0), loop=loop or None, engine_version=engine_version,
-                       settings=dict(settings or {}),
-                       params={} if isinstance(scene, str) else dict(scene.values))
-        return cls(scene_id, method, dt, max(n - 1, 0) if steps is None else steps, 1, np.arange(n), t, q, v, energy,
-                   status=status, detail=detail, failed_step=failed_step, meta=meta, loop_cpu_s=loop_cpu_s)
+        meta = RunMeta(
+            backend="engine",
+            steps_run=max(n - 1, 0),
+            loop=loop or None,
+            engine_version=engine_version,
+            settings=dict(settings or {}),
+            params={} if isinstance(scene, str) else dict(scene.values),
+        )
+        return cls(
+            scene_id,
+            method,
+            dt,
+            max(n - 1, 0) if steps is None else steps,
+            1,
+            np.arange(n),
+            t,
+            q,
+            v,
+            energy,
+            status=status,
+            detail=detail,
+            failed_step=failed_step,
+            meta=meta,
+            loop_cpu_s=loop_cpu_s,
+        )
 
     @classmethod
-    def failed(cls, scene: str, method: str, dt: float, status: str, detail: str, **kw) -> "ContactTrajectory":
+    def failed(cls, scene: str, method: str, dt: float, status: str, detail: str, **kw) -> ContactTrajectory:
         empty = np.zeros((0, 1, 3))
         return cls.of(scene, method, dt, np.zeros(0), empty, empty, status=status, detail=detail, **kw)
 

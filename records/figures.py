@@ -3,11 +3,12 @@ the typed rows a report reads of them; the textbook claims a cell is
 judged against (``Claims``), and ``Record``, the frozen-dataclass-as-flat-dict they share: a
 field ``name`` is stored under ``KEYS.get(name, name)`` and a None figure is not written
 (``records.cell`` stores them in a cell's ``data``)."""
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import ClassVar
+from typing import Any, ClassVar
 
 
 class Record:
@@ -23,7 +24,7 @@ class Record:
         return {cls.KEYS.get(f.name, f.name): f.name for f in fields(cls)}
 
     @classmethod
-    def from_data(cls, data: dict) -> tuple["Record", dict]:
+    def from_data(cls, data: dict) -> tuple[Record, dict]:
         """(the record, the keys of ``data`` that are none of its fields)."""
         keys = cls.stored_keys()
         mine = {keys[k]: v for k, v in data.items() if k in keys}
@@ -33,7 +34,7 @@ class Record:
         return cls(**mine), {k: v for k, v in data.items() if k not in keys}
 
     @classmethod
-    def pick(cls, result: dict, **given) -> "Record":
+    def pick(cls, result: dict, **given) -> Record:
         """The record of the entries of ``result`` (a measure's result) named as its fields are
         stored, and of ``given``; the rest of ``result`` is not taken."""
         keys = cls.stored_keys()
@@ -95,15 +96,15 @@ class EnergyFigures(Figures):
     """``energy``: max |dE/E| (the cell's value) and its classification over the energy run."""
 
     KEYS: ClassVar[dict[str, str]] = {"energy_class": "class"}
-    energy_class: str | None = None          # bounded, grows, decays, drifts, ... (stored as "class")
+    energy_class: str | None = None  # bounded, grows, decays, drifts, ... (stored as "class")
     rule: str | None = None
-    rel_error_defined: bool | None = None    # False where the exact energy crosses zero
+    rel_error_defined: bool | None = None  # False where the exact energy crosses zero
     final_rel_error: float | None = None
     failed_step: int | None = None
-    series: dict | None = None               # {"t", "energy", "exact"}, downsampled, for the chart
-    numbers: dict | None = None              # the classification's figures (envelopes, secular rate)
-    events: list | None = None               # what the bodies did (Scene.events): ejected, spiralled in
-    settings: Any = None                     # what an engine adapter recorded of its settings
+    series: dict | None = None  # {"t", "energy", "exact"}, downsampled, for the chart
+    numbers: dict | None = None  # the classification's figures (envelopes, secular rate)
+    events: list | None = None  # what the bodies did (Scene.events): ejected, spiralled in
+    settings: Any = None  # what an engine adapter recorded of its settings
     engine_version: str | None = None
     backend: str | None = None
 
@@ -117,18 +118,18 @@ class ErrorFigures(Figures):
     t_compared: float | None = None
     horizon: float | None = None
     t_final: float | None = None
-    reference_error: float | None = None     # the true state's own estimated error (0: exact)
-    below_reference: bool | None = None      # the error is at or below it: no number (the value None)
+    reference_error: float | None = None  # the true state's own estimated error (0: exact)
+    below_reference: bool | None = None  # the error is at or below it: no number (the value None)
 
 
 @dataclass(frozen=True)
 class OrderFigures(Figures):
     """``order``: the observed order (the value) of the dt sweep."""
 
-    points: list | None = None               # [{"dt", "error", ...}] used in the fit
+    points: list | None = None  # [{"dt", "error", ...}] used in the fit
     excluded: list | None = None
     rvalue: float | None = None
-    range: dict | None = None               # the dt range the sweep chose
+    range: dict | None = None  # the dt range the sweep chose
 
 
 @dataclass(frozen=True)
@@ -158,8 +159,8 @@ LIMIT_DIGITS = 3
 
 
 def limit_text(x, none: str = "none") -> str:
-    """A largest stable h*omega as every table prints it (``LIMIT_DIGITS``), the report and the commands alike: None -> ``none``,
-    inf -> ``unbounded``."""
+    """A largest stable h*omega as every table prints it (``LIMIT_DIGITS``), the report and the commands alike: None
+    -> ``none``, inf -> ``unbounded``."""
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return none
     if math.isinf(x):
@@ -175,14 +176,14 @@ class StabilityFigures(Figures):
 
     criterion: str | None = None
     criterion_rule: str | None = None
-    verdict: str | None = None               # limited, unbounded, unstable, unresolved
+    verdict: str | None = None  # limited, unbounded, unstable, unresolved
     dt_max: float | None = None
     unbounded: bool | None = None
     unstable_everywhere: bool | None = None
-    unresolved: bool | None = None           # no stable step resolved (``harness.measures.stability``)
+    unresolved: bool | None = None  # no stable step resolved (``harness.measures.stability``)
     homega_searched: float | None = None
     rho_above_dt_max: float | None = None
-    nominal: NominalRun | None = None        # the finite horizon's run at the suite's nominal dt
+    nominal: NominalRun | None = None  # the finite horizon's run at the suite's nominal dt
 
 
 @dataclass(frozen=True)
@@ -190,7 +191,7 @@ class CostFigures(Figures):
     """``cost``: CPU seconds per step (the value), counted evaluations, the ratio to explicit Euler."""
 
     force_evals_per_step: float | None = None
-    force_evals_reason: str | None = None     # why they are not counted, where they are not
+    force_evals_reason: str | None = None  # why they are not counted, where they are not
     solves_per_step: float | None = None
     timing: str | None = None
     clock: str | None = None
@@ -206,11 +207,11 @@ class CostFigures(Figures):
     as_stepped_s_per_step: float | None = None
     as_stepped_repeats_s_per_step: list | None = None
     as_stepped_timing: str | None = None
-    calibration: float | None = None          # the machine's calibration ratio, timed beside
-    calibration_spread: float | None = None   # (harness.measures.calibration)
-    first_ratio: float | None = None          # a slowdown measured again in fresh processes
-    remeasured_ratios: list | None = None     # (harness.nightly.run.remeasure_slowdowns): the first
-    process_noise: float | None = None        # figure, the others, their noise (log units)
+    calibration: float | None = None  # the machine's calibration ratio, timed beside
+    calibration_spread: float | None = None  # (harness.measures.calibration)
+    first_ratio: float | None = None  # a slowdown measured again in fresh processes
+    remeasured_ratios: list | None = None  # (harness.nightly.run.remeasure_slowdowns): the first
+    process_noise: float | None = None  # figure, the others, their noise (log units)
 
     @property
     def noise(self) -> float:
@@ -232,7 +233,7 @@ class IdentityFigures(Figures):
     name_suggests: str | None = None
     match_claims: Claims | None = None
     note: str | None = None
-    precision: str | None = None             # the mode's arithmetic: float32 is matched at float32 rounding
+    precision: str | None = None  # the mode's arithmetic: float32 is matched at float32 rounding
 
     @property
     def all_matches(self) -> list[str]:
@@ -247,8 +248,8 @@ class AdviceFigures(Figures):
 
     hz: float | None = None
     request: dict | None = None
-    length_scale: float | None = None        # the scene's, that a relative position tolerance is a share of
-    position_tol: float | None = None        # the position tolerance on the scene (None: positions not judged)
+    length_scale: float | None = None  # the scene's, that a relative position tolerance is a share of
+    position_tol: float | None = None  # the position tolerance on the scene (None: positions not judged)
     method: str | None = None
     status: str | None = None
     homega_limit: float | None = None
@@ -294,7 +295,7 @@ class DampingFigures(Figures):
     reason: str | None = None
     modal_leak: float | None = None
     linearity_residual: float | None = None
-    highest: dict | None = None              # the highest mode: rho, energy_factor, zeta
+    highest: dict | None = None  # the highest mode: rho, energy_factor, zeta
     lowest: dict | None = None
     failed_step: int | None = None
     run_status: str | None = None
@@ -305,7 +306,7 @@ class StabilityVsDampingFigures(Figures):
     """``stability_vs_damping``: the limit at each damping ratio beside the theory (value: agreeing)."""
 
     scheme: str | None = None
-    rows: list | None = None                 # [{"zeta", "measured", "theory", "agrees"}]
+    rows: list | None = None  # [{"zeta", "measured", "theory", "agrees"}]
     tolerance: float | None = None
     judged_by: str | None = None
     theory_curve: dict | None = None
@@ -339,7 +340,7 @@ class BrouwerFigures(Figures):
     rms: list | None = None
     error_slope: float | None = None
     error_ci95: list | None = None
-    error_fit_until: float | None = None      # the position error's slope is fitted up to this t
+    error_fit_until: float | None = None  # the position error's slope is fitted up to this t
     reason: str | None = None
 
 
@@ -422,7 +423,7 @@ class SmallStepsSettings(Record):
     repeats: int | None = None
     cpu_s: float | None = None
     reference_stretch: float | None = None
-    label: str | None = None                 # the study's title where it is not its scene's id (a stiffened scene)
+    label: str | None = None  # the study's title where it is not its scene's id (a stiffened scene)
 
 
 @dataclass(frozen=True)
@@ -431,7 +432,7 @@ class SmallStepsFigures(Figures):
     as the study's dicts; read as ``SmallStepsRow``, ``PaperClaim``, ``SmallStepsSettings``)."""
 
     rows: list | None = None
-    paper_claims: list | None = None         # the paper's claims judged (not "claims": a cell's own key)
+    paper_claims: list | None = None  # the paper's claims judged (not "claims": a cell's own key)
     settings: dict | None = None
     #: Where the scene is not the paper's case (its reference stretches its soft springs), the study
     #: on the scene with every spring stiff: {"rows", "paper_claims", "settings"} as above.
@@ -441,12 +442,18 @@ class SmallStepsFigures(Figures):
         """Each study the cell holds (the scene's, then the stiffened scene's where there is one):
         its rows, its judged claims and its settings."""
         stiff = self.stiff or {}
-        return [([SmallStepsRow.from_data(r)[0] for r in rows or []],
-                 [PaperClaim.from_data(r)[0] for r in claims or []],
-                 SmallStepsSettings.from_data(settings or {})[0])
-                for rows, claims, settings in ((self.rows, self.paper_claims, self.settings),
-                                               (stiff.get("rows"), stiff.get("paper_claims"), stiff.get("settings")))
-                if rows]
+        return [
+            (
+                [SmallStepsRow.from_data(r)[0] for r in rows or []],
+                [PaperClaim.from_data(r)[0] for r in claims or []],
+                SmallStepsSettings.from_data(settings or {})[0],
+            )
+            for rows, claims, settings in (
+                (self.rows, self.paper_claims, self.settings),
+                (stiff.get("rows"), stiff.get("paper_claims"), stiff.get("settings")),
+            )
+            if rows
+        ]
 
     def study_rows(self) -> list[SmallStepsRow]:
         return [SmallStepsRow.from_data(r)[0] for r in self.rows or []]

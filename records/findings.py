@@ -5,6 +5,7 @@ Nothing here judges: a ``Finding`` is a line of markdown and whether what it che
 textbook claims (and those claims), ``Verdict`` the run against the previous one. ``MARK`` stands in a finding's
 text where its verdict mark is printed.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -20,7 +21,7 @@ class Finding:
     """One line of the report's findings (markdown, no leading dash)."""
 
     text: str
-    ok: bool | None = None        # whether what the line checks holds; None: it checks nothing
+    ok: bool | None = None  # whether what the line checks holds; None: it checks nothing
     scene: str | None = None
     method: str | None = None
 
@@ -30,10 +31,10 @@ class ClaimChecks:
     """One method's cells on a scene against its ``claims``: each True / False, None where not judged."""
 
     claims: Claims = field(default_factory=Claims)
-    evals: bool | None = None     # counted force evaluations per step = the declared number
-    order: bool | None = None     # observed order within ORDER_TOL of the declared
-    energy: bool | None = None    # energy class = the declared behaviour
-    homega: bool | None = None    # largest stable h*omega within STABILITY_TOL of the declared
+    evals: bool | None = None  # counted force evaluations per step = the declared number
+    order: bool | None = None  # observed order within ORDER_TOL of the declared
+    energy: bool | None = None  # energy class = the declared behaviour
+    homega: bool | None = None  # largest stable h*omega within STABILITY_TOL of the declared
 
 
 @dataclass(frozen=True)
@@ -51,9 +52,9 @@ class Change:
 class Verdict:
     """The run against the previous complete run of its suite."""
 
-    previous: int | None                      # that run's id; None: none (bounds checked only)
-    regressions: tuple[str, ...] = ()         # one line each
-    judged_runs: int | None = None            # cost judged over this many runs (None: run to run)
+    previous: int | None  # that run's id; None: none (bounds checked only)
+    regressions: tuple[str, ...] = ()  # one line each
+    judged_runs: int | None = None  # cost judged over this many runs (None: run to run)
     changed: tuple[Change, ...] = ()
     failed: tuple[tuple[str, str], ...] = ()  # (scene, method) with a crashed or timed-out cell
 
@@ -63,6 +64,6 @@ class Judgement:
     """Everything judged about one run: what the report prints beside the measured cells."""
 
     verdict: Verdict
-    claims: dict = field(default_factory=dict)    # (scene, method) -> ClaimChecks
-    bounds: dict = field(default_factory=dict)    # (scene, method, dt) -> whether within its bound
+    claims: dict = field(default_factory=dict)  # (scene, method) -> ClaimChecks
+    bounds: dict = field(default_factory=dict)  # (scene, method, dt) -> whether within its bound
     findings: tuple[Finding, ...] = ()

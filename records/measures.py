@@ -16,10 +16,12 @@ It lives here, at the bottom of the house, so that the report (which reads recor
 iterate it; the functions a measure carries are called, never imported, by the layers below the
 one that declared them. Nothing here loads a module.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 from records.cell import FIGURES, Cell, Claims, MethodCells
 from records.figures import Figures
@@ -182,8 +184,9 @@ def measures() -> list[Measure]:
 
 def trended() -> tuple[str, ...]:
     """The measures the history trends, in the order of their columns in a scene's table."""
-    ranked = sorted((min((c.rank for c in m.columns), default=1e9), i, m.name)
-                    for i, m in enumerate(REGISTRY.values()) if m.trend)
+    ranked = sorted(
+        (min((c.rank for c in m.columns), default=1e9), i, m.name) for i, m in enumerate(REGISTRY.values()) if m.trend
+    )
     return tuple(name for _, _, name in ranked)
 
 

@@ -7,11 +7,13 @@ declared field whose default says "not this method" (``scheme`` None for an engi
 attribute. ``OPTIONAL`` holds those defaults; ``harness.methods`` fills them in, in one place,
 for a plugin's method that leaves some out (it must have ``REQUIRED``).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Callable, Mapping, Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
+from collections.abc import Callable, Mapping
 
 from .trajectory import Trajectory
 
@@ -103,7 +105,7 @@ class Method(Protocol):
     def describe(self) -> dict:
         """Plain JSON: ``id``, ``family`` and what else describes the method."""
 
-    def compiled_twin(self) -> "Method":
+    def compiled_twin(self) -> Method:
         """The same method on its fastest path that gives the same states: a reference scheme
         on its compiled driver (force evaluations then not counted); itself for a method that
         already runs its own loop."""
@@ -113,7 +115,17 @@ class Method(Protocol):
 REQUIRED = ("id", "available", "supports", "simulate", "describe")
 
 #: Every optional capability of :class:`Method` and the value that means "not this method".
-OPTIONAL: Mapping[str, Any] = MappingProxyType({
-    "scheme": None, "isolated": False, "adaptive": False, "counting_run": False, "no_match": NO_REASONS,
-    "LOOPS": (), "one_steps": None, "timed_run": None, "precision": "float64", "behaviour": NO_BEHAVIOUR,
-})
+OPTIONAL: Mapping[str, Any] = MappingProxyType(
+    {
+        "scheme": None,
+        "isolated": False,
+        "adaptive": False,
+        "counting_run": False,
+        "no_match": NO_REASONS,
+        "LOOPS": (),
+        "one_steps": None,
+        "timed_run": None,
+        "precision": "float64",
+        "behaviour": NO_BEHAVIOUR,
+    }
+)

@@ -8,6 +8,7 @@ run-time options a method declares written into it where they are set:
 The canonical text (``str``) writes the tolerance after ``@`` and the other options sorted by name,
 so two ways of writing one method give one id (one history series, one cell).
 """
+
 from __future__ import annotations
 
 import math
@@ -49,7 +50,7 @@ class MethodId:
     options: tuple[tuple[str, str], ...] = ()
 
     @classmethod
-    def parse(cls, text: str) -> "MethodId":
+    def parse(cls, text: str) -> MethodId:
         head, qmark, query = str(text).partition("?")
         head, at, tolerance = head.partition("@")
         family, sep, name = head.partition(":")
@@ -64,15 +65,17 @@ class MethodId:
             for item in query.split("&"):
                 key, eq, value = item.partition("=")
                 if not eq or not key or not value:
-                    raise InvalidInput(f"method {text!r}: option {item!r} is not of the form key=value "
-                                       "(ref:xpbd?substeps=10&iterations=1)")
+                    raise InvalidInput(
+                        f"method {text!r}: option {item!r} is not of the form key=value "
+                        "(ref:xpbd?substeps=10&iterations=1)"
+                    )
                 if key in options:
                     raise InvalidInput(f"method {text!r}: option {key!r} is given twice")
                 options[key] = value
         return cls(family, name, tuple(sorted(options.items())))
 
     @classmethod
-    def of(cls, family: str, name: str, options: dict | None = None) -> "MethodId":
+    def of(cls, family: str, name: str, options: dict | None = None) -> MethodId:
         """The id of ``family:name`` with ``options`` (values of any type, written as the id writes them)."""
         return cls(family, name, tuple(sorted((k, _option_text(v)) for k, v in (options or {}).items())))
 
@@ -130,10 +133,13 @@ class Option:
         """``value`` as this option's type, or InvalidInput naming the option and its range."""
         if self.type is str:
             if str(value) not in self.choices:
-                raise InvalidInput(f"method {method}: option {self.name}={value!r} is not one of its choices "
-                                   f"(allowed: {', '.join(self.choices)})")
+                raise InvalidInput(
+                    f"method {method}: option {self.name}={value!r} is not one of its choices "
+                    f"(allowed: {', '.join(self.choices)})"
+                )
             return str(value)
-        allowed = f"allowed: {'integer' if self.type is int else 'number'} from {_option_text(self.low)} to {_option_text(self.high)}"
+        kind = "integer" if self.type is int else "number"
+        allowed = f"allowed: {kind} from {_option_text(self.low)} to {_option_text(self.high)}"
         try:
             x = float(value)
             if self.type is int:
@@ -141,8 +147,10 @@ class Option:
                     raise ValueError
                 x = int(x)
         except (TypeError, ValueError, OverflowError):
-            raise InvalidInput(f"method {method}: option {self.name}={value!r} is not "
-                               f"{'an integer' if self.type is int else 'a number'} ({allowed})") from None
+            raise InvalidInput(
+                f"method {method}: option {self.name}={value!r} is not "
+                f"{'an integer' if self.type is int else 'a number'} ({allowed})"
+            ) from None
         if not (self.low <= x <= self.high):
             raise InvalidInput(f"method {method}: option {self.name}={value} is out of range ({allowed})")
         return x

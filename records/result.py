@@ -4,6 +4,7 @@ The CLI prints it (``--json``: ``as_dict``), the nightly picks its cell's figure
 (``records.cell.Figures.pick``), the tests read its fields: one result, read by name, where a
 dict's keys were looked up by string (and a missing key read as None) before.
 """
+
 from __future__ import annotations
 
 from dataclasses import fields

@@ -3,6 +3,7 @@
 ``RunRecord.of`` and ``RunTiming.of`` are the one conversion from the history's run row and the
 timing the nightly measured (dicts, possibly written by an older version: a field it lacks
 keeps its default)."""
+
 from __future__ import annotations
 
 from dataclasses import MISSING, dataclass, field, fields
@@ -19,8 +20,11 @@ def _known(cls, d: dict | None) -> dict:
     for f in fields(cls):
         if f.name not in (d or {}):
             continue
-        default = f.default if f.default is not MISSING else (
-            f.default_factory() if f.default_factory is not MISSING else None)
+        default = (
+            f.default
+            if f.default is not MISSING
+            else (f.default_factory() if f.default_factory is not MISSING else None)
+        )
         if d[f.name] is not None or default is None:
             out[f.name] = d[f.name]
     return out
@@ -37,12 +41,12 @@ class RunSettings:
     cell_timeout: float | None = None
     plugins: list = field(default_factory=list)
     skipped: list = field(default_factory=list)
-    code_digest: str | None = None           # the project's code (a dirty tree's commit says nothing of it)
-    injected_timings: dict | None = None     # timings read instead of the clock's (harness.measures.injected)
+    code_digest: str | None = None  # the project's code (a dirty tree's commit says nothing of it)
+    injected_timings: dict | None = None  # timings read instead of the clock's (harness.measures.injected)
     resumed: list = field(default_factory=list)  # the attempts that continued the run after a kill
 
     @classmethod
-    def of(cls, d: dict | None) -> "RunSettings":
+    def of(cls, d: dict | None) -> RunSettings:
         return cls(**_known(cls, d))
 
 
@@ -63,7 +67,7 @@ class RunRecord:
     wall_s: float | None = None
 
     @classmethod
-    def of(cls, run) -> "RunRecord":
+    def of(cls, run) -> RunRecord:
         if isinstance(run, cls):
             return run
         d = _known(cls, dict(run))
@@ -88,8 +92,8 @@ class RunTiming:
     kernels_compiled: int | None = None
     kernels_loaded: int | None = None
     kernel_load_s: float = 0.0
-    numba_s: float | None = None         # every numba compilation in the workers (numba's compile events)
-    kernel_plan: dict | None = None      # what the run expected to compile (harness.nightly.kernels.KernelPlan)
+    numba_s: float | None = None  # every numba compilation in the workers (numba's compile events)
+    kernel_plan: dict | None = None  # what the run expected to compile (harness.nightly.kernels.KernelPlan)
     worker_seconds_by_measure: dict = field(default_factory=dict)
     worker_seconds_by_family: dict = field(default_factory=dict)
     slowest_tasks: list = field(default_factory=list)
@@ -97,11 +101,11 @@ class RunTiming:
     task_cpu_s: dict = field(default_factory=dict)
     report_s: float | None = None
     finished_s: float | None = None
-    machine_busy: float | None = None   # share of the machine's CPU other processes took during the cells
-    resumed: dict | None = None         # attempts, tasks carried from them, tasks run by the last
+    machine_busy: float | None = None  # share of the machine's CPU other processes took during the cells
+    resumed: dict | None = None  # attempts, tasks carried from them, tasks run by the last
 
     @classmethod
-    def of(cls, timing) -> "RunTiming":
+    def of(cls, timing) -> RunTiming:
         return timing if isinstance(timing, cls) else cls(**_known(cls, timing))
 
     #: CPU seconds to load a kernel from the disk cache, where the run loaded none to measure it

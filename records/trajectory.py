@@ -3,10 +3,12 @@
 Energy is never taken from a method: it is computed here by the scene, from the state,
 with the same formula for every method.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 import numpy as np
 
@@ -49,9 +51,16 @@ def output_marks(steps: int, every: int) -> np.ndarray:
     return np.unique(np.append(np.arange(0, int(steps) + 1, int(every), dtype=np.int64), int(steps)))
 
 
-def step_loop(advance: Callable[[int, int], None], check: Callable[[int], str], record: Callable[[int], None],
-              steps: int, every: int, spans: bool = False, rewind: Callable[[], None] | None = None,
-              marks=None) -> tuple[int | None, str]:
+def step_loop(
+    advance: Callable[[int, int], None],
+    check: Callable[[int], str],
+    record: Callable[[int], None],
+    steps: int,
+    every: int,
+    spans: bool = False,
+    rewind: Callable[[], None] | None = None,
+    marks=None,
+) -> tuple[int | None, str]:
     """The rule every driver records and stops by (``reference.integrate``, the compiled run,
     ``adapters.drive`` and the engines' own loops): record step 0, then advance and check, stopping at the
     first point whose ``check(n)`` gives a reason (a diverged state, an engine's warning), and record
@@ -99,23 +108,23 @@ class RunMeta:
     ones, ``adapters``' engine loops, the worker that ran it) sets the fields it knows; a field
     it does not know is None."""
 
-    backend: str | None = None                # interpreted | compiled | engine
-    steps_run: int | None = None              # steps taken before a blow-up (all of them where none)
+    backend: str | None = None  # interpreted | compiled | engine
+    steps_run: int | None = None  # steps taken before a blow-up (all of them where none)
     params: dict = field(default_factory=dict)  # the scene's parameters
-    start_force_evals: int | None = None      # evaluations a multistep scheme's start took
-    force_evals_counted: str | None = None    # what was counted as a force evaluation
-    force_evals_reason: str | None = None     # why they are not counted, where they are not
-    iterations: int | None = None             # a constrained scheme's projection passes per step
-    projections: int | None = None            # projections counted
-    linear_solver: str | None = None          # a library solve the method chose (reference.solvers), where it did
-    solver_iterations: int | None = None      # its iterations counted (conjugate gradients, local/global passes)
-    unconverged_solves: int | None = None     # its solves that stopped at the iteration cap or broke down
-    factorizations: int | None = None         # its matrix factorizations counted
-    loop: str | None = None                   # how an engine mode was stepped (adapters._loops)
+    start_force_evals: int | None = None  # evaluations a multistep scheme's start took
+    force_evals_counted: str | None = None  # what was counted as a force evaluation
+    force_evals_reason: str | None = None  # why they are not counted, where they are not
+    iterations: int | None = None  # a constrained scheme's projection passes per step
+    projections: int | None = None  # projections counted
+    linear_solver: str | None = None  # a library solve the method chose (reference.solvers), where it did
+    solver_iterations: int | None = None  # its iterations counted (conjugate gradients, local/global passes)
+    unconverged_solves: int | None = None  # its solves that stopped at the iteration cap or broke down
+    factorizations: int | None = None  # its matrix factorizations counted
+    loop: str | None = None  # how an engine mode was stepped (adapters._loops)
     engine: str | None = None
     engine_version: str | None = None
-    settings: dict | None = None              # the engine's settings, read back from the model that ran
-    worker: dict | None = None                # the worker's failure, where the run was lost
+    settings: dict | None = None  # the engine's settings, read back from the model that ran
+    worker: dict | None = None  # the worker's failure, where the run was lost
 
     def as_dict(self) -> dict:
         """The fields that are set, as plain values (``Trajectory.summary``)."""
@@ -150,11 +159,34 @@ class Trajectory:
     meta: RunMeta = field(default_factory=RunMeta)
 
     @classmethod
-    def failed(cls, scene: str, method: str, dt: float, steps: int, status: str, detail: str,
-               every: int = 1, ndof: int = 0, meta: RunMeta | None = None) -> "Trajectory":
+    def failed(
+        cls,
+        scene: str,
+        method: str,
+        dt: float,
+        steps: int,
+        status: str,
+        detail: str,
+        every: int = 1,
+        ndof: int = 0,
+        meta: RunMeta | None = None,
+    ) -> Trajectory:
         empty = np.zeros((0, 1, ndof))
-        return cls(scene, method, dt, steps, every, np.zeros(0, dtype=int), np.zeros(0), empty, empty.copy(),
-                   np.zeros((0, 1)), status=status, detail=detail, meta=meta or RunMeta())
+        return cls(
+            scene,
+            method,
+            dt,
+            steps,
+            every,
+            np.zeros(0, dtype=int),
+            np.zeros(0),
+            empty,
+            empty.copy(),
+            np.zeros((0, 1)),
+            status=status,
+            detail=detail,
+            meta=meta or RunMeta(),
+        )
 
     @property
     def ok(self) -> bool:
@@ -186,7 +218,14 @@ class Trajectory:
 
     def summary(self) -> dict:
         return {
-            "scene": self.scene, "method": self.method, "dt": self.dt, "steps": self.steps,
-            "status": self.status, "detail": self.detail, "failed_step": self.failed_step,
-            "force_evals": self.force_evals, "solves": self.solves, "meta": self.meta.as_dict(),
+            "scene": self.scene,
+            "method": self.method,
+            "dt": self.dt,
+            "steps": self.steps,
+            "status": self.status,
+            "detail": self.detail,
+            "failed_step": self.failed_step,
+            "force_evals": self.force_evals,
+            "solves": self.solves,
+            "meta": self.meta.as_dict(),
         }

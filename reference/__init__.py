@@ -17,6 +17,7 @@ joins in a suite, ``EVERY_SCENE``). A splitting is declared as its drifts and ki
 ``splitting_scheme``), a scheme taken n times at h/n as ``substepped(scheme, n)``: the step, floor,
 recurrence and claims follow.
 """
+
 from __future__ import annotations
 
 from ._compiled import CLOCKS, bitwise_why, cache_state, integrate_compiled, step_timer, time_per_step
@@ -38,8 +39,10 @@ from .schemes.implicit_midpoint import implicit_midpoint
 from .schemes.leapfrog import leapfrog
 from .schemes.linearly_implicit_euler import linearly_implicit_euler
 from .schemes.pbd import pbd
-from .schemes.position_first_euler_decay import (position_first_euler_decay_after_kick,
-                                                 position_first_euler_decay_before_kick)
+from .schemes.position_first_euler_decay import (
+    position_first_euler_decay_after_kick,
+    position_first_euler_decay_before_kick,
+)
 from .schemes.radau_iia2 import radau_iia2
 from .schemes.runge_kutta import TABLEAUS, explicit_euler, rk4
 from .schemes.semi_implicit_euler import semi_implicit_euler
@@ -51,13 +54,31 @@ from .schemes.verlet_constrained import verlet_constrained
 from .schemes.xpbd import xpbd
 from .schemes.xpbd_jacobi import xpbd_jacobi
 
-METHODS: dict[str, Scheme] = {s.id: s for s in (
-    explicit_euler, semi_implicit_euler, semi_implicit_euler_position_first, verlet, velocity_verlet,
-    leapfrog, rk4, implicit_euler, implicit_midpoint, forest_ruth, verlet_constrained,
-    semi_implicit_euler_velocity_implicit, position_first_euler_decay_after_kick,
-    position_first_euler_decay_before_kick, linearly_implicit_euler, implicit_euler_doubled, radau_iia2, pbd, xpbd,
-    xpbd_jacobi,
-)}
+METHODS: dict[str, Scheme] = {
+    s.id: s
+    for s in (
+        explicit_euler,
+        semi_implicit_euler,
+        semi_implicit_euler_position_first,
+        verlet,
+        velocity_verlet,
+        leapfrog,
+        rk4,
+        implicit_euler,
+        implicit_midpoint,
+        forest_ruth,
+        verlet_constrained,
+        semi_implicit_euler_velocity_implicit,
+        position_first_euler_decay_after_kick,
+        position_first_euler_decay_before_kick,
+        linearly_implicit_euler,
+        implicit_euler_doubled,
+        radau_iia2,
+        pbd,
+        xpbd,
+        xpbd_jacobi,
+    )
+}
 #: Every explicit Runge-Kutta tableau (``schemes/runge_kutta.py``): a new entry there is a new scheme.
 METHODS.update({s.id: s for s in TABLEAUS if s.id not in METHODS})
 
@@ -74,7 +95,32 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["METHODS", "Scheme", "Floor", "EVERY_SCENE", "Kind", "KINDS", "Tableau", "tableau_scheme", "Splitting",
-           "splitting_scheme", "DRIFT", "KICK", "substepped", "RefMethod", "carried_map", "integrate",
-           "integrate_compiled", "bitwise_why", "cache_state", "compile_notices", "kernel_cache_dir", "kernel_opt_level", "CLOCKS", "step_timer",
-           "time_per_step", "KERNEL_STATS", *_FLOOR_NAMES]
+__all__ = [  # noqa: PLE0604
+    "METHODS",
+    "Scheme",
+    "Floor",
+    "EVERY_SCENE",
+    "Kind",
+    "KINDS",
+    "Tableau",
+    "tableau_scheme",
+    "Splitting",
+    "splitting_scheme",
+    "DRIFT",
+    "KICK",
+    "substepped",
+    "RefMethod",
+    "carried_map",
+    "integrate",
+    "integrate_compiled",
+    "bitwise_why",
+    "cache_state",
+    "compile_notices",
+    "kernel_cache_dir",
+    "kernel_opt_level",
+    "CLOCKS",
+    "step_timer",
+    "time_per_step",
+    "KERNEL_STATS",
+    *_FLOOR_NAMES,  # names loaded on first use by __getattr__
+]

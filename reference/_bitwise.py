@@ -2,6 +2,7 @@
 for bit (``reference._kernels``): IEEE arithmetic and square root in the source's order, exact
 abs/min/max, making arrays, and the library functions this machine's numpy and numba are checked
 to agree on; anything else keeps the pair's accuracy runs interpreted (``reference._compiled.bitwise_why``)."""
+
 from __future__ import annotations
 
 import ast
@@ -9,9 +10,27 @@ import ast
 
 #: Calls whose result numba computes bit for bit as numpy and Python do: IEEE 754's correctly
 #: rounded square root, the exact abs, min and max, and making arrays.
-BITWISE_CALLS = frozenset({"np.sqrt", "math.sqrt", "np.abs", "abs", "min", "max", "np.empty_like", "np.zeros_like",
-                         "np.empty", "np.zeros", "np.eye", "np.outer", "np.ascontiguousarray", "range", "len", "float",
-                         "int"})
+BITWISE_CALLS = frozenset(
+    {
+        "np.sqrt",
+        "math.sqrt",
+        "np.abs",
+        "abs",
+        "min",
+        "max",
+        "np.empty_like",
+        "np.zeros_like",
+        "np.empty",
+        "np.zeros",
+        "np.eye",
+        "np.outer",
+        "np.ascontiguousarray",
+        "range",
+        "len",
+        "float",
+        "int",
+    }
+)
 #: Array methods likewise computed bit for bit.
 BITWISE_METHODS = frozenset({"copy"})
 #: Functions both sides take from a library: the C library's sin, cos and exp (where numpy does
@@ -31,8 +50,8 @@ def bitwise_why(tree: ast.FunctionDef, modules: dict[str, str], known: set[str],
     of exact operations and of calls to other such functions computes the same bits either
     way. A reduction (np.sum, np.dot, @: numpy sums pairwise, numba in order), ``**`` (numpy's
     pow against numba's repeated products) or any call not listed might not; a library
-    function (``LIBM_CALLS``) does where the machine's builds agree. ``modules`` maps the names bound to numpy and math to "np" and
-    "math"; ``known``: functions and kernels of the file (bitwise if their own source is);
+    function (``LIBM_CALLS``) does where the machine's builds agree. ``modules`` maps the names bound to numpy and
+    math to "np" and "math"; ``known``: functions and kernels of the file (bitwise if their own source is);
     the libm functions called are added to ``libm``."""
     for node in ast.walk(tree):
         if isinstance(node, (ast.BinOp, ast.AugAssign)) and isinstance(node.op, (ast.Pow, ast.MatMult)):

@@ -2,6 +2,7 @@
 it): the pair's functions copied from their source files, the loop ``advance_n`` written around the
 unchanged step (or, where the step's kind asks, with the step's statements in it), and what the copy
 found (``KernelFile``)."""
+
 from __future__ import annotations
 
 import ast
@@ -16,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._scheme import largest_magnitude
+
 # The step split where it first reads the state (``_Source.add_hoisted``): what comes before, run
 # once by a loop, and the rest, run every step; the kinds name the two in their calls.
 from .kinds import GIVEN, SETUP
@@ -31,10 +33,8 @@ _OWN_PACKAGES = ("reference", "scenarios")
 _IMPORTED = {largest_magnitude: "from reference._scheme import largest_magnitude"}
 
 
-
 class SourceUnavailable(Exception):
     """A function's source cannot be copied into a kernel file (the reason is the message)."""
-
 
 
 def _free_globals(tree: ast.FunctionDef) -> list[str]:
@@ -65,32 +65,52 @@ def _stores(stmts) -> list[str]:
 
 def _makes_empty_array(stmt, numpy: set[str]) -> bool:
     """Whether ``stmt`` is ``X = np.empty(...)`` (``numpy``: the names numpy is imported as)."""
-    return (isinstance(stmt, ast.Assign) and len(stmt.targets) == 1 and isinstance(stmt.targets[0], ast.Name)
-            and isinstance(stmt.value, ast.Call) and isinstance(stmt.value.func, ast.Attribute)
-            and stmt.value.func.attr == "empty" and isinstance(stmt.value.func.value, ast.Name)
-            and stmt.value.func.value.id in numpy)
+    return (
+        isinstance(stmt, ast.Assign)
+        and len(stmt.targets) == 1
+        and isinstance(stmt.targets[0], ast.Name)
+        and isinstance(stmt.value, ast.Call)
+        and isinstance(stmt.value.func, ast.Attribute)
+        and stmt.value.func.attr == "empty"
+        and isinstance(stmt.value.func.value, ast.Name)
+        and stmt.value.func.value.id in numpy
+    )
 
 
 def _binds_without_call(stmt) -> bool:
     """Whether ``stmt`` only binds names (or tuples of names) to a value computed without a call."""
-    return (isinstance(stmt, ast.Assign)
-            and all(isinstance(n, (ast.Name, ast.Tuple)) for target in stmt.targets for n in ast.walk(target)
-                    if not isinstance(n, (ast.Store, ast.Load)))
-            and not any(isinstance(n, ast.Call) for n in ast.walk(stmt.value)))
+    return (
+        isinstance(stmt, ast.Assign)
+        and all(
+            isinstance(n, (ast.Name, ast.Tuple))
+            for target in stmt.targets
+            for n in ast.walk(target)
+            if not isinstance(n, (ast.Store, ast.Load))
+        )
+        and not any(isinstance(n, ast.Call) for n in ast.walk(stmt.value))
+    )
 
 
 def _reads_only_shape(stmt, names) -> bool:
     """Whether ``stmt`` reads each of ``names`` only for its ``.shape``."""
     shapes = {id(n.value) for n in ast.walk(stmt) if isinstance(n, ast.Attribute) and n.attr == "shape"}
-    return all(id(n) in shapes for n in ast.walk(stmt)
-               if isinstance(n, ast.Name) and n.id in names and isinstance(n.ctx, ast.Load))
+    return all(
+        id(n) in shapes
+        for n in ast.walk(stmt)
+        if isinstance(n, ast.Name) and n.id in names and isinstance(n.ctx, ast.Load)
+    )
 
 
 def _copy_into(stmt, array: str) -> tuple[str, str] | None:
     """(the rows, the name) where ``stmt`` is ``array[rows] = name``, else None."""
-    if (isinstance(stmt, ast.Assign) and len(stmt.targets) == 1 and isinstance(stmt.targets[0], ast.Subscript)
-            and isinstance(stmt.targets[0].value, ast.Name) and stmt.targets[0].value.id == array
-            and isinstance(stmt.value, ast.Name)):
+    if (
+        isinstance(stmt, ast.Assign)
+        and len(stmt.targets) == 1
+        and isinstance(stmt.targets[0], ast.Subscript)
+        and isinstance(stmt.targets[0].value, ast.Name)
+        and stmt.targets[0].value.id == array
+        and isinstance(stmt.value, ast.Name)
+    ):
         return ast.unparse(stmt.targets[0].slice), stmt.value.id
     return None
 
@@ -133,11 +153,11 @@ class _Source:
         self._copied[name] = fn
         tree = _function_tree(fn, name)
         if bind:
-            params = tree.args.args[:len(bind)]
+            params = tree.args.args[: len(bind)]
             if len(params) < len(bind) or tree.args.posonlyargs:
                 raise SourceUnavailable(f"{fn.__qualname__} does not take the kernels {bind} first")
             renames = {a.arg: kernel for a, kernel in zip(params, bind)}
-            tree.args.args = tree.args.args[len(bind):]
+            tree.args.args = tree.args.args[len(bind) :]
             for node in ast.walk(tree):
                 if isinstance(node, ast.Name) and node.id in renames:
                     if isinstance(node.ctx, ast.Store):
@@ -166,11 +186,17 @@ class _Source:
         tree = ast.parse(self.functions[name]).body[0]
         found = False
         for node in ast.walk(tree):
-            if (isinstance(node, ast.For) and isinstance(node.iter, ast.Call)
-                    and getattr(node.iter.func, "id", None) == "range" and len(node.iter.args) == 1
-                    and getattr(node.iter.args[0], "id", None) == iterations and node.body
-                    and isinstance(node.body[-1], ast.If) and not node.body[-1].orelse
-                    and [type(b) for b in node.body[-1].body] == [ast.Break]):
+            if (
+                isinstance(node, ast.For)
+                and isinstance(node.iter, ast.Call)
+                and getattr(node.iter.func, "id", None) == "range"
+                and len(node.iter.args) == 1
+                and getattr(node.iter.args[0], "id", None) == iterations
+                and node.body
+                and isinstance(node.body[-1], ast.If)
+                and not node.body[-1].orelse
+                and [type(b) for b in node.body[-1].body] == [ast.Break]
+            ):
                 node.body = node.body[:-1] or [ast.Pass()]
                 node.iter.args = [ast.Constant(1)]
                 found = True
@@ -217,8 +243,10 @@ class _Source:
         tail.name = given
         tail.args.args.insert(0, ast.arg("_given"))
         tail.body = [ast.Assign([tuple_of(ast.Store)], ast.Name("_given", ast.Load()))] + rest
-        for new_name, fn, what in ((setup, head, "the statements before the state is read"),
-                                   (given, tail, "the rest, given those")):
+        for new_name, fn, what in (
+            (setup, head, "the statements before the state is read"),
+            (given, tail, "the rest, given those"),
+        ):
             fn = ast.fix_missing_locations(fn)
             self.origins[new_name] = f"{self.origins[name]}, {what}"
             self.functions[new_name] = ast.unparse(fn)
@@ -265,17 +293,24 @@ class _Source:
             first += 1
         prefix, rest = body[:first], body[first:]
         # The state unpacked into names, first.
-        if not rest or not (isinstance(rest[0], ast.Assign) and len(rest[0].targets) == 1
-                            and isinstance(rest[0].targets[0], ast.Tuple)
-                            and all(isinstance(e, ast.Name) for e in rest[0].targets[0].elts)
-                            and isinstance(rest[0].value, ast.Name) and rest[0].value.id == state):
+        if not rest or not (
+            isinstance(rest[0], ast.Assign)
+            and len(rest[0].targets) == 1
+            and isinstance(rest[0].targets[0], ast.Tuple)
+            and all(isinstance(e, ast.Name) for e in rest[0].targets[0].elts)
+            and isinstance(rest[0].value, ast.Name)
+            and rest[0].value.id == state
+        ):
             return False
         parts = [e.id for e in rest[0].targets[0].elts]
         # The return: views of one array, one a part.
         last = rest[-1]
-        if not (isinstance(last, ast.Return) and isinstance(last.value, ast.Tuple)
-                and len(last.value.elts) == len(parts)
-                and all(isinstance(e, ast.Subscript) and isinstance(e.value, ast.Name) for e in last.value.elts)):
+        if not (
+            isinstance(last, ast.Return)
+            and isinstance(last.value, ast.Tuple)
+            and len(last.value.elts) == len(parts)
+            and all(isinstance(e, ast.Subscript) and isinstance(e.value, ast.Name) for e in last.value.elts)
+        ):
             return False
         array = last.value.elts[0].value.id
         rows = [ast.unparse(e.slice) for e in last.value.elts]
@@ -287,18 +322,29 @@ class _Source:
             return False
         at = made[0]
         shape = rest[1:at]
-        if not all(_binds_without_call(stmt) and t not in _reads(stmt) and _reads_only_shape(stmt, [*parts, state])
-                   for stmt in shape):
+        if not all(
+            _binds_without_call(stmt) and t not in _reads(stmt) and _reads_only_shape(stmt, [*parts, state])
+            for stmt in shape
+        ):
             return False
-        copies = rest[at + 1:at + 1 + len(parts)]
+        copies = rest[at + 1 : at + 1 + len(parts)]
         if [_copy_into(stmt, array) for stmt in copies] != list(zip(rows, parts)):
             return False
-        steps = rest[at + 1 + len(parts):-1]
+        steps = rest[at + 1 + len(parts) : -1]
         bound = set(params) | set(parts) | set(_stores(shape)) | {array}
-        counters = {n.id for stmt in prefix for loop_ in ast.walk(stmt) if isinstance(loop_, ast.For)
-                    for n in ast.walk(loop_.target) if isinstance(n, ast.Name)}
-        if (any((_reads(stmt) & (set(parts) | {state})) for stmt in steps)
-                or set(_stores(steps)) & (bound | (set(_stores(prefix)) - counters)) or _stores(body).count(array) != 1):
+        counters = {
+            n.id
+            for stmt in prefix
+            for loop_ in ast.walk(stmt)
+            if isinstance(loop_, ast.For)
+            for n in ast.walk(loop_.target)
+            if isinstance(n, ast.Name)
+        }
+        if (
+            any((_reads(stmt) & (set(parts) | {state})) for stmt in steps)
+            or set(_stores(steps)) & (bound | (set(_stores(prefix)) - counters))
+            or _stores(body).count(array) != 1
+        ):
             return False
         loop = "advance_n"
         own = {loop, "_t0", "_i0", "_steps", "_k", "_i"}
@@ -309,17 +355,25 @@ class _Source:
             return [textwrap.indent(ast.unparse(stmt), indent) for stmt in stmts]
 
         reads_time = any(t in _reads(stmt) for stmt in steps)
-        text = [f"def {loop}({state}, _t0, {h}, _i0, _steps, {p}, _k):",
-                *[f"    {param} = {value}" for param, value in zip(count_params, counts)],
-                *lines(prefix, "    "),
-                *lines(rest[:at + 1 + len(parts)], "    "),
-                "    for _i in range(_i0, _i0 + _steps):",
-                *([f"        {t} = _t0 + _i * {h}"] if reads_time else []),
-                *lines(steps, "        "),
-                f"    return {ast.unparse(last.value)}"]
+        text = [
+            f"def {loop}({state}, _t0, {h}, _i0, _steps, {p}, _k):",
+            *[f"    {param} = {value}" for param, value in zip(count_params, counts)],
+            *lines(prefix, "    "),
+            *lines(rest[: at + 1 + len(parts)], "    "),
+            "    for _i in range(_i0, _i0 + _steps):",
+            *([f"        {t} = _t0 + _i * {h}"] if reads_time else []),
+            *lines(steps, "        "),
+            f"    return {ast.unparse(last.value)}",
+        ]
         self._trees[loop] = ast.parse("\n".join(text)).body[0]
-        self.loop = "\n".join([f"# from {self.origins[name]}: its statements in the loop, the state carried in its array",
-                                "@_jit", *text, ""])
+        self.loop = "\n".join(
+            [
+                f"# from {self.origins[name]}: its statements in the loop, the state carried in its array",
+                "@_jit",
+                *text,
+                "",
+            ]
+        )
         return True
 
     def bitwise_why(self) -> tuple[str, tuple[str, ...]]:
@@ -364,13 +418,18 @@ class _Source:
     def text(self, header: str, loop: str) -> str:
         # error_model="numpy": a division by zero gives inf/nan, as on the interpreted (numpy)
         # path, instead of raising, and the loops skip the zero checks (~15% of a spring step).
-        parts = [header, "import numba", *sorted(set(self.imports.values())), "",
-                 '_jit = numba.njit(cache=True, error_model="numpy")', ""]
+        parts = [
+            header,
+            "import numba",
+            *sorted(set(self.imports.values())),
+            "",
+            '_jit = numba.njit(cache=True, error_model="numpy")',
+            "",
+        ]
         parts += sorted(self.constants.values()) + [""]
         for name, body in self.functions.items():
             parts += [f"# from {self.origins[name]}", "@_jit", body, ""]
         return "\n".join(parts + [loop])
-
 
 
 def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False, hoisted: bool = False) -> str:
@@ -384,32 +443,38 @@ def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False, hoisted
     call = kind.step_call("{x}", "{t}")
     if not pointwise:
         setup, step = _hoisted_calls(kind, hoisted, "state", "t0 + i * h", "t0 + i0 * h")
-        return "\n".join([
-            "@_jit",
-            "def advance_n(state, t0, h, i0, n, p, k):",
-            *(["    " + setup] if setup else []),
-            "    for i in range(i0, i0 + n):",
-            "        state = " + step,
-            "    return state", ""])
+        return "\n".join(
+            [
+                "@_jit",
+                "def advance_n(state, t0, h, i0, n, p, k):",
+                *(["    " + setup] if setup else []),
+                "    for i in range(i0, i0 + n):",
+                "        state = " + step,
+                "    return state",
+                "",
+            ]
+        )
     s = [f"s{j}" for j in range(nstate)]
 
     def entries(r, b):
         return "(" + ", ".join(f"{x}[{r}, {b}]" for x in s) + ",)"
 
     def loops(step_call, indent):
-        body = ["if nb == 1:",
-                "    for r in range(ndof):",
-                f"        x = {entries('r', 0)}",
-                "        for i in range(i0, i0 + n):",
-                "            x = " + step_call.format(x="x", t="t0 + i * h"),
-                *[f"        {x}[r, 0] = x[{j}]" for j, x in enumerate(s)],
-                "else:",
-                "    for i in range(i0, i0 + n):",
-                "        t = t0 + i * h",
-                "        for r in range(ndof):",
-                "            for b in range(nb):",
-                "                x = " + step_call.format(x=entries("r", "b"), t="t"),
-                *[f"                {x}[r, b] = x[{j}]" for j, x in enumerate(s)]]
+        body = [
+            "if nb == 1:",
+            "    for r in range(ndof):",
+            f"        x = {entries('r', 0)}",
+            "        for i in range(i0, i0 + n):",
+            "            x = " + step_call.format(x="x", t="t0 + i * h"),
+            *[f"        {x}[r, 0] = x[{j}]" for j, x in enumerate(s)],
+            "else:",
+            "    for i in range(i0, i0 + n):",
+            "        t = t0 + i * h",
+            "        for r in range(ndof):",
+            "            for b in range(nb):",
+            "                x = " + step_call.format(x=entries("r", "b"), t="t"),
+            *[f"                {x}[r, b] = x[{j}]" for j, x in enumerate(s)],
+        ]
         return [indent + line for line in body]
 
     lines = ["@_jit", "def advance_n(state, t0, h, i0, n, p, k):"]
@@ -418,8 +483,12 @@ def _loop_source(kind, nstate: int, pointwise: bool, once: bool = False, hoisted
     if once:
         # One Newton iteration (every linear scene: exact) runs the step copied without the
         # iteration loop's exit, which leaves the batch loop straight-line code that vectorises.
-        lines += ["    if k == 1:", *loops(kind.step_call("{x}", "{t}", "scheme_step_once", "1"), "        "),
-                  "    else:", *loops(call, "        ")]
+        lines += [
+            "    if k == 1:",
+            *loops(kind.step_call("{x}", "{t}", "scheme_step_once", "1"), "        "),
+            "    else:",
+            *loops(call, "        "),
+        ]
     else:
         lines += loops(call, "    ")
     lines += ["    return (" + ", ".join(s) + ",)", ""]
@@ -432,8 +501,7 @@ def _hoisted_calls(kind, hoisted: bool, x: str, t: str, t_first: str) -> tuple[s
     given it."""
     if not hoisted:
         return "", kind.step_call(x, t)
-    return (f"_given = {kind.step_call(x, t_first, SETUP)}",
-            kind.step_call(x, t, GIVEN, lead="_given, "))
+    return (f"_given = {kind.step_call(x, t_first, SETUP)}", kind.step_call(x, t, GIVEN, lead="_given, "))
 
 
 @dataclass(frozen=True)
@@ -470,7 +538,7 @@ def kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
     return made
 
 
-_FILES: dict[tuple, "KernelFile | SourceUnavailable"] = {}
+_FILES: dict[tuple, KernelFile | SourceUnavailable] = {}
 
 
 def _kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
@@ -488,6 +556,8 @@ def _kernel_file(scheme, scene_cls, nstate: int) -> KernelFile:
     hoisted = GIVEN in src.functions and not pointwise
     loops = src.loop or _loop_source(kind, nstate, pointwise, once, hoisted)
     bitwise, libm = src.bitwise_why()
-    header = (f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind.name}, '
-              f'{"pointwise" if pointwise else "array"} loop), generated by reference._kernels."""')
+    header = (
+        f'"""Kernels of ref:{scheme.id} on {scene_cls.__name__} ({kind.name}, '
+        f'{"pointwise" if pointwise else "array"} loop), generated by reference._kernels."""'
+    )
     return KernelFile(src.text(header, loops), pointwise, bitwise, libm)

@@ -11,6 +11,7 @@ interpreted counting run's); elsewhere the run is interpreted. The kernels of a 
 pair compiles once per machine and source, then loads at a small fraction of that cost) and, on a
 pointwise scene, run as a loop of scalars without array temporaries.
 """
+
 from __future__ import annotations
 
 import time
@@ -27,7 +28,7 @@ from ._scheme import observe_qv
 
 #: One driver per (scheme, scene class) in this process: the Scheme object (a frozen dataclass
 #: holding its functions), so a scheme re-imported from an edited file is a new key.
-_DRIVERS: dict[tuple, "_Compiled"] = {}
+_DRIVERS: dict[tuple, _Compiled] = {}
 
 
 class _Compiled:
@@ -41,8 +42,9 @@ class _Compiled:
         self.observes_qv = scheme.observe is observe_qv
         q, v = _kernel_layout(scene, None, None)
         h, p, k = 0.01 / scene.omega, scene.pvec, _k(scheme, scene, None)
-        self.warmup_s = _kernels.warm(kernels, lambda: self.drive(q, v, 0.0, h, 2, p, k),
-                                      label=f"{scheme.id} on {scene.id}")
+        self.warmup_s = _kernels.warm(
+            kernels, lambda: self.drive(q, v, 0.0, h, 2, p, k), label=f"{scheme.id} on {scene.id}"
+        )
 
     def first_state(self, q, v, t0, h, p):
         return self.kernels.start(q, v, t0, h, p)
@@ -149,13 +151,25 @@ def bitwise_why(scheme, scene: Scene, q0=None, iterations: int | None = None, su
             return f"numba's {f} gives other bits than numpy's on this machine"
     entries = scene.ndof if q0 is None else np.size(q0)
     if made.pointwise and loop.kind.implicit and entries > 1 and _k(loop, scene, iterations, substeps) > 1:
-        return ("the pointwise loop ends each entry's Newton iteration on its own update, the interpreted step "
-                f"on the largest over all {entries} entries")
+        return (
+            "the pointwise loop ends each entry's Newton iteration on its own update, the interpreted step "
+            f"on the largest over all {entries} entries"
+        )
     return ""
 
 
-def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, q0=None, v0=None, t0: float = 0.0,
-                       iterations: int | None = None, substeps: int | None = None):
+def run_compiled_every(
+    scheme,
+    scene: Scene,
+    dt: float,
+    steps: int,
+    every: int,
+    q0=None,
+    v0=None,
+    t0: float = 0.0,
+    iterations: int | None = None,
+    substeps: int | None = None,
+):
     """(steps recorded, q, v, failed step or None) of a compiled run, recorded as ``integrate``
     records (step 0, every ``every`` steps and the last) and stopped as it stops, at the first
     step whose state diverged; q, v in API layout (T, batch, ndof).
@@ -187,15 +201,36 @@ def run_compiled_every(scheme, scene: Scene, dt: float, steps: int, every: int, 
         now["state"] = now["good"]
 
     with np.errstate(all="ignore"):
-        failed, _ = step_loop(advance, lambda n: "" if _within(now["state"]) else "diverged", record, steps, every,
-                              spans=True, rewind=rewind)
-    return (np.array(recorded, dtype=np.int64), np.ascontiguousarray(np.array(qs).transpose(0, 2, 1)),
-            np.ascontiguousarray(np.array(vs).transpose(0, 2, 1)), failed)
+        failed, _ = step_loop(
+            advance,
+            lambda n: "" if _within(now["state"]) else "diverged",
+            record,
+            steps,
+            every,
+            spans=True,
+            rewind=rewind,
+        )
+    return (
+        np.array(recorded, dtype=np.int64),
+        np.ascontiguousarray(np.array(qs).transpose(0, 2, 1)),
+        np.ascontiguousarray(np.array(vs).transpose(0, 2, 1)),
+        failed,
+    )
 
 
-def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int = 1, q0=None, v0=None,
-                       t0: float = 0.0, iterations: int | None = None, substeps: int | None = None,
-                       counted: bool = False) -> Trajectory:
+def integrate_compiled(
+    scheme,
+    scene: Scene,
+    dt: float,
+    steps: int,
+    every: int = 1,
+    q0=None,
+    v0=None,
+    t0: float = 0.0,
+    iterations: int | None = None,
+    substeps: int | None = None,
+    counted: bool = False,
+) -> Trajectory:
     """``integrate`` on the pair's compiled loop: the same step functions and kernels, the same
     recording and the same divergence stop; the same states, bit for bit, where
     :func:`bitwise_why` finds nothing (the caller asks). ``counted``: with the force evaluations,
@@ -207,27 +242,54 @@ def integrate_compiled(scheme, scene: Scene, dt: float, steps: int, every: int =
     status, detail = (UNSTABLE, divergence_detail(failed, t0 + failed * dt)) if failed else (OK, "")
     with np.errstate(over="ignore", invalid="ignore"):
         energy = scene.energy(q, v)
-    meta = RunMeta(backend="compiled", steps_run=(failed - 1) if failed else steps, params=dict(scene.values),
-                   iterations=scheme.kind.run_iterations(scheme, iterations),
-                   force_evals_reason="compiled run: not counted (the interpreted driver counts them)")
+    meta = RunMeta(
+        backend="compiled",
+        steps_run=(failed - 1) if failed else steps,
+        params=dict(scene.values),
+        iterations=scheme.kind.run_iterations(scheme, iterations),
+        force_evals_reason="compiled run: not counted (the interpreted driver counts them)",
+    )
     counts = _counts.of_run(scheme, scene, failed or steps, iterations, substeps) if counted else None
     if counted:
         meta.start_force_evals = _counts.start_evaluations(scheme, scene, *_kernel_layout(scene, q0, v0), t0, dt)
         meta.force_evals_reason = None if counts is not None else _counts.VARYING
     if counts is not None and "project" in scheme.kind.kernels:
         meta.projections = counts.projections
-    return Trajectory(scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
-                      step=recorded, t=t0 + recorded * dt, q=q, v=v, energy=energy, status=status, detail=detail,
-                      failed_step=failed, force_evals=counts.force_evals if counts else None,
-                      solves=counts.solves if counts else None, meta=meta)
+    return Trajectory(
+        scene=scene.id,
+        method=f"ref:{scheme.id}",
+        dt=dt,
+        steps=steps,
+        every=every,
+        step=recorded,
+        t=t0 + recorded * dt,
+        q=q,
+        v=v,
+        energy=energy,
+        status=status,
+        detail=detail,
+        failed_step=failed,
+        force_evals=counts.force_evals if counts else None,
+        solves=counts.solves if counts else None,
+        meta=meta,
+    )
 
 
-def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None, iterations: int | None = None,
-                 substeps: int | None = None):
+def run_compiled(
+    scheme,
+    scene: Scene,
+    dt: float,
+    steps: int,
+    q0=None,
+    v0=None,
+    iterations: int | None = None,
+    substeps: int | None = None,
+):
     """Final (q, v) after ``steps`` compiled steps, API layout (batch, ndof)."""
     q, v = _kernel_layout(scene, q0, v0)
-    qf, vf = driver(scheme, scene)(q, v, 0.0, float(dt), int(steps), scene.pvec,
-                                   _k(scheme, scene, iterations, substeps))
+    qf, vf = driver(scheme, scene)(
+        q, v, 0.0, float(dt), int(steps), scene.pvec, _k(scheme, scene, iterations, substeps)
+    )
     return qf.T.copy(), vf.T.copy()
 
 
@@ -236,8 +298,16 @@ def run_compiled(scheme, scene: Scene, dt: float, steps: int, q0=None, v0=None, 
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
-def step_timer(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, iterations: int | None = None,
-               clock: str = "wall", substeps: int | None = None):
+def step_timer(
+    scheme,
+    scene: Scene,
+    dt: float,
+    steps: int,
+    batch: int = 1,
+    iterations: int | None = None,
+    clock: str = "wall",
+    substeps: int | None = None,
+):
     """``(warm-up seconds, once)``: the compiled loop (``advance_n`` from the first state) called
     once to compile it, and ``once(n=steps)`` timing one call of n steps on ``clock`` ("wall" or
     "cpu"), in seconds per step."""
@@ -260,12 +330,28 @@ def step_timer(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, iter
     return t_compile, once
 
 
-def time_per_step(scheme, scene: Scene, dt: float, steps: int, batch: int = 1, repeats: int = 5,
-                  iterations: int | None = None, clock: str = "wall", substeps: int | None = None) -> dict:
+def time_per_step(
+    scheme,
+    scene: Scene,
+    dt: float,
+    steps: int,
+    batch: int = 1,
+    repeats: int = 5,
+    iterations: int | None = None,
+    clock: str = "wall",
+    substeps: int | None = None,
+) -> dict:
     """Time per step of the compiled loop on ``clock`` ("wall" or "cpu"): one warm-up call
     (compiles), then the minimum over ``repeats`` timed calls (the least-disturbed run; asv
     and timeit do the same)."""
     t_compile, once = step_timer(scheme, scene, dt, steps, batch, iterations, clock, substeps)
     times = [once() for _ in range(repeats)]
-    return {"s_per_step": min(times), "median_s_per_step": float(np.median(times)),
-            "repeats": times, "warmup_s": t_compile, "batch": batch, "steps": steps, "clock": clock}
+    return {
+        "s_per_step": min(times),
+        "median_s_per_step": float(np.median(times)),
+        "repeats": times,
+        "warmup_s": t_compile,
+        "batch": batch,
+        "steps": steps,
+        "clock": clock,
+    }

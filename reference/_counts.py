@@ -16,6 +16,7 @@ counting them in the loop, which is also the loop the timings time.
 
 ``tests/test_compiled_runs.py`` checks these against the interpreted driver's counts.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -28,8 +29,7 @@ from ._integrate import Counted
 from ._scheme import start_qv
 
 #: Why a run on the compiled loop has no counts where they vary (``RunMeta.force_evals_reason``).
-VARYING = ("its Newton passes vary from step to step: counted by an interpreted counting run "
-           "(simulate(..., count=True))")
+VARYING = "its Newton passes vary from step to step: counted by an interpreted counting run (simulate(..., count=True))"
 
 
 @dataclass(frozen=True)
@@ -41,8 +41,9 @@ class RunCounts:
     projections: int
 
 
-def step_counts(scheme, scene: Scene, iterations: int | None = None,
-                substeps: int | None = None) -> tuple[int, int, int] | None:
+def step_counts(
+    scheme, scene: Scene, iterations: int | None = None, substeps: int | None = None
+) -> tuple[int, int, int] | None:
     """(force evaluations, solves, projections) a step of the pair takes, declared; None where they vary."""
     kind = scheme.kind
     return kind.step_counts(scheme, scene, kind.count(scheme, scene, iterations, substeps))
@@ -59,8 +60,9 @@ def start_evaluations(scheme, scene: Scene, q, v, t0: float, dt: float) -> int:
     return accel.calls
 
 
-def of_run(scheme, scene: Scene, taken: int, iterations: int | None = None,
-           substeps: int | None = None) -> RunCounts | None:
+def of_run(
+    scheme, scene: Scene, taken: int, iterations: int | None = None, substeps: int | None = None
+) -> RunCounts | None:
     """The counts of a compiled run that took ``taken`` steps (the failing one included, as the
     interpreted driver counts it), where the pair's are declared; None where they vary."""
     per_step = step_counts(scheme, scene, iterations, substeps)

@@ -9,6 +9,7 @@ innermost, on a batch. ``harness bench`` times each scheme's compiled kernel bes
 the same run; the ratio is what the generated kernels still pay over a loop written by hand.
 ``run_floor`` and ``floor_timer`` below drive one.
 """
+
 from __future__ import annotations
 
 import time
@@ -64,8 +65,17 @@ def run_floor(floor, x0: float, v0: float, h: float, k: float, m: float, n: int)
     return floor.observe(single(floor.start(x0, v0, h, k, m), h, k, m, n), h, k, m)
 
 
-def floor_timer(floor, h: float, steps: int, batch: int = 1, k: float = 1.0, m: float = 1.0,
-                x0: float = 1.0, v0: float = 0.0, clock=time.perf_counter):
+def floor_timer(
+    floor,
+    h: float,
+    steps: int,
+    batch: int = 1,
+    k: float = 1.0,
+    m: float = 1.0,
+    x0: float = 1.0,
+    v0: float = 0.0,
+    clock=time.perf_counter,
+):
     """``(warm-up seconds, once)`` as ``reference._compiled.step_timer``: ``once()`` times one
     call of ``steps`` steps of ``floor`` (one spring in registers, or a batch of springs) and
     returns seconds per step."""

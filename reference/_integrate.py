@@ -3,6 +3,7 @@
 This is the accuracy path (what ``harness run`` prints and what the measurements use);
 ``_compiled`` runs the same step functions compiled, for timing.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -28,8 +29,13 @@ class Counted:
 def _kernels(scene: Scene, accel=None, solve=None, project=None) -> dict:
     """The scene's kernels by name, for a kind to take its own (``Kind.advance``): the force,
     solve and projection as given (counted), the others as the scene has them."""
-    return {"accel": accel or scene.accel, "solve": solve or scene.solve, "project": project or scene.project,
-            "damping_rate": scene.damping_rate, "constraints": scene.constraints}
+    return {
+        "accel": accel or scene.accel,
+        "solve": solve or scene.solve,
+        "project": project or scene.project,
+        "damping_rate": scene.damping_rate,
+        "constraints": scene.constraints,
+    }
 
 
 def carried_map(scheme, scene: Scene, dt: float) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
@@ -62,9 +68,19 @@ def carried_map(scheme, scene: Scene, dt: float) -> tuple[np.ndarray, np.ndarray
     return M, c, names
 
 
-def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
-              q0: np.ndarray | None = None, v0: np.ndarray | None = None, t0: float = 0.0,
-              iterations: int | None = None, substeps: int | None = None, solver=None) -> Trajectory:
+def integrate(
+    scheme,
+    scene: Scene,
+    dt: float,
+    steps: int,
+    every: int = 1,
+    q0: np.ndarray | None = None,
+    v0: np.ndarray | None = None,
+    t0: float = 0.0,
+    iterations: int | None = None,
+    substeps: int | None = None,
+    solver=None,
+) -> Trajectory:
     """Step ``scheme`` on ``scene`` for ``steps`` steps of ``dt``, recording every ``every`` steps
     (and always the last). ``q0``/``v0`` may be batched (API layout, (batch, ndof)).
     ``iterations``: projection passes per step of a constrained scheme (default: the scheme's);
@@ -80,12 +96,14 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
     q = np.ascontiguousarray(np.atleast_2d(q0).T, dtype=np.float64)
     v = np.ascontiguousarray(np.atleast_2d(v0).T, dtype=np.float64)
     p = scene.pvec
-    meta = RunMeta(backend="interpreted", params=dict(scene.values),
-                   iterations=scheme.kind.run_iterations(scheme, iterations))
+    meta = RunMeta(
+        backend="interpreted", params=dict(scene.values), iterations=scheme.kind.run_iterations(scheme, iterations)
+    )
     if solver is None:
         accel, solve, project = Counted(scene.accel), Counted(scene.solve), Counted(scene.project)
-        advance = scheme.kind.advance(scheme, scene, dt, _kernels(scene, accel, solve, project), iterations,
-                                      substeps=substeps)
+        advance = scheme.kind.advance(
+            scheme, scene, dt, _kernels(scene, accel, solve, project), iterations, substeps=substeps
+        )
     else:
         prepared = solver.prepare(scheme, scene, dt)
         accel, solve, project = Counted(prepared.accel), Counted(prepared.solve), Counted(scene.project)
@@ -121,17 +139,27 @@ def integrate(scheme, scene: Scene, dt: float, steps: int, every: int = 1,
         meta.unconverged_solves = prepared.unconverged
         meta.factorizations = prepared.factorizations
         if prepared.unconverged:  # an unconverged solve is said with the run, whatever its status
-            short = (f"{prepared.unconverged} of {solve.calls} solves stopped short of their tolerance "
-                     f"({prepared.text})")
+            short = f"{prepared.unconverged} of {solve.calls} solves stopped short of their tolerance ({prepared.text})"
             detail = f"{detail}; {short}" if detail else short
     q_arr, v_arr = np.array(rec_q), np.array(rec_v)
     step_arr = np.array(rec_step, dtype=np.int64)
     with np.errstate(over="ignore", invalid="ignore"):  # the last states of a blow-up are finite but huge
         energy = scene.energy(q_arr, v_arr)
     return Trajectory(
-        scene=scene.id, method=f"ref:{scheme.id}", dt=dt, steps=steps, every=every,
-        step=step_arr, t=t0 + step_arr * dt, q=q_arr, v=v_arr, energy=energy,
-        status=status, detail=detail, failed_step=failed,
-        force_evals=accel.calls, solves=solve.calls,
+        scene=scene.id,
+        method=f"ref:{scheme.id}",
+        dt=dt,
+        steps=steps,
+        every=every,
+        step=step_arr,
+        t=t0 + step_arr * dt,
+        q=q_arr,
+        v=v_arr,
+        energy=energy,
+        status=status,
+        detail=detail,
+        failed_step=failed,
+        force_evals=accel.calls,
+        solves=solve.calls,
         meta=meta,
     )

@@ -45,6 +45,7 @@ A pair whose source cannot be copied (a global that is neither a number, a modul
 function of this project) is compiled in memory instead, every process anew, and says so
 (``Kernels.cached`` False).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -62,6 +63,7 @@ import numpy as np
 from . import _numba_config
 from ._codegen import SourceUnavailable, kernel_file
 from ._scheme import largest_magnitude
+
 
 def cache_dir() -> Path:
     """Where kernel files and numba's cache of them live: ``$HARNESS_CACHE/kernels``, else
@@ -87,8 +89,13 @@ class Stats:
     numba_s: float = 0.0
 
     def snapshot(self) -> dict:
-        return {"kernels_compiled": self.compiled, "compile_s": self.compile_s,
-                "kernels_loaded": self.loaded, "load_s": self.load_s, "numba_s": self.numba_s}
+        return {
+            "kernels_compiled": self.compiled,
+            "compile_s": self.compile_s,
+            "kernels_loaded": self.loaded,
+            "load_s": self.load_s,
+            "numba_s": self.numba_s,
+        }
 
 
 STATS = Stats()
@@ -251,8 +258,11 @@ def _loops_compiled(folder: Path) -> set[str]:
         return set()
     have = _LISTINGS.get(folder)
     if have is None or have[0] != stamp:
-        stems = {name.split(".advance_n-", 1)[0] for name in os.listdir(folder)
-                 if ".advance_n-" in name and name.endswith(".nbi")}
+        stems = {
+            name.split(".advance_n-", 1)[0]
+            for name in os.listdir(folder)
+            if ".advance_n-" in name and name.endswith(".nbi")
+        }
         have = _LISTINGS[folder] = (stamp, stems)
     return have[1]
 
@@ -272,8 +282,9 @@ def load(scheme, scene_cls, nstate: int) -> Kernels:
     stem = path.stem
     _write_once(path, f.text)
     module = _import_file(f"_harness_kernels.{stem}", path)
-    return Kernels(module.start, module.advance_n, module.observe, f.pointwise, path,
-                   bitwise_why=f.bitwise_why, libm=f.libm)
+    return Kernels(
+        module.start, module.advance_n, module.observe, f.pointwise, path, bitwise_why=f.bitwise_why, libm=f.libm
+    )
 
 
 def _in_memory(scheme, scene_cls, why: str) -> Kernels:
@@ -326,10 +337,12 @@ def warm(kernels: Kernels, call, label: str = "") -> float:
     ``label``: the pair, for ``compile_notices``."""
     dispatchers = kernels.dispatchers()
     if _NOTICES and _will_compile(kernels):
-        where = "once on this machine, then loaded from the kernel cache" if kernels.cached else \
-            f"in memory, not cached: {kernels.why_uncached}"
-        line = (f"compiling the loop of "
-                f"{label or (kernels.path.stem if kernels.path else 'a pair')} ({where})")
+        where = (
+            "once on this machine, then loaded from the kernel cache"
+            if kernels.cached
+            else f"in memory, not cached: {kernels.why_uncached}"
+        )
+        line = f"compiling the loop of {label or (kernels.path.stem if kernels.path else 'a pair')} ({where})"
         for tell in list(_NOTICES):
             tell(line)
 

@@ -14,6 +14,7 @@ of what it depends on (numpy's, numba's and Python's versions, this CPU and its 
 kernels' optimisation level, this module's source): a later process on the machine reads it instead
 of compiling the check again.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -37,8 +38,14 @@ def _arguments(name: str) -> np.ndarray:
     """Where the check evaluates: a dense sweep of a few periods, wide random arguments, tiny
     ones and the special values (exp: within its finite range and across all of it)."""
     rng = np.random.default_rng(20261123)
-    x = np.concatenate([np.linspace(-20.0, 20.0, 40_001), rng.standard_normal(20_000) * 1e3,
-                        rng.standard_normal(5_000) * 1e-6, [0.0, -0.0, np.inf, -np.inf, np.nan]])
+    x = np.concatenate(
+        [
+            np.linspace(-20.0, 20.0, 40_001),
+            rng.standard_normal(20_000) * 1e3,
+            rng.standard_normal(5_000) * 1e-6,
+            [0.0, -0.0, np.inf, -np.inf, np.nan],
+        ]
+    )
     if name.endswith("exp"):
         x = np.concatenate([np.clip(x, -745.0, 709.0), np.linspace(-745.0, 709.0, 20_001)])
     return x
@@ -102,8 +109,10 @@ def _answers_file() -> Path:
     from ._kernels import cache_dir
 
     h = hashlib.sha256(Path(__file__).read_bytes())
-    h.update(f"numpy {np.__version__} numba {numba.__version__} python {sys.version} cpu {binding.get_host_cpu_name()} "
-             f"{binding.get_host_cpu_features().flatten()} opt {_numba_config.opt_level()}".encode())
+    h.update(
+        f"numpy {np.__version__} numba {numba.__version__} python {sys.version} cpu {binding.get_host_cpu_name()} "
+        f"{binding.get_host_cpu_features().flatten()} opt {_numba_config.opt_level()}".encode()
+    )
     return cache_dir() / f"libm-{h.hexdigest()[:16]}.json"
 
 

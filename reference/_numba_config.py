@@ -12,6 +12,7 @@ it, and the tests hold the compiled runs to the interpreted ones bit for bit. Th
 of every kernel file's key (``reference._kernels``), because numba's own cache does not record
 it, and each run records it (``harness.execution.environment``).
 """
+
 from __future__ import annotations
 
 import os

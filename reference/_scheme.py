@@ -25,11 +25,12 @@ scenes it joins in the suites that ask (``suites``). A tableau's floor and recur
 its tableau, a splitting's from its drifts and kicks (``reference.splitting``), a substepped
 scheme's from the scheme it substeps (``reference.substepped``).
 """
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -137,9 +138,9 @@ class Scheme:
     #: Substeps a step is cut into by default (a position-based scheme's ``substeps`` option).
     substeps: int | None = None
     order_velocity_dependent: int | None = None
-    same_without_velocity: "Scheme | None" = None
+    same_without_velocity: Scheme | None = None
     one_pass_on_linear: bool = True
-    carries: tuple[str, ...] = ("q", "v")   # the state carried between steps, as ``start`` builds it
+    carries: tuple[str, ...] = ("q", "v")  # the state carried between steps, as ``start`` builds it
     doc: str = field(default="", compare=False)
     #: The Butcher tableau an explicit Runge-Kutta scheme is declared as (``reference.tableau``).
     tableau: object = field(default=None, compare=False)
@@ -186,15 +187,27 @@ class Scheme:
 
     def describe(self) -> dict:
         evals = self.kind.evals_text(self)
-        limit = ("none (unstable for every h)" if self.homega_max is None
-                 else "unbounded" if self.homega_max == math.inf else f"{self.homega_max:.4g}")
-        out = {"id": self.id, "order": self.order, "order_velocity_dependent": self.order_for(True),
-               "force_evals": evals, "symplectic": self.symplectic,
-               "implicit": self.implicit, "constrained": self.constrained, "energy": self.energy_claim,
-               "decay": self.decay,
-               "same_without_velocity": self.same_without_velocity.id if self.same_without_velocity else None,
-               "homega_max": limit,
-               "doc": " ".join(self.doc.split())}
+        limit = (
+            "none (unstable for every h)"
+            if self.homega_max is None
+            else "unbounded"
+            if self.homega_max == math.inf
+            else f"{self.homega_max:.4g}"
+        )
+        out = {
+            "id": self.id,
+            "order": self.order,
+            "order_velocity_dependent": self.order_for(True),
+            "force_evals": evals,
+            "symplectic": self.symplectic,
+            "implicit": self.implicit,
+            "constrained": self.constrained,
+            "energy": self.energy_claim,
+            "decay": self.decay,
+            "same_without_velocity": self.same_without_velocity.id if self.same_without_velocity else None,
+            "homega_max": limit,
+            "doc": " ".join(self.doc.split()),
+        }
         out.update(self.options)
         return out
 

@@ -32,6 +32,7 @@ A kind may also take **parameters**: options that set a constant of the step rat
 (``Kind.parameters``; Jacobi XPBD's relaxation, ``reference/schemes/xpbd_jacobi.py``), bound into
 the scheme's kind (``with_parameters``) and carried by it into the integer the loops pass.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -90,13 +91,17 @@ class Kind:
         """The parameters set on ``scheme`` (written into its method's id)."""
         return {}
 
-    def advance(self, scheme, scene, dt: float, kernels: dict, iterations: int | None = None,
-                substeps: int | None = None):
+    def advance(
+        self, scheme, scene, dt: float, kernels: dict, iterations: int | None = None, substeps: int | None = None
+    ):
         """``advance(state, t) -> state``: one interpreted step of ``dt``; ``kernels`` maps the
         scene's kernel names (``accel`` and this kind's) to the callables to use (counted or not)."""
         p, step = scene.pvec, scheme.step
-        args = (kernels["accel"], *(kernels[name] for name in self.kernels),
-                *((self.count(scheme, scene, iterations),) if self.counted else ()))
+        args = (
+            kernels["accel"],
+            *(kernels[name] for name in self.kernels),
+            *((self.count(scheme, scene, iterations),) if self.counted else ()),
+        )
         return lambda state, t: step(*args, state, t, dt, p)
 
     def count_args(self, count: str = "k") -> list[str]:
@@ -116,10 +121,13 @@ class Kind:
         names = ("accel", *self.kernels)
         args = ", ".join((*names, *(("k",) if self.counted else ())))
         namespace = {"step": step, "accel": accel, **{n: jit(getattr(scene_cls, n)) for n in self.kernels}}
-        exec("def advance_n(state, t0, h, i0, n, p, k):\n"
-             "    for i in range(i0, i0 + n):\n"
-             f"        state = step({args}, state, t0 + i * h, h, p)\n"
-             "    return state\n", namespace)
+        exec(
+            "def advance_n(state, t0, h, i0, n, p, k):\n"
+            "    for i in range(i0, i0 + n):\n"
+            f"        state = step({args}, state, t0 + i * h, h, p)\n"
+            "    return state\n",
+            namespace,
+        )
         return jit(namespace["advance_n"])
 
     def variants(self, src, pointwise: bool) -> bool:
@@ -135,8 +143,10 @@ class Kind:
     def supports(self, scheme, scene, method_id: str) -> str:
         """Why ``scheme`` of this kind does not run on ``scene`` ("" where it does)."""
         if scene.constrained:
-            return (f"scene {scene.id} is held together by constraints that only a constrained "
-                    f"scheme enforces (ref:verlet_constrained); here its particles would fall freely")
+            return (
+                f"scene {scene.id} is held together by constraints that only a constrained "
+                f"scheme enforces (ref:verlet_constrained); here its particles would fall freely"
+            )
         return ""
 
     def evals_text(self, scheme) -> str:
@@ -162,7 +172,8 @@ class Implicit(Kind):
 
     def supports(self, scheme, scene, method_id: str) -> str:
         return super().supports(scheme, scene, method_id) or (
-            f"scene {scene.id} provides no implicit solve" if type(scene).solve is no_solve else "")
+            f"scene {scene.id} provides no implicit solve" if type(scene).solve is no_solve else ""
+        )
 
     def variants(self, src, pointwise: bool) -> bool:
         # On a pointwise scene one Newton iteration (every linear scene: exact) runs the step
@@ -206,8 +217,7 @@ class Constrained(Kind):
 
     def supports(self, scheme, scene, method_id: str) -> str:
         if not scene.constrained:
-            return (f"scene {scene.id} has no constraints to project "
-                    f"(without them {method_id} is plain ref:verlet)")
+            return f"scene {scene.id} has no constraints to project (without them {method_id} is plain ref:verlet)"
         return ""
 
 
@@ -219,9 +229,11 @@ class Decay(Kind):
 
     def supports(self, scheme, scene, method_id: str) -> str:
         return super().supports(scheme, scene, method_id) or (
-            "" if scene.has_damping_rate else
-            f"scene {scene.id} has no single linear damping rate for {method_id} to decay "
-            "(it needs a(x, v) = a(x, 0) - gamma v with one rate gamma)")
+            ""
+            if scene.has_damping_rate
+            else f"scene {scene.id} has no single linear damping rate for {method_id} to decay "
+            "(it needs a(x, v) = a(x, 0) - gamma v with one rate gamma)"
+        )
 
 
 #: The position-based count packs substeps and iterations as ``substeps * COUNT_BASE + iterations``
@@ -232,8 +244,9 @@ COUNT_BASE = 1 << 20
 def pack_counts(substeps: int, iterations: int) -> int:
     """The one integer the compiled loops pass for a position-based step's two counts."""
     if not 1 <= iterations < COUNT_BASE or substeps < 1:
-        raise ValueError(f"substeps={substeps} and iterations={iterations} must be at least 1 "
-                         f"(iterations below {COUNT_BASE})")
+        raise ValueError(
+            f"substeps={substeps} and iterations={iterations} must be at least 1 (iterations below {COUNT_BASE})"
+        )
     return int(substeps) * COUNT_BASE + int(iterations)
 
 
@@ -248,8 +261,10 @@ class PositionBased(Kind):
     counted: bool = True
 
     def _counts(self, scheme, iterations, substeps) -> tuple[int, int]:
-        return (int(scheme.substeps if substeps is None else substeps),
-                int(scheme.iterations if iterations is None else iterations))
+        return (
+            int(scheme.substeps if substeps is None else substeps),
+            int(scheme.iterations if iterations is None else iterations),
+        )
 
     def count(self, scheme, scene, iterations=None, substeps=None) -> int:
         return pack_counts(*self._counts(scheme, iterations, substeps))
@@ -275,6 +290,7 @@ class PositionBased(Kind):
             for i in range(i0, i0 + n):
                 state = step(accel, constraints, k // COUNT_BASE, k % COUNT_BASE, state, t0 + i * h, h, p)
             return state
+
         return jit(advance_n)
 
     def variants(self, src, pointwise: bool) -> bool:
@@ -298,8 +314,10 @@ class PositionBased(Kind):
         return scene.position_based_why()
 
     def evals_text(self, scheme) -> str:
-        return (f"{scheme.force_evals} (the forces are constraints: {scheme.substeps} substep(s) x "
-                f"{scheme.iterations} pass(es) over them)")
+        return (
+            f"{scheme.force_evals} (the forces are constraints: {scheme.substeps} substep(s) x "
+            f"{scheme.iterations} pass(es) over them)"
+        )
 
 
 EXPLICIT, IMPLICIT, CONSTRAINED, DECAY = Kind(), Implicit(), Constrained(), Decay()

@@ -1,5 +1,6 @@
 """A reference scheme as a method (``records.Method``): the reference package's own face to the
 harness, beside the engine modes of ``adapters``."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
@@ -57,10 +58,11 @@ class RefMethod:
     @property
     def id(self) -> str:
         """``ref:<scheme>``, with the options set written in (``ref:xpbd?iterations=1&substeps=10``)."""
-        return str(MethodId.of(REFERENCE, self.scheme.id,
-                               {**self.options, **self.scheme.kind.parameter_values(self.scheme)}))
+        return str(
+            MethodId.of(REFERENCE, self.scheme.id, {**self.options, **self.scheme.kind.parameter_values(self.scheme)})
+        )
 
-    def with_options(self, options: dict) -> "RefMethod":
+    def with_options(self, options: dict) -> RefMethod:
         """The same scheme with ``options`` set (checked by the caller, ``harness.methods``): the
         counts the drivers take kept in ``options``, the parameters of the step (``Kind.parameters``:
         a Jacobi scheme's relaxation) bound into the scheme."""
@@ -74,7 +76,7 @@ class RefMethod:
         return replace(self, scheme=scheme, options=merged)
 
     @property
-    def solver(self) -> "solvers.Choice | None":
+    def solver(self) -> solvers.Choice | None:
         """The library solve its options choose (None: the scene's own kernel)."""
         return solvers.split(self.scheme, self.options)[0]
 
@@ -91,16 +93,20 @@ class RefMethod:
         passes tighten their passes, conjugate gradients their tolerance, a factorization nothing."""
         chosen = self.solver
         takes = chosen.solver.takes if chosen is not None else ()
-        return {name: option if option.tighten is None or name in takes else replace(option, tighten=None)
-                for name, option in solvers.options_for(self.scheme).items()}
+        return {
+            name: option if option.tighten is None or name in takes else replace(option, tighten=None)
+            for name, option in solvers.options_for(self.scheme).items()
+        }
 
     def available(self) -> tuple[bool, str]:
         return True, ""
 
     def supports(self, scene: Scene) -> tuple[bool, str]:
         if not scene.has_kernels:
-            return False, (f"scene {scene.id} has no force kernel for a reference scheme to step: "
-                           "its physics is the engine's (a model file); engine modes run it")
+            return False, (
+                f"scene {scene.id} has no force kernel for a reference scheme to step: "
+                "its physics is the engine's (a model file); engine modes run it"
+            )
         why = self.scheme.kind.supports(self.scheme, scene, self.id)
         if why:
             return False, why
@@ -110,7 +116,7 @@ class RefMethod:
             return False, why
         return True, ""
 
-    def compiled_twin(self) -> "RefMethod":
+    def compiled_twin(self) -> RefMethod:
         # A library solve has no compiled path: its run is already its fastest.
         return self if self.solver is not None else replace(self, compiled=True)
 
@@ -136,8 +142,7 @@ class RefMethod:
         return (*step_timer(self.scheme, scene, dt, steps, clock=clock, **options), COMPILED_TIMING)
 
     def describe(self) -> dict:
-        out = {"id": self.id, "family": self.family,
-               **{k: v for k, v in self.scheme.describe().items() if k != "id"}}
+        out = {"id": self.id, "family": self.family, **{k: v for k, v in self.scheme.describe().items() if k != "id"}}
         solver = self.solver
         if solver is not None:
             out["solver"] = solver.text

@@ -7,6 +7,7 @@ first y where it is not, where the scheme gives no closed form, ``Scheme.damping
 The pieces the schemes' matrices are products of, on (x, v): a kick, a drift and the oscillator's
 own matrix (the first-order form's Jacobian).
 """
+
 from __future__ import annotations
 
 import math

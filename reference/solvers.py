@@ -40,6 +40,7 @@ here the solver's iterations (conjugate-gradient iterations, local/global passes
 unconverged solves and its factorizations. Timed (``step_timer``) on the same Python loop, which
 its timing says (``LOOP``).
 """
+
 from __future__ import annotations
 
 import math
@@ -66,8 +67,10 @@ MOST = 10**6
 SUPERLU = {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.0, "options": {"SymmetricMode": True}}
 
 #: What a timing of these solves runs, for the cost cell to say beside its clock.
-LOOP = ("interpreted: a Python loop over the scheme's step, the scene's force and matrix in numpy, "
-        "{solve}; min of repeats after warm-up")
+LOOP = (
+    "interpreted: a Python loop over the scheme's step, the scene's force and matrix in numpy, "
+    "{solve}; min of repeats after warm-up"
+)
 
 
 @dataclass(frozen=True)
@@ -82,24 +85,42 @@ class Solver:
     schemes: tuple[str, ...] | None = None
 
 
-SOLVERS = {s.name: s for s in (
-    Solver("direct", "SuperLU (scipy) factoring each system, minimum-degree ordering on A^T + A"),
-    Solver("pcg_jacobi", "conjugate gradients (numpy) with a block-Jacobi preconditioner", ("tol", "maxiter")),
-    Solver("pcg_amg", "conjugate gradients (numpy) with a smoothed-aggregation multigrid V-cycle (pyamg)",
-           ("tol", "maxiter")),
-    Solver("local_global", "Liu et al. 2013 local/global passes on one SuperLU factorization per step size",
-           ("iterations",), schemes=("implicit_euler",)),
-)}
+SOLVERS = {
+    s.name: s
+    for s in (
+        Solver("direct", "SuperLU (scipy) factoring each system, minimum-degree ordering on A^T + A"),
+        Solver("pcg_jacobi", "conjugate gradients (numpy) with a block-Jacobi preconditioner", ("tol", "maxiter")),
+        Solver(
+            "pcg_amg",
+            "conjugate gradients (numpy) with a smoothed-aggregation multigrid V-cycle (pyamg)",
+            ("tol", "maxiter"),
+        ),
+        Solver(
+            "local_global",
+            "Liu et al. 2013 local/global passes on one SuperLU factorization per step size",
+            ("iterations",),
+            schemes=("implicit_euler",),
+        ),
+    )
+}
 
 #: Every option a solve takes, declared once.
 #: The tolerance and the passes are the solves' convergence knobs (``Option.tighten``): a verdict a
 #: solve wins is checked again a hundred times tighter, or at ten times the passes
 #: (``harness.methods.tightened``); the iteration cap stays, so a capped solve is checked as capped.
 OPTIONS = {
-    "tol": Option("tol", float, 1e-16, 0.5, "conjugate gradients stop at this residual, relative to the right-hand side",
-                  default=TOL, tighten=0.01),
-    "maxiter": Option("maxiter", int, 1, MOST, "conjugate gradients stop after this many iterations (flagged)",
-                      default=MAXITER),
+    "tol": Option(
+        "tol",
+        float,
+        1e-16,
+        0.5,
+        "conjugate gradients stop at this residual, relative to the right-hand side",
+        default=TOL,
+        tighten=0.01,
+    ),
+    "maxiter": Option(
+        "maxiter", int, 1, MOST, "conjugate gradients stop after this many iterations (flagged)", default=MAXITER
+    ),
     "iterations": Option("iterations", int, 1, MOST, "local/global passes per step", default=PASSES, tighten=10),
 }
 
@@ -118,9 +139,12 @@ def options_for(scheme) -> dict[str, Option]:
     if not names:
         return {}
     takes = {o for name in names for o in SOLVERS[name].takes}
-    return {SOLVER: Option(SOLVER, str, doc="the implicit solve: the scene's own kernel, or a library's",
-                           choices=(SCENE, *names)),
-            **{name: option for name, option in OPTIONS.items() if name in takes}}
+    return {
+        SOLVER: Option(
+            SOLVER, str, doc="the implicit solve: the scene's own kernel, or a library's", choices=(SCENE, *names)
+        ),
+        **{name: option for name, option in OPTIONS.items() if name in takes},
+    }
 
 
 @dataclass(frozen=True)
@@ -135,8 +159,11 @@ class Choice:
     @property
     def text(self) -> str:
         """What it is, with its settings: what a timing and a run record say."""
-        settings = {"tol": f"tol {self.tol:g}", "maxiter": f"at most {self.maxiter} iterations",
-                    "iterations": f"{self.iterations} passes a step"}
+        settings = {
+            "tol": f"tol {self.tol:g}",
+            "maxiter": f"at most {self.maxiter} iterations",
+            "iterations": f"{self.iterations} passes a step",
+        }
         return "; ".join([self.solver.text] + [settings[o] for o in self.solver.takes])
 
     def supports(self, scene) -> str:
@@ -147,15 +174,19 @@ class Choice:
                 return why.replace("a position-based scheme", "local/global passes")
             compliance = scene.constraints(scene.pvec)[2]
             if np.any(compliance == 0.0):
-                return (f"scene {scene.id} holds rigid links (compliance 0): local/global passes weigh each "
-                        "spring by its stiffness, which a rigid link does not have")
+                return (
+                    f"scene {scene.id} holds rigid links (compliance 0): local/global passes weigh each "
+                    "spring by its stiffness, which a rigid link does not have"
+                )
             return ""
         if scene.sparse_form() is None:
-            return (f"scene {scene.id} gives no sparse form of its force and solve (Scene.sparse_form) for "
-                    f"solver={self.solver.name}")
+            return (
+                f"scene {scene.id} gives no sparse form of its force and solve (Scene.sparse_form) for "
+                f"solver={self.solver.name}"
+            )
         return ""
 
-    def prepare(self, scheme, scene, dt: float) -> "Prepared":
+    def prepare(self, scheme, scene, dt: float) -> Prepared:
         """The pieces of a run of ``scheme`` on ``scene`` at ``dt`` with this solve."""
         if self.solver.name == "local_global":
             return _LocalGlobal(scene, dt, self.iterations, self.text)
@@ -176,8 +207,9 @@ def choice(scheme, options: dict) -> Choice | None:
     stray = [o for o in given if o not in takes]
     if stray:
         which = [s.name for s in SOLVERS.values() if stray[0] in s.takes and s.name in names[SOLVER].choices]
-        raise InvalidInput(f"method ref:{scheme.id}: option {stray[0]} applies with solver={' or '.join(which)} "
-                           f"(solver is {name})")
+        raise InvalidInput(
+            f"method ref:{scheme.id}: option {stray[0]} applies with solver={' or '.join(which)} (solver is {name})"
+        )
     if solver is None:
         return None
     return Choice(solver, **{o: options[o] for o in given})
@@ -337,8 +369,9 @@ class _LocalGlobal(Prepared):
         h2 = self.h * self.h
         rows = np.concatenate([np.arange(self.points), a[self.a_free], b[self.b_free], a[both], b[both]])
         cols = np.concatenate([np.arange(self.points), a[self.a_free], b[self.b_free], b[both], a[both]])
-        vals = np.concatenate([self.mass, h2 * self.k[self.a_free], h2 * self.k[self.b_free],
-                               -h2 * self.k[both], -h2 * self.k[both]])
+        vals = np.concatenate(
+            [self.mass, h2 * self.k[self.a_free], h2 * self.k[self.b_free], -h2 * self.k[both], -h2 * self.k[both]]
+        )
         system = coo_matrix((vals, (rows, cols)), shape=(self.points, self.points)).tocsc()
         self.lu = splu(system, **SUPERLU)
         self.factorizations = 1
@@ -383,8 +416,9 @@ class _LocalGlobal(Prepared):
             pull = (self.k * self.rest / length)[:, None] * span
         out = np.zeros((self.points, self.d))
         for c in range(self.d):
-            out[:, c] = (np.bincount(self.b[self.b_free], pull[self.b_free, c], minlength=self.points)
-                         - np.bincount(self.a[self.a_free], pull[self.a_free, c], minlength=self.points))
+            out[:, c] = np.bincount(self.b[self.b_free], pull[self.b_free, c], minlength=self.points) - np.bincount(
+                self.a[self.a_free], pull[self.a_free, c], minlength=self.points
+            )
         return out
 
 

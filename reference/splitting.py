@@ -28,13 +28,14 @@ Coefficients are exact: an int, a ``Fraction``, or a string expression of number
 ``constants`` (``"(1 - THETA)/2"``), linear in those names; the times and the consistency check
 (the drifts and the kicks each sum to 1) are exact on them.
 """
+
 from __future__ import annotations
 
 import ast
 import math
 from fractions import Fraction
 from functools import reduce
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -113,8 +114,9 @@ class Coefficient:
         if rational is not None:
             self.value = float(rational)
         else:  # the float of the expression as declared, each operation rounded as Python rounds it
-            self.value = float(eval(compile(ast.Expression(tree), "<coefficient>", "eval"),
-                                    {"__builtins__": {}}, dict(constants)))
+            self.value = float(
+                eval(compile(ast.Expression(tree), "<coefficient>", "eval"), {"__builtins__": {}}, dict(constants))
+            )
         self.key = tuple(sorted(self.exact.items()))
 
     @property
@@ -201,8 +203,9 @@ class Splitting:
         value = sum(float(w) * (1.0 if name == "" else float(self.constants[name])) for name, w in tau.items())
         return f"t + {value!r} * h"
 
-    def step_source(self, name: str, force: Callable[[str, str, str], str], params: str, state: str,
-                    x: str = "q") -> str:
+    def step_source(
+        self, name: str, force: Callable[[str, str, str], str], params: str, state: str, x: str = "q"
+    ) -> str:
         """The step function's source: ``def name(params): state-line; coefficient lines; updates;
         return (x_1, v_1[, a_1])``, the force of a kick written by ``force(x, v, t)``."""
         lines = [f"def {name}({params}):", f"    {state}"]
@@ -247,8 +250,10 @@ class Splitting:
         taking the carried a and the last carrying its own."""
         factors = {c.key: eval(c.times("y"), {"__builtins__": {}}, {"y": y}) for _, c in self.ops}
         if not self.fsal:
-            mats = [drift_matrix(factors[c.key]) if kind == DRIFT else kick_matrix(factors[c.key], zeta)
-                    for kind, c in self.ops]
+            mats = [
+                drift_matrix(factors[c.key]) if kind == DRIFT else kick_matrix(factors[c.key], zeta)
+                for kind, c in self.ops
+            ]
             return reduce(np.matmul, reversed(mats))
         # Each of x, v, a as a row: its linear map of the carried (x, v, a).
         x, v, a = np.eye(3)
@@ -271,8 +276,10 @@ class Splitting:
         for kind, c in self.ops:
             w = c.rational if exact else c.value
             op = [[one, [0, w]], [zero, one]] if kind == DRIFT else [[one, zero], [[0, -w], one]]
-            M = [[_poly_add(_poly_mul(op[i][0], M[0][j]), _poly_mul(op[i][1], M[1][j])) for j in range(2)]
-                 for i in range(2)]
+            M = [
+                [_poly_add(_poly_mul(op[i][0], M[0][j]), _poly_mul(op[i][1], M[1][j])) for j in range(2)]
+                for i in range(2)
+            ]
         trace = _poly_add(M[0][0], M[1][1])
         P = _poly_mul(trace, trace)
         P[0] -= 4
@@ -284,8 +291,17 @@ class Splitting:
         return _first_crossing(self.spring_polynomial())
 
 
-def splitting_scheme(id: str, splitting: Splitting, *, order: int, doc: str, energy_claim: str = "bounded",
-                     homega_max: float | None = None, module: str = __name__, **declared) -> Scheme:
+def splitting_scheme(
+    id: str,
+    splitting: Splitting,
+    *,
+    order: int,
+    doc: str,
+    energy_claim: str = "bounded",
+    homega_max: float | None = None,
+    module: str = __name__,
+    **declared,
+) -> Scheme:
     """The explicit scheme of a splitting: its step generated (``Splitting.step_source``), its force
     evaluations (``Splitting.force_evals``), the carried state and its start where ``fsal``, its
     floor (``Splitting.floor``), its recurrence on the damped oscillator (``Splitting.amplification``)
@@ -308,8 +324,19 @@ def splitting_scheme(id: str, splitting: Splitting, *, order: int, doc: str, ene
     declared.setdefault("order_velocity_dependent", 1 if order > 1 else None)
     if splitting.fsal:
         declared.setdefault("start", start_with_force)
-    return Scheme(id=id, step=step, order=order, force_evals=splitting.force_evals, symplectic=True, kind=EXPLICIT,
-                  energy_claim=energy_claim, homega_max=homega_max, doc=doc, carries=splitting.carries,
-                  splitting=splitting, floor=splitting.floor(f"floor_{id}", module),
-                  amplification=splitting.amplification, **declared)
-
+    return Scheme(
+        id=id,
+        step=step,
+        order=order,
+        force_evals=splitting.force_evals,
+        symplectic=True,
+        kind=EXPLICIT,
+        energy_claim=energy_claim,
+        homega_max=homega_max,
+        doc=doc,
+        carries=splitting.carries,
+        splitting=splitting,
+        floor=splitting.floor(f"floor_{id}", module),
+        amplification=splitting.amplification,
+        **declared,
+    )

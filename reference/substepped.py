@@ -14,13 +14,14 @@ What follows of it: n times the force evaluations and the stability limit (on th
 at y/n), the n-th power of the recurrence at y/n, and the rest of the scheme's claims as they
 are (its order, symplecticity, energy behaviour, kind and options).
 """
+
 from __future__ import annotations
 
 import ast
 import inspect
 import textwrap
 from fractions import Fraction
-from typing import Callable
+from collections.abc import Callable
 
 from ._scheme import Floor, Scheme
 from .tableau import _compile, _scaled_h
@@ -57,8 +58,14 @@ class _Substep(ast.NodeTransformer):
         self.h, self.t = h, t
 
     def visit_BinOp(self, node):
-        if (self.t and isinstance(node.op, ast.Add) and isinstance(node.left, ast.Name) and node.left.id == self.t
-                and isinstance(node.right, ast.Name) and node.right.id == self.h):
+        if (
+            self.t
+            and isinstance(node.op, ast.Add)
+            and isinstance(node.left, ast.Name)
+            and node.left.id == self.t
+            and isinstance(node.right, ast.Name)
+            and node.right.id == self.h
+        ):
             return ast.copy_location(ast.Name("t_end", ast.Load()), node)
         return self.generic_visit(node)
 
@@ -70,8 +77,9 @@ class _Substep(ast.NodeTransformer):
         return node
 
 
-def _rewritten(fn: Callable, name: str, n: int, h_at: int, t_at: int | None, state_at: int | None, module: str,
-               what: str) -> Callable:
+def _rewritten(
+    fn: Callable, name: str, n: int, h_at: int, t_at: int | None, state_at: int | None, module: str, what: str
+) -> Callable:
     """``fn`` as ``name`` with h/n for its h (parameter ``h_at``); with ``state_at``, its statements
     in a loop of n substeps carrying the parameter ``state_at`` from one to the next (the return's
     value assigned to it), its time (parameter ``t_at``) each substep's."""
@@ -113,18 +121,28 @@ def substepped(scheme: Scheme, n: int, *, id: str, doc: str, module: str = __nam
         raise ValueError(f"substepped takes n >= 2 substeps, not {n!r}")
     step = _rewritten(scheme.step, id, n, -2, -3, -4, module, "step")
     step.__doc__ = doc
-    start = scheme.start if not _reads(scheme.start, -2) else _rewritten(scheme.start, "start", n, -2, None, None,
-                                                                          module, "start")
-    observe = scheme.observe if not _reads(scheme.observe, -2) else _rewritten(scheme.observe, "observe", n, -2,
-                                                                                None, None, module, "observe")
+    start = (
+        scheme.start
+        if not _reads(scheme.start, -2)
+        else _rewritten(scheme.start, "start", n, -2, None, None, module, "start")
+    )
+    observe = (
+        scheme.observe
+        if not _reads(scheme.observe, -2)
+        else _rewritten(scheme.observe, "observe", n, -2, None, None, module, "observe")
+    )
     floor = None
     if scheme.floor is not None:
         f = scheme.floor
-        floor = Floor(_rewritten(f.step, f"floor_{id}", n, 1, None, 0, module, "floor"),
-                      f.start if not _reads(f.start, 2) else _rewritten(f.start, f"floor_start_{id}", n, 2, None,
-                                                                        None, module, "floor start"),
-                      f.observe if not _reads(f.observe, 1) else _rewritten(f.observe, f"floor_observe_{id}", n, 1,
-                                                                            None, None, module, "floor observe"))
+        floor = Floor(
+            _rewritten(f.step, f"floor_{id}", n, 1, None, 0, module, "floor"),
+            f.start
+            if not _reads(f.start, 2)
+            else _rewritten(f.start, f"floor_start_{id}", n, 2, None, None, module, "floor start"),
+            f.observe
+            if not _reads(f.observe, 1)
+            else _rewritten(f.observe, f"floor_observe_{id}", n, 1, None, None, module, "floor observe"),
+        )
     scale = _scaled_h(Fraction(1, n), "y")
     amplification = damping_limit = None
     if scheme.amplification is not None:
@@ -137,6 +155,7 @@ def substepped(scheme: Scheme, n: int, *, id: str, doc: str, module: str = __nam
             for _ in range(n - 1):
                 out = out @ m
             return out
+
     if scheme.damping_limit is not None:
         limit = scheme.damping_limit
 
@@ -144,12 +163,25 @@ def substepped(scheme: Scheme, n: int, *, id: str, doc: str, module: str = __nam
             """n times the scheme's (None: unstable for every y)."""
             at = limit(zeta)
             return None if at is None else n * at
-    fields = dict(order=scheme.order, force_evals=n * scheme.force_evals, symplectic=scheme.symplectic,
-                  energy_claim=scheme.energy_claim,
-                  homega_max=None if scheme.homega_max is None else n * scheme.homega_max, kind=scheme.kind,
-                  start=start, observe=observe, iterations=scheme.iterations, substeps=scheme.substeps,
-                  order_velocity_dependent=scheme.order_velocity_dependent,
-                  one_pass_on_linear=scheme.one_pass_on_linear, carries=scheme.carries, floor=floor,
-                  amplification=amplification, damping_limit=damping_limit, substepped_from=(scheme, n))
+
+    fields = dict(
+        order=scheme.order,
+        force_evals=n * scheme.force_evals,
+        symplectic=scheme.symplectic,
+        energy_claim=scheme.energy_claim,
+        homega_max=None if scheme.homega_max is None else n * scheme.homega_max,
+        kind=scheme.kind,
+        start=start,
+        observe=observe,
+        iterations=scheme.iterations,
+        substeps=scheme.substeps,
+        order_velocity_dependent=scheme.order_velocity_dependent,
+        one_pass_on_linear=scheme.one_pass_on_linear,
+        carries=scheme.carries,
+        floor=floor,
+        amplification=amplification,
+        damping_limit=damping_limit,
+        substepped_from=(scheme, n),
+    )
     fields.update(declared)
     return Scheme(id=id, step=step, doc=doc, **fields)

@@ -17,12 +17,13 @@ A tableau may carry an embedded row ``b_hat``, the weights of a lower-order solu
 its error estimate (``error_step``, the same form) and a step-size controller on it
 (``error_controlled``) follow; the fixed step never reads it.
 """
+
 from __future__ import annotations
 
 import linecache
 import math
 from fractions import Fraction
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -40,8 +41,13 @@ class Tableau:
     """A Butcher tableau of an explicit scheme: ``A`` strictly lower triangular (s x s), ``b``
     and ``c`` of length s, entries exact (int, Fraction, or a string such as "1/6")."""
 
-    def __init__(self, A: Sequence[Sequence[Number]], b: Sequence[Number], c: Sequence[Number],
-                 b_hat: Sequence[Number] | None = None):
+    def __init__(
+        self,
+        A: Sequence[Sequence[Number]],
+        b: Sequence[Number],
+        c: Sequence[Number],
+        b_hat: Sequence[Number] | None = None,
+    ):
         self.A = tuple(tuple(_fraction(x) for x in row) for row in A)
         self.b = tuple(_fraction(x) for x in b)
         self.c = tuple(_fraction(x) for x in c)
@@ -61,8 +67,9 @@ class Tableau:
         return len(self.b)
 
     # ------------------------------------------------------------------ the step as source
-    def step_source(self, name: str, force: Callable[[str, str, str], str], params: str, state: str,
-                    x: str = "q") -> str:
+    def step_source(
+        self, name: str, force: Callable[[str, str, str], str], params: str, state: str, x: str = "q"
+    ) -> str:
         """The step function's source: ``def name(params): state-line; ...; return (x_1, v_1)``,
         the force of stage i written by ``force(x_i, v_i, t_i)``."""
         lines, xs, accs = self._stages(name, force, params, state, x)
@@ -85,8 +92,9 @@ class Tableau:
         return lines, xs, accs
 
     # ------------------------------------------------------------------ the embedded error estimate
-    def error_step_source(self, name: str, force: Callable[[str, str, str], str], params: str, state: str,
-                          x: str = "q") -> str:
+    def error_step_source(
+        self, name: str, force: Callable[[str, str, str], str], params: str, state: str, x: str = "q"
+    ) -> str:
         """The step with its embedded error estimate: ``return (x_1, v_1, ex, ev)``, (x_1, v_1) the
         step's own (``step_source``'s bits) and (ex, ev) = (x_1, v_1) - (x^_1, v^_1) =
         h sum_i (b_i - b^_i) (v_i, a_i), the first-same-as-last stage's term, -h b^_{s+1} (v_1,
@@ -153,14 +161,16 @@ class Tableau:
         Ac = [sum(A[i][j] * c[j] for j in range(s)) for i in range(s)]
         AAc = [sum(A[i][j] * Ac[j] for j in range(s)) for i in range(s)]
         Ac2 = [sum(A[i][j] * c[j] ** 2 for j in range(s)) for i in range(s)]
-        conds = [(sum(b), 1),
-                 (sum(b[i] * c[i] for i in range(s)), Fraction(1, 2)),
-                 (sum(b[i] * c[i] ** 2 for i in range(s)), Fraction(1, 3)),
-                 (sum(b[i] * Ac[i] for i in range(s)), Fraction(1, 6)),
-                 (sum(b[i] * c[i] ** 3 for i in range(s)), Fraction(1, 4)),
-                 (sum(b[i] * c[i] * Ac[i] for i in range(s)), Fraction(1, 8)),
-                 (sum(b[i] * Ac2[i] for i in range(s)), Fraction(1, 12)),
-                 (sum(b[i] * AAc[i] for i in range(s)), Fraction(1, 24))]
+        conds = [
+            (sum(b), 1),
+            (sum(b[i] * c[i] for i in range(s)), Fraction(1, 2)),
+            (sum(b[i] * c[i] ** 2 for i in range(s)), Fraction(1, 3)),
+            (sum(b[i] * Ac[i] for i in range(s)), Fraction(1, 6)),
+            (sum(b[i] * c[i] ** 3 for i in range(s)), Fraction(1, 4)),
+            (sum(b[i] * c[i] * Ac[i] for i in range(s)), Fraction(1, 8)),
+            (sum(b[i] * Ac2[i] for i in range(s)), Fraction(1, 12)),
+            (sum(b[i] * AAc[i] for i in range(s)), Fraction(1, 24)),
+        ]
         needed = {1: 1, 2: 2, 3: 4, 4: 8}[order] if order >= 1 else 0
         return all(value == target for value, target in conds[:needed])
 
@@ -226,8 +236,11 @@ def _first_crossing(P) -> float | None:
     lowest = next(x for x in P if x != 0)
     if lowest > 0:
         return None
-    roots = sorted(r.real for r in np.roots([float(x) for x in reversed(P)])
-                   if abs(r.imag) <= 1e-9 * max(1.0, abs(r)) and r.real > 0)
+    roots = sorted(
+        r.real
+        for r in np.roots([float(x) for x in reversed(P)])
+        if abs(r.imag) <= 1e-9 * max(1.0, abs(r)) and r.real > 0
+    )
     exact = all(isinstance(x, (int, Fraction)) for x in P)
     for r in roots:  # the first root past which P turns positive
         lo, hi = (Fraction(r * (1 - 1e-6)), Fraction(r * (1 + 1e-6))) if exact else (r * (1 - 1e-6), r * (1 + 1e-6))
@@ -284,8 +297,19 @@ def _compile(source: str, name: str, filename: str, module: str, namespace: dict
     return namespace[name]
 
 
-def tableau_scheme(id: str, A, b, c, *, order: int, energy_claim: str, doc: str,
-                   module: str = "reference.tableau", b_hat=None, **declared) -> Scheme:
+def tableau_scheme(
+    id: str,
+    A,
+    b,
+    c,
+    *,
+    order: int,
+    energy_claim: str,
+    doc: str,
+    module: str = "reference.tableau",
+    b_hat=None,
+    **declared,
+) -> Scheme:
     """The explicit scheme of a tableau: its step generated (``Tableau.step_source``), its force
     evaluations the stages, its stability limit derived (``Tableau.homega_max``), its floor
     (``Tableau.floor_step``) and its recurrence on the damped oscillator (``Tableau.damping_matrix``),
@@ -297,9 +321,21 @@ def tableau_scheme(id: str, A, b, c, *, order: int, energy_claim: str, doc: str,
     source = tab.step_source(id, lambda x, v, t: f"accel({x}, {v}, {t}, p)", "accel, state, t, h, p", "q, v = state")
     step = _compile(source, id, f"<tableau {module}.{id}>", module)
     step.__doc__ = doc
-    return Scheme(id=id, step=step, order=order, force_evals=tab.stages, symplectic=False, kind=EXPLICIT,
-                  energy_claim=energy_claim, homega_max=tab.homega_max(), doc=doc, tableau=tab,
-                  floor=Floor(tab.floor_step(f"floor_{id}")), amplification=tab.damping_matrix, **declared)
+    return Scheme(
+        id=id,
+        step=step,
+        order=order,
+        force_evals=tab.stages,
+        symplectic=False,
+        kind=EXPLICIT,
+        energy_claim=energy_claim,
+        homega_max=tab.homega_max(),
+        doc=doc,
+        tableau=tab,
+        floor=Floor(tab.floor_step(f"floor_{id}")),
+        amplification=tab.damping_matrix,
+        **declared,
+    )
 
 
 # ---------------------------------------------------------------------- the step-size controller
@@ -312,14 +348,23 @@ def error_step(tab: Tableau, name: str = "error_step") -> Callable:
     """``error_step(accel, state, t, h, p) -> (q_1, v_1, eq, ev)`` of the tableau (``error_step_source``),
     generated once per tableau."""
     if getattr(tab, "_error_step", None) is None:
-        source = tab.error_step_source(name, lambda x, v, t: f"accel({x}, {v}, {t}, p)", "accel, state, t, h, p",
-                                       "q, v = state")
+        source = tab.error_step_source(
+            name, lambda x, v, t: f"accel({x}, {v}, {t}, p)", "accel, state, t, h, p", "q, v = state"
+        )
         tab._error_step = _compile(source, name, f"<tableau error step {name} {id(tab)}>", __name__)
     return tab._error_step
 
 
-def error_controlled(scheme: Scheme, scene, t_end: float, *, rtol: float, atol: float | None = None,
-                     h0: float | None = None, max_steps: int = 1_000_000) -> dict:
+def error_controlled(
+    scheme: Scheme,
+    scene,
+    t_end: float,
+    *,
+    rtol: float,
+    atol: float | None = None,
+    h0: float | None = None,
+    max_steps: int = 1_000_000,
+) -> dict:
     """The scene's state at ``t_end`` from its initial state, the step chosen by the tableau's embedded
     error estimate (``scheme.tableau.b_hat``): a step is accepted where the estimate's RMS over (q, v),
     each entry scaled by atol + rtol max(|y_n|, |y_n+1|), is at most 1, and the next h is
@@ -349,11 +394,17 @@ def error_controlled(scheme: Scheme, scene, t_end: float, *, rtol: float, atol: 
         if err <= 1.0:
             t, q, v = (t_end if last else t + h), q1, v1
             accepted += 1
-            h *= min(grow, SAFETY * err ** exponent) if err > 0.0 else grow
+            h *= min(grow, SAFETY * err**exponent) if err > 0.0 else grow
             grow = GROW_MOST
         else:
             rejected += 1
-            h *= max(SHRINK_MOST, SAFETY * err ** exponent)
+            h *= max(SHRINK_MOST, SAFETY * err**exponent)
             grow = 1.0
-    return {"t": t, "q": q, "v": v, "accepted": accepted, "rejected": rejected,
-            "force_evals": (accepted + rejected) * tab.error_evals}
+    return {
+        "t": t,
+        "q": q,
+        "v": v,
+        "accepted": accepted,
+        "rejected": rejected,
+        "force_evals": (accepted + rejected) * tab.error_evals,
+    }

@@ -1,5 +1,6 @@
 """The report's "At N Hz" section: per scene, the method that meets the suite's tolerances with
 the cheapest frame, its runners-up, and why the others cannot (``advise`` cells)."""
+
 from __future__ import annotations
 
 import math
@@ -9,8 +10,13 @@ from records.cell import Cell
 from .text import Footnotes, fmt as _fmt, of_measure as _of
 
 #: What the At-Hz section says of a request no advice cell carried.
-REQUEST_UNKNOWN = {"energy_tol": None, "error_tol": None, "error_rel": None, "horizon": float("nan"),
-                   "max_substeps": "?"}
+REQUEST_UNKNOWN = {
+    "energy_tol": None,
+    "error_tol": None,
+    "error_rel": None,
+    "horizon": float("nan"),
+    "max_substeps": "?",
+}
 
 
 def frame_rates(cells: list[Cell]) -> list[float]:
@@ -30,7 +36,7 @@ def _converged(row: dict) -> str:
 
 
 def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]:
-    """"At 60 Hz": per scene, the method that meets the suite's tolerances with the cheapest
+    """ "At 60 Hz": per scene, the method that meets the suite's tolerances with the cheapest
     frame (its fewest substeps), the runners-up, and how many methods meet none; from this
     run's ``advise`` cells (``harness.measures.advise``), cost per frame = substeps x the cost cell's
     CPU time per step."""
@@ -47,16 +53,19 @@ def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]
     elif request["error_rel"] is not None:
         tol.append(f"position error ≤ {100 * request['error_rel']:g}% of the scene's length scale")
     accuracy = request["error_tol"] is not None or request["error_rel"] is not None
-    lines = [f"## At {hz:g} Hz", "",
-             *([] if accuracy else ["**No accuracy tolerance: the energy alone judged, not where the positions end.**",
-                                    ""]),
-             f"Which method, with how many substeps a frame, keeps each scene stable and within "
-             f"{' and '.join(tol) or 'the tolerances'} over {request['horizon']:g} s at {hz:g} "
-             f"frames a second, for the least cost per frame (`harness advise`; substeps 1 to "
-             f"{request['max_substeps']}, cost = substeps × the cost cell's CPU time per step). An iterative "
-             "method that meets them is run again with its convergence knob tightened (ten times the passes, a "
-             "tolerance a hundred times tighter): *converged* no where that misses them, its win resting on the "
-             "solve's own error.", ""]
+    lines = [
+        f"## At {hz:g} Hz",
+        "",
+        *([] if accuracy else ["**No accuracy tolerance: the energy alone judged, not where the positions end.**", ""]),
+        f"Which method, with how many substeps a frame, keeps each scene stable and within "
+        f"{' and '.join(tol) or 'the tolerances'} over {request['horizon']:g} s at {hz:g} "
+        f"frames a second, for the least cost per frame (`harness advise`; substeps 1 to "
+        f"{request['max_substeps']}, cost = substeps × the cost cell's CPU time per step). An iterative "
+        "method that meets them is run again with its convergence knob tightened (ten times the passes, a "
+        "tolerance a hundred times tighter): *converged* no where that misses them, its win resting on the "
+        "solve's own error.",
+        "",
+    ]
     by_scene: dict = {}
     for c in rows:
         by_scene.setdefault(c.scene, []).append(c)
@@ -77,31 +86,56 @@ def advice_section(cells: list[Cell], hz: float, chart_names: dict) -> list[str]
         position_tol = next((r.figures.position_tol for r in grp if r.figures.position_tol is not None), None)
         scale = next((r.figures.length_scale for r in grp if r.figures.length_scale is not None), None)
         if position_tol is not None:
-            lines += [f"Position tolerance here: {position_tol:.3g}"
-                      + (f" ({100 * request['error_rel']:g}% of the scene's length scale {scale:.3g})"
-                         if request["error_tol"] is None and scale is not None else "") + ".", ""]
+            lines += [
+                f"Position tolerance here: {position_tol:.3g}"
+                + (
+                    f" ({100 * request['error_rel']:g}% of the scene's length scale {scale:.3g})"
+                    if request["error_tol"] is None and scale is not None
+                    else ""
+                )
+                + ".",
+                "",
+            ]
         elif accuracy:
-            lines += ["No accuracy tolerance here: the scene has no reference solution to hold the positions "
-                      "against; the energy alone judged.", ""]
+            lines += [
+                "No accuracy tolerance here: the scene has no reference solution to hold the positions "
+                "against; the energy alone judged.",
+                "",
+            ]
         if meeting:
             _, method, row = meeting[0]
             rests = row.get("converged") is not None and not row["converged"]["meets"]
-            lines.append(f"**Advised: `{method}`, {row['substeps']} substep{'s' if row['substeps'] > 1 else ''}, "
-                         f"{_per_frame(row)} per frame"
-                         + (f"; its win rests on the solve's own error (`{row['converged']['method']}` misses "
-                            f"them)" if rests else "") + ".**")
+            lines.append(
+                f"**Advised: `{method}`, {row['substeps']} substep{'s' if row['substeps'] > 1 else ''}, "
+                f"{_per_frame(row)} per frame"
+                + (
+                    f"; its win rests on the solve's own error (`{row['converged']['method']}` misses them)"
+                    if rests
+                    else ""
+                )
+                + ".**"
+            )
         else:
             lines.append("**No method meets the tolerances here.**")
-        lines += ["", "| rank | method | substeps | h·ω | energy error | class | position error | per frame | "
-                      "evals/frame | converged |", "|---|---|---|---|---|---|---|---|---|---|"]
+        lines += [
+            "",
+            "| rank | method | substeps | h·ω | energy error | class | position error | per frame | "
+            "evals/frame | converged |",
+            "|---|---|---|---|---|---|---|---|---|---|",
+        ]
         notes = Footnotes()
         reasons = {r.method: r.figures.evals_reason for r in grp if r.status == "ok"}
         for i, (_, method, row) in enumerate(meeting[:5], start=1):
-            evals = _fmt(row["evals_per_frame"], ".3g", notes.mark(
-                reasons.get(method) and f"`{method}` counts no force evaluations: {reasons[method]}"))
-            lines.append(f"| {i} | `{method}` | {row['substeps']} | {row['homega']:.3g} | {_fmt(row['energy_error'], '.2e')} | "
-                         f"{row['energy_class'] or '–'} | {_fmt(row['position_error'], '.2e')} | "
-                         f"{_per_frame(row)} | {evals} | {_converged(row)} |")
+            evals = _fmt(
+                row["evals_per_frame"],
+                ".3g",
+                notes.mark(reasons.get(method) and f"`{method}` counts no force evaluations: {reasons[method]}"),
+            )
+            lines.append(
+                f"| {i} | `{method}` | {row['substeps']} | {row['homega']:.3g} | {_fmt(row['energy_error'], '.2e')} | "
+                f"{row['energy_class'] or '–'} | {_fmt(row['position_error'], '.2e')} | "
+                f"{_per_frame(row)} | {evals} | {_converged(row)} |"
+            )
         if len(meeting) > 5:
             lines.append(f"| | {len(meeting) - 5} more meet them | | | | | | | | |")
         lines.append("")

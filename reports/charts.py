@@ -1,4 +1,5 @@
 """Charts (matplotlib, Agg backend, PNG) drawn from stored cells. Each returns True when it drew."""
+
 from __future__ import annotations
 
 import math
@@ -18,8 +19,11 @@ from records.cell import Cell  # noqa: E402
 
 #: The report's colours: tab20's ten strong ones, its ten light ones, then tab20b's twenty (40 in
 #: all: neighbours in id order differ in hue first), and the markers, cycling at another period.
-COLOURS = ([plt.cm.tab20(i) for i in range(0, 20, 2)] + [plt.cm.tab20(i) for i in range(1, 20, 2)]
-           + [plt.cm.tab20b(i) for i in range(20)])
+COLOURS = (
+    [plt.cm.tab20(i) for i in range(0, 20, 2)]
+    + [plt.cm.tab20(i) for i in range(1, 20, 2)]
+    + [plt.cm.tab20b(i) for i in range(20)]
+)
 MARKERS = "osD^v<>phXP*"
 
 
@@ -27,9 +31,15 @@ def method_styles(methods) -> dict[str, dict]:
     """One colour and marker per method, the same in every chart of a report: the methods in id
     order, the i-th the i-th colour (40 distinct) and marker; reference schemes solid lines,
     engine modes dashed. Charts of one scene show a subset, each method as in the others."""
-    return {m: {"color": COLOURS[i % len(COLOURS)], "marker": MARKERS[i % len(MARKERS)],
-                "linestyle": "-" if m.startswith("ref:") else "--", "linewidth": 1.2}
-            for i, m in enumerate(sorted(set(methods)))}
+    return {
+        m: {
+            "color": COLOURS[i % len(COLOURS)],
+            "marker": MARKERS[i % len(MARKERS)],
+            "linestyle": "-" if m.startswith("ref:") else "--",
+            "linewidth": 1.2,
+        }
+        for i, m in enumerate(sorted(set(methods)))
+    }
 
 
 def _style(method: str, styles: dict | None) -> dict:
@@ -126,8 +136,14 @@ def energy_chart(cells: list[Cell], scene: str, path: Path, styles: dict | None 
         if not exact_drawn:
             ax.plot(t, np.abs(ex) / e0, color="0.7", linewidth=4, alpha=0.5, label="exact", zorder=0)
             exact_drawn = True
-        ax.plot(t, np.clip(np.abs(e) / e0, 1e-6, 1e6), label=r.method, markersize=4,
-                markevery=max(1, len(t) // 10), **_style(r.method, styles))
+        ax.plot(
+            t,
+            np.clip(np.abs(e) / e0, 1e-6, 1e6),
+            label=r.method,
+            markersize=4,
+            markevery=max(1, len(t) // 10),
+            **_style(r.method, styles),
+        )
     ax.set_yscale("log")
     ax.set_xlabel("t")
     ax.set_ylabel("|E(t)| / |E_exact(0)|  (clipped to 1e±6)")
@@ -151,8 +167,7 @@ def nominal_chart(cells: list[Cell], scene: str, path: Path, styles: dict | None
         label = r.method + (f" (blew up at step {n.failed_step})" if n.failed_step else "")
         ax.plot(t, np.clip(e, 1e-6, 1e6), label=label, markersize=4, markevery=max(1, len(t) // 10), **st)
         if n.failed_step:
-            ax.plot([t[-1]], [np.clip(e[-1], 1e-6, 1e6)], marker="x", color="tab:red", markersize=10,
-                    linestyle="none")
+            ax.plot([t[-1]], [np.clip(e[-1], 1e-6, 1e6)], marker="x", color="tab:red", markersize=10, linestyle="none")
     ax.set_yscale("log")
     ax.set_xlabel("t")
     ax.set_ylabel("|E(t)|")
@@ -194,8 +209,13 @@ def workprecision_chart(cells: list[Cell], scene: str, path: Path, styles: dict 
     for c in _ok(cells, "tolerance"):
         pts = [r for r in c.figures.rows or [] if r.get("error") and r["error"] > 0 and r.get("s_per_unit_time")]
         if pts:
-            ax.plot([r["s_per_unit_time"] for r in pts], [r["error"] for r in pts], linestyle=":", marker="x",
-                    label=f"{c.method} error-controlled, tolerance {_tol_span(pts)} (engine's own loop)")
+            ax.plot(
+                [r["s_per_unit_time"] for r in pts],
+                [r["error"] for r in pts],
+                linestyle=":",
+                marker="x",
+                label=f"{c.method} error-controlled, tolerance {_tol_span(pts)} (engine's own loop)",
+            )
             clocks.add(next((r["clock"] for r in pts if r.get("clock")), "wall"))
             drawn += 1
     if not drawn:
@@ -203,10 +223,15 @@ def workprecision_chart(cells: list[Cell], scene: str, path: Path, styles: dict 
         return False
     ax.set_xscale("log")
     ax.set_yscale("log")
-    clock = ({"cpu": "CPU", "wall": "wall", "injected": "injected (not measured)"}.get(clocks.pop(), "wall")
-             if len(clocks) == 1 else "mixed-clock")
-    ax.set_xlabel(f"cost: {clock} seconds per unit of simulated time (measured; engines: their own loop, "
-                  "not the harness's per-step path)")
+    clock = (
+        {"cpu": "CPU", "wall": "wall", "injected": "injected (not measured)"}.get(clocks.pop(), "wall")
+        if len(clocks) == 1
+        else "mixed-clock"
+    )
+    ax.set_xlabel(
+        f"cost: {clock} seconds per unit of simulated time (measured; engines: their own loop, "
+        "not the harness's per-step path)"
+    )
     ax.set_ylabel("max global error")
     ax.set_title(f"{scene}: work-precision")
     _legend_outside(ax)
@@ -237,8 +262,13 @@ def tolerance_chart(cells: list[Cell], scene: str, path: Path, styles: dict | No
         timed = [r for r in pts if r.get("s_per_unit_time")]
         right.plot([r["s_per_unit_time"] for r in timed], [r["error"] for r in timed], label=c.method, **st)
         for r in timed:
-            right.annotate(f"{r['steps_taken']}/{r['steps_rejected'] if r['steps_rejected'] is not None else '?'}",
-                           (r["s_per_unit_time"], r["error"]), fontsize=6, xytext=(3, 3), textcoords="offset points")
+            right.annotate(
+                f"{r['steps_taken']}/{r['steps_rejected'] if r['steps_rejected'] is not None else '?'}",
+                (r["s_per_unit_time"], r["error"]),
+                fontsize=6,
+                xytext=(3, 3),
+                textcoords="offset points",
+            )
             clocks.add(r.get("clock") or "wall")
     left.plot([lo, hi], [lo, hi], color="0.6", linewidth=0.8, linestyle="--", label="error = tolerance")
     for ax in (left, right):
@@ -246,10 +276,14 @@ def tolerance_chart(cells: list[Cell], scene: str, path: Path, styles: dict | No
         ax.set_yscale("log")
         ax.set_ylabel("max global error")
     left.set_xlabel("tolerance asked for\n(Drake: target accuracy; IAS15: epsilon)")
-    clock = ({"cpu": "CPU", "wall": "wall", "injected": "injected (not measured)"}.get(clocks.pop(), "wall")
-             if len(clocks) == 1 else "mixed-clock")
-    right.set_xlabel(f"cost: {clock} seconds per unit of simulated time\n(the engine's own loop; "
-                     "labels: steps taken / rejected)")
+    clock = (
+        {"cpu": "CPU", "wall": "wall", "injected": "injected (not measured)"}.get(clocks.pop(), "wall")
+        if len(clocks) == 1
+        else "mixed-clock"
+    )
+    right.set_xlabel(
+        f"cost: {clock} seconds per unit of simulated time\n(the engine's own loop; labels: steps taken / rejected)"
+    )
     right.xaxis.set_minor_formatter(NullFormatter())
     fig.suptitle(f"{scene}: error-controlled integration against its tolerance")
     _legend_outside(right)
@@ -268,8 +302,13 @@ def stability_chart(cells: list[Cell], scene: str, path: Path, styles: dict | No
         f = r.figures
         if f.unstable_everywhere or f.unresolved:
             ax.barh(i, 0.0)
-            ax.text(0.02, i, "unstable for every h" if f.unstable_everywhere else "no stable step resolved",
-                    va="center", fontsize=7)
+            ax.text(
+                0.02,
+                i,
+                "unstable for every h" if f.unstable_everywhere else "no stable step resolved",
+                va="center",
+                fontsize=7,
+            )
         elif f.unbounded:
             bound = f.homega_searched or 100.0
             ax.barh(i, bound, hatch="//", color="0.85", edgecolor="0.4")
@@ -307,8 +346,15 @@ def _stacked_labels(ax, at: dict, y: float) -> None:
     rows: list[list] = []
     for method, x in sorted(at.items(), key=lambda kv: kv[1]):
         for row in range(len(rows) + 1):
-            text = ax.annotate(method, (x, y), textcoords="offset points", xytext=(0, -9 - 8 * row), ha="center",
-                               fontsize=6, color="tab:red")
+            text = ax.annotate(
+                method,
+                (x, y),
+                textcoords="offset points",
+                xytext=(0, -9 - 8 * row),
+                ha="center",
+                fontsize=6,
+                color="tab:red",
+            )
             box = text.get_window_extent(renderer).expanded(1.05, 1.0)
             if row == len(rows):
                 rows.append([box])
@@ -328,9 +374,11 @@ def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path, styles: d
     if not rows:
         return False
     request = rows[0].figures.request
-    key, tol, label = (("energy_error", request["energy_tol"], "energy error (max |E - E_exact| / max |E_exact|)")
-                       if request["energy_tol"] is not None else
-                       ("position_error", request["error_tol"], "max position error"))
+    key, tol, label = (
+        ("energy_error", request["energy_tol"], "energy error (max |E - E_exact| / max |E_exact|)")
+        if request["energy_tol"] is not None
+        else ("position_error", request["error_tol"], "max position error")
+    )
     fig, ax = plt.subplots(figsize=(8, 4.5))
     stable_pts, unstable_pts = [], []
     for r in rows:
@@ -348,8 +396,14 @@ def advice_chart(cells: list[Cell], scene: str, hz: float, path: Path, styles: d
     ax.set_yscale("log")
     top = max([e for _, e in stable_pts] + [tol]) * 10
     if unstable_pts:
-        ax.scatter([c for c, _ in unstable_pts], [top] * len(unstable_pts), marker="x", color="tab:red",
-                   label="unstable (drawn at the top edge)", zorder=3)
+        ax.scatter(
+            [c for c, _ in unstable_pts],
+            [top] * len(unstable_pts),
+            marker="x",
+            color="tab:red",
+            label="unstable (drawn at the top edge)",
+            zorder=3,
+        )
     ax.axhline(tol, color="0.3", linestyle=":", label=f"tolerance {tol:g}")
     ax.set_xlabel("cost per frame: substeps x CPU µs per step (compiled kernel / engine step)")
     ax.set_ylabel(label)
@@ -395,8 +449,15 @@ def damping_stability_chart(cells: list[Cell], path: Path, styles: dict | None =
             continue
         scheme = r.figures.scheme
         st = _style(r.method, styles)
-        ax.plot(*zip(*pts), linestyle="none", marker=st["marker"], markersize=7, fillstyle="none",
-                color=st["color"], label=f"{r.method} (as {scheme[4:] if scheme else '?'})")
+        ax.plot(
+            *zip(*pts),
+            linestyle="none",
+            marker=st["marker"],
+            markersize=7,
+            fillstyle="none",
+            color=st["color"],
+            label=f"{r.method} (as {scheme[4:] if scheme else '?'})",
+        )
     ax.set_yscale("log")
     ax.axhline(DAMPING_CHART_TOP, color="0.8", linewidth=0.8)
     ax.text(0.0, DAMPING_CHART_TOP * 1.05, "unbounded", fontsize=7, color="0.4")

@@ -7,6 +7,7 @@ scheme. Everything is read from the cells (``records.contact``), the columns, th
 chart included: each cell carries its scene's own declaration of its figures
 (``ContactCellFigures.declared``), so a new contact scene needs no table here. The claims are
 judged in ``harness.contact.findings``."""
+
 from __future__ import annotations
 
 import math
@@ -14,6 +15,7 @@ import math
 from records.contact import REPORT_DTS
 
 from .text import fmt
+
 
 def _columns(figures) -> list[tuple[str, str, str]]:
     """The figures a cell's scene shows in its table, as it declared them: (header, key, format)."""
@@ -55,39 +57,57 @@ def contact_lines(scene: str, piv: dict) -> list[str]:
     kind = f0.scene
     figures = _columns(f0)
     params = ", ".join(f"{k} = {v:g}" for k, v in f0.scene_params.items()) or "the scene's defaults"
-    lines = [f"**Contact: `{kind}`** ({params}). Truth: " + (f0.truth_text or "–") + ". Tolerances: "
-             + (f0.tolerance_text or "–") + ". CPU seconds per simulated second are the engine loop's alone "
-             "(process CPU clock, a second pass with nothing recorded).", "",
-             "| mode | step | " + " | ".join(label for label, _, _ in figures) + " | ✓/✗ | CPU s per s |",
-             "|---|---|" + "---|" * len(figures) + "---|---|"]
+    lines = [
+        f"**Contact: `{kind}`** ({params}). Truth: "
+        + (f0.truth_text or "–")
+        + ". Tolerances: "
+        + (f0.tolerance_text or "–")
+        + ". CPU seconds per simulated second are the engine loop's alone "
+        "(process CPU clock, a second pass with nothing recorded).",
+        "",
+        "| mode | step | " + " | ".join(label for label, _, _ in figures) + " | ✓/✗ | CPU s per s |",
+        "|---|---|" + "---|" * len(figures) + "---|---|",
+    ]
     for c in cells:
         for dt in REPORT_DTS:
             r = _at(c.figures.runs, dt)
             if r is None:
                 continue
             if r.get("status") != "ok":
-                lines.append(f"| `{c.method}` | {_dt_text(dt)} | " + " | ".join("–" for _ in figures)
-                             + f" | {r.get('status')}: {r.get('detail') or ''} | – |")
+                lines.append(
+                    f"| `{c.method}` | {_dt_text(dt)} | "
+                    + " | ".join("–" for _ in figures)
+                    + f" | {r.get('status')}: {r.get('detail') or ''} | – |"
+                )
                 continue
             passes = r.get("passes") or {}
             failed = sorted(k for k, v in passes.items() if not v)
             verdict = "✓" if not failed else "✗ " + ", ".join(failed)
-            lines.append(f"| `{c.method}` | {_dt_text(dt)} | "
-                         + " | ".join(_value(k, r.get(key)) for _, key, k in figures)
-                         + f" | {verdict} | {fmt(r.get('cpu_per_s'))} |")
+            lines.append(
+                f"| `{c.method}` | {_dt_text(dt)} | "
+                + " | ".join(_value(k, r.get(key)) for _, key, k in figures)
+                + f" | {verdict} | {fmt(r.get('cpu_per_s'))} |"
+            )
     lines += ["", "Largest step of the ladder within each tolerance (there and at every shorter step):", ""]
     names = sorted({k for c in cells for k in c.figures.largest if k != "all"})
     lines += ["| mode | every figure | " + " | ".join(names) + " |", "|---|---|" + "---|" * len(names)]
     for c in cells:
         best = c.figures.largest
-        lines.append(f"| `{c.method}` | {_dt_text(best.get('all'))} | " + " | ".join(_dt_text(best.get(n)) for n in names)
-                     + " |")
-    lines += ["", "Settings behind the figures, as each pose stated them (those every mode of an engine shares "
-              "once, then each mode's own):", ""]
+        lines.append(
+            f"| `{c.method}` | {_dt_text(best.get('all'))} | " + " | ".join(_dt_text(best.get(n)) for n in names) + " |"
+        )
+    lines += [
+        "",
+        "Settings behind the figures, as each pose stated them (those every mode of an engine shares "
+        "once, then each mode's own):",
+        "",
+    ]
     by_engine: dict[str, list] = {}
     for c in cells:
         r = next((r for r in c.figures.runs if r.get("settings")), None)
-        by_engine.setdefault(c.method.split(":")[0], []).append((c.method, (r or {}).get("settings") or c.figures.settings))
+        by_engine.setdefault(c.method.split(":")[0], []).append(
+            (c.method, (r or {}).get("settings") or c.figures.settings)
+        )
     for engine, modes in by_engine.items():
         shared = {k: v for k, v in modes[0][1].items() if all(k in s and s[k] == v for _, s in modes)}
         if len(modes) > 1 and shared:
@@ -131,8 +151,15 @@ def contact_chart(cells, scene: str, path) -> bool:
             ax.plot([p[0] for p in pts], [p[1] for p in pts], label=c.method, markersize=4, **styles[c.method])
             gains = [p for p in pts if p[2]]
             if gains:
-                ax.plot([p[0] for p in gains], [p[1] for p in gains], linestyle="none", marker="o", markersize=10,
-                        markerfacecolor="none", color=styles[c.method].get("color"))
+                ax.plot(
+                    [p[0] for p in gains],
+                    [p[1] for p in gains],
+                    linestyle="none",
+                    marker="o",
+                    markersize=10,
+                    markerfacecolor="none",
+                    color=styles[c.method].get("color"),
+                )
     if not drawn:
         plt.close(fig)
         return False
@@ -142,8 +169,16 @@ def contact_chart(cells, scene: str, path) -> bool:
         if truth.get(truth_key) is not None:
             ax.axhline(truth[truth_key], color="0.4", linestyle="--", label=truth_label)
     if any("gained" in r for c in rows for r in c.figures.runs):
-        ax.plot([], [], linestyle="none", marker="o", markersize=10, markerfacecolor="none", color="0.3",
-                label="energy gained at a bounce")
+        ax.plot(
+            [],
+            [],
+            linestyle="none",
+            marker="o",
+            markersize=10,
+            markerfacecolor="none",
+            color="0.3",
+            label="energy gained at a bounce",
+        )
     if chart.get("chart_log"):
         ax.set_yscale("symlog", linthresh=1e-6)
     ax.set_xscale("log")
@@ -161,16 +196,23 @@ def penalty_lines(scene: str, piv: dict) -> list[str]:
         return []
     f0 = cells[0].figures
     grid = list(f0.grid)
-    lines = [f"**The reference schemes on a penalty ground** (ω_c = {f0.omega_c:g} rad/s, a spring–dashpot "
-             "under the ball's lowest point): the mean restitution of five bounces against h·ω_c, each bounce "
-             f"judged against the exact motion's (within {f0.tolerance}); ↑ a bounce whose apex rose above the one "
-             f"before by more than {f0.gain:.0%}, ✗ blew up, ~ the bounces scatter about the mean, "
-             "† the implicit solve did not converge at some step (the figure rests on it).", ""]
+    lines = [
+        f"**The reference schemes on a penalty ground** (ω_c = {f0.omega_c:g} rad/s, a spring–dashpot "
+        "under the ball's lowest point): the mean restitution of five bounces against h·ω_c, each bounce "
+        f"judged against the exact motion's (within {f0.tolerance}); ↑ a bounce whose apex rose above the one "
+        f"before by more than {f0.gain:.0%}, ✗ blew up, ~ the bounces scatter about the mean, "
+        "† the implicit solve did not converge at some step (the figure rests on it).",
+        "",
+    ]
     for e in sorted({r["e"] for c in cells for r in c.figures.rows}, reverse=True):
         exact = next((r for c in cells for r in c.figures.rows if r["e"] == e), None)
-        lines += [f"e = {e:g} (exact restitution with gravity in the contact: "
-                  f"{sum(exact['exact_restitution']) / len(exact['exact_restitution']):.4f})", "",
-                  "| scheme | " + " | ".join(f"{g:g}" for g in grid) + " |", "|---|" + "---|" * len(grid)]
+        lines += [
+            f"e = {e:g} (exact restitution with gravity in the contact: "
+            f"{sum(exact['exact_restitution']) / len(exact['exact_restitution']):.4f})",
+            "",
+            "| scheme | " + " | ".join(f"{g:g}" for g in grid) + " |",
+            "|---|" + "---|" * len(grid),
+        ]
         for c in cells:
             rows = {r["homega"]: r for r in c.figures.rows if r["e"] == e}
             lines.append(f"| `{c.method}` | " + " | ".join(_penalty_cell(rows.get(g)) for g in grid) + " |")
@@ -202,17 +244,25 @@ def penalty_chart(cells, scene: str, path) -> bool:
     fig, axes = plt.subplots(1, len(es), figsize=(5.5 * len(es) + 2.5, 4.5), squeeze=False)
     for ax, e in zip(axes[0], es):
         for c in rows:
-            pts = sorted((r["homega"], r["mean_restitution"]) for r in c.figures.rows
-                         if r["e"] == e and r["mean_restitution"] is not None)
+            pts = sorted(
+                (r["homega"], r["mean_restitution"])
+                for r in c.figures.rows
+                if r["e"] == e and r["mean_restitution"] is not None
+            )
             if pts:
-                ax.plot([p[0] for p in pts], [min(p[1], 3.0) for p in pts], label=c.method, markersize=4,
-                        **styles[c.method])
+                ax.plot(
+                    [p[0] for p in pts], [min(p[1], 3.0) for p in pts], label=c.method, markersize=4, **styles[c.method]
+                )
             up = [r["homega"] for r in c.figures.rows if r["e"] == e and r["verdict"] == "blows up"]
             if up:
                 ax.plot(up, [3.0] * len(up), linestyle="none", marker="x", color=styles[c.method].get("color"))
         exact = next(r for c in rows for r in c.figures.rows if r["e"] == e)
-        ax.axhline(sum(exact["exact_restitution"]) / len(exact["exact_restitution"]), color="0.4", linestyle="--",
-                   label="exact")
+        ax.axhline(
+            sum(exact["exact_restitution"]) / len(exact["exact_restitution"]),
+            color="0.4",
+            linestyle="--",
+            label="exact",
+        )
         ax.set_xscale("log")
         ax.set_ylim(0, 3.1)
         ax.set_xlabel("h·ω_c")
@@ -220,4 +270,3 @@ def penalty_chart(cells, scene: str, path) -> bool:
         ax.set_title(f"penalty ground, e = {e:g}")
     charts._legend_outside(axes[0][-1])
     return charts._save(fig, path)
-

@@ -2,6 +2,7 @@
 each damping ratio, measured beside the theory of the scheme each method is (its own, or the one
 an engine mode was identified as), and the chart. The agreement marks come with the cells
 (``harness.measures.stability_damping`` judges them); this only prints."""
+
 from __future__ import annotations
 
 import math
@@ -30,17 +31,22 @@ def damping_stability_section(cells: list[Cell], chart_name: str | None) -> list
             if row["zeta"] not in zetas:
                 zetas.append(row["zeta"])
     tol = ok[0].figures.tolerance if ok else None
-    lines = ["## Stability against damping", "",
-             "Largest stable h·ω on `damped_spring` (ω = 1, c = 2ζ) at each damping ratio ζ: measured (spectral "
-             "radius of the measured one-step map) / theory (spectral radius of the scheme's own recurrence on the "
-             "damped oscillator, closed form or computed), judged against the method's own scheme or, for an "
-             f"engine mode, the scheme it was identified as; {CHECK} within {tol:.1%} (none: unstable at every h; "
-             "∞: stable at every h searched). A reference scheme's map is measured on the state it carries "
-             "between steps (the Verlet forms carry an acceleration, position Verlet also the previous "
-             "position): the recurrence the scheme runs, not a restart from (q, v)."
-             if tol is not None else "", "",
-             "| method | theory of | " + " | ".join(f"ζ = {z:g}" for z in zetas) + " |",
-             "|---|---|" + "---|" * len(zetas)]
+    lines = [
+        "## Stability against damping",
+        "",
+        "Largest stable h·ω on `damped_spring` (ω = 1, c = 2ζ) at each damping ratio ζ: measured (spectral "
+        "radius of the measured one-step map) / theory (spectral radius of the scheme's own recurrence on the "
+        "damped oscillator, closed form or computed), judged against the method's own scheme or, for an "
+        f"engine mode, the scheme it was identified as; {CHECK} within {tol:.1%} (none: unstable at every h; "
+        "∞: stable at every h searched). A reference scheme's map is measured on the state it carries "
+        "between steps (the Verlet forms carry an acceleration, position Verlet also the previous "
+        "position): the recurrence the scheme runs, not a restart from (q, v)."
+        if tol is not None
+        else "",
+        "",
+        "| method | theory of | " + " | ".join(f"ζ = {z:g}" for z in zetas) + " |",
+        "|---|---|" + "---|" * len(zetas),
+    ]
     for r in rows:
         if r.status != "ok":
             lines.append(f"| `{r.method}` | {r.status}: {r.detail} |" + " |" * len(zetas))

@@ -11,6 +11,7 @@ as it leaves out a chart with nothing to draw, and a ``ChartNotDrawn`` warning n
 A worker that dies takes the pool with it; the charts it had not finished are then drawn each in
 a process of its own, so one chart that kills its process costs that chart only.
 """
+
 from __future__ import annotations
 
 import multiprocessing
@@ -19,7 +20,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from collections.abc import Callable
 
 
 class ChartNotDrawn(RuntimeWarning):
@@ -29,6 +30,7 @@ class ChartNotDrawn(RuntimeWarning):
 @dataclass(frozen=True)
 class Chart:
     """One chart of the report: ``draw(*args, out_dir / name, **kwargs) -> bool`` (True when it drew)."""
+
     name: str  # relative to the report's folder, e.g. "charts/run4-spring-energy.png"
     draw: Callable[..., bool]
     args: tuple
@@ -88,6 +90,5 @@ def draw_charts(charts: list[Chart], out_dir: Path, jobs: int = 1) -> list[str]:
         if ok:
             drawn.append(chart.name)
         elif why is not None:
-            warnings.warn(f"chart {chart.name} not drawn, left out of the report: {why}", ChartNotDrawn,
-                          stacklevel=2)
+            warnings.warn(f"chart {chart.name} not drawn, left out of the report: {why}", ChartNotDrawn, stacklevel=2)
     return drawn

@@ -1,5 +1,6 @@
 """The report's "History" section and its trend charts, drawn from a judged history
 (``harness.history.series.Trend``): it prints and draws what it is given, and judges nothing."""
+
 from __future__ import annotations
 
 import math
@@ -41,8 +42,16 @@ def trend_chart(cell, run_ids: list[int], path: Path) -> bool:
         noise = {p.run_id: s for p, s in zip(ok, cell.fit.point_noise)}
         lo = [p.value * math.exp(-noise[p.run_id]) for p in pts]
         hi = [p.value * math.exp(noise[p.run_id]) for p in pts]
-        ax.bar(x, [h - lw for h, lw in zip(hi, lo)], bottom=lo, width=0.7, color="tab:blue", alpha=0.18,
-               linewidth=0, label="noise band")
+        ax.bar(
+            x,
+            [h - lw for h, lw in zip(hi, lo)],
+            bottom=lo,
+            width=0.7,
+            color="tab:blue",
+            alpha=0.18,
+            linewidth=0,
+            label="noise band",
+        )
     ax.plot(x, y, "o", color="tab:blue", markersize=3.5, label="measured")
     worse_from = {ch.run_id for ch in cell.changes if ch.worse}
     for a, b, level in cell.levels():
@@ -77,8 +86,10 @@ def history_charts(trend, run_id: int) -> list[Chart]:
     """The trend charts the section shows (MAX_CHARTS at most), to be drawn (``reports.drawing``)."""
     if trend is None or not trend.runs:
         return []
-    return [Chart(_chart_name(run_id, i), trend_chart, (cell, trend.run_ids))
-            for i, cell in enumerate(_changed_in_order(trend)[:MAX_CHARTS])]
+    return [
+        Chart(_chart_name(run_id, i), trend_chart, (cell, trend.run_ids))
+        for i, cell in enumerate(_changed_in_order(trend)[:MAX_CHARTS])
+    ]
 
 
 def history_section(trend, run_id: int, drawn) -> list[str]:
@@ -88,33 +99,50 @@ def history_section(trend, run_id: int, drawn) -> list[str]:
         return []
     lines = ["## History", ""]
     ids = trend.run_ids
-    how = (f"cost judged by step detection over them (from {trend.min_runs} runs on)" if trend.judged
-           else f"cost judged by the last two runs until {trend.min_runs} runs exist")
+    how = (
+        f"cost judged by step detection over them (from {trend.min_runs} runs on)"
+        if trend.judged
+        else f"cost judged by the last two runs until {trend.min_runs} runs exist"
+    )
     which = ", ".join(map(str, ids)) if len(ids) <= 6 else f"{ids[0]}–{ids[-1]}"
-    intro = (f"{len(ids)} run(s) of the `{trend.suite}` suite, measurement version {trend.measurement_version} "
-             f"(runs {which}); accuracy figures compared run to run, {how}.")
+    intro = (
+        f"{len(ids)} run(s) of the `{trend.suite}` suite, measurement version {trend.measurement_version} "
+        f"(runs {which}); accuracy figures compared run to run, {how}."
+    )
     if trend.left_out:
         intro += f" {trend.left_out}."
     order = _changed_in_order(trend)
     machine = [(c, ch) for c in trend.cells for ch in c.machine_steps]
     if machine:
         runs = sorted({ch.run_id for _, ch in machine})
-        intro += (f" {len(machine)} cost step(s) the fit found (at run(s) {', '.join(map(str, runs))}) are the "
-                  f"machine's, not the methods': nothing they depend on changed, or the calibration timed beside "
-                  f"them moved as much (`harness history` lists them).")
+        intro += (
+            f" {len(machine)} cost step(s) the fit found (at run(s) {', '.join(map(str, runs))}) are the "
+            f"machine's, not the methods': nothing they depend on changed, or the calibration timed beside "
+            f"them moved as much (`harness history` lists them)."
+        )
     if not order:
-        return lines + [intro + " **Unchanged**: no accuracy figure changed and no cost step was detected"
-                        + (" beyond the machine's noise" if machine else "") + ".", ""]
-    lines += [intro, "",
-              "| cell | measure | change | from run | commits | what differs | |",
-              "|---|---|---|---|---|---|---|"]
+        return lines + [
+            intro
+            + " **Unchanged**: no accuracy figure changed and no cost step was detected"
+            + (" beyond the machine's noise" if machine else "")
+            + ".",
+            "",
+        ]
+    lines += [
+        intro,
+        "",
+        "| cell | measure | change | from run | commits | what differs | |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for cell in order:
         for ch in cell.changes:
             size = f" ({ch.size:+.1%})" if ch.size is not None else ""
             conf = f", confidence {ch.confidence:.3f}" if ch.confidence is not None else ""
             flag = "**regression**" if cell.regression is not None and ch.worse else ("worse" if ch.worse else "better")
-            lines.append(f"| `{cell.method}` on {cell.scene} | {cell.measure} | {_fmt(ch.before)} → {_fmt(ch.after)}"
-                         f"{size}{conf} | {ch.run_id} | {ch.commits} | {ch.cause} | {flag} |")
+            lines.append(
+                f"| `{cell.method}` on {cell.scene} | {cell.measure} | {_fmt(ch.before)} → {_fmt(ch.after)}"
+                f"{size}{conf} | {ch.run_id} | {ch.commits} | {ch.cause} | {flag} |"
+            )
     lines.append("")
     drawn = set(drawn)
     for i, cell in enumerate(order[:MAX_CHARTS]):

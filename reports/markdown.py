@@ -11,9 +11,9 @@ The charts are listed (``report_charts``) and drawn, by ``jobs`` worker processe
 (``reports.drawing``), before any markdown is written; the markdown links the charts drawn, so
 it is the same however many processes drew them.
 """
+
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 
@@ -32,6 +32,7 @@ from .run_section import appendix, footer
 from .text import Footnotes, fmt as _fmt, limit_text, of_measure as _of
 
 CHECK, CROSS = "✓", "✗"
+
 
 def homega_text(cell: Cell | None) -> str:
     if cell is None:
@@ -72,12 +73,21 @@ def verdict(v: Verdict) -> list[str]:
         lines.append("")
         lines += [f"- {r}" for r in v.regressions]
     if v.changed:
-        lines += ["", f"{len(v.changed)} accuracy figure(s) changed in this run (deterministic: reported at once): "
-                      + ", ".join(f"{c.measure} of `{c.method}` on `{c.scene}` {c.before:.4g} -> {c.after:.4g}"
-                                  for c in v.changed) + "; see [History](#history)."]
+        lines += [
+            "",
+            f"{len(v.changed)} accuracy figure(s) changed in this run (deterministic: reported at once): "
+            + ", ".join(
+                f"{c.measure} of `{c.method}` on `{c.scene}` {c.before:.4g} -> {c.after:.4g}" for c in v.changed
+            )
+            + "; see [History](#history).",
+        ]
     if v.failed:
-        lines += ["", f"{len(v.failed)} method(s) could not be measured in full in this run (crashed or timed out): "
-                      + ", ".join(f"`{m}` on `{sc}`" for sc, m in v.failed) + "; see [Failures](#failures)."]
+        lines += [
+            "",
+            f"{len(v.failed)} method(s) could not be measured in full in this run (crashed or timed out): "
+            + ", ".join(f"`{m}` on `{sc}`" for sc, m in v.failed)
+            + "; see [Failures](#failures).",
+        ]
     return lines + [""]
 
 
@@ -96,26 +106,34 @@ def failures(cells: list[Cell]) -> list[str]:
     groups = _failed(cells)
     if not groups:
         return lines + ["No cell crashed or timed out.", ""]
-    lines += ["A crash (the engine aborted or raised) or a hang (the worker was killed at the task's time "
-              "limit) is recorded and the run goes on; the cells measured before it are kept.", "",
-              "| method | scene | outcome | measures | why |", "|---|---|---|---|---|"]
+    lines += [
+        "A crash (the engine aborted or raised) or a hang (the worker was killed at the task's time "
+        "limit) is recorded and the run goes on; the cells measured before it are kept.",
+        "",
+        "| method | scene | outcome | measures | why |",
+        "|---|---|---|---|---|",
+    ]
     for (scene, method), grp in groups:
         by: dict = {}
         for c in grp:
             by.setdefault((c.status, c.detail), []).append(c.measure)
-        for (status, detail), measures in sorted(by.items(), key=lambda kv: kv[0][1].startswith("not reached")):
+        for (status, detail), names in sorted(by.items(), key=lambda kv: kv[0][1].startswith("not reached")):
             why = " ".join(str(detail).split()).replace("|", "\\|") or "–"
-            lines.append(f"| `{method}` | {scene} | **{status}** | {', '.join(measures)} | {why} |")
+            lines.append(f"| `{method}` | {scene} | **{status}** | {', '.join(names)} | {why} |")
     return lines + [""]
 
 
 def tradeoff_table(piv: dict, judged: dict, scene: str = "spring") -> list[str]:
-    lines = [f"## The trade-off, measured (reference schemes on `{scene}`)", "",
-             "Each cell: measured value, the textbook's claim in brackets, and whether they agree. "
-             "Cost: counted force evaluations per step, and CPU time per step as a ratio to explicit Euler's, "
-             "timed beside it in the same worker.", "",
-             "| scheme | evals/step | time ratio | observed order | energy | largest stable h·ω |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        f"## The trade-off, measured (reference schemes on `{scene}`)",
+        "",
+        "Each cell: measured value, the textbook's claim in brackets, and whether they agree. "
+        "Cost: counted force evaluations per step, and CPU time per step as a ratio to explicit Euler's, "
+        "timed beside it in the same worker.",
+        "",
+        "| scheme | evals/step | time ratio | observed order | energy | largest stable h·ω |",
+        "|---|---|---|---|---|---|",
+    ]
     rows = [(m, ms) for (s, m), ms in piv.items() if s == scene and m.startswith("ref:")]
     if not rows:
         return lines + ["", f"_no reference cells on {scene} in this run_", ""]
@@ -124,8 +142,10 @@ def tradeoff_table(piv: dict, judged: dict, scene: str = "spring") -> list[str]:
         claims = ok.claims
         cost, order, energy, stab = (ms.get(m) for m in ("cost", "order", "energy", "stability"))
         if cost is not None and cost.status == "ok":
-            evals_txt = (f"{_fmt(cost.figures.force_evals_per_step, '.3g')} [{_claim(claims, 'force_evals_text')}] "
-                         f"{mark(ok.evals)}")
+            evals_txt = (
+                f"{_fmt(cost.figures.force_evals_per_step, '.3g')} [{_claim(claims, 'force_evals_text')}] "
+                f"{mark(ok.evals)}"
+            )
             ratio_txt = _fmt(cost.figures.ratio_to_explicit_euler, ".2f")
         else:
             evals_txt = ratio_txt = cost.status if cost is not None else "–"
@@ -151,10 +171,15 @@ def _claim(claims: Claims, name: str):
 
 
 def identity_table(piv: dict) -> list[str]:
-    lines = ["## Which scheme each engine mode is", "",
-             "Each engine mode stepped beside every reference scheme on the same scene; the match is the scheme "
-             "with the smallest max |difference| in the state.", "",
-             "| engine mode | scene | matches | max deviation | runner-up (deviation) |", "|---|---|---|---|---|"]
+    lines = [
+        "## Which scheme each engine mode is",
+        "",
+        "Each engine mode stepped beside every reference scheme on the same scene; the match is the scheme "
+        "with the smallest max |difference| in the state.",
+        "",
+        "| engine mode | scene | matches | max deviation | runner-up (deviation) |",
+        "|---|---|---|---|---|",
+    ]
     n = 0
     for (scene, method), ms in sorted(piv.items()):
         row = ms.get("identity")
@@ -168,8 +193,13 @@ def identity_table(piv: dict) -> list[str]:
         runner = f"`{f.runner_up}` ({_fmt(f.runner_up_deviation, '.2e')})" if f.runner_up else "–"
         matches = f.all_matches
         said = " = ".join(f"`{m}`" for m in matches) if matches else f"none (closest `{f.closest}`)"
-        dev = _fmt(row.value, '.2e') + ("" if f.precision != "float32" else " (float32: matched at float32 rounding)"
-                                        if matches else " (float32: no scheme within float32 rounding)")
+        dev = _fmt(row.value, ".2e") + (
+            ""
+            if f.precision != "float32"
+            else " (float32: matched at float32 rounding)"
+            if matches
+            else " (float32: no scheme within float32 rounding)"
+        )
         lines.append(f"| `{method}` | {scene} | {said} | {dev} | {runner} |")
     if not n:
         lines.append("| _no engine modes in this run_ | | | | |")
@@ -201,19 +231,24 @@ def _micro(seconds):
 
 
 #: What the cost columns of a scene's table are (said once above the scenes' tables).
-COST_COLUMNS = ("CPU µs/step: a reference scheme's compiled loop, an engine mode's own loop (`engine s/step`: "
-                "`mujoco.rollout`, REBOUND's `sim.steps(n)`, a Python loop calling only the step function for "
-                "pybullet and pymunk); the time ratio to explicit Euler and the work-precision charts use it. "
-                "As stepped µs/step: the same engine mode stepped one call at a time by the harness, its state "
-                "read and checked and its forces applied from Python after every step.")
+COST_COLUMNS = (
+    "CPU µs/step: a reference scheme's compiled loop, an engine mode's own loop (`engine s/step`: "
+    "`mujoco.rollout`, REBOUND's `sim.steps(n)`, a Python loop calling only the step function for "
+    "pybullet and pymunk); the time ratio to explicit Euler and the work-precision charts use it. "
+    "As stepped µs/step: the same engine mode stepped one call at a time by the harness, its state "
+    "read and checked and its forces applied from Python after every step."
+)
 
 
 def evals_text(cost, mark) -> str:
     if cost is None or cost.status != "ok":
         return "–"
     f = cost.figures
-    return _fmt(f.force_evals_per_step, ".3g", mark(
-        f.force_evals_reason and f"`{cost.method}` counts no force evaluations: {f.force_evals_reason}"))
+    return _fmt(
+        f.force_evals_per_step,
+        ".3g",
+        mark(f.force_evals_reason and f"`{cost.method}` counts no force evaluations: {f.force_evals_reason}"),
+    )
 
 
 def cpu_text(cost, mark) -> str:
@@ -233,8 +268,9 @@ def ratio_text(cost, mark) -> str:
 def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
     """A scene's table (a row per method: its status, then every registered measure's columns,
     ``records.measures``), the lines each measure prints under it, and its charts."""
-    notes_of_model = sorted({c.model_note for (s, _), ms in piv.items() if s == scene for c in ms.values()
-                             if c.model_note})
+    notes_of_model = sorted(
+        {c.model_note for (s, _), ms in piv.items() if s == scene for c in ms.values() if c.model_note}
+    )
     cols = columns()
     lines = [f"### `{scene}`", "", *(f"**{note}.**" for note in notes_of_model), *([""] if notes_of_model else [])]
     # A measure without columns whose section is its table gives a method no row of its own: a suite's
@@ -258,8 +294,11 @@ def scene_section(scene: str, piv: dict, chart_names: dict) -> list[str]:
     for m in measures():
         if m.section is not None:
             lines += m.section(scene, piv)
-    for kind, title in (("energy", "Energy against time"), ("workprecision", "Work-precision: error against cost"),
-                        ("stability", "Largest stable h·ω")):
+    for kind, title in (
+        ("energy", "Energy against time"),
+        ("workprecision", "Work-precision: error against cost"),
+        ("stability", "Largest stable h·ω"),
+    ):
         name = chart_names.get((scene, kind))
         if name:
             lines += [f"![{title} on {scene}]({name})", ""]
@@ -282,15 +321,22 @@ def brouwer_lines(scene: str, piv: dict) -> list[str]:
         if c.status != "ok" or c.value is None or not f.ci95:
             parts.append(f"`{method}`: {c.status}{': ' + (f.reason or c.detail) if (f.reason or c.detail) else ''}")
             continue
-        text = (f"`{method}`: RMS |ΔE/E| over {f.realizations} realizations scales as t^{c.value:.2f} "
-                f"(95% interval {f.ci95[0]:.2f}–{f.ci95[1]:.2f}) over {f.periods:.3g} periods")
+        text = (
+            f"`{method}`: RMS |ΔE/E| over {f.realizations} realizations scales as t^{c.value:.2f} "
+            f"(95% interval {f.ci95[0]:.2f}–{f.ci95[1]:.2f}) over {f.periods:.3g} periods"
+        )
         if f.error_slope is not None and f.error_ci95:
-            text += (f"; its position error as t^{f.error_slope:.2f} ({f.error_ci95[0]:.2f}–{f.error_ci95[1]:.2f}, "
-                     f"fitted to t = {f.error_fit_until:.3g}, below 0.1)")
+            text += (
+                f"; its position error as t^{f.error_slope:.2f} ({f.error_ci95[0]:.2f}–{f.error_ci95[1]:.2f}, "
+                f"fitted to t = {f.error_fit_until:.3g}, below 0.1)"
+            )
         parts.append(text)
-    return ["Brouwer's law (roundoff walks the energy error as t^0.5, the phase error as t^1.5; the initial "
-            "state perturbed at 1e-15 per realization, the slope of the ensemble's RMS with a bootstrap "
-            "interval): " + "; ".join(parts) + ".", ""]
+    return [
+        "Brouwer's law (roundoff walks the energy error as t^0.5, the phase error as t^1.5; the initial "
+        "state perturbed at 1e-15 per realization, the slope of the ensemble's RMS with a bootstrap "
+        "interval): " + "; ".join(parts) + ".",
+        "",
+    ]
 
 
 def cross_engine_lines(c) -> list[str]:
@@ -343,8 +389,9 @@ def findings(found, chart_names: dict | None = None) -> list[str]:
     lines = ["## Findings", ""]
     lines += [f"- {finding_line(f)}" for f in found] or ["- nothing unexpected in this run"]
     lines.append("")
-    nominal = sorted((key[0], name) for key, name in (chart_names or {}).items()
-                     if isinstance(key, tuple) and key[1] == "nominal")
+    nominal = sorted(
+        (key[0], name) for key, name in (chart_names or {}).items() if isinstance(key, tuple) and key[1] == "nominal"
+    )
     for scene, name in nominal:
         lines += [f"![Energy at the nominal timestep over the stability horizon on {scene}]({name})", ""]
     return lines
@@ -354,13 +401,19 @@ def bounds_section(cells: list[Cell], judged: dict) -> list[str]:
     b = _of(cells, "bound")
     if not b:
         return []
-    lines = ["## Energy bounds (reviewed file)", "", "| method | scene | dt | steps | max \\|ΔE/E\\| | bound | |",
-             "|---|---|---|---|---|---|---|"]
+    lines = [
+        "## Energy bounds (reviewed file)",
+        "",
+        "| method | scene | dt | steps | max \\|ΔE/E\\| | bound | |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for r in sorted(b, key=lambda c: (c.scene, c.method, c.dt)):
         bound = r.figures.bound
         ok = judged.get((r.scene, r.method, r.dt))
         val = _fmt(r.value, ".2e") if r.status == "ok" else r.status
-        lines.append(f"| `{r.method}` | {r.scene} | {r.dt:g} | {int(r.steps)} | {val} | {_fmt(bound, '.2g')} | {mark(ok)} |")
+        lines.append(
+            f"| `{r.method}` | {r.scene} | {r.dt:g} | {int(r.steps)} | {val} | {_fmt(bound, '.2g')} | {mark(ok)} |"
+        )
     return lines + [""]
 
 
@@ -372,8 +425,11 @@ def report_charts(run_id: int, cells: list[Cell], trend=None) -> tuple[list[Char
     todo, names = [], {}
     for scene in scenes:
         of_scene = [c for c in cells if c.scene == scene]
-        for kind, fn in (("energy", charts.energy_chart), ("workprecision", charts.workprecision_chart),
-                         ("stability", charts.stability_chart)):
+        for kind, fn in (
+            ("energy", charts.energy_chart),
+            ("workprecision", charts.workprecision_chart),
+            ("stability", charts.stability_chart),
+        ):
             names[(scene, kind)] = name = f"charts/run{run_id}-{scene}-{kind}.png"
             todo.append(Chart(name, fn, (of_scene, scene), styles))
         names[(scene, "nominal")] = name = f"charts/run{run_id}-{scene}-nominal.png"
@@ -390,8 +446,9 @@ def report_charts(run_id: int, cells: list[Cell], trend=None) -> tuple[list[Char
     return todo + history_charts(trend, run_id), names
 
 
-def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None,
-           trend=None, jobs: int = 1, extra=()) -> tuple[str, list[str]]:
+def render(
+    run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None, trend=None, jobs: int = 1, extra=()
+) -> tuple[str, list[str]]:
     """(the report's markdown, the chart files written, relative to ``out_dir``) of ``run`` (its
     stored metadata, a ``RunRecord`` or the history's row), its ``cells``, what judging them
     found, ``timing`` (where the run's time went, a ``RunTiming`` or the nightly's dict) and
@@ -427,8 +484,17 @@ def render(run, cells: list[Cell], judged: Judgement, out_dir: Path, timing=None
     return "\n".join(lines), written
 
 
-def write_report(run: dict, cells: list[Cell], judged: Judgement, out_dir, timing=None, trend=None,
-                 jobs: int = 1, before_write=None, extra=()) -> Path:
+def write_report(
+    run: dict,
+    cells: list[Cell],
+    judged: Judgement,
+    out_dir,
+    timing=None,
+    trend=None,
+    jobs: int = 1,
+    before_write=None,
+    extra=(),
+) -> Path:
     """``render`` written to ``out_dir/report.md`` (atomically, see above); ``jobs`` processes
     draw its charts; ``before_write`` is called between the two (the nightly's kill point)."""
     out_dir = Path(out_dir)

@@ -1,5 +1,6 @@
 """Text helpers shared by the report's sections: numbers as the report prints them, the cells of
 one measure, and footnotes that say why a figure is missing."""
+
 from __future__ import annotations
 
 import math
@@ -24,8 +25,10 @@ class Footnotes:
         return what + str(n).translate(_SUPERSCRIPTS)
 
     def lines(self) -> list[str]:
-        return [f"{str(n).translate(_SUPERSCRIPTS)} {reason}" + ("" if reason.endswith(".") else ".")
-                for reason, n in self.reasons.items()] + ([""] if self.reasons else [])
+        return [
+            f"{str(n).translate(_SUPERSCRIPTS)} {reason}" + ("" if reason.endswith(".") else ".")
+            for reason, n in self.reasons.items()
+        ] + ([""] if self.reasons else [])
 
 
 def fmt(x, spec=".3g", none="–"):

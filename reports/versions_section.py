@@ -8,6 +8,7 @@ row with both values. A cost cell is compared as its ratio to explicit Euler, ea
 own run, and beyond the process-to-process spread only (``PROCESS_SPREAD``): a ratio is not a bit.
 A mode one release has and the other lacks is said so ("not in mujoco 3.3.7").
 """
+
 from __future__ import annotations
 
 import json
@@ -84,8 +85,11 @@ def _same(a: Cell, b: Cell) -> bool:
     if a.measure == "cost":
         ra, rb = a.figures.ratio_to_explicit_euler, b.figures.ratio_to_explicit_euler
         return a.status == b.status and (not ra or not rb or abs(rb / ra - 1.0) <= PROCESS_SPREAD)
-    same_value = a.measure == "advise" or a.value == b.value or (
-        a.value is not None and b.value is not None and math.isnan(a.value) and math.isnan(b.value))
+    same_value = (
+        a.measure == "advise"
+        or a.value == b.value
+        or (a.value is not None and b.value is not None and math.isnan(a.value) and math.isnan(b.value))
+    )
     return a.status == b.status and same_value and a.detail == b.detail and _figures(a) == _figures(b)
 
 
@@ -103,6 +107,7 @@ class ReleaseComparison:
 
 def compare_releases(engine: str, before: tuple[str, list[Cell]], after: tuple[str, list[Cell]]) -> ReleaseComparison:
     """The cells of ``engine``'s modes in two runs (each ``(version, cells)``), set side by side."""
+
     def mine(cells):
         return {_key(c): c for c in cells if c.family == engine and c.measure != "bound"}
 
@@ -119,9 +124,13 @@ def compare_releases(engine: str, before: tuple[str, list[Cell]], after: tuple[s
 def between_versions_section(engine: str, runs: list[tuple[str, list[Cell]]], skipped: dict | None = None) -> list[str]:
     """The report's "Between versions" lines for ``engine``: ``runs`` as (version, cells), oldest
     release first; ``skipped``: {version: {(scene, method): reason}} of what a release did not run."""
-    lines = [f"## Between versions: {engine}", "",
-             f"Each release's cells of the {engine} modes beside the next release's (status, value and every "
-             "stored figure; cost as its ratio to explicit Euler, each from its own run).", ""]
+    lines = [
+        f"## Between versions: {engine}",
+        "",
+        f"Each release's cells of the {engine} modes beside the next release's (status, value and every "
+        "stored figure; cost as its ratio to explicit Euler, each from its own run).",
+        "",
+    ]
     for (va, ca), (vb, cb) in zip(runs, runs[1:]):
         res = compare_releases(engine, (va, ca), (vb, cb))
         head = f"**{engine} {va} → {vb}**: "
@@ -131,8 +140,10 @@ def between_versions_section(engine: str, runs: list[tuple[str, list[Cell]]], sk
         lines.append(head + f"{res.unchanged} cells bit for bit unchanged, {len(res.changed)} changed.")
         lines.append("")
         if res.changed:
-            lines += [f"| scene | method | measure | {engine} {va} | {engine} {vb} | what differs |",
-                      "|---|---|---|---|---|---|"]
+            lines += [
+                f"| scene | method | measure | {engine} {va} | {engine} {vb} | what differs |",
+                "|---|---|---|---|---|---|",
+            ]
             for (scene, method, measure, _), x, y in res.changed:
                 lines.append(f"| {scene} | `{method}` | {measure} | {_value(x)} | {_value(y)} | {what_differs(x, y)} |")
             lines.append("")

@@ -1,4 +1,5 @@
 """Scene registry: ``SCENES[id]`` is a Scene class; ``make_scene`` validates parameters."""
+
 from __future__ import annotations
 
 from records import InvalidInput
@@ -23,9 +24,22 @@ from .rope import Rope
 from .solar_system import SolarSystem
 from .spring import Spring
 
-SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (
-    Spring, DampedSpring, Pendulum, Kepler, Projectile, Chain, Rope, SolarSystem, Cloth, Net, PenaltyBall,
-)}
+SCENES: dict[str, type[Scene]] = {
+    cls.id: cls
+    for cls in (
+        Spring,
+        DampedSpring,
+        Pendulum,
+        Kepler,
+        Projectile,
+        Chain,
+        Rope,
+        SolarSystem,
+        Cloth,
+        Net,
+        PenaltyBall,
+    )
+}
 
 
 #: Scenes built from a file (``harness model PATH``): not in SCENES, whose every scene is
@@ -53,8 +67,9 @@ def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
     if source is not None:
         scene = open_model(source, **overrides)
         if scene.id != scene_id:
-            raise InvalidInput(f"model file {source!r} is now {scene.id}, not {scene_id}: it changed since the "
-                               "run was planned")
+            raise InvalidInput(
+                f"model file {source!r} is now {scene.id}, not {scene_id}: it changed since the run was planned"
+            )
         return scene
     if scene_id in FILE_SCENES:
         return FILE_SCENES[scene_id](**overrides)
@@ -65,8 +80,10 @@ def make_scene(scene_id: str, source: str | None = None, **overrides) -> Scene:
     try:
         cls = SCENES[scene_id]
     except KeyError:
-        raise InvalidInput(f"unknown scene {scene_id!r} (valid: {', '.join([*SCENES, *ENGINE_SCENES])}; a model file: "
-                           "harness model PATH)") from None
+        raise InvalidInput(
+            f"unknown scene {scene_id!r} (valid: {', '.join([*SCENES, *ENGINE_SCENES])}; a model file: "
+            "harness model PATH)"
+        ) from None
     return cls(**overrides)
 
 
@@ -81,5 +98,26 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-__all__ = ["SCENES", "FILE_SCENES", "ENGINE_SCENES", "ContactScene", "contact_scenes", "ModelScene", "BulletModelScene", "open_model", "full_mass_matrix", "collidable_pairs", "REFERENCE_JUDGES", "FEATURES", "VARIANTS", "read_model_file", "variant", "Scene", "Param", "make_scene", "parse_overrides",
-           "no_solve", "no_velocity_dependence"]
+__all__ = [
+    "SCENES",
+    "FILE_SCENES",
+    "ENGINE_SCENES",
+    "ContactScene",
+    "contact_scenes",
+    "ModelScene",
+    "BulletModelScene",
+    "open_model",
+    "full_mass_matrix",
+    "collidable_pairs",
+    "REFERENCE_JUDGES",
+    "FEATURES",
+    "VARIANTS",
+    "read_model_file",
+    "variant",
+    "Scene",
+    "Param",
+    "make_scene",
+    "parse_overrides",
+    "no_solve",
+    "no_velocity_dependence",
+]

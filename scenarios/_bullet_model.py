@@ -19,6 +19,7 @@ What MuJoCo supplies for a ``ModelScene`` comes from Bullet here:
 * **Reference**: none of another engine: every mode is measured against its own run at half the
   step (``Scene.own_run_reference``).
 """
+
 from __future__ import annotations
 
 import math
@@ -45,16 +46,28 @@ def file_facts(mf: ModelFile) -> dict:
     actuators, equality constraints, armature and joint stiffness attributes."""
     root = ET.parse(mf.path).getroot()
     if mf.kind != "MJCF":
-        return {"timestep": DEFAULT_TIMESTEP, "gravity": DEFAULT_GRAVITY, "actuators": 0, "equality": 0,
-                "armature": 0, "stiffness": 0, "colliding": sum(1 for _ in root.iter("collision"))}
+        return {
+            "timestep": DEFAULT_TIMESTEP,
+            "gravity": DEFAULT_GRAVITY,
+            "actuators": 0,
+            "equality": 0,
+            "armature": 0,
+            "stiffness": 0,
+            "colliding": sum(1 for _ in root.iter("collision")),
+        }
     g = _option(root, "gravity")
     act, eq = root.find("actuator"), root.find("equality")
-    return {"timestep": float(_option(root, "timestep") or DEFAULT_TIMESTEP),
-            "gravity": tuple(float(x) for x in g.split()) if g else DEFAULT_GRAVITY,
-            "actuators": 0 if act is None else len(list(act)), "equality": 0 if eq is None else len(list(eq)),
-            "armature": sum(1 for e in root.iter() if float(e.get("armature", "0") or 0) != 0),
-            "stiffness": sum(1 for e in root.iter("joint") if float(e.get("stiffness", "0") or 0) != 0),
-            "colliding": sum(1 for e in root.iter("geom") if e.get("contype", "1") != "0" or e.get("conaffinity", "1") != "0")}
+    return {
+        "timestep": float(_option(root, "timestep") or DEFAULT_TIMESTEP),
+        "gravity": tuple(float(x) for x in g.split()) if g else DEFAULT_GRAVITY,
+        "actuators": 0 if act is None else len(list(act)),
+        "equality": 0 if eq is None else len(list(eq)),
+        "armature": sum(1 for e in root.iter() if float(e.get("armature", "0") or 0) != 0),
+        "stiffness": sum(1 for e in root.iter("joint") if float(e.get("stiffness", "0") or 0) != 0),
+        "colliding": sum(
+            1 for e in root.iter("geom") if e.get("contype", "1") != "0" or e.get("conaffinity", "1") != "0"
+        ),
+    }
 
 
 class BulletWorld:
@@ -87,7 +100,6 @@ class BulletWorld:
 
     def found(self, facts: dict) -> dict[str, str]:
         """{feature: what the model has of it}, as ``scenarios.model.features_found`` says it."""
-        p, cid = self.p, self.cid
         out = {}
         # From the file: pybullet 3.2.7's getCollisionShapeData crashes the process on a capsule
         # that loadMJCF built.
@@ -118,8 +130,11 @@ class BulletWorld:
 
     def _index(self, b: int) -> list[int]:
         p, cid = self.p, self.cid
-        movable = [j for j in range(p.getNumJoints(b, physicsClientId=cid))
-                   if p.getJointInfo(b, j, physicsClientId=cid)[2] in (p.JOINT_REVOLUTE, p.JOINT_PRISMATIC)]
+        movable = [
+            j
+            for j in range(p.getNumJoints(b, physicsClientId=cid))
+            if p.getJointInfo(b, j, physicsClientId=cid)[2] in (p.JOINT_REVOLUTE, p.JOINT_PRISMATIC)
+        ]
         return movable
 
     def mass_matrix(self, q) -> np.ndarray:
@@ -127,7 +142,7 @@ class BulletWorld:
             raise ValueError("pybullet: the file's joints lie in several multibodies: no single mass matrix")
         b = self.bodies[0]
         full = np.array(self.p.calculateMassMatrix(b, [float(x) for x in q], physicsClientId=self.cid))
-        return full[-len(q):, -len(q):]
+        return full[-len(q) :, -len(q) :]
 
     def parts(self, q, v) -> tuple[float, float]:
         """(potential, kinetic) energy of one state."""
@@ -140,8 +155,11 @@ class BulletWorld:
                 mass = p.getDynamicsInfo(b, j, physicsClientId=cid)[0]
                 if mass <= 0:
                     continue
-                com = (p.getBasePositionAndOrientation(b, physicsClientId=cid)[0] if j < 0 else
-                       p.getLinkState(b, j, computeForwardKinematics=True, physicsClientId=cid)[0])
+                com = (
+                    p.getBasePositionAndOrientation(b, physicsClientId=cid)[0]
+                    if j < 0
+                    else p.getLinkState(b, j, computeForwardKinematics=True, physicsClientId=cid)[0]
+                )
                 potential -= mass * float(self.gravity @ np.array(com))
         return potential, kinetic
 
@@ -149,8 +167,11 @@ class BulletWorld:
         """Free motion's acceleration: -M^-1 (Coriolis + gravity), from inverse dynamics at qacc 0."""
         b = self.bodies[0]
         self._set(q, v)
-        bias = np.array(self.p.calculateInverseDynamics(b, [float(x) for x in q], [float(x) for x in v],
-                                                        [0.0] * len(q), physicsClientId=self.cid))
+        bias = np.array(
+            self.p.calculateInverseDynamics(
+                b, [float(x) for x in q], [float(x) for x in v], [0.0] * len(q), physicsClientId=self.cid
+            )
+        )
         return -np.linalg.solve(self.mass_matrix(q), bias)
 
     def close(self) -> None:
@@ -190,7 +211,7 @@ class BulletModelScene(ModelScene):
         self._world = None
         self._omega = None
 
-    def copy_with(self, **values) -> "BulletModelScene":
+    def copy_with(self, **values) -> BulletModelScene:
         return type(self)(self.file, self.mujoco_refusal, **values)
 
     def __getstate__(self):
@@ -212,8 +233,10 @@ class BulletModelScene(ModelScene):
         return self._world
 
     def describe_state(self) -> str:
-        return (f"Bullet's load pose moved by dq ~ N(0, {self.values['perturb']:g}^2) per joint, qvel ~ "
-                f"N(0, {self.values['perturb']:g}^2), numpy default_rng(seed={self.values['seed']})")
+        return (
+            f"Bullet's load pose moved by dq ~ N(0, {self.values['perturb']:g}^2) per joint, qvel ~ "
+            f"N(0, {self.values['perturb']:g}^2), numpy default_rng(seed={self.values['seed']})"
+        )
 
     def initial_state(self):
         rng = np.random.default_rng(int(self.values["seed"]))
@@ -305,5 +328,6 @@ def open_model(path, **params) -> ModelScene:
         except InvalidInput:
             raise
         except Exception as exc:  # Bullet's loader failed too: both engines' reasons in one line
-            raise InvalidInput(f"{refused}; pybullet cannot load it either: "
-                               f"{' '.join((str(exc) or type(exc).__name__).split())}") from None
+            raise InvalidInput(
+                f"{refused}; pybullet cannot load it either: {' '.join((str(exc) or type(exc).__name__).split())}"
+            ) from None

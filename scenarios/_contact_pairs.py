@@ -16,6 +16,7 @@ collision driver (``engine_collision_driver.c``) takes a pair of geoms from diff
 With contacts or constraints disabled (``mjDSBL_CONTACT``, ``mjDSBL_CONSTRAINT``: dm_control's
 cartpole) nothing collides.
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -13,6 +13,7 @@ energy 1/2 v'M v of any one velocity v. It does not depend on the units of the c
 (a slide in metres beside a hinge in radians), and is 0 to roundoff for a model whose M is
 constant (slides, a single hinge).
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -24,6 +24,7 @@ A state at a time between grid points is one RK4 step of the remaining length fr
 point before it (a shorter step than the grid's, so no less accurate). Grids are cached per
 process, by scene id (file hash), variant and T.
 """
+
 from __future__ import annotations
 
 import math
@@ -48,13 +49,13 @@ class Grid:
 
     T: float
     h: float
-    state: np.ndarray            # (N + 1, nstate) MuJoCo full physics states
-    q: np.ndarray                # (N + 1, nq)
-    v: np.ndarray                # (N + 1, nv)
-    error: float                 # the estimated relative error (difference of the last two levels)
+    state: np.ndarray  # (N + 1, nstate) MuJoCo full physics states
+    q: np.ndarray  # (N + 1, nq)
+    v: np.ndarray  # (N + 1, nv)
+    error: float  # the estimated relative error (difference of the last two levels)
     halvings: int
-    converged: bool              # the difference reached REFERENCE_RTOL
-    history: list                # (h, difference to the next level) per level compared
+    converged: bool  # the difference reached REFERENCE_RTOL
+    history: list  # (h, difference to the next level) per level compared
 
     @property
     def judges(self) -> bool:
@@ -63,8 +64,10 @@ class Grid:
 
     def describe(self) -> str:
         how = "agreed" if self.converged else "stopped"
-        return (f"MuJoCo RK4 at h = {self.h:.3g} ({self.halvings} halvings; the last two {how} to "
-                f"{self.error:.2g}: its estimated error)")
+        return (
+            f"MuJoCo RK4 at h = {self.h:.3g} ({self.halvings} halvings; the last two {how} to "
+            f"{self.error:.2g}: its estimated error)"
+        )
 
 
 _GRIDS: dict[tuple, Grid] = {}
@@ -96,7 +99,7 @@ def _run(scene, m, d, h: float, n: int):
     if not np.all(np.isfinite(states)):
         return None
     nq, nv = m.nq, m.nv
-    return (states, *scene.scene_state(states[:, 1:1 + nq], states[:, 1 + nq:1 + nq + nv]))
+    return (states, *scene.scene_state(states[:, 1 : 1 + nq], states[:, 1 + nq : 1 + nq + nv]))
 
 
 def _scaled(scene, q, v):
@@ -113,14 +116,16 @@ def reference_grid(scene, t_end: float | None = None) -> Grid:
         return have
     m = scene.engine_model()
     m.opt.integrator = int(mujoco.mjtIntegrator.mjINT_RK4)
-    m.opt.disableflags |= int(getattr(mujoco.mjtDisableBit, "mjDSBL_AUTORESET", 0))  # absent in older releases (2.3.7, 3.0.0)
+    m.opt.disableflags |= int(
+        getattr(mujoco.mjtDisableBit, "mjDSBL_AUTORESET", 0)
+    )  # absent in older releases (2.3.7, 3.0.0)
     d = mujoco.MjData(m)
     own = getattr(scene, "own_timestep", None)
     n0 = max(8, math.ceil(T * scene.omega / H0_OMEGA), math.ceil(T / own - 1e-9) if own else 0)
     prev, history = None, []
     best = None
     for k in range(MAX_HALVINGS + 1):
-        n = n0 * 2 ** k
+        n = n0 * 2**k
         if n > MAX_STEPS:
             break
         h = T / n
@@ -143,8 +148,9 @@ def reference_grid(scene, t_end: float | None = None) -> Grid:
         prev = run
     if best is None:
         nan = math.nan
-        grid = Grid(T, T, np.full((1, 1), nan), np.full((1, m.nq), nan), np.full((1, m.nv), nan), math.inf,
-                    0, False, history)
+        grid = Grid(
+            T, T, np.full((1, 1), nan), np.full((1, m.nq), nan), np.full((1, m.nv), nan), math.inf, 0, False, history
+        )
     else:
         diff, h, run, k = best
         grid = Grid(T, h, run[0], run[1], run[2], diff, k, diff <= REFERENCE_RTOL, history)
@@ -176,7 +182,9 @@ def reference_at(scene, t) -> tuple[np.ndarray, np.ndarray]:
         if m is None:
             m = scene.engine_model()
             m.opt.integrator = int(mujoco.mjtIntegrator.mjINT_RK4)
-            m.opt.disableflags |= int(getattr(mujoco.mjtDisableBit, "mjDSBL_AUTORESET", 0))  # absent in older releases (2.3.7, 3.0.0)
+            m.opt.disableflags |= int(
+                getattr(mujoco.mjtDisableBit, "mjDSBL_AUTORESET", 0)
+            )  # absent in older releases (2.3.7, 3.0.0)
             d = mujoco.MjData(m)
         mujoco.mj_setState(m, d, grid.state[n], spec)
         m.opt.timestep = rest

@@ -12,6 +12,7 @@ With gamma = zeta w (the decay rate):
   and e^{-gamma t} sinh(s t)/s as their half difference over s where s t >= 1, as
   e^{-gamma t} sinh(s t)/s below (no cancellation near critical damping; t e^{-w t} at s = 0).
 """
+
 from __future__ import annotations
 
 import math

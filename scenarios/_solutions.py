@@ -13,16 +13,17 @@ same solve, so the same values), and the values last asked for are kept by their
 sets of times), so that the many runs measured against one reference at the same times (the advice's
 frames) solve it once.
 """
+
 from __future__ import annotations
 
 import hashlib
 from collections import OrderedDict
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
 #: One cache per (scene id, parameter values, what is solved): scenes are cheap to construct.
-_CACHE: dict[tuple, "SegmentedSolution"] = {}
+_CACHE: dict[tuple, SegmentedSolution] = {}
 #: Dense output a solution keeps (numbers: 2^24 is 128 MB); a segment past it is solved again when asked for.
 KEPT_VALUES = 1 << 24
 #: Sets of times whose values a solution keeps (the most recently asked for), each of at most
@@ -34,12 +35,12 @@ RECENT_VALUES = 1 << 20
 class SegmentedSolution:
     def __init__(self, rhs: Callable, y0: np.ndarray, segment: float, rtol: float, atol: float):
         self.rhs, self.segment, self.rtol, self.atol = rhs, float(segment), rtol, atol
-        self.starts = [np.array(y0, dtype=float)]   # y at each segment's start (and the last one's end)
-        self.pieces: dict[int, object] = {}         # segment -> its dense output, while within KEPT_VALUES
+        self.starts = [np.array(y0, dtype=float)]  # y at each segment's start (and the last one's end)
+        self.pieces: dict[int, object] = {}  # segment -> its dense output, while within KEPT_VALUES
         self.kept = 0
         self.recent: OrderedDict = OrderedDict()
         self.nfev = 0
-        self.solves = 0                              # segment solves, those solved again included
+        self.solves = 0  # segment solves, those solved again included
 
     @property
     def y_end(self) -> np.ndarray:
@@ -49,8 +50,15 @@ class SegmentedSolution:
         t0 = k * self.segment
         from scipy.integrate import solve_ivp  # here: a process that never solves a reference need not import it
 
-        sol = solve_ivp(self.rhs, (t0, t0 + self.segment), self.starts[k], method="DOP853",
-                        rtol=self.rtol, atol=self.atol, dense_output=True)
+        sol = solve_ivp(
+            self.rhs,
+            (t0, t0 + self.segment),
+            self.starts[k],
+            method="DOP853",
+            rtol=self.rtol,
+            atol=self.atol,
+            dense_output=True,
+        )
         if not sol.success:  # pragma: no cover - a failed reference must never pass silently
             raise RuntimeError(f"reference solve failed on [{t0:g}, {t0 + self.segment:g}]: {sol.message}")
         self.nfev += sol.nfev

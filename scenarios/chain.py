@@ -24,6 +24,7 @@ The damping matrix is c/k times the stiffness matrix, so the normal modes stay u
 is a damped oscillator at w_j with damping ratio zeta_j = c w_j / (2 k) (the highest mode the
 most damped: zeta_N = c omega / (2 k)), each in closed form (``scenarios._oscillator``).
 """
+
 import math
 
 import numpy as np
@@ -124,8 +125,9 @@ class Chain(DampedByC, Scene):
         "k": Param(1.0e4, "stiffness of every spring (neighbours and walls)", lo=0.0, lo_open=True),
         "m": Param(1.0, "mass of each body", lo=0.0, lo_open=True),
         "x0": Param(1.0, "initial displacement of the middle mass (index (N-1)//2), all at rest"),
-        "c": Param(0.0, "dashpot beside every spring, on the relative velocity (mode j's damping ratio "
-                        "c w_j / (2 k))", lo=0.0),
+        "c": Param(
+            0.0, "dashpot beside every spring, on the relative velocity (mode j's damping ratio c w_j / (2 k))", lo=0.0
+        ),
     }
     linear = True
     has_modes = True
@@ -135,8 +137,10 @@ class Chain(DampedByC, Scene):
 
     def position_based_why(self) -> str:
         if self.values["c"] != 0.0:
-            return (f"scene chain has dashpots (c = {self.values['c']:g}), which the position-based "
-                    "schemes do not model: their constraints are its springs alone")
+            return (
+                f"scene chain has dashpots (c = {self.values['c']:g}), which the position-based "
+                "schemes do not model: their constraints are its springs alone"
+            )
         return super().position_based_why()
 
     def constraint_error(self, q):
@@ -203,8 +207,7 @@ class Chain(DampedByC, Scene):
             q = idst(a * cos + (b / w) * sin, type=1, norm="ortho", axis=-1)
             v = idst(-a * w * sin + b * cos, type=1, norm="ortho", axis=-1)
             return q, v
-        modes = [damped_oscillator(t, wj, zj, aj, bj)
-                 for wj, zj, aj, bj in zip(w, self.mode_damping_ratios(), a, b)]
+        modes = [damped_oscillator(t, wj, zj, aj, bj) for wj, zj, aj, bj in zip(w, self.mode_damping_ratios(), a, b)]
         qm = np.stack([m[0] for m in modes], axis=-1)
         vm = np.stack([m[1] for m in modes], axis=-1)
         return idst(qm, type=1, norm="ortho", axis=-1), idst(vm, type=1, norm="ortho", axis=-1)

@@ -35,6 +35,7 @@ iteration (O(N) each, and a number of iterations set by h omega, not by N). ``DI
 sits where the two cost the same per step, compiled at h = 1/60 on square sheets of constant mass
 per node: between 12 x 12 and 16 x 16 (docs/performance.md).
 """
+
 import math
 
 import numpy as np
@@ -274,7 +275,7 @@ def _banded(ends, blocks, count, d, m, r, b, scale, out):
     the two triangular sweeps, into out[:, b]."""
     size = r.shape[0]
     bw = d * (2 * m + 1)
-    low = np.zeros((size, bw + 1))   # low[i, k] = A[i, i - k], then L[i, i - k]
+    low = np.zeros((size, bw + 1))  # low[i, k] = A[i, i - k], then L[i, i - k]
     for i in range(size):
         low[i, 0] = 1.0
     for s in range(count):
@@ -352,8 +353,12 @@ class _Sheet:
         c = np.arange(d)
         rows, cols, source, sign = [], [], [], []
         block = np.arange(len(self.k) * d * d).reshape(-1, d, d)
-        for r_end, c_end, s in ((self.a, self.a, 1.0), (self.b, self.b, 1.0), (self.a, self.b, -1.0),
-                                (self.b, self.a, -1.0)):
+        for r_end, c_end, s in (
+            (self.a, self.a, 1.0),
+            (self.b, self.b, 1.0),
+            (self.a, self.b, -1.0),
+            (self.b, self.a, -1.0),
+        ):
             fr, fc = self.free[r_end], self.free[c_end]
             keep = np.flatnonzero((fr >= 0) & (fc >= 0))
             shape = (len(keep), d, d)
@@ -365,13 +370,17 @@ class _Sheet:
         key = np.concatenate(rows + [diagonal]).astype(np.int64) * self.size + np.concatenate(cols + [diagonal])
         unique, slot = np.unique(key, return_inverse=True)
         self.indices = (unique % self.size).astype(np.int32)
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // self.size, minlength=self.size))]
-                                     ).astype(np.int32)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(unique // self.size, minlength=self.size))]).astype(
+            np.int32
+        )
         entries = len(np.concatenate(sign))
-        from scipy.sparse import coo_matrix  # here: scipy.sparse is a large import a process without a cloth never needs
+        from scipy.sparse import (
+            coo_matrix,
+        )  # here: scipy.sparse is a large import a process without a cloth never needs
 
-        self.assemble = coo_matrix((np.concatenate(sign), (slot[:entries], np.concatenate(source))),
-                                   shape=(len(unique), block.size)).tocsr()
+        self.assemble = coo_matrix(
+            (np.concatenate(sign), (slot[:entries], np.concatenate(source))), shape=(len(unique), block.size)
+        ).tocsr()
         self.diagonal = slot[entries:]
 
     def positions(self, q: np.ndarray) -> np.ndarray:
@@ -390,8 +399,9 @@ class _Sheet:
             f = (self.k * (length - self.rest) / length)[:, None] * dx
             force = np.empty_like(x)
             for c in range(self.d):
-                force[:, c] = (np.bincount(self.a, f[:, c], minlength=len(x))
-                               - np.bincount(self.b, f[:, c], minlength=len(x)))
+                force[:, c] = np.bincount(self.a, f[:, c], minlength=len(x)) - np.bincount(
+                    self.b, f[:, c], minlength=len(x)
+                )
             acc = force[self.free_nodes] / self.mass
             acc[:, self.d - 1] -= self.g
             out[:, col] = acc.ravel()
@@ -406,8 +416,9 @@ class _Sheet:
         length = np.sqrt(np.sum(dx * dx, axis=1))
         u = dx / length[:, None]
         ratio = self.rest / length
-        blocks = (self.k * ratio)[:, None, None] * u[:, :, None] * u[:, None, :] \
-            + (self.k * (1.0 - ratio))[:, None, None] * np.eye(self.d)
+        blocks = (self.k * ratio)[:, None, None] * u[:, :, None] * u[:, None, :] + (self.k * (1.0 - ratio))[
+            :, None, None
+        ] * np.eye(self.d)
         data = self.assemble @ (blocks.ravel() * (beta / self.mass))
         data[self.diagonal] += 1.0
         return csr_matrix((data, self.indices, self.indptr), shape=(self.size, self.size))
@@ -415,8 +426,10 @@ class _Sheet:
 
 class Cloth(Scene):
     id = "cloth"
-    title = ("stiff mass-spring cloth, n x m masses, springs with rest lengths, gravity, pinned top corners; "
-             "nonlinear; reference by DOP853")
+    title = (
+        "stiff mass-spring cloth, n x m masses, springs with rest lengths, gravity, pinned top corners; "
+        "nonlinear; reference by DOP853"
+    )
     params = {
         "n": Param(8, "rows of masses (row 0 holds the pins)", lo=2.0, hi=100.0, integer=True),
         "m": Param(8, "columns of masses", lo=2.0, hi=100.0, integer=True),
@@ -427,8 +440,13 @@ class Cloth(Scene):
         "k_bend": Param(5.0, "bending (two apart) spring stiffness, 0: none", lo=0.0),
         "g": Param(9.81, "gravitational acceleration (along the last axis, downwards)", lo=0.0),
         "pins": Param(0, "0: the two top corners pinned; 1: the whole top edge", lo=0.0, hi=1.0, integer=True),
-        "shear": Param(2, "shear diagonals per square: 2 both; 1 (i, j)-(i+1, j+1) alone (a triangulated sheet)",
-                       lo=1.0, hi=2.0, integer=True),
+        "shear": Param(
+            2,
+            "shear diagonals per square: 2 both; 1 (i, j)-(i+1, j+1) alone (a triangulated sheet)",
+            lo=1.0,
+            hi=2.0,
+            integer=True,
+        ),
     }
     #: Coordinates per mass (the kernels read it as the last entry of ``pvec``, ``p[-1]``).
     dim = 3
@@ -457,8 +475,10 @@ class Cloth(Scene):
         """The sheet's own solve (``solve``), which its size picks."""
         if self.ndof <= DIRECT_MAX_DOF:
             return f"the scene's banded LDL^T, compiled ({self.ndof} unknowns)"
-        return (f"the scene's unpreconditioned conjugate gradients to a relative residual of {CG_RTOL:g}, compiled "
-                f"({self.ndof} unknowns, past the banded solve's {DIRECT_MAX_DOF})")
+        return (
+            f"the scene's unpreconditioned conjugate gradients to a relative residual of {CG_RTOL:g}, compiled "
+            f"({self.ndof} unknowns, past the banded solve's {DIRECT_MAX_DOF})"
+        )
 
     @property
     def node_mass(self) -> float:
@@ -517,7 +537,7 @@ class Cloth(Scene):
 
     @property
     def dof_names(self):
-        axes = "xyz"[:self.grid[2]]
+        axes = "xyz"[: self.grid[2]]
         return tuple(f"{c}{i}_{j}" for i, j in self.free_nodes() for c in axes)
 
     def initial_state(self):
@@ -529,10 +549,13 @@ class Cloth(Scene):
         a, b, k, rest = self.springs()
         x = self.positions(q)
         stretch = np.linalg.norm(x[..., b, :] - x[..., a, :], axis=-1) - rest
-        height = q[..., d - 1::d] + (n - 1) * self.values["s"]
+        height = q[..., d - 1 :: d] + (n - 1) * self.values["s"]
         mass = self.node_mass
-        return (0.5 * mass * np.sum(v * v, axis=-1) + 0.5 * np.sum(k * stretch * stretch, axis=-1)
-                + mass * self.values["g"] * np.sum(height, axis=-1))
+        return (
+            0.5 * mass * np.sum(v * v, axis=-1)
+            + 0.5 * np.sum(k * stretch * stretch, axis=-1)
+            + mass * self.values["g"] * np.sum(height, axis=-1)
+        )
 
     def constraint_error(self, q):
         """The springs' largest relative stretch max |length - rest| / rest, API layout (..., ndof) -> (...)."""
@@ -549,8 +572,9 @@ class Cloth(Scene):
         length = np.linalg.norm(dx, axis=-1)
         u = dx / length[:, None]
         ratio = rest / length
-        blocks = (k * ratio)[:, None, None] * u[:, :, None] * u[:, None, :] \
-            + (k * (1.0 - ratio))[:, None, None] * np.eye(d)
+        blocks = (k * ratio)[:, None, None] * u[:, :, None] * u[:, None, :] + (k * (1.0 - ratio))[
+            :, None, None
+        ] * np.eye(d)
         free = np.full(self.grid[0] * self.grid[1], -1)
         free[self._free_index()] = np.arange(len(self._free_index()))
         rows, cols, vals = [], [], []
@@ -567,8 +591,9 @@ class Cloth(Scene):
         size = self.ndof
         from scipy.sparse import coo_matrix
 
-        return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(size, size)).tocsr()
+        return coo_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(size, size)
+        ).tocsr()
 
     def omega_max_at(self, q: np.ndarray) -> float:
         """sqrt(lambda_max(K(q)) / m): the highest frequency of the motion linearised at q."""
@@ -646,13 +671,14 @@ class Cloth(Scene):
     def _reference(self, rtol=REFERENCE_RTOL) -> SegmentedSolution:
         q0, v0 = self.initial_state()
         key = (self.id, tuple(self.values.items()), rtol)
-        return cached(key, lambda: SegmentedSolution(self._rhs(), np.concatenate([q0, v0]), segment=0.5,
-                                                     rtol=rtol, atol=rtol))
+        return cached(
+            key, lambda: SegmentedSolution(self._rhs(), np.concatenate([q0, v0]), segment=0.5, rtol=rtol, atol=rtol)
+        )
 
     def reference_solution(self, t, rtol=REFERENCE_RTOL):
         """(q, v) at times t, shape (len(t), ndof), from the DOP853 run (cached)."""
         y = self._reference(rtol)(t)
-        return y[:, :self.ndof], y[:, self.ndof:]
+        return y[:, : self.ndof], y[:, self.ndof :]
 
 
 class Net(Cloth):
@@ -660,6 +686,8 @@ class Net(Cloth):
     along -y, 2 coordinates a mass (a net hanging in its plane, released at its rest lengths)."""
 
     id = "net"
-    title = ("planar mass-spring net, n x m masses, springs with rest lengths, gravity in the plane, pinned top "
-             "corners; nonlinear; reference by DOP853")
+    title = (
+        "planar mass-spring net, n x m masses, springs with rest lengths, gravity in the plane, pinned top "
+        "corners; nonlinear; reference by DOP853"
+    )
     dim = 2

@@ -32,6 +32,7 @@ coordinates: every free node's position, row order); the force is MuJoCo's, not 
   fastest mode; its estimated error is ``reference_error``. Errors and orders measured on this
   scene are against that run, never against the cloth's DOP853 reference.
 """
+
 from __future__ import annotations
 
 import math
@@ -49,8 +50,10 @@ REFERENCE_PERIODS = 5.0
 #: is a cubic polynomial of the positions, so the step's truncation error is ~1e-14 of it).
 FD_STEP = 1e-6
 #: What every output of this scene says it is not.
-MODEL_NOTE = ("MuJoCo flexcomp membrane (StVK triangles): not the same model as the cloth's springs; "
-              "errors and orders against its own refined RK4 run")
+MODEL_NOTE = (
+    "MuJoCo flexcomp membrane (StVK triangles): not the same model as the cloth's springs; "
+    "errors and orders against its own refined RK4 run"
+)
 
 
 def no_accel(q, v, t, p):  # pragma: no cover - only reached by a misuse
@@ -70,8 +73,10 @@ _FLEX = """<mujoco><option timestep="{dt!r}" integrator="{integrator}" gravity="
 
 class ClothFlex(RefinedRunReference, Cloth):
     id = "cloth_flex"
-    title = ("MuJoCo flexcomp membrane on the cloth's grid (same n, m, s, mass, pins, g): NOT the same model as "
-             "cloth's springs; reference: its own RK4, step halved until two halvings agree")
+    title = (
+        "MuJoCo flexcomp membrane on the cloth's grid (same n, m, s, mass, pins, g): NOT the same model as "
+        "cloth's springs; reference: its own RK4, step halved until two halvings agree"
+    )
     model_note = MODEL_NOTE
     has_kernels = False
     accel = staticmethod(no_accel)
@@ -94,12 +99,23 @@ class ClothFlex(RefinedRunReference, Cloth):
         n, m, _ = self.grid
         s = self.values["s"]
         g = self.values["g"]
-        cols = range(m) if self.values["pins"] == 1 else (0, m - 1)   # row 0: the whole edge, or its corners
+        cols = range(m) if self.values["pins"] == 1 else (0, m - 1)  # row 0: the whole edge, or its corners
         pins = " ".join(str(self.vertex(0, j)) for j in cols)
-        return _FLEX.format(dt=float(dt), integrator=integrator, gz=-float(g),
-                            gravity_flag=' gravity="disable"' if g == 0 else "", m=m, n=n, s=float(s),
-                            x0=float((m - 1) * s / 2), y0=float(-(n - 1) * s / 2), mass=float(self.values["mass"]),
-                            radius=float(s / 100), young=float(self.young if young is None else young), pins=pins)
+        return _FLEX.format(
+            dt=float(dt),
+            integrator=integrator,
+            gz=-float(g),
+            gravity_flag=' gravity="disable"' if g == 0 else "",
+            m=m,
+            n=n,
+            s=float(s),
+            x0=float((m - 1) * s / 2),
+            y0=float(-(n - 1) * s / 2),
+            mass=float(self.values["mass"]),
+            radius=float(s / 100),
+            young=float(self.young if young is None else young),
+            pins=pins,
+        )
 
     def vertex(self, i: int, j: int) -> int:
         """MuJoCo's vertex index of grid node (i, j): the grid counts x (columns) slowest and its y
@@ -135,7 +151,7 @@ class ClothFlex(RefinedRunReference, Cloth):
         """(qpos index of each scene coordinate, the coordinate's rest value): node (i, j)'s
         vertex's body carries three slide joints along world x, y, z, its qpos the displacement
         from the body's rest position."""
-        body = m.flex_vertbodyid[m.flex_vertadr[0]:m.flex_vertadr[0] + m.flex_vertnum[0]]
+        body = m.flex_vertbodyid[m.flex_vertadr[0] : m.flex_vertadr[0] + m.flex_vertnum[0]]
         index, rest = [], []
         for i, j in self.free_nodes():
             b = int(body[self.vertex(i, j)])
@@ -173,16 +189,16 @@ class ClothFlex(RefinedRunReference, Cloth):
         """(edge vertex pairs as grid node indices, rest lengths, per triangle its 3 edges and 3 x 3 metric)."""
         m = self._model()
         n, mm, _ = self.grid
-        verts = m.flex_edge[m.flex_edgeadr[0]:m.flex_edgeadr[0] + m.flex_edgenum[0]]
+        verts = m.flex_edge[m.flex_edgeadr[0] : m.flex_edgeadr[0] + m.flex_edgenum[0]]
         node = np.empty(n * mm, dtype=int)
         for i in range(n):
             for j in range(mm):
                 node[self.vertex(i, j)] = i * mm + j
         ends = node[verts]
-        rest = m.flexedge_length0[m.flex_edgeadr[0]:m.flex_edgeadr[0] + m.flex_edgenum[0]].copy()
+        rest = m.flexedge_length0[m.flex_edgeadr[0] : m.flex_edgeadr[0] + m.flex_edgenum[0]].copy()
         t = int(m.flex_elemnum[0])
-        edges = m.flex_elemedge[m.flex_elemedgeadr[0]:m.flex_elemedgeadr[0] + 3 * t].reshape(t, 3)
-        packed = m.flex_stiffness[m.flex_stiffnessadr[0]:m.flex_stiffnessadr[0] + 21 * t].reshape(t, 21)[:, :6]
+        edges = m.flex_elemedge[m.flex_elemedgeadr[0] : m.flex_elemedgeadr[0] + 3 * t].reshape(t, 3)
+        packed = m.flex_stiffness[m.flex_stiffnessadr[0] : m.flex_stiffnessadr[0] + 21 * t].reshape(t, 21)[:, :6]
         metric = np.empty((t, 3, 3))
         k = 0
         for a in range(3):
@@ -196,16 +212,19 @@ class ClothFlex(RefinedRunReference, Cloth):
         ends, rest, edges, metric = self._membrane()
         x = self.positions(q)
         length2 = np.sum((x[..., ends[:, 1], :] - x[..., ends[:, 0], :]) ** 2, axis=-1)
-        strain = (length2 - rest * rest)[..., edges]          # (..., T, 3)
+        strain = (length2 - rest * rest)[..., edges]  # (..., T, 3)
         return 0.25 * np.einsum("...ta,tab,...tb->...", strain, metric, strain)
 
     def energy(self, q, v):
         n, _, d = self.grid
         q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
-        height = q[..., d - 1::d] + (n - 1) * self.values["s"]
+        height = q[..., d - 1 :: d] + (n - 1) * self.values["s"]
         mass = self.node_mass
-        return (0.5 * mass * np.sum(v * v, axis=-1) + self.membrane_energy(q)
-                + mass * self.values["g"] * np.sum(height, axis=-1))
+        return (
+            0.5 * mass * np.sum(v * v, axis=-1)
+            + self.membrane_energy(q)
+            + mass * self.values["g"] * np.sum(height, axis=-1)
+        )
 
     # ------------------------------------------------------------ stiffness and omega
     def _force_jacobian(self, m, q) -> np.ndarray:
@@ -250,6 +269,11 @@ class ClothFlex(RefinedRunReference, Cloth):
 
     def describe(self) -> dict:
         out = super().describe()
-        out.update(young=self.young, poisson=0.0, thickness=1.0, elastic2d="stretch",
-                   young_rule="young such that the flex's omega_max at rest equals the spring cloth's")
+        out.update(
+            young=self.young,
+            poisson=0.0,
+            thickness=1.0,
+            elastic2d="stretch",
+            young_rule="young such that the flex's omega_max at rest equals the spring cloth's",
+        )
         return out

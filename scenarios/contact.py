@@ -28,6 +28,7 @@ Geometry shared by every engine (SI units, z up; the 2-D poses use x and z of it
   drift or kinetic energy.
 * ``stack``: three such cubes, each touching the one below: the same.
 """
+
 from __future__ import annotations
 
 import math
@@ -169,8 +170,10 @@ class ContactScene(Scene):
         return (0.0, 0.0, -self.g)
 
     def initial_state(self):
-        return (np.array(self.initial_centres(), dtype=float).reshape(-1),
-                np.array(self.initial_velocities(), dtype=float).reshape(-1))
+        return (
+            np.array(self.initial_centres(), dtype=float).reshape(-1),
+            np.array(self.initial_velocities(), dtype=float).reshape(-1),
+        )
 
     def energy(self, q, v):
         """Each body's kinetic energy (of its centre) and its potential in ``gravity``, summed."""
@@ -246,8 +249,14 @@ class Ball(ContactScene):
         "bounces": Param(5, "bounces measured", lo=1, hi=20, integer=True),
     }
     FIGURES = (
-        Figure("restitution", "restitution per bounce", "list", truth="restitution",
-               chart="first bounce's restitution", chart_truth=("restitution", "requested e")),
+        Figure(
+            "restitution",
+            "restitution per bounce",
+            "list",
+            truth="restitution",
+            chart="first bounce's restitution",
+            chart_truth=("restitution", "requested e"),
+        ),
         Figure("apex_ratio", "H5/H0", truth="apex_ratio"),
         Figure("gained", "gained at", "bounces"),
         Figure("intervals"),
@@ -255,7 +264,7 @@ class Ball(ContactScene):
 
     def flight(self, n: int) -> float:
         """The flight after impact n (n >= 1) under an ideal impact law."""
-        return 2.0 * self.e ** n * math.sqrt(2.0 * self.g * self.h0) / self.g
+        return 2.0 * self.e**n * math.sqrt(2.0 * self.g * self.h0) / self.g
 
     def impacts(self) -> list[float]:
         """The times of impacts 1..bounces+1 under an ideal impact law."""
@@ -273,15 +282,18 @@ class Ball(ContactScene):
     def duration(self) -> float:
         e = self.e + self.HEADROOM
         v = math.sqrt(2.0 * self.g * self.h0)
-        t = v / self.g + sum(2.0 * e ** n * v / self.g for n in range(1, self.bounces))
+        t = v / self.g + sum(2.0 * e**n * v / self.g for n in range(1, self.bounces))
         # Through the last measured apex and beyond, so that it is recorded as a maximum.
-        return t + 0.75 * 2.0 * max(e ** self.bounces, 0.2 * e) * v / self.g + 0.05
+        return t + 0.75 * 2.0 * max(e**self.bounces, 0.2 * e) * v / self.g + 0.05
 
     def truth(self) -> dict:
         e, h0 = self.e, self.h0
-        return {"apexes": [e ** (2 * n) * h0 for n in range(self.bounces + 1)],
-                "restitution": e, "apex_ratio": e ** (2 * self.bounces),
-                "intervals": [self.flight(n) for n in range(1, self.bounces + 1)]}
+        return {
+            "apexes": [e ** (2 * n) * h0 for n in range(self.bounces + 1)],
+            "restitution": e,
+            "apex_ratio": e ** (2 * self.bounces),
+            "intervals": [self.flight(n) for n in range(1, self.bounces + 1)],
+        }
 
     def initial_centres(self):
         return [(0.0, 0.0, self.h0 + self.radius)]
@@ -294,7 +306,7 @@ class Ball(ContactScene):
         lift = 2e-3 + 1e-3 * self.h0
         heights, impacts = apexes(z, vz, lift)
         n = self.bounces
-        h = heights[:n + 1] + [0.0] * (n + 1 - len(heights))
+        h = heights[: n + 1] + [0.0] * (n + 1 - len(heights))
         e_n = [math.sqrt(max(h[i], 0.0) / h[i - 1]) if h[i - 1] > 0 else 0.0 for i in range(1, n + 1)]
         gained = [i for i in range(1, n + 1) if h[i] > h[i - 1] * (1.0 + tol.gain)]
         times = run.t[impacts]
@@ -302,20 +314,28 @@ class Ball(ContactScene):
         ratio = h[n] / h[0] if h[0] > 0 else None
         passes = {
             "restitution": all(abs(x - self.e) <= tol.restitution for x in e_n),
-            "apex_ratio": (ratio is not None
-                           and abs(ratio - truth["apex_ratio"]) <= tol.apex_ratio * truth["apex_ratio"]),
+            "apex_ratio": (
+                ratio is not None and abs(ratio - truth["apex_ratio"]) <= tol.apex_ratio * truth["apex_ratio"]
+            ),
             "gain": not gained,
         }
-        return {"restitution": e_n, "apex_ratio": ratio, "gained": gained,
-                "intervals": [float(b - a) for a, b in zip(times[:n], times[1:n + 1])], "passes": passes}
+        return {
+            "restitution": e_n,
+            "apex_ratio": ratio,
+            "gained": gained,
+            "intervals": [float(b - a) for a, b in zip(times[:n], times[1 : n + 1])],
+            "passes": passes,
+        }
 
     def truth_text(self) -> str:
         truth = self.truth()
         return f"restitution {truth['restitution']:g} a bounce, H5/H0 {truth['apex_ratio']:.4g}"
 
     def tolerance_text(self, tol: dict) -> str:
-        return (f"each bounce within {tol.get('restitution')} of e, H5/H0 within {tol.get('apex_ratio', 0):.0%}, "
-                f"no apex above the one before by more than {tol.get('gain', 0):.0%}")
+        return (
+            f"each bounce within {tol.get('restitution')} of e, H5/H0 within {tol.get('apex_ratio', 0):.0%}, "
+            f"no apex above the one before by more than {tol.get('gain', 0):.0%}"
+        )
 
 
 class Slide(ContactScene):
@@ -325,8 +345,12 @@ class Slide(ContactScene):
     id = "slide"
     title = "a box sliding with Coulomb friction: it stops after v0^2/(2 mu g)"
     params = {
-        "mu": Param(0.5, "Coulomb friction coefficient of the box on the plane (above 1 the cube tips over "
-                      "rather than slides)", lo=0.0, hi=1.0),
+        "mu": Param(
+            0.5,
+            "Coulomb friction coefficient of the box on the plane (above 1 the cube tips over rather than slides)",
+            lo=0.0,
+            hi=1.0,
+        ),
         "v0": Param(2.0, "initial speed along x (m/s)", lo=0.0, lo_open=True),
         "half": _HALF,
         "mass": _MASS,
@@ -334,8 +358,9 @@ class Slide(ContactScene):
         "t_end": Param(1.5, "duration (s); long enough to see it stop and stay", lo=0.0, lo_open=True),
     }
     FIGURES = (
-        Figure("stop", "stop distance (m)", truth="stop", chart="stop distance (m)",
-               chart_truth=("stop", "v0²/(2 μ g)")),
+        Figure(
+            "stop", "stop distance (m)", truth="stop", chart="stop distance (m)", chart_truth=("stop", "v0²/(2 μ g)")
+        ),
         Figure("stop_time", truth="stop_time"),
         Figure("creep", "creep (m)", truth="creep"),
     )
@@ -360,7 +385,7 @@ class Slide(ContactScene):
         return self.v0 / self.deceleration
 
     def truth(self) -> dict:
-        return {"stop": self.v0 ** 2 / (2.0 * self.deceleration), "stop_time": self.stop_time, "creep": 0.0}
+        return {"stop": self.v0**2 / (2.0 * self.deceleration), "stop_time": self.stop_time, "creep": 0.0}
 
     def initial_centres(self):
         return [(0.0, 0.0, self.half)]
@@ -374,17 +399,25 @@ class Slide(ContactScene):
         moving = np.nonzero(speed >= STOPPED)[0]
         truth = self.truth()
         if len(moving) and moving[-1] == len(x) - 1:
-            return {"stop": None, "stop_time": None, "creep": None, "passes": {"stop": False, "creep": False},
-                    "detail": f"still moving at the end (t = {run.t[-1]:.3g} s, {speed[-1]:.3g} m/s)"}
+            return {
+                "stop": None,
+                "stop_time": None,
+                "creep": None,
+                "passes": {"stop": False, "creep": False},
+                "detail": f"still moving at the end (t = {run.t[-1]:.3g} s, {speed[-1]:.3g} m/s)",
+            }
         i = int(moving[-1]) + 1 if len(moving) else 0
         stop, creep = float(x[i]), float(np.max(np.abs(x[i:] - x[i])))
-        return {"stop": stop, "stop_time": float(run.t[i]), "creep": creep,
-                "passes": {"stop": abs(stop - truth["stop"]) <= tol.stop * truth["stop"], "creep": creep <= tol.creep}}
+        return {
+            "stop": stop,
+            "stop_time": float(run.t[i]),
+            "creep": creep,
+            "passes": {"stop": abs(stop - truth["stop"]) <= tol.stop * truth["stop"], "creep": creep <= tol.creep},
+        }
 
     def truth_text(self) -> str:
         truth = self.truth()
-        return (f"stops after {truth['stop']:.4g} m ({self.STOP_FORMULA}) in {truth['stop_time']:.3g} s, "
-                "then stays")
+        return f"stops after {truth['stop']:.4g} m ({self.STOP_FORMULA}) in {truth['stop_time']:.3g} s, then stays"
 
     def tolerance_text(self, tol: dict) -> str:
         return f"stop within {tol.get('stop', 0):.0%}, creep ≤ {tol.get('creep')} m"
@@ -397,8 +430,7 @@ class Rest(ContactScene):
 
     id = "rest"
     title = "a box at rest on a plane: no penetration, drift or kinetic energy"
-    params = {"half": _HALF, "mass": _MASS, "g": _G,
-              "t_end": Param(2.0, "duration (s)", lo=0.0, lo_open=True)}
+    params = {"half": _HALF, "mass": _MASS, "g": _G, "t_end": Param(2.0, "duration (s)", lo=0.0, lo_open=True)}
     FIGURES = (
         Figure("penetration", "penetration (m)", truth="penetration", chart="penetration (m)", chart_log=True),
         Figure("drift", "drift (m)", truth="drift"),
@@ -424,9 +456,16 @@ class Rest(ContactScene):
         start = run.centres[0]
         drift = float(np.max(np.linalg.norm(run.centres - start[None], axis=2)))
         kinetic = float(0.5 * mass * np.sum(run.velocities[-1] ** 2))
-        return {"penetration": penetration, "drift": drift, "kinetic": kinetic,
-                "passes": {"penetration": penetration <= tol.penetration, "drift": drift <= tol.drift,
-                           "kinetic": kinetic <= tol.kinetic}}
+        return {
+            "penetration": penetration,
+            "drift": drift,
+            "kinetic": kinetic,
+            "passes": {
+                "penetration": penetration <= tol.penetration,
+                "drift": drift <= tol.drift,
+                "kinetic": kinetic <= tol.kinetic,
+            },
+        }
 
     def truth_text(self) -> str:
         return "no penetration, drift or kinetic energy"

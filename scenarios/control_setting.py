@@ -18,6 +18,7 @@ states all of it, so that every figure of ``harness model`` can say what it was 
   Gymnasium's default where an environment is named, else ``qpos`` less the root's x, then ``qvel``;
 * **termination**: where an environment ends its episodes (``Termination``), none otherwise.
 """
+
 from __future__ import annotations
 
 import os
@@ -40,14 +41,14 @@ class ControlSetting:
     """How the model is run (module docstring)."""
 
     frame_skip: int = 1
-    controls: str = "seeded"          # seeded, zero, or a path
+    controls: str = "seeded"  # seeded, zero, or a path
     reset: ResetNoise = DEFAULT_RESET
     observation: Observation = Observation(1)
     termination: Termination | None = None
     seeds: tuple[int, ...] = (0, 1, 2)
-    environment: str | None = None    # the preset it came from, if any
+    environment: str | None = None  # the preset it came from, if any
     source: str = "harness defaults"
-    keyframe: bool = True             # start from the first keyframe where the file has one
+    keyframe: bool = True  # start from the first keyframe where the file has one
     _table: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     @staticmethod
@@ -63,21 +64,33 @@ class ControlSetting:
             raise InvalidInput(f"--controls {path!r}: every control must be a finite number")
         return table
 
-    def checked(self, m) -> "ControlSetting":
+    def checked(self, m) -> ControlSetting:
         """This setting, its controls file checked against the model's actuators."""
         if self.controls in CONTROL_MODES:
             return self
         table = self.read_controls(self.controls)
         if table.shape[1] != m.nu:
-            raise InvalidInput(f"--controls {self.controls!r}: {table.shape[1]} columns, the model has {m.nu} "
-                               f"actuators (one column each)")
+            raise InvalidInput(
+                f"--controls {self.controls!r}: {table.shape[1]} columns, the model has {m.nu} "
+                f"actuators (one column each)"
+            )
         return replace(self, _table=table)
 
     @classmethod
-    def for_environment(cls, env, **overrides) -> "ControlSetting":
+    def for_environment(cls, env, **overrides) -> ControlSetting:
         """An environment's own setting (``scenarios.environments``), fields overridden by name."""
-        return cls(**{"frame_skip": env.frame_skip, "reset": env.reset, "observation": env.observation,
-                      "termination": env.termination, "environment": env.name, "source": env.source, "keyframe": env.keyframe, **overrides})
+        return cls(
+            **{
+                "frame_skip": env.frame_skip,
+                "reset": env.reset,
+                "observation": env.observation,
+                "termination": env.termination,
+                "environment": env.name,
+                "source": env.source,
+                "keyframe": env.keyframe,
+                **overrides,
+            }
+        )
 
     def control_step(self, m) -> float:
         return self.frame_skip * float(m.opt.timestep)
@@ -102,8 +115,11 @@ class ControlSetting:
         v = (m.key_qvel[0] if key else np.zeros(m.nv)).copy()
         r = self.reset
         q += rng.uniform(-r.qpos_scale, r.qpos_scale, m.nq)
-        v += (rng.uniform(-r.qvel_scale, r.qvel_scale, m.nv) if r.velocity == "uniform"
-              else r.qvel_scale * rng.standard_normal(m.nv))
+        v += (
+            rng.uniform(-r.qvel_scale, r.qvel_scale, m.nv)
+            if r.velocity == "uniform"
+            else r.qvel_scale * rng.standard_normal(m.nv)
+        )
         d = mujoco.MjData(m)
         d.qpos[:] = q
         mujoco.mj_normalizeQuat(m, d.qpos)
@@ -113,9 +129,11 @@ class ControlSetting:
         lo, hi = _control_range(m)
         unlimited = int(np.count_nonzero(~_ctrl_limited(m))) if m.nu else 0
         if self.controls == "seeded":
-            controls = (f"seeded: U(ctrlrange) per actuator, a new draw each control step, held for it "
-                        f"(numpy default_rng((seed, 1)))" + (f"; {unlimited} actuators without a ctrlrange "
-                                                              f"drawn from U(-1, 1)" if unlimited else ""))
+            controls = (
+                "seeded: U(ctrlrange) per actuator, a new draw each control step, held for it "
+                "(numpy default_rng((seed, 1)))"
+                + (f"; {unlimited} actuators without a ctrlrange drawn from U(-1, 1)" if unlimited else "")
+            )
         elif self.controls == "zero":
             controls = "zero: every control 0 (the passive model)"
         else:
@@ -123,13 +141,20 @@ class ControlSetting:
         if m.nu == 0:
             controls = "none (the model has no actuators)"
         start = "the first keyframe" if m.nkey and self.keyframe else "qpos0"
-        return {"control_step_s": self.control_step(m), "frame_skip": self.frame_skip, "timestep_s": float(m.opt.timestep),
-                "controls": controls,
-                "start": f"{self.reset.describe().replace('qpos0', start)} (numpy default_rng((seed, 0)))",
-                "seeds": list(self.seeds), "observation": self.observation.describe(),
-                "termination": _describe_termination(self.termination),
-                "environment": self.environment, "source": self.source, "ctrl_low": lo.tolist(),
-                "ctrl_high": hi.tolist()}
+        return {
+            "control_step_s": self.control_step(m),
+            "frame_skip": self.frame_skip,
+            "timestep_s": float(m.opt.timestep),
+            "controls": controls,
+            "start": f"{self.reset.describe().replace('qpos0', start)} (numpy default_rng((seed, 0)))",
+            "seeds": list(self.seeds),
+            "observation": self.observation.describe(),
+            "termination": _describe_termination(self.termination),
+            "environment": self.environment,
+            "source": self.source,
+            "ctrl_low": lo.tolist(),
+            "ctrl_high": hi.tolist(),
+        }
 
 
 def _ctrl_limited(m) -> np.ndarray:

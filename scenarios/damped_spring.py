@@ -1,5 +1,6 @@
 """Spring with linear damping: a = -(k x + c v)/m, any damping ratio zeta = c / (2 sqrt(k m)) >= 0
 (underdamped, critical and overdamped); the exact solution and its decaying energy in closed form."""
+
 import math
 
 import numpy as np

@@ -15,6 +15,7 @@ The model files come from the environments' own packages in the registry (``pip 
 integrator-harness[models]``: Gymnasium 1.4.0, dm_control 1.0.50); they are located, never
 imported (dm_control's Python does not load against MuJoCo 4, its XML does).
 """
+
 from __future__ import annotations
 
 import importlib.util
@@ -37,8 +38,11 @@ class ResetNoise:
     velocity: str = "uniform"
 
     def describe(self) -> str:
-        vel = (f"U(-{self.qvel_scale:g}, {self.qvel_scale:g})" if self.velocity == "uniform"
-               else f"{self.qvel_scale:g} N(0, 1)")
+        vel = (
+            f"U(-{self.qvel_scale:g}, {self.qvel_scale:g})"
+            if self.velocity == "uniform"
+            else f"{self.qvel_scale:g} N(0, 1)"
+        )
         return f"qpos0 + U(-{self.qpos_scale:g}, {self.qpos_scale:g}) per qpos entry, qvel {vel}"
 
 
@@ -55,8 +59,10 @@ class Observation:
     extras: tuple = ()
 
     def describe(self) -> str:
-        parts = [f"qpos less its first {self.root_position} entries (the root's position)",
-                 "qvel" + (f" clipped to +-{self.qvel_clip:g}" if self.qvel_clip else "")]
+        parts = [
+            f"qpos less its first {self.root_position} entries (the root's position)",
+            "qvel" + (f" clipped to +-{self.qvel_clip:g}" if self.qvel_clip else ""),
+        ]
         for name, first, clip in self.extras:
             parts.append(f"{name}[{first}:]" + (f" clipped to [{clip[0]:g}, {clip[1]:g}]" if clip else ""))
         return ", ".join(parts)
@@ -101,12 +107,12 @@ class Environment:
     """One environment's setting of its model (module docstring)."""
 
     name: str
-    package: str          # the registry package that ships the file
-    file: str             # the file's name in that package's assets
-    frame_skip: int       # physics steps per control step, the action held
+    package: str  # the registry package that ships the file
+    file: str  # the file's name in that package's assets
+    frame_skip: int  # physics steps per control step, the action held
     reset: ResetNoise
     observation: Observation
-    source: str           # where in the package each number was read
+    source: str  # where in the package each number was read
     keyframe: bool = True  # starts from the first keyframe where the file has one (Gymnasium: qpos0)
     termination: Termination | None = None  # None: episodes end only by time
 
@@ -115,44 +121,112 @@ class Environment:
 
 
 def _gym(name, file, frame_skip, noise, velocity, observation, module, termination=None, note=""):
-    return Environment(name, "gymnasium", file, frame_skip, ResetNoise(noise, noise, velocity), observation,
-                       f"gymnasium 1.4.0 envs/mujoco/{module}.py: frame_skip={frame_skip}, reset_noise_scale={noise:g}, "
-                       f"qvel noise {velocity}{note}", keyframe=False, termination=termination)
+    return Environment(
+        name,
+        "gymnasium",
+        file,
+        frame_skip,
+        ResetNoise(noise, noise, velocity),
+        observation,
+        f"gymnasium 1.4.0 envs/mujoco/{module}.py: frame_skip={frame_skip}, reset_noise_scale={noise:g}, "
+        f"qvel noise {velocity}{note}",
+        keyframe=False,
+        termination=termination,
+    )
 
 
 def _dmc(name, file, frame_skip, control_timestep):
-    return Environment(name, "dm_control", file, frame_skip, ResetNoise(0.01, 0.01, "uniform"), Observation(1),
-                       f"dm_control 1.0.50 suite/{name.split('/')[1]}.py: control timestep "
-                       f"{control_timestep:g} s = {frame_skip} x the file's timestep; its reset (random joint angles, "
-                       f"a fall to the floor) and its observation (body orientations, heights) are not reproduced: "
-                       f"the harness starts from qpos0 with U(-0.01, 0.01) and observes qpos less the root's x, qvel")
+    return Environment(
+        name,
+        "dm_control",
+        file,
+        frame_skip,
+        ResetNoise(0.01, 0.01, "uniform"),
+        Observation(1),
+        f"dm_control 1.0.50 suite/{name.split('/')[1]}.py: control timestep "
+        f"{control_timestep:g} s = {frame_skip} x the file's timestep; its reset (random joint angles, "
+        f"a fall to the floor) and its observation (body orientations, heights) are not reproduced: "
+        f"the harness starts from qpos0 with U(-0.01, 0.01) and observes qpos less the root's x, qvel",
+    )
 
 
 _WALKING = Observation(1, qvel_clip=10.0)
 _INF = float("inf")
-ENVIRONMENTS: dict[str, Environment] = {e.name: e for e in (
-    _gym("Hopper-v5", "hopper.xml", 4, 5e-3, "uniform", _WALKING, "hopper_v5",
-         Termination(1, (0.7, _INF), 2, (-0.2, 0.2), state_range=(-100.0, 100.0))),
-    _gym("Walker2d-v5", "walker2d_v5.xml", 4, 5e-3, "uniform", _WALKING, "walker2d_v5",
-         Termination(1, (0.8, 2.0), 2, (-1.0, 1.0))),
-    _gym("HalfCheetah-v5", "half_cheetah.xml", 5, 0.1, "normal", Observation(1), "half_cheetah_v5"),
-    _gym("Ant-v5", "ant.xml", 5, 0.1, "normal", Observation(2, extras=(("cfrc_ext", 1, (-1.0, 1.0)),)), "ant_v5",
-         Termination(2, (0.2, 1.0), closed=True, finite=True)),
-    _gym("Humanoid-v5", "humanoid.xml", 5, 1e-2, "uniform",
-         Observation(2, extras=(("cinert", 1, None), ("cvel", 1, None), ("qfrc_actuator", 6, None),
-                                ("cfrc_ext", 1, None))), "humanoid_v5", Termination(2, (1.0, 2.0))),
-    _gym("Swimmer-v5", "swimmer.xml", 4, 0.1, "uniform", Observation(2), "swimmer_v5"),
-    _gym("InvertedDoublePendulum-v5", "inverted_double_pendulum.xml", 5, 0.1, "normal", Observation(0),
-         "inverted_double_pendulum_v5", note="; its observation (sines, cosines, constraint forces) and termination "
-                                             "(the tip's height) not reproduced: qpos, qvel observed, no termination"),
-    _gym("InvertedPendulum-v5", "inverted_pendulum.xml", 2, 0.01, "uniform", Observation(0), "inverted_pendulum_v5",
-         note="; its termination (|pole angle| > 0.2) not reproduced"),
-    _dmc("dm_control/cartpole", "cartpole.xml", 1, 0.01),
-    _dmc("dm_control/walker", "walker.xml", 10, 0.025),
-    _dmc("dm_control/cheetah", "cheetah.xml", 1, 0.01),
-    _dmc("dm_control/hopper", "hopper.xml", 4, 0.02),
-    _dmc("dm_control/humanoid", "humanoid.xml", 5, 0.025),
-)}
+ENVIRONMENTS: dict[str, Environment] = {
+    e.name: e
+    for e in (
+        _gym(
+            "Hopper-v5",
+            "hopper.xml",
+            4,
+            5e-3,
+            "uniform",
+            _WALKING,
+            "hopper_v5",
+            Termination(1, (0.7, _INF), 2, (-0.2, 0.2), state_range=(-100.0, 100.0)),
+        ),
+        _gym(
+            "Walker2d-v5",
+            "walker2d_v5.xml",
+            4,
+            5e-3,
+            "uniform",
+            _WALKING,
+            "walker2d_v5",
+            Termination(1, (0.8, 2.0), 2, (-1.0, 1.0)),
+        ),
+        _gym("HalfCheetah-v5", "half_cheetah.xml", 5, 0.1, "normal", Observation(1), "half_cheetah_v5"),
+        _gym(
+            "Ant-v5",
+            "ant.xml",
+            5,
+            0.1,
+            "normal",
+            Observation(2, extras=(("cfrc_ext", 1, (-1.0, 1.0)),)),
+            "ant_v5",
+            Termination(2, (0.2, 1.0), closed=True, finite=True),
+        ),
+        _gym(
+            "Humanoid-v5",
+            "humanoid.xml",
+            5,
+            1e-2,
+            "uniform",
+            Observation(
+                2, extras=(("cinert", 1, None), ("cvel", 1, None), ("qfrc_actuator", 6, None), ("cfrc_ext", 1, None))
+            ),
+            "humanoid_v5",
+            Termination(2, (1.0, 2.0)),
+        ),
+        _gym("Swimmer-v5", "swimmer.xml", 4, 0.1, "uniform", Observation(2), "swimmer_v5"),
+        _gym(
+            "InvertedDoublePendulum-v5",
+            "inverted_double_pendulum.xml",
+            5,
+            0.1,
+            "normal",
+            Observation(0),
+            "inverted_double_pendulum_v5",
+            note="; its observation (sines, cosines, constraint forces) and termination "
+            "(the tip's height) not reproduced: qpos, qvel observed, no termination",
+        ),
+        _gym(
+            "InvertedPendulum-v5",
+            "inverted_pendulum.xml",
+            2,
+            0.01,
+            "uniform",
+            Observation(0),
+            "inverted_pendulum_v5",
+            note="; its termination (|pole angle| > 0.2) not reproduced",
+        ),
+        _dmc("dm_control/cartpole", "cartpole.xml", 1, 0.01),
+        _dmc("dm_control/walker", "walker.xml", 10, 0.025),
+        _dmc("dm_control/cheetah", "cheetah.xml", 1, 0.01),
+        _dmc("dm_control/hopper", "hopper.xml", 4, 0.02),
+        _dmc("dm_control/humanoid", "humanoid.xml", 5, 0.025),
+    )
+}
 
 
 def packaged_model(package: str, file: str) -> str:
@@ -160,8 +234,10 @@ def packaged_model(package: str, file: str) -> str:
     InvalidInput naming the extra to install where the package is absent."""
     spec = importlib.util.find_spec(package)
     if spec is None or not spec.submodule_search_locations:
-        raise InvalidInput(f"model file {file!r} ships in the package {package!r}, which is not installed "
-                           f"(pip install 'integrator-harness[models]')")
+        raise InvalidInput(
+            f"model file {file!r} ships in the package {package!r}, which is not installed "
+            f"(pip install 'integrator-harness[models]')"
+        )
     path = os.path.join(list(spec.submodule_search_locations)[0], PACKAGE_ASSETS[package], file)
     if not os.path.isfile(path):
         raise InvalidInput(f"model file {file!r}: not in {package}'s model files ({os.path.dirname(path)})")

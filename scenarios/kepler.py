@@ -4,6 +4,7 @@ Starts at perihelion q = (1-e, 0), v = (0, sqrt(GM (1+e)/(1-e))). Exact solution
 Kepler's equation M = E - e sin E (Newton, to roundoff):
     x = cos E - e,  y = sqrt(1-e^2) sin E,  v = n/(1 - e cos E) (-sin E, sqrt(1-e^2) cos E).
 """
+
 import math
 
 import numpy as np
@@ -83,14 +84,28 @@ class Kepler(Scene):
         perihelion = 1.0 - e
         close = np.flatnonzero(r < 0.5 * perihelion)
         if close.size:
-            i = int(close[0] + np.argmin(r[close[0]:]))  # the closest it came from then on
-            out.append({"kind": "close approach", "step": int(step[i]), "t": float(t[i]), "r": float(r[i]),
-                        "text": f"spiralled in to r = {r[i]:.3g} (perihelion {perihelion:g}) by step {int(step[i])}"})
+            i = int(close[0] + np.argmin(r[close[0] :]))  # the closest it came from then on
+            out.append(
+                {
+                    "kind": "close approach",
+                    "step": int(step[i]),
+                    "t": float(t[i]),
+                    "r": float(r[i]),
+                    "text": f"spiralled in to r = {r[i]:.3g} (perihelion {perihelion:g}) by step {int(step[i])}",
+                }
+            )
         unbound = np.flatnonzero(~(energy < 0.0))
         if unbound.size:
             i = int(unbound[0])
-            out.append({"kind": "ejected", "step": int(step[i]), "t": float(t[i]), "r": float(r[i]),
-                        "text": f"ejected (unbound: v²/2 - GM/r >= 0) by step {int(step[i])}, at r = {r[i]:.3g}"})
+            out.append(
+                {
+                    "kind": "ejected",
+                    "step": int(step[i]),
+                    "t": float(t[i]),
+                    "r": float(r[i]),
+                    "text": f"ejected (unbound: v²/2 - GM/r >= 0) by step {int(step[i])}, at r = {r[i]:.3g}",
+                }
+            )
         return sorted(out, key=lambda ev: ev["step"])
 
     def closed_form(self, t):

@@ -27,6 +27,7 @@ characteristic frequency and reference come from the model as MuJoCo compiles it
 * **Reference** (``scenarios/_model_reference.py``): MuJoCo's RK4, the step halved until two
   successive halvings agree to REFERENCE_RTOL; its estimated error is ``reference_error``.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -84,7 +85,7 @@ class ModelFile:
 
     path: str
     name: str
-    kind: str                 # MJCF or URDF
+    kind: str  # MJCF or URDF
     sha256: str
 
     @property
@@ -98,8 +99,9 @@ def read_model_file(path) -> ModelFile:
     path = os.fspath(path)
     suffix = os.path.splitext(path)[1].lower()
     if suffix not in SUFFIXES:
-        raise InvalidInput(f"model file {path!r}: unknown format {suffix or '(no suffix)'!r} "
-                           f"(valid: .xml for MJCF, .urdf for URDF)")
+        raise InvalidInput(
+            f"model file {path!r}: unknown format {suffix or '(no suffix)'!r} (valid: .xml for MJCF, .urdf for URDF)"
+        )
     if not os.path.isfile(path):
         raise InvalidInput(f"model file {path!r}: no such file")
     with open(path, "rb") as f:
@@ -110,10 +112,8 @@ def read_model_file(path) -> ModelFile:
         raise InvalidInput(f"model file {path!r}: malformed XML ({exc})") from None
     want = "mujoco" if suffix == ".xml" else "robot"
     if root.tag != want:
-        raise InvalidInput(f"model file {path!r}: root element <{root.tag}> (valid: <{want}> for "
-                           f"{SUFFIXES[suffix]})")
-    return ModelFile(os.path.abspath(path), os.path.basename(path), SUFFIXES[suffix],
-                     hashlib.sha256(data).hexdigest())
+        raise InvalidInput(f"model file {path!r}: root element <{root.tag}> (valid: <{want}> for {SUFFIXES[suffix]})")
+    return ModelFile(os.path.abspath(path), os.path.basename(path), SUFFIXES[suffix], hashlib.sha256(data).hexdigest())
 
 
 _COMPILED: dict[tuple[str, str], object] = {}
@@ -151,8 +151,9 @@ def features_found(m) -> dict[str, str]:
         found["contact"] = f"{len(pairs)} collidable geom pairs" + (f" ({m.npair} explicit)" if m.npair else "")
     damped = int(np.count_nonzero(m.dof_damping)) + int(np.count_nonzero(m.tendon_damping))
     if damped or m.opt.density or m.opt.viscosity:
-        found["damping"] = f"{damped} damped dofs/tendons" + (", fluid drag" if m.opt.density or m.opt.viscosity
-                                                              else "")
+        found["damping"] = f"{damped} damped dofs/tendons" + (
+            ", fluid drag" if m.opt.density or m.opt.viscosity else ""
+        )
     fl = int(np.count_nonzero(m.dof_frictionloss)) + int(np.count_nonzero(m.tendon_frictionloss))
     if fl:
         found["frictionloss"] = f"{fl} dofs/tendons with friction loss"
@@ -176,8 +177,13 @@ def switch_off(m, off) -> None:
     import mujoco
 
     bits = mujoco.mjtDisableBit
-    flags = {"contact": bits.mjDSBL_CONTACT, "actuators": bits.mjDSBL_ACTUATION, "limits": bits.mjDSBL_LIMIT,
-             "equality": bits.mjDSBL_EQUALITY, "gravity": bits.mjDSBL_GRAVITY}
+    flags = {
+        "contact": bits.mjDSBL_CONTACT,
+        "actuators": bits.mjDSBL_ACTUATION,
+        "limits": bits.mjDSBL_LIMIT,
+        "equality": bits.mjDSBL_EQUALITY,
+        "gravity": bits.mjDSBL_GRAVITY,
+    }
     for name in off:
         if name in flags:
             m.opt.disableflags |= int(flags[name])
@@ -222,8 +228,9 @@ class ModelScene(RefinedRunReference, Scene):
     title = "a user's MJCF or URDF model; reference: MuJoCo RK4, step halved until two halvings agree"
     params = {
         "seed": Param(0, "seed of the initial perturbation (no keyframe)", lo=0.0, hi=2.0**32 - 1, integer=True),
-        "perturb": Param(0.5, "standard deviation of the initial perturbation of qpos and qvel (no keyframe)",
-                         lo=0.0, hi=1.0),
+        "perturb": Param(
+            0.5, "standard deviation of the initial perturbation of qpos and qvel (no keyframe)", lo=0.0, hi=1.0
+        ),
         **{name: _switch(doc) for name, doc in FEATURES.items()},
     }
     runaway_limit = ENERGY_GROWTH
@@ -244,7 +251,7 @@ class ModelScene(RefinedRunReference, Scene):
         self.own_timestep = float(written.opt.timestep)
         self.has_keyframe = bool(written.nkey)
 
-    def copy_with(self, **values) -> "ModelScene":
+    def copy_with(self, **values) -> ModelScene:
         return type(self)(self.file, **values)
 
     def __getstate__(self):
@@ -283,8 +290,10 @@ class ModelScene(RefinedRunReference, Scene):
     def describe_state(self) -> str:
         if self.has_keyframe:
             return "the model's first keyframe (qpos, qvel); controls 0"
-        return (f"reference pose qpos0 moved by dq ~ N(0, {self.values['perturb']:g}^2) per dof, qvel ~ "
-                f"N(0, {self.values['perturb']:g}^2), numpy default_rng(seed={self.values['seed']}); controls 0")
+        return (
+            f"reference pose qpos0 moved by dq ~ N(0, {self.values['perturb']:g}^2) per dof, qvel ~ "
+            f"N(0, {self.values['perturb']:g}^2), numpy default_rng(seed={self.values['seed']}); controls 0"
+        )
 
     def initial_state(self):
         import mujoco
@@ -299,8 +308,10 @@ class ModelScene(RefinedRunReference, Scene):
         q = m.qpos0.copy()
         mujoco.mj_integratePos(m, q, dq, 1.0)
         for j in range(m.njnt):
-            if m.jnt_limited[j] and int(m.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE),
-                                                           int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            if m.jnt_limited[j] and int(m.jnt_type[j]) in (
+                int(mujoco.mjtJoint.mjJNT_HINGE),
+                int(mujoco.mjtJoint.mjJNT_SLIDE),
+            ):
                 lo, hi = m.jnt_range[j]
                 a = m.jnt_qposadr[j]
                 q[a] = min(max(q[a], lo + 0.1 * (hi - lo)), hi - 0.1 * (hi - lo))
@@ -335,7 +346,6 @@ class ModelScene(RefinedRunReference, Scene):
 
     def energy_scale(self) -> float:
         """Initial kinetic energy + |initial potential energy|: what energy growth is measured in."""
-        import mujoco
 
         m, d = self._model()
         q, v = self.initial_state()
@@ -422,10 +432,17 @@ class ModelScene(RefinedRunReference, Scene):
 
     def describe(self) -> dict:
         out = super().describe()
-        out.update(file=self.file.path, format=self.file.kind, sha256=self.file.sha256,
-                   features=dict(self.found), switched_off=self.switched_off, kept=self.kept,
-                   initial_state=self.describe_state(),
-                   own_timestep=self.own_timestep, nv=self.nv)
+        out.update(
+            file=self.file.path,
+            format=self.file.kind,
+            sha256=self.file.sha256,
+            features=dict(self.found),
+            switched_off=self.switched_off,
+            kept=self.kept,
+            initial_state=self.describe_state(),
+            own_timestep=self.own_timestep,
+            nv=self.nv,
+        )
         return out
 
     def __repr__(self) -> str:

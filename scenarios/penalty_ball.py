@@ -13,6 +13,7 @@ The defaults make gravity's share small: g / (omega_c v_impact) = 2.2e-3.
 
 Energy per unit mass: v^2/2 + g x, plus omega_c^2 x^2 / 2 in contact; conserved where zeta = 0.
 """
+
 from __future__ import annotations
 
 import math
@@ -30,7 +31,7 @@ def accel(q, v, t, p):
 
 
 def solve(q, v, t, p, alpha, beta, r):
-    g, w, z = p[0], p[1], p[2]
+    w, z = p[1], p[2]
     inside = (q < 0.0) * 1.0
     return r / (1.0 + inside * (alpha * 2.0 * z * w + beta * w * w))
 
@@ -43,7 +44,7 @@ def zeta_for(e: float) -> float:
     if e <= 0.0:
         return 1.0
     lg = math.log(e)
-    return -lg / math.sqrt(math.pi ** 2 + lg * lg)
+    return -lg / math.sqrt(math.pi**2 + lg * lg)
 
 
 def restitution_of(zeta: float) -> float:
@@ -98,10 +99,12 @@ class PenaltyBall(Scene):
             t, v = t + hit, v - g * hit
             if t >= t_end:
                 break
+
             # Contact from x = 0, speed v < 0: y = x + eq oscillates about 0 from y = eq.
-            def x_at(s):
+            def x_at(s, v=v):
                 y, _ = damped_oscillator(np.array([s]), w, z, eq, v)
                 return float(y[0]) - eq
+
             period = 2.0 * math.pi / (w * math.sqrt(max(1.0 - z * z, 1e-12)))
             lowest = min((s for s in np.linspace(0.0, period, 65)[1:]), key=x_at)
             grid = np.linspace(lowest, period, 129)

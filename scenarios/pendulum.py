@@ -4,6 +4,7 @@ Exact solution (released from rest at theta0), with k = sin(theta0/2), w = sqrt(
 u = K(k) - w t and Jacobi elliptic functions of parameter m = k^2:
     theta(t) = 2 arcsin(k sn(u)),   theta'(t) = -2 k w cn(u).
 """
+
 import math
 
 import numpy as np
@@ -29,8 +30,14 @@ class Pendulum(Scene):
         "g": Param(9.81, "gravitational acceleration", lo=0.0, lo_open=True),
         "L": Param(1.0, "length", lo=0.0, lo_open=True),
         "m": Param(1.0, "bob mass (point mass)", lo=0.0, lo_open=True),
-        "theta0": Param(2.0, "initial angle from the downward vertical [rad], released from rest",
-                        lo=-math.pi, hi=math.pi, lo_open=True, hi_open=True),
+        "theta0": Param(
+            2.0,
+            "initial angle from the downward vertical [rad], released from rest",
+            lo=-math.pi,
+            hi=math.pi,
+            lo_open=True,
+            hi_open=True,
+        ),
     }
     dof_names = ("theta",)
     pointwise = True

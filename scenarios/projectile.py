@@ -3,6 +3,7 @@
 Exact, with gamma = c/m and terminal velocity v_inf = (0, -g/gamma):
     v(t) = v_inf + (v0 - v_inf) e^(-gamma t),  q(t) = v_inf t + (v0 - v_inf)(1 - e^(-gamma t))/gamma.
 """
+
 import math
 
 import numpy as np

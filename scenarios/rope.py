@@ -26,6 +26,7 @@ Measured accuracy of the default rope (N = 10) against an rtol = atol = 1e-13 so
 chaotic (differences grow about 1000-fold per second), so two accurate solves part completely by
 t = 5: ``reference_horizon`` = 3 (s) is how far it may be used as the truth. ``exact`` stays None.
 """
+
 import math
 
 import numpy as np

@@ -13,11 +13,13 @@ Kernels are plain numpy functions of ``(q, v, t, p)`` where ``p`` is the scene's
 parameter vector (``Scene.pvec``), so the same source runs interpreted (with force
 evaluations counted) and compiled by numba (for timing).
 """
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, ClassVar
+from typing import ClassVar
+from collections.abc import Callable
 
 import numpy as np
 
@@ -154,8 +156,7 @@ class Scene:
         if unknown:
             choices = ", ".join(self.params) or "none"
             raise InvalidInput(f"unknown parameter {unknown[0]!r} for scene {self.id} (valid: {choices})")
-        self.values = {name: spec.check(name, overrides.get(name, spec.default))
-                       for name, spec in self.params.items()}
+        self.values = {name: spec.check(name, overrides.get(name, spec.default)) for name, spec in self.params.items()}
         self._validate()
 
     # ------------------------------------------------------------------ hooks
@@ -223,7 +224,7 @@ class Scene:
         file has an id of its own per file (its content hash) and the kind of its class."""
         return type(self).id
 
-    def copy_with(self, **values) -> "Scene":
+    def copy_with(self, **values) -> Scene:
         """The same scene with these parameter values (validated)."""
         return type(self)(**values)
 
@@ -241,8 +242,10 @@ class Scene:
         """Why the position-based schemes do not run on this scene ("" where they do): it gives
         no ``constraints``, or has a force they do not model."""
         if type(self).constraints is no_constraints:
-            return (f"scene {self.id} gives no distance constraints (springs or links) for a "
-                    "position-based scheme to project")
+            return (
+                f"scene {self.id} gives no distance constraints (springs or links) for a "
+                "position-based scheme to project"
+            )
         return ""
 
     @property
@@ -367,9 +370,10 @@ class Scene:
             "has_reference": has_exact or type(self).reference_solution is not Scene.reference_solution,
             "reference_horizon": None if self.reference_horizon == math.inf else self.reference_horizon,
             "model_note": self.model_note,
-            "params": {name: {"value": self.values[name], "default": spec.default,
-                              "allowed": spec.allowed(), "doc": spec.doc}
-                       for name, spec in self.params.items()},
+            "params": {
+                name: {"value": self.values[name], "default": spec.default, "allowed": spec.allowed(), "doc": spec.doc}
+                for name, spec in self.params.items()
+            },
         }
 
     def __repr__(self) -> str:

@@ -15,6 +15,7 @@ solve at rtol = 3e-14 it agrees to 6e-12 AU up to 1e4 days and 7e-10 AU up to 2e
 omega is Jupiter's mean motion (the fastest orbit; period about 4332 days). The study the
 issue asks for runs 2e5 days at dt = 10 days (SUGGESTED_DT, SUGGESTED_T_END).
 """
+
 import math
 from importlib import resources
 
@@ -81,16 +82,16 @@ def solve(q, v, t, p, alpha, beta, r):
         jac = np.zeros((ndof, ndof))
         for i in range(n):
             for j in range(i):
-                d = q[3 * i:3 * i + 3, b] - q[3 * j:3 * j + 3, b]
+                d = q[3 * i : 3 * i + 3, b] - q[3 * j : 3 * j + 3, b]
                 r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
                 rr = np.sqrt(r2)
                 blk = (-3.0 * g / (r2 * r2 * rr)) * np.outer(d, d)
                 for k in range(3):
                     blk[k, k] += g / (r2 * rr)
-                jac[3 * i:3 * i + 3, 3 * j:3 * j + 3] += p[1 + j] * blk
-                jac[3 * i:3 * i + 3, 3 * i:3 * i + 3] -= p[1 + j] * blk
-                jac[3 * j:3 * j + 3, 3 * i:3 * i + 3] += p[1 + i] * blk
-                jac[3 * j:3 * j + 3, 3 * j:3 * j + 3] -= p[1 + i] * blk
+                jac[3 * i : 3 * i + 3, 3 * j : 3 * j + 3] += p[1 + j] * blk
+                jac[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] -= p[1 + j] * blk
+                jac[3 * j : 3 * j + 3, 3 * i : 3 * i + 3] += p[1 + i] * blk
+                jac[3 * j : 3 * j + 3, 3 * j : 3 * j + 3] -= p[1 + i] * blk
         mat = np.eye(ndof) - beta * jac
         x[:, b] = np.linalg.solve(mat, np.ascontiguousarray(r[:, b]))
     return x
@@ -103,14 +104,14 @@ def _rhs_vectorised(masses: np.ndarray):
     gm = G * masses
 
     def rhs(t, y):
-        q = y[:3 * n].reshape(n, 3)
-        d = q[None, :, :] - q[:, None, :]          # d[i, j] = q_j - q_i
+        q = y[: 3 * n].reshape(n, 3)
+        d = q[None, :, :] - q[:, None, :]  # d[i, j] = q_j - q_i
         r2 = np.einsum("ijk,ijk->ij", d, d)
         np.fill_diagonal(r2, 1.0)
-        inv3 = r2 ** -1.5
+        inv3 = r2**-1.5
         np.fill_diagonal(inv3, 0.0)
         a = np.einsum("ij,ijk->ik", inv3 * gm[None, :], d)
-        return np.concatenate([y[3 * n:], a.reshape(-1)])
+        return np.concatenate([y[3 * n :], a.reshape(-1)])
 
     return rhs
 
@@ -147,7 +148,7 @@ class SolarSystem(Scene):
         dq = self._q0[1] - self._q0[0]
         dv = self._v0[1] - self._v0[0]
         a = 1.0 / (2.0 / np.linalg.norm(dq) - dv @ dv / mu)
-        return float(math.sqrt(mu / a ** 3))
+        return float(math.sqrt(mu / a**3))
 
     def energy(self, q, v):
         n = self.masses.size
@@ -187,10 +188,16 @@ class SolarSystem(Scene):
             unbound = np.flatnonzero(~(e[:, k] < 0.0))
             if unbound.size:
                 i = int(unbound[0])
-                out.append({"kind": "ejected", "body": name, "step": int(step[i]), "t": float(t[i]),
-                            "r": float(r[i, k]),
-                            "text": f"{name} ejected (unbound from the Sun) by step {int(step[i])}, at "
-                                    f"{r[i, k]:.3g} AU"})
+                out.append(
+                    {
+                        "kind": "ejected",
+                        "body": name,
+                        "step": int(step[i]),
+                        "t": float(t[i]),
+                        "r": float(r[i, k]),
+                        "text": f"{name} ejected (unbound from the Sun) by step {int(step[i])}, at {r[i, k]:.3g} AU",
+                    }
+                )
         return sorted(out, key=lambda ev: ev["step"])
 
     # ------------------------------------------------------------ reference
@@ -198,8 +205,12 @@ class SolarSystem(Scene):
         q0, v0 = self.initial_state()
         key = (self.id, rtol)
         # atol: far below the smallest velocity that matters (the Sun's wobble, ~1e-6 AU/day).
-        return cached(key, lambda: SegmentedSolution(_rhs_vectorised(self.masses), np.concatenate([q0, v0]),
-                                                     segment=1.0e4, rtol=rtol, atol=rtol * 1e-4))
+        return cached(
+            key,
+            lambda: SegmentedSolution(
+                _rhs_vectorised(self.masses), np.concatenate([q0, v0]), segment=1.0e4, rtol=rtol, atol=rtol * 1e-4
+            ),
+        )
 
     def reference_solution(self, t, rtol=1e-13):
         """(q, v) at times t (days) from DOP853 at rtol = 1e-13, shape (len(t), 18)."""

@@ -1,4 +1,5 @@
 """The unit spring: a = -(k/m) x. The scene every integrator is first judged on."""
+
 import math
 
 import numpy as np

@@ -12,6 +12,7 @@ sin(theta)))``. Posed in the incline's frame (x down the slope, z its normal): g
 It is a ``HARNESS_PLUGINS`` module (a worker loads it before it steps a task that names it);
 importing it registers the scene and the pose, ``unregister`` takes them away again.
 """
+
 from __future__ import annotations
 
 import math
@@ -29,19 +30,24 @@ FORMULA = "v0²/(2 g (μ cos θ − sin θ))"
 class Incline(Slide):
     id = "incline"
     title = "a box sliding down an incline with Coulomb friction: it stops after v0^2/(2 g (mu cos θ - sin θ))"
-    params = {**Slide.params, "theta": Param(0.2, "the incline's angle (rad); it must be below atan(mu)",
-                                             lo=0.0, hi=1.0)}
-    FIGURES = (Figure("stop", "stop distance (m)", truth="stop", chart="stop distance (m)",
-                      chart_truth=("stop", FORMULA)),
-               Figure("stop_time", truth="stop_time"),
-               Figure("creep", "creep (m)", truth="creep"))
+    params = {
+        **Slide.params,
+        "theta": Param(0.2, "the incline's angle (rad); it must be below atan(mu)", lo=0.0, hi=1.0),
+    }
+    FIGURES = (
+        Figure("stop", "stop distance (m)", truth="stop", chart="stop distance (m)", chart_truth=("stop", FORMULA)),
+        Figure("stop_time", truth="stop_time"),
+        Figure("creep", "creep (m)", truth="creep"),
+    )
     STOP_FORMULA = FORMULA
 
     def _validate(self):
         super()._validate()
         if math.tan(self.theta) >= self.mu:
-            raise InvalidInput(f"parameter theta={self.theta:g} never stops the box (allowed: below atan(mu) "
-                               f"= {math.atan(self.mu):.4g})")
+            raise InvalidInput(
+                f"parameter theta={self.theta:g} never stops the box (allowed: below atan(mu) "
+                f"= {math.atan(self.mu):.4g})"
+            )
 
     @property
     def deceleration(self) -> float:

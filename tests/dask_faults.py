@@ -7,6 +7,7 @@ is where every attempt is logged, one line per attempt, so that the count surviv
 worker it kills. An attempt that dies sends SIGKILL to its own Dask worker process, mid-task;
 the later attempts run the task normally.
 """
+
 import hashlib
 import json
 import os

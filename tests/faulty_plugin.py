@@ -7,6 +7,7 @@ the nightly meets them exactly where it meets a real engine's failure::
 
     HARNESS_PLUGINS=tests.faulty_plugin harness nightly --suite smoke --cell-timeout 5
 """
+
 from __future__ import annotations
 
 import os
@@ -46,8 +47,17 @@ def _build(engine_module, mode, scene, dt):
 
 
 def _mode(mode: str, doc: str) -> EngineMode:
-    return EngineMode(engine="faulty", mode=mode, module="os", dist="integrator-harness", build=_build,
-                      scenes=("spring",), unsupported={}, settings={"fault": mode}, doc=doc)
+    return EngineMode(
+        engine="faulty",
+        mode=mode,
+        module="os",
+        dist="integrator-harness",
+        build=_build,
+        scenes=("spring",),
+        unsupported={},
+        settings={"fault": mode},
+        doc=doc,
+    )
 
 
 METHODS = {

@@ -5,9 +5,9 @@ here and nowhere else (``records.measures``), which every part of the harness mu
 velocity), against the exact solution's (m omega x0 on the undamped spring), as a ratio. A
 symplectic scheme's stays near 1; a scheme that gains energy exceeds it.
 """
+
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,8 +59,11 @@ def _findings(scene, piv):
     for (s, method), ms in sorted(piv.items()):
         c = ms.get("momentum")
         if s == scene and c is not None and c.value is not None:
-            out.append(Finding(f"`{method}` on `{scene}`: peak |p| is {c.value:.4g} of the exact solution's",
-                               None, scene, method))
+            out.append(
+                Finding(
+                    f"`{method}` on `{scene}`: peak |p| is {c.value:.4g} of the exact solution's", None, scene, method
+                )
+            )
     return out
 
 
@@ -89,6 +92,17 @@ def _chart(cells, scene, path) -> bool:
     return True
 
 
-MEASURES = [Measure("momentum", MomentumFigures, "peak |m v| of the energy run against the exact solution's",
-                    run=_run, applies=_applies, regression=_regression, findings=_findings,
-                    columns=(Column("peak \\|p\\| / exact", _text, 60),), chart=_chart, trend="peak |p| / exact")]
+MEASURES = [
+    Measure(
+        "momentum",
+        MomentumFigures,
+        "peak |m v| of the energy run against the exact solution's",
+        run=_run,
+        applies=_applies,
+        regression=_regression,
+        findings=_findings,
+        columns=(Column("peak \\|p\\| / exact", _text, 60),),
+        chart=_chart,
+        trend="peak |p| / exact",
+    )
+]

@@ -7,6 +7,7 @@ twice. ``built_once`` builds it in the first worker that asks, under a lock in t
 temporary folder, and hands the other the same result (pickled) and the same folder. The fixture's
 tests must only read what it built (a test that changes a database copies it first).
 """
+
 from __future__ import annotations
 
 import fcntl

@@ -12,6 +12,7 @@ process::
 
     HARNESS_PLUGINS=tests.slow_plugin HARNESS_TEST_SLOWDOWN=300 harness nightly --suite smoke
 """
+
 from __future__ import annotations
 
 import os
@@ -57,7 +58,14 @@ def _build(engine_module, mode, scene, dt):
 
 METHODS = {
     "slowtest:semi_implicit": EngineMode(
-        engine="slowtest", mode="semi_implicit", module="os", dist="integrator-harness", build=_build,
-        scenes=("spring",), unsupported={}, settings={"update": "semi-implicit Euler in Python"},
-        doc=f"Semi-implicit Euler stepped in Python; each step repeated ${SLOWDOWN_VAR} times."),
+        engine="slowtest",
+        mode="semi_implicit",
+        module="os",
+        dist="integrator-harness",
+        build=_build,
+        scenes=("spring",),
+        unsupported={},
+        settings={"update": "semi-implicit Euler in Python"},
+        doc=f"Semi-implicit Euler stepped in Python; each step repeated ${SLOWDOWN_VAR} times.",
+    ),
 }

@@ -14,6 +14,7 @@ Tolerances, and where each comes from:
 * ``KEPLER = 1e-10``: the issue's bound for REBOUND's leapfrog; measured 0 with sim.steps(1).
 * ``IAS15_DRIFT = 1e-13``: the issue's bound on |dE/E| over 1000 orbits; measured 3.2e-14.
 """
+
 from __future__ import annotations
 
 import math
@@ -75,8 +76,9 @@ SPRING_IDENTITIES = [
 
 @pytest.mark.parametrize("steps", [5, 10_000])
 @pytest.mark.parametrize("dt", [0.5, 0.01])
-@pytest.mark.parametrize("method_id, scheme_id, tol", SPRING_IDENTITIES,
-                         ids=[f"{m}={s}" for m, s, _ in SPRING_IDENTITIES])
+@pytest.mark.parametrize(
+    "method_id, scheme_id, tol", SPRING_IDENTITIES, ids=[f"{m}={s}" for m, s, _ in SPRING_IDENTITIES]
+)
 @pytest.mark.filterwarnings("ignore:overflow encountered")  # the scheme's energy of a blown-up state
 def test_spring_engine_mode_is_the_reference_scheme(method_id, scheme_id, tol, dt, steps):
     spring = make_scene("spring")
@@ -141,11 +143,14 @@ def test_mujoco_treats_damping_implicitly(method_id, dt, params):
     assert deviation(run, ref("semi_implicit_euler_velocity_implicit", scene, dt, 10_000)) <= ROUNDOFF
 
 
-@pytest.mark.parametrize("method_id, scheme_id", [
-    ("pybullet:semi_implicit", "semi_implicit_euler"),  # the damping force applied before the step
-    ("pymunk:spring_force", "semi_implicit_euler_position_first"),
-    ("pymunk:applied_force", "explicit_euler"),
-])
+@pytest.mark.parametrize(
+    "method_id, scheme_id",
+    [
+        ("pybullet:semi_implicit", "semi_implicit_euler"),  # the damping force applied before the step
+        ("pymunk:spring_force", "semi_implicit_euler_position_first"),
+        ("pymunk:applied_force", "explicit_euler"),
+    ],
+)
 def test_forces_applied_from_python_keep_their_scheme_on_the_damped_spring(method_id, scheme_id):
     # Measured bitwise at dt = 0.01: the damping is part of the force the user computes.
     scene = make_scene("damped_spring")
@@ -242,8 +247,10 @@ def first_supported_scene(method):
 SLOW_TO_BUILD = ("newton:vbd", "newton:featherstone")
 
 
-@pytest.mark.parametrize("method_id", [m if m not in SLOW_TO_BUILD else pytest.param(m, marks=pytest.mark.slow)
-                                       for m in adapters.ENGINE_METHODS])
+@pytest.mark.parametrize(
+    "method_id",
+    [m if m not in SLOW_TO_BUILD else pytest.param(m, marks=pytest.mark.slow) for m in adapters.ENGINE_METHODS],
+)
 def test_every_engine_mode_declares_itself_and_records_version_and_settings(method_id):
     method = adapters.ENGINE_METHODS[method_id]
     assert method.id == method_id and method.isolated and method.family == method.engine == method_id.split(":")[0]
@@ -266,8 +273,14 @@ def test_every_engine_mode_declares_itself_and_records_version_and_settings(meth
     assert run.meta.settings and json.dumps(run.meta.settings)
 
 
-@pytest.mark.parametrize("method_id", [m if m not in SLOW_TO_BUILD else pytest.param(m, marks=pytest.mark.slow)
-                                       for m in adapters.ENGINE_METHODS if not m.startswith("rebound:")])
+@pytest.mark.parametrize(
+    "method_id",
+    [
+        m if m not in SLOW_TO_BUILD else pytest.param(m, marks=pytest.mark.slow)
+        for m in adapters.ENGINE_METHODS
+        if not m.startswith("rebound:")
+    ],
+)
 def test_one_model_set_to_each_state_steps_as_a_fresh_one(method_id):
     """``EngineMode.one_steps`` (one model, ``set_state`` before each step; what the one-step
     map uses) against a model built at each state: bitwise the same, on every linear scene the
@@ -299,8 +312,11 @@ def test_issue_scene_coverage():
     for mode in ("euler", "rk4", "implicit", "implicitfast", "discrete"):
         assert supported[f"mujoco:{mode}"] == four | {"chain", "rope", "cloth", "net"}  # slide joints + tendons, hinges
     assert supported["pybullet:semi_implicit"] == four | {"chain"}
-    assert supported["pymunk:spring_force"] == supported["pymunk:applied_force"] == {"spring", "damped_spring",
-                                                                                     "projectile", "chain"}
+    assert (
+        supported["pymunk:spring_force"]
+        == supported["pymunk:applied_force"]
+        == {"spring", "damped_spring", "projectile", "chain"}
+    )
     assert supported["pymunk:damped_spring"] == {"damped_spring", "chain", "net"}  # issue 12: Chipmunk's own damping
     assert supported["pymunk:space_damping"] == {"damped_spring", "projectile"}
     assert supported["pymunk:pin_joint"] == {"pendulum", "rope"}
@@ -361,24 +377,28 @@ def test_identify_names_the_scheme_and_the_runner_up(capsys):
 
 def test_identify_says_when_no_scheme_matches_and_why(capsys):
     # MuJoCo's Euler on the damped chain: joint damping implicit, tendon damping explicit.
-    assert main(["identify", "chain", "--method", "mujoco:euler", "--set", "N=4", "--set", "c=20",
-                 "--steps", "60"]) == 1
+    assert (
+        main(["identify", "chain", "--method", "mujoco:euler", "--set", "N=4", "--set", "c=20", "--steps", "60"]) == 1
+    )
     out = capsys.readouterr().out
     assert "matches no reference scheme within" in out and "closest ref:" in out
     why = [line for line in out.splitlines() if line.strip().startswith("why:")]
     assert len(why) == 1 and "eulerdamp" in why[0]
 
 
-@pytest.mark.parametrize("argv, field", [
-    (["run", "spring", "--method", "pymunk:applied_force", "--dt", "0", "--steps", "5"], "--dt=0"),
-    (["run", "spring", "--method", "pymunk:applied_force", "--dt", "nan", "--steps", "5"], "--dt=nan"),
-    (["run", "spring", "--method", "pymunk:applied_force", "--dt", "inf", "--steps", "5"], "--dt=inf"),
-    (["run", "spring", "--method", "pymunk:applied_force", "--dt", "0.1", "--steps", "-1"], "--steps=-1"),
-    (["run", "spring", "--method", "pymunk:applied_force", "--dt", "0.1", "--steps", "5", "--set", "m=-1"], "m=-1"),
-    (["run", "kepler", "--method", "rebound:whfast", "--dt", "0", "--steps", "5"], "--dt=0"),
-    (["identify", "spring", "--method", "mujoco:euler", "--dt", "-0.1"], "--dt=-0.1"),
-    (["identify", "pendulum", "--method", "mujoco:euler", "--set", "m=0"], "m=0"),
-])
+@pytest.mark.parametrize(
+    "argv, field",
+    [
+        (["run", "spring", "--method", "pymunk:applied_force", "--dt", "0", "--steps", "5"], "--dt=0"),
+        (["run", "spring", "--method", "pymunk:applied_force", "--dt", "nan", "--steps", "5"], "--dt=nan"),
+        (["run", "spring", "--method", "pymunk:applied_force", "--dt", "inf", "--steps", "5"], "--dt=inf"),
+        (["run", "spring", "--method", "pymunk:applied_force", "--dt", "0.1", "--steps", "-1"], "--steps=-1"),
+        (["run", "spring", "--method", "pymunk:applied_force", "--dt", "0.1", "--steps", "5", "--set", "m=-1"], "m=-1"),
+        (["run", "kepler", "--method", "rebound:whfast", "--dt", "0", "--steps", "5"], "--dt=0"),
+        (["identify", "spring", "--method", "mujoco:euler", "--dt", "-0.1"], "--dt=-0.1"),
+        (["identify", "pendulum", "--method", "mujoco:euler", "--set", "m=0"], "m=0"),
+    ],
+)
 def test_bad_input_is_one_line_and_exit_2(argv, field, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
@@ -399,22 +419,35 @@ def test_runner_validates_before_the_engine_sees_anything():
 def harness_subprocess(*argv, cwd):
     # stderr is read whole: no progress lines, however long a loaded machine takes
     env = {**os.environ, "PYTHONPATH": str(ROOT), "HARNESS_PROGRESS_AFTER": "inf"}
-    return subprocess.run([sys.executable, "-m", "harness", *argv], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "harness", *argv], cwd=cwd, env=env, capture_output=True, text=True, timeout=120
+    )
 
 
 def test_engine_noise_stays_out_of_csv_and_json_and_the_working_directory(tmp_path):
     # pybullet prints a banner on import; MuJoCo prints a warning and writes MUJOCO_LOG.TXT on
     # divergence. A fresh process each, so the banner really is printed by that import.
-    csv = harness_subprocess("run", "spring", "--method", "pybullet:semi_implicit", "--dt", "0.1",
-                             "--steps", "3", "--format", "csv", cwd=tmp_path)
+    csv = harness_subprocess(
+        "run",
+        "spring",
+        "--method",
+        "pybullet:semi_implicit",
+        "--dt",
+        "0.1",
+        "--steps",
+        "3",
+        "--format",
+        "csv",
+        cwd=tmp_path,
+    )
     assert csv.returncode == 0, csv.stderr
     lines = csv.stdout.splitlines()
     assert lines[0] == "step,t,q0,v0,energy" and len(lines) == 5
     assert "pybullet" not in csv.stdout + csv.stderr
 
-    diverged = harness_subprocess("run", "spring", "--method", "mujoco:euler", "--dt", "2.5", "--steps", "100",
-                                  "--format", "json", cwd=tmp_path)
+    diverged = harness_subprocess(
+        "run", "spring", "--method", "mujoco:euler", "--dt", "2.5", "--steps", "100", "--format", "json", cwd=tmp_path
+    )
     assert diverged.returncode == 0, diverged.stderr  # unstable is a result, not an error
     result = json.loads(diverged.stdout)
     assert result["status"] == "unstable" and result["failed_step"] == 18
@@ -534,8 +567,12 @@ def test_no_adapter_branches_on_a_scene_id():
 
     pattern = re.compile(r"scene(_id|\.id|\.kind)\s*(==|!=|in\b|not in\b)")
     root = Path(adapters.__file__).parent
-    hits = [f"{path.relative_to(root)}:{n}" for path in sorted(root.rglob("*.py"))
-            for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
+    hits = [
+        f"{path.relative_to(root)}:{n}"
+        for path in sorted(root.rglob("*.py"))
+        for n, line in enumerate(path.read_text().splitlines(), 1)
+        if pattern.search(line)
+    ]
     assert sorted({h.split(":")[0] for h in hits}) == ["_contact.py", "_mode.py"], hits  # each supports()
     assert len(hits) == 2, hits
 
@@ -561,9 +598,16 @@ def test_a_plugin_model_with_only_the_required_members_gets_the_declared_default
     model.close()
     with pytest.raises(NotImplementedError, match="settable is False"):
         model.set_state(np.zeros(1), np.zeros(1))
-    mode = adapters.EngineMode(engine="minimal", mode="semi_implicit", module="os", dist="integrator-harness",
-                               build=lambda engine, mode, scene, dt: Minimal(), scenes=("spring",), unsupported={},
-                               settings={})
+    mode = adapters.EngineMode(
+        engine="minimal",
+        mode="semi_implicit",
+        module="os",
+        dist="integrator-harness",
+        build=lambda engine, mode, scene, dt: Minimal(),
+        scenes=("spring",),
+        unsupported={},
+        settings={},
+    )
     traj = mode.simulate(make_scene("spring"), 0.01, 10, 5)
     assert traj.status == "ok" and traj.meta.loop.startswith("harness") and traj.force_evals is None
     assert mode.one_steps(make_scene("spring"), 0.01, np.zeros((1, 2))) is None

@@ -6,6 +6,7 @@ error on the unit spring is h*omega/2 (its modified energy; tests/theory.py), ex
 largest stable h*omega with damping ratio zeta is 2*zeta (|1 + h lambda| <= 1 with
 lambda = omega(-zeta +- i sqrt(1 - zeta^2))).
 """
+
 from __future__ import annotations
 
 import json
@@ -29,8 +30,15 @@ SPRING_60HZ = Request(hz=60, horizon=60, energy_tol=1e-3, max_substeps=16)
 
 #: The advice ranks by cost per frame: a verdict drawn from timings, so the module's advice reads
 #: injected ones (``HARNESS_INJECT_TIMINGS``), leapfrog's and the games default's as measured here.
-TIMINGS = {"s_per_step": {"ref:leapfrog": 8.5e-9, "ref:semi_implicit_euler": 7.6e-9, "ref:explicit_euler": 3.9e-9,
-                          "ref:implicit_euler": 1.4e-8, "*": 1e-6}}
+TIMINGS = {
+    "s_per_step": {
+        "ref:leapfrog": 8.5e-9,
+        "ref:semi_implicit_euler": 7.6e-9,
+        "ref:explicit_euler": 3.9e-9,
+        "ref:implicit_euler": 1.4e-8,
+        "*": 1e-6,
+    }
+}
 
 
 @pytest.fixture(scope="module")
@@ -40,15 +48,21 @@ def spring_advice(tmp_path_factory):
     scene = make_scene("spring")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("HARNESS_INJECT_TIMINGS", str(path))
-        return advise(scene, SPRING_60HZ, ["ref:semi_implicit_euler", "ref:leapfrog", "ref:explicit_euler",
-                                           "ref:implicit_euler"], jobs=2)
+        return advise(
+            scene,
+            SPRING_60HZ,
+            ["ref:semi_implicit_euler", "ref:leapfrog", "ref:explicit_euler", "ref:implicit_euler"],
+            jobs=2,
+        )
 
 
 def test_unit_spring_at_60_hz_prints_the_advice_and_its_table(spring_advice):
     lines = list(advise_lines(spring_advice))
     out = "\n".join(lines)
-    assert lines[0] == ("advise spring (k=1, m=1, x0=1, v0=0) at 60 Hz over 60: energy error <= 0.001 and "
-                        "position error <= 0.05 (5% of the scene's length scale 1); substeps 1..16")
+    assert lines[0] == (
+        "advise spring (k=1, m=1, x0=1, v0=0) at 60 Hz over 60: energy error <= 0.001 and "
+        "position error <= 0.05 (5% of the scene's length scale 1); substeps 1..16"
+    )
     # 8.5 ns a step, once a frame, against 7.6 ns x 16 substeps: the injected costs' ranking.
     assert lines[1] == "cheapest that meets the tolerances: ref:leapfrog, 1 substep, 0.0085 µs per frame"
     table = out.split("meets the tolerances (cheapest frame first")[1].split("cannot meet them")[0]
@@ -87,9 +101,12 @@ def test_an_energy_class_needs_ten_periods_of_the_horizon(spring_advice):
     assert sie.best_row.energy_class is None
     out = "\n".join(advise_lines(spring_advice))
     assert "class -: the horizon holds 9.55 periods of the scene's omega, fewer than the 10" in out
-    longer = advise_method(get_method("ref:semi_implicit_euler"), make_scene("spring"),
-                           Request(hz=60, horizon=100, energy_tol=1e-3, max_substeps=16).checked(),
-                           cost_per_step=(1e-8, "given"))
+    longer = advise_method(
+        get_method("ref:semi_implicit_euler"),
+        make_scene("spring"),
+        Request(hz=60, horizon=100, energy_tol=1e-3, max_substeps=16).checked(),
+        cost_per_step=(1e-8, "given"),
+    )
     assert longer.best_row.energy_class == "bounded"
 
 
@@ -120,8 +137,10 @@ def test_a_stiff_chain_leaves_only_implicit_schemes_or_many_substeps():
     default position tolerance, 0.05, then leaves it no level)."""
     scene = make_scene("chain", N=32, k=1e4)
     request = Request(hz=60, horizon=1.0, energy_tol=1e-2, max_substeps=16, error_rel=None).checked()
-    by = {m: advise_method(get_method(m), scene, request, cost_per_step=(1e-6, "given"))
-          for m in ("ref:semi_implicit_euler", "ref:rk4", "ref:implicit_midpoint")}
+    by = {
+        m: advise_method(get_method(m), scene, request, cost_per_step=(1e-6, "given"))
+        for m in ("ref:semi_implicit_euler", "ref:rk4", "ref:implicit_midpoint")
+    }
     assert by["ref:semi_implicit_euler"].homega_limit == pytest.approx(2.0, rel=1e-3)
     assert by["ref:rk4"].homega_limit == pytest.approx(2 * math.sqrt(2), rel=1e-3)
     for m in ("ref:semi_implicit_euler", "ref:rk4"):
@@ -130,14 +149,20 @@ def test_a_stiff_chain_leaves_only_implicit_schemes_or_many_substeps():
         assert by[m].best is None or by[m].best_row.substeps >= 2
     mid = by["ref:implicit_midpoint"]
     assert mid.limit_verdict == "unbounded" and mid.best_row.substeps == 1  # energy kept exactly
-    advice = Advice("chain", dict(scene.values), request, list(by.values()),
-                    position_tol=request.position_tolerance(scene))
+    advice = Advice(
+        "chain", dict(scene.values), request, list(by.values()), position_tol=request.position_tolerance(scene)
+    )
     assert advice.meeting[0].method == "ref:implicit_midpoint"
-    assert advice.verdict() == ("no accuracy tolerance (the energy alone judged): cheapest that meets the "
-                                "tolerances: ref:implicit_midpoint, 1 substep, 1 µs per frame")
-    accurate = advise_method(get_method("ref:implicit_midpoint"), scene,
-                             Request(hz=60, horizon=1.0, energy_tol=1e-2, max_substeps=1).checked(),
-                             cost_per_step=(1e-6, "given"))
+    assert advice.verdict() == (
+        "no accuracy tolerance (the energy alone judged): cheapest that meets the "
+        "tolerances: ref:implicit_midpoint, 1 substep, 1 µs per frame"
+    )
+    accurate = advise_method(
+        get_method("ref:implicit_midpoint"),
+        scene,
+        Request(hz=60, horizon=1.0, energy_tol=1e-2, max_substeps=1).checked(),
+        cost_per_step=(1e-6, "given"),
+    )
     assert accurate.best is None and accurate.rows[0].position_error > 0.05
 
 
@@ -154,26 +179,47 @@ def test_a_damped_scene_moves_the_limit_to_theory():
 
 
 def test_a_tolerance_no_method_meets_names_the_closest_and_exits_0(capsys):
-    code = main(["advise", "spring", "--hz", "60", "--energy-tol", "1e-15", "--horizon", "1", "--max-substeps", "2",
-                 "--methods", "ref:semi_implicit_euler,ref:leapfrog", "--json"])
+    code = main(
+        [
+            "advise",
+            "spring",
+            "--hz",
+            "60",
+            "--energy-tol",
+            "1e-15",
+            "--horizon",
+            "1",
+            "--max-substeps",
+            "2",
+            "--methods",
+            "ref:semi_implicit_euler,ref:leapfrog",
+            "--json",
+        ]
+    )
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["meeting"] == []
     assert out["verdict"].startswith("no method meets the tolerances; closest: ref:leapfrog at 2 substeps (energy ")
 
 
-@pytest.mark.parametrize("argv, says", [
-    (["nosuch", "--hz", "60", "--energy-tol", "1e-3"], "unknown scene 'nosuch'"),
-    (["spring", "--hz", "0", "--energy-tol", "1e-3"], "--hz=0 is out of range"),
-    (["spring", "--hz", "-5", "--energy-tol", "1e-3"], "--hz=-5 is out of range"),
-    (["spring", "--hz", "60", "--error-tol", "none"], "no tolerance given"),
-    (["spring", "--hz", "60", "--error-tol", "5 percent"], "--error-tol='5 percent' is not a tolerance"),
-    (["spring", "--hz", "60", "--error-tol", "0%"], "--error-tol=0 is out of range"),
-    (["spring", "--hz", "60", "--energy-tol", "0"], "--energy-tol=0 is out of range"),
-    (["spring", "--hz", "60", "--error-tol", "-1"], "--error-tol=-1 is out of range"),
-    (["spring", "--hz", "60", "--energy-tol", "1e-3", "--horizon", "0.01"], "shorter than one frame at 60 Hz"),
-    (["spring", "--hz", "60", "--energy-tol", "1e-3", "--methods", "nosuch:*"], "pattern 'nosuch:*' matches no method"),
-    (["spring", "--hz", "60", "--energy-tol", "1e-3", "--max-substeps", "0"], "--max-substeps=0 is out of range"),
-])
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["nosuch", "--hz", "60", "--energy-tol", "1e-3"], "unknown scene 'nosuch'"),
+        (["spring", "--hz", "0", "--energy-tol", "1e-3"], "--hz=0 is out of range"),
+        (["spring", "--hz", "-5", "--energy-tol", "1e-3"], "--hz=-5 is out of range"),
+        (["spring", "--hz", "60", "--error-tol", "none"], "no tolerance given"),
+        (["spring", "--hz", "60", "--error-tol", "5 percent"], "--error-tol='5 percent' is not a tolerance"),
+        (["spring", "--hz", "60", "--error-tol", "0%"], "--error-tol=0 is out of range"),
+        (["spring", "--hz", "60", "--energy-tol", "0"], "--energy-tol=0 is out of range"),
+        (["spring", "--hz", "60", "--error-tol", "-1"], "--error-tol=-1 is out of range"),
+        (["spring", "--hz", "60", "--energy-tol", "1e-3", "--horizon", "0.01"], "shorter than one frame at 60 Hz"),
+        (
+            ["spring", "--hz", "60", "--energy-tol", "1e-3", "--methods", "nosuch:*"],
+            "pattern 'nosuch:*' matches no method",
+        ),
+        (["spring", "--hz", "60", "--energy-tol", "1e-3", "--max-substeps", "0"], "--max-substeps=0 is out of range"),
+    ],
+)
 def test_bad_input_is_one_line_exit_2(argv, says, capsys):
     assert main(["advise", *argv]) == 2
     err = capsys.readouterr().err
@@ -218,15 +264,19 @@ def test_the_default_position_tolerance_is_not_held_against_another_engines_mode
     from records.advice import Row
     from scenarios import ModelScene, variant
 
-    chain = variant(ModelScene(Path(__file__).resolve().parents[1] / "scenarios" / "data" / "chain.xml"),
-                    "conservative")
+    chain = variant(
+        ModelScene(Path(__file__).resolve().parents[1] / "scenarios" / "data" / "chain.xml"), "conservative"
+    )
 
     def judged(method, request):
         row = Row(1, 0.01, 0.1, True, "ok", energy_error=1e-4, position_error=1.0)
         _judge(row, request, chain, get_method(method))
         return row.meets
 
-    default, absolute = Request(hz=60, energy_tol=1e-3).checked(), Request(hz=60, energy_tol=1e-3, error_tol=0.1).checked()
+    default, absolute = (
+        Request(hz=60, energy_tol=1e-3).checked(),
+        Request(hz=60, energy_tol=1e-3, error_tol=0.1).checked(),
+    )
     assert judged("pybullet:semi_implicit", default) and not judged("pybullet:semi_implicit", absolute)
     assert not judged("mujoco:euler", default)
 
@@ -240,8 +290,9 @@ def test_a_stiff_cloths_xpbd_frame_misses_the_accuracy_and_its_energy_win_rests_
     solve's own error, which the row and the verdict say."""
     scene = make_scene("cloth", n=4, m=4, k=1e5)
     xpbd = get_method("ref:xpbd")
-    judged = advise_method(xpbd, scene, Request(hz=60, horizon=2, energy_tol=0.5, max_substeps=1).checked(),
-                           cost_per_step=(1e-6, "given"))
+    judged = advise_method(
+        xpbd, scene, Request(hz=60, horizon=2, energy_tol=0.5, max_substeps=1).checked(), cost_per_step=(1e-6, "given")
+    )
     row = judged.rows[0]
     assert judged.best is None and 0.2 < row.position_error and row.energy_error < 0.5
     assert judged.reason.startswith("position error ") and "> 0.015" in judged.reason
@@ -251,10 +302,12 @@ def test_a_stiff_cloths_xpbd_frame_misses_the_accuracy_and_its_energy_win_rests_
     assert best is not None and best.converged["method"] == "ref:xpbd?iterations=100"
     assert not best.converged["meets"] and best.converged["energy_error"] > 0.5
     advice = Advice("cloth", dict(scene.values), energy_only, [alone])
-    assert advice.verdict().startswith("no accuracy tolerance (the energy alone judged): cheapest that meets the "
-                                       "tolerances: ref:xpbd, 1 substep")
-    assert "its win rests on the solve's own error: ref:xpbd?iterations=100 at 1 substep misses them" in \
-        advice.verdict()
+    assert advice.verdict().startswith(
+        "no accuracy tolerance (the energy alone judged): cheapest that meets the tolerances: ref:xpbd, 1 substep"
+    )
+    assert (
+        "its win rests on the solve's own error: ref:xpbd?iterations=100 at 1 substep misses them" in advice.verdict()
+    )
     lines = list(advise_lines(advice))
     assert re.search(r"^  ref:xpbd .* no\[1\]$", "\n".join(lines), re.M)
 
@@ -270,8 +323,10 @@ def test_the_convergence_check_is_generic_over_a_declared_knob():
     @dataclass(frozen=True)
     class Solver:  # a method whose iterative solve stops at a tolerance, as an implicit scheme's option may
         options: dict = field(default_factory=dict)
-        options_declared = {"tol": Option("tol", float, 1e-12, 1.0, default=1e-3, tighten=0.01),
-                            "other": Option("other", int, 1, 10)}
+        options_declared = {
+            "tol": Option("tol", float, 1e-12, 1.0, default=1e-3, tighten=0.01),
+            "other": Option("other", int, 1, 10),
+        }
         id = "toy:cg"
 
         def with_options(self, options):
@@ -280,7 +335,7 @@ def test_the_convergence_check_is_generic_over_a_declared_knob():
     assert convergence_knob(Solver()).name == "tol"
     assert tightened(Solver()).options == {"tol": pytest.approx(1e-5)}
     assert tightened(Solver({"tol": 1e-11})).options == {"tol": 1e-12}  # held to the range
-    assert tightened(Solver({"tol": 1e-12})) is None                    # at its end: nothing tighter
+    assert tightened(Solver({"tol": 1e-12})) is None  # at its end: nothing tighter
     assert tightened(get_method("ref:xpbd?iterations=3")).id == "ref:xpbd?iterations=30"
     assert tightened(get_method("ref:rk4")) is None and tightened(get_method("mujoco:euler")) is None
 
@@ -323,10 +378,19 @@ def test_a_missing_count_is_a_footnote_in_the_report_not_a_bare_dash():
     from reports.markdown import scene_section
 
     def cost(method, evals, reason=None):
-        return Cell.from_row({"scene": "spring", "method": method, "family": method.split(":")[0], "measure": "cost",
-                              "dt": 0.1, "steps": 100, "status": "ok", "value": 1e-6,
-                              "data": {"force_evals_per_step": evals, "force_evals_reason": reason,
-                                       "ratio_to_explicit_euler": 100.0}})
+        return Cell.from_row(
+            {
+                "scene": "spring",
+                "method": method,
+                "family": method.split(":")[0],
+                "measure": "cost",
+                "dt": 0.1,
+                "steps": 100,
+                "status": "ok",
+                "value": 1e-6,
+                "data": {"force_evals_per_step": evals, "force_evals_reason": reason, "ratio_to_explicit_euler": 100.0},
+            }
+        )
 
     why = "Bullet evaluates its forces inside stepSimulation and has no counter or callback for them"
     lines = scene_section("spring", pivot([cost("pybullet:semi_implicit", None, why), cost("mujoco:euler", 1.0)]), {})

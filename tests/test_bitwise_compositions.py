@@ -6,6 +6,7 @@ floor and recurrence on the damped oscillator): on random states under a nonline
 velocity-dependent force the generated step gives the old step's bits; on the scenes, interpreted
 and compiled, the old and the new give one trajectory; their floors and their recurrences agree
 bit for bit, and every claim the records hold of them is the one they declared."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -177,17 +178,31 @@ def old_implicit_euler_doubled_amplification(y, z):
 #: scheme id -> (step, start, floor, amplification) as they were written by hand.
 OLD = {
     "leapfrog": (old_leapfrog, start_qv, Floor(old_leapfrog_floor), old_leapfrog_amplification),
-    "velocity_verlet": (old_velocity_verlet, old_velocity_verlet_start,
-                        Floor(old_velocity_verlet_floor, old_velocity_verlet_floor_start),
-                        old_velocity_verlet_amplification),
-    "semi_implicit_euler": (old_semi_implicit_euler, start_qv, Floor(old_semi_implicit_euler_floor),
-                            old_semi_implicit_euler_amplification),
-    "semi_implicit_euler_position_first": (old_semi_implicit_euler_position_first, start_qv,
-                                           Floor(old_semi_implicit_euler_position_first_floor),
-                                           old_semi_implicit_euler_position_first_amplification),
+    "velocity_verlet": (
+        old_velocity_verlet,
+        old_velocity_verlet_start,
+        Floor(old_velocity_verlet_floor, old_velocity_verlet_floor_start),
+        old_velocity_verlet_amplification,
+    ),
+    "semi_implicit_euler": (
+        old_semi_implicit_euler,
+        start_qv,
+        Floor(old_semi_implicit_euler_floor),
+        old_semi_implicit_euler_amplification,
+    ),
+    "semi_implicit_euler_position_first": (
+        old_semi_implicit_euler_position_first,
+        start_qv,
+        Floor(old_semi_implicit_euler_position_first_floor),
+        old_semi_implicit_euler_position_first_amplification,
+    ),
     "forest_ruth": (old_forest_ruth, start_qv, Floor(old_forest_ruth_floor), old_forest_ruth_amplification),
-    "implicit_euler_doubled": (old_implicit_euler_doubled, start_qv, Floor(old_implicit_euler_doubled_floor),
-                               old_implicit_euler_doubled_amplification),
+    "implicit_euler_doubled": (
+        old_implicit_euler_doubled,
+        start_qv,
+        Floor(old_implicit_euler_doubled_floor),
+        old_implicit_euler_doubled_amplification,
+    ),
 }
 
 #: What each declared before (order, force_evals, symplectic, energy, homega_max, order with a
@@ -204,7 +219,8 @@ OLD_CLAIMS = {
 
 #: The standard suite's scenes each declared before.
 OLD_SUITES = {
-    "leapfrog": EVERY_SCENE, "semi_implicit_euler": EVERY_SCENE,
+    "leapfrog": EVERY_SCENE,
+    "semi_implicit_euler": EVERY_SCENE,
     "velocity_verlet": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "solar_system"),
     "semi_implicit_euler_position_first": ("spring", "damped_spring", "pendulum", "kepler", "projectile"),
     "forest_ruth": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "solar_system"),
@@ -214,8 +230,9 @@ OLD_SUITES = {
 
 def _old_scheme(sid):
     step, start, floor, amplification = OLD[sid]
-    return dataclasses.replace(METHODS[sid], id=f"{sid}_old", step=step, start=start, floor=floor,
-                               amplification=amplification)
+    return dataclasses.replace(
+        METHODS[sid], id=f"{sid}_old", step=step, start=start, floor=floor, amplification=amplification
+    )
 
 
 def _force(q, v, t, p):
@@ -277,8 +294,10 @@ def test_the_declared_scheme_runs_the_hand_written_trajectory_interpreted(sid, s
     _compare(sid, scene_id, compiled=False)
 
 
-@pytest.mark.parametrize("sid, scene_id", [(s, c) if (s, c) in COMPILED_FAST else pytest.param(s, c, marks=pytest.mark.slow)
-                                           for s in OLD for c in SCENES])
+@pytest.mark.parametrize(
+    "sid, scene_id",
+    [(s, c) if (s, c) in COMPILED_FAST else pytest.param(s, c, marks=pytest.mark.slow) for s in OLD for c in SCENES],
+)
 def test_the_declared_scheme_runs_the_hand_written_trajectory_compiled(sid, scene_id):
     """The compiled loops, generated from the new and the old source, give one trajectory."""
     _compare(sid, scene_id, compiled=True)
@@ -309,12 +328,20 @@ def test_the_derived_recurrence_is_the_hand_written_one_bit_for_bit(sid):
 def test_the_derived_claims_are_the_declared_ones(sid):
     s = METHODS[sid]
     order, evals, symplectic, energy, limit, order_v, carries = OLD_CLAIMS[sid]
-    assert (s.order, s.force_evals, s.symplectic, s.energy_claim, s.homega_max, s.order_for(True), s.carries) == \
-        (order, evals, symplectic, energy, limit, order_v, carries)
+    assert (s.order, s.force_evals, s.symplectic, s.energy_claim, s.homega_max, s.order_for(True), s.carries) == (
+        order,
+        evals,
+        symplectic,
+        energy,
+        limit,
+        order_v,
+        carries,
+    )
     assert s.floor is not None and s.amplification is not None and s.kind is _old_scheme(sid).kind
     assert s.suites == {"standard": OLD_SUITES[sid]}
-    assert (s.damping_limit is not None) == (sid in ("semi_implicit_euler", "semi_implicit_euler_position_first",
-                                                     "implicit_euler_doubled"))
+    assert (s.damping_limit is not None) == (
+        sid in ("semi_implicit_euler", "semi_implicit_euler_position_first", "implicit_euler_doubled")
+    )
 
 
 def test_the_composed_schemes_say_what_they_are_composed_of():
@@ -356,8 +383,13 @@ def test_a_splitting_says_what_is_wrong_with_it():
     with pytest.raises(ValueError, match="no update"):
         Splitting((DRIFT, 0), (DRIFT, 1), (KICK, 1))
     with pytest.raises(ValueError, match="declared stability limit"):
-        splitting_scheme("leapfrog_test", Splitting((DRIFT, "1/2"), (KICK, 1), (DRIFT, "1/2")), order=2,
-                         doc="Leapfrog.", homega_max=2.1)
+        splitting_scheme(
+            "leapfrog_test",
+            Splitting((DRIFT, "1/2"), (KICK, 1), (DRIFT, "1/2")),
+            order=2,
+            doc="Leapfrog.",
+            homega_max=2.1,
+        )
 
 
 def test_a_kicks_time_is_written_from_the_drifts_before_it():
@@ -394,6 +426,12 @@ def test_substepped_takes_n_steps_of_h_over_n():
     assert tri.floor.step(s, 0.3, 2.0, 0.5) == want
     m = lf.amplification(0.9 / 3.0, 0.2)
     assert np.array_equal(tri.amplification(0.9, 0.2), m @ m @ m)
-    assert (tri.force_evals, tri.homega_max, tri.order, tri.energy_claim, tri.symplectic) == (3, 6.0, 2, "bounded", True)
+    assert (tri.force_evals, tri.homega_max, tri.order, tri.energy_claim, tri.symplectic) == (
+        3,
+        6.0,
+        2,
+        "bounded",
+        True,
+    )
     with pytest.raises(ValueError, match="n >= 2"):
         substepped(lf, 1, id="x", doc="x")

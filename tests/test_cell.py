@@ -1,6 +1,7 @@
 """records.cell: a Cell converted to its tidy DataFrame row and its SQLite row and back, for the
 figures of every measure, through the history; a history written before the figures were typed
 loads to the same records."""
+
 from __future__ import annotations
 
 import json
@@ -31,13 +32,27 @@ def _sample(kind: str, i: int):
     if kind.startswith("Claims"):
         return CLAIMS
     if kind.startswith("NominalRun"):
-        return NominalRun(dt=0.01 * i, homega=0.1, steps=10_000, status="unstable", failed_step=2434,
-                          detail="diverged", series={"t": [0.0, 1.0], "energy": [1.0, 2.0], "e0": 1.0})
+        return NominalRun(
+            dt=0.01 * i,
+            homega=0.1,
+            steps=10_000,
+            status="unstable",
+            failed_step=2434,
+            detail="diverged",
+            series={"t": [0.0, 1.0], "energy": [1.0, 2.0], "e0": 1.0},
+        )
     return {"any": i}
 
 
-CLAIMS = Claims(scheme="ref:leapfrog", order=2, order_note=None, force_evals=1, force_evals_text="1",
-                energy="bounded", homega_max=2.0)
+CLAIMS = Claims(
+    scheme="ref:leapfrog",
+    order=2,
+    order_note=None,
+    force_evals=1,
+    force_evals_text="1",
+    energy="bounded",
+    homega_max=2.0,
+)
 
 
 def full_figures(measure: str):
@@ -47,10 +62,23 @@ def full_figures(measure: str):
 
 
 def full_cell(measure: str) -> Cell:
-    return Cell(scene="chain", method="mujoco:discrete", family="mujoco", measure=measure, status="ok",
-                params={"N": 8}, dt=0.01, steps=1000, value=1.25e-3, wall_s=0.5, detail="measured",
-                figures=full_figures(measure), claims=CLAIMS, kernels={"kernels_compiled": 1, "compile_s": 0.5},
-                extra={"unlisted": [1, 2]})
+    return Cell(
+        scene="chain",
+        method="mujoco:discrete",
+        family="mujoco",
+        measure=measure,
+        status="ok",
+        params={"N": 8},
+        dt=0.01,
+        steps=1000,
+        value=1.25e-3,
+        wall_s=0.5,
+        detail="measured",
+        figures=full_figures(measure),
+        claims=CLAIMS,
+        kernels={"kernels_compiled": 1, "compile_s": 0.5},
+        extra={"unlisted": [1, 2]},
+    )
 
 
 @pytest.mark.parametrize("measure", sorted(FIGURES))
@@ -82,8 +110,9 @@ def test_every_measures_cell_survives_the_history(tmp_path, measure):
 
 
 def test_a_failed_cell_stores_no_figures_and_reads_back_empty(tmp_path):
-    cell = Cell(scene="spring", method="faulty:abort", family="faulty", measure="energy", status="crashed",
-                detail="SIGABRT")
+    cell = Cell(
+        scene="spring", method="faulty:abort", family="faulty", measure="energy", status="crashed", detail="SIGABRT"
+    )
     assert cell.figures == EnergyFigures() and cell.data() == {}
     h = History(tmp_path / "h.sqlite")
     run = h.start_run(started="now", suite="smoke", git_commit=None, versions={}, machine={}, settings={})
@@ -95,27 +124,70 @@ def test_a_failed_cell_stores_no_figures_and_reads_back_empty(tmp_path):
 def test_a_history_written_before_the_figures_were_typed_loads():
     """The row as the nightly stored it before: every figure written, None ones as null, the
     energy class under ``class``, claims beside them, an empty dict where no scheme is known."""
-    old = {"scene": "spring", "method": "mujoco:euler", "family": "mujoco", "measure": "identity", "dt": 0.1,
-           "steps": 200, "status": "ok", "detail": None, "value": 0.0, "wall_s": None,
-           "data": json.dumps({"match": "ref:semi_implicit_euler", "matches": ["ref:semi_implicit_euler"],
-                               "closest": "ref:semi_implicit_euler", "runner_up": "ref:leapfrog",
-                               "runner_up_deviation": 0.003, "name_suggests": None, "note": None,
-                               "match_claims": {"order": 1, "force_evals": 1, "force_evals_text": "1",
-                                                "energy": "bounded", "homega_max": 2.0,
-                                                "scheme": "ref:semi_implicit_euler"},
-                               "claims": {}})}
+    old = {
+        "scene": "spring",
+        "method": "mujoco:euler",
+        "family": "mujoco",
+        "measure": "identity",
+        "dt": 0.1,
+        "steps": 200,
+        "status": "ok",
+        "detail": None,
+        "value": 0.0,
+        "wall_s": None,
+        "data": json.dumps(
+            {
+                "match": "ref:semi_implicit_euler",
+                "matches": ["ref:semi_implicit_euler"],
+                "closest": "ref:semi_implicit_euler",
+                "runner_up": "ref:leapfrog",
+                "runner_up_deviation": 0.003,
+                "name_suggests": None,
+                "note": None,
+                "match_claims": {
+                    "order": 1,
+                    "force_evals": 1,
+                    "force_evals_text": "1",
+                    "energy": "bounded",
+                    "homega_max": 2.0,
+                    "scheme": "ref:semi_implicit_euler",
+                },
+                "claims": {},
+            }
+        ),
+    }
     cell = Cell.from_db_row(old)
     assert cell.figures == IdentityFigures(
-        match="ref:semi_implicit_euler", matches=["ref:semi_implicit_euler"], closest="ref:semi_implicit_euler",
-        runner_up="ref:leapfrog", runner_up_deviation=0.003,
-        match_claims=Claims(scheme="ref:semi_implicit_euler", order=1, force_evals=1, force_evals_text="1",
-                            energy="bounded", homega_max=2.0))
+        match="ref:semi_implicit_euler",
+        matches=["ref:semi_implicit_euler"],
+        closest="ref:semi_implicit_euler",
+        runner_up="ref:leapfrog",
+        runner_up_deviation=0.003,
+        match_claims=Claims(
+            scheme="ref:semi_implicit_euler",
+            order=1,
+            force_evals=1,
+            force_evals_text="1",
+            energy="bounded",
+            homega_max=2.0,
+        ),
+    )
     assert cell.claims == Claims() and not cell.claims.known and cell.extra == {}
     assert cell.detail == "" and cell.wall_s == 0.0 and cell.steps == 200
     assert cell.figures.all_matches == ["ref:semi_implicit_euler"]
-    energy = Cell.from_row({"scene": "spring", "method": "ref:rk4", "family": "ref", "measure": "energy",
-                            "status": "ok", "value": 2.5e-6, "steps": 1000.0, "dt": float("nan"),
-                            "data": {"class": "decays", "rule": "trend", "failed_step": None, "settings": None}})
+    energy = Cell.from_row(
+        {
+            "scene": "spring",
+            "method": "ref:rk4",
+            "family": "ref",
+            "measure": "energy",
+            "status": "ok",
+            "value": 2.5e-6,
+            "steps": 1000.0,
+            "dt": float("nan"),
+            "data": {"class": "decays", "rule": "trend", "failed_step": None, "settings": None},
+        }
+    )
     assert energy.figures.energy_class == "decays" and energy.figures.failed_step is None
     assert energy.dt is None and energy.steps == 1000 and energy.claims is None
     assert energy.data() == {"class": "decays", "rule": "trend"}
@@ -123,8 +195,9 @@ def test_a_history_written_before_the_figures_were_typed_loads():
 
 def test_claims_store_none_as_a_claim():
     """Explicit Euler claims no stable h*omega: a None that is stored, unlike a missing figure."""
-    claims = Claims(scheme="ref:explicit_euler", order=1, force_evals=1, force_evals_text="1", energy="grows",
-                    homega_max=None)
+    claims = Claims(
+        scheme="ref:explicit_euler", order=1, force_evals=1, force_evals_text="1", energy="grows", homega_max=None
+    )
     assert claims.to_data()["homega_max"] is None and "order_note" not in claims.to_data()
     assert Claims.from_data(claims.to_data())[0] == claims
     inf = Claims(scheme="ref:implicit_euler", homega_max=math.inf)

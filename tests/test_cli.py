@@ -1,4 +1,5 @@
 """The ``harness`` CLI: run, list, bench; bad input is one line and exit 2."""
+
 import io
 import json
 import subprocess
@@ -21,22 +22,27 @@ def cli(*argv):
 
 
 def test_seed_example_csv():
-    code, out, _ = cli("run", "spring", "--method", "ref:semi_implicit_euler", "--dt", "0.5", "--steps", "4",
-                       "--format", "csv")
+    code, out, _ = cli(
+        "run", "spring", "--method", "ref:semi_implicit_euler", "--dt", "0.5", "--steps", "4", "--format", "csv"
+    )
     assert code == 0
     lines = out.strip().splitlines()
     assert lines[0] == "step,t,q0,v0,energy"
     rows = [[float(x) for x in line.split(",")] for line in lines[1:]]
     assert [r[0] for r in rows] == [0, 1, 2, 3, 4]
     # To the seed's printed 3 decimals (0.3125 prints as 0.313: half a unit either way).
-    for col, want in ((2, [1, 0.75, 0.313, -0.203, -0.668]), (3, [0, -0.5, -0.875, -1.031, -0.930]),
-                      (4, [0.5, 0.406, 0.432, 0.552, 0.655])):
+    for col, want in (
+        (2, [1, 0.75, 0.313, -0.203, -0.668]),
+        (3, [0, -0.5, -0.875, -1.031, -0.930]),
+        (4, [0.5, 0.406, 0.432, 0.552, 0.655]),
+    ):
         assert all(abs(r[col] - w) <= 0.0005 + 1e-12 for r, w in zip(rows, want)), col
 
 
 def test_csv_has_one_column_per_dof_and_every():
-    code, out, _ = cli("run", "kepler", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10", "--every", "4",
-                       "--format", "csv")
+    code, out, _ = cli(
+        "run", "kepler", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10", "--every", "4", "--format", "csv"
+    )
     assert code == 0
     lines = out.strip().splitlines()
     assert lines[0] == "step,t,q0,q1,v0,v1,energy"
@@ -44,8 +50,20 @@ def test_csv_has_one_column_per_dof_and_every():
 
 
 def test_json_and_table_formats():
-    code, out, _ = cli("run", "pendulum", "--method", "ref:leapfrog", "--dt", "0.01", "--steps", "3",
-                       "--format", "json", "--set", "theta0=1.0")
+    code, out, _ = cli(
+        "run",
+        "pendulum",
+        "--method",
+        "ref:leapfrog",
+        "--dt",
+        "0.01",
+        "--steps",
+        "3",
+        "--format",
+        "json",
+        "--set",
+        "theta0=1.0",
+    )
     assert code == 0
     doc = json.loads(out)
     assert doc["status"] == "ok" and len(doc["rows"]) == 4 and doc["rows"][0]["q0"] == 1.0
@@ -54,19 +72,22 @@ def test_json_and_table_formats():
     assert code == 0 and out.splitlines()[0].split() == ["step", "t", "q0", "v0", "energy"]
 
 
-@pytest.mark.parametrize("argv,field", [
-    (["run", "sprung", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2"], "scene"),
-    (["run", "spring", "--method", "ref:rk5", "--dt", "0.1", "--steps", "2"], "method"),
-    (["run", "spring", "--method", "ref:rk4", "--dt", "0", "--steps", "2"], "--dt"),
-    (["run", "spring", "--method", "ref:rk4", "--dt", "-0.1", "--steps", "2"], "--dt"),
-    (["run", "spring", "--method", "ref:rk4", "--dt", "nan", "--steps", "2"], "--dt"),
-    (["run", "spring", "--method", "ref:rk4", "--dt", "inf", "--steps", "2"], "--dt"),
-    (["run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "-1"], "--steps"),
-    (["run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2.5"], "--steps"),
-    (["run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2", "--set", "q=1"], "q"),
-    (["run", "kepler", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2", "--set", "e=1.5"], "e=1.5"),
-    (["run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2", "--format", "xml"], "--format"),
-])
+@pytest.mark.parametrize(
+    "argv,field",
+    [
+        (["run", "sprung", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2"], "scene"),
+        (["run", "spring", "--method", "ref:rk5", "--dt", "0.1", "--steps", "2"], "method"),
+        (["run", "spring", "--method", "ref:rk4", "--dt", "0", "--steps", "2"], "--dt"),
+        (["run", "spring", "--method", "ref:rk4", "--dt", "-0.1", "--steps", "2"], "--dt"),
+        (["run", "spring", "--method", "ref:rk4", "--dt", "nan", "--steps", "2"], "--dt"),
+        (["run", "spring", "--method", "ref:rk4", "--dt", "inf", "--steps", "2"], "--dt"),
+        (["run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "-1"], "--steps"),
+        (["run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2.5"], "--steps"),
+        (["run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2", "--set", "q=1"], "q"),
+        (["run", "kepler", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2", "--set", "e=1.5"], "e=1.5"),
+        (["run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2", "--format", "xml"], "--format"),
+    ],
+)
 def test_bad_input_is_one_line_naming_the_field_exit_2(argv, field):
     code, out, err = cli(*argv)
     assert code == 2
@@ -108,6 +129,24 @@ def test_bench_json_reports_ns_per_step_beside_the_floor():
 
 
 def test_console_script_entry_point_runs():
-    proc = subprocess.run([sys.executable, "-m", "harness", "run", "spring", "--method", "ref:rk4", "--dt", "0.1",
-                           "--steps", "1", "--format", "csv"], capture_output=True, text=True, check=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "harness",
+            "run",
+            "spring",
+            "--method",
+            "ref:rk4",
+            "--dt",
+            "0.1",
+            "--steps",
+            "1",
+            "--format",
+            "csv",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert proc.stdout.startswith("step,t,q0,v0,energy\n")

@@ -4,6 +4,7 @@ numbers where they ask its question, and say what they are doing once they run l
 seconds.
 
 No test here reads a clock to judge: the progress threshold is injected."""
+
 import io
 import json
 from contextlib import redirect_stderr, redirect_stdout
@@ -49,8 +50,23 @@ def stepped(monkeypatch):
 
 def test_stability_steps_the_compiled_run_not_the_interpreter(stepped):
     # The issue's command on a 3 x 3 cloth (the default 8 x 8 costs its compile, the same path).
-    code, out, _ = cli("stability", "cloth", "--set", "n=3", "--set", "m=3", "--method", "ref:semi_implicit_euler",
-                       "--steps", "300", "--hi", "10", "--rtol", "1e-2", "--json")
+    code, out, _ = cli(
+        "stability",
+        "cloth",
+        "--set",
+        "n=3",
+        "--set",
+        "m=3",
+        "--method",
+        "ref:semi_implicit_euler",
+        "--steps",
+        "300",
+        "--hi",
+        "10",
+        "--rtol",
+        "1e-2",
+        "--json",
+    )
     assert code == 0, out
     res = json.loads(out)
     assert res["criterion"] == "finite_horizon" and res["verdict"] == "limited"
@@ -90,14 +106,29 @@ def test_identify_steps_every_candidate_it_runs_in_full_on_the_compiled_run(step
     assert stepped["compiled"] == 1 + (full if cached else 0)
 
 
-@pytest.mark.parametrize("argv", [
-    ("run", "pendulum", "--method", "ref:rk4", "--dt", "0.01", "--steps", "50", "--format", "csv"),
-    ("energy", "pendulum", "--method", "ref:rk4", "--dt", "0.05", "--steps", "200"),
-    ("order", "pendulum", "--method", "ref:leapfrog", "--points", "6", "--periods", "0.25"),
-    ("cost", "pendulum", "--method", "ref:leapfrog", "--dt", "0.05", "--repeats", "1", "--time-steps", "100",
-     "--count-steps", "50"),
-    ("workprecision", "pendulum", "--method", "ref:leapfrog", "--points", "2", "--repeats", "1"),
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ("run", "pendulum", "--method", "ref:rk4", "--dt", "0.01", "--steps", "50", "--format", "csv"),
+        ("energy", "pendulum", "--method", "ref:rk4", "--dt", "0.05", "--steps", "200"),
+        ("order", "pendulum", "--method", "ref:leapfrog", "--points", "6", "--periods", "0.25"),
+        (
+            "cost",
+            "pendulum",
+            "--method",
+            "ref:leapfrog",
+            "--dt",
+            "0.05",
+            "--repeats",
+            "1",
+            "--time-steps",
+            "100",
+            "--count-steps",
+            "50",
+        ),
+        ("workprecision", "pendulum", "--method", "ref:leapfrog", "--points", "2", "--repeats", "1"),
+    ],
+)
 def test_every_single_scene_command_steps_the_compiled_run(stepped, argv):
     code, out, _ = cli(*argv)
     assert code == 0, out
@@ -117,12 +148,26 @@ def test_stability_gives_the_nightly_cells_numbers_for_its_question():
     task = Task("cell", "pendulum", "ref:leapfrog", "ref", {}, suite)
     scene = make_scene("pendulum")
     cell = _stability(task, get_method("ref:leapfrog", compiled_where_bitwise=True), scene, suite, spec)
-    code, out, _ = cli("stability", "pendulum", "--method", "ref:leapfrog", "--steps", str(suite.stability_steps),
-                       "--hi", repr(suite.stability_homega_max), "--rtol", repr(suite.stability_rtol), "--json")
+    code, out, _ = cli(
+        "stability",
+        "pendulum",
+        "--method",
+        "ref:leapfrog",
+        "--steps",
+        str(suite.stability_steps),
+        "--hi",
+        repr(suite.stability_homega_max),
+        "--rtol",
+        repr(suite.stability_rtol),
+        "--json",
+    )
     assert code == 0, out
     res = json.loads(out)
-    assert (res["omega_dt_max"], res["dt_max"], res["criterion"]) == \
-        (cell.value, cell.figures.dt_max, cell.figures.criterion)
+    assert (res["omega_dt_max"], res["dt_max"], res["criterion"]) == (
+        cell.value,
+        cell.figures.dt_max,
+        cell.figures.criterion,
+    )
 
 
 def test_identify_gives_the_nightly_cells_answer():
@@ -144,8 +189,9 @@ def test_a_long_command_says_what_it_is_doing(monkeypatch, tmp_path):
     monkeypatch.setattr(progress, "QUIET_S", 0.0)  # every line at once, as past the threshold
     monkeypatch.setenv("HARNESS_CACHE", str(tmp_path))  # nothing compiled here: the compile is named
     monkeypatch.setattr(_compiled, "_DRIVERS", {})  # nor loaded in this process
-    code, out, err = cli("stability", "pendulum", "--method", "ref:leapfrog", "--steps", "200", "--hi", "10",
-                         "--rtol", "1e-2", "--json")
+    code, out, err = cli(
+        "stability", "pendulum", "--method", "ref:leapfrog", "--steps", "200", "--hi", "10", "--rtol", "1e-2", "--json"
+    )
     assert code == 0, out
     res = json.loads(out)
     lines = err.splitlines()
@@ -180,12 +226,15 @@ def test_progress_is_quiet_for_its_first_seconds_then_says_the_latest():
     assert stream.getvalue() == "said\n"
 
 
-@pytest.mark.parametrize("argv,env,field", [
-    (("stability", "spring", "--method", "ref:rk4", "--rtol", "1.5"), None, "--rtol"),
-    (("stability", "spring", "--method", "ref:rk4", "--rtol", "nan"), None, "--rtol"),
-    (("run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2"), "soon", "HARNESS_PROGRESS_AFTER"),
-    (("run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2"), "-1", "HARNESS_PROGRESS_AFTER"),
-])
+@pytest.mark.parametrize(
+    "argv,env,field",
+    [
+        (("stability", "spring", "--method", "ref:rk4", "--rtol", "1.5"), None, "--rtol"),
+        (("stability", "spring", "--method", "ref:rk4", "--rtol", "nan"), None, "--rtol"),
+        (("run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2"), "soon", "HARNESS_PROGRESS_AFTER"),
+        (("run", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "2"), "-1", "HARNESS_PROGRESS_AFTER"),
+    ],
+)
 def test_bad_input_is_one_line_naming_the_field(monkeypatch, argv, env, field):
     if env is not None:
         monkeypatch.setenv("HARNESS_PROGRESS_AFTER", env)

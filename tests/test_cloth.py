@@ -1,5 +1,6 @@
 """The stiff mass-spring cloth: its force, stiffness matrix, solves, reference and stability
 against independent numbers. Every tolerance says where it comes from."""
+
 from __future__ import annotations
 
 import math
@@ -25,8 +26,9 @@ def perturbed(scene, size=0.01, seed=1):
     return q0 + size * np.random.default_rng(seed).standard_normal(q0.shape), v0
 
 
-@pytest.mark.parametrize("bad", [{"n": 1}, {"m": 101}, {"n": 2.5}, {"k": 0}, {"k_shear": -1}, {"mass": 0},
-                                 {"pins": 2}, {"s": 0}, {"g": -1}])
+@pytest.mark.parametrize(
+    "bad", [{"n": 1}, {"m": 101}, {"n": 2.5}, {"k": 0}, {"k_shear": -1}, {"mass": 0}, {"pins": 2}, {"s": 0}, {"g": -1}]
+)
 def test_parameter_validation(bad, capsys):
     with pytest.raises(InvalidInput) as err:
         make_scene("cloth", **bad)
@@ -36,8 +38,9 @@ def test_parameter_validation(bad, capsys):
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
-@pytest.mark.parametrize("scene_id, params", [("cloth", {}), ("net", {}), ("cloth", {"pins": 1}),
-                                              ("cloth", {"n": 3, "m": 5, "k_bend": 0.0})])
+@pytest.mark.parametrize(
+    "scene_id, params", [("cloth", {}), ("net", {}), ("cloth", {"pins": 1}), ("cloth", {"n": 3, "m": 5, "k_bend": 0.0})]
+)
 def test_accel_kernel_is_the_vectorised_spring_force(scene_id, params):
     """The kernel's loops against the reference's numpy right-hand side (another spelling of the
     same springs, summed in another order): equal to roundoff of the largest term (|a| ~ 1e3,
@@ -46,12 +49,13 @@ def test_accel_kernel_is_the_vectorised_spring_force(scene_id, params):
     q, v = perturbed(scene)
     a = scene.accel(q[:, None], v[:, None], 0.0, scene.pvec)[:, 0]
     rhs = scene._rhs()(0.0, np.concatenate([q, v]))
-    np.testing.assert_allclose(a, rhs[scene.ndof:], rtol=0, atol=1e-12 * np.max(np.abs(a)))
-    np.testing.assert_array_equal(rhs[:scene.ndof], v)
+    np.testing.assert_allclose(a, rhs[scene.ndof :], rtol=0, atol=1e-12 * np.max(np.abs(a)))
+    np.testing.assert_array_equal(rhs[: scene.ndof], v)
 
 
-@pytest.mark.parametrize("scene_id, params", [("cloth", {}), ("net", {}), ("cloth", {"pins": 1}),
-                                              ("cloth", {"n": 3, "m": 5, "k_bend": 0.0})])
+@pytest.mark.parametrize(
+    "scene_id, params", [("cloth", {}), ("net", {}), ("cloth", {"pins": 1}), ("cloth", {"n": 3, "m": 5, "k_bend": 0.0})]
+)
 def test_the_reference_s_right_hand_side_adds_each_node_s_forces_as_add_at_does(scene_id, params):
     """The reference's sparse incidence product against ``np.add.at`` over the springs' starts,
     then their ends: the same sums in the same order, so the same bits (the reference solve,
@@ -71,7 +75,7 @@ def test_the_reference_s_right_hand_side_adds_each_node_s_forces_as_add_at_does(
     np.add.at(force, b, -f)
     acc = force[free] / scene.node_mass
     acc[:, d - 1] -= scene.values["g"]
-    np.testing.assert_array_equal(scene._rhs()(0.0, np.concatenate([q, v]))[scene.ndof:], acc.ravel())
+    np.testing.assert_array_equal(scene._rhs()(0.0, np.concatenate([q, v]))[scene.ndof :], acc.ravel())
 
 
 def test_energy_at_rest_and_free_nodes():
@@ -94,8 +98,10 @@ def test_hessian_is_the_force_derivative_and_symmetric(small):
     for c in range(small.ndof):
         e = np.zeros(small.ndof)
         e[c] = 1e-6
-        jac[:, c] = (small.accel((q + e)[:, None], v[:, None], 0.0, p)[:, 0]
-                     - small.accel((q - e)[:, None], v[:, None], 0.0, p)[:, 0]) / 2e-6
+        jac[:, c] = (
+            small.accel((q + e)[:, None], v[:, None], 0.0, p)[:, 0]
+            - small.accel((q - e)[:, None], v[:, None], 0.0, p)[:, 0]
+        ) / 2e-6
     assert np.max(np.abs(hess + m * jac)) <= 1e-8 * np.max(np.abs(hess))
     assert np.max(np.abs(hess - hess.T)) <= 1e-13 * np.max(np.abs(hess))
 
@@ -161,17 +167,17 @@ def test_a_reference_past_its_kept_dense_output_solves_a_segment_again_to_the_sa
     from scenarios import _solutions
 
     scene = make_scene("cloth", n=3, m=3)
-    t = np.linspace(0.0, 1.5, 31)                         # 0.5 and 1.0 are boundaries of the 0.5 s segments
+    t = np.linspace(0.0, 1.5, 31)  # 0.5 and 1.0 are boundaries of the 0.5 s segments
     kept = _solutions.SegmentedSolution(scene._rhs(), np.concatenate(scene.initial_state()), 0.5, 1e-10, 1e-10)
     whole = kept(t)
     monkeypatch.setattr(_solutions, "KEPT_VALUES", 0)
     bare = _solutions.SegmentedSolution(scene._rhs(), np.concatenate(scene.initial_state()), 0.5, 1e-10, 1e-10)
-    np.testing.assert_array_equal(bare(t[:11]), whole[:11])   # to t = 0.5: one segment solved
+    np.testing.assert_array_equal(bare(t[:11]), whole[:11])  # to t = 0.5: one segment solved
     assert bare.solves == 1 and not bare.pieces
-    np.testing.assert_array_equal(bare(t), whole)            # segment 0 again, 1 and 2 for the first time
+    np.testing.assert_array_equal(bare(t), whole)  # segment 0 again, 1 and 2 for the first time
     assert bare.solves == 4 and len(bare.starts) == 4
     np.testing.assert_array_equal(bare(t), whole)
-    assert bare.solves == 4                                  # the same times: the values kept
+    assert bare.solves == 4  # the same times: the values kept
 
 
 def test_stiff_by_default_at_60_hz():
@@ -180,16 +186,19 @@ def test_stiff_by_default_at_60_hz():
     assert scene.omega / 60.0 > 2.0 * math.sqrt(2.0)
 
 
-@pytest.mark.parametrize("scheme_id, theory, low", [
-    # RK4 damps its stiff modes near its limit: the linear limit holds (measured 2.8208 against 2.8284).
-    ("rk4", 2.0 * math.sqrt(2.0), 0.99),
-    # The symplectic one-evaluation schemes keep the stiff modes' energy and pass it between them
-    # through the nonlinear springs: a run of 10,000 steps blows up below the linear limit of 2
-    # (measured 1.573 for semi-implicit Euler, 1.586 for leapfrog: energy x1.4 by h w = 1.55, 1e185
-    # at 1.6). The Hessian's limit is an upper bound for them, not the limit.
-    ("semi_implicit_euler", 2.0, 0.75),
-    ("leapfrog", 2.0, 0.75),
-])
+@pytest.mark.parametrize(
+    "scheme_id, theory, low",
+    [
+        # RK4 damps its stiff modes near its limit: the linear limit holds (measured 2.8208 against 2.8284).
+        ("rk4", 2.0 * math.sqrt(2.0), 0.99),
+        # The symplectic one-evaluation schemes keep the stiff modes' energy and pass it between them
+        # through the nonlinear springs: a run of 10,000 steps blows up below the linear limit of 2
+        # (measured 1.573 for semi-implicit Euler, 1.586 for leapfrog: energy x1.4 by h w = 1.55, 1e185
+        # at 1.6). The Hessian's limit is an upper bound for them, not the limit.
+        ("semi_implicit_euler", 2.0, 0.75),
+        ("leapfrog", 2.0, 0.75),
+    ],
+)
 @pytest.mark.slow
 def test_largest_stable_step_against_the_hessians_omega(small, scheme_id, theory, low):
     """The finite-horizon search (as for every nonlinear scene) against theory / omega_max, with
@@ -208,8 +217,14 @@ def test_implicit_euler_survives_a_60_hz_step_and_damps(small):
 
 
 # ------------------------------------------------------------ linearly implicit Euler
-LINEAR_CASES = [("spring", {}, 0.1), ("spring", {}, 5.0), ("damped_spring", {"c": 0.5}, 0.3),
-                ("chain", {"N": 8}, 0.05), ("chain", {"N": 8, "c": 20.0}, 0.05), ("projectile", {}, 0.1)]
+LINEAR_CASES = [
+    ("spring", {}, 0.1),
+    ("spring", {}, 5.0),
+    ("damped_spring", {"c": 0.5}, 0.3),
+    ("chain", {"N": 8}, 0.05),
+    ("chain", {"N": 8, "c": 20.0}, 0.05),
+    ("projectile", {}, 0.1),
+]
 
 
 @pytest.mark.parametrize("scene_id, params, dt", LINEAR_CASES)
@@ -257,8 +272,15 @@ def test_implicit_cost_grows_about_linearly_with_the_cloth():
     side), a dense one 3. Read off the clock: ``pytest -m slow``."""
     from harness.measures.scaling import cloth_sizes, cost_vs_size
 
-    frame = cost_vs_size("cloth", cloth_sizes((16, 24, 32)), "linearly_implicit_euler", dt=1 / 60, repeats=3,
-                         work_per_call=100_000, min_steps=5)
+    frame = cost_vs_size(
+        "cloth",
+        cloth_sizes((16, 24, 32)),
+        "linearly_implicit_euler",
+        dt=1 / 60,
+        repeats=3,
+        work_per_call=100_000,
+        min_steps=5,
+    )
     assert (frame["ndof"] > cloth_module.DIRECT_MAX_DOF).all()
     assert 0.7 <= frame.attrs["slope"] <= 1.3, frame.to_string()
 
@@ -270,14 +292,25 @@ def test_the_one_frame_finding_names_survivors_and_the_substeps_of_the_rest():
     from records.cell import FIGURES, Cell, pivot
 
     def stab(method, value, **figures):
-        return Cell(scene="cloth", method=method, family=method.split(":")[0], measure="stability", status="ok",
-                    value=value, dt=0.1, steps=100, figures=FIGURES["stability"](**figures))
+        return Cell(
+            scene="cloth",
+            method=method,
+            family=method.split(":")[0],
+            measure="stability",
+            status="ok",
+            value=value,
+            dt=0.1,
+            steps=100,
+            figures=FIGURES["stability"](**figures),
+        )
 
     omega = 172.0
-    cells = [stab("ref:implicit_euler", math.inf, verdict="unbounded", unbounded=True),
-             stab("ref:rk4", 2.82, verdict="limited", dt_max=2.82 / omega),
-             stab("ref:semi_implicit_euler", 1.57, verdict="limited", dt_max=1.57 / omega),
-             stab("ref:explicit_euler", None, verdict="unstable", unstable_everywhere=True)]
+    cells = [
+        stab("ref:implicit_euler", math.inf, verdict="unbounded", unbounded=True),
+        stab("ref:rk4", 2.82, verdict="limited", dt_max=2.82 / omega),
+        stab("ref:semi_implicit_euler", 1.57, verdict="limited", dt_max=1.57 / omega),
+        stab("ref:explicit_euler", None, verdict="unstable", unstable_everywhere=True),
+    ]
     check = judge.Check("survives_one_frame", "stability", expect=60.0)
     (finding,) = judge.survives_one_frame(check, "cloth", pivot(cells))
     assert finding.ok is True
@@ -336,15 +369,20 @@ def test_the_full_suites_cloth_has_a_scaling_cell_and_finding():
 
     spec = SUITES["full"].scenes["cloth"]
     assert [s["n"] for s in spec.extras.scaling["sizes"]] == [16, 24, 32]
-    small = dataclasses.replace(spec, extras=dataclasses.replace(
-        spec.extras, scaling={"sizes": tuple(cloth_sizes((4, 6, 8))), "repeats": 1, "work_per_call": 20_000}))
+    small = dataclasses.replace(
+        spec,
+        extras=dataclasses.replace(
+            spec.extras, scaling={"sizes": tuple(cloth_sizes((4, 6, 8))), "repeats": 1, "work_per_call": 20_000}
+        ),
+    )
     cells = []
     for method in ("ref:implicit_euler", "ref:linearly_implicit_euler", "ref:rk4"):
         task = Task("cell", "cloth", method, "ref", {}, "full")
         assert ("scaling" in measures_for(task, small)) == (method != "ref:rk4")
         if method != "ref:rk4":  # the scaling cell alone (every method also has its stretch cell, a long run)
-            ctx = TaskContext(task, SUITES["full"], small, make_scene("cloth"), get_method(method),
-                              get_method(method), 1e-3)
+            ctx = TaskContext(
+                task, SUITES["full"], small, make_scene("cloth"), get_method(method), get_method(method), 1e-3
+            )
             cells += get("scaling").run(ctx)
     assert [c.measure for c in cells] == ["scaling", "scaling"] and all(c.status == "ok" for c in cells)
     assert [row["ndof"] for row in cells[0].figures.rows] == [3 * (16 - 2), 3 * (36 - 2), 3 * (64 - 2)]

@@ -1,5 +1,6 @@
 """The cloth in the engines: what each engine mode integrates there, against the reference
 schemes and independent numbers. Every tolerance says where it comes from."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -13,16 +14,26 @@ from scenarios import make_scene
 
 #: The 3-D sheet's identities run every candidate scheme on 48 degrees of freedom: marked slow
 #: (``make test-slow``); the planar net asks the same questions of the same code in ``make test``.
-@pytest.fixture(scope="module", params=[pytest.param(("cloth", {"n": 4, "m": 4}), marks=pytest.mark.slow, id="sheet"),
-                                        pytest.param(("net", {"n": 4, "m": 3, "pins": 1}), id="planar")])
+@pytest.fixture(
+    scope="module",
+    params=[
+        pytest.param(("cloth", {"n": 4, "m": 4}), marks=pytest.mark.slow, id="sheet"),
+        pytest.param(("net", {"n": 4, "m": 3, "pins": 1}), id="planar"),
+    ],
+)
 def cloth(request):
     return make_scene(request.param[0], **request.param[1])
 
 
-@pytest.mark.parametrize("method_id, scheme_id", [
-    ("mujoco:euler", "ref:semi_implicit_euler"), ("mujoco:implicit", "ref:semi_implicit_euler"),
-    ("mujoco:implicitfast", "ref:semi_implicit_euler"), ("mujoco:rk4", "ref:rk4"),
-])
+@pytest.mark.parametrize(
+    "method_id, scheme_id",
+    [
+        ("mujoco:euler", "ref:semi_implicit_euler"),
+        ("mujoco:implicit", "ref:semi_implicit_euler"),
+        ("mujoco:implicitfast", "ref:semi_implicit_euler"),
+        ("mujoco:rk4", "ref:rk4"),
+    ],
+)
 def test_mujoco_tendon_sheet_is_the_reference_scheme(cloth, method_id, scheme_id):
     """Slide joints and spatial tendons pose the scene's force exactly: each mode is its scheme to
     roundoff over 300 steps at h omega = 0.063 (measured 3.8e-14 at most; MATCH_RTOL 1e-9 of the
@@ -41,7 +52,7 @@ def test_mujoco_discrete_is_one_solve_without_the_geometric_stiffness(cloth):
     sheet, 6.6e-5 on the planar net (its springs stretched less)."""
     q, v = (x[0] for x in cloth.reference_solution([0.3]))
     h = 0.5 / cloth.omega
-    (y1, why), = get_method("mujoco:discrete").one_steps(cloth, h, np.concatenate([q, v])[None, :])
+    ((y1, why),) = get_method("mujoco:discrete").one_steps(cloth, h, np.concatenate([q, v])[None, :])
     assert y1 is not None, why
     a, b, k, _ = cloth.springs()
     x = cloth.positions(q)
@@ -55,7 +66,7 @@ def test_mujoco_discrete_is_one_solve_without_the_geometric_stiffness(cloth):
         block = k[t] * np.outer(u[t], u[t])
         for r, c, sign in ((a[t], a[t], 1), (b[t], b[t], 1), (a[t], b[t], -1), (b[t], a[t], -1)):
             if free[r] >= 0 and free[c] >= 0:
-                gn[free[r] * d:free[r] * d + d, free[c] * d:free[c] * d + d] += sign * block
+                gn[free[r] * d : free[r] * d + d, free[c] * d : free[c] * d + d] += sign * block
     m = cloth.node_mass
     f = m * cloth.accel(q[:, None], v[:, None], 0.0, cloth.pvec)[:, 0]
 

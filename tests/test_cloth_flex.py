@@ -1,6 +1,7 @@
 """MuJoCo's flexcomp membrane on the cloth's grid (``cloth_flex``): labelled as not the cloth's
 model, its perturbing defaults off and recorded, its energy and frequency checked against
 numbers computed here, its error and order against its own refined RK4 run, bad input refused."""
+
 from __future__ import annotations
 
 import json
@@ -36,8 +37,17 @@ def _step(mode, scene, hw, steps, every=1):
 def test_every_output_says_it_is_not_the_cloths_model(flex, capsys):
     assert "not the same model" in flex.model_note and "not the same model" in flex.describe()["model_note"]
     assert make_scene("cloth").model_note is None
-    args = ["energy", "cloth_flex", "--method", "mujoco:rk4", "--dt", "1e-4", "--steps", "20",
-            *(f"--set={k}={v}" for k, v in SMALL.items())]
+    args = [
+        "energy",
+        "cloth_flex",
+        "--method",
+        "mujoco:rk4",
+        "--dt",
+        "1e-4",
+        "--steps",
+        "20",
+        *(f"--set={k}={v}" for k, v in SMALL.items()),
+    ]
     assert main(args) == 0
     out = capsys.readouterr().out
     assert out.splitlines()[0] == f"cloth_flex: {flex.model_note}"
@@ -105,8 +115,9 @@ def test_membrane_energy_is_the_potential_of_mujocos_force(flex):
     q = flex.initial_state()[0] + rng.normal(0.0, 0.01, flex.ndof)
     force, m, d = _engine_force(flex, q)
     h = 1e-7
-    grad = np.array([(flex.membrane_energy(q + h * e) - flex.membrane_energy(q - h * e)) / (2 * h)
-                     for e in np.eye(flex.ndof)])
+    grad = np.array(
+        [(flex.membrane_energy(q + h * e) - flex.membrane_energy(q - h * e)) / (2 * h) for e in np.eye(flex.ndof)]
+    )
     assert np.max(np.abs(force + grad)) <= 1e-8 * np.max(np.abs(force))
     m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
     mujoco.mj_energyPos(m, d)
@@ -157,7 +168,9 @@ def test_order_against_its_own_refined_run(flex, mode, lo, hi):
     reference): RK4 of order 4 and Euler of order 1 over two periods, h omega 0.3 to 1.2."""
     grid_error = flex.reference_error(None)
     assert grid_error <= 1e-11
-    res = observed_order(f"mujoco:{mode}", flex, periods=2.0, dts=[hw / flex.omega for hw in (0.3, 0.45, 0.6, 0.9, 1.2)])
+    res = observed_order(
+        f"mujoco:{mode}", flex, periods=2.0, dts=[hw / flex.omega for hw in (0.3, 0.45, 0.6, 0.9, 1.2)]
+    )
     assert lo <= res["order"] <= hi, res
     assert all(p["error"] > grid_error for p in res["points"])
 
@@ -173,8 +186,22 @@ def test_a_blow_up_is_a_recorded_unstable_run(flex):
 def test_bad_parameters_are_refused_in_one_line(values, field, capsys):
     with pytest.raises(InvalidInput, match=field):
         make_scene("cloth_flex", **values)
-    assert main(["energy", "cloth_flex", "--method", "mujoco:euler", "--dt", "1e-3", "--steps", "2",
-                 *(f"--set={k}={v}" for k, v in values.items())]) == 2
+    assert (
+        main(
+            [
+                "energy",
+                "cloth_flex",
+                "--method",
+                "mujoco:euler",
+                "--dt",
+                "1e-3",
+                "--steps",
+                "2",
+                *(f"--set={k}={v}" for k, v in values.items()),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert field in err and "\n" not in err
 
@@ -196,8 +223,15 @@ def test_nightly_cells_and_report_say_it_is_not_the_same_model(flex):
     from reports.markdown import scene_section
 
     spec = SceneSpec(params=SMALL, periods=2, stability=False, order_points=6, order_periods=2.0)
-    suite = Suite("flex", scenes={"cloth_flex": spec}, methods=("mujoco:euler",), cost_repeats=1, cost_steps=200,
-                  identify=False, bounds=False)
+    suite = Suite(
+        "flex",
+        scenes={"cloth_flex": spec},
+        methods=("mujoco:euler",),
+        cost_repeats=1,
+        cost_steps=200,
+        identify=False,
+        bounds=False,
+    )
     cells = run_task(Task("cell", "cloth_flex", "mujoco:euler", "mujoco", params=SMALL, suite=suite))
     assert {c.measure for c in cells} >= {"energy", "error", "order", "cost"}
     assert all(c.model_note == flex.model_note for c in cells)

@@ -3,6 +3,7 @@ integrates, the springs and masses it builds, the defaults that perturb it, its 
 the refusals. Small sheets, a few hundred steps each; every tolerance says where it comes from.
 Measured with pybullet 3.2.7.
 """
+
 from __future__ import annotations
 
 import io
@@ -74,8 +75,9 @@ def _bullet_sheet(n, m, k, mass, dt, **load):
     with os.fdopen(fd, "w") as f:
         f.write(grid_mesh(n, m))
     try:
-        body = p.loadSoftBody(path, scale=0.1, mass=mass, springElasticStiffness=k, physicsClientId=cid,
-                              **{**LOAD, **load})
+        body = p.loadSoftBody(
+            path, scale=0.1, mass=mass, springElasticStiffness=k, physicsClientId=cid, **{**LOAD, **load}
+        )
     finally:
         os.remove(path)
     p.changeDynamics(body, -1, activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
@@ -154,8 +156,14 @@ def test_perturbing_defaults_are_off_and_recorded():
     s = run.meta.settings
     for name in ("springDampingStiffness", "springBendingStiffness", "frictionCoeff"):
         assert s[name] == 0.0, name
-    for name in ("useBendingSprings", "useSelfCollision", "useFaceContact", "useNeoHookean",
-                 "springDampingAllDirections", "numSubSteps"):
+    for name in (
+        "useBendingSprings",
+        "useSelfCollision",
+        "useFaceContact",
+        "useNeoHookean",
+        "springDampingAllDirections",
+        "numSubSteps",
+    ):
         assert s[name] == 0, name
     assert s["gravity"] == [0.0, 0.0, -9.81] and s["fixedTimeStep"] == 1e-3
     assert s["nodes"] == 12 and s["nodes_at_scene_start"] is True

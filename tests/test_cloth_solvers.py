@@ -1,6 +1,7 @@
 """The solves practitioners ship, as options of the implicit schemes (``reference.solvers``): each
 one is the exact solve as its tolerance goes to zero, is identified as such, is counted and timed,
 and says when it stops short. Every tolerance says where it comes from."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -45,22 +46,27 @@ def test_the_solve_is_an_option_in_the_id():
     assert "solver" not in declared_options(get_method("ref:leapfrog"))
 
 
-@pytest.mark.parametrize("method_id, says", [
-    ("ref:implicit_euler?solver=lu", "allowed: scene, direct, pcg_jacobi, pcg_amg, local_global"),
-    ("ref:implicit_euler?solver=direct&tol=1e-3", "option tol applies with solver=pcg_jacobi or pcg_amg"),
-    ("ref:implicit_euler?tol=1e-3", "option tol applies with solver=pcg_jacobi or pcg_amg"),
-    ("ref:implicit_euler?solver=pcg_amg&iterations=3", "option iterations applies with solver=local_global"),
-    ("ref:linearly_implicit_euler?solver=local_global", "allowed: scene, direct, pcg_jacobi, pcg_amg"),
-    ("ref:linearly_implicit_euler?solver=pcg_jacobi&tol=0", "option tol=0 is out of range"),
-    ("ref:linearly_implicit_euler?solver=pcg_jacobi&maxiter=2.5", "option maxiter='2.5' is not an integer"),
-    ("ref:leapfrog?solver=direct", "unknown option 'solver'"),
-])
+@pytest.mark.parametrize(
+    "method_id, says",
+    [
+        ("ref:implicit_euler?solver=lu", "allowed: scene, direct, pcg_jacobi, pcg_amg, local_global"),
+        ("ref:implicit_euler?solver=direct&tol=1e-3", "option tol applies with solver=pcg_jacobi or pcg_amg"),
+        ("ref:implicit_euler?tol=1e-3", "option tol applies with solver=pcg_jacobi or pcg_amg"),
+        ("ref:implicit_euler?solver=pcg_amg&iterations=3", "option iterations applies with solver=local_global"),
+        ("ref:linearly_implicit_euler?solver=local_global", "allowed: scene, direct, pcg_jacobi, pcg_amg"),
+        ("ref:linearly_implicit_euler?solver=pcg_jacobi&tol=0", "option tol=0 is out of range"),
+        ("ref:linearly_implicit_euler?solver=pcg_jacobi&maxiter=2.5", "option maxiter='2.5' is not an integer"),
+        ("ref:leapfrog?solver=direct", "unknown option 'solver'"),
+    ],
+)
 def test_a_bad_solve_is_refused_in_one_line(method_id, says, capsys):
     with pytest.raises(InvalidInput) as err:
         get_method(method_id)
     assert says in str(err.value) and "\n" not in str(err.value)
-    assert main(["run", "cloth", "--set", "n=3", "--set", "m=3", "--method", method_id, "--dt", "0.01",
-                 "--steps", "1"]) == 2
+    assert (
+        main(["run", "cloth", "--set", "n=3", "--set", "m=3", "--method", method_id, "--dt", "0.01", "--steps", "1"])
+        == 2
+    )
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
@@ -99,8 +105,10 @@ def test_conjugate_gradients_converge_to_the_exact_solve(sheet, solver):
     the deviation from the exact solve falls with the tolerance, and at 1e-12 it is roundoff's
     (below 1e-10: the residual's 1e-12 times the system's condition, about 20 here)."""
     exact = run("ref:linearly_implicit_euler", sheet)
-    devs = [deviation(run(f"ref:linearly_implicit_euler?solver={solver}&tol={tol}", sheet), exact)
-            for tol in (1e-2, 1e-5, 1e-8, 1e-12)]
+    devs = [
+        deviation(run(f"ref:linearly_implicit_euler?solver={solver}&tol={tol}", sheet), exact)
+        for tol in (1e-2, 1e-5, 1e-8, 1e-12)
+    ]
     assert devs[0] > devs[1] > devs[2] > devs[3] and devs[3] < 1e-10, devs
     assert devs[0] > 1e-5  # a loose solve does show (so the ordering above is not roundoff's)
 
@@ -119,8 +127,10 @@ def test_local_global_converges_to_backward_euler(sheet):
     step: the deviation falls with the passes (linearly, slowly for stiff springs) and reaches
     below 1e-9 by 1000 passes (measured 7.7e-7 at 200, k = 1000)."""
     exact = run("ref:implicit_euler", sheet, steps=20)
-    devs = [deviation(run(f"ref:implicit_euler?solver=local_global&iterations={n}", sheet, steps=20), exact)
-            for n in (3, 30, 300, 1000)]
+    devs = [
+        deviation(run(f"ref:implicit_euler?solver=local_global&iterations={n}", sheet, steps=20), exact)
+        for n in (3, 30, 300, 1000)
+    ]
     assert devs[0] > devs[1] > devs[2] > devs[3] and devs[3] < 1e-9, devs
 
 
@@ -139,8 +149,13 @@ def test_the_net_in_its_plane(sheet):
     exact = run("ref:implicit_euler", net)
     assert deviation(run("ref:implicit_euler?solver=direct", net), exact) < 1e-12
     assert deviation(run("ref:implicit_euler?solver=pcg_amg&tol=1e-6", net), exact) < 1e-12
-    assert deviation(run("ref:implicit_euler?solver=local_global&iterations=1000", net, steps=20),
-                     run("ref:implicit_euler", net, steps=20)) < 1e-8
+    assert (
+        deviation(
+            run("ref:implicit_euler?solver=local_global&iterations=1000", net, steps=20),
+            run("ref:implicit_euler", net, steps=20),
+        )
+        < 1e-8
+    )
 
 
 # ----------------------------------------------------------------------------- identified, counted, timed
@@ -181,14 +196,40 @@ def test_a_solve_stopped_at_its_cap_is_flagged(sheet):
     capped = run("ref:linearly_implicit_euler?solver=pcg_jacobi&tol=1e-12&maxiter=2", sheet, steps=10)
     assert capped.ok and capped.meta.unconverged_solves == 9 and capped.meta.solver_iterations == 1 + 9 * 2
     assert "9 of 10 solves stopped short of their tolerance" in capped.detail
-    assert counted_evaluations("ref:linearly_implicit_euler?solver=pcg_jacobi&tol=1e-12&maxiter=2",
-                               sheet, H, steps=10)["unconverged_solves"] == 9
+    assert (
+        counted_evaluations("ref:linearly_implicit_euler?solver=pcg_jacobi&tol=1e-12&maxiter=2", sheet, H, steps=10)[
+            "unconverged_solves"
+        ]
+        == 9
+    )
 
 
 def test_the_cost_command_says_the_solve_s_counts_and_loop(capsys):
-    assert main(["cost", "cloth", "--set", "n=4", "--set", "m=4", "--set", "k=1000", "--dt", str(H), "--method",
-                 "ref:linearly_implicit_euler?solver=pcg_jacobi&tol=1e-12&maxiter=2", "--count-steps", "10",
-                 "--time-steps", "10", "--repeats", "1"]) == 0
+    assert (
+        main(
+            [
+                "cost",
+                "cloth",
+                "--set",
+                "n=4",
+                "--set",
+                "m=4",
+                "--set",
+                "k=1000",
+                "--dt",
+                str(H),
+                "--method",
+                "ref:linearly_implicit_euler?solver=pcg_jacobi&tol=1e-12&maxiter=2",
+                "--count-steps",
+                "10",
+                "--time-steps",
+                "10",
+                "--repeats",
+                "1",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "its solve's iterations per step: 1.9; solves stopped short of their tolerance: 9 over 10 steps" in out
     assert "interpreted: a Python loop over the scheme's step" in out
@@ -205,8 +246,7 @@ def test_an_indefinite_system_stops_conjugate_gradients():
 
 def test_timed_on_the_loop_that_runs_it(sheet):
     """A library solve cannot be compiled: its cost is the Python loop's, and the timing says so."""
-    res = wall_time_per_step("ref:linearly_implicit_euler?solver=direct", sheet, H, steps=20, repeats=2,
-                             clock="cpu")
+    res = wall_time_per_step("ref:linearly_implicit_euler?solver=direct", sheet, H, steps=20, repeats=2, clock="cpu")
     assert res["timing"].startswith("interpreted: a Python loop over the scheme's step")
     assert "SuperLU" in res["timing"] and res["s_per_step"] > 0
     compiled = wall_time_per_step("ref:linearly_implicit_euler", sheet, H, steps=200, repeats=2, clock="cpu")
@@ -246,10 +286,22 @@ def test_a_sweep_cell_takes_its_size_s_own_methods(injected_costs):
     from harness.nightly.suites import SceneExtras, SceneSpec, Suite
     from records.measures import get
 
-    sweep = {"grid": "k=1e2..1e3:2", "hz": 60.0, "request": {"horizon": 0.2, "energy_tol": 0.5, "max_substeps": 2},
-             "methods": ("ref:leapfrog",), "factor": 1000.0, "cap": 8,
-             "sizes": ({"label": "3 x 3", "params": {"n": 3, "m": 3}, "task": "ref:leapfrog",
-                        "methods": ("ref:leapfrog", "ref:linearly_implicit_euler?solver=direct")},)}
+    sweep = {
+        "grid": "k=1e2..1e3:2",
+        "hz": 60.0,
+        "request": {"horizon": 0.2, "energy_tol": 0.5, "max_substeps": 2},
+        "methods": ("ref:leapfrog",),
+        "factor": 1000.0,
+        "cap": 8,
+        "sizes": (
+            {
+                "label": "3 x 3",
+                "params": {"n": 3, "m": 3},
+                "task": "ref:leapfrog",
+                "methods": ("ref:leapfrog", "ref:linearly_implicit_euler?solver=direct"),
+            },
+        ),
+    }
     suite = Suite("tiny", scenes={"cloth": SceneSpec(extras=SceneExtras(sweep=sweep))})
     (cell,) = get("sweep").run(context(Task("cell", "cloth", "ref:leapfrog", "ref", {"n": 3, "m": 3}, suite)))
     entries = cell.figures.sweep_points()[1].entries
@@ -276,33 +328,53 @@ def test_the_report_judges_both_claims_per_size_from_the_measured_sweep(tmp_path
     path = tmp_path / "timings.json"
     path.write_text(json.dumps({"s_per_step": {"ref:leapfrog": 1e-6, "ref:linearly_implicit_euler": 1e-8}}))
     monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
-    sweep = {"grid": "k=1e3..1e6:2", "hz": 60.0, "request": {"horizon": 0.5, "energy_tol": 0.5, "max_substeps": 2},
-             "methods": ("ref:leapfrog", "ref:linearly_implicit_euler"), "factor": 1000.0, "cap": 256,
-             "sizes": ({"label": "3 x 3", "params": {"n": 3, "m": 3}, "task": "ref:leapfrog"},)}
+    sweep = {
+        "grid": "k=1e3..1e6:2",
+        "hz": 60.0,
+        "request": {"horizon": 0.5, "energy_tol": 0.5, "max_substeps": 2},
+        "methods": ("ref:leapfrog", "ref:linearly_implicit_euler"),
+        "factor": 1000.0,
+        "cap": 256,
+        "sizes": ({"label": "3 x 3", "params": {"n": 3, "m": 3}, "task": "ref:leapfrog"},),
+    }
     suite = Suite("tiny", scenes={"cloth": SceneSpec(extras=SceneExtras(sweep=sweep))})
     (cell,) = get("sweep").run(context(Task("cell", "cloth", "ref:leapfrog", "ref", {"n": 3, "m": 3}, suite)))
     stiff = cell.figures.sweep_points()[-1]
     assert [(e.method, e.substeps, e.energy_substeps) for e in stiff.entries] == [
-        ("ref:leapfrog", 64, 64), ("ref:linearly_implicit_euler", 64, 8)]
+        ("ref:leapfrog", 64, 64),
+        ("ref:linearly_implicit_euler", 64, 8),
+    ]
     assert stiff.entries[1].solve == "the scene's banded LDL^T, compiled (21 unknowns)"
     lines = findings(get("sweep").findings("cloth", {("cloth", cell.method): {"sweep": cell}}))
     survives, usable = (line for line in lines if "absurdly tiny" in line)
-    assert survives.startswith("- ✗ `cloth` 3 x 3, k = 1e+03..1e+06 at 60 Hz over 0.5 s (energy error ≤ 0.5 and "
-                               "position error ≤ 5% of the scene's length scale (0.01))")
-    assert ("`ref:linearly_implicit_euler` stays within energy error ≤ 0.5 at 8 substeps, solve: the scene's banded "
-            "LDL^T, compiled (21 unknowns); explicit substeps need 64 (`ref:leapfrog`): steps 8 x shorter") in survives
+    assert survives.startswith(
+        "- ✗ `cloth` 3 x 3, k = 1e+03..1e+06 at 60 Hz over 0.5 s (energy error ≤ 0.5 and "
+        "position error ≤ 5% of the scene's length scale (0.01))"
+    )
+    assert (
+        "`ref:linearly_implicit_euler` stays within energy error ≤ 0.5 at 8 substeps, solve: the scene's banded "
+        "LDL^T, compiled (21 unknowns); explicit substeps need 64 (`ref:leapfrog`): steps 8 x shorter"
+    ) in survives
     assert usable.startswith("- ✓ `cloth` 3 x 3") and "implicit 100 x cheaper" in usable
 
 
-@pytest.mark.parametrize("method, tight", [
-    ("ref:implicit_euler?iterations=10&solver=local_global", "ref:implicit_euler?iterations=100&solver=local_global"),
-    ("ref:implicit_euler?solver=local_global", "ref:implicit_euler?iterations=100&solver=local_global"),
-    ("ref:linearly_implicit_euler?maxiter=100&solver=pcg_jacobi&tol=1e-3",
-     "ref:linearly_implicit_euler?maxiter=100&solver=pcg_jacobi&tol=1e-5"),
-    ("ref:linearly_implicit_euler?solver=pcg_amg", "ref:linearly_implicit_euler?solver=pcg_amg&tol=1e-5"),
-    ("ref:linearly_implicit_euler?solver=direct", None),   # exact to roundoff: nothing to converge
-    ("ref:linearly_implicit_euler", None),                 # the scene's own solve, to its own 1e-14
-])
+@pytest.mark.parametrize(
+    "method, tight",
+    [
+        (
+            "ref:implicit_euler?iterations=10&solver=local_global",
+            "ref:implicit_euler?iterations=100&solver=local_global",
+        ),
+        ("ref:implicit_euler?solver=local_global", "ref:implicit_euler?iterations=100&solver=local_global"),
+        (
+            "ref:linearly_implicit_euler?maxiter=100&solver=pcg_jacobi&tol=1e-3",
+            "ref:linearly_implicit_euler?maxiter=100&solver=pcg_jacobi&tol=1e-5",
+        ),
+        ("ref:linearly_implicit_euler?solver=pcg_amg", "ref:linearly_implicit_euler?solver=pcg_amg&tol=1e-5"),
+        ("ref:linearly_implicit_euler?solver=direct", None),  # exact to roundoff: nothing to converge
+        ("ref:linearly_implicit_euler", None),  # the scene's own solve, to its own 1e-14
+    ],
+)
 def test_a_library_solve_is_checked_at_ten_times_its_passes_or_a_tolerance_a_hundred_times_tighter(method, tight):
     """Issue 42's convergence check covers the library solves: the knob is the one the chosen solve
     takes (local/global passes, conjugate gradients' tolerance; the cap stays), so a sweep or an

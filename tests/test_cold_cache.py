@@ -7,6 +7,7 @@ Each (scheme, scene) pair has one compiled loop, for its timings and its accurac
 (``HARNESS_INJECT_TIMINGS``), so that the cost cells are as deterministic as the accuracy figures;
 what differs between the runs is only how they ran (the kernels compiled or loaded, the seconds).
 """
+
 import json
 import subprocess
 import sys
@@ -31,8 +32,10 @@ COLD = replace(SUITE, name="cold-smoke", methods=("ref:rk4", "mujoco:euler"), bo
 
 #: One nightly of ``COLD`` in a process of its own, so that its worker processes start with this
 #: test's ``HARNESS_CACHE`` (a forkserver another test started keeps the environment it had).
-NIGHTLY = ("import sys; from pathlib import Path; from harness.nightly.run import run_nightly; "
-           "from tests.test_cold_cache import COLD; run_nightly(COLD, Path(sys.argv[1]), Path(sys.argv[2]), jobs=2)")
+NIGHTLY = (
+    "import sys; from pathlib import Path; from harness.nightly.run import run_nightly; "
+    "from tests.test_cold_cache import COLD; run_nightly(COLD, Path(sys.argv[1]), Path(sys.argv[2]), jobs=2)"
+)
 
 
 @pytest.fixture(scope="module")
@@ -48,9 +51,15 @@ def _two_runs(tmp):
     db = tmp / "h.sqlite"
     out = {}
     for run in (1, 2):
-        done = subprocess.run([sys.executable, "-c", NIGHTLY, str(tmp / "out"), str(db)], cwd=ROOT, text=True,
-                              env=env(HARNESS_INJECT_TIMINGS=str(timings), HARNESS_CACHE=str(tmp / "cache")),
-                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, timeout=600)
+        done = subprocess.run(
+            [sys.executable, "-c", NIGHTLY, str(tmp / "out"), str(db)],
+            cwd=ROOT,
+            text=True,
+            env=env(HARNESS_INJECT_TIMINGS=str(timings), HARNESS_CACHE=str(tmp / "cache")),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            timeout=600,
+        )
         assert done.returncode == 0, done.stderr[-2000:]
         history = History(db)
         out[run] = (cells_of(db, run), RunTiming.of(history.run(run)["timing"]), done.stderr, history.cells(run))
@@ -61,8 +70,12 @@ def _measured(cells: dict) -> dict:
     """The cells less how they ran (``cells_of`` leaves out the clocks; the backend too)."""
     out = {}
     for key, (status, detail, value, data) in cells.items():
-        out[key] = (status, detail, value, json.dumps({k: v for k, v in json.loads(data).items() if k not in HOW},
-                                                      sort_keys=True))
+        out[key] = (
+            status,
+            detail,
+            value,
+            json.dumps({k: v for k, v in json.loads(data).items() if k not in HOW}, sort_keys=True),
+        )
     return out
 
 
@@ -98,12 +111,16 @@ def test_what_a_cache_would_have_saved():
     t = RunTiming(numba_compile_s=40.0, kernels_compiled=20, kernels_loaded=10, kernel_load_s=0.5, worker_cpu_s=80.0)
     assert t.cache_would_save_s == pytest.approx(40.0 - 20 * 0.05)
     assert t.compile_share == pytest.approx(0.5)
-    assert compile_line(t) == ("compiling: 40.0 CPU-s for 20 kernels (50% of the workers' CPU); a kept kernel "
-                               "cache would have saved about 39 CPU-s")
+    assert compile_line(t) == (
+        "compiling: 40.0 CPU-s for 20 kernels (50% of the workers' CPU); a kept kernel "
+        "cache would have saved about 39 CPU-s"
+    )
     # None loaded to measure a load by: the stated 0.02 s.
     assert RunTiming(numba_compile_s=10.0, kernels_compiled=100).cache_would_save_s == pytest.approx(8.0)
     assert KernelPlan(0, "/c", 5).line() == "kernel cache warm: nothing to compile; kernel cache /c"
     # Some of the run's loops cached: not a cold cache.
-    assert KernelPlan(3, "/c", 5).line() == "kernel cache: about 3 kernels to compile (of the 5 the run steps); " \
-                                            "kernel cache /c"
+    assert (
+        KernelPlan(3, "/c", 5).line() == "kernel cache: about 3 kernels to compile (of the 5 the run steps); "
+        "kernel cache /c"
+    )
     assert KernelPlan(5, "/c", 5).line().startswith("cold cache: about 5 kernels to compile (of the 5")

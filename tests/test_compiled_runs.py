@@ -8,6 +8,7 @@ a pair of each kind (explicit, multi-step start, implicit with Newton, constrain
 call, a scene with coupled DOF, a scheme compiled as its velocity-free twin); the ``slow`` test
 checks every pair of every scene.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -37,9 +38,12 @@ def assert_same_run(a, b):
     assert (a.meta.backend, b.meta.backend) == ("interpreted", "compiled")
     if b.force_evals is None:
         assert b.solves is None and b.meta.force_evals_reason == _counts.VARYING
-        b = dataclasses.replace(b, force_evals=a.force_evals, solves=a.solves,
-                                meta=dataclasses.replace(b.meta, projections=a.meta.projections,
-                                                         force_evals_reason=None))
+        b = dataclasses.replace(
+            b,
+            force_evals=a.force_evals,
+            solves=a.solves,
+            meta=dataclasses.replace(b.meta, projections=a.meta.projections, force_evals_reason=None),
+        )
     assert (a.force_evals, a.solves) == (b.force_evals, b.solves)
     assert dataclasses.replace(a.meta, backend=None) == dataclasses.replace(b.meta, backend=None)
 
@@ -51,20 +55,25 @@ def check_pair(scheme_id: str, scene_id: str):
     # (explicit schemes blow up: the same failing step), recorded every step.
     for homega, steps, every in ((0.1, 300, 7), (3.5, 150, 1)):
         dt = homega / scene.omega
-        assert_same_run(integrate(scheme, scene, dt, steps, every),
-                        integrate_compiled(scheme, scene, dt, steps, every, counted=True))
+        assert_same_run(
+            integrate(scheme, scene, dt, steps, every),
+            integrate_compiled(scheme, scene, dt, steps, every, counted=True),
+        )
 
 
-@pytest.mark.parametrize("scheme_id, scene_id", [
-    ("explicit_euler", "spring"),           # blows up at h*omega = 3.5: the failing step and counts agree
-    ("verlet", "kepler"),                   # a start-up evaluation, counted apart
-    ("implicit_euler", "kepler"),           # Newton to tolerance: counts that vary, not taken from the loop
-    ("rk4", "pendulum"),                    # np.sin, a libm call
-    ("position_first_euler_decay_after_kick", "damped_spring"),  # math.exp of the damping rate
-    ("implicit_midpoint", "chain"),         # coupled DOF, the scene's own tridiagonal solve
-    ("verlet_constrained", "rope"),         # projections, declared
-    ("semi_implicit_euler_velocity_implicit", "pendulum"),  # compiled as semi-implicit Euler: two passes a step
-])
+@pytest.mark.parametrize(
+    "scheme_id, scene_id",
+    [
+        ("explicit_euler", "spring"),  # blows up at h*omega = 3.5: the failing step and counts agree
+        ("verlet", "kepler"),  # a start-up evaluation, counted apart
+        ("implicit_euler", "kepler"),  # Newton to tolerance: counts that vary, not taken from the loop
+        ("rk4", "pendulum"),  # np.sin, a libm call
+        ("position_first_euler_decay_after_kick", "damped_spring"),  # math.exp of the damping rate
+        ("implicit_midpoint", "chain"),  # coupled DOF, the scene's own tridiagonal solve
+        ("verlet_constrained", "rope"),  # projections, declared
+        ("semi_implicit_euler_velocity_implicit", "pendulum"),  # compiled as semi-implicit Euler: two passes a step
+    ],
+)
 def test_the_compiled_run_is_the_interpreted_run(scheme_id, scene_id):
     check_pair(scheme_id, scene_id)
 
@@ -110,8 +119,11 @@ def test_declared_counts_are_the_interpreted_counts(scene_id):
         assert a.ok, scheme_id
         declared = _counts.of_run(scheme, scene, steps)
         projections = a.meta.projections if a.meta.projections is not None else 0
-        assert (declared.force_evals, declared.solves, declared.projections) == \
-               (a.force_evals, a.solves, projections), scheme_id
+        assert (declared.force_evals, declared.solves, declared.projections) == (
+            a.force_evals,
+            a.solves,
+            projections,
+        ), scheme_id
         q, v = (np.ascontiguousarray(np.atleast_2d(x).T) for x in scene.batch_state(1))
         assert _counts.start_evaluations(scheme, scene, q, v, 0.0, dt) == a.meta.start_force_evals, scheme_id
 
@@ -136,7 +148,7 @@ def test_varying_counts_come_from_an_interpreted_counting_run():
 
 
 def cubic_accel(q, v, t, p):
-    return -(q ** 3)
+    return -(q**3)
 
 
 class CubicSpring(Spring):
@@ -160,8 +172,11 @@ def test_a_library_solve_is_bitwise_where_the_builds_agree():
     # The solar system's implicit solve calls LAPACK (np.linalg.solve): the same bits where numba's
     # build and numpy's agree on this machine (checked), interpreted where they do not.
     why = bitwise_why(METHODS["implicit_midpoint"], make_scene("solar_system"))
-    assert why == ("" if _libm.agrees("np.linalg.solve") else
-                   "numba's np.linalg.solve gives other bits than numpy's on this machine")
+    assert why == (
+        ""
+        if _libm.agrees("np.linalg.solve")
+        else "numba's np.linalg.solve gives other bits than numpy's on this machine"
+    )
     if not why:
         check_pair("implicit_midpoint", "solar_system")
 
@@ -193,17 +208,20 @@ def _why(src: str) -> tuple[str, set]:
     return _bitwise.bitwise_why(ast.parse(src).body[0], {"np": "np", "math": "math"}, {"helper"}, libm), libm
 
 
-@pytest.mark.parametrize("body, why", [
-    ("return np.sqrt(q * q + 1.0) / abs(p[0])", ""),
-    ("a = np.empty_like(q)\n    a[0] = helper(q)[0]\n    return a.copy()", ""),
-    ("return np.sum(q)", "calls np.sum"),
-    ("return q @ q", "uses @"),
-    ("return q ** 3", "uses **"),
-    ("x = q\n    x **= 2\n    return x", "uses **"),
-    ("return np.linalg.inv(q)", "calls np.linalg.inv"),
-    ("return q.dot(v)", "calls q.dot"),
-    ("return sum(q)", "calls sum"),
-])
+@pytest.mark.parametrize(
+    "body, why",
+    [
+        ("return np.sqrt(q * q + 1.0) / abs(p[0])", ""),
+        ("a = np.empty_like(q)\n    a[0] = helper(q)[0]\n    return a.copy()", ""),
+        ("return np.sum(q)", "calls np.sum"),
+        ("return q @ q", "uses @"),
+        ("return q ** 3", "uses **"),
+        ("x = q\n    x **= 2\n    return x", "uses **"),
+        ("return np.linalg.inv(q)", "calls np.linalg.inv"),
+        ("return q.dot(v)", "calls q.dot"),
+        ("return sum(q)", "calls sum"),
+    ],
+)
 def test_bitwise_operations(body, why):
     assert _why(f"def f(q, v, t, p):\n    {body}\n")[0] == why
 
@@ -231,8 +249,10 @@ def test_libm_check_sees_a_one_ulp_difference(monkeypatch, tmp_path):
         _libm.agrees.cache_clear()
         assert not _libm.agrees("np.sin")  # checked afresh
         assert _libm.agrees("math.exp")
-        assert json.loads(next((tmp_path / "other" / "kernels").glob("libm-*.json")).read_text()) == \
-            {"np.sin": False, "math.exp": True}
+        assert json.loads(next((tmp_path / "other" / "kernels").glob("libm-*.json")).read_text()) == {
+            "np.sin": False,
+            "math.exp": True,
+        }
     finally:
         _libm.agrees.cache_clear()
 
@@ -298,8 +318,13 @@ def test_nightly_cells_are_the_same_compiled_and_interpreted(monkeypatch):
                 continue
             # The advice's cost per frame is this run's timing; the kernels and backend say how it ran.
             data = untimed({k: v for k, v in c.to_row()["data"].items() if k not in ("kernels", "backend")})
-            cells[(c.measure, c.dt)] = (c.status, c.steps, c.value if c.measure != "advise" else None,
-                                        repr(data), c.detail)
+            cells[(c.measure, c.dt)] = (
+                c.status,
+                c.steps,
+                c.value if c.measure != "advise" else None,
+                repr(data),
+                c.detail,
+            )
         return cells
 
     assert measured(True) == measured(False)

@@ -2,6 +2,7 @@
 known), the penalty ground and its table (the seed's "lively bounces go dead"), MuJoCo's poses
 and its traps, the nightly's contact and penalty cells, their regression rule, the report's
 section and ``harness contact``'s refusals."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -23,11 +24,19 @@ from harness.contact.penalty import row, unconverged_steps
 
 
 # ----------------------------------------------------------------------------- scenes
-@pytest.mark.parametrize("scene_id, params, field", [
-    ("ball", {"e": 1.5}, "e=1.5"), ("ball", {"e": -0.1}, "e=-0.1"), ("ball", {"e": float("nan")}, "e=nan"),
-    ("slide", {"mu": -0.5}, "mu=-0.5"), ("slide", {"mu": 0}, "mu=0"), ("slide", {"v0": float("inf")}, "v0=inf"),
-    ("rest", {"bogus": 1}, "'bogus'"), ("floor", {}, "'floor'"),
-])
+@pytest.mark.parametrize(
+    "scene_id, params, field",
+    [
+        ("ball", {"e": 1.5}, "e=1.5"),
+        ("ball", {"e": -0.1}, "e=-0.1"),
+        ("ball", {"e": float("nan")}, "e=nan"),
+        ("slide", {"mu": -0.5}, "mu=-0.5"),
+        ("slide", {"mu": 0}, "mu=0"),
+        ("slide", {"v0": float("inf")}, "v0=inf"),
+        ("rest", {"bogus": 1}, "'bogus'"),
+        ("floor", {}, "'floor'"),
+    ],
+)
 def test_bad_contact_input_is_one_line_naming_the_field(scene_id, params, field):
     with pytest.raises(InvalidInput) as err:
         make_contact_scene(scene_id, **params)
@@ -38,11 +47,11 @@ def test_bad_contact_input_is_one_line_naming_the_field(scene_id, params, field)
 def test_the_scenes_state_their_truth():
     ball = make_contact_scene("ball", e=0.8)
     t = ball.truth()
-    assert t["apexes"][3] == pytest.approx(0.8 ** 6) and t["apex_ratio"] == pytest.approx(0.8 ** 10)
+    assert t["apexes"][3] == pytest.approx(0.8**6) and t["apex_ratio"] == pytest.approx(0.8**10)
     assert ball.flight(1) == pytest.approx(2 * 0.8 * math.sqrt(2 * 9.81) / 9.81)
     assert ball.duration > ball.impacts()[-2] + ball.flight(5) / 2  # the last apex is recorded
     slide = make_contact_scene("slide")
-    assert slide.truth()["stop"] == pytest.approx(2.0 ** 2 / (2 * 0.5 * 9.81))
+    assert slide.truth()["stop"] == pytest.approx(2.0**2 / (2 * 0.5 * 9.81))
     assert [c[2] for c in make_contact_scene("stack").initial_centres()] == pytest.approx([0.1, 0.3, 0.5])
 
 
@@ -62,7 +71,7 @@ def test_a_contact_scene_is_a_scene_its_state_the_bodies_centres_and_velocities(
         assert sum(1 for f in scene.FIGURES if f.chart) == 1  # one figure a scene is charted
     slide = make_scene("slide")
     assert slide.initial_state()[1].tolist() == [slide.v0, 0.0, 0.0]
-    assert float(slide.energy(*slide.initial_state())) == pytest.approx(0.5 * slide.v0 ** 2 + slide.g * slide.half)
+    assert float(slide.energy(*slide.initial_state())) == pytest.approx(0.5 * slide.v0**2 + slide.g * slide.half)
 
 
 def test_a_contact_run_is_a_trajectory_with_its_settings_as_metadata():
@@ -93,14 +102,13 @@ def ideal_ball(e: float, dt: float, sink: float = 0.0) -> tuple:
     g, r = scene.g, scene.radius
     t = np.arange(0.0, scene.duration, dt)
     z, v = np.empty_like(t), np.empty_like(t)
-    t0, h = 0.0, scene.h0
     u = 0.0
     impacts = scene.impacts()
     starts = [0.0] + impacts
     for i, ti in enumerate(t):
         k = np.searchsorted(impacts, ti, side="right")
         s = ti - starts[k]
-        u = 0.0 if k == 0 else e ** k * math.sqrt(2 * g * scene.h0)
+        u = 0.0 if k == 0 else e**k * math.sqrt(2 * g * scene.h0)
         z[i] = (scene.h0 if k == 0 else 0.0) + u * s - 0.5 * g * s * s
         v[i] = u - g * s
     centres = np.zeros((len(t), 1, 3))
@@ -114,7 +122,7 @@ def test_the_ball_figures_read_the_true_restitution_from_an_exact_motion(e):
     scene, run = ideal_ball(e, 1e-4)
     f = contact_figures(scene, run)
     assert f.restitution == pytest.approx([e] * 5, abs=1e-3)
-    assert f.apex_ratio == pytest.approx(e ** 10, rel=1e-2) and f.gained == []
+    assert f.apex_ratio == pytest.approx(e**10, rel=1e-2) and f.gained == []
     assert all(f.passes.values())
     assert f.intervals == pytest.approx([scene.flight(n) for n in range(1, 6)], abs=2e-4)
 
@@ -165,8 +173,11 @@ def test_slide_and_rest_figures_on_known_runs():
     vel[-1, 2, 0] = 0.01
     f = contact_figures(stack, ContactTrajectory.of(stack, "t", 0.01, np.arange(5) * 0.01, c, vel))
     assert f.penetration == pytest.approx(2e-3) and f.drift == pytest.approx(2e-3)
-    assert f.kinetic == pytest.approx(0.5 * 1e-4) and f.passes == {"penetration": False, "drift": False,
-                                                                      "kinetic": False}
+    assert f.kinetic == pytest.approx(0.5 * 1e-4) and f.passes == {
+        "penetration": False,
+        "drift": False,
+        "kinetic": False,
+    }
 
 
 # ----------------------------------------------------------------------------- the penalty ground
@@ -221,8 +232,7 @@ def test_mujoco_poses_every_scene_and_its_default_solref_does_not_bounce():
     for scene_id in ("ball", "slide", "rest", "stack"):
         run = run_contact("mujoco:rk4", scene_id, {}, 1e-3, isolated=False)
         assert run.status == "ok" and run.loop_cpu_s > 0 and run.settings["solver converged"]
-    f = contact_figures(make_contact_scene("ball"), run_contact("mujoco:rk4", "ball", {"e": 0.8}, 1e-3,
-                                                                 isolated=False))
+    f = contact_figures(make_contact_scene("ball"), run_contact("mujoco:rk4", "ball", {"e": 0.8}, 1e-3, isolated=False))
     assert f.passes["restitution"] and f.passes["gain"]
     import mujoco
 
@@ -230,7 +240,7 @@ def test_mujoco_poses_every_scene_and_its_default_solref_does_not_bounce():
 
     scene = make_contact_scene("ball", e=0.8)
     xml = _xml("Euler", "pyramidal", scene, 1e-3)
-    default = xml.replace(xml[xml.index(' solref="'):xml.index(' margin=')], "")  # MuJoCo's own solref, solimp
+    default = xml.replace(xml[xml.index(' solref="') : xml.index(" margin=")], "")  # MuJoCo's own solref, solimp
     m = mujoco.MjModel.from_xml_string(default)
     assert list(m.geom_solref[0]) == [0.02, 1.0]
     d = mujoco.MjData(m)
@@ -239,7 +249,7 @@ def test_mujoco_poses_every_scene_and_its_default_solref_does_not_bounce():
     for _ in range(int(1.5 / 1e-3)):
         mujoco.mj_step(m, d)
         z.append(d.qpos[0] - scene.radius)
-    after = np.array(z)[int(0.6 / 1e-3):]  # past the first impact (0.45 s)
+    after = np.array(z)[int(0.6 / 1e-3) :]  # past the first impact (0.45 s)
     assert after.max() < 0.01 * scene.h0  # no rebound worth the name: not a centimetre of a metre's drop
 
 
@@ -247,9 +257,17 @@ def test_mujoco_poses_every_scene_and_its_default_solref_does_not_bounce():
 def _suite(**contact):
     from harness.nightly.suites import SUITES
 
-    return dataclasses.replace(SUITES["smoke"], contact={"scenes": (("ball", {"e": 1.0}),), "modes": ("mujoco:rk4",),
-                                                         "ladder": (1 / 1000, 1 / 240), "penalty": (),
-                                                         "penalty_scene": "penalty_ball", **contact})
+    return dataclasses.replace(
+        SUITES["smoke"],
+        contact={
+            "scenes": (("ball", {"e": 1.0}),),
+            "modes": ("mujoco:rk4",),
+            "ladder": (1 / 1000, 1 / 240),
+            "penalty": (),
+            "penalty_scene": "penalty_ball",
+            **contact,
+        },
+    )
 
 
 def test_the_nightly_contact_and_penalty_cells():
@@ -263,7 +281,8 @@ def test_the_nightly_contact_and_penalty_cells():
     assert [(t.kind, t.only, t.scene, t.scene_id, t.params, t.method) for t in tasks] == [
         ("cell", ("contact",), "ball_e1", "ball", {"e": 1.0}, "mujoco:rk4"),
         ("cell", ("penalty",), "penalty_ball", None, {}, "ref:semi_implicit_euler"),
-        ("cell", ("penalty",), "penalty_ball", None, {}, "ref:implicit_euler")]
+        ("cell", ("penalty",), "penalty_ball", None, {}, "ref:implicit_euler"),
+    ]
     assert [t.measures() for t in tasks] == [["contact"], ["penalty"], ["penalty"]]
     assert tasks[0].label == "contact ball_e1 mujoco:rk4"
     cells = [c for t in tasks for c in run_task(t)]
@@ -282,16 +301,28 @@ def test_the_nightly_contact_and_penalty_cells():
     from reports.markdown import render
 
     with tempfile.TemporaryDirectory() as out:
-        text, written = render({"run_id": 1, "suite": "smoke", "started": "", "finished": "", "status": "complete",
-                                "measurement_version": 1}, cells, judge(cells), pathlib.Path(out))
+        text, written = render(
+            {
+                "run_id": 1,
+                "suite": "smoke",
+                "started": "",
+                "finished": "",
+                "status": "complete",
+                "measurement_version": 1,
+            },
+            cells,
+            judge(cells),
+            pathlib.Path(out),
+        )
     assert "**Contact: `ball`** (e = 1" in text and "The reference schemes on a penalty ground" in text
     assert "| `mujoco:rk4` | 1/1000 s |" in text and "| `ref:implicit_euler` | 0.140 |" in text
     assert {"charts/run1-ball_e1-contact.png", "charts/run1-penalty_ball-penalty.png"} <= set(written)
 
 
 def _contact_cell(runs, value):
-    return Cell("ball", "mujoco:euler", "mujoco", "contact", value=value,
-                figures=ContactCellFigures(scene="ball", runs=runs))
+    return Cell(
+        "ball", "mujoco:euler", "mujoco", "contact", value=value, figures=ContactCellFigures(scene="ball", runs=runs)
+    )
 
 
 def test_a_contact_regression_is_a_figure_that_held_and_fails_or_a_shorter_largest_step():
@@ -307,12 +338,18 @@ def test_a_contact_regression_is_a_figure_that_held_and_fails_or_a_shorter_large
     assert shorter is not None and "largest step" in shorter.detail
 
 
-@pytest.mark.parametrize("argv, field", [
-    (["contact", "ball", "--set", "e=2"], "e=2"), (["contact", "slide", "--set", "mu=-1"], "mu=-1"),
-    (["contact", "ball", "--dt", "nan"], "--dt"), (["contact", "ball", "--modes", "mujoco:nope"], "--modes"),
-    (["contact", "--penalty", "--grid", "-1"], "--grid"), (["contact", "--penalty", "--set", "zeta=0.1"], "zeta"),
-    (["contact", "--advise", "--hz", "0"], "--hz"),
-])
+@pytest.mark.parametrize(
+    "argv, field",
+    [
+        (["contact", "ball", "--set", "e=2"], "e=2"),
+        (["contact", "slide", "--set", "mu=-1"], "mu=-1"),
+        (["contact", "ball", "--dt", "nan"], "--dt"),
+        (["contact", "ball", "--modes", "mujoco:nope"], "--modes"),
+        (["contact", "--penalty", "--grid", "-1"], "--grid"),
+        (["contact", "--penalty", "--set", "zeta=0.1"], "zeta"),
+        (["contact", "--advise", "--hz", "0"], "--hz"),
+    ],
+)
 def test_harness_contact_refuses_bad_input_in_one_line(argv, field, capsys):
     from harness.cli import main
 
@@ -350,8 +387,14 @@ def test_harness_list_names_the_contact_scenes_and_modes():
     assert set(cat["contact_scenes"]) == {"ball", "slide", "rest", "stack"}
     assert cat["contact_scenes"]["ball"]["params"]["e"]["allowed"] == "[0, 1]"
     modes = cat["contact_modes"]
-    assert {"mujoco:discrete", "pybullet:sequential_impulse", "pymunk:sequential_impulse", "drake:sap",
-            "newton:xpbd", "rebound:hardsphere"} <= set(modes)
+    assert {
+        "mujoco:discrete",
+        "pybullet:sequential_impulse",
+        "pymunk:sequential_impulse",
+        "drake:sap",
+        "newton:xpbd",
+        "rebound:hardsphere",
+    } <= set(modes)
     assert "slide" in modes["rebound:hardsphere"]["unsupported"] and modes["mujoco:rk4"]["doc"]
 
 
@@ -359,11 +402,15 @@ def test_the_advice_ranks_modes_within_every_tolerance_by_their_summed_cost():
     from harness.contact.study import rank
 
     ok = {"passes": {"restitution": True}, "status": "ok"}
-    by_mode = {"a": {"ball": {**ok, "cpu_per_s": 3.0}, "stack": {**ok, "cpu_per_s": 1.0}},
-               "b": {"ball": {**ok, "cpu_per_s": 1.0}, "stack": {**ok, "cpu_per_s": 1.0}},
-               "c": {"ball": {"passes": {"restitution": False, "gain": True}, "status": "ok", "cpu_per_s": 0.1},
-                     "stack": {"passes": {}, "status": "unstable", "cpu_per_s": None}},
-               "d": {"ball": {**ok, "cpu_per_s": 0.1}}}  # does not pose the stack: not advised either way
+    by_mode = {
+        "a": {"ball": {**ok, "cpu_per_s": 3.0}, "stack": {**ok, "cpu_per_s": 1.0}},
+        "b": {"ball": {**ok, "cpu_per_s": 1.0}, "stack": {**ok, "cpu_per_s": 1.0}},
+        "c": {
+            "ball": {"passes": {"restitution": False, "gain": True}, "status": "ok", "cpu_per_s": 0.1},
+            "stack": {"passes": {}, "status": "unstable", "cpu_per_s": None},
+        },
+        "d": {"ball": {**ok, "cpu_per_s": 0.1}},
+    }  # does not pose the stack: not advised either way
     fine, failing = rank(by_mode, ("ball", "stack"))
     assert fine == [(2.0, "b"), (4.0, "a")]
     assert failing == {"c": {"ball": ["restitution"], "stack": ["unstable"]}}

@@ -1,6 +1,7 @@
 """Drake's contact poses (``adapters/drake/contact.py``): every mode poses every scene, the figures
 measured to hold hold, and Drake's two traps (SAP's default dissipation kills the bounce; the
 default point stiffness launches the explicit integrator) are caught."""
+
 import math
 
 import pytest
@@ -56,7 +57,7 @@ def test_the_discrete_plants_stop_the_slide_and_hold_the_box():
             assert f.passes["stop"] and f.passes["creep"], (mode, dt, f.stop, f.creep)
         _, f = figures(mode, "rest", {}, 1 / 1000)
         assert f.passes == {"penetration": True, "drift": True, "kinetic": True}
-        assert f.penetration == pytest.approx(9.81 / drake_contact.OMEGA_C ** 2, rel=0.1)
+        assert f.penetration == pytest.approx(9.81 / drake_contact.OMEGA_C**2, rel=0.1)
 
 
 def test_the_dissipation_is_derived_from_e():
@@ -67,7 +68,7 @@ def test_the_dissipation_is_derived_from_e():
     # Kelvin-Voigt without the cut-off would be zeta = -ln e / sqrt(pi^2 + ln^2 e); the cut-off
     # (no pulling) releases the body earlier, so the same e needs more damping.
     zeta = drake_contact.relaxation_for(0.8, 1.0) / 2.0
-    assert zeta > -math.log(0.8) / math.sqrt(math.pi ** 2 + math.log(0.8) ** 2)
+    assert zeta > -math.log(0.8) / math.sqrt(math.pi**2 + math.log(0.8) ** 2)
     assert drake_contact._exit_speed(zeta, "kv") == pytest.approx(0.8, abs=1e-9)
 
 

@@ -1,6 +1,7 @@
 """Newton's contact poses (``adapters/newton/contact.py``): each solver poses every scene (the
 ball at the three report steps, over one bounce to keep Warp on the CPU quick), the figures
 measured to hold hold, and XPBD's trap (no bounce unless ``enable_restitution``) is caught."""
+
 import importlib.util
 
 import pytest

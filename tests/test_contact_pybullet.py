@@ -2,6 +2,7 @@
 the figures its settings get, and each default that changes the answer (the figures that default
 gives, measured 2026-11-27 on pybullet 3.2.7; docs/engines.md). Every run is in a process of its own:
 Bullet's contact breaking threshold is process-wide."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -109,7 +110,7 @@ def test_restitution_and_friction_combine_by_product():
     f = figures("ball", 1e-3, {"e": 0.8}, **{"plane restitution": 0.8})
     assert all(abs(r - 0.64) < 0.01 for r in f.restitution), f.restitution
     f = figures("slide", 1e-3, **{"plane lateralFriction": 0.5})
-    assert abs(f.stop - 2.0 ** 2 / (2 * 0.25 * 9.81)) < 0.05 * f.stop, f.stop
+    assert abs(f.stop - 2.0**2 / (2 * 0.25 * 9.81)) < 0.05 * f.stop, f.stop
 
 
 def test_cone_friction_by_default_leaves_the_stack_moving_at_1_60():
@@ -137,7 +138,8 @@ def test_the_breaking_threshold_outlives_the_client_that_set_it():
         "def drift(cbt):\n"
         "    m = dataclasses.replace(mode, settings={**mode.settings, 'contactBreakingThreshold': cbt})\n"
         "    return contact_figures(scene, pose.run(m, scene, 1e-3)).drift\n"
-        "print(json.dumps([drift(None), drift(0.0), drift(None)]))\n")
+        "print(json.dumps([drift(None), drift(0.0), drift(None)]))\n"
+    )
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120, check=True)
     fresh, zero, after = json.loads(out.stdout.strip().splitlines()[-1])

@@ -1,6 +1,7 @@
 """pymunk's contact poses (``adapters.pymunk.contact``, 2-D): every scene at the three report steps,
 the exact velocity impulse of its rebound, the figures its settings get, and each default that
 changes the answer (measured 2026-11-27 on pymunk 7.3.1; docs/engines.md)."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -93,10 +94,12 @@ def test_collision_slop_leaves_a_landed_ball_sunk():
     """A ball at e = 0 lands up to one step's fall inside the plane (30 mm at 1/60). collision_slop
     0.1 (the default) leaves any overlap under 0.1 m alone: the ball stays that deep; with 0 the bias
     pushes it out (27% of the way by the scene's end)."""
+
     def depth(**changed):
         _, run = stepped("ball", 1 / 60, {"e": 0.0}, **changed)
         z = run.centres[:, 0, 2] - 0.1
         return -z.min(), -z[-1]
+
     deepest, end = depth(collision_slop=None)
     assert deepest > 0.02 and end == deepest
     deepest, end = depth()
@@ -107,4 +110,4 @@ def test_elasticity_and_friction_combine_by_product():
     f = figures("ball", 1e-3, {"e": 0.8}, **{"plane elasticity": 0.8})
     assert all(abs(r - 0.64) < 0.01 for r in f.restitution), f.restitution
     f = figures("slide", 1e-3, **{"plane friction": 0.5})
-    assert abs(f.stop - 2.0 ** 2 / (2 * 0.25 * 9.81)) < 0.05 * f.stop, f.stop
+    assert abs(f.stop - 2.0**2 / (2 * 0.25 * 9.81)) < 0.05 * f.stop, f.stop

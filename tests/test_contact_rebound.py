@@ -1,5 +1,6 @@
 """REBOUND's contact pose (``adapters/rebound/contact.py``): the ball at the three report steps,
 its hard-sphere impulse exact, its restitution the requested one."""
+
 import numpy as np
 import pytest
 

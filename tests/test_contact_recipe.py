@@ -3,6 +3,7 @@ engine. ``tests/contact_incline.py`` defines the box on an incline (its truth: i
 v0^2/(2 g (mu cos θ - sin θ))) and MuJoCo's one pose of it, and names it nowhere else; here it
 appears in ``harness contact``, its ``--json``, a nightly's cells and its report, and a mode asked
 for that does not pose it is listed with its reason."""
+
 from __future__ import annotations
 
 import importlib
@@ -32,7 +33,7 @@ def test_the_new_scene_is_a_scene_with_its_truth(incline):
     scene = make_scene("incline", theta=0.3)
     assert isinstance(scene, Scene) and not scene.has_kernels and "incline" in contact_scenes()
     g, mu, v0, th = scene.g, scene.mu, scene.v0, scene.theta
-    assert scene.truth()["stop"] == pytest.approx(v0 ** 2 / (2 * g * (mu * math.cos(th) - math.sin(th))))
+    assert scene.truth()["stop"] == pytest.approx(v0**2 / (2 * g * (mu * math.cos(th) - math.sin(th))))
     q, v = scene.initial_state()
     assert q.tolist() == [0.0, 0.0, scene.half] and v.tolist() == [v0, 0.0, 0.0]
     assert ENGINE_SCENES["incline"] is type(scene)
@@ -66,13 +67,26 @@ def test_a_nightly_measures_and_reports_the_new_scene(incline, tmp_path):
     from harness.nightly.run import run_nightly
     from harness.nightly.suites import Suite
 
-    suite = Suite("recipe", scenes={}, methods=(), bounds=False, identify=False, cell_timeout=60.0,
-                  contact={"scenes": (("incline", {"theta": 0.1}),), "modes": ("mujoco:rk4",),
-                           "ladder": (1 / 240,), "penalty": (), "penalty_scene": "penalty_ball"})
+    suite = Suite(
+        "recipe",
+        scenes={},
+        methods=(),
+        bounds=False,
+        identify=False,
+        cell_timeout=60.0,
+        contact={
+            "scenes": (("incline", {"theta": 0.1}),),
+            "modes": ("mujoco:rk4",),
+            "ladder": (1 / 240,),
+            "penalty": (),
+            "penalty_scene": "penalty_ball",
+        },
+    )
     result = run_nightly(suite, tmp_path / "out", tmp_path / "h.sqlite", jobs=1)
     cells = History(tmp_path / "h.sqlite").cells(result["run_id"])
     assert list(zip(cells.scene, cells.method, cells.measure, cells.status)) == [
-        ("incline_theta0.1", "mujoco:rk4", "contact", "ok")]
+        ("incline_theta0.1", "mujoco:rk4", "contact", "ok")
+    ]
     report = (tmp_path / "out" / "report.md").read_text()
     assert "**Contact: `incline`** (theta = 0.1)" in report and "v0²/(2 g (μ cos θ − sin θ))" in report
     assert "| mode | step | stop distance (m) | creep (m) | ✓/✗ | CPU s per s |" in report

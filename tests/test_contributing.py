@@ -2,6 +2,7 @@
 is one module of modes (``tests/slow_plugin.py`` is one, run by test_history's slowdown test), a
 measure is one declaration (tests/test_measure_registry.py), and the registries that name them are
 the only other place a new one appears."""
+
 from __future__ import annotations
 
 import ast
@@ -20,7 +21,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def _accel(q, v, t, p):
     k, eps = p[0], p[1]
-    return -k * q - eps * q ** 3
+    return -k * q - eps * q**3
 
 
 class Duffing(Scene):
@@ -28,8 +29,11 @@ class Duffing(Scene):
 
     id = "duffing_test"
     title = "undamped Duffing oscillator (a test's scene)"
-    params = {"k": Param(1.0, "linear stiffness", lo=0.0, lo_open=True), "eps": Param(0.5, "cubic stiffness", lo=0.0),
-              "x0": Param(1.0, "initial position")}
+    params = {
+        "k": Param(1.0, "linear stiffness", lo=0.0, lo_open=True),
+        "eps": Param(0.5, "cubic stiffness", lo=0.0),
+        "x0": Param(1.0, "initial position"),
+    }
     dof_names = ("x",)
     pointwise = True
     accel = staticmethod(_accel)
@@ -41,7 +45,7 @@ class Duffing(Scene):
     @property
     def omega(self):
         k, eps, x0 = self.values["k"], self.values["eps"], self.values["x0"]
-        return math.sqrt(k + 3 * eps * x0 ** 2)  # the linearisation's largest frequency
+        return math.sqrt(k + 3 * eps * x0**2)  # the linearisation's largest frequency
 
     def energy(self, q, v):
         k, eps = self.values["k"], self.values["eps"]
@@ -63,16 +67,21 @@ def _lines_naming(path: Path, word: str) -> list[int]:
     """The lines of ``path``'s strings (literals and docstrings) where ``word`` stands as a word of
     its own: ``net`` in "the net" but not in "network", ``cloth`` not in ``cloth_flex``."""
     pattern = re.compile(rf"\b{re.escape(word)}\b")
-    return sorted({n.lineno for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.Constant)
-                   and isinstance(n.value, str) and pattern.search(n.value)})
+    return sorted(
+        {
+            n.lineno
+            for n in ast.walk(ast.parse(path.read_text()))
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and pattern.search(n.value)
+        }
+    )
 
 
 def test_the_scene_id_check_matches_whole_words_of_any_length(tmp_path):
     probe = tmp_path / "probe.py"
     probe.write_text('"""The net, and cloth_flex."""\nA = "network"\nB = f"on the {A} rope"\nC = "kinetic"\n')
-    assert _lines_naming(probe, "net") == [1]      # a word of its own, not "network" or "kinetic"
-    assert _lines_naming(probe, "rope") == [3]     # in an f-string's text too
-    assert _lines_naming(probe, "cloth") == []     # cloth_flex is another id
+    assert _lines_naming(probe, "net") == [1]  # a word of its own, not "network" or "kinetic"
+    assert _lines_naming(probe, "rope") == [3]  # in an f-string's text too
+    assert _lines_naming(probe, "cloth") == []  # cloth_flex is another id
 
 
 def test_a_built_in_scene_is_its_module_plus_its_registry_entry():
@@ -125,8 +134,17 @@ def _declare_kick_drift_kick(**where):
     from reference import Floor
     from reference._scheme import scheme
 
-    @scheme(order=2, force_evals=2, symplectic=True, energy_claim="bounded", homega_max=2.0,
-            order_velocity_dependent=1, floor=Floor(_kdk_floor), amplification=_kdk_amplification, **where)
+    @scheme(
+        order=2,
+        force_evals=2,
+        symplectic=True,
+        energy_claim="bounded",
+        homega_max=2.0,
+        order_velocity_dependent=1,
+        floor=Floor(_kdk_floor),
+        amplification=_kdk_amplification,
+        **where,
+    )
     def kick_drift_kick_test(accel, state, t, h, p):
         """Kick-drift-kick leapfrog, evaluating the force for both kicks (a test's scheme):
 
@@ -216,8 +234,9 @@ def test_a_new_scheme_runs_nowhere_in_the_standard_suite_until_it_says_where(kic
     why = {s["scene"]: s["reason"] for s in skipped if s["method"] == mid}
     assert "does not declare spring among the scenes it joins in the standard suite" in why["spring"]
 
-    monkeypatch.setitem(METHODS, kick_drift_kick.id,
-                        _declare_kick_drift_kick(suites={"standard": ("spring", "pendulum")}))
+    monkeypatch.setitem(
+        METHODS, kick_drift_kick.id, _declare_kick_drift_kick(suites={"standard": ("spring", "pendulum")})
+    )
     tasks, _ = build_tasks(standard)
     assert sorted(t.scene for t in tasks if t.method == mid) == ["pendulum", "spring"]
     full, _ = build_tasks(dataclasses.replace(SUITES["full"], bounds=False))
@@ -229,10 +248,17 @@ def test_a_new_scheme_runs_nowhere_in_the_standard_suite_until_it_says_where(kic
 #: in the same order. A built-in scheme that joins or leaves a scene of the standard suite changes its
 #: budget, and this table with it, on purpose; a new scheme is held to its own declaration.
 STANDARD_REFERENCE_TASKS = {
-    "explicit_euler": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "solar_system",
-                       "cloth"),
-    "semi_implicit_euler": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "solar_system",
-                            "cloth"),
+    "explicit_euler": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "solar_system", "cloth"),
+    "semi_implicit_euler": (
+        "spring",
+        "damped_spring",
+        "pendulum",
+        "kepler",
+        "projectile",
+        "chain",
+        "solar_system",
+        "cloth",
+    ),
     "semi_implicit_euler_position_first": ("spring", "damped_spring", "pendulum", "kepler", "projectile"),
     "verlet": ("spring", "damped_spring", "pendulum", "kepler", "projectile"),
     "velocity_verlet": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "solar_system"),
@@ -273,14 +299,17 @@ def test_the_built_in_schemes_declare_the_standard_suites_reference_tasks_and_th
     tasks, _ = build_tasks(standard)
     # not the penalty ground's tasks (cell tasks of one measure, ``only``)
     got = [(t.scene, t.method) for t in tasks if t.family == "ref" and t.kind == "cell" and not t.only]
+
     # A built-in scheme's tasks are the table's; a scheme added since (a contributor's) is held to
     # its own declaration, so that adding one changes no line here.
     def joins(sid, scene):
         if sid in STANDARD_REFERENCE_TASKS:
             return scene in STANDARD_REFERENCE_TASKS[sid]
         spec = standard.scenes[scene]
-        return METHODS[sid].joins("standard", scene) and get_method(f"ref:{sid}").supports(
-            make_scene(scene, source=spec.source, **spec.params))[0]
+        return (
+            METHODS[sid].joins("standard", scene)
+            and get_method(f"ref:{sid}").supports(make_scene(scene, source=spec.source, **spec.params))[0]
+        )
 
     want = [(scene, f"ref:{sid}") for scene in standard.scenes for sid in METHODS if joins(sid, scene)]
     want += [(scene, mid) for scene, spec in standard.scenes.items() for mid in spec.with_options]
@@ -290,10 +319,17 @@ def test_the_built_in_schemes_declare_the_standard_suites_reference_tasks_and_th
 
     full = dataclasses.replace(SUITES["full"], bounds=False)
     tasks, _ = build_tasks(full)
-    got = {(t.scene, t.method) for t in tasks if t.family == "ref" and t.kind == "cell" and not t.only
-           and "?" not in t.method}
-    runs = {(scene, f"ref:{sid}") for scene, spec in full.scenes.items() for sid in METHODS
-            if get_method(f"ref:{sid}").supports(make_scene(scene, source=spec.source, **spec.params))[0]}
+    got = {
+        (t.scene, t.method)
+        for t in tasks
+        if t.family == "ref" and t.kind == "cell" and not t.only and "?" not in t.method
+    }
+    runs = {
+        (scene, f"ref:{sid}")
+        for scene, spec in full.scenes.items()
+        for sid in METHODS
+        if get_method(f"ref:{sid}").supports(make_scene(scene, source=spec.source, **spec.params))[0]
+    }
     assert got == runs
 
 
@@ -305,7 +341,8 @@ RUTH3_FILE = '''\
 from reference import DRIFT, KICK, Splitting, splitting_scheme, substepped
 
 ruth3_test = splitting_scheme(
-    "ruth3_test", Splitting((KICK, "7/24"), (DRIFT, "2/3"), (KICK, "3/4"), (DRIFT, "-2/3"), (KICK, "-1/24"), (DRIFT, 1)),
+    "ruth3_test",
+    Splitting((KICK, "7/24"), (DRIFT, "2/3"), (KICK, "3/4"), (DRIFT, "-2/3"), (KICK, "-1/24"), (DRIFT, 1)),
     order=3, module=__name__, doc="""\\
 Ruth's third-order splitting (a test's scheme):
 
@@ -323,10 +360,15 @@ Ruth's third-order splitting taken twice at h/2 (a test's scheme): x, v = ruth3(
 
 #: What the theory table (tests/theory.py) says of the two, the lines a new scheme adds there: the
 #: table is the oracle the measures are held to, written apart from the schemes' declarations.
-RUTH3_THEORY = {"ruth3_test": {"REF_ORDER": 3, "REF_STABILITY": 2.5074811709523552, "REF_ENERGY": "bounded",
-                               "REF_EVALS": (3, 0)},
-                "ruth3_doubled_test": {"REF_ORDER": 3, "REF_STABILITY": 2 * 2.5074811709523552,
-                                       "REF_ENERGY": "bounded", "REF_EVALS": (6, 0)}}
+RUTH3_THEORY = {
+    "ruth3_test": {"REF_ORDER": 3, "REF_STABILITY": 2.5074811709523552, "REF_ENERGY": "bounded", "REF_EVALS": (3, 0)},
+    "ruth3_doubled_test": {
+        "REF_ORDER": 3,
+        "REF_STABILITY": 2 * 2.5074811709523552,
+        "REF_ENERGY": "bounded",
+        "REF_EVALS": (6, 0),
+    },
+}
 
 
 @pytest.fixture(scope="module")

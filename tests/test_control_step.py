@@ -3,6 +3,7 @@ Gymnasium's and dm_control's MuJoCo files from their registry packages, at their
 settings. Each headline is reproduced by an independent route: collidable pairs by MuJoCo's own
 collision driver with every geom's margin made huge; the verdict's factors by a plain ``mj_step``
 loop written here, which shares nothing with the study but MuJoCo."""
+
 from __future__ import annotations
 
 import json
@@ -21,6 +22,7 @@ from scenarios.model import compile_model, read_model_file  # noqa: E402
 
 from harness.control_step import REF_FIRST, REF_FRACTION, StudyConfig, run_study, verdict  # noqa: E402
 from tests.test_cli import cli  # noqa: E402
+
 
 #: The timings every study here is given: the verdicts' cost ratios never depend on the machine's
 #: load (EVALUATIONS-proportional, as MuJoCo's loop is to first order).
@@ -42,9 +44,13 @@ def study_of(env, horizon=1.0, states=12):
     if key not in _STUDIES:
         m = compile_model(read_model_file(environment(env).path()))
         e = environment(env)
-        _STUDIES[key] = run_study(m, _setting(env), StudyConfig(horizon_s=horizon, states_per_seed=states,
-                                                                 timings=_timings(e.frame_skip), threads=1),
-                                  progress=None, path=e.path())
+        _STUDIES[key] = run_study(
+            m,
+            _setting(env),
+            StudyConfig(horizon_s=horizon, states_per_seed=states, timings=_timings(e.frame_skip), threads=1),
+            progress=None,
+            path=e.path(),
+        )
     return _STUDIES[key]
 
 
@@ -63,7 +69,7 @@ def _pairs_by_collision_driver(path):
     m = spec.compile()
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
-    return {tuple(sorted((int(c.geom1), int(c.geom2)))) for c in d.contact[:d.ncon]}
+    return {tuple(sorted((int(c.geom1), int(c.geom2)))) for c in d.contact[: d.ncon]}
 
 
 @pytest.mark.parametrize("env", list(ENVIRONMENTS))
@@ -88,8 +94,14 @@ def test_exclude_parent_and_explicit_pairs_are_filtered_as_mujoco_filters_them(t
     path = tmp_path / "filters.xml"
     path.write_text(xml)
     m = mujoco.MjModel.from_xml_path(str(path))
-    names = {tuple(sorted((mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, a),
-                           mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, b)))) for a, b in collidable_pairs(m)}
+    names = {
+        tuple(
+            sorted(
+                (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, a), mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, b))
+            )
+        )
+        for a, b in collidable_pairs(m)
+    }
     # a-b: parent; a-c: excluded; e: bits 2 collide with nothing but its explicit pair with the floor
     assert names == {("floor", "ga"), ("floor", "gb"), ("floor", "gc"), ("gb", "gc"), ("floor", "ge")}
     assert set(collidable_pairs(m)) == _pairs_by_collision_driver(str(path))
@@ -98,8 +110,9 @@ def test_exclude_parent_and_explicit_pairs_are_filtered_as_mujoco_filters_them(t
 def test_model_features_count_pairs_not_geoms():
     from scenarios.model import features_found
 
-    assert "contact" not in features_found(compile_model(read_model_file(
-        environment("InvertedDoublePendulum-v5").path())))
+    assert "contact" not in features_found(
+        compile_model(read_model_file(environment("InvertedDoublePendulum-v5").path()))
+    )
     hopper = features_found(compile_model(read_model_file(environment("Hopper-v5").path())))
     assert hopper["contact"] == "7 collidable geom pairs"
 
@@ -130,7 +143,9 @@ def test_seeded_controls_are_within_each_ctrlrange_and_held_per_control_step():
     assert U.shape == (50, m.nu) and np.all(U >= lo) and np.all(U <= hi)
     assert np.array_equal(U, _setting("Ant-v5").sequence(m, 3, 50))  # seeded
     q, v = _setting("Ant-v5").start(m, 0)
-    assert np.max(np.abs(np.delete(q - m.qpos0, range(3, 7)))) <= 0.1  # Ant-v5's U(-0.1, 0.1), the quaternion renormalised
+    assert (
+        np.max(np.abs(np.delete(q - m.qpos0, range(3, 7)))) <= 0.1
+    )  # Ant-v5's U(-0.1, 0.1), the quaternion renormalised
 
 
 # ------------------------------------------------------------------ the study on the robots
@@ -204,7 +219,7 @@ def test_half_cheetah_verdict_holds_against_a_plain_mujoco_loop():
     rk4 = np.array([_plain_step(path, R, h, F, q, v, u) for q, v, u in states])
     fast = np.array([_plain_step(path, IF, h, F, q, v, u) for q, v, u in states])
     obs = np.concatenate([np.array([q for q, _, _ in states])[:, 1:], np.array([v for _, v, _ in states])], axis=1)
-    keep = np.r_[1:m.nq, m.nq:m.nq + m.nv]
+    keep = np.r_[1 : m.nq, m.nq : m.nq + m.nv]
     sigma = np.maximum(obs.std(axis=0), 1e-3 * np.median(obs.std(axis=0)))
 
     def err(x):
@@ -240,13 +255,14 @@ def test_humanoid_inside_its_episodes_a_halved_rk4_step_buys_its_order_on_most_s
     assert s.within_episode and s.past_termination == 0 and all(e is not None for e in s.episodes)
     m = mujoco.MjModel.from_xml_path(path)
     h, F, R = m.opt.timestep, env.frame_skip, mujoco.mjtIntegrator.mjINT_RK4
-    states = _plain_states(path, F, 0.01, seeds=(0, 1, 2), n_control=400, rng_base=2000,
-                           healthy=lambda q: 1.0 < q[2] < 2.0)  # Humanoid-v5's healthy_z_range
+    states = _plain_states(
+        path, F, 0.01, seeds=(0, 1, 2), n_control=400, rng_base=2000, healthy=lambda q: 1.0 < q[2] < 2.0
+    )  # Humanoid-v5's healthy_z_range
     truth = np.array([_plain_step(path, R, h / 32, 32 * F, q, v, u) for q, v, u in states])
     one = np.array([_plain_step(path, R, h, F, q, v, u) for q, v, u in states])
     half = np.array([_plain_step(path, R, h / 2, 2 * F, q, v, u) for q, v, u in states])
     obs = np.concatenate([np.array([q for q, _, _ in states])[:, 2:], np.array([v for _, v, _ in states])], axis=1)
-    keep = np.r_[2:m.nq, m.nq:m.nq + m.nv]
+    keep = np.r_[2 : m.nq, m.nq : m.nq + m.nv]
     sigma = np.maximum(obs.std(axis=0), 1e-3 * np.median(obs.std(axis=0)))
 
     def err(x):
@@ -280,7 +296,7 @@ def test_hopper_contact_figures_match_a_plain_loops_count():
         d.qpos[:], d.qvel[:] = q, v
         U = setting.sequence(m, seed, int(round(1.0 / (env.frame_skip * m.opt.timestep))))
         end = int(round(s.episodes[i] / (env.frame_skip * m.opt.timestep))) if s.episodes[i] is not None else len(U)
-        for u in U[:max(1, end)]:
+        for u in U[: max(1, end)]:
             d.ctrl[:] = u
             for _ in range(env.frame_skip):
                 mujoco.mj_step(m, d)
@@ -296,9 +312,19 @@ def test_a_reference_that_does_not_converge_judges_nothing(monkeypatch):
 
     monkeypatch.setattr(cs, "REF_FRACTION", 1e-12)
     m = compile_model(read_model_file(environment("Hopper-v5").path()))
-    s = cs.run_study(m, _setting("Hopper-v5"), StudyConfig(horizon_s=0.3, states_per_seed=4, timings=_timings(4),
-                                                            threads=1, substeps=(1,), integrators=("rk4", "euler")),
-                     progress=None)
+    s = cs.run_study(
+        m,
+        _setting("Hopper-v5"),
+        StudyConfig(
+            horizon_s=0.3,
+            states_per_seed=4,
+            timings=_timings(4),
+            threads=1,
+            substeps=(1,),
+            integrators=("rk4", "euler"),
+        ),
+        progress=None,
+    )
     assert not s.reference.converged and s.reference.level == cs.REF_LAST
     words = cs.verdict(s)
     assert len(words) == 1 and "no candidate is judged: the reference did not converge" in words[0]
@@ -307,8 +333,20 @@ def test_a_reference_that_does_not_converge_judges_nothing(monkeypatch):
 
 # ------------------------------------------------------------------ the command
 def test_harness_model_default_question_on_hopper(tmp_path):
-    code, out, err = cli("model", "--env", "Hopper-v5", "--horizon", "0.5", "--states", "8", "--seeds", "2",
-                         "--out", str(tmp_path), "--json")
+    code, out, err = cli(
+        "model",
+        "--env",
+        "Hopper-v5",
+        "--horizon",
+        "0.5",
+        "--states",
+        "8",
+        "--seeds",
+        "2",
+        "--out",
+        str(tmp_path),
+        "--json",
+    )
     assert code == 0, err
     data = json.loads(out)
     assert data["collidable_pairs"] == 7 and data["reference"]["converged"]
@@ -326,20 +364,37 @@ def test_controls_from_a_file(tmp_path):
     m = compile_model(read_model_file(environment("Hopper-v5").path()))
     table = np.tile(np.linspace(-1, 1, m.nu), (5, 1))
     np.save(tmp_path / "u.npy", table)
-    code, out, err = cli("model", "--env", "Hopper-v5", "--controls", str(tmp_path / "u.npy"), "--horizon", "0.2",
-                         "--states", "4", "--seeds", "1", "--out", str(tmp_path / "o"), "--json")
+    code, out, err = cli(
+        "model",
+        "--env",
+        "Hopper-v5",
+        "--controls",
+        str(tmp_path / "u.npy"),
+        "--horizon",
+        "0.2",
+        "--states",
+        "4",
+        "--seeds",
+        "1",
+        "--out",
+        str(tmp_path / "o"),
+        "--json",
+    )
     assert code == 0, err
     assert "from" in json.loads(out)["setting"]["controls"]
 
 
-@pytest.mark.parametrize("argv, says", [
-    (["--env", "Hopper-v9"], "unknown --env 'Hopper-v9' (valid: Hopper-v5"),
-    (["--env", "Hopper-v5", "--frame-skip", "0"], "--frame-skip=0 is out of range"),
-    (["--env", "Hopper-v5", "--seeds", "x"], "--seeds='x' is not an integer"),
-    (["--env", "Hopper-v5", "--horizon", "-1"], "--horizon=-1 is out of range"),
-    (["--env", "Hopper-v5", "--controls", "nope.npy"], "--controls 'nope.npy': no such file"),
-    ([], "path: a model file is needed"),
-])
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["--env", "Hopper-v9"], "unknown --env 'Hopper-v9' (valid: Hopper-v5"),
+        (["--env", "Hopper-v5", "--frame-skip", "0"], "--frame-skip=0 is out of range"),
+        (["--env", "Hopper-v5", "--seeds", "x"], "--seeds='x' is not an integer"),
+        (["--env", "Hopper-v5", "--horizon", "-1"], "--horizon=-1 is out of range"),
+        (["--env", "Hopper-v5", "--controls", "nope.npy"], "--controls 'nope.npy': no such file"),
+        ([], "path: a model file is needed"),
+    ],
+)
 def test_bad_input_is_one_line_before_any_engine_runs(tmp_path, argv, says):
     code, out, err = cli("model", *argv, "--out", str(tmp_path / "out"))
     assert code == 2 and out == "" and says in err and err.count("\n") == 1
@@ -348,7 +403,9 @@ def test_bad_input_is_one_line_before_any_engine_runs(tmp_path, argv, says):
 
 def test_a_controls_file_with_the_wrong_width_is_refused(tmp_path):
     np.save(tmp_path / "u.npy", np.zeros((4, 7)))
-    code, _, err = cli("model", "--env", "Hopper-v5", "--controls", str(tmp_path / "u.npy"), "--out", str(tmp_path / "o"))
+    code, _, err = cli(
+        "model", "--env", "Hopper-v5", "--controls", str(tmp_path / "u.npy"), "--out", str(tmp_path / "o")
+    )
     assert code == 2 and "7 columns, the model has 3 actuators" in err
 
 
@@ -368,8 +425,11 @@ def test_nightly_appends_each_environments_question_to_its_report(tmp_path):
 
     report = tmp_path / "report.md"
     report.write_text("# nightly\n")
-    control_step_sections([environment("Hopper-v5")], report,
-                          StudyConfig(horizon_s=0.3, states_per_seed=4, threads=1, timings=_timings(4)))
+    control_step_sections(
+        [environment("Hopper-v5")],
+        report,
+        StudyConfig(horizon_s=0.3, states_per_seed=4, threads=1, timings=_timings(4)),
+    )
     text = report.read_text()
     assert "## Model files at their control step" in text and "### Hopper-v5" in text
     assert "#### The answer" in text and "each control step is" in text
@@ -377,7 +437,9 @@ def test_nightly_appends_each_environments_question_to_its_report(tmp_path):
 
 
 def test_nightly_refuses_an_unknown_environment_before_anything_runs(tmp_path):
-    code, out, err = cli("nightly", "--model-env", "Nope-v1", "--out", str(tmp_path / "o"), "--db", str(tmp_path / "db"))
+    code, out, err = cli(
+        "nightly", "--model-env", "Nope-v1", "--out", str(tmp_path / "o"), "--db", str(tmp_path / "db")
+    )
     assert code == 2 and "unknown --env 'Nope-v1'" in err and not (tmp_path / "db").exists()
 
 
@@ -452,9 +514,9 @@ def test_termination_rules_are_gymnasiums_at_their_edges():
     q[1] = 1.25
     v = np.zeros(6)
     assert not hop.terminated(q, v)
-    assert hop.terminated(q, np.r_[0, 0, 0, 0, 0, 100.0])        # healthy_state_range is open at 100
-    assert hop.terminated(np.r_[0, 1.25, 0.2, 0, 0, 0], v)       # healthy_angle_range is open
+    assert hop.terminated(q, np.r_[0, 0, 0, 0, 0, 100.0])  # healthy_state_range is open at 100
+    assert hop.terminated(np.r_[0, 1.25, 0.2, 0, 0, 0], v)  # healthy_angle_range is open
     qa = np.zeros(15)
     qa[2] = 1.0
-    assert not ant.terminated(qa, np.zeros(14))                   # Ant's z range is closed
-    assert ant.terminated(qa, np.r_[np.nan, np.zeros(13)])       # and the state must be finite
+    assert not ant.terminated(qa, np.zeros(14))  # Ant's z range is closed
+    assert ant.terminated(qa, np.r_[np.nan, np.zeros(13)])  # and the state must be finite

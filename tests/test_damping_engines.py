@@ -8,6 +8,7 @@ relative). Measured with mujoco 4.0.0, pybullet 3.2.7, pymunk 7.3.1: 0 (bitwise)
 force applied from Python and for pymunk's space.damping; 1.4e-14 for Chipmunk's DampedSpring
 (its exp and the spring's spaced anchor); 7.2e-16 for MuJoCo's implicit damping.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -17,9 +18,13 @@ import adapters
 from harness.measures.identify import MATCH_RTOL, identify
 from scenarios import make_scene
 
-pytestmark = pytest.mark.skipif(not all(adapters.ENGINE_METHODS[m].available()[0] for m in
-                                        ("mujoco:euler", "pybullet:semi_implicit", "pymunk:spring_force")),
-                                reason="needs mujoco, pybullet and pymunk")
+pytestmark = pytest.mark.skipif(
+    not all(
+        adapters.ENGINE_METHODS[m].available()[0]
+        for m in ("mujoco:euler", "pybullet:semi_implicit", "pymunk:spring_force")
+    ),
+    reason="needs mujoco, pybullet and pymunk",
+)
 
 RTOL = 1e-12
 STEPS = 300
@@ -28,23 +33,39 @@ VELOCITY_IMPLICIT = "ref:semi_implicit_euler_velocity_implicit"
 #: (scene, params) -> {mode: the scheme it is, or None: nothing matches (the mode says why)}
 IDENTITY = {
     ("damped_spring", "zeta=0.05"): {
-        "mujoco:euler": VELOCITY_IMPLICIT, "mujoco:implicit": VELOCITY_IMPLICIT,
-        "mujoco:implicitfast": VELOCITY_IMPLICIT, "mujoco:rk4": "ref:rk4", "mujoco:discrete": "ref:implicit_euler",
+        "mujoco:euler": VELOCITY_IMPLICIT,
+        "mujoco:implicit": VELOCITY_IMPLICIT,
+        "mujoco:implicitfast": VELOCITY_IMPLICIT,
+        "mujoco:rk4": "ref:rk4",
+        "mujoco:discrete": "ref:implicit_euler",
         "pybullet:semi_implicit": "ref:semi_implicit_euler",
-        "pymunk:spring_force": "ref:semi_implicit_euler_position_first", "pymunk:applied_force": "ref:explicit_euler",
-        "pymunk:damped_spring": "ref:position_first_euler_decay_after_kick",
-        "pymunk:space_damping": "ref:position_first_euler_decay_before_kick"},
-    ("projectile", "c=0.1"): {
-        "mujoco:euler": VELOCITY_IMPLICIT, "mujoco:implicit": VELOCITY_IMPLICIT,
-        "mujoco:implicitfast": VELOCITY_IMPLICIT, "mujoco:rk4": "ref:rk4", "mujoco:discrete": VELOCITY_IMPLICIT,
-        "pybullet:semi_implicit": "ref:semi_implicit_euler", "pymunk:spring_force": "ref:explicit_euler",
+        "pymunk:spring_force": "ref:semi_implicit_euler_position_first",
         "pymunk:applied_force": "ref:explicit_euler",
-        "pymunk:space_damping": "ref:position_first_euler_decay_before_kick"},
+        "pymunk:damped_spring": "ref:position_first_euler_decay_after_kick",
+        "pymunk:space_damping": "ref:position_first_euler_decay_before_kick",
+    },
+    ("projectile", "c=0.1"): {
+        "mujoco:euler": VELOCITY_IMPLICIT,
+        "mujoco:implicit": VELOCITY_IMPLICIT,
+        "mujoco:implicitfast": VELOCITY_IMPLICIT,
+        "mujoco:rk4": "ref:rk4",
+        "mujoco:discrete": VELOCITY_IMPLICIT,
+        "pybullet:semi_implicit": "ref:semi_implicit_euler",
+        "pymunk:spring_force": "ref:explicit_euler",
+        "pymunk:applied_force": "ref:explicit_euler",
+        "pymunk:space_damping": "ref:position_first_euler_decay_before_kick",
+    },
     ("chain", "N=8, c=20"): {
-        "mujoco:euler": None, "mujoco:implicit": None, "mujoco:implicitfast": None, "mujoco:rk4": "ref:rk4",
-        "mujoco:discrete": None, "pybullet:semi_implicit": "ref:semi_implicit_euler",
-        "pymunk:spring_force": "ref:semi_implicit_euler_position_first", "pymunk:applied_force": "ref:explicit_euler",
-        "pymunk:damped_spring": None},
+        "mujoco:euler": None,
+        "mujoco:implicit": None,
+        "mujoco:implicitfast": None,
+        "mujoco:rk4": "ref:rk4",
+        "mujoco:discrete": None,
+        "pybullet:semi_implicit": "ref:semi_implicit_euler",
+        "pymunk:spring_force": "ref:semi_implicit_euler_position_first",
+        "pymunk:applied_force": "ref:explicit_euler",
+        "pymunk:damped_spring": None,
+    },
 }
 IDENTITY[("damped_spring", "zeta=1")] = IDENTITY[("damped_spring", "zeta=0.05")]
 PARAMS = {"zeta=0.05": {"c": 0.1}, "zeta=1": {"c": 2.0}, "c=0.1": {"c": 0.1}, "N=8, c=20": {"N": 8, "c": 20.0}}
@@ -85,8 +106,9 @@ def _one_step_mujoco(integrator, scene, q, v, h):
     return d.qvel.copy()
 
 
-@pytest.mark.parametrize("integrator, implicit_part", [("Euler", "joint"), ("implicit", "diagonal"),
-                                                       ("implicitfast", "diagonal")])
+@pytest.mark.parametrize(
+    "integrator, implicit_part", [("Euler", "joint"), ("implicit", "diagonal"), ("implicitfast", "diagonal")]
+)
 def test_mujoco_makes_only_part_of_the_chains_damping_implicit(integrator, implicit_part):
     """The damped chain's reasons (adapters/mujoco/ ``_NO_MATCH``): one step from a generic
     state is v + h (M + h D')^-1 f with D' the joint damping only (Euler) or the diagonal of the

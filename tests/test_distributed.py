@@ -6,6 +6,7 @@ Two nightlies of a small suite (``SUITE``) run once for the module: one in local
 on every attempt. Comparing the two covers both "same numbers as a local run" and "a killed
 worker costs its cell one retry", in one Dask run.
 """
+
 import contextlib
 import json
 import os
@@ -33,17 +34,21 @@ from tests.shared_fixture import built_once
 from records.cell import FIGURES
 
 FAULTS = str(Path(__file__).with_name("dask_faults.py"))
-KILLED_ONCE = "cell spring ref:rk4"              # its worker dies on the first attempt only
+KILLED_ONCE = "cell spring ref:rk4"  # its worker dies on the first attempt only
 KILLED_ALWAYS = "cell spring ref:implicit_euler"  # its worker dies on every attempt
 KEY = ["scene", "method", "measure", "dt"]
 
 
 #: The cluster's run and its local twin: the least suite with every kind of task the cluster must
 #: carry (two reference schemes and two engine modes, each with every measure), ``KILLED_ONCE`` among them.
-SUITE = Suite("dask-smoke", scenes={"spring": SceneSpec(periods=2, order_span=2.0,
-                                                        advise=SUITES["smoke"].scenes["spring"].advise)},
-              methods=("ref:semi_implicit_euler", "ref:rk4", "mujoco:euler", "pymunk:applied_force"),
-              cost_repeats=3, bounds=False, frame_rates=SUITES["smoke"].frame_rates)
+SUITE = Suite(
+    "dask-smoke",
+    scenes={"spring": SceneSpec(periods=2, order_span=2.0, advise=SUITES["smoke"].scenes["spring"].advise)},
+    methods=("ref:semi_implicit_euler", "ref:rk4", "mujoco:euler", "pymunk:applied_force"),
+    cost_repeats=3,
+    bounds=False,
+    frame_rates=SUITES["smoke"].frame_rates,
+)
 
 
 def nightly_argv(tmp, *extra):
@@ -81,8 +86,10 @@ def worker_kills(tmp, plan: dict):
     the worker preload and the daemon flag the executor sets for its LocalCluster."""
     kills = tmp / "kills"
     kills.mkdir()
-    config = {"distributed.worker.preload": [FAULTS],
-              "distributed.worker.daemon": dask.config.get("distributed.worker.daemon")}
+    config = {
+        "distributed.worker.preload": [FAULTS],
+        "distributed.worker.daemon": dask.config.get("distributed.worker.daemon"),
+    }
     with pytest.MonkeyPatch.context() as mp, dask.config.set(config):
         mp.delenv(distributed.ENV_VAR, raising=False)
         mp.setenv(dask_faults.PLAN_VAR, json.dumps(plan))
@@ -135,6 +142,7 @@ def test_dask_smoke_run_matches_the_local_run_cell_for_cell(local_run, dask_run)
         if key[2] == "cost":
             assert fb.force_evals_per_step == fa.force_evals_per_step, key
         elif key[2] == "advise":
+
             def measured(rows):
                 return [{k: v for k, v in r.items() if k != "cost_per_frame_s"} for r in rows]
 
@@ -185,19 +193,28 @@ def test_the_report_footer_says_where_the_cells_ran(local_run, dask_run):
     local_footer = (ltmp / "out" / "report.md").read_text().split("\n---\n")[-1]
     assert "Cells ran on: local worker processes (2 at a time)" in local_footer
     footer = (dtmp / "out" / "report.md").read_text().split("\n---\n")[-1]
-    where = re.search(r"Cells ran on: (Dask LocalCluster at tcp://127\.0\.0\.1:\d+ \(2 worker processes, "
-                      r"1 thread each; a cell whose worker dies is retried once\))", footer)
+    where = re.search(
+        r"Cells ran on: (Dask LocalCluster at tcp://127\.0\.0\.1:\d+ \(2 worker processes, "
+        r"1 thread each; a cell whose worker dies is retried once\))",
+        footer,
+    )
     assert where, footer
     runs, _ = stored(dtmp)
     assert runs.settings.iloc[-1]["executor"] == where.group(1)
 
 
 # ----------------------------------------------------------------------------- the option
-@pytest.mark.parametrize("spec, says", [
-    ("local:0", "local:N needs N >= 1"), ("local:two", "local:N needs N >= 1"),
-    ("scheduler", "expected local:N"), ("tcp://scheduler", "expected local:N"),
-    ("http://scheduler:8786", "unknown scheme 'http'"), ("tcp://scheduler:99999", "not in 1..65535"),
-])
+@pytest.mark.parametrize(
+    "spec, says",
+    [
+        ("local:0", "local:N needs N >= 1"),
+        ("local:two", "local:N needs N >= 1"),
+        ("scheduler", "expected local:N"),
+        ("tcp://scheduler", "expected local:N"),
+        ("http://scheduler:8786", "unknown scheme 'http'"),
+        ("tcp://scheduler:99999", "not in 1..65535"),
+    ],
+)
 def test_a_bad_scheduler_is_one_line_exit_2_before_anything_runs(tmp_path, capsys, spec, says):
     assert main(nightly_argv(tmp_path, "--scheduler", spec)) == 2
     err = capsys.readouterr().err
@@ -231,8 +248,9 @@ def free_port() -> int:
 
 def previous_run(db) -> History:
     history = History(db)
-    run = history.start_run(started="2026-01-01T00:00:00+00:00", suite="smoke", git_commit=None, versions={},
-                            machine={}, settings={})
+    run = history.start_run(
+        started="2026-01-01T00:00:00+00:00", suite="smoke", git_commit=None, versions={}, machine={}, settings={}
+    )
     history.finish_run(run, finished="2026-01-01T00:01:00+00:00", wall_s=60.0, timing={}, regressions=0)
     return history
 
@@ -312,8 +330,9 @@ def test_a_hung_cell_in_a_dask_worker_is_timed_out_and_never_outlives_its_worker
     with dask.config.set({"distributed.worker.daemon": dask.config.get("distributed.worker.daemon")}):
         executor = distributed.DaskExecutor("local:1", run_task=run_task)
         try:
-            assert executor.describe().endswith("(1 worker process, 1 thread each; a cell whose worker dies "
-                                                "is retried once)")
+            assert executor.describe().endswith(
+                "(1 worker process, 1 thread each; a cell whose worker dies is retried once)"
+            )
             pid = executor.client.run(os.getpid)
             [(_, hung)] = list(executor.run([bound], timeout=0.001))
             [(_, cells)] = list(executor.run([bound], timeout=60.0))

@@ -22,6 +22,7 @@ follows "at most" (a budget, not a measurement), is not flagged. Both parts are 
 the timings once written in the code (``TIMINGS`` below, as they read) and against physical
 times the code states (``PHYSICAL``).
 """
+
 from __future__ import annotations
 
 import ast
@@ -39,9 +40,12 @@ README_MAX_LINES = 250
 _NUMBER = r"(?<![\w.])\d+(?:\.\d+)?(?:\s?-\s?\d+(?:\.\d+)?)?"
 _SHORT = re.compile(_NUMBER + r"\s?(?:ns|µs|us|ms|CPU-s|CPU-min)\b")
 _LONG = re.compile(_NUMBER + r"\s?(?:s|secs?|seconds?|min|minutes?|hours?)\b")
-_MACHINE = re.compile(r"\b(?:took|takes?|taking|costs?|costing|ran|runs? in|compil\w*|import\w*|"
-                      r"load\w*|interpret\w*|measured here|wall(?:[- ]clock|[- ]time)?\b(?! spring)|CPU|cores?|"
-                      r"machine)\b", re.IGNORECASE)
+_MACHINE = re.compile(
+    r"\b(?:took|takes?|taking|costs?|costing|ran|runs? in|compil\w*|import\w*|"
+    r"load\w*|interpret\w*|measured here|wall(?:[- ]clock|[- ]time)?\b(?! spring)|CPU|cores?|"
+    r"machine)\b",
+    re.IGNORECASE,
+)
 #: A number that restates a named setting or a budget: ``NAME_S`` (20 ms), NAME_S (0.1 s, ..., at most 0.02 s.
 _SETTING = re.compile(r"(?:\b[A-Z][A-Z0-9_]*_S`{0,2}\s\(|\bat most\s)$")
 _CLAUSE = re.compile(r";\s|\.\s+(?=[A-Z(`*])|\n\s*\n")
@@ -53,7 +57,7 @@ def timings_in(text: str) -> list[str]:
     for clause in _CLAUSE.split(" ".join(text.split())):
         for pattern in (_SHORT, _LONG):
             for m in pattern.finditer(clause):
-                if _SETTING.search(clause[:m.start()]):
+                if _SETTING.search(clause[: m.start()]):
                     continue
                 if pattern is _SHORT or _MACHINE.search(clause):
                     found.append(clause.strip())
@@ -156,10 +160,16 @@ def test_the_rule_leaves_physical_times_and_settings_alone(text):
 
 
 def test_no_comment_or_docstring_carries_a_machine_timing():
-    found = [f"{path.relative_to(ROOT)}:{line}: {clause}"
-             for path in _sources() for line, text in comments_and_docstrings(path) for clause in timings_in(text)]
-    assert not found, ("machine timings in comments or docstrings (say what the code does and why; the "
-                       "measurement goes to docs/performance.md with its date and commit):\n" + "\n".join(found))
+    found = [
+        f"{path.relative_to(ROOT)}:{line}: {clause}"
+        for path in _sources()
+        for line, text in comments_and_docstrings(path)
+        for clause in timings_in(text)
+    ]
+    assert not found, (
+        "machine timings in comments or docstrings (say what the code does and why; the "
+        "measurement goes to docs/performance.md with its date and commit):\n" + "\n".join(found)
+    )
 
 
 def test_the_readme_is_a_guide_of_at_most_250_lines():
@@ -178,8 +188,15 @@ def test_every_docs_page_the_readme_links_exists():
 #: README commands whose output is neither timed nor minutes long: their excerpts are run and held
 #: to the real output. (``advise``, ``workprecision``, ``cost`` and ``bench`` print timings; ``model``,
 #: ``nightly`` and Newton's identification run for minutes: their excerpts are measured by hand.)
-CHECKED_COMMANDS = ("list", "run", "identify spring --method mujoco:", "identify spring --method drake:", "energy",
-                    "order", "stability")
+CHECKED_COMMANDS = (
+    "list",
+    "run",
+    "identify spring --method mujoco:",
+    "identify spring --method drake:",
+    "energy",
+    "order",
+    "stability",
+)
 #: The one mark of rows an excerpt leaves out.
 ELIDED = "…"
 
@@ -194,7 +211,7 @@ def readme_excerpts() -> list[tuple[str, list[str]]]:
             if line.startswith("$ harness "):
                 if command is not None:
                     out.append((command, shown))
-                command, shown = line[len("$ harness "):], []
+                command, shown = line[len("$ harness ") :], []
             elif command is not None:
                 shown.append(line)
         if command is not None:

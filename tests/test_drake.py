@@ -2,6 +2,7 @@
 against the reference schemes (the harness's own, independent of Drake): identities on the spring at
 a binary-fraction step and on the pendulum, observed orders and stability limits on the unit spring,
 and the step doubling of Drake's implicit_euler. Skipped where pydrake cannot be imported."""
+
 from __future__ import annotations
 
 import math
@@ -51,16 +52,27 @@ def test_each_drake_mode_is_its_scheme_on_the_spring(mode, scheme_id, tol):
 
 
 #: The explicit midpoint rule, the other two-stage second-order scheme: Drake's RK2 is not it.
-MIDPOINT = tableau_scheme("midpoint_drake_test", A=[[0, 0], ["1/2", 0]], b=[0, 1], c=[0, "1/2"], order=2,
-                          energy_claim="grows", doc="explicit midpoint: y_{n+1} = y_n + h f(y_n + h/2 f(y_n)); order 2",
-                          module=__name__)
+MIDPOINT = tableau_scheme(
+    "midpoint_drake_test",
+    A=[[0, 0], ["1/2", 0]],
+    b=[0, 1],
+    c=[0, "1/2"],
+    order=2,
+    energy_claim="grows",
+    doc="explicit midpoint: y_{n+1} = y_n + h f(y_n + h/2 f(y_n)); order 2",
+    module=__name__,
+)
 
 
-@pytest.mark.parametrize("mode, scheme, other", [
-    ("runge_kutta2", METHODS["heun"], MIDPOINT),
-    ("runge_kutta3", METHODS["kutta_rk3"], METHODS["bogacki_shampine3"]),
-    ("bogacki_shampine3", METHODS["bogacki_shampine3"], METHODS["kutta_rk3"]),
-], ids=["rk2-heun-not-midpoint", "rk3-kutta-not-bogacki-shampine", "bs3-not-kutta"])
+@pytest.mark.parametrize(
+    "mode, scheme, other",
+    [
+        ("runge_kutta2", METHODS["heun"], MIDPOINT),
+        ("runge_kutta3", METHODS["kutta_rk3"], METHODS["bogacki_shampine3"]),
+        ("bogacki_shampine3", METHODS["bogacki_shampine3"], METHODS["kutta_rk3"]),
+    ],
+    ids=["rk2-heun-not-midpoint", "rk3-kutta-not-bogacki-shampine", "bs3-not-kutta"],
+)
 def test_the_pendulum_tells_the_schemes_of_one_order_apart(mode, scheme, other):
     """On the spring every three-stage third-order scheme is one polynomial; the pendulum's sin
     separates them. Measured over 1000 steps of 0.02 (h omega = 0.063): the match 3e-12 (Drake steps
@@ -80,9 +92,20 @@ def test_the_discrete_plant_treats_joint_damping_explicitly_under_tamsi_and_impl
         assert _deviation(mode, METHODS["semi_implicit_euler_velocity_implicit"], damped, 0.125, 1000) <= 1e-14
 
 
-@pytest.mark.parametrize("mode, expected", [("semi_explicit_euler", 1), ("explicit_euler", 1), ("runge_kutta2", 2),
-                                            ("runge_kutta3", 3), ("bogacki_shampine3", 3), ("runge_kutta5", 5),
-                                            ("radau1", 1), ("radau3", 3), ("implicit_euler", 1)])
+@pytest.mark.parametrize(
+    "mode, expected",
+    [
+        ("semi_explicit_euler", 1),
+        ("explicit_euler", 1),
+        ("runge_kutta2", 2),
+        ("runge_kutta3", 3),
+        ("bogacki_shampine3", 3),
+        ("runge_kutta5", 5),
+        ("radau1", 1),
+        ("radau3", 3),
+        ("implicit_euler", 1),
+    ],
+)
 def test_observed_order_on_the_spring(mode, expected):
     """The harness's order measure (log-log slope of the global error against the closed form);
     within 0.1 of the scheme's order (issue 35; measured 0.997 to 5.007)."""
@@ -96,12 +119,24 @@ def test_observed_order_on_the_spring(mode, expected):
 STABILITY_FAST = ("semi_explicit_euler", "explicit_euler", "radau1", "discrete_sap")
 
 
-@pytest.mark.parametrize("mode, scheme_id", [
-    m if m[0] in STABILITY_FAST else pytest.param(*m, marks=pytest.mark.slow)
-    for m in [("semi_explicit_euler", "semi_implicit_euler"), ("explicit_euler", "explicit_euler"), ("runge_kutta2", "heun"),
-              ("runge_kutta3", "kutta_rk3"), ("bogacki_shampine3", "bogacki_shampine3"),
-              ("runge_kutta5", "dormand_prince5"), ("radau1", "implicit_euler"), ("radau3", "radau_iia2"),
-              ("implicit_euler", "implicit_euler_doubled"), ("discrete_sap", "semi_implicit_euler")]])
+@pytest.mark.parametrize(
+    "mode, scheme_id",
+    [
+        m if m[0] in STABILITY_FAST else pytest.param(*m, marks=pytest.mark.slow)
+        for m in [
+            ("semi_explicit_euler", "semi_implicit_euler"),
+            ("explicit_euler", "explicit_euler"),
+            ("runge_kutta2", "heun"),
+            ("runge_kutta3", "kutta_rk3"),
+            ("bogacki_shampine3", "bogacki_shampine3"),
+            ("runge_kutta5", "dormand_prince5"),
+            ("radau1", "implicit_euler"),
+            ("radau3", "radau_iia2"),
+            ("implicit_euler", "implicit_euler_doubled"),
+            ("discrete_sap", "semi_implicit_euler"),
+        ]
+    ],
+)
 def test_stability_limit_on_the_unit_spring_is_the_schemes_theory(mode, scheme_id):
     """The largest stable h omega by the one-step map's spectral radius against the scheme's theory
     (its stability polynomial on the imaginary axis): semi-implicit Euler 2, explicit Euler none,
@@ -179,11 +214,12 @@ CHAIN_IDENTITIES = [
 ]
 
 
-@pytest.mark.parametrize("params, mode, scheme_id", CHAIN_IDENTITIES,
-                         ids=[f"{m}-c{p.get('c', 0)}" for p, m, _ in CHAIN_IDENTITIES])
+@pytest.mark.parametrize(
+    "params, mode, scheme_id", CHAIN_IDENTITIES, ids=[f"{m}-c{p.get('c', 0)}" for p, m, _ in CHAIN_IDENTITIES]
+)
 def test_the_chain_of_drake_force_elements_is_the_scheme(params, mode, scheme_id):
     chain = make_scene("chain", **params)
-    assert _deviation(mode, METHODS[scheme_id], chain, 2.0 ** -10, 1000) <= 1e-12
+    assert _deviation(mode, METHODS[scheme_id], chain, 2.0**-10, 1000) <= 1e-12
 
 
 def test_the_damped_chain_on_the_discrete_plant_is_no_one_scheme():
@@ -191,19 +227,24 @@ def test_the_damped_chain_on_the_discrete_plant_is_no_one_scheme():
     neighbours) explicit: a mix, 0.115 from semi-implicit Euler after 1000 steps (c = 5, measured),
     where the undamped chain is that scheme to roundoff (above). Held above 1e-2."""
     chain = make_scene("chain", c=5.0)
-    assert _deviation("discrete_sap", METHODS["semi_implicit_euler"], chain, 2.0 ** -10, 1000) >= 1e-2
+    assert _deviation("discrete_sap", METHODS["semi_implicit_euler"], chain, 2.0**-10, 1000) >= 1e-2
 
 
-@pytest.mark.parametrize("mode, scheme_id, tol", [("semi_explicit_euler", "semi_implicit_euler", 0.0),
-                                                  ("explicit_euler", "explicit_euler", 0.0),
-                                                  ("discrete_tamsi", "semi_implicit_euler", 0.0),
-                                                  ("discrete_sap", "semi_implicit_euler_velocity_implicit", 1e-12),
-                                                  ("runge_kutta5", "dormand_prince5", 1e-11)])
+@pytest.mark.parametrize(
+    "mode, scheme_id, tol",
+    [
+        ("semi_explicit_euler", "semi_implicit_euler", 0.0),
+        ("explicit_euler", "explicit_euler", 0.0),
+        ("discrete_tamsi", "semi_implicit_euler", 0.0),
+        ("discrete_sap", "semi_implicit_euler_velocity_implicit", 1e-12),
+        ("runge_kutta5", "dormand_prince5", 1e-11),
+    ],
+)
 def test_the_projectile_on_two_damped_prismatic_joints_is_the_scheme(mode, scheme_id, tol):
     """The projectile's linear drag is each prismatic joint's damping, gravity Drake's: 1000 steps of
     2^-7. Bit for bit where Drake's arithmetic is the scheme's; measured 2.8e-14 (SAP, its damping
     implicit) and 3.7e-13 (RK5) against positions up to 200, held ten times above (1e-12, 1e-11)."""
-    assert _deviation(mode, METHODS[scheme_id], make_scene("projectile"), 2.0 ** -7, 1000) <= tol
+    assert _deviation(mode, METHODS[scheme_id], make_scene("projectile"), 2.0**-7, 1000) <= tol
 
 
 def _pybullet_data(name: str) -> str:
@@ -253,8 +294,12 @@ def test_what_drakes_mjcf_parser_ignores_is_listed_never_silent():
     _, differences, notes, _, _ = _drake_and_mujoco(path, "conservative")
     assert differences == ["drake: joint h has no stiffness (mujoco 2)"]
     said = " ".join(notes)
-    for ignored in ("'stiffness' found in a 'joint' tag", "'springref' found in a 'joint' tag",
-                    "'timestep' found in a 'option' tag", "'integrator' found in a 'option' tag"):
+    for ignored in (
+        "'stiffness' found in a 'joint' tag",
+        "'springref' found in a 'joint' tag",
+        "'timestep' found in a 'option' tag",
+        "'integrator' found in a 'option' tag",
+    ):
         assert ignored in said, ignored
 
 

@@ -2,6 +2,7 @@
 ``Tableau.b_hat``, ``error_step``, ``error_controlled``): Bogacki-Shampine 3(2) and Dormand-Prince
 5(4) declare theirs; the estimate is the difference of the two solutions at the embedded order's
 rate, the step it comes with is the fixed step's bits, and the controlled run meets its tolerance."""
+
 from __future__ import annotations
 
 import math
@@ -50,7 +51,7 @@ def test_the_estimate_shrinks_at_the_embedded_orders_rate(sid, rate):
     """On the spring from (1, 0): |estimate| ~ h^(q+1), q the embedded order (log-log slope within 0.15)."""
     step = error_step(METHODS[sid].tableau, f"error_step_{sid}")
     spring = make_scene("spring")
-    hs = [0.2 / 2 ** k for k in range(5)]
+    hs = [0.2 / 2**k for k in range(5)]
     sizes = []
     for h in hs:
         _, _, eq, ev = step(spring.accel, (np.array([[1.0]]), np.array([[0.0]])), 0.0, h, spring.pvec)
@@ -75,7 +76,10 @@ def test_the_controlled_run_meets_its_tolerance(sid):
     q = METHODS[sid].tableau.embedded_order()
     ratio = runs[1e-8]["accepted"] / runs[1e-5]["accepted"]
     assert ratio == pytest.approx(1000 ** (1 / (q + 1)), rel=0.5)
-    assert runs[1e-8]["force_evals"] == (runs[1e-8]["accepted"] + runs[1e-8]["rejected"]) * METHODS[sid].tableau.error_evals
+    assert (
+        runs[1e-8]["force_evals"]
+        == (runs[1e-8]["accepted"] + runs[1e-8]["rejected"]) * METHODS[sid].tableau.error_evals
+    )
 
 
 def test_a_scheme_without_an_embedded_row_is_not_controlled():

@@ -4,6 +4,7 @@ random walk; and the run that broke it, explicit Euler over 1e7 days on the oute
 
 Each synthetic series runs over 1000 time units with 20,001 states; the oscillation's period
 is 2 pi, so each tenth holds 16 periods (the rule wants a few)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -62,7 +63,7 @@ def test_the_solar_system_says_when_a_planet_is_unbound():
     q, v = solar.initial_state()
     assert not solar.escaped(q[None], v[None])[0]
     v_fast = v.copy()
-    v_fast[3 * 5:3 * 6] *= 2.0   # Pluto at twice its speed: well past escape (sqrt 2)
+    v_fast[3 * 5 : 3 * 6] *= 2.0  # Pluto at twice its speed: well past escape (sqrt 2)
     assert solar.escaped(np.stack([q, q]), np.stack([v, v_fast])).tolist() == [False, True]
 
 
@@ -93,8 +94,9 @@ def test_explicit_euler_over_1e7_days_on_the_outer_solar_system_is_not_bounded()
     from reference import METHODS
 
     solar = make_scene("solar_system")
-    res = energy.energy_behaviour(RefMethod(METHODS["explicit_euler"], compiled=True), solar, 10.0, 1_000_000,
-                                  every=250)
+    res = energy.energy_behaviour(
+        RefMethod(METHODS["explicit_euler"], compiled=True), solar, 10.0, 1_000_000, every=250
+    )
     assert res["status"] == "ok"
     assert res["classification"] == "grows", res["rule"]
     assert res["max_rel_error"] > energy.ORDER_ONE
@@ -107,7 +109,7 @@ def test_the_state_error_stands_beside_the_energy_error():
     res = energy.energy_behaviour("ref:implicit_midpoint", make_scene("spring"), 0.1, 10_000, every=10)
     assert res["classification"] == "bounded" and res["max_rel_error"] < 1e-13
     assert res["state_error_source"] == "exact"
-    assert res["state_error_final"] == pytest.approx(2 * np.sin(0.1 ** 2 / 12 * 1000 / 2), rel=0.01)
+    assert res["state_error_final"] == pytest.approx(2 * np.sin(0.1**2 / 12 * 1000 / 2), rel=0.01)
 
 
 def test_cli_energy_prints_the_state_error(capsys):
@@ -172,9 +174,19 @@ def test_the_report_names_the_events_beside_the_class():
     from reports.markdown import scene_section
 
     ev = {"kind": "ejected", "step": 246, "t": 4.92, "r": 0.54, "text": "ejected (unbound) by step 246, at r = 0.54"}
-    cell = Cell.from_row({"scene": "kepler", "method": "ref:implicit_euler", "family": "ref", "measure": "energy",
-                          "dt": 0.02, "steps": 20000, "status": "ok", "value": 4.9,
-                          "data": {"class": "grows", "events": [ev]}})
+    cell = Cell.from_row(
+        {
+            "scene": "kepler",
+            "method": "ref:implicit_euler",
+            "family": "ref",
+            "measure": "energy",
+            "dt": 0.02,
+            "steps": 20000,
+            "status": "ok",
+            "value": 4.9,
+            "data": {"class": "grows", "events": [ev]},
+        }
+    )
     row = next(line for line in scene_section("kepler", pivot([cell]), {}) if line.startswith("| `ref:implicit"))
     assert "| grows (ejected (unbound) by step 246, at r = 0.54) |" in row
 
@@ -190,8 +202,14 @@ def test_brouwers_law_holds_over_an_ensemble_of_ias15_runs_on_the_outer_solar_sy
     from scenarios import make_scene
 
     settings = SOLAR_BROUWER["rebound:ias15"]
-    res = energy_walk(get_method("rebound:ias15"), make_scene("solar_system"), settings["horizon"] / 100, 100, 1,
-                      realizations=settings["realizations"])
+    res = energy_walk(
+        get_method("rebound:ias15"),
+        make_scene("solar_system"),
+        settings["horizon"] / 100,
+        100,
+        1,
+        realizations=settings["realizations"],
+    )
     lo, hi = res["ci95"]
     assert res["failed"] == 0 and lo <= res["slope"] <= hi and res["contains_brouwer"] and lo <= 0.5 <= hi
     assert len(res["t"]) == len(res["rms"]) == 99 and np.all(np.diff(res["t"]) > 0)

@@ -9,13 +9,12 @@
 * ``slow``: two MuJoCo releases built from the registry (cached), ``discrete`` in one and not the
   other, the unit spring's Euler trajectory bit for bit the same.
 """
+
 from __future__ import annotations
 
 import json
 import math
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -79,7 +78,7 @@ def test_find_change_measures_at_most_log2_of_the_range():
         for first in range(1, n):
             calls = []
 
-            def measure(release):
+            def measure(release, calls=calls, first=first):
                 calls.append(release)
                 return release >= first
 
@@ -90,14 +89,17 @@ def test_find_change_measures_at_most_log2_of_the_range():
 
 def test_a_release_imports_its_own_engine(toy):
     folders, *_ = toy
-    done = engine_env.run_harness(folders["1.6"], ["run", "spring", "--method", "toyengine:euler", "--dt", "0.1",
-                                                   "--steps", "2", "--format", "json"])
+    done = engine_env.run_harness(
+        folders["1.6"],
+        ["run", "spring", "--method", "toyengine:euler", "--dt", "0.1", "--steps", "2", "--format", "json"],
+    )
     assert done.returncode == 0, done.stderr
     meta = json.loads(done.stdout)["meta"]
     assert meta["engine_version"] == "1.6" and meta["settings"] == {"release": "1.6"}
 
 
 # ---------------------------------------------------------------- bad input: one line, exit 2
+
 
 def _one_line_exit_2(capsys, argv):
     assert main(argv) == 2
@@ -114,13 +116,17 @@ def test_unknown_engine_names_the_engines(capsys, monkeypatch, tmp_path):
 
 
 def test_a_mode_of_another_engine_is_refused(capsys):
-    err = _one_line_exit_2(capsys, ["bisect", "mujoco", "3.0.0", "3.3.7", "--scene", "spring", "--method", "rebound:whfast"])
+    err = _one_line_exit_2(
+        capsys, ["bisect", "mujoco", "3.0.0", "3.3.7", "--scene", "spring", "--method", "rebound:whfast"]
+    )
     assert "--method" in err and "mujoco:euler" in err
 
 
 def test_unknown_measure_names_the_measures(capsys):
-    err = _one_line_exit_2(capsys, ["bisect", "mujoco", "3.0.0", "3.3.7", "--scene", "spring", "--method",
-                                    "mujoco:euler", "--measure", "speed"])
+    err = _one_line_exit_2(
+        capsys,
+        ["bisect", "mujoco", "3.0.0", "3.3.7", "--scene", "spring", "--method", "mujoco:euler", "--measure", "speed"],
+    )
     assert "--measure" in err and "trajectory" in err and "stability" in err
 
 
@@ -128,7 +134,9 @@ LISTED = ["2.3.6", "2.3.7", "3.0.0", "3.0.1", "3.3.7", "4.0.0"]
 
 
 def test_a_release_that_does_not_exist_names_the_nearest():
-    with pytest.raises(InvalidInput, match=r"mujoco has no release '3\.2\.9' \(nearest: 3\.0\.0, 3\.0\.1, 3\.3\.7, 4\.0\.0\)"):
+    with pytest.raises(
+        InvalidInput, match=r"mujoco has no release '3\.2\.9' \(nearest: 3\.0\.0, 3\.0\.1, 3\.3\.7, 4\.0\.0\)"
+    ):
         engine_env.check_release("mujoco", "3.2.9", LISTED)
     assert engine_env.check_release("mujoco", "4.0", LISTED) == "4.0.0"
 
@@ -142,17 +150,28 @@ def test_a_range_in_the_wrong_order_says_so():
 def test_a_release_outside_the_adapters_range_is_refused_before_installing(tmp_path):
     installed = []
     argv = bisect_cli.cell_argv("trajectory", "spring", "mujoco:euler", "0.1", "10", [])
-    with pytest.raises(InvalidInput, match=r"LOW: mujoco 2\.3\.6 is outside the versions its adapter supports "
-                                           r"\(mujoco>=2\.3\.7,<5"):
-        bisect_cli.bisect("mujoco", "2.3.6", "3.0.0", argv, releases=lambda d: LISTED,
-                          ensure=lambda d, v: installed.append(v))
+    with pytest.raises(
+        InvalidInput,
+        match=r"LOW: mujoco 2\.3\.6 is outside the versions its adapter supports "
+        r"\(mujoco>=2\.3\.7,<5",
+    ):
+        bisect_cli.bisect(
+            "mujoco", "2.3.6", "3.0.0", argv, releases=lambda d: LISTED, ensure=lambda d, v: installed.append(v)
+        )
     assert installed == []
 
 
 def test_a_registry_that_does_not_answer_is_one_line(monkeypatch, tmp_path):
     # A registry on a closed local port: pip cannot connect (no network needed to test it).
-    env = {**os.environ, "PIP_INDEX_URL": "http://127.0.0.1:9/simple", "PIP_EXTRA_INDEX_URL": "",
-           "PIP_FIND_LINKS": "", "PIP_NO_INDEX": "", "PIP_CONFIG_FILE": os.devnull, "PIP_RETRIES": "0"}
+    env = {
+        **os.environ,
+        "PIP_INDEX_URL": "http://127.0.0.1:9/simple",
+        "PIP_EXTRA_INDEX_URL": "",
+        "PIP_FIND_LINKS": "",
+        "PIP_NO_INDEX": "",
+        "PIP_CONFIG_FILE": os.devnull,
+        "PIP_RETRIES": "0",
+    }
     with pytest.raises(InvalidInput, match="the package registry did not answer") as info:
         engine_env.releases("mujoco", env=env)
     assert "\n" not in str(info.value)
@@ -165,8 +184,12 @@ def test_an_installed_version_outside_the_range_makes_the_mode_unavailable(monke
     mode = adapters.ENGINE_METHODS["mujoco:euler"]
     monkeypatch.setattr(_mode, "engine_version", lambda dist: "2.2.0")
     ok, why = mode.available()
-    assert not ok and why == "mujoco 2.2.0 is outside the versions its adapter supports (mujoco>=2.3.7,<5; tested on " \
-                             "2.3.7, 3.0.0, 3.3.7, 4.0.0)"
+    assert (
+        not ok
+        and why
+        == "mujoco 2.2.0 is outside the versions its adapter supports (mujoco>=2.3.7,<5; tested on "
+        "2.3.7, 3.0.0, 3.3.7, 4.0.0)"
+    )
 
 
 def test_harness_run_on_an_engine_outside_the_range_is_one_line_exit_2(tmp_path):
@@ -174,18 +197,27 @@ def test_harness_run_on_an_engine_outside_the_range_is_one_line_exit_2(tmp_path)
     info = tmp_path / "mujoco-2.2.0.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: mujoco\nVersion: 2.2.0\n")
-    done = engine_env.run_harness(tmp_path, ["run", "spring", "--method", "mujoco:euler", "--dt", "0.1", "--steps", "2"])
+    done = engine_env.run_harness(
+        tmp_path, ["run", "spring", "--method", "mujoco:euler", "--dt", "0.1", "--steps", "2"]
+    )
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == [
         "harness: error: method mujoco:euler is unavailable: mujoco 2.2.0 is outside the versions its adapter "
-        "supports (mujoco>=2.3.7,<5; tested on 2.3.7, 3.0.0, 3.3.7, 4.0.0)"]
+        "supports (mujoco>=2.3.7,<5; tested on 2.3.7, 3.0.0, 3.3.7, 4.0.0)"
+    ]
 
 
 def test_version_order():
     from adapters import EngineVersions, version_key
 
-    assert sorted(["3.10.0", "3.2.0", "2.3.1.post1", "2.3.1", "3.0.0rc1", "3.0.0"], key=version_key) == \
-        ["2.3.1", "2.3.1.post1", "3.0.0rc1", "3.0.0", "3.2.0", "3.10.0"]
+    assert sorted(["3.10.0", "3.2.0", "2.3.1.post1", "2.3.1", "3.0.0rc1", "3.0.0"], key=version_key) == [
+        "2.3.1",
+        "2.3.1.post1",
+        "3.0.0rc1",
+        "3.0.0",
+        "3.2.0",
+        "3.10.0",
+    ]
     assert "4.0" in EngineVersions("4.0.0", "6") and "6.0" not in EngineVersions("4.0.0", "6")
 
 
@@ -206,8 +238,9 @@ def test_two_mujoco_releases_discrete_in_one_euler_bit_for_bit_in_both():
 
     runs = {}
     for v in (OLD, NEW):
-        done = harness(v, "run", "spring", "--method", "mujoco:euler", "--dt", "0.01", "--steps", "10000",
-                       "--format", "json")
+        done = harness(
+            v, "run", "spring", "--method", "mujoco:euler", "--dt", "0.01", "--steps", "10000", "--format", "json"
+        )
         assert done.returncode == 0, done.stderr
         out = json.loads(done.stdout)
         assert out["meta"]["engine_version"] == v
@@ -215,8 +248,10 @@ def test_two_mujoco_releases_discrete_in_one_euler_bit_for_bit_in_both():
     assert runs[OLD] == runs[NEW]  # every q, v and energy, bit for bit (JSON keeps every double's bits)
 
     absent = harness(OLD, "run", "spring", "--method", "mujoco:discrete", "--dt", "0.1", "--steps", "2")
-    assert absent.returncode == 2 and absent.stderr.strip() == \
-        f"harness: error: method mujoco:discrete is unavailable: not in mujoco {OLD}"
+    assert (
+        absent.returncode == 2
+        and absent.stderr.strip() == f"harness: error: method mujoco:discrete is unavailable: not in mujoco {OLD}"
+    )
     present = harness(NEW, "run", "spring", "--method", "mujoco:discrete", "--dt", "0.1", "--steps", "2")
     assert present.returncode == 0, present.stderr
 
@@ -227,9 +262,19 @@ def test_a_mode_missing_from_early_releases_is_one_cell_until_it_appears(toy):
 
     def measure(folder, argv):
         release = Path(folder).name.split("-", 1)[1]
-        return {"error": f"method toyengine:euler is unavailable: not in toyengine {release}"} \
-            if release < "1.5" else {"rows": [1.0]}
+        return (
+            {"error": f"method toyengine:euler is unavailable: not in toyengine {release}"}
+            if release < "1.5"
+            else {"rows": [1.0]}
+        )
 
-    result = bisect_cli.bisect("toyengine", "1.0", "1.7", ["run", "spring", "--method", "toyengine:euler"],
-                               releases=releases, ensure=ensure, measure=measure)
+    result = bisect_cli.bisect(
+        "toyengine",
+        "1.0",
+        "1.7",
+        ["run", "spring", "--method", "toyengine:euler"],
+        releases=releases,
+        ensure=ensure,
+        measure=measure,
+    )
     assert (result.first, result.before) == ("1.5", "1.4")

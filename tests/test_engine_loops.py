@@ -7,6 +7,7 @@ and warm start; REBOUND: ``sim.steps(n)`` is n calls of its step; pybullet and p
 same calls, only the reads between output points left out), so any difference is a bug.
 Counted evaluations are integers and compared exactly.
 """
+
 from __future__ import annotations
 
 import math
@@ -31,8 +32,10 @@ def _both(method_id: str, scene_id: str, homega: float, steps: int, every: int):
     mode = adapters.ENGINE_METHODS[method_id]
     scene = make_scene(scene_id, **POSED.get((method_id, scene_id), {}))
     dt = homega / scene.omega
-    return (mode.simulate(scene, dt, steps, every, loop="engine"),
-            mode.simulate(scene, dt, steps, every, loop="harness"))
+    return (
+        mode.simulate(scene, dt, steps, every, loop="engine"),
+        mode.simulate(scene, dt, steps, every, loop="harness"),
+    )
 
 
 def _assert_bitwise(a, b) -> None:
@@ -53,9 +56,10 @@ def _slow(m: str, s: str) -> bool:
 
 
 @pytest.mark.parametrize("run", sorted(RUNS))
-@pytest.mark.parametrize("method_id,scene_id", [pytest.param(m, s, id=f"{m}-{s}",
-                                                             marks=[pytest.mark.slow] if _slow(m, s) else [])
-                                                for m, s in CASES])
+@pytest.mark.parametrize(
+    "method_id,scene_id",
+    [pytest.param(m, s, id=f"{m}-{s}", marks=[pytest.mark.slow] if _slow(m, s) else []) for m, s in CASES],
+)
 def test_engine_loop_is_the_per_step_path_bitwise(method_id, scene_id, run):
     homega, steps, every = RUNS[run]
     engine_loop, per_step = _both(method_id, scene_id, homega, steps, every)
@@ -67,9 +71,14 @@ def test_engine_loop_is_the_per_step_path_bitwise(method_id, scene_id, run):
 def test_the_runs_cover_unstable_runs_of_every_engine_that_has_one():
     """The unstable runs above are unstable (else the bitwise test would not test the replay):
     an explicit scheme at h omega = 3 on the spring, and the stiff chain."""
-    for method_id, scene_id in [("mujoco:euler", "spring"), ("mujoco:rk4", "spring"),
-                                ("pybullet:semi_implicit", "spring"), ("pymunk:spring_force", "spring"),
-                                ("pymunk:applied_force", "chain"), ("pymunk:damped_spring", "chain")]:
+    for method_id, scene_id in [
+        ("mujoco:euler", "spring"),
+        ("mujoco:rk4", "spring"),
+        ("pybullet:semi_implicit", "spring"),
+        ("pymunk:spring_force", "spring"),
+        ("pymunk:applied_force", "chain"),
+        ("pymunk:damped_spring", "chain"),
+    ]:
         a, b = _both(method_id, scene_id, *RUNS["unstable"])
         assert a.status == "unstable" and a.failed_step is not None, (method_id, scene_id)
         assert "replayed" in a.meta.loop
@@ -102,12 +111,20 @@ def test_an_unknown_loop_is_a_one_line_error():
 #: Force evaluations per step each engine's own counter should show, from what the engines
 #: document: MuJoCo runs one forward pass a step, RK4 four (its stages); REBOUND's leapfrog
 #: and WHFast evaluate gravity once a step; pymunk calls a body's velocity_func once a step.
-EXPECTED = [("mujoco:euler", "spring", 1), ("mujoco:implicit", "spring", 1), ("mujoco:implicitfast", "spring", 1),
-            ("mujoco:discrete", "spring", 1), ("mujoco:rk4", "spring", 4), ("mujoco:rk4", "chain", 4),
-            ("rebound:leapfrog", "kepler", 1), ("rebound:whfast", "kepler", 1),
-            ("rebound:leapfrog", "solar_system", 1),
-            ("pymunk:spring_force", "spring", 1), ("pymunk:spring_force", "chain", 1),
-            ("pymunk:applied_force", "spring", 1)]
+EXPECTED = [
+    ("mujoco:euler", "spring", 1),
+    ("mujoco:implicit", "spring", 1),
+    ("mujoco:implicitfast", "spring", 1),
+    ("mujoco:discrete", "spring", 1),
+    ("mujoco:rk4", "spring", 4),
+    ("mujoco:rk4", "chain", 4),
+    ("rebound:leapfrog", "kepler", 1),
+    ("rebound:whfast", "kepler", 1),
+    ("rebound:leapfrog", "solar_system", 1),
+    ("pymunk:spring_force", "spring", 1),
+    ("pymunk:spring_force", "chain", 1),
+    ("pymunk:applied_force", "spring", 1),
+]
 
 
 @pytest.mark.parametrize("method_id,scene_id,per_step", EXPECTED)
@@ -139,6 +156,7 @@ def test_modes_that_cannot_count_say_why():
 
 # ---------------------------------------------------------------- the two cost figures
 
+
 def test_cost_of_an_engine_mode_has_two_figures_and_ratios_use_the_engines_own():
     from harness.measures import cost
 
@@ -166,13 +184,16 @@ def test_a_force_applied_from_python_every_step_is_said_in_the_cost():
 
 # ---------------------------------------------------------------- the engine bench and the chart
 
+
 def test_bench_engines_json_puts_each_mode_beside_its_bare_loops(capsys):
     import json
 
     from harness.cli import main
 
-    assert main(["bench", "--engines", "--json", "--methods", "mujoco:rk4", "rebound:leapfrog",
-                 "pymunk:applied_force"]) == 0
+    assert (
+        main(["bench", "--engines", "--json", "--methods", "mujoco:rk4", "rebound:leapfrog", "pymunk:applied_force"])
+        == 0
+    )
     rows = {r["method"]: r for r in json.loads(capsys.readouterr().out)}
     assert list(rows) == ["mujoco:rk4", "rebound:leapfrog", "pymunk:applied_force"]
     mj, rb, pm = rows["mujoco:rk4"], rows["rebound:leapfrog"], rows["pymunk:applied_force"]
@@ -183,7 +204,9 @@ def test_bench_engines_json_puts_each_mode_beside_its_bare_loops(capsys):
     # A mode whose force is set from Python is judged against the least loop that simulates the
     # scene (a step-only loop would step a body with no spring); the step-only ratio rides beside.
     assert pm["target_loop"] == "bare loop + force"
-    assert pm["ratio_to_step_loop"] == pytest.approx(pm["engine_ns_per_step"] / pm["bare_ns_per_step"]["space.step loop"])
+    assert pm["ratio_to_step_loop"] == pytest.approx(
+        pm["engine_ns_per_step"] / pm["bare_ns_per_step"]["space.step loop"]
+    )
     assert "ratio_to_step_loop" not in mj and "ratio_to_step_loop" not in rb
     for r in rows.values():
         assert r["ratio_to_bare"] == pytest.approx(r["engine_ns_per_step"] / r["bare_ns_per_step"][r["target_loop"]])
@@ -216,8 +239,9 @@ def test_the_work_precision_chart_says_which_loop_and_clock(tmp_path, monkeypatc
     monkeypatch.setattr(charts, "_save", keep)
     points = OrderFigures(points=[{"dt": 0.1, "error": 1e-3}, {"dt": 0.05, "error": 2.5e-4}])
     methods = ("ref:leapfrog", "mujoco:euler")
-    cells = [Cell("spring", m, m.split(":")[0], "order", value=2.0, figures=points) for m in methods] + \
-        [Cell("spring", m, m.split(":")[0], "cost", value=1e-6, figures=CostFigures(clock="cpu")) for m in methods]
+    cells = [Cell("spring", m, m.split(":")[0], "order", value=2.0, figures=points) for m in methods] + [
+        Cell("spring", m, m.split(":")[0], "cost", value=1e-6, figures=CostFigures(clock="cpu")) for m in methods
+    ]
     assert charts.workprecision_chart(cells, "spring", tmp_path / "wp.png")
     assert said["legend"] == ["mujoco:euler (engine's own loop)", "ref:leapfrog (compiled)"]
     assert said["xlabel"].startswith("cost: CPU seconds") and "engines: their own loop" in said["xlabel"]
@@ -283,8 +307,15 @@ def test_every_engine_has_a_bare_loop_that_steps_its_model(mode_id):
             loop.close()
 
 
-@pytest.mark.parametrize("scene_id, params, mode", [("rope", {"N": 5}, "pin_joint"), ("chain", {"N": 8}, "spring_force"),
-                                                    ("chain", {"N": 8}, "damped_spring"), ("net", {"n": 3, "m": 4}, "damped_spring")])
+@pytest.mark.parametrize(
+    "scene_id, params, mode",
+    [
+        ("rope", {"N": 5}, "pin_joint"),
+        ("chain", {"N": 8}, "spring_force"),
+        ("chain", {"N": 8}, "damped_spring"),
+        ("net", {"n": 3, "m": 4}, "damped_spring"),
+    ],
+)
 def test_pymunk_reads_every_body_in_one_call_the_same_doubles(scene_id, params, mode):
     """A multi-body pose reads its bodies through pymunk.batch (one Chipmunk call a state, where the
     per-step reads were most of a stability search's time): the doubles the properties give."""

@@ -2,6 +2,7 @@
 ``ENGINE``) is the one place its modes, poses, model builder, bare loops, releases and
 distributions are written; every list of engines the harness keeps is read from ``adapters.ENGINES``,
 so that a release of any engine, Drake's and Newton's included, is named where two runs differ."""
+
 from __future__ import annotations
 
 import re
@@ -76,9 +77,13 @@ def test_no_engine_is_written_out_by_hand_outside_its_package():
     ids = "|".join(adapters.ENGINES)
     listed = re.compile(rf"[\"']({ids})[\"']\s*[,:]\s*\(?[\"']({ids})[\"']")
     branch = re.compile(rf"\.(engine|family)\s*(==|!=)\s*[\"']({ids})[\"']")
-    hits = [f"{path.relative_to(ROOT)}:{n}" for package in ("harness", "reports", "scenarios", "records")
-            for path in sorted((ROOT / package).rglob("*.py"))
-            for n, line in enumerate(path.read_text().splitlines(), 1) if listed.search(line) or branch.search(line)]
+    hits = [
+        f"{path.relative_to(ROOT)}:{n}"
+        for package in ("harness", "reports", "scenarios", "records")
+        for path in sorted((ROOT / package).rglob("*.py"))
+        for n, line in enumerate(path.read_text().splitlines(), 1)
+        if listed.search(line) or branch.search(line)
+    ]
     assert hits == []
 
 
@@ -92,9 +97,14 @@ def _versions(release: dict) -> dict:
 
 
 def _stored(history: History, versions: dict, machine: dict | None = None) -> dict:
-    run_id = history.start_run(started="2026-11-28T00:00:00", suite="toy", git_commit="a" * 40, versions=versions,
-                               machine=machine or {"node": "host-a", "system": "Linux", "machine": "x86_64"},
-                               settings={})
+    run_id = history.start_run(
+        started="2026-11-28T00:00:00",
+        suite="toy",
+        git_commit="a" * 40,
+        versions=versions,
+        machine=machine or {"node": "host-a", "system": "Linux", "machine": "x86_64"},
+        settings={},
+    )
     history.finish_run(run_id, finished="2026-11-28T00:01:00", wall_s=1.0, timing={}, regressions=0)
     return history.run(run_id)
 
@@ -115,8 +125,15 @@ def test_what_differs_names_a_release_of_every_engine(engine, tmp_path):
 def test_what_differs_reads_a_release_recorded_only_among_the_engines():
     """A run stored before an engine's distribution was recorded on its own (Drake's, Newton's) has
     its release under ``versions["engines"]``: that release is compared."""
-    a = {"run_id": 1, "suite": "toy", "started": "t", "measurement_version": 7, "git_commit": "a" * 40,
-         "versions": {"numpy": "2", "engines": {"drake": "1.50.0"}}, "machine": {}}
+    a = {
+        "run_id": 1,
+        "suite": "toy",
+        "started": "t",
+        "measurement_version": 7,
+        "git_commit": "a" * 40,
+        "versions": {"numpy": "2", "engines": {"drake": "1.50.0"}},
+        "machine": {},
+    }
     b = {**a, "versions": {"numpy": "2", "engines": {"drake": "1.51.1"}}}
     assert what_differs(a, b, "drake") == "drake 1.50.0 -> 1.51.1"
 

@@ -15,6 +15,7 @@ scheme commutes with the modal change of variables (M^-1 f transforms as the vel
 modes are independent copies of that map and the sum of their energies keeps the band of the
 fastest: ``band(h * w_max)``.
 """
+
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -79,15 +80,23 @@ def frozen(h=H):
     lower = np.linalg.cholesky(full_m(m, mujoco.MjData(m), np.zeros(3)))
     k_y = np.linalg.solve(lower, np.linalg.solve(lower, np.diag(STIFFNESS)).T)
     lam, r = np.linalg.eigh(0.5 * (k_y + k_y.T))
-    slides = "".join(f'<body name="m{i}"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>'
-                     f'<joint name="y{i}" type="slide" axis="1 0 0"/></body>' for i in range(3))
-    tendons = "".join(f'<fixed name="t{k}" stiffness="{float(lam[k])!r}" springlength="0">'
-                      + "".join(f'<joint joint="y{i}" coef="{float(r[i, k])!r}"/>' for i in range(3)) + "</fixed>"
-                      for k in range(3))
+    slides = "".join(
+        f'<body name="m{i}"><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>'
+        f'<joint name="y{i}" type="slide" axis="1 0 0"/></body>'
+        for i in range(3)
+    )
+    tendons = "".join(
+        f'<fixed name="t{k}" stiffness="{float(lam[k])!r}" springlength="0">'
+        + "".join(f'<joint joint="y{i}" coef="{float(r[i, k])!r}"/>' for i in range(3))
+        + "</fixed>"
+        for k in range(3)
+    )
     y0 = " ".join(repr(float(x)) for x in lower.T @ Q0)
-    xml = (f'<mujoco model="frozen3"><option timestep="{h!r}" integrator="Euler"><flag gravity="disable" '
-           f'contact="disable"/></option><worldbody>{slides}</worldbody><tendon>{tendons}</tendon>'
-           f'<keyframe><key qpos="{y0}"/></keyframe></mujoco>')
+    xml = (
+        f'<mujoco model="frozen3"><option timestep="{h!r}" integrator="Euler"><flag gravity="disable" '
+        f'contact="disable"/></option><worldbody>{slides}</worldbody><tendon>{tendons}</tendon>'
+        f'<keyframe><key qpos="{y0}"/></keyframe></mujoco>'
+    )
     return xml, lower, np.sqrt(lam)
 
 
@@ -101,8 +110,8 @@ def energy(m, d, q, v) -> float:
     mm = full_m(m, d, q)
     d.qpos[:] = q
     mujoco.mj_fwdPosition(m, d)
-    tendons = 0.5 * float(np.sum(m.tendon_stiffness * d.ten_length ** 2)) if m.ntendon else 0.0
-    return 0.5 * float(v @ mm @ v) + 0.5 * float(np.sum(m.jnt_stiffness * q ** 2)) + tendons
+    tendons = 0.5 * float(np.sum(m.tendon_stiffness * d.ten_length**2)) if m.ntendon else 0.0
+    return 0.5 * float(v @ mm @ v) + 0.5 * float(np.sum(m.jnt_stiffness * q**2)) + tendons
 
 
 def mujoco_run(xml: str, q0, seconds: float, every: int = 16):
@@ -161,7 +170,7 @@ def test_mujoco_euler_stays_in_its_band_where_the_mass_matrix_is_constant():
 def _step_qp(m, x):
     """One mj_step as a map of (q, p = M(q) v)."""
     d = mujoco.MjData(m)
-    q, p = x[:m.nv], x[m.nv:]
+    q, p = x[: m.nv], x[m.nv :]
     d.qpos[:] = q
     d.qvel[:] = np.linalg.solve(full_m(m, d, q), p)
     mujoco.mj_step(m, d)
@@ -266,20 +275,31 @@ def test_the_finding_explains_the_drift_and_is_absent_where_m_is_constant(tmp_pa
 
 def _cell(cls, varies, method="mujoco:euler", scene="model:c.xml@00000000"):
     numbers = {} if varies is None else {"mass_matrix_varies": varies}
-    return Cell(scene=scene, method=method, family=method.split(":")[0], measure="energy", value=0.4, dt=1e-3,
-                steps=2000, figures=EnergyFigures(energy_class=cls, numbers=numbers))
+    return Cell(
+        scene=scene,
+        method=method,
+        family=method.split(":")[0],
+        measure="energy",
+        value=0.4,
+        dt=1e-3,
+        steps=2000,
+        figures=EnergyFigures(energy_class=cls, numbers=numbers),
+    )
 
 
-@pytest.mark.parametrize("cell, said", [
-    (_cell("decays", 0.1), True),
-    (_cell("grows", 0.1, "mujoco:implicit"), True),
-    (_cell("drifts", 0.1, "pybullet:semi_implicit"), False),  # its energy is MuJoCo's function on Bullet's model
-    (_cell("bounded", 0.1), False),                       # the class is the claim: nothing to explain
-    (_cell("decays", 0.0), False),                        # M constant: not this cause
-    (_cell("decays", None), False),                       # not measured (a dissipating variant)
-    (_cell("decays", 0.1, "mujoco:rk4"), False),          # not semi-implicit in velocity
-    (_cell("decays", 0.1, scene="chain"), False),         # a built-in scene
-])
+@pytest.mark.parametrize(
+    "cell, said",
+    [
+        (_cell("decays", 0.1), True),
+        (_cell("grows", 0.1, "mujoco:implicit"), True),
+        (_cell("drifts", 0.1, "pybullet:semi_implicit"), False),  # its energy is MuJoCo's function on Bullet's model
+        (_cell("bounded", 0.1), False),  # the class is the claim: nothing to explain
+        (_cell("decays", 0.0), False),  # M constant: not this cause
+        (_cell("decays", None), False),  # not measured (a dissipating variant)
+        (_cell("decays", 0.1, "mujoco:rk4"), False),  # not semi-implicit in velocity
+        (_cell("decays", 0.1, scene="chain"), False),  # a built-in scene
+    ],
+)
 def test_the_finding_judges_class_claim_and_mass_matrix(cell, said):
     found = [f for f in judge.judge([cell]).findings if "not momentum" in f.text]
     assert bool(found) is said

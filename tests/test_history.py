@@ -5,6 +5,7 @@ The end-to-end runs use the smallest matrix that shows it: the spring with one e
 ``tests/slow_plugin.py`` (about 5 s a nightly here), three nights as they are, then one with its
 step slowed; each nightly in a process of its own, as ``harness nightly`` runs.
 """
+
 import contextlib
 import io
 import json
@@ -30,8 +31,15 @@ from tests.slow_plugin import SLOWDOWN_VAR
 
 ROOT = Path(__file__).resolve().parents[1]
 SLOW = "slowtest:semi_implicit"
-SUITE = Suite("history-smoke", scenes={"spring": SceneSpec(periods=2, order_span=2.0, stability=False)},
-              methods=(), cost_repeats=3, bounds=False, identify=False, cell_timeout=60.0)
+SUITE = Suite(
+    "history-smoke",
+    scenes={"spring": SceneSpec(periods=2, order_span=2.0, stability=False)},
+    methods=(),
+    cost_repeats=3,
+    bounds=False,
+    identify=False,
+    cell_timeout=60.0,
+)
 
 # ----------------------------------------------------------------------------- synthetic series
 #: Nights in a synthetic history, and the seeds each kind of series is drawn with.
@@ -135,15 +143,45 @@ def stored_history(path, ratios, spreads=None, commits=None) -> History:
     """A history of one cost cell (``ref:rk4`` on the spring), one complete smoke run a night."""
     h = History(path)
     for i, ratio in enumerate(ratios):
-        run = h.start_run(started=f"2026-11-{i + 1:02d}T02:00:00+00:00", suite="smoke",
-                          git_commit=(commits or [f"{i:040x}"] * len(ratios))[i], versions={"mujoco": "4.0.0"},
-                          machine={"system": "Linux"}, settings={})
-        h.add_cell(run, {"scene": "spring", "method": "ref:rk4", "family": "ref", "measure": "cost", "dt": 0.1,
-                         "steps": 1000, "status": "ok", "value": 1e-7 * ratio,
-                         "data": {"ratio_to_explicit_euler": float(ratio),
-                                  "ratio_spread": float(spreads[i]) if spreads is not None else 0.05}})
-        h.add_cell(run, {"scene": "spring", "method": "ref:rk4", "family": "ref", "measure": "energy", "dt": 0.1,
-                         "steps": 1000, "status": "ok", "value": 2.5e-6, "data": {}})
+        run = h.start_run(
+            started=f"2026-11-{i + 1:02d}T02:00:00+00:00",
+            suite="smoke",
+            git_commit=(commits or [f"{i:040x}"] * len(ratios))[i],
+            versions={"mujoco": "4.0.0"},
+            machine={"system": "Linux"},
+            settings={},
+        )
+        h.add_cell(
+            run,
+            {
+                "scene": "spring",
+                "method": "ref:rk4",
+                "family": "ref",
+                "measure": "cost",
+                "dt": 0.1,
+                "steps": 1000,
+                "status": "ok",
+                "value": 1e-7 * ratio,
+                "data": {
+                    "ratio_to_explicit_euler": float(ratio),
+                    "ratio_spread": float(spreads[i]) if spreads is not None else 0.05,
+                },
+            },
+        )
+        h.add_cell(
+            run,
+            {
+                "scene": "spring",
+                "method": "ref:rk4",
+                "family": "ref",
+                "measure": "energy",
+                "dt": 0.1,
+                "steps": 1000,
+                "status": "ok",
+                "value": 2.5e-6,
+                "data": {},
+            },
+        )
         h.finish_run(run, finished="t", wall_s=1.0, timing={}, regressions=0)
     return h
 
@@ -211,7 +249,7 @@ def calibrated_history(path, ratios, calibrations, commits) -> History:
 def test_a_cost_step_where_nothing_changed_is_the_machines_never_a_confident_regression(tmp_path):
     # Six nights of one commit, the last three with a neighbour: the ratio up 38%. The fit finds
     # the step; nothing the cell depends on differs across it, so it is the machine's.
-    h = calibrated_history(tmp_path / "h.sqlite", [4.0, 4.04, 3.98, 5.5, 5.52, 5.49], [50.0] * 6, ["a" * 40] * 6)
+    calibrated_history(tmp_path / "h.sqlite", [4.0, 4.04, 3.98, 5.5, 5.52, 5.49], [50.0] * 6, ["a" * 40] * 6)
     code, out, _ = run_cli("history", "--db", str(tmp_path / "h.sqlite"), "--measure", "cost", "--json")
     (cell,) = json.loads(out)["cells"]
     assert code == 0 and cell["steps"] == [] and cell["regression"] is None
@@ -229,15 +267,16 @@ def test_a_cost_step_is_credited_with_the_calibrations_move(tmp_path):
     commits = [f"{c}" * 40 for c in "aaabbb"]
     ratios = [4.0, 4.04, 3.98, 5.5, 5.52, 5.49]  # +38% with the code changed at run 4
     # The calibration moved +35% with it (a neighbour since run 4): what remains is within noise.
-    h = calibrated_history(tmp_path / "moved.sqlite", ratios, [50.0] * 3 + [67.5] * 3, commits)
-    (cell,) = json.loads(run_cli("history", "--db", str(tmp_path / "moved.sqlite"), "--measure", "cost",
-                                 "--json")[1])["cells"]
+    calibrated_history(tmp_path / "moved.sqlite", ratios, [50.0] * 3 + [67.5] * 3, commits)
+    (cell,) = json.loads(run_cli("history", "--db", str(tmp_path / "moved.sqlite"), "--measure", "cost", "--json")[1])[
+        "cells"
+    ]
     assert cell["steps"] == [] and cell["regression"] is None
     (step,) = cell["machine_steps"]
     assert step["cause"] == "within the machine's noise: the calibration moved +35% across it"
     assert step["confidence"] < 0.95
     # The calibration steady: the same step is the method's, with its commits, and a regression.
-    h = calibrated_history(tmp_path / "steady.sqlite", ratios, [50.0] * 6, commits)
+    calibrated_history(tmp_path / "steady.sqlite", ratios, [50.0] * 6, commits)
     code, out, _ = run_cli("history", "--db", str(tmp_path / "steady.sqlite"), "--measure", "cost", "--json")
     (cell,) = json.loads(out)["cells"]
     (step,) = cell["steps"]
@@ -246,21 +285,30 @@ def test_a_cost_step_is_credited_with_the_calibrations_move(tmp_path):
 
 
 def test_what_differs_between_two_runs():
-    a = {"run_id": 1, "suite": "smoke", "started": "t", "measurement_version": MEASUREMENT_VERSION,
-         "git_commit": "a" * 40, "versions": {"mujoco": "3.3.0", "numpy": "2.4.6"}, "machine": {"system": "Linux"}}
+    a = {
+        "run_id": 1,
+        "suite": "smoke",
+        "started": "t",
+        "measurement_version": MEASUREMENT_VERSION,
+        "git_commit": "a" * 40,
+        "versions": {"mujoco": "3.3.0", "numpy": "2.4.6"},
+        "machine": {"system": "Linux"},
+    }
     b = {**a, "versions": {"mujoco": "4.0.0", "numpy": "2.4.6"}}
     assert what_differs(a, b, "mujoco") == "mujoco 3.3.0 -> 4.0.0"
     assert what_differs(a, b, "ref") == "same code, engine versions and platform: the figure is not deterministic"
     c = {**a, "git_commit": "b" * 40, "machine": {"system": "Darwin"}}
     assert what_differs(a, c, "ref", deterministic=False) == (
-        "code aaaaaaaaaa..bbbbbbbbbb; platform system Linux -> Darwin")
+        "code aaaaaaaaaa..bbbbbbbbbb; platform system Linux -> Darwin"
+    )
     # A dirty tree's commit says nothing of its code: the code digest does, where both runs have it.
     d = {**a, "git_commit": "a" * 40 + "+dirty"}
     assert what_differs(d, d, "ref", deterministic=False).startswith("code ")
     d1, d2 = ({**d, "settings": {"code_digest": x}} for x in ("1234", "5678"))
     assert what_differs(d1, d1, "ref", deterministic=False) == "same code, engine versions and platform"
     assert what_differs(d1, d2, "ref", deterministic=False) == (
-        "code aaaaaaaaaa+dirty (same commit), its uncommitted changes differ")
+        "code aaaaaaaaaa+dirty (same commit), its uncommitted changes differ"
+    )
     # A plugin's version is one more package every family depends on.
     p1, p2 = ({**a, "versions": {**a["versions"], "plugin my.modes": v}} for v in ("1", "2"))
     assert what_differs(p1, p2, "ref", deterministic=False) == "plugin my.modes 1 -> 2"
@@ -269,10 +317,12 @@ def test_what_differs_between_two_runs():
 # ----------------------------------------------------------------------------- end to end
 #: One nightly of ``SUITE`` in a process of its own, as ``harness nightly`` runs: the environment
 #: it is given (``HARNESS_TEST_SLOWDOWN``) reaches its workers. Prints its run id and regressions.
-NIGHTLY = ("import json, sys; from pathlib import Path; from harness.nightly.run import run_nightly; "
-           "from tests.test_history import SUITE; "
-           "r = run_nightly(SUITE, Path(sys.argv[1]), Path(sys.argv[2]), jobs=1); "
-           "print(json.dumps({'run_id': r['run_id'], 'regressions': [g.as_dict() for g in r['regressions']]}))")
+NIGHTLY = (
+    "import json, sys; from pathlib import Path; from harness.nightly.run import run_nightly; "
+    "from tests.test_history import SUITE; "
+    "r = run_nightly(SUITE, Path(sys.argv[1]), Path(sys.argv[2]), jobs=1); "
+    "print(json.dumps({'run_id': r['run_id'], 'regressions': [g.as_dict() for g in r['regressions']]}))"
+)
 
 
 #: The timings the end-to-end nightlies record instead of the clock's (``HARNESS_INJECT_TIMINGS``):
@@ -280,18 +330,31 @@ NIGHTLY = ("import json, sys; from pathlib import Path; from harness.nightly.run
 #: Euler, as measured here), 20 us slowed by 300 updates a step (about 4x); repeats 1-2% apart;
 #: the calibration pair the same every night.
 def timings(slowdown: int) -> dict:
-    return {"s_per_step": {"ref:explicit_euler": 1e-7, SLOW: 4.8e-6 if slowdown == 1 else 2.0e-5},
-            "jitter": [1.0, 1.02, 0.99], "calibration": {"python": 5e-7, "compiled": 1e-8}}
+    return {
+        "s_per_step": {"ref:explicit_euler": 1e-7, SLOW: 4.8e-6 if slowdown == 1 else 2.0e-5},
+        "jitter": [1.0, 1.02, 0.99],
+        "calibration": {"python": 5e-7, "compiled": 1e-8},
+    }
 
 
 def nightly_process(tmp, slowdown: int) -> dict:
     injected = tmp / f"timings-{slowdown}.json"
     injected.write_text(json.dumps(timings(slowdown)))
-    env = {**os.environ, "HARNESS_PLUGINS": "tests.slow_plugin", SLOWDOWN_VAR: str(slowdown),
-           "HARNESS_INJECT_TIMINGS": str(injected),
-           "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
-    done = subprocess.run([sys.executable, "-c", NIGHTLY, str(tmp / "out"), str(tmp / "h.sqlite")], cwd=ROOT,
-                          env=env, capture_output=True, text=True, timeout=300)
+    env = {
+        **os.environ,
+        "HARNESS_PLUGINS": "tests.slow_plugin",
+        SLOWDOWN_VAR: str(slowdown),
+        "HARNESS_INJECT_TIMINGS": str(injected),
+        "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p),
+    }
+    done = subprocess.run(
+        [sys.executable, "-c", NIGHTLY, str(tmp / "out"), str(tmp / "h.sqlite")],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -337,8 +400,7 @@ def test_a_slowed_method_is_flagged_as_a_step_on_the_run_after_it_slows(nights):
     (reg,) = seen["results"][3]["regressions"]
     assert (reg["kind"], reg["method"], reg["measure"]) == ("slowdown", SLOW, "cost")
     assert "since run 4" in reg["detail"] and reg["after"] / reg["before"] == pytest.approx(2.0e-5 / 4.8e-6)
-    code, out, _ = run_cli("history", "--db", str(tmp / "h.sqlite"), "--method", SLOW, "--measure", "cost",
-                           "--json")
+    code, out, _ = run_cli("history", "--db", str(tmp / "h.sqlite"), "--method", SLOW, "--measure", "cost", "--json")
     (cell,) = json.loads(out)["cells"]
     assert code == 1 and [p["run"] for p in cell["points"]] == [1, 2, 3, 4]
     (step,) = cell["steps"]
@@ -358,14 +420,17 @@ def test_a_slowed_method_is_flagged_as_a_step_on_the_run_after_it_slows(nights):
     assert code == 1 and f"REGRESSION slowdown: {SLOW} on spring" in out
 
 
-@pytest.mark.parametrize("argv, says", [
-    (["--scene", "moon"], "unknown --scene 'moon' in the history-smoke history of"),
-    (["--method", "ref:nope"], f"unknown --method 'ref:nope' in the history-smoke history of"),
-    (["--measure", "speed"], "unknown --measure 'speed' (valid: energy, error, order, stability, cost)"),
-    (["--last", "0"], "--last=0 is out of range (allowed: integer from 1 to 1000000000)"),
-    (["--last", "-2"], "--last=-2 is out of range (allowed: integer from 1 to 1000000000)"),
-    (["--suite", "huge"], "unknown --suite 'huge' in"),
-])
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["--scene", "moon"], "unknown --scene 'moon' in the history-smoke history of"),
+        (["--method", "ref:nope"], "unknown --method 'ref:nope' in the history-smoke history of"),
+        (["--measure", "speed"], "unknown --measure 'speed' (valid: energy, error, order, stability, cost)"),
+        (["--last", "0"], "--last=0 is out of range (allowed: integer from 1 to 1000000000)"),
+        (["--last", "-2"], "--last=-2 is out of range (allowed: integer from 1 to 1000000000)"),
+        (["--suite", "huge"], "unknown --suite 'huge' in"),
+    ],
+)
 def test_bad_history_input_is_one_line_exit_2(nights, argv, says):
     tmp, _ = nights
     code, out, err = run_cli("history", "--db", str(tmp / "h.sqlite"), *argv)
@@ -395,8 +460,9 @@ def test_runs_of_an_older_measurement_version_are_refused_or_read_never_mixed(ni
     code, out, _ = run_cli("history", "--db", str(db), "--json")
     trend = json.loads(out)
     assert [r["run"] for r in trend["runs"]] == [3, 4] and not trend["judged_by_history"]
-    assert trend["left_out"] == ("2 history-smoke run(s) of measurement version 1 left out: "
-                                 f"not comparable with version {MEASUREMENT_VERSION}")
+    assert trend["left_out"] == (
+        f"2 history-smoke run(s) of measurement version 1 left out: not comparable with version {MEASUREMENT_VERSION}"
+    )
     assert all([p["run"] for p in c["points"]] == [3, 4] for c in trend["cells"])
 
 
@@ -421,7 +487,7 @@ def test_segment_medians_are_numpys_weighted_medians():
     for start in (0, 13, 39):
         medians, costs = _segment_costs(x, w, start)
         for r in range(len(x) - start):
-            seg, sw = x[start:start + r + 1], w[start:start + r + 1]
+            seg, sw = x[start : start + r + 1], w[start : start + r + 1]
             assert medians[r] == np.quantile(seg, 0.5, weights=sw, method="inverted_cdf")
             assert costs[r] == pytest.approx(np.sum(sw * np.abs(seg - medians[r])), rel=1e-12)
 
@@ -430,9 +496,19 @@ def test_segment_medians_are_numpys_weighted_medians():
 def _cost_cell(ratio: float):
     from records.cell import Cell
 
-    return Cell.from_row({"scene": "spring", "method": "ref:rk4", "family": "ref", "measure": "cost", "dt": 0.1,
-                          "steps": 1000, "status": "ok", "value": 1e-7 * ratio,
-                          "data": {"ratio_to_explicit_euler": ratio, "ratio_spread": 0.02}})
+    return Cell.from_row(
+        {
+            "scene": "spring",
+            "method": "ref:rk4",
+            "family": "ref",
+            "measure": "cost",
+            "dt": 0.1,
+            "steps": 1000,
+            "status": "ok",
+            "value": 1e-7 * ratio,
+            "data": {"ratio_to_explicit_euler": ratio, "ratio_spread": 0.02},
+        }
+    )
 
 
 #: ``ref:rk4`` on the projectile in six standard nightlies of one commit on this machine (three
@@ -442,12 +518,17 @@ def _cost_cell(ratio: float):
 MEASURED = [4.74, 4.61, 4.58, 5.36, 5.26, 4.86]
 
 
-@pytest.mark.parametrize("nights, again, regressed", [
-    ([4.0, 4.04, 3.98, 4.02, 4.0, 4.8], (4.0, 4.1, 3.9), False),
-    ([4.0, 4.04, 3.98, 4.02, 4.0, 4.8], (4.8, 4.75, 4.85), True),
-    (MEASURED, (4.91, 5.50, 5.19), False)])
-def test_a_slowdown_is_measured_again_in_fresh_processes_before_it_is_reported(tmp_path, monkeypatch, nights,
-                                                                                again, regressed):
+@pytest.mark.parametrize(
+    "nights, again, regressed",
+    [
+        ([4.0, 4.04, 3.98, 4.02, 4.0, 4.8], (4.0, 4.1, 3.9), False),
+        ([4.0, 4.04, 3.98, 4.02, 4.0, 4.8], (4.8, 4.75, 4.85), True),
+        (MEASURED, (4.91, 5.50, 5.19), False),
+    ],
+)
+def test_a_slowdown_is_measured_again_in_fresh_processes_before_it_is_reported(
+    tmp_path, monkeypatch, nights, again, regressed
+):
     """Six nights, each a new commit, the last up in one process: flagged. Measured again in
     three fresh processes: where they fall back, or spread as far as the step (process-to-process
     noise), the night's point is their median, their range the cell's least noise, and no

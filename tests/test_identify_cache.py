@@ -1,6 +1,7 @@
 """The identity measure's candidate runs are stored on disk beside the kernels, keyed by what
 determines them and by the code that computes them: a second process reads the same bits, and
 code that changed never reads a run of the old."""
+
 import numpy as np
 
 from harness.measures import identify as ident

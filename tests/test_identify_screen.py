@@ -2,6 +2,7 @@
 beyond the tolerance, and only the others (and the runner-up) run in full. Its verdict is the one
 full runs of every scheme give: the same matches and max |diff|; the schemes it rules out do not
 match over the full run, and what it shows of them is at most their full run's max |diff|."""
+
 import pytest
 
 from harness.measures import identify as ident
@@ -43,8 +44,12 @@ def test_the_screen_gives_the_verdict_of_full_runs(monkeypatch, method, scene_id
     scene = make_scene(scene_id, **params)
     screened, full, in_full = _both(monkeypatch, method, scene)
     assert full.screen_steps is None and screened.screen_steps == ident.screen_length(STEPS) == STEPS // 2
-    assert (screened.matches, screened.match, screened.max_deviation, screened.tolerance) == \
-        (full.matches, full.match, full.max_deviation, full.tolerance)
+    assert (screened.matches, screened.match, screened.max_deviation, screened.tolerance) == (
+        full.matches,
+        full.match,
+        full.max_deviation,
+        full.tolerance,
+    )
     # The verdict's line is the same text.
     assert ident.format_report(screened).splitlines()[:2] == ident.format_report(full).splitlines()[:2]
     by_full = {c.method: c for c in full.candidates}

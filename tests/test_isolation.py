@@ -4,6 +4,7 @@ becomes a recorded result, and the harness goes on (issue 3, "Isolation and fail
 The probe functions below run inside the worker; they must be module-level so that the
 worker can import them by name.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -203,8 +204,13 @@ def test_a_pool_worker_whose_caller_is_killed_removes_its_folder_and_one_let_go_
     assert not closed.exists()
 
     root = Path(__file__).resolve().parents[1]
-    caller = subprocess.Popen([sys.executable, "-c", _KILLED_CALLER], cwd=root, stdout=subprocess.PIPE, text=True,
-                              env={**os.environ, "PYTHONPATH": str(root)})
+    caller = subprocess.Popen(
+        [sys.executable, "-c", _KILLED_CALLER],
+        cwd=root,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(root)},
+    )
     folder = Path(caller.stdout.readline().strip())
     assert folder.is_dir() and folder.name.startswith("harness-worker-")
     caller.send_signal(signal.SIGKILL)
@@ -238,7 +244,13 @@ def test_a_run_that_names_its_engines_preloads_those_alone_and_the_first_choice_
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    out = subprocess.run([sys.executable, "-c", NARROWED], cwd=root, capture_output=True, text=True, timeout=120,
-                         env={**os.environ, "PYTHONPATH": str(root)})
+    out = subprocess.run(
+        [sys.executable, "-c", NARROWED],
+        cwd=root,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "PYTHONPATH": str(root)},
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split("\n")[-2] == "['pymunk']"

@@ -1,6 +1,7 @@
 """harness.judge: the check/cross rules against the claims, the bounds, the verdict and the scenes'
 findings tables, on cells built by hand; and reports/ rendering the records it returns without
 importing anything of the harness."""
+
 from __future__ import annotations
 
 import ast
@@ -18,13 +19,22 @@ from records.method import Behaviour
 from harness import judge
 from reports.markdown import CHECK, CROSS, finding_line, verdict as verdict_lines
 
-LEAPFROG = Claims(scheme="ref:leapfrog", order=2, force_evals=1, force_evals_text="1", energy="bounded",
-                  homega_max=2.0)
+LEAPFROG = Claims(scheme="ref:leapfrog", order=2, force_evals=1, force_evals_text="1", energy="bounded", homega_max=2.0)
 
 
 def cell(measure, value=None, method="ref:leapfrog", scene="spring", status="ok", claims=LEAPFROG, **figures):
-    return Cell(scene=scene, method=method, family=method.split(":")[0], measure=measure, status=status,
-                value=value, dt=0.1, steps=100, figures=FIGURES[measure](**figures), claims=claims)
+    return Cell(
+        scene=scene,
+        method=method,
+        family=method.split(":")[0],
+        measure=measure,
+        status=status,
+        value=value,
+        dt=0.1,
+        steps=100,
+        figures=FIGURES[measure](**figures),
+        claims=claims,
+    )
 
 
 def checks(*cells):
@@ -46,16 +56,19 @@ def test_evaluations_energy_and_the_claims_judged_against():
     assert checks(cell("energy", status="crashed")).energy is None
 
 
-@pytest.mark.parametrize("claim, value, figures, ok", [
-    (2.0, 2.0 * (1 + 0.99 * judge.STABILITY_TOL), {}, True),
-    (2.0, 2.0 * (1 + 1.01 * judge.STABILITY_TOL), {}, False),
-    (2.0, math.inf, {"unbounded": True}, False),
-    (None, None, {"unstable_everywhere": True}, True),   # explicit Euler: no h is stable
-    (None, None, {"unresolved": True}, True),            # Heun: growing at every step, no stable step resolved
-    (None, 2.0, {}, False),
-    (math.inf, math.inf, {"unbounded": True}, True),     # backward Euler: every h is
-    (math.inf, 50.0, {}, False),
-])
+@pytest.mark.parametrize(
+    "claim, value, figures, ok",
+    [
+        (2.0, 2.0 * (1 + 0.99 * judge.STABILITY_TOL), {}, True),
+        (2.0, 2.0 * (1 + 1.01 * judge.STABILITY_TOL), {}, False),
+        (2.0, math.inf, {"unbounded": True}, False),
+        (None, None, {"unstable_everywhere": True}, True),  # explicit Euler: no h is stable
+        (None, None, {"unresolved": True}, True),  # Heun: growing at every step, no stable step resolved
+        (None, 2.0, {}, False),
+        (math.inf, math.inf, {"unbounded": True}, True),  # backward Euler: every h is
+        (math.inf, 50.0, {}, False),
+    ],
+)
 def test_the_stability_limit_against_its_claim(claim, value, figures, ok):
     claims = Claims(scheme="ref:x", homega_max=claim)
     assert checks(cell("stability", value, claims=claims, **figures)).homega is ok
@@ -79,8 +92,9 @@ def test_an_identity_row_says_matched_only_where_a_scheme_matched():
     from reports.markdown import identity_table
 
     def row(**figures):
-        c = cell("identity", 6.97e-3, method="newton:xpbd", scene="cloth", claims=Claims(), precision="float32",
-                 **figures)
+        c = cell(
+            "identity", 6.97e-3, method="newton:xpbd", scene="cloth", claims=Claims(), precision="float32", **figures
+        )
         return next(line for line in identity_table(pivot([c])) if "newton:xpbd" in line)
 
     unmatched = row(closest="ref:linearly_implicit_euler")
@@ -101,8 +115,12 @@ def test_bounds():
 
 
 def test_the_verdict_names_every_method_that_failed():
-    cells = [cell("energy", 1e-3), cell("cost", None, method="faulty:hang", status="timed_out"),
-             cell("order", None, method="faulty:abort", status="crashed"), cell("error", None, status="unstable")]
+    cells = [
+        cell("energy", 1e-3),
+        cell("cost", None, method="faulty:hang", status="timed_out"),
+        cell("order", None, method="faulty:abort", status="crashed"),
+        cell("error", None, status="unstable"),
+    ]
     v = judge.verdict(cells, previous=3)
     assert v.failed == (("spring", "faulty:abort"), ("spring", "faulty:hang")) and v.regressions == ()
     text = "\n".join(verdict_lines(v))
@@ -113,8 +131,18 @@ def test_every_scene_check_names_a_finding_and_a_measure():
     for scene, rows in judge.SCENE_CHECKS.items():
         for row in rows:
             assert row.finding in judge.FINDINGS, (scene, row)
-            assert row.measure in {"energy", "error", "order", "cost", "stability", "identity", "constraint",
-                                   "damping", "scaling", "brouwer"}
+            assert row.measure in {
+                "energy",
+                "error",
+                "order",
+                "cost",
+                "stability",
+                "identity",
+                "constraint",
+                "damping",
+                "scaling",
+                "brouwer",
+            }
             assert row.of is None or row.of in judge.DECLARED, (scene, row)
     assert set(judge.DECLARED) <= {f.name for f in dataclasses.fields(Behaviour)}
 
@@ -141,22 +169,39 @@ def test_a_row_applies_to_every_method_of_the_run_that_declares_its_field():
     piv = {("cloth", m): None for m in ("x:one", "x:two", "x:none", "x:unknown", "ref:rk4")}
     row = judge.Check("integrates_as", "identity", of="integrates_as")
     assert judge.declared_checks(row, "cloth", piv, methods) == [
-        judge.Check("integrates_as", "identity", methods=("x:one",), expect="ref:rk4")]
+        judge.Check("integrates_as", "identity", methods=("x:one",), expect="ref:rk4")
+    ]
     row = judge.Check("energy_within", "energy", methods=("ref:rk4",), tolerance=1e-13, of="roundoff")
     assert judge.declared_checks(row, "cloth", piv, methods) == [
-        judge.Check("energy_within", "energy", methods=("ref:rk4", "x:two"), tolerance=1e-13)]
+        judge.Check("energy_within", "energy", methods=("ref:rk4", "x:two"), tolerance=1e-13)
+    ]
     # No method of its own and none declaring: no row (an empty ``methods`` would mean every method).
     assert judge.declared_checks(judge.Check("brouwer_law", "brouwer", of="roundoff"), "spring", piv, methods) == []
 
 
 def solar(ias15=5e-14, rk4_class="decays", whfast_class="bounded", match="ref:leapfrog"):
-    return [cell("energy", 1e-5, method="rebound:whfast", scene="solar_system", energy_class=whfast_class),
-            cell("energy", 1e-5, method="ref:leapfrog", scene="solar_system", energy_class="bounded"),
-            cell("energy", 1e-4, method="ref:rk4", scene="solar_system", energy_class=rk4_class,
-                 numbers={"first_tenth_envelope": 1e-6, "last_tenth_envelope": 1e-4, "secular_rate": -1e-9}),
-            cell("energy", ias15, method="rebound:ias15", scene="solar_system", energy_class="bounded"),
-            cell("identity", 0.0, method="rebound:leapfrog", scene="solar_system", match=match,
-                 runner_up="ref:velocity_verlet", runner_up_deviation=1e-9)]
+    return [
+        cell("energy", 1e-5, method="rebound:whfast", scene="solar_system", energy_class=whfast_class),
+        cell("energy", 1e-5, method="ref:leapfrog", scene="solar_system", energy_class="bounded"),
+        cell(
+            "energy",
+            1e-4,
+            method="ref:rk4",
+            scene="solar_system",
+            energy_class=rk4_class,
+            numbers={"first_tenth_envelope": 1e-6, "last_tenth_envelope": 1e-4, "secular_rate": -1e-9},
+        ),
+        cell("energy", ias15, method="rebound:ias15", scene="solar_system", energy_class="bounded"),
+        cell(
+            "identity",
+            0.0,
+            method="rebound:leapfrog",
+            scene="solar_system",
+            match=match,
+            runner_up="ref:velocity_verlet",
+            runner_up_deviation=1e-9,
+        ),
+    ]
 
 
 def test_the_solar_systems_table_passes_a_run_that_holds():
@@ -164,8 +209,11 @@ def test_the_solar_systems_table_passes_a_run_that_holds():
     judged = [f for f in found if f.ok is not None]
     assert len(judged) == 4 and all(f.ok for f in judged), found
     lines = [finding_line(f) for f in found]
-    assert any("symplectic `rebound:whfast` 1.0e-05 bounded, `ref:leapfrog` 1.0e-05 bounded: all bounded ✓. "
-               "Others: `rebound:ias15` 5.0e-14 bounded, `ref:rk4` 1.0e-04 decays." in ln for ln in lines), lines
+    assert any(
+        "symplectic `rebound:whfast` 1.0e-05 bounded, `ref:leapfrog` 1.0e-05 bounded: all bounded ✓. "
+        "Others: `rebound:ias15` 5.0e-14 bounded, `ref:rk4` 1.0e-04 decays." in ln
+        for ln in lines
+    ), lines
     assert "`solar_system`: `rebound:ias15` keeps max |ΔE/E| = 5.0e-14 over the run (limit 1e-13) ✓." in lines
 
 
@@ -185,11 +233,24 @@ def test_a_finding_prints_its_mark_where_its_text_carries_it():
 
 
 def test_engine_findings_say_what_a_mode_integrates_as():
-    ident = cell("identity", 1e-15, method="mujoco:implicit", claims=Claims(), match="ref:semi_implicit_euler",
-                 matches=["ref:semi_implicit_euler"], name_suggests="implicit_euler")
+    ident = cell(
+        "identity",
+        1e-15,
+        method="mujoco:implicit",
+        claims=Claims(),
+        match="ref:semi_implicit_euler",
+        matches=["ref:semi_implicit_euler"],
+        name_suggests="implicit_euler",
+    )
     (f,) = judge.judge([ident]).findings
-    assert f.text == ("`mujoco:implicit` on `spring` integrates as **`ref:semi_implicit_euler`** (max deviation "
-                      "1.0e-15), not the implicit euler its name suggests.") and f.ok is None
+    assert (
+        f.text
+        == (
+            "`mujoco:implicit` on `spring` integrates as **`ref:semi_implicit_euler`** (max deviation "
+            "1.0e-15), not the implicit euler its name suggests."
+        )
+        and f.ok is None
+    )
 
 
 def test_reports_import_nothing_of_the_harness():
@@ -197,11 +258,15 @@ def test_reports_import_nothing_of_the_harness():
     reference or scenarios."""
     for path in sorted((Path(__file__).resolve().parent.parent / "reports").glob("*.py")):
         for node in ast.walk(ast.parse(path.read_text())):
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
-                     [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom) and not node.level
+                else []
+            )
             for name in names:
                 assert name.split(".")[0] not in {"harness", "adapters", "reference", "scenarios"}, (path.name, name)
-
 
 
 def test_a_mode_that_takes_two_half_steps_is_said_with_the_energy_each_keeps():
@@ -216,12 +281,33 @@ def test_a_mode_that_takes_two_half_steps_is_said_with_the_energy_each_keeps():
     t = [0.0, n * h]
 
     def energy(method, kept):
-        return Cell(scene="spring", method=method, family=method.split(":")[0], measure="energy", status="ok",
-                    value=1.0, dt=h, steps=2 * n, figures=EnergyFigures(series={"t": t, "energy": [0.5, 0.5 * kept]}))
+        return Cell(
+            scene="spring",
+            method=method,
+            family=method.split(":")[0],
+            measure="energy",
+            status="ok",
+            value=1.0,
+            dt=h,
+            steps=2 * n,
+            figures=EnergyFigures(series={"t": t, "energy": [0.5, 0.5 * kept]}),
+        )
 
-    cells = [Cell(scene="spring", method="drake:implicit_euler", family="drake", measure="identity", status="ok",
-                  value=1e-13, dt=0.125, steps=1000, figures=IdentityFigures(match="ref:implicit_euler_doubled")),
-             energy("drake:implicit_euler", (1 + h * h / 4) ** (-2 * n)), energy("ref:implicit_euler", (1 + h * h) ** -n)]
+    cells = [
+        Cell(
+            scene="spring",
+            method="drake:implicit_euler",
+            family="drake",
+            measure="identity",
+            status="ok",
+            value=1e-13,
+            dt=0.125,
+            steps=1000,
+            figures=IdentityFigures(match="ref:implicit_euler_doubled"),
+        ),
+        energy("drake:implicit_euler", (1 + h * h / 4) ** (-2 * n)),
+        energy("ref:implicit_euler", (1 + h * h) ** -n),
+    ]
     found = [f for f in judge_mod.judge(cells).findings if "half steps" in f.text]
     assert len(found) == 1 and found[0].ok
     assert "keeps 0.00678 of the energy where `ref:implicit_euler` keeps 4.77e-05" in found[0].text
@@ -242,8 +328,16 @@ def test_a_scheme_whose_stages_iterate_is_judged_by_whole_passes_of_its_declared
 
     def checks(method, counted):
         claims = _claims(get_method(method), spring)
-        cost = Cell(scene="spring", method=method, family="ref", measure="cost", status="ok", value=1e-8,
-                    figures=CostFigures(force_evals_per_step=counted), claims=claims)
+        cost = Cell(
+            scene="spring",
+            method=method,
+            family="ref",
+            measure="cost",
+            status="ok",
+            value=1e-8,
+            figures=CostFigures(force_evals_per_step=counted),
+            claims=claims,
+        )
         return claim_checks({"cost": cost}).evals
 
     assert _claims(get_method("ref:radau_iia2"), spring).force_evals_text == "2 a pass + solve"

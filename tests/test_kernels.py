@@ -1,5 +1,6 @@
 """Compiled kernels (reference._kernels): generated from the schemes' and scenes' source, cached
 on disk, never stale; the pointwise loop; the hand-written floors (``Scheme.floor``) as a check."""
+
 import json
 import os
 import subprocess
@@ -25,8 +26,9 @@ ON_THE_SPRING = sorted(sid for sid, s in METHODS.items() if s.floor is not None)
 
 def test_every_unconstrained_scheme_has_a_floor():
     # From the registry as it is when asked (a scheme registered by a test too: tests/test_contributing.py).
-    assert {sid for sid, s in METHODS.items() if s.floor is not None} == \
-        {sid for sid, s in METHODS.items() if not s.constrained}
+    assert {sid for sid, s in METHODS.items() if s.floor is not None} == {
+        sid for sid, s in METHODS.items() if not s.constrained
+    }
 
 
 #: The floors ``make test`` holds a kernel to, one scheme of each kind; every other floor is
@@ -34,8 +36,9 @@ def test_every_unconstrained_scheme_has_a_floor():
 FLOOR_FAST = ("semi_implicit_euler", "rk4", "implicit_euler", "pbd", "xpbd")
 
 
-@pytest.mark.parametrize("scheme_id", [s if s in FLOOR_FAST else pytest.param(s, marks=pytest.mark.slow)
-                                       for s in ON_THE_SPRING])
+@pytest.mark.parametrize(
+    "scheme_id", [s if s in FLOOR_FAST else pytest.param(s, marks=pytest.mark.slow) for s in ON_THE_SPRING]
+)
 def test_each_compiled_scheme_equals_its_hand_written_floor(scheme_id):
     """1000 steps of the unit spring at dt = 0.01. The explicit schemes' floors repeat the
     kernels' float operations in the same order: measured bitwise. The implicit floors spell
@@ -62,8 +65,9 @@ def test_a_pointwise_scene_computes_each_entry_from_that_entry_alone(scene_id):
     for i in range(scene.ndof):
         for b in range(5):
             assert a[i, b] == pytest.approx(scene.accel(q[i, b], v[i, b], 0.3, p), rel=1e-15, abs=1e-300)
-            assert x[i, b] == pytest.approx(scene.solve(q[i, b], v[i, b], 0.3, p, 0.01, 1e-4, r[i, b]),
-                                            rel=1e-15, abs=1e-300)
+            assert x[i, b] == pytest.approx(
+                scene.solve(q[i, b], v[i, b], 0.3, p, 0.01, 1e-4, r[i, b]), rel=1e-15, abs=1e-300
+            )
 
 
 @pytest.mark.parametrize("scheme_id", ["rk4", "verlet", "implicit_euler"])
@@ -88,12 +92,12 @@ def _carried_in_its_array(accel, constraints, substeps, iterations, state, t, h,
     nb = q.shape[1]
     work = np.empty((2 * n, nb))
     work[:n] = q
-    work[n:2 * n] = v
+    work[n : 2 * n] = v
     for r in range(n):
         for b in range(nb):
             work[n + r, b] = work[n + r, b] - scale * work[r, b]
             work[r, b] = work[r, b] + scale * work[n + r, b]
-    return (work[:n], work[n:2 * n])
+    return (work[:n], work[n : 2 * n])
 
 
 def _reads_its_state_after_the_copy(accel, constraints, substeps, iterations, state, t, h, p):
@@ -103,15 +107,18 @@ def _reads_its_state_after_the_copy(accel, constraints, substeps, iterations, st
     nb = q.shape[1]
     work = np.empty((2 * n, nb))
     work[:n] = q
-    work[n:2 * n] = v
+    work[n : 2 * n] = v
     for r in range(n):
         for b in range(nb):
             work[r, b] = q[r, b] + scale * work[n + r, b]
-    return (work[:n], work[n:2 * n])
+    return (work[:n], work[n : 2 * n])
 
 
-@pytest.mark.parametrize("step, in_place", [(_carried_in_its_array, True), (_reads_its_state_after_the_copy, False)],
-                         ids=["carried", "reads_the_state_late"])
+@pytest.mark.parametrize(
+    "step, in_place",
+    [(_carried_in_its_array, True), (_reads_its_state_after_the_copy, False)],
+    ids=["carried", "reads_the_state_late"],
+)
 def test_a_step_runs_in_the_loop_only_where_its_array_carries_its_state(step, in_place):
     """``_Source.add_loop_in_place``: a step that copies its state into its array and reads only
     that runs in the loop, one array for every step, the states those of the step called step by
@@ -123,7 +130,7 @@ def test_a_step_runs_in_the_loop_only_where_its_array_carries_its_state(step, in
     if not in_place:
         assert src.loop == ""
         return
-    loop = src.loop[src.loop.index("    for _i in range"):]
+    loop = src.loop[src.loop.index("    for _i in range") :]
     assert "np.empty" not in loop and "scheme_step" not in loop
     namespace = {"_jit": lambda f: f, "np": np}
     exec(src.loop, namespace)
@@ -146,8 +153,8 @@ def test_the_position_based_loops_make_their_array_once(scheme_id, scene_id):
     loops hold the step's statements and make the array before the steps, none in a step."""
     scene = make_scene(scene_id)
     text = _codegen.kernel_file(METHODS[scheme_id], type(scene), 2).text
-    loop = text[text.index("def advance_n"):]
-    steps = loop[loop.index("    for _i in range"):]
+    loop = text[text.index("def advance_n") :]
+    steps = loop[loop.index("    for _i in range") :]
     assert "np.empty" in loop and "np.empty" not in steps and "scheme_step" not in loop
 
 
@@ -176,7 +183,7 @@ print(json.dumps({"q": float(q[0, 0]), "q_interpreted": float(ref.q[-1, 0, 0]), 
                   "loaded": STATS.loaded, "path": str(_parts(mod.edited, spring).kernels.path)}))
 """
 
-_SCHEME = '''
+_SCHEME = """
 from reference._scheme import scheme
 
 
@@ -186,7 +193,7 @@ def edited(accel, state, t, h, p):
     a = accel(q, v, t, p)
     v = v + {kick} * a
     return (q + h * v, v)
-'''
+"""
 
 
 def _run_pair(scheme_file: Path, cache: Path, background: bool = False):
@@ -233,13 +240,16 @@ def test_a_scheme_whose_source_cannot_be_copied_is_compiled_in_memory():
     from reference._scheme import scheme
 
     namespace = {"scheme": scheme}
-    exec(textwrap.dedent('''
+    exec(
+        textwrap.dedent("""
         @scheme(order=1, force_evals=1, symplectic=True, implicit=False, energy_claim="bounded", homega_max=2.0)
         def uses_a_dict(accel, state, t, h, p):
             q, v = state
             v = v + h * accel(q, v, t, p)
             return (q + h * v, v)
-        '''), namespace)
+        """),
+        namespace,
+    )
     made = namespace["uses_a_dict"]
     with pytest.raises(_codegen.SourceUnavailable):  # exec'd source has no file to copy from
         _codegen.kernel_source(made, type(make_scene("spring")), 2)
@@ -298,11 +308,13 @@ def test_kernels_compile_at_level_2_unless_numba_opt_says_otherwise_and_the_leve
     level, and ``$NUMBA_OPT`` overrides it; a kernel compiled at one level is never loaded at
     another (numba's cache does not record the level: the file's key does), and the array loop
     computes the same bits at both."""
+
     def run(**env):
         full = {k: v for k, v in os.environ.items() if k != "NUMBA_OPT"}
         full.update(HARNESS_CACHE=str(tmp_path), PYTHONPATH=str(ROOT), **env)
-        out = subprocess.run([sys.executable, "-c", _OPT_SCRIPT], cwd=ROOT, env=full, capture_output=True,
-                             text=True, timeout=300)
+        out = subprocess.run(
+            [sys.executable, "-c", _OPT_SCRIPT], cwd=ROOT, env=full, capture_output=True, text=True, timeout=300
+        )
         assert out.returncode == 0, out.stderr
         return json.loads(out.stdout.splitlines()[-1])
 
@@ -333,12 +345,26 @@ def test_the_bench_judges_rk4_against_semi_implicit_euler_by_the_floors_ratio_of
     from harness.bench.kernels import RK4_OVER_SIE_SLACK, targets
 
     def rows(rk4, rk4_floor):
-        base = {"single_ns_per_step": 1.0, "single_floor_ns_per_step": 1.0, "single_ratio_to_floor": 1.0,
-                "batch1000_ratio_to_floor": 1.0}
-        return [{**base, "method": "ref:semi_implicit_euler", "batch1000_ns_per_spring_step": 0.5,
-                 "batch1000_floor_ns_per_spring_step": 0.5},
-                {**base, "method": "ref:rk4", "batch1000_ns_per_spring_step": rk4,
-                 "batch1000_floor_ns_per_spring_step": rk4_floor}]
+        base = {
+            "single_ns_per_step": 1.0,
+            "single_floor_ns_per_step": 1.0,
+            "single_ratio_to_floor": 1.0,
+            "batch1000_ratio_to_floor": 1.0,
+        }
+        return [
+            {
+                **base,
+                "method": "ref:semi_implicit_euler",
+                "batch1000_ns_per_spring_step": 0.5,
+                "batch1000_floor_ns_per_spring_step": 0.5,
+            },
+            {
+                **base,
+                "method": "ref:rk4",
+                "batch1000_ns_per_spring_step": rk4,
+                "batch1000_floor_ns_per_spring_step": rk4_floor,
+            },
+        ]
 
     def verdict(result):
         return next(t for t in result if t["target"].startswith("ref:rk4 / ref:semi_implicit_euler"))
@@ -355,8 +381,14 @@ def test_the_bench_holds_every_kernel_to_one_and_a_half_times_its_floor():
     from harness.bench.kernels import FLOOR_RATIO_TARGET, targets
 
     assert FLOOR_RATIO_TARGET == 1.5
-    row = {"method": "ref:xpbd", "single_ns_per_step": 1.0, "single_floor_ns_per_step": 1.0,
-           "single_ratio_to_floor": 1.4, "batch1000_ratio_to_floor": 1.6,
-           "batch1000_ns_per_spring_step": 1.0, "batch1000_floor_ns_per_spring_step": 1.0}
+    row = {
+        "method": "ref:xpbd",
+        "single_ns_per_step": 1.0,
+        "single_floor_ns_per_step": 1.0,
+        "single_ratio_to_floor": 1.4,
+        "batch1000_ratio_to_floor": 1.6,
+        "batch1000_ns_per_spring_step": 1.0,
+        "batch1000_floor_ns_per_spring_step": 1.0,
+    }
     judged = {t["target"]: t["met"] for t in targets([row])}
     assert judged == {"ref:xpbd 1 spring / floor": True, "ref:xpbd 1000 springs / floor": False}

@@ -5,6 +5,7 @@ CLI's JSON shapes and its bad-input exits.
 Numbers and tolerances come from tests/theory.py (issue 4 and docs/engines.md) unless a test
 says otherwise. Engine modes are checked in test_measure_engines.py.
 """
+
 from __future__ import annotations
 
 import io
@@ -30,8 +31,21 @@ from records import InvalidInput, Trajectory
 from scenarios import make_scene
 from scenarios.pendulum import Pendulum
 from records.trajectory import UNSTABLE
-from theory import (ENERGY_DT, ENERGY_STEPS, ORDER_SCENES, ORDER_TOL, ORDER_TOL_FOR, REF_ENERGY, REF_EVALS, REF_ORDER,
-                    REF_STABILITY, STABILITY_RTOL, UNBOUNDED, UNRESOLVED, UNSTABLE as NEVER_STABLE)
+from theory import (
+    ENERGY_DT,
+    ENERGY_STEPS,
+    ORDER_SCENES,
+    ORDER_TOL,
+    ORDER_TOL_FOR,
+    REF_ENERGY,
+    REF_EVALS,
+    REF_ORDER,
+    REF_STABILITY,
+    STABILITY_RTOL,
+    UNBOUNDED,
+    UNRESOLVED,
+    UNSTABLE as NEVER_STABLE,
+)
 
 
 class Delegate:
@@ -123,13 +137,16 @@ def test_explicit_euler_is_unstable_at_every_dt_searched(spring):
     assert res.spectral["rho"] - 1.0 > 1e3 * stability.RHO_TOL
 
 
-@pytest.mark.parametrize("sid, rho", [
-    ("explicit_euler", math.sqrt(2.0)),                              # |1 + i h|, h = 1
-    ("implicit_euler", 1.0 / math.sqrt(2.0)),                        # 1/|1 - i h|
-    ("rk4", math.sqrt(1.0 - 1.0 / 72.0 + 1.0 / 576.0)),              # docs/engines.md: |R|^2
-    ("semi_implicit_euler", 1.0),                                    # det 1, complex pair
-    ("implicit_midpoint", 1.0),                                      # Cayley transform
-])
+@pytest.mark.parametrize(
+    "sid, rho",
+    [
+        ("explicit_euler", math.sqrt(2.0)),  # |1 + i h|, h = 1
+        ("implicit_euler", 1.0 / math.sqrt(2.0)),  # 1/|1 - i h|
+        ("rk4", math.sqrt(1.0 - 1.0 / 72.0 + 1.0 / 576.0)),  # docs/engines.md: |R|^2
+        ("semi_implicit_euler", 1.0),  # det 1, complex pair
+        ("implicit_midpoint", 1.0),  # Cayley transform
+    ],
+)
 def test_one_step_map_spectral_radius_matches_theory(spring, sid, rho):
     # At h = 1 the map's entries are formed in a handful of flops from O(1) numbers: a few
     # eps each, so 1e-14 absolute.
@@ -203,8 +220,12 @@ def _order_cases():
     projects springs, so of these only the spring)."""
     from harness.methods import get_method
 
-    return [(scene_id, sid) for sid in REF_ORDER for scene_id in ORDER_SCENES
-            if get_method(f"ref:{sid}").supports(make_scene(scene_id))[0]]
+    return [
+        (scene_id, sid)
+        for sid in REF_ORDER
+        for scene_id in ORDER_SCENES
+        if get_method(f"ref:{sid}").supports(make_scene(scene_id))[0]
+    ]
 
 
 #: First-order implicit schemes on Kepler: their Newton passes vary, so each order run is
@@ -212,8 +233,9 @@ def _order_cases():
 ORDER_SLOW = {("kepler", "implicit_euler"), ("kepler", "implicit_euler_doubled"), ("kepler", "linearly_implicit_euler")}
 
 
-@pytest.mark.parametrize("scene_id, sid", [c if c not in ORDER_SLOW else pytest.param(*c, marks=pytest.mark.slow)
-                                           for c in _order_cases()])
+@pytest.mark.parametrize(
+    "scene_id, sid", [c if c not in ORDER_SLOW else pytest.param(*c, marks=pytest.mark.slow) for c in _order_cases()]
+)
 def test_observed_order(scene_id, sid):
     scene = make_scene(scene_id)
     res = order.observed_order(f"ref:{sid}", scene)
@@ -255,8 +277,7 @@ def test_order_through_the_engine_interface(spring):
 # ----------------------------------------------------------------------------- energy
 @pytest.fixture(scope="module")
 def energy_table(spring):
-    return {sid: energy.energy_behaviour(f"ref:{sid}", spring, ENERGY_DT, ENERGY_STEPS)
-            for sid in REF_ENERGY}
+    return {sid: energy.energy_behaviour(f"ref:{sid}", spring, ENERGY_DT, ENERGY_STEPS) for sid in REF_ENERGY}
 
 
 @pytest.mark.parametrize("sid", list(REF_ENERGY))
@@ -273,7 +294,7 @@ def test_energy_numbers_match_theory(energy_table):
     # 10^4 steps of rounding move ln E by ~1e-12: 1e-9 relative leaves room.
     assert energy_table["explicit_euler"]["final_rel_error"] == pytest.approx((1 + h * h) ** n - 1, rel=1e-9)
     assert energy_table["implicit_euler"]["final_rel_error"] == pytest.approx(1 - (1 + h * h) ** -n, rel=1e-9)
-    rk4 = 1.0 - (1.0 - h ** 6 / 72 + h ** 8 / 576) ** n
+    rk4 = 1.0 - (1.0 - h**6 / 72 + h**8 / 576) ** n
     assert energy_table["rk4"]["final_rel_error"] == pytest.approx(rk4, rel=1e-6)
     # "Slowly": RK4 loses 1.4e-4 over 159 periods against implicit Euler's everything.
     assert energy_table["rk4"]["final_rel_error"] < 1e-3
@@ -320,7 +341,7 @@ def test_counted_evaluations_agree_with_declarations(sid):
     # on the springs and links it projects: each on those of these it runs on, at least one.
     scenes = [s for s in ("spring", "pendulum", "rope") if get_method(f"ref:{sid}").supports(make_scene(s))[0]]
     assert scenes
-    for scene_id in (scenes if scheme.constrained or scheme.kind.name == "position_based" else ["spring", "pendulum"]):
+    for scene_id in scenes if scheme.constrained or scheme.kind.name == "position_based" else ["spring", "pendulum"]:
         res = cost.counted_evaluations(f"ref:{sid}", make_scene(scene_id), 0.01)
         if scheme.implicit and (scene_id == "pendulum" or not scheme.one_pass_on_linear):
             # Newton: one evaluation and one solve per iteration, at least one iteration (coupled
@@ -346,8 +367,11 @@ def test_wall_time_per_step_and_ratio(spring):
 def test_injected_timings_make_the_ratio_and_its_spread(spring, tmp_path, monkeypatch):
     """Timings injected (``HARNESS_INJECT_TIMINGS``) are what the cost figures read: the runs are
     still timed, the clock's figures replaced, and the clock recorded as ``injected``."""
-    injected = {"s_per_step": {"ref:explicit_euler": 1e-8, "*": 4e-8}, "jitter": [1.0, 1.1, 0.9],
-                "calibration": {"python": 6e-8, "compiled": 5e-9}}
+    injected = {
+        "s_per_step": {"ref:explicit_euler": 1e-8, "*": 4e-8},
+        "jitter": [1.0, 1.1, 0.9],
+        "calibration": {"python": 6e-8, "compiled": 5e-9},
+    }
     path = tmp_path / "timings.json"
     path.write_text(json.dumps(injected))
     monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
@@ -453,8 +477,9 @@ def test_order_against_a_reference_solve():
 
 # ----------------------------------------------------------------------- workprecision
 def test_work_precision_rows(spring):
-    rows = workprecision.work_precision(["ref:explicit_euler", Delegate("leapfrog")], spring, points=3,
-                                        periods=1.0, repeats=1, time_steps=500)
+    rows = workprecision.work_precision(
+        ["ref:explicit_euler", Delegate("leapfrog")], spring, points=3, periods=1.0, repeats=1, time_steps=500
+    )
     assert len(rows) == 6 and len(frame(rows)) == 6
     for r in rows:
         assert r["status"] == "ok" and r["error"] > 0 and r["s_per_unit_time"] > 0
@@ -494,8 +519,9 @@ def test_cli_stability_json():
 
 
 def test_cli_energy_json():
-    rc, out, _ = run_cli("energy", "spring", "--method", "ref:leapfrog", "--dt", "0.1", "--steps", "2000",
-                         "--series", "--json")
+    rc, out, _ = run_cli(
+        "energy", "spring", "--method", "ref:leapfrog", "--dt", "0.1", "--steps", "2000", "--series", "--json"
+    )
     res = json.loads(out)
     assert rc == 0 and res["classification"] == "bounded"
     assert len(res["rel_error"]) == len(res["t"]) == 2001
@@ -503,13 +529,35 @@ def test_cli_energy_json():
 
 
 def test_cli_cost_and_workprecision_json():
-    rc, out, _ = run_cli("cost", "spring", "--method", "ref:explicit_euler", "--dt", "0.01",
-                         "--time-steps", "1000", "--repeats", "2", "--json")
+    rc, out, _ = run_cli(
+        "cost",
+        "spring",
+        "--method",
+        "ref:explicit_euler",
+        "--dt",
+        "0.01",
+        "--time-steps",
+        "1000",
+        "--repeats",
+        "2",
+        "--json",
+    )
     res = json.loads(out)
     assert rc == 0 and res["force_evals_per_step"] == 1.0 and len(res["repeats_s_per_step"]) == 2
     assert res["ratio_to_explicit_euler"] > 0
-    rc, out, _ = run_cli("workprecision", "spring", "--method", "ref:explicit_euler", "--points", "2",
-                         "--periods", "1", "--repeats", "1", "--json")
+    rc, out, _ = run_cli(
+        "workprecision",
+        "spring",
+        "--method",
+        "ref:explicit_euler",
+        "--points",
+        "2",
+        "--periods",
+        "1",
+        "--repeats",
+        "1",
+        "--json",
+    )
     res = json.loads(out)
     assert rc == 0 and len(res["rows"]) == 2 and set(res["chart"]) == {"ref:explicit_euler"}
 
@@ -518,8 +566,20 @@ def test_cli_cost_on_a_scene_explicit_euler_cannot_pose_says_why_there_is_no_rat
     """The rope is held by constraints: no explicit-Euler run to divide by. The text says why
     (it raised KeyError on the missing baseline figure before)."""
     monkeypatch.setenv("HARNESS_PROGRESS_AFTER", "inf")  # stderr is read whole: no progress lines (a cold compile)
-    rc, out, err = run_cli("cost", "rope", "--method", "ref:verlet_constrained", "--set", "N=3", "--dt", "0.001",
-                           "--time-steps", "200", "--repeats", "1")
+    rc, out, err = run_cli(
+        "cost",
+        "rope",
+        "--method",
+        "ref:verlet_constrained",
+        "--set",
+        "N=3",
+        "--dt",
+        "0.001",
+        "--time-steps",
+        "200",
+        "--repeats",
+        "1",
+    )
     assert rc == 0 and not err.strip(), err
     assert "no ratio to ref:explicit_euler: scene rope is held together by constraints" in out
 
@@ -529,37 +589,40 @@ def test_cli_text_output():
     assert rc == 0 and "unstable for every dt" in out
 
 
-@pytest.mark.parametrize("argv, field", [
-    (["energy", "spring", "--method", "ref:rk4", "--dt", "-1", "--steps", "10"], "--dt"),
-    (["energy", "spring", "--method", "ref:rk4", "--dt", "abc", "--steps", "10"], "--dt"),
-    (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "0"], "--steps"),
-    (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "1.5"], "--steps"),
-    (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10", "--every", "0"], "--every"),
-    (["energy", "nowhere", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10"], "scene"),
-    (["energy", "spring", "--method", "nope:x", "--dt", "0.1", "--steps", "10"], "method"),
-    (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10", "--set", "k=-1"], "k="),
-    (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10", "--set", "q=1"], "'q'"),
-    (["order", "spring", "--method", "ref:rk4", "--points", "3"], "--points"),
-    (["order", "spring", "--method", "ref:rk4", "--span", "1"], "--span"),
-    (["order", "spring", "--method", "ref:rk4", "--periods", "0"], "--periods"),
-    (["order", "spring", "--method", "ref:rk4", "--order-hint", "0"], "--order-hint"),
-    (["order", "spring", "--method", "ref:rk4", "--dt", "0.1", "--dt", "0.2"], "--dt"),
-    (["stability", "spring", "--method", "ref:rk4", "--criterion", "eyeball"], "--criterion"),
-    (["stability", "spring", "--method", "ref:rk4", "--steps", "0"], "--steps"),
-    (["stability", "spring", "--method", "ref:rk4", "--lo", "0"], "--lo"),
-    (["stability", "spring", "--method", "ref:rk4", "--lo", "1", "--hi", "0.5"], "--hi"),
-    (["stability", "spring", "--method", "ref:rk4", "--timeout", "-5"], "--timeout"),
-    (["cost", "spring", "--method", "ref:rk4", "--dt", "nan"], "--dt"),
-    (["cost", "spring", "--method", "ref:rk4", "--dt", "0.1", "--repeats", "0"], "--repeats"),
-    (["cost", "spring", "--method", "ref:implicit_euler", "--dt", "0.1", "--set", "m=0"], "m="),
-    (["workprecision", "spring", "--points", "0"], "--points"),
-    (["workprecision", "spring", "--homega-max", "inf"], "--homega-max"),
-    (["workprecision", "spring", "--method", "ref:nope"], "method"),
-    # IAS15 takes dt as its output interval: refused before it is stepped (its stability scan on
-    # kepler ran for over 5 minutes before this check).
-    (["order", "kepler", "--method", "rebound:ias15"], "rebound:ias15 chooses its own steps"),
-    (["stability", "kepler", "--method", "rebound:ias15"], "rebound:ias15 chooses its own steps"),
-])
+@pytest.mark.parametrize(
+    "argv, field",
+    [
+        (["energy", "spring", "--method", "ref:rk4", "--dt", "-1", "--steps", "10"], "--dt"),
+        (["energy", "spring", "--method", "ref:rk4", "--dt", "abc", "--steps", "10"], "--dt"),
+        (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "0"], "--steps"),
+        (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "1.5"], "--steps"),
+        (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10", "--every", "0"], "--every"),
+        (["energy", "nowhere", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10"], "scene"),
+        (["energy", "spring", "--method", "nope:x", "--dt", "0.1", "--steps", "10"], "method"),
+        (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10", "--set", "k=-1"], "k="),
+        (["energy", "spring", "--method", "ref:rk4", "--dt", "0.1", "--steps", "10", "--set", "q=1"], "'q'"),
+        (["order", "spring", "--method", "ref:rk4", "--points", "3"], "--points"),
+        (["order", "spring", "--method", "ref:rk4", "--span", "1"], "--span"),
+        (["order", "spring", "--method", "ref:rk4", "--periods", "0"], "--periods"),
+        (["order", "spring", "--method", "ref:rk4", "--order-hint", "0"], "--order-hint"),
+        (["order", "spring", "--method", "ref:rk4", "--dt", "0.1", "--dt", "0.2"], "--dt"),
+        (["stability", "spring", "--method", "ref:rk4", "--criterion", "eyeball"], "--criterion"),
+        (["stability", "spring", "--method", "ref:rk4", "--steps", "0"], "--steps"),
+        (["stability", "spring", "--method", "ref:rk4", "--lo", "0"], "--lo"),
+        (["stability", "spring", "--method", "ref:rk4", "--lo", "1", "--hi", "0.5"], "--hi"),
+        (["stability", "spring", "--method", "ref:rk4", "--timeout", "-5"], "--timeout"),
+        (["cost", "spring", "--method", "ref:rk4", "--dt", "nan"], "--dt"),
+        (["cost", "spring", "--method", "ref:rk4", "--dt", "0.1", "--repeats", "0"], "--repeats"),
+        (["cost", "spring", "--method", "ref:implicit_euler", "--dt", "0.1", "--set", "m=0"], "m="),
+        (["workprecision", "spring", "--points", "0"], "--points"),
+        (["workprecision", "spring", "--homega-max", "inf"], "--homega-max"),
+        (["workprecision", "spring", "--method", "ref:nope"], "method"),
+        # IAS15 takes dt as its output interval: refused before it is stepped (its stability scan on
+        # kepler ran for over 5 minutes before this check).
+        (["order", "kepler", "--method", "rebound:ias15"], "rebound:ias15 chooses its own steps"),
+        (["stability", "kepler", "--method", "rebound:ias15"], "rebound:ias15 chooses its own steps"),
+    ],
+)
 def test_cli_bad_input_exits_2_with_one_line(argv, field):
     rc, out, err = run_cli(*argv)
     assert rc == 2 and out == ""

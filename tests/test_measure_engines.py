@@ -5,6 +5,7 @@ Expected values and tolerances: tests/theory.py (issue 4; docs/engines.md for wh
 integrates). These need the engine adapters; an unknown method id is a failure here,
 never a skip, so a missing adapter cannot pass unnoticed.
 """
+
 from __future__ import annotations
 
 import pytest
@@ -47,11 +48,14 @@ def test_engine_observed_order(method_id, scene_id):
     assert res["order"] == pytest.approx(theory, abs=ORDER_TOL)
 
 
-@pytest.mark.parametrize("method_id, expected", [
-    ("mujoco:euler", "bounded"),      # semi-implicit Euler, bitwise (docs/engines.md)
-    ("mujoco:rk4", "decays"),         # classical RK4
-    ("mujoco:discrete", "decays"),    # backward Euler
-])
+@pytest.mark.parametrize(
+    "method_id, expected",
+    [
+        ("mujoco:euler", "bounded"),  # semi-implicit Euler, bitwise (docs/engines.md)
+        ("mujoco:rk4", "decays"),  # classical RK4
+        ("mujoco:discrete", "decays"),  # backward Euler
+    ],
+)
 def test_engine_energy_classification_on_spring(method_id, expected):
     res = energy.energy_behaviour(get_method(method_id), make_scene("spring"), 0.1, 10_000)
     assert res["classification"] == expected, res["rule"]
@@ -91,10 +95,10 @@ def _scripted_timing(monkeypatch, empties: list[float], timed: float):
         return left.pop(0) if len(left) > 1 else left[0]
 
     monkeypatch.setattr(cost._Timing, "_run_s", run_s)
-    monkeypatch.setattr(cost._Timing, "_simulate",
-                        lambda self, n: SimpleNamespace(meta=SimpleNamespace(settings={}), failed_step=None))
-    return cost._Timing(get_method("mujoco:euler"), make_scene("spring"), 0.01, 26, "wall", "harness",
-                        injected=None)
+    monkeypatch.setattr(
+        cost._Timing, "_simulate", lambda self, n: SimpleNamespace(meta=SimpleNamespace(settings={}), failed_step=None)
+    )
+    return cost._Timing(get_method("mujoco:euler"), make_scene("spring"), 0.01, 26, "wall", "harness", injected=None)
 
 
 def test_a_setup_slowed_in_every_repeat_is_timed_again_and_never_makes_a_step_cost_negative(monkeypatch):

@@ -3,6 +3,7 @@ module (``tests/momentum_measure.py``, named in ``$HARNESS_PLUGINS``, editing no
 ``harness list``, measured as a nightly cell, stored in the history, compared run to run by its
 own rule, judged by its own findings, and reported with its column and its chart. The same module
 dropped into ``harness/nightly/measures/`` is a built-in measure (docs/contributing.md's recipe)."""
+
 from __future__ import annotations
 
 import shutil
@@ -37,11 +38,16 @@ def test_the_built_in_measures_are_registered_in_the_order_a_task_runs_them():
 
     names = [m.name for m in measures()]
     # The harness registers them: the task's own, then every module's of harness.nightly.measures.
-    assert names[:len(cells.MEASURES) + len(declared())] == [m.name for m in (*cells.MEASURES, *declared())]
+    assert names[: len(cells.MEASURES) + len(declared())] == [m.name for m in (*cells.MEASURES, *declared())]
     assert names[:7] == ["identity", "energy", "error", "order", "cost", "advise", "stability"]
     assert {"constraint", "damping", "stability_vs_damping", "scaling", "brouwer", "cross_engine"} <= set(names)
-    assert [c.header for c in columns()][:5] == ["max \\|ΔE/E\\|", "energy", "max global error", "order",
-                                                 "largest stable h·ω"]
+    assert [c.header for c in columns()][:5] == [
+        "max \\|ΔE/E\\|",
+        "energy",
+        "max global error",
+        "order",
+        "largest stable h·ω",
+    ]
     # The task's own measures the history trends; a measure added to harness/nightly/measures
     # declares its own ``trend`` and joins them without this line changing.
     assert {"energy", "error", "order", "stability", "cost"} <= set(trended())
@@ -51,15 +57,26 @@ def test_the_built_in_measures_are_registered_in_the_order_a_task_runs_them():
 
 
 def test_a_measure_from_a_test_only_module_is_listed_measured_stored_compared_judged_and_reported(
-        tmp_path, monkeypatch):
+    tmp_path, monkeypatch
+):
     monkeypatch.setenv("HARNESS_PLUGINS", PLUGIN)
-    listed = subprocess.run([sys.executable, "-m", "harness", "list"], capture_output=True, text=True,
-                            env={**__import__("os").environ, "PYTHONPATH": "."}, timeout=300)
+    listed = subprocess.run(
+        [sys.executable, "-m", "harness", "list"],
+        capture_output=True,
+        text=True,
+        env={**__import__("os").environ, "PYTHONPATH": "."},
+        timeout=300,
+    )
     assert listed.returncode == 0, listed.stderr
     assert "momentum" in listed.stdout.split("Methods")[0]
 
-    suite = Suite("toy", scenes={"spring": SceneSpec(periods=2)},
-                  methods=("ref:semi_implicit_euler", "ref:explicit_euler"), bounds=False, identify=False)
+    suite = Suite(
+        "toy",
+        scenes={"spring": SceneSpec(periods=2)},
+        methods=("ref:semi_implicit_euler", "ref:explicit_euler"),
+        bounds=False,
+        identify=False,
+    )
     db, out = tmp_path / "h.sqlite", tmp_path / "out"
     first = run_nightly(suite, out, db, jobs=1)
     second = run_nightly(suite, out, db, jobs=1)
@@ -109,8 +126,13 @@ def test_a_built_in_measure_is_one_module_in_harness_nightly_measures(tmp_path, 
         for m in found:
             register(m, builtin=True)  # what harness.nightly.cells does with every one of them
         assert "momentum" in [m.name for m in measures()] and "momentum" in trended()
-        suite = Suite("toy", scenes={"spring": SceneSpec(periods=2)}, methods=("ref:explicit_euler",), bounds=False,
-                      identify=False)
+        suite = Suite(
+            "toy",
+            scenes={"spring": SceneSpec(periods=2)},
+            methods=("ref:explicit_euler",),
+            bounds=False,
+            identify=False,
+        )
         cells = {c.measure: c for c in run_task(Task("cell", "spring", "ref:explicit_euler", "ref", {}, suite))}
         assert cells["momentum"].status == "ok" and type(cells["momentum"].figures).__name__ == "MomentumFigures"
         assert cells["momentum"].value > 1.0  # explicit Euler gains energy: its peak momentum passes the exact one

@@ -2,6 +2,7 @@
 identity, features, variants, state and energy, and the truth checks against independent
 numbers (a linear model's stability limits from the generalised eigenvalues of (K, M); the
 unit spring as MJCF against the ``spring`` scene; observed orders on the double pendulum)."""
+
 from __future__ import annotations
 
 import json
@@ -70,18 +71,25 @@ def omega_max_from_eigenvalues(scene) -> float:
 
 
 # ------------------------------------------------------------------ bad input
-@pytest.mark.parametrize("content, suffix, says", [
-    (None, ".xml", "no such file"),
-    ("<mujoco><worldbody>", ".xml", "malformed XML"),
-    ("<robot name='r'/>", ".xml", "root element <robot>"),
-    ("<mujoco/>", ".obj", "unknown format"),
-    ("<mujoco><worldbody><body><geom size='.1'/></body></worldbody></mujoco>", ".xml", "no degrees of freedom"),
-    ("""<robot name="r"><link name="base"/><link name="arm"><visual><geometry><mesh filename="nowhere.stl"/>
+@pytest.mark.parametrize(
+    "content, suffix, says",
+    [
+        (None, ".xml", "no such file"),
+        ("<mujoco><worldbody>", ".xml", "malformed XML"),
+        ("<robot name='r'/>", ".xml", "root element <robot>"),
+        ("<mujoco/>", ".obj", "unknown format"),
+        ("<mujoco><worldbody><body><geom size='.1'/></body></worldbody></mujoco>", ".xml", "no degrees of freedom"),
+        (
+            """<robot name="r"><link name="base"/><link name="arm"><visual><geometry><mesh filename="nowhere.stl"/>
         </geometry></visual><collision><geometry><mesh filename="nowhere.stl"/></geometry></collision>
         <inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
         <joint name="j" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
-        <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>""", ".urdf", "nowhere.stl"),
-])
+        <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>""",
+            ".urdf",
+            "nowhere.stl",
+        ),
+    ],
+)
 def test_bad_model_files_are_refused_in_one_line(tmp_path, content, suffix, says):
     path = tmp_path / f"m{suffix}"
     if content is not None:
@@ -171,14 +179,14 @@ def test_the_reference_states_its_own_error():
 def test_an_error_below_the_reference_is_not_reported_as_a_number():
     from harness.measures.error import global_error
 
-    scene = variant(ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml"), perturb=0.01), "conservative",
-                    off=("gravity",))
+    scene = variant(
+        ModelScene(pybullet_data("mjcf/inverted_double_pendulum.xml"), perturb=0.01), "conservative", off=("gravity",)
+    )
     res = global_error("mujoco:rk4", scene, 0.01, 100)
     assert res["reference_error"] > 0 and res["below_reference"]
     order = observed_order("mujoco:rk4", scene)
     assert order["order"] is None and order["excluded"]
-    assert all("below the reference's accuracy" in p["reason"] or "roundoff" in p["reason"]
-               for p in order["excluded"])
+    assert all("below the reference's accuracy" in p["reason"] or "roundoff" in p["reason"] for p in order["excluded"])
 
 
 # ------------------------------------------------------------------ truth checks
@@ -238,10 +246,14 @@ def cli(*argv):
     return code, out.getvalue(), err.getvalue()
 
 
-@pytest.mark.parametrize("content, says", [
-    (None, "no such file"), ("<mujoco><worldbody>", "malformed XML"),
-    ("<mujoco><worldbody><body><geom size='.1'/></body></worldbody></mujoco>", "no degrees of freedom"),
-])
+@pytest.mark.parametrize(
+    "content, says",
+    [
+        (None, "no such file"),
+        ("<mujoco><worldbody>", "malformed XML"),
+        ("<mujoco><worldbody><body><geom size='.1'/></body></worldbody></mujoco>", "no degrees of freedom"),
+    ],
+)
 def test_harness_model_refuses_bad_files_in_one_line_exit_2(tmp_path, content, says):
     path = tmp_path / "bad.xml"
     if content is not None:
@@ -252,10 +264,15 @@ def test_harness_model_refuses_bad_files_in_one_line_exit_2(tmp_path, content, s
     assert not (tmp_path / "out").exists()  # refused before anything ran or was written
 
 
-@pytest.mark.parametrize("flag, value, says", [("--variant", "loose", "unknown --variant 'loose'"),
-                                               ("--keep", "wind", "unknown --keep 'wind'"),
-                                               ("--hz", "-1", "--hz=-1 is out of range"),
-                                               ("--methods", "drake:nope*", "--methods pattern 'drake:nope*' matches no mode")])
+@pytest.mark.parametrize(
+    "flag, value, says",
+    [
+        ("--variant", "loose", "unknown --variant 'loose'"),
+        ("--keep", "wind", "unknown --keep 'wind'"),
+        ("--hz", "-1", "--hz=-1 is out of range"),
+        ("--methods", "drake:nope*", "--methods pattern 'drake:nope*' matches no mode"),
+    ],
+)
 def test_harness_model_refuses_bad_flags(tmp_path, linear_file, flag, value, says):
     code, _, err = cli("model", str(linear_file), flag, value, "--out", str(tmp_path / "out"))
     assert code == 2 and says in err and err.count("\n") == 1
@@ -267,16 +284,39 @@ def test_harness_model_on_the_unit_spring_file(tmp_path):
     from scenarios.model import DEFAULT_FILE
 
     out = tmp_path / "out"
-    code, text, _ = cli("model", DEFAULT_FILE, "--out", str(out), "--hz", "0", "--jobs", "1", "--methods", "mujoco:*",
-                        "--variant", "as_written")
+    code, text, _ = cli(
+        "model",
+        DEFAULT_FILE,
+        "--out",
+        str(out),
+        "--hz",
+        "0",
+        "--jobs",
+        "1",
+        "--methods",
+        "mujoco:*",
+        "--variant",
+        "as_written",
+    )
     assert code == 0
     assert "perturbs an integrator: nothing found" in text
     assert "initial state: the model's first keyframe" in text
     for mode in ("euler", "rk4", "implicit", "implicitfast", "discrete"):
         assert f"| `mujoco:{mode}` | ok |" in text
     assert (out / "report.md").is_file() and any((out / "charts").glob("*stability.png"))
-    code, js, _ = cli("model", DEFAULT_FILE, "--out", str(out), "--hz", "0", "--json", "--variant", "conservative",
-                      "--methods", "mujoco:euler,mujoco:rk4")
+    code, js, _ = cli(
+        "model",
+        DEFAULT_FILE,
+        "--out",
+        str(out),
+        "--hz",
+        "0",
+        "--json",
+        "--variant",
+        "conservative",
+        "--methods",
+        "mujoco:euler,mujoco:rk4",
+    )
     data = json.loads(js)
     stab = {c["method"]: c["value"] for c in data["cells"] if c["measure"] == "stability"}
     assert stab["mujoco:euler"] == pytest.approx(2.0, rel=2e-3)  # the spring scene's 2 (h*omega)
@@ -288,14 +328,23 @@ def _models_suite(paths):
     from harness.nightly.models import with_models
     from harness.nightly.suites import Suite
 
-    base = Suite("models-test", {}, methods=("mujoco:euler", "mujoco:rk4", "pybullet:semi_implicit"),
-                 bounds=False, identify=False, cost_repeats=2, cost_steps=2000, stability_steps=200)
+    base = Suite(
+        "models-test",
+        {},
+        methods=("mujoco:euler", "mujoco:rk4", "pybullet:semi_implicit"),
+        bounds=False,
+        identify=False,
+        cost_repeats=2,
+        cost_steps=2000,
+        stability_steps=200,
+    )
     suite = with_models(base, paths)
     # The engine modes of this test only (with_models gives a model every engine mode).
     import dataclasses
 
-    return dataclasses.replace(suite, scenes={k: dataclasses.replace(v, methods=base.methods)
-                                              for k, v in suite.scenes.items()})
+    return dataclasses.replace(
+        suite, scenes={k: dataclasses.replace(v, methods=base.methods) for k, v in suite.scenes.items()}
+    )
 
 
 @pytest.mark.slow
@@ -307,8 +356,9 @@ def test_the_nightly_stores_reports_and_trends_two_model_files(tmp_path):
     from harness.nightly.run import run_nightly
 
     spring = tmp_path / "spring.xml"
-    spring.write_text(open(os.path.join(os.path.dirname(__file__), "..", "scenarios", "data",
-                                        "unit_spring.xml")).read())
+    spring.write_text(
+        open(os.path.join(os.path.dirname(__file__), "..", "scenarios", "data", "unit_spring.xml")).read()
+    )
     cart = pybullet_data("cartpole.urdf")
     db, out = tmp_path / "h.sqlite", tmp_path / "out"
     first = run_nightly(_models_suite([spring, cart]), out, db, jobs=2)
@@ -318,8 +368,11 @@ def test_the_nightly_stores_reports_and_trends_two_model_files(tmp_path):
     scenes = set(cells.scene)
     ids = {ModelScene(spring).id, ModelScene(cart).id}
     assert ids <= scenes and {f"{i}~conservative" for i in ids} <= scenes
-    assert set(cells[cells.scene == ModelScene(cart).id].method) == {"mujoco:euler", "mujoco:rk4",
-                                                                      "pybullet:semi_implicit"}
+    assert set(cells[cells.scene == ModelScene(cart).id].method) == {
+        "mujoco:euler",
+        "mujoco:rk4",
+        "pybullet:semi_implicit",
+    }
     report = (out / "report.md").read_text()
     assert f"### `{ModelScene(cart).id}`" in report
     # The engines compared from the same state: a stored cell on each conservative variant (both
@@ -342,8 +395,17 @@ def test_a_failed_model_run_touches_nothing_stored(tmp_path):
     db = tmp_path / "h.sqlite"
     db.write_bytes(b"")  # an existing history file, whatever it holds, must not change
     before = db.stat().st_mtime_ns
-    code, _, err = cli("nightly", "--suite", "smoke", "--db", str(db), "--out", str(tmp_path / "out"),
-                       "--model", str(tmp_path / "missing.xml"))
+    code, _, err = cli(
+        "nightly",
+        "--suite",
+        "smoke",
+        "--db",
+        str(db),
+        "--out",
+        str(tmp_path / "out"),
+        "--model",
+        str(tmp_path / "missing.xml"),
+    )
     assert code == 2 and "no such file" in err and err.count("\n") == 1
     assert db.stat().st_mtime_ns == before and db.read_bytes() == b"" and not (tmp_path / "out").exists()
 
@@ -375,8 +437,13 @@ def test_an_engine_that_cannot_load_the_file_says_why_in_one_line(tmp_path):
     from harness.nightly.models import cannot_load_all
 
     path = tmp_path / "tendon.xml"  # two slides coupled by a tendon spring: Bullet has no tendons
-    path.write_text(LINEAR.replace("</worldbody>", '</worldbody><tendon><fixed stiffness="5"><joint joint="xa" '
-                                   'coef="1"/><joint joint="xc" coef="-1"/></fixed></tendon>'))
+    path.write_text(
+        LINEAR.replace(
+            "</worldbody>",
+            '</worldbody><tendon><fixed stiffness="5"><joint joint="xa" '
+            'coef="1"/><joint joint="xc" coef="-1"/></fixed></tendon>',
+        )
+    )
     # MuJoCo's loader beside Bullet's (Newton's and Drake's refusals have tests of their own; Newton
     # builds Warp kernels for seconds on an empty cache).
     engines = ("mujoco", "pybullet")
@@ -417,8 +484,11 @@ def test_a_model_unstable_at_its_own_timestep_is_a_recorded_result(tmp_path):
     from harness.nightly.run import run_nightly
 
     stiff = tmp_path / "stiff.xml"
-    stiff.write_text(open(os.path.join(os.path.dirname(__file__), "..", "scenarios", "data", "unit_spring.xml"))
-                     .read().replace('stiffness="1"', 'stiffness="1e6"'))
+    stiff.write_text(
+        open(os.path.join(os.path.dirname(__file__), "..", "scenarios", "data", "unit_spring.xml"))
+        .read()
+        .replace('stiffness="1"', 'stiffness="1e6"')
+    )
     res = run_nightly(_models_suite([stiff]), tmp_path / "out", tmp_path / "h.sqlite", jobs=2)
     cells = History(tmp_path / "h.sqlite").cell_records(res["run_id"])
     sid = ModelScene(stiff).id
@@ -476,8 +546,11 @@ def test_a_model_run_tries_the_loaders_of_the_engines_it_steps_alone(monkeypatch
     from scenarios.model import DEFAULT_FILE
 
     tried = []  # which engines' loaders each call would try (none is run: every engine loads this file)
-    monkeypatch.setattr(models, "cannot_load_all", lambda scenes, engines=models.MODEL_ENGINES:
-                        tried.append(engines) or [{} for _ in scenes])
+    monkeypatch.setattr(
+        models,
+        "cannot_load_all",
+        lambda scenes, engines=models.MODEL_ENGINES: tried.append(engines) or [{} for _ in scenes],
+    )
     suite = models.model_suite([DEFAULT_FILE], ("conservative",), methods=["mujoco:*"])
     assert tried == [("mujoco",)]
     assert all(not spec.extras.cross_engine for spec in suite.scenes.values())

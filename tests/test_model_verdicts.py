@@ -1,6 +1,7 @@
 """A model file's verdicts that cannot mislead: the cross-engine comparison at a resolved step,
 every difference in the two built models named, the conservative variant that keeps armature,
 stability limits against the generalized eigenvalues of (K, M), and a file only Bullet loads."""
+
 from __future__ import annotations
 
 import math
@@ -38,8 +39,10 @@ HANGING = """<?xml version="1.0"?>
   <link name="b3"><inertial><origin xyz="0 0 -0.1"/><mass value="0.3"/>
     <inertia ixx="0.0013" ixy="0" ixz="0" iyy="0.0013" iyz="0" izz="0.00006"/></inertial></link>
   <joint name="j1" type="continuous"><parent link="base"/><child link="b1"/><axis xyz="0 1 0"/></joint>
-  <joint name="j2" type="continuous"><parent link="b1"/><child link="b2"/><origin xyz="0 0 -0.3"/><axis xyz="0 1 0"/></joint>
-  <joint name="j3" type="continuous"><parent link="b2"/><child link="b3"/><origin xyz="0 0 -0.25"/><axis xyz="0 1 0"/></joint>
+  <joint name="j2" type="continuous"><parent link="b1"/><child link="b2"/><origin xyz="0 0 -0.3"/>
+    <axis xyz="0 1 0"/></joint>
+  <joint name="j3" type="continuous"><parent link="b2"/><child link="b3"/><origin xyz="0 0 -0.25"/>
+    <axis xyz="0 1 0"/></joint>
 </robot>
 """
 
@@ -68,7 +71,7 @@ def test_the_chains_differences_name_every_body_mass_inertia_missing_armature_an
     text = "\n".join(res.differences)
     for body, (length, radius) in CAPSULES.items():
         # Bullet's mass is the capsule's volume at density 1000 (independent of both engines).
-        volume = math.pi * radius ** 2 * length + 4.0 / 3.0 * math.pi * radius ** 3
+        volume = math.pi * radius**2 * length + 4.0 / 3.0 * math.pi * radius**3
         line = next(d for d in res.differences if d.startswith(f"pybullet: body {body} mass "))
         built = float(line.split(" mass ")[1].split(" kg")[0])
         assert built == pytest.approx(1000.0 * volume, rel=1e-6)
@@ -79,8 +82,9 @@ def test_the_chains_differences_name_every_body_mass_inertia_missing_armature_an
     # The stiffness Bullet's loader leaves out is named joint by joint, with how it is applied.
     springs = next(n for n in res.notes if "has no joint stiffness" in n)
     assert all(f"{j} (k {k:g})" in springs for j, k in (("j1", 40), ("j2", 25), ("j3", 10)))
-    assert "agree" not in ce.verdict_text(res.verdict, res.methods, res.difference, res.errors, res.dt, res.steps,
-                                          res.horizon, res.differences)
+    assert "agree" not in ce.verdict_text(
+        res.verdict, res.methods, res.difference, res.errors, res.dt, res.steps, res.horizon, res.differences
+    )
 
 
 def test_a_joint_without_stiffness_is_left_out_of_the_applied_springs(tmp_path):
@@ -110,19 +114,20 @@ def test_a_comparison_without_a_resolving_step_says_not_resolved_never_agree(han
     res = ce.cross_engine(scene, max_steps=256)
     assert res.verdict == "not resolved" and not res.resolved
     assert res.difference < min(res.errors)  # they are close, but the steps cannot show it
-    text = ce.verdict_text(res.verdict, res.methods, res.difference, res.errors, res.dt, res.steps, res.horizon,
-                           res.differences)
+    text = ce.verdict_text(
+        res.verdict, res.methods, res.difference, res.errors, res.dt, res.steps, res.horizon, res.differences
+    )
     assert "not resolved" in text and " agree " not in text
 
 
-def test_trajectories_within_the_tolerance_of_two_different_built_models_are_not_called_agreement(hanging,
-                                                                                                   monkeypatch):
+def test_trajectories_within_the_tolerance_of_two_different_built_models_are_not_called_agreement(hanging, monkeypatch):
     scene = variant(ModelScene(hanging, perturb=0.01), "conservative")
     monkeypatch.setattr(ce, "anatomy_differences", lambda *a: ["pybullet: body b2 mass 0.51 kg, mujoco 0.5 kg"])
     res = ce.cross_engine(scene)
     assert res.resolved and res.verdict == "models differ" and res.disagree
-    text = ce.verdict_text(res.verdict, res.methods, res.difference, res.errors, res.dt, res.steps, res.horizon,
-                           res.differences)
+    text = ce.verdict_text(
+        res.verdict, res.methods, res.difference, res.errors, res.dt, res.steps, res.horizon, res.differences
+    )
     assert "are not the same model" in text
 
 
@@ -146,8 +151,9 @@ def test_the_conservative_variant_keeps_armature_and_gravity_and_switches_off_wh
         assert scene.omega == pytest.approx(float(np.sqrt(np.max(eig.real))), rel=1e-4)
 
 
-@pytest.mark.parametrize("mode, limit", [("mujoco:euler", 2.0), ("mujoco:implicitfast", 2.0),
-                                         ("mujoco:rk4", 2.0 * math.sqrt(2.0))])
+@pytest.mark.parametrize(
+    "mode, limit", [("mujoco:euler", 2.0), ("mujoco:implicitfast", 2.0), ("mujoco:rk4", 2.0 * math.sqrt(2.0))]
+)
 @pytest.mark.slow
 def test_the_chains_largest_stable_step_at_small_amplitude_is_the_schemes_limit_over_omega_max(chain, mode, limit):
     from scipy.linalg import eigh
@@ -180,16 +186,37 @@ def test_a_file_mujoco_refuses_but_bullet_loads_is_measured_in_bullet_with_mujoc
 @pytest.mark.slow
 def test_harness_model_on_a_file_mujoco_refuses_reports_mujocos_reason_and_stores_nothing_on_failure(tmp_path):
     db = tmp_path / "h.sqlite"
-    out = subprocess.run([sys.executable, "-m", "harness", "model", str(HOPPER), "--variant", "conservative",
-                          "--hz", "0", "--out", str(tmp_path / "r"), "--db", str(db)],
-                         capture_output=True, text=True, timeout=600)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "harness",
+            "model",
+            str(HOPPER),
+            "--variant",
+            "conservative",
+            "--hz",
+            "0",
+            "--out",
+            str(tmp_path / "r"),
+            "--db",
+            str(db),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     assert "mujoco cannot load it: MuJoCo cannot compile it: XML Error: global coordinates" in out.stdout
     assert "`pybullet:semi_implicit`" in out.stdout
     report = (tmp_path / "r" / "report.md").read_text()
     assert "global coordinates no longer supported" in report
     before = db.read_bytes()
-    bad = subprocess.run([sys.executable, "-m", "harness", "model", str(HOPPER), "--variant", "nope",
-                          "--db", str(db)], capture_output=True, text=True, timeout=120)
+    bad = subprocess.run(
+        [sys.executable, "-m", "harness", "model", str(HOPPER), "--variant", "nope", "--db", str(db)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert bad.returncode == 2 and "--variant" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
     assert db.read_bytes() == before

@@ -4,6 +4,7 @@ states rounded: ``harness.measures.identify``), with float32 tolerances; every p
 is off; every scene a mode does not pose has its one-line reason. Skipped where newton cannot be
 imported. Each solver's kernels compile on first use, forward passes only, and are cached by Warp
 under the harness cache."""
+
 from __future__ import annotations
 
 import importlib.util
@@ -24,7 +25,7 @@ from reference import METHODS, integrate  # noqa: E402
 from scenarios import SCENES, make_scene  # noqa: E402
 
 #: float32's unit roundoff, 2^-24: the scale of every tolerance below.
-U32 = 2.0 ** -24
+U32 = 2.0**-24
 
 
 def _deviation(mode: str, scheme_id: str, scene, h: float, steps: int) -> float:
@@ -62,8 +63,9 @@ APART = 1e-2
 OTHER = {"semi_implicit_euler": "implicit_euler", "implicit_euler": "semi_implicit_euler"}
 
 
-@pytest.mark.parametrize("mode, scene_id, scheme_id", SPRING_IDENTITIES,
-                         ids=[f"{m}-{s}" for m, s, _ in SPRING_IDENTITIES])
+@pytest.mark.parametrize(
+    "mode, scene_id, scheme_id", SPRING_IDENTITIES, ids=[f"{m}-{s}" for m, s, _ in SPRING_IDENTITIES]
+)
 @pytest.mark.slow
 def test_each_newton_solver_is_its_scheme_on_the_spring_to_float32_rounding(mode, scene_id, scheme_id):
     scene = make_scene(scene_id)
@@ -127,8 +129,9 @@ def test_featherstone_pendulum_is_semi_implicit_euler_in_the_angle():
     assert _deviation("featherstone", "verlet", pendulum, h, 1000) >= 5e-3
 
 
-@pytest.mark.parametrize("mode, scheme_id", [("semi_implicit", "semi_implicit_euler"),
-                                             ("featherstone", "semi_implicit_euler")])
+@pytest.mark.parametrize(
+    "mode, scheme_id", [("semi_implicit", "semi_implicit_euler"), ("featherstone", "semi_implicit_euler")]
+)
 def test_the_particle_chain_and_cloth_are_semi_implicit_euler(mode, scheme_id):
     """The chain (N = 8, k = 1e4) and a 4 x 4 cloth, 200 steps of period/100 (h omega = 0.063),
     relative to the state's size. Measured: chain 2.5e-6 (its particles sit up to 4.5 s = 9 from
@@ -191,9 +194,15 @@ def _newton_warp_modules(wp) -> list:
     """The Warp module of every kernel Newton's imported modules define."""
     import sys
 
-    return list({id(k.module): k.module for name, module in list(sys.modules.items())
-                 if module is not None and name.startswith("newton.")
-                 for k in list(vars(module).values()) if isinstance(k, wp.Kernel)}.values())
+    return list(
+        {
+            id(k.module): k.module
+            for name, module in list(sys.modules.items())
+            if module is not None and name.startswith("newton.")
+            for k in list(vars(module).values())
+            if isinstance(k, wp.Kernel)
+        }.values()
+    )
 
 
 def test_newtons_kernels_compile_forward_only_into_the_harness_cache_to_the_same_bits():
@@ -285,7 +294,9 @@ def test_what_newton_does_not_apply_in_an_mjcf_is_listed_never_silent(tmp_path):
     assert differences == ["newton: joint h has no friction loss (mujoco 0.3)"]
     assert any("SolverFeatherstone applies no joint friction (the loader read up to 0.3)" in n for n in built["notes"])
     joint = built["joints"]["h"]
-    assert joint["stiffness"] == pytest.approx(2.0) and joint["spring_ref"] == pytest.approx(math.radians(0.1), rel=1e-6)
+    assert joint["stiffness"] == pytest.approx(2.0) and joint["spring_ref"] == pytest.approx(
+        math.radians(0.1), rel=1e-6
+    )
     assert joint["damping"] == pytest.approx(0.2, rel=1e-6) and joint["armature"] == pytest.approx(0.05, rel=1e-6)
     _, conservative, _, _, _ = _newton_and_mujoco(str(path), "conservative")
     assert conservative == []

@@ -5,6 +5,7 @@ reference schemes' timing kernels), so the module runs it three times in all: ``
 the rerun after a killed run (``killed_then_rerun``, which is also the unchanged rerun) and
 the rerun with a tightened bound. Each test that needs a history of its own works on a copy.
 """
+
 import contextlib
 import io
 import json
@@ -35,9 +36,16 @@ from reports import charts
 from reports.drawing import ChartNotDrawn
 from reports.markdown import write_report
 
-SECTIONS = ["## Verdict", "## The trade-off, measured", "## Which scheme each engine mode is", "## Per scene",
-            "## At 60 Hz",
-            "## Findings", "## Failures", "## Appendix: versions and settings"]
+SECTIONS = [
+    "## Verdict",
+    "## The trade-off, measured",
+    "## Which scheme each engine mode is",
+    "## Per scene",
+    "## At 60 Hz",
+    "## Findings",
+    "## Failures",
+    "## Appendix: versions and settings",
+]
 ROOT = Path(__file__).resolve().parents[1]
 #: The one reviewed bound the module's runs measure: semi-implicit Euler's band on the unit
 #: spring, max |dE/E| = h/2 = 0.05 at h = 0.1 (tests/theory.py), with the file's 1.5x margin.
@@ -47,11 +55,22 @@ BOUND = bounds_mod.Bound("spring", "ref:semi_implicit_euler", 0.1, 2000, 0.079)
 #: The timings the module's nightlies record instead of the clock's (``HARNESS_INJECT_TIMINGS``),
 #: the smoke methods' as measured here: the verdicts these tests read (no slowdown on an unchanged
 #: rerun) depend on no clock, so on no neighbour.
-TIMINGS = {"s_per_step": {"ref:explicit_euler": 3.9e-9, "ref:semi_implicit_euler": 7.6e-9, "ref:leapfrog": 8.5e-9,
-                          "ref:rk4": 1.6e-8, "ref:implicit_euler": 1.4e-8, "mujoco:euler": 1.2e-6,
-                          "pymunk:applied_force": 3.1e-6, "drake:runge_kutta3": 5.5e-6, "drake:discrete_sap": 4.1e-6,
-                          "*": 1e-6},
-           "jitter": [1.0, 1.03, 0.98], "calibration": {"python": 5e-8, "compiled": 4e-9}}
+TIMINGS = {
+    "s_per_step": {
+        "ref:explicit_euler": 3.9e-9,
+        "ref:semi_implicit_euler": 7.6e-9,
+        "ref:leapfrog": 8.5e-9,
+        "ref:rk4": 1.6e-8,
+        "ref:implicit_euler": 1.4e-8,
+        "mujoco:euler": 1.2e-6,
+        "pymunk:applied_force": 3.1e-6,
+        "drake:runge_kutta3": 5.5e-6,
+        "drake:discrete_sap": 4.1e-6,
+        "*": 1e-6,
+    },
+    "jitter": [1.0, 1.03, 0.98],
+    "calibration": {"python": 5e-8, "compiled": 4e-9},
+}
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -64,8 +83,19 @@ def injected_timings(tmp_path_factory):
 
 
 def nightly(tmp, *extra, bounds):
-    argv = ["nightly", "--suite", "smoke", "--out", str(tmp / "out"), "--db", str(tmp / "h.sqlite"), "--jobs", "2",
-            "--bounds", str(bounds)]
+    argv = [
+        "nightly",
+        "--suite",
+        "smoke",
+        "--out",
+        str(tmp / "out"),
+        "--db",
+        str(tmp / "h.sqlite"),
+        "--jobs",
+        "2",
+        "--bounds",
+        str(bounds),
+    ]
     return main(argv + list(extra))
 
 
@@ -90,32 +120,68 @@ def killed_then_rerun(first_run):
     report = tmp / "out" / "report.md"
     before = report.read_text()
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
-    proc = subprocess.Popen([sys.executable, "-m", "harness", "nightly", "--suite", "smoke", "--out", str(tmp / "out"),
-                             "--db", str(tmp / "h.sqlite"), "--bounds", str(bounds), "--jobs", "2"],
-                            cwd=ROOT, env=env, start_new_session=True, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "harness",
+            "nightly",
+            "--suite",
+            "smoke",
+            "--out",
+            str(tmp / "out"),
+            "--db",
+            str(tmp / "h.sqlite"),
+            "--bounds",
+            str(bounds),
+            "--jobs",
+            "2",
+        ],
+        cwd=ROOT,
+        env=env,
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     stored = 0
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:  # kill once its cells are being stored
         with sqlite3.connect(tmp / "h.sqlite") as con:
-            stored = con.execute("SELECT COUNT(*) FROM cells WHERE run_id IN "
-                                 "(SELECT run_id FROM runs WHERE complete = 0)").fetchone()[0]
+            stored = con.execute(
+                "SELECT COUNT(*) FROM cells WHERE run_id IN (SELECT run_id FROM runs WHERE complete = 0)"
+            ).fetchone()[0]
         if stored:
             break
         time.sleep(0.1)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
-    seen = {"stored_before_kill": stored, "returncode": proc.returncode,
-            "report_unchanged": report.read_text() == before,
-            "charts_present": all((tmp / "out" / name).stat().st_size > 0
-                                  for name in _chart_links(before)),
-            "integrity": History(tmp / "h.sqlite").integrity_ok(),
-            "complete": list(History(tmp / "h.sqlite").runs().run_id),
-            "all": list(History(tmp / "h.sqlite").runs(complete_only=False).run_id)}
+    seen = {
+        "stored_before_kill": stored,
+        "returncode": proc.returncode,
+        "report_unchanged": report.read_text() == before,
+        "charts_present": all((tmp / "out" / name).stat().st_size > 0 for name in _chart_links(before)),
+        "integrity": History(tmp / "h.sqlite").integrity_ok(),
+        "complete": list(History(tmp / "h.sqlite").runs().run_id),
+        "all": list(History(tmp / "h.sqlite").runs(complete_only=False).run_id),
+    }
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        code = main(["nightly", "--suite", "smoke", "--out", str(tmp / "out"), "--db", str(tmp / "h.sqlite"),
-                     "--jobs", "2", "--bounds", str(bounds), "--json"])
+        code = main(
+            [
+                "nightly",
+                "--suite",
+                "smoke",
+                "--out",
+                str(tmp / "out"),
+                "--db",
+                str(tmp / "h.sqlite"),
+                "--jobs",
+                "2",
+                "--bounds",
+                str(bounds),
+                "--json",
+            ]
+        )
     seen["summary"] = json.loads(out.getvalue())
     return seen, code
 
@@ -131,8 +197,13 @@ def test_smoke_nightly_writes_every_section_and_charts(first_run):
     positions = [report.index(section) for section in SECTIONS]
     assert positions == sorted(positions)  # the verdict first, the appendix last
     charts = list((tmp / "out" / "charts").glob("*.png"))
-    assert {c.name.split("-")[-1] for c in charts} == {"energy.png", "workprecision.png", "stability.png",
-                                                       "advise60hz.png", "tolerance.png"}
+    assert {c.name.split("-")[-1] for c in charts} == {
+        "energy.png",
+        "workprecision.png",
+        "stability.png",
+        "advise60hz.png",
+        "tolerance.png",
+    }
     assert all(c.stat().st_size > 1000 for c in charts)
     assert sorted(_chart_links(report)) == sorted(f"charts/{c.name}" for c in charts)
     # The trade-off table shows explicit Euler as `grows`, with the textbook agreeing.
@@ -156,8 +227,14 @@ def test_smoke_nightly_writes_every_section_and_charts(first_run):
     appendix = report.split("## Appendix")[1]
     assert "| mujoco | " in appendix and "- `mujoco:euler` on `spring` (" in appendix and "timestep=" in appendix
     footer = report.split("\n---\n")[1]
-    for part in ("Wall time", "CPU time in the workers", "of it numba compiling", "Worker seconds by measure: ",
-                 "By family: ", "Slowest tasks: cell spring "):
+    for part in (
+        "Wall time",
+        "CPU time in the workers",
+        "of it numba compiling",
+        "Worker seconds by measure: ",
+        "By family: ",
+        "Slowest tasks: cell spring ",
+    ):
         assert part in footer
     # Families in order of their worker seconds: which comes first depends on the smoke's methods.
     assert "ref " in footer.split("By family: ")[1].splitlines()[0]
@@ -171,8 +248,17 @@ def test_smoke_nightly_stores_a_valid_complete_run(first_run):
     assert run.run_id == 1 and run.complete == 1
     assert run.suite == "smoke" and run.versions["numpy"] and run.machine["cpus"]
     cells = h.cells(1)
-    assert set(cells.measure) == {"energy", "error", "order", "stability", "cost", "identity", "bound", "advise",
-                                 "tolerance"}
+    assert set(cells.measure) == {
+        "energy",
+        "error",
+        "order",
+        "stability",
+        "cost",
+        "identity",
+        "bound",
+        "advise",
+        "tolerance",
+    }
     assert not cells.duplicated(["scene", "method", "measure", "dt"]).any()
     assert set(cells.status) == {"ok"}
     # Every cost figure is the injected one, and says so: no verdict of this module reads a clock.
@@ -182,7 +268,8 @@ def test_smoke_nightly_stores_a_valid_complete_run(first_run):
     timing = run.timing
     # Where the time went adds up: worker seconds by measure and by family are two splits of one sum.
     assert sum(timing["worker_seconds_by_measure"].values()) == pytest.approx(
-        sum(timing["worker_seconds_by_family"].values()), rel=1e-9)
+        sum(timing["worker_seconds_by_family"].values()), rel=1e-9
+    )
     assert len(timing["task_s"]) == timing["tasks"] == 10  # 9 methods on the spring (two of them Drake's), 1 bound
     assert timing["tasks_without_cpu"] == 0
     # Two single-threaded workers cannot spend more CPU than twice the wall time they ran in
@@ -233,8 +320,11 @@ def test_a_chart_that_raises_in_a_worker_leaves_the_report_whole(first_run, tmp_
     assert energy_link in whole
     assert report == whole.replace(energy_link, "")
     assert sorted(p.name for p in (tmp_path / "out" / "charts").iterdir()) == [
-        "run1-spring-advise60hz.png", "run1-spring-stability.png", "run1-spring-tolerance.png",
-        "run1-spring-workprecision.png"]
+        "run1-spring-advise60hz.png",
+        "run1-spring-stability.png",
+        "run1-spring-tolerance.png",
+        "run1-spring-workprecision.png",
+    ]
 
 
 def test_a_killed_nightly_leaves_report_and_history_whole_and_the_next_run_succeeds(killed_then_rerun, first_run):
@@ -314,12 +404,23 @@ def test_bounds_update_proposes_from_a_run_and_never_loosens_silently(first_run,
 
 
 def test_bounds_proposal_rule():
-    current = [bounds_mod.Bound("spring", "m", 0.1, 10, 1e-3), bounds_mod.Bound("spring", "n", 0.1, 10, 1e-3),
-               bounds_mod.Bound("spring", "k", 0.1, 10, 1e-3)]
-    props = {p.bound.method: p for p in bounds_mod.propose(current, {("spring", "m", 0.1, 10): 1e-5,
-                                                                    ("spring", "n", 0.1, 10): 5e-3,
-                                                                    ("spring", "k", 0.1, 10): 9e-4,
-                                                                    ("spring", "z", 0.1, 10): 1e-20})}
+    current = [
+        bounds_mod.Bound("spring", "m", 0.1, 10, 1e-3),
+        bounds_mod.Bound("spring", "n", 0.1, 10, 1e-3),
+        bounds_mod.Bound("spring", "k", 0.1, 10, 1e-3),
+    ]
+    props = {
+        p.bound.method: p
+        for p in bounds_mod.propose(
+            current,
+            {
+                ("spring", "m", 0.1, 10): 1e-5,
+                ("spring", "n", 0.1, 10): 5e-3,
+                ("spring", "k", 0.1, 10): 9e-4,
+                ("spring", "z", 0.1, 10): 1e-20,
+            },
+        )
+    }
     assert props["m"].action == "tighten" and props["m"].bound.bound == 1.5e-5  # 1e-5 * 1.5, not 1.6e-5
     assert props["n"].action == "loosen" and props["n"].bound.bound == 7.5e-3
     assert props["k"].action == "keep" and props["k"].bound.bound == 1e-3  # 1.35e-3 > 1e-3 but 9e-4 holds
@@ -338,7 +439,9 @@ def test_the_bounds_file_has_reference_bounds_to_check():
     assert len(COMMITTED_REF_BOUNDS) >= 10
 
 
-@pytest.mark.parametrize("b", COMMITTED_REF_BOUNDS, ids=[f"{b.method}-{b.scene}-dt{b.dt:g}" for b in COMMITTED_REF_BOUNDS])
+@pytest.mark.parametrize(
+    "b", COMMITTED_REF_BOUNDS, ids=[f"{b.method}-{b.scene}-dt{b.dt:g}" for b in COMMITTED_REF_BOUNDS]
+)
 def test_committed_bounds_hold(energy_bound, b):
     """The reviewed bounds file, run through the pytest plugin: one test per bound."""
     energy_bound(b.method, b.scene, dt=b.dt, steps=b.steps, bound=b.bound)
@@ -366,7 +469,8 @@ def test_a_crashing_and_a_hanging_engine_are_recorded_and_reported(tmp_path, mon
     assert first(abort).startswith("worker killed by SIGABRT")
     assert first(hang) == "no result within 10 s; worker killed"
     assert set(hang[hang.measure != "identity"].detail) == {
-        "not reached: the worker was lost in identity (no result within 10 s; worker killed)"}
+        "not reached: the worker was lost in identity (no result within 10 s; worker killed)"
+    }
     report = (tmp_path / "out" / "report.md").read_text()
     verdict = report.split("## The trade-off")[0]
     assert "`faulty:abort` on `spring`" in verdict and "`faulty:hang` on `spring`" in verdict
@@ -392,8 +496,21 @@ def test_long_tasks_are_scheduled_first_and_new_ones_before_all():
 
 def test_new_cells_that_crash_are_new_failures_and_new_unstable_ones_are_not():
     def frame(*rows):
-        return pd.DataFrame([{"scene": "s", "method": m, "measure": "energy", "dt": 0.1, "status": st,
-                              "detail": "", "value": 1.0, "data": {}} for m, st in rows])
+        return pd.DataFrame(
+            [
+                {
+                    "scene": "s",
+                    "method": m,
+                    "measure": "energy",
+                    "dt": 0.1,
+                    "status": st,
+                    "detail": "",
+                    "value": 1.0,
+                    "data": {},
+                }
+                for m, st in rows
+            ]
+        )
 
     regs = compare_cells(frame(("a", "ok")), frame(("a", "ok"), ("b", "crashed"), ("c", "unstable")), [])
     assert [(r.kind, r.method) for r in regs] == [("new failure", "b")]
@@ -401,9 +518,21 @@ def test_new_cells_that_crash_are_new_failures_and_new_unstable_ones_are_not():
 
 def test_a_slowdown_is_flagged_beyond_repeat_and_process_spread_only():
     def frame(ratio, spread):
-        return pd.DataFrame([{"scene": "s", "method": "m", "family": "f", "measure": "cost", "dt": 0.1, "status": "ok",
-                              "detail": "", "value": 1.0,
-                              "data": {"ratio_to_explicit_euler": ratio, "ratio_spread": spread}}])
+        return pd.DataFrame(
+            [
+                {
+                    "scene": "s",
+                    "method": "m",
+                    "family": "f",
+                    "measure": "cost",
+                    "dt": 0.1,
+                    "status": "ok",
+                    "detail": "",
+                    "value": 1.0,
+                    "data": {"ratio_to_explicit_euler": ratio, "ratio_spread": spread},
+                }
+            ]
+        )
 
     # Unchanged code moved a ratio by up to 1.34x between processes (compare.PROCESS_SPREAD).
     assert compare_cells(frame(4.0, 0.05), frame(5.6, 0.05), []) == []  # 1.40x < 1 + 0.05 + 0.05 + 0.5
@@ -485,8 +614,24 @@ def test_harness_energy_says_what_the_nightlys_energy_cell_says(first_run, capsy
     for c in cells:
         scene = make_scene(c.scene)
         _, every = energy_run(scene, c.dt, suite.scenes[c.scene], suite)
-        assert main(["energy", c.scene, "--method", c.method, "--dt", repr(c.dt), "--steps", str(c.steps),
-                     "--every", str(every), "--json"]) == 0
+        assert (
+            main(
+                [
+                    "energy",
+                    c.scene,
+                    "--method",
+                    c.method,
+                    "--dt",
+                    repr(c.dt),
+                    "--steps",
+                    str(c.steps),
+                    "--every",
+                    str(every),
+                    "--json",
+                ]
+            )
+            == 0
+        )
         res = json.loads(capsys.readouterr().out)
         assert res["max_rel_error"] == c.value, c.method
         assert res["final_rel_error"] == c.figures.final_rel_error, c.method
@@ -506,8 +651,15 @@ def test_each_command_says_what_the_nightlys_cell_says(first_run, method, capsys
         assert main([*argv, "spring", "--method", method, "--json"]) == 0
         return json.loads(capsys.readouterr().out)
 
-    order = command("order", "--points", str(spec.order_points), "--span", repr(spec.order_span),
-                    "--periods", repr(spec.order_periods))
+    order = command(
+        "order",
+        "--points",
+        str(spec.order_points),
+        "--span",
+        repr(spec.order_span),
+        "--periods",
+        repr(spec.order_periods),
+    )
     assert order["order"] == cells["order"].value and order["points"] == cells["order"].figures.points
     stab = command("stability", "--steps", str(suite.stability_steps), "--hi", repr(suite.stability_homega_max))
     assert (math.inf if stab["verdict"] == "unbounded" else stab["omega_dt_max"]) == cells["stability"].value
@@ -565,5 +717,7 @@ def test_a_mode_the_scene_cannot_pose_gives_that_reason_not_the_suites_selection
     from harness.methods import get_method
 
     if get_method("drake:runge_kutta3").available()[0]:
-        assert why[("chain", "drake:runge_kutta3")] == \
-            "left out on chain in the standard suite (harness/nightly/suites.py)"
+        assert (
+            why[("chain", "drake:runge_kutta3")]
+            == "left out on chain in the standard suite (harness/nightly/suites.py)"
+        )

@@ -1,5 +1,6 @@
 """PBD and XPBD (reference/schemes/pbd.py, xpbd.py), the scenes' constraints, the stretch measure
 and the small-steps study (harness/measures/small_steps.py)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -48,8 +49,10 @@ def test_xpbd_passes_converge_to_the_implicit_euler_step_on_the_chain():
     # 128 passes must reach 1e-14.
     chain = make_scene("chain")
     ref = integrate(IE, chain, 1 / 60, 1).q[-1]
-    errors = [float(np.max(np.abs(integrate_compiled(XPBD, chain, 1 / 60, 1, iterations=k).q[-1] - ref)))
-              for k in (1, 2, 4, 8, 16, 32, 64, 128)]
+    errors = [
+        float(np.max(np.abs(integrate_compiled(XPBD, chain, 1 / 60, 1, iterations=k).q[-1] - ref)))
+        for k in (1, 2, 4, 8, 16, 32, 64, 128)
+    ]
     assert all(b < a for a, b in zip(errors[:-2], errors[1:-1])), errors
     assert errors[0] > 0.1 and errors[-1] <= 1e-14
     # PBD's stiffness grows with the passes instead: it does not converge to implicit Euler
@@ -59,8 +62,9 @@ def test_xpbd_passes_converge_to_the_implicit_euler_step_on_the_chain():
 
 
 @pytest.mark.parametrize("scheme", [PBD, XPBD, JACOBI], ids=["pbd", "xpbd", "xpbd_jacobi"])
-@pytest.mark.parametrize("scene_id", ["spring", "chain", *(pytest.param(s, marks=pytest.mark.slow)
-                                                         for s in ("rope", "cloth", "net"))])
+@pytest.mark.parametrize(
+    "scene_id", ["spring", "chain", *(pytest.param(s, marks=pytest.mark.slow) for s in ("rope", "cloth", "net"))]
+)
 def test_compiled_is_the_interpreted_run_bit_for_bit(scheme, scene_id):
     scene = make_scene(scene_id, **({"n": 4, "m": 4} if scene_id in ("cloth", "net") else {}))
     opts = {"substeps": 3, "iterations": 2}
@@ -173,18 +177,59 @@ def _injected(**over) -> pd.DataFrame:
     """A study's rows, written by hand (never timed in a test: the machine is noisy)."""
     rows = []
     for n in (1, 4):
-        rows.append({"method": "ref:xpbd", "substeps": n, "iterations": 1, "status": "ok", "detail": "",
-                     "energy_retained": 0.5 + 0.1 * n, "stretch": over.get("sub_stretch", 0.3 / n), "error": 0.2 / n,
-                     "cost_per_frame_s": 1e-6 * n})
+        rows.append(
+            {
+                "method": "ref:xpbd",
+                "substeps": n,
+                "iterations": 1,
+                "status": "ok",
+                "detail": "",
+                "energy_retained": 0.5 + 0.1 * n,
+                "stretch": over.get("sub_stretch", 0.3 / n),
+                "error": 0.2 / n,
+                "cost_per_frame_s": 1e-6 * n,
+            }
+        )
         if n > 1:
-            rows.append({"method": "ref:xpbd", "substeps": 1, "iterations": n, "status": "ok", "detail": "",
-                         "energy_retained": 0.45, "stretch": 0.25, "error": 0.25, "cost_per_frame_s": 0.9e-6 * n})
-    rows.append({"method": "ref:implicit_euler", "substeps": None, "iterations": None, "status": "ok", "detail": "",
-                 "energy_retained": 0.4, "stretch": over.get("ie_stretch", 0.2), "error": 0.3,
-                 "cost_per_frame_s": 5e-6})
-    rows.append({"method": "ref:linearly_implicit_euler", "substeps": None, "iterations": None, "status": "not run",
-                 "detail": "scene rope is held together by constraints", "energy_retained": None, "stretch": None,
-                 "error": None, "cost_per_frame_s": None})
+            rows.append(
+                {
+                    "method": "ref:xpbd",
+                    "substeps": 1,
+                    "iterations": n,
+                    "status": "ok",
+                    "detail": "",
+                    "energy_retained": 0.45,
+                    "stretch": 0.25,
+                    "error": 0.25,
+                    "cost_per_frame_s": 0.9e-6 * n,
+                }
+            )
+    rows.append(
+        {
+            "method": "ref:implicit_euler",
+            "substeps": None,
+            "iterations": None,
+            "status": "ok",
+            "detail": "",
+            "energy_retained": 0.4,
+            "stretch": over.get("ie_stretch", 0.2),
+            "error": 0.3,
+            "cost_per_frame_s": 5e-6,
+        }
+    )
+    rows.append(
+        {
+            "method": "ref:linearly_implicit_euler",
+            "substeps": None,
+            "iterations": None,
+            "status": "not run",
+            "detail": "scene rope is held together by constraints",
+            "energy_retained": None,
+            "stretch": None,
+            "error": None,
+            "cost_per_frame_s": None,
+        }
+    )
     frame = pd.DataFrame(rows).astype(object).where(lambda f: f.notna(), None)
     frame.attrs.update({"scene": "cloth", "passes": [1, 4], "reference_stretch": over.get("reference_stretch", 0.0)})
     return frame
@@ -195,7 +240,10 @@ def test_the_claims_table_from_injected_rows():
 
     by = {r["claim"]: r for r in claims(_injected())}
     assert by["n substeps x 1 pass beat 1 step x n passes in error against the reference"]["verdict"] == "✓"
-    assert "n=4: 0.05 vs 0.25" in by["n substeps x 1 pass beat 1 step x n passes in error against the reference"]["figures"]
+    assert (
+        "n=4: 0.05 vs 0.25"
+        in by["n substeps x 1 pass beat 1 step x n passes in error against the reference"]["figures"]
+    )
     assert by["n substeps x 1 pass beat 1 step x n passes in damping (energy retained)"]["verdict"] == "✓"
     # Implicit Euler at 5 us a frame: the dearest XPBD substeps within it (4 substeps, 4 us).
     damp = by["XPBD substeps beat implicit euler in damping at equal cost per frame"]
@@ -209,8 +257,10 @@ def test_the_claims_table_from_injected_rows():
     assert lin["verdict"] == "–" and "constraints" in lin["figures"]
 
 
-STRETCH = "XPBD substeps beat implicit euler in constraint error at equal cost per frame (stretch, as its " \
-          "distance from the reference's)"
+STRETCH = (
+    "XPBD substeps beat implicit euler in constraint error at equal cost per frame (stretch, as its "
+    "distance from the reference's)"
+)
 
 
 def test_a_stretch_is_judged_as_its_distance_from_the_references():
@@ -229,8 +279,9 @@ def test_a_stretch_is_judged_as_its_distance_from_the_references():
         if "linearly" in claim:  # not run in the injected rows: its reason
             assert row["verdict"] == "–" and row["figures"].startswith("not run")
         elif "stretch" in claim:
-            assert row["verdict"] == "–" and row["figures"].startswith("not the paper's case: the reference itself "
-                                                                      "stretches 0.361")
+            assert row["verdict"] == "–" and row["figures"].startswith(
+                "not the paper's case: the reference itself stretches 0.361"
+            )
         else:
             assert row["verdict"] in ("✓", "✗") or "not run" in row["figures"]
 
@@ -246,14 +297,19 @@ def test_the_small_steps_cell_is_measured_and_reported():
 
     assert get("small_steps") is not None
     assert SUITES["standard"].scenes["cloth"].extras.small_steps is not None
-    spec = SceneSpec(params={"N": 3}, extras=SceneExtras(small_steps={"passes": (1, 2), "t_end": 0.5,
-                                                                      "timing_frames": 5, "repeats": 1}))
+    spec = SceneSpec(
+        params={"N": 3},
+        extras=SceneExtras(small_steps={"passes": (1, 2), "t_end": 0.5, "timing_frames": 5, "repeats": 1}),
+    )
     task = types.SimpleNamespace(scene="rope", method="ref:xpbd", family="ref", params=spec.params)
     from records.cell import Cell
 
     cell = Cell.from_row(_small_steps(task, spec).to_row())  # as stored and read back: a cell's own keys kept apart
-    assert cell.status == "ok" and cell.figures.paper_claims and cell.value == sum(
-        r["verdict"] == "✓" for r in cell.figures.paper_claims)
+    assert (
+        cell.status == "ok"
+        and cell.figures.paper_claims
+        and cell.value == sum(r["verdict"] == "✓" for r in cell.figures.paper_claims)
+    )
     text = "\n".join(position_based_section({("rope", "ref:xpbd"): {"small_steps": cell}}, {}))
     assert "Small steps on `rope`" in text and "| rope | n substeps x 1 pass beat" in text
 
@@ -272,8 +328,10 @@ def test_a_soft_cloths_small_steps_cell_runs_the_study_again_with_stiff_springs(
     from records.cell import Cell
     from reports.position_based_section import position_based_section
 
-    spec = SceneSpec(params={"n": 3, "m": 3}, extras=SceneExtras(small_steps={"passes": (1, 2), "t_end": 0.25,
-                                                                            "timing_frames": 5, "repeats": 1}))
+    spec = SceneSpec(
+        params={"n": 3, "m": 3},
+        extras=SceneExtras(small_steps={"passes": (1, 2), "t_end": 0.25, "timing_frames": 5, "repeats": 1}),
+    )
     task = types.SimpleNamespace(scene="cloth", method="ref:xpbd", family="ref", params=spec.params)
     cell = Cell.from_row(_small_steps(task, spec).to_row())
     f = cell.figures
@@ -284,7 +342,10 @@ def test_a_soft_cloths_small_steps_cell_runs_the_study_again_with_stiff_springs(
     assert stiff and all(r["verdict"] in ("✓", "✗") for r in stiff)
     assert cell.value == sum(r["verdict"] == "✓" for r in f.paper_claims + f.stiff["paper_claims"])
     text = "\n".join(position_based_section({("cloth", "ref:xpbd"): {"small_steps": cell}}, {}))
-    assert "Small steps on `cloth`" in text and "Small steps on cloth with stiff springs (k = k_shear = k_bend = 1e5)" in text
+    assert (
+        "Small steps on `cloth`" in text
+        and "Small steps on cloth with stiff springs (k = k_shear = k_bend = 1e5)" in text
+    )
 
 
 def test_advise_takes_a_method_at_options_of_its_own():

@@ -1,6 +1,7 @@
 """records/: the divergence test every run asks at every step; method ids parsed once; and the
 one Method protocol every registered method answers in full (reference schemes, engine modes, a
 plugin's modes, and a plugin's method that declares only the least a method must have)."""
+
 from __future__ import annotations
 
 import re
@@ -33,8 +34,23 @@ def componentwise(q, v) -> bool:
     return bool(np.any(~np.isfinite(x)) or np.any(np.abs(x) > DIVERGED))
 
 
-@pytest.mark.parametrize("value", [0.0, 1.0, -3e99, DIVERGED, -DIVERGED, np.nextafter(DIVERGED, np.inf), 1e101,
-                                   1e160, -1e200, np.inf, -np.inf, np.nan])
+@pytest.mark.parametrize(
+    "value",
+    [
+        0.0,
+        1.0,
+        -3e99,
+        DIVERGED,
+        -DIVERGED,
+        np.nextafter(DIVERGED, np.inf),
+        1e101,
+        1e160,
+        -1e200,
+        np.inf,
+        -np.inf,
+        np.nan,
+    ],
+)
 @pytest.mark.parametrize("where", ["q", "v"])
 def test_diverged_is_the_componentwise_rule(value, where):
     """Edge values in either half of the state (NaN in v alone included), among ordinary ones."""
@@ -57,11 +73,14 @@ def test_diverged_agrees_with_the_rule_on_random_states_across_every_scale():
 
 
 # --------------------------------------------------------------------------- MethodId
-@pytest.mark.parametrize("text, family, name", [
-    ("ref:rk4", "ref", "rk4"),
-    ("mujoco:implicitfast", "mujoco", "implicitfast"),
-    ("plugin:mode:with:colons", "plugin", "mode:with:colons"),  # only the first colon splits
-])
+@pytest.mark.parametrize(
+    "text, family, name",
+    [
+        ("ref:rk4", "ref", "rk4"),
+        ("mujoco:implicitfast", "mujoco", "implicitfast"),
+        ("plugin:mode:with:colons", "plugin", "mode:with:colons"),  # only the first colon splits
+    ],
+)
 def test_method_id_parses_family_and_name(text, family, name):
     mid = MethodId.parse(text)
     assert (mid.family, mid.name, str(mid)) == (family, name, text)
@@ -82,11 +101,18 @@ def test_scheme_name_of_anything_but_a_reference_id_is_none():
     assert scheme_name("ref:semi_implicit_euler") == "semi_implicit_euler"
 
 
-@pytest.mark.parametrize("text, canonical, options", [
-    ("ref:xpbd?substeps=10&iterations=1", "ref:xpbd?iterations=1&substeps=10", {"iterations": "1", "substeps": "10"}),
-    ("drake:runge_kutta3@1e-6", "drake:runge_kutta3@1e-6", {"tolerance": "1e-6"}),
-    ("drake:radau3?tolerance=1e-8", "drake:radau3@1e-8", {"tolerance": "1e-8"}),
-])
+@pytest.mark.parametrize(
+    "text, canonical, options",
+    [
+        (
+            "ref:xpbd?substeps=10&iterations=1",
+            "ref:xpbd?iterations=1&substeps=10",
+            {"iterations": "1", "substeps": "10"},
+        ),
+        ("drake:runge_kutta3@1e-6", "drake:runge_kutta3@1e-6", {"tolerance": "1e-6"}),
+        ("drake:radau3?tolerance=1e-8", "drake:radau3@1e-8", {"tolerance": "1e-8"}),
+    ],
+)
 def test_a_method_id_carries_its_options_in_one_canonical_text(text, canonical, options):
     mid = MethodId.parse(text)
     assert str(mid) == canonical and dict(mid.options) == options and str(MethodId.parse(canonical)) == canonical
@@ -94,10 +120,15 @@ def test_a_method_id_carries_its_options_in_one_canonical_text(text, canonical, 
     assert scheme_name(text) == (mid.name if mid.reference else None)
 
 
-@pytest.mark.parametrize("text, words", [
-    ("ref:xpbd?substeps", "not of the form key=value"), ("ref:xpbd?substeps=1&substeps=2", "given twice"),
-    ("drake:runge_kutta3@", "needs a tolerance"), ("ref:xpbd?=3", "not of the form key=value"),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("ref:xpbd?substeps", "not of the form key=value"),
+        ("ref:xpbd?substeps=1&substeps=2", "given twice"),
+        ("drake:runge_kutta3@", "needs a tolerance"),
+        ("ref:xpbd?=3", "not of the form key=value"),
+    ],
+)
 def test_a_malformed_option_in_a_method_id_is_a_one_line_error(text, words):
     with pytest.raises(InvalidInput, match=words) as exc:
         MethodId.parse(text)
@@ -114,10 +145,12 @@ def test_options_in_an_id_are_checked_against_what_the_method_declares():
     assert m.id == "ref:verlet_constrained?iterations=4" and m.options == {"iterations": 4}
     assert get_method("ref:verlet_constrained", {"iterations": "4"}).id == m.id
     assert get_method(m.id) == m and get_method("ref:verlet_constrained").id == "ref:verlet_constrained"
-    for text, words in [("ref:rk4?substeps=2", "unknown option 'substeps' for method ref:rk4 (valid: none)"),
-                        ("ref:verlet_constrained?iterations=0", "iterations=0 is out of range"),
-                        ("ref:verlet_constrained?iterations=2.5", "is not an integer"),
-                        ("ref:rk4@1e-6", "unknown option 'tolerance'")]:
+    for text, words in [
+        ("ref:rk4?substeps=2", "unknown option 'substeps' for method ref:rk4 (valid: none)"),
+        ("ref:verlet_constrained?iterations=0", "iterations=0 is out of range"),
+        ("ref:verlet_constrained?iterations=2.5", "is not an integer"),
+        ("ref:rk4@1e-6", "unknown option 'tolerance'"),
+    ]:
         with pytest.raises(InvalidInput) as exc:
             get_method(text)
         assert words in str(exc.value) and "\n" not in str(exc.value), text
@@ -179,8 +212,14 @@ def test_reference_methods_declare_in_process_fixed_step_and_a_compiled_twin():
         m = registry.get_method(f"ref:{sid}")
         assert isinstance(m, RefMethod) and m.scheme is scheme and m.family == REFERENCE
         # A counting run: where its compiled loop cannot count (Newton's passes vary), the interpreted run.
-        assert (m.isolated, m.adaptive, m.counting_run, m.LOOPS, m.one_steps, m.timed_run) == \
-               (False, False, True, (), None, None)
+        assert (m.isolated, m.adaptive, m.counting_run, m.LOOPS, m.one_steps, m.timed_run) == (
+            False,
+            False,
+            True,
+            (),
+            None,
+            None,
+        )
         assert dict(m.no_match) == {}
         twin = m.compiled_twin()
         assert twin.compiled and not m.compiled and twin.scheme is scheme
@@ -244,8 +283,10 @@ def test_a_plugin_method_without_what_every_method_must_have_is_a_one_line_error
     monkeypatch.setattr(registry, "_PLUGIN_METHODS", {})
     with pytest.raises(InvalidInput) as exc:
         registry.load_plugins([module.__name__])
-    assert str(exc.value) == ("method 'incomplete:mode' has no supports, simulate, describe "
-                              "(a method has id, available, supports, simulate, describe)")
+    assert str(exc.value) == (
+        "method 'incomplete:mode' has no supports, simulate, describe "
+        "(a method has id, available, supports, simulate, describe)"
+    )
 
 
 def test_an_unknown_method_is_a_one_line_error_naming_the_valid_ones():
@@ -290,18 +331,28 @@ def test_records_import_nothing_of_the_project_not_even_by_name():
     for path in sorted((ROOT / "records").glob("*.py")):
         tree = ast.parse(path.read_text())
         for node in ast.walk(tree):
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
-                     [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom) and not node.level
+                else []
+            )
             for name in names:
-                assert name.split(".")[0] not in {"harness", "adapters", "reference", "scenarios", "reports"}, \
-                    (path.name, name)
+                assert name.split(".")[0] not in {"harness", "adapters", "reference", "scenarios", "reports"}, (
+                    path.name,
+                    name,
+                )
             assert not (isinstance(node, ast.Name) and node.id in ("import_module", "__import__")), path.name
             assert not (isinstance(node, ast.Attribute) and node.attr == "import_module"), path.name
 
 
 # --------------------------------------------------------------------------- private modules
-PRIVATE_IMPORT = re.compile(r"^\s*(?:from|import)\s+((?:reference|adapters|scenarios|harness|reports|records)"
-                            r"(?:\.[a-z_]+)*\._[a-z_]+)", re.M)
+PRIVATE_IMPORT = re.compile(
+    r"^\s*(?:from|import)\s+((?:reference|adapters|scenarios|harness|reports|records)"
+    r"(?:\.[a-z_]+)*\._[a-z_]+)",
+    re.M,
+)
 
 
 def test_no_package_imports_another_packages_private_module():
@@ -319,20 +370,51 @@ def test_no_package_imports_another_packages_private_module():
 def test_a_run_row_and_its_timing_become_typed_records_and_an_older_row_keeps_the_defaults():
     from records.run import RunRecord, RunSettings, RunTiming
 
-    row = {"run_id": 3, "suite": "smoke", "started": "2026-11-23T10:00:00+00:00", "measurement_version": 3,
-           "git_commit": "abc", "complete": 1, "versions": {"numpy": "2.1"}, "machine": {"cpus": 2},
-           "settings": {"suite": {"name": "smoke", "scenes": {}}, "executor": "local", "cell_timeout": 60.0,
-                        "plugins": ["tests.faulty_plugin"], "skipped": [], "jobs": 2, "unknown_later_key": 1},
-           "wall_s": 12.5, "timing": {"total_s": 10.0}}
+    row = {
+        "run_id": 3,
+        "suite": "smoke",
+        "started": "2026-11-23T10:00:00+00:00",
+        "measurement_version": 3,
+        "git_commit": "abc",
+        "complete": 1,
+        "versions": {"numpy": "2.1"},
+        "machine": {"cpus": 2},
+        "settings": {
+            "suite": {"name": "smoke", "scenes": {}},
+            "executor": "local",
+            "cell_timeout": 60.0,
+            "plugins": ["tests.faulty_plugin"],
+            "skipped": [],
+            "jobs": 2,
+            "unknown_later_key": 1,
+        },
+        "wall_s": 12.5,
+        "timing": {"total_s": 10.0},
+    }
     run = RunRecord.of(row)
-    assert (run.run_id, run.suite, run.git_commit, run.versions, run.settings.executor) == (3, "smoke", "abc", {"numpy": "2.1"}, "local")
+    assert (run.run_id, run.suite, run.git_commit, run.versions, run.settings.executor) == (
+        3,
+        "smoke",
+        "abc",
+        {"numpy": "2.1"},
+        "local",
+    )
     assert run.settings.plugins == ["tests.faulty_plugin"] and run.settings.cell_timeout == 60.0
     assert RunRecord.of(run) is run
-    old = RunRecord.of({"run_id": 1, "suite": "smoke", "started": "x", "measurement_version": 2, "settings": None,
-                        "versions": None})
+    old = RunRecord.of(
+        {"run_id": 1, "suite": "smoke", "started": "x", "measurement_version": 2, "settings": None, "versions": None}
+    )
     assert old.settings == RunSettings() and old.versions == {} and old.git_commit is None
-    timing = RunTiming.of({"total_s": 5.0, "cells_s": 4.0, "kernels_compiled": 0, "kernel_load_s": None,
-                           "slowest_tasks": [["cell spring ref:rk4", 1.0]], "not_a_field": 9})
+    timing = RunTiming.of(
+        {
+            "total_s": 5.0,
+            "cells_s": 4.0,
+            "kernels_compiled": 0,
+            "kernel_load_s": None,
+            "slowest_tasks": [["cell spring ref:rk4", 1.0]],
+            "not_a_field": 9,
+        }
+    )
     assert (timing.total_s, timing.cells_s, timing.kernels_compiled, timing.kernel_load_s) == (5.0, 4.0, 0, 0.0)
     assert RunTiming.of(None) == RunTiming() and RunTiming().total_s is None
 
@@ -345,11 +427,20 @@ def test_the_identity_table_says_where_a_float32_mode_was_matched_at_float32_rou
     from reports.markdown import identity_table
 
     def cell(method, precision, value):
-        return Cell(scene="spring", method=method, family=method.split(":")[0], measure="identity", status="ok",
-                    value=value, figures=IdentityFigures(match="ref:semi_implicit_euler", precision=precision))
+        return Cell(
+            scene="spring",
+            method=method,
+            family=method.split(":")[0],
+            measure="identity",
+            status="ok",
+            value=value,
+            figures=IdentityFigures(match="ref:semi_implicit_euler", precision=precision),
+        )
 
-    piv = {("spring", "newton:semi_implicit"): {"identity": cell("newton:semi_implicit", "float32", 4.2e-7)},
-           ("spring", "mujoco:euler"): {"identity": cell("mujoco:euler", "float64", 0.0)}}
+    piv = {
+        ("spring", "newton:semi_implicit"): {"identity": cell("newton:semi_implicit", "float32", 4.2e-7)},
+        ("spring", "mujoco:euler"): {"identity": cell("mujoco:euler", "float64", 0.0)},
+    }
     rows = {line.split("|")[1].strip(): line for line in identity_table(piv) if line.startswith("| `")}
     assert "4.20e-07 (float32: matched at float32 rounding)" in rows["`newton:semi_implicit`"]
     assert "float32" not in rows["`mujoco:euler`"]

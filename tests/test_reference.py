@@ -156,7 +156,7 @@ def test_implicit_euler_and_rk4_lose_energy(long_runs, scheme_id):
     assert np.all(np.diff(e) <= 1e-15 * e[0]), "monotone loss"
     if scheme_id == "rk4":
         # |R|^2 = 1 - h^6/72 + h^8/576 per step at h = 0.1: the predicted loss over 10^5 steps.
-        factor = (1 - 0.1 ** 6 / 72 + 0.1 ** 8 / 576) ** LONG_STEPS
+        factor = (1 - 0.1**6 / 72 + 0.1**8 / 576) ** LONG_STEPS
         assert e[-1] / e[0] == pytest.approx(factor, rel=1e-6)
 
 
@@ -168,7 +168,7 @@ def test_a_batch_of_initial_states_runs_as_one_array(scheme_id):
     batched = integrate(METHODS[scheme_id], scene, 0.01, 20, q0=q0, v0=v0)
     assert batched.q.shape == (21, 4, 1)
     for b in range(4):
-        single = integrate(METHODS[scheme_id], scene, 0.01, 20, q0=q0[b:b + 1], v0=v0[b:b + 1])
+        single = integrate(METHODS[scheme_id], scene, 0.01, 20, q0=q0[b : b + 1], v0=v0[b : b + 1])
         # Newton's stopping test looks at the whole batch, so members may take one more
         # iteration than alone: agreement to roundoff, not bitwise.
         np.testing.assert_allclose(batched.q[:, b], single.q[:, 0], rtol=0, atol=1e-12)
@@ -178,21 +178,33 @@ def test_a_batch_of_initial_states_runs_as_one_array(scheme_id):
 # a 2x2 solve), and implicit midpoint (which calls both the force and the solve kernel) on every scene.
 # The solar system runs leapfrog (its scheme in the nightly) instead: implicit midpoint's dense
 # 18x18 solve alone takes ~20 s to compile.
-COMPILED_CASES = ([(s, "kepler") for s in FREE] + [("verlet_constrained", "rope"), ("leapfrog", "solar_system")]
-                  + [("implicit_midpoint", s) for s in sorted(SCENES)
-                     if s not in ("kepler", "solar_system") and not make_scene(s).constrained])
+COMPILED_CASES = (
+    [(s, "kepler") for s in FREE]
+    + [("verlet_constrained", "rope"), ("leapfrog", "solar_system")]
+    + [
+        ("implicit_midpoint", s)
+        for s in sorted(SCENES)
+        if s not in ("kepler", "solar_system") and not make_scene(s).constrained
+    ]
+)
 
 
 #: The pairs ``make test`` runs (one explicit tableau, one symplectic and one implicit scheme on
 #: kepler, the constrained projection, implicit midpoint on the small scenes); the rest of the
 #: matrix compiles a kernel each for seconds and is marked slow (``make test-slow``).
-COMPILED_FAST = {("rk4", "kepler"), ("leapfrog", "kepler"), ("implicit_euler", "kepler"), ("verlet_constrained", "rope"),
-                 *(("implicit_midpoint", s) for s in ("spring", "damped_spring", "pendulum", "chain", "projectile",
-                                                      "penalty_ball"))}
+COMPILED_FAST = {
+    ("rk4", "kepler"),
+    ("leapfrog", "kepler"),
+    ("implicit_euler", "kepler"),
+    ("verlet_constrained", "rope"),
+    *(("implicit_midpoint", s) for s in ("spring", "damped_spring", "pendulum", "chain", "projectile", "penalty_ball")),
+}
 
 
-@pytest.mark.parametrize("scheme_id,scene_id", [c if c in COMPILED_FAST else pytest.param(*c, marks=pytest.mark.slow)
-                                                for c in COMPILED_CASES])
+@pytest.mark.parametrize(
+    "scheme_id,scene_id",
+    [c if c in COMPILED_FAST else pytest.param(*c, marks=pytest.mark.slow) for c in COMPILED_CASES],
+)
 def test_compiled_path_matches_interpreted_path(scheme_id, scene_id):
     # The cloth and the net at 3 x 3: an interpreted banded solve of the default 8 x 8 takes ~0.1 s,
     # and 200 interpreted implicit-midpoint steps of the 8 x 8 net 18 CPU-s.
@@ -205,11 +217,14 @@ def test_compiled_path_matches_interpreted_path(scheme_id, scene_id):
     np.testing.assert_allclose(v, ref.v[-1], rtol=1e-11, atol=1e-12)
 
 
-@pytest.mark.parametrize("scheme_id, dt, steps, every", [
-    ("explicit_euler", 1.0, 1000, 10),  # blows up at step 666
-    ("rk4", 3.0, 1000, 1),              # h w = 3 > 2 sqrt(2): blows up at step 564
-    ("rk4", 0.1, 1000, 7),              # stable, the last step off the recording grid
-])
+@pytest.mark.parametrize(
+    "scheme_id, dt, steps, every",
+    [
+        ("explicit_euler", 1.0, 1000, 10),  # blows up at step 666
+        ("rk4", 3.0, 1000, 1),  # h w = 3 > 2 sqrt(2): blows up at step 564
+        ("rk4", 0.1, 1000, 7),  # stable, the last step off the recording grid
+    ],
+)
 def test_compiled_run_is_the_interpreted_run(scheme_id, dt, steps, every):
     """integrate_compiled records and stops exactly as integrate does: same steps, same states
     (bitwise, measured), the same failing step. Pairs the cost tests compile anyway."""
@@ -290,8 +305,9 @@ def test_radau_iia2_damps_the_spring_by_its_stability_function_at_any_step(h, st
     assert np.all(ratio < 1.0)
 
 
-@pytest.mark.parametrize("scene_id", ["spring", "damped_spring", "pendulum", "chain",
-                                      pytest.param("cloth", marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "scene_id", ["spring", "damped_spring", "pendulum", "chain", pytest.param("cloth", marks=pytest.mark.slow)]
+)
 def test_radau_iia2_compiled_is_the_interpreted_run_bit_for_bit(scene_id):
     """The compiled loop steps the interpreted run's states, bit for bit (its kernels are copied
     from the step's source): the same passes, the same stop, on a linear scene (iterated to
@@ -299,8 +315,9 @@ def test_radau_iia2_compiled_is_the_interpreted_run_bit_for_bit(scene_id):
     0.1 on the spring's scale, to keep the interpreted runs short."""
     from reference import bitwise_why, integrate_compiled
 
-    scene = make_scene(scene_id, **({"n": 3, "m": 3} if scene_id == "cloth" else
-                                    {"N": 8} if scene_id == "chain" else {}))
+    scene = make_scene(
+        scene_id, **({"n": 3, "m": 3} if scene_id == "cloth" else {"N": 8} if scene_id == "chain" else {})
+    )
     scheme = METHODS["radau_iia2"]
     dt = 0.1 / scene.omega
     a = integrate(scheme, scene, dt, 60, 7)

@@ -1,6 +1,7 @@
 """Drawing a report's charts in worker processes (reports.drawing): the same files as drawing them
 one after another, and a chart that raises or kills its worker costs that chart only.
 The report written from a real run, drawn both ways, is checked in test_nightly.py."""
+
 import os
 import warnings
 from pathlib import Path
@@ -78,11 +79,20 @@ def test_a_worker_that_dies_costs_its_chart_only(tmp_path):
     assert sorted(p.name for p in (tmp_path / "charts").iterdir()) == [f"line{i}.png" for i in range(1, 6)]
 
 
-@pytest.mark.parametrize("mathtext, plain", [
-    (r"$\mathdefault{10^{-10}}$", "10⁻¹⁰"), (r"$\mathdefault{10^{0}}$", "10⁰"), (r"$\mathdefault{10^{6}}$", "10⁶"),
-    (r"$\mathdefault{4\times10^{-1}}$", "4×10⁻¹"), (r"$\mathdefault{0}$", "0"), (r"$\mathdefault{-10^{2}}$", "−10²"),
-    ("", ""), ("0.5", "0.5"), (r"$\alpha$", r"$\alpha$"),  # not a power of ten: left as it is
-])
+@pytest.mark.parametrize(
+    "mathtext, plain",
+    [
+        (r"$\mathdefault{10^{-10}}$", "10⁻¹⁰"),
+        (r"$\mathdefault{10^{0}}$", "10⁰"),
+        (r"$\mathdefault{10^{6}}$", "10⁶"),
+        (r"$\mathdefault{4\times10^{-1}}$", "4×10⁻¹"),
+        (r"$\mathdefault{0}$", "0"),
+        (r"$\mathdefault{-10^{2}}$", "−10²"),
+        ("", ""),
+        ("0.5", "0.5"),
+        (r"$\alpha$", r"$\alpha$"),  # not a power of ten: left as it is
+    ],
+)
 def test_log_tick_labels_are_written_without_mathtext(mathtext, plain):
     assert charts.plain_power_label(mathtext) == plain
 
@@ -111,12 +121,26 @@ def test_the_names_of_methods_that_blow_up_at_nearby_costs_do_not_overlap(tmp_pa
     from reports import charts
 
     names = [f"ref:scheme_number_{i}" for i in range(8)]
-    cells = [Cell(scene="cloth", method=m, family="ref", measure="advise", status="ok", value=None, dt=1 / 60,
-                  figures=AdviceFigures(hz=60.0, request={"energy_tol": 0.5, "error_tol": None},
-                                        rows=[{"cost_per_frame_s": 1e-5 * (1 + 0.01 * i), "energy_error": None,
-                                               "stable": False},
-                                              {"cost_per_frame_s": 1e-3, "energy_error": 1e-2, "stable": True}]))
-             for i, m in enumerate(names)]
+    cells = [
+        Cell(
+            scene="cloth",
+            method=m,
+            family="ref",
+            measure="advise",
+            status="ok",
+            value=None,
+            dt=1 / 60,
+            figures=AdviceFigures(
+                hz=60.0,
+                request={"energy_tol": 0.5, "error_tol": None},
+                rows=[
+                    {"cost_per_frame_s": 1e-5 * (1 + 0.01 * i), "energy_error": None, "stable": False},
+                    {"cost_per_frame_s": 1e-3, "energy_error": 1e-2, "stable": True},
+                ],
+            ),
+        )
+        for i, m in enumerate(names)
+    ]
     drawn = {}
 
     def keep(fig, path):
@@ -130,7 +154,7 @@ def test_the_names_of_methods_that_blow_up_at_nearby_costs_do_not_overlap(tmp_pa
     texts = [t for t in fig.axes[0].texts if t.get_text() in names]
     assert sorted(t.get_text() for t in texts) == sorted(names)
     boxes = [t.get_window_extent(renderer) for t in texts]
-    assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1 :])
 
 
 def test_a_chart_that_cannot_be_sent_to_a_worker_is_drawn_here(tmp_path):

@@ -7,6 +7,7 @@ resumed run can be held to its unkilled twin bit for bit. The suite is the least
 kind of task: a reference scheme and an engine mode on the spring (each with its energy, error,
 order, cost, identity, advice and stability cells) and one reviewed energy bound.
 """
+
 import json
 import math
 import os
@@ -26,27 +27,48 @@ from harness.nightly.run import run_nightly
 from harness.nightly.suites import SUITES, SceneSpec, Suite
 
 ROOT = Path(__file__).resolve().parents[1]
-SUITE = Suite("resume-smoke", scenes={"spring": SceneSpec(periods=2, order_span=2.0,
-                                                          advise=SUITES["smoke"].scenes["spring"].advise)},
-              methods=("ref:semi_implicit_euler", "mujoco:euler"),
-              cost_repeats=3, bounds=True, identify=True, cell_timeout=120.0,
-              frame_rates=SUITES["smoke"].frame_rates)
+SUITE = Suite(
+    "resume-smoke",
+    scenes={"spring": SceneSpec(periods=2, order_span=2.0, advise=SUITES["smoke"].scenes["spring"].advise)},
+    methods=("ref:semi_implicit_euler", "mujoco:euler"),
+    cost_repeats=3,
+    bounds=True,
+    identify=True,
+    cell_timeout=120.0,
+    frame_rates=SUITES["smoke"].frame_rates,
+)
 BOUND = bounds_mod.Bound("spring", "ref:semi_implicit_euler", 0.1, 2000, 0.079)
-TIMINGS = {"s_per_step": {"ref:explicit_euler": 3.9e-9, "ref:semi_implicit_euler": 7.6e-9, "ref:rk4": 1.6e-8,
-                          "mujoco:euler": 1.2e-6, "pymunk:applied_force": 3.1e-6},
-           "jitter": [1.0, 1.03, 0.98], "calibration": {"python": 5e-8, "compiled": 4e-9}}
+TIMINGS = {
+    "s_per_step": {
+        "ref:explicit_euler": 3.9e-9,
+        "ref:semi_implicit_euler": 7.6e-9,
+        "ref:rk4": 1.6e-8,
+        "mujoco:euler": 1.2e-6,
+        "pymunk:applied_force": 3.1e-6,
+    },
+    "jitter": [1.0, 1.03, 0.98],
+    "calibration": {"python": 5e-8, "compiled": 4e-9},
+}
 #: What a run spent rather than what it measured, which differs between any two runs: seconds, the
 #: kernels a worker compiled or loaded (which worker ran what first), and the steps a timing ran
 #: (from a pilot read off the clock).
-CLOCKED = {"wall_s", "warmup_s", "setup_s", "kernels", "time_steps", *(f"{p}_{k}" for p in ("baseline", "as_stepped")
-                                                                      for k in ("warmup_s", "setup_s", "time_steps"))}
+CLOCKED = {
+    "wall_s",
+    "warmup_s",
+    "setup_s",
+    "kernels",
+    "time_steps",
+    *(f"{p}_{k}" for p in ("baseline", "as_stepped") for k in ("warmup_s", "setup_s", "time_steps")),
+}
 
 #: One nightly of ``SUITE`` in a process of its own (so that it can be killed), its arguments the
 #: output directory, the history, the bounds file and whether to resume.
-NIGHTLY = ("import sys; from pathlib import Path; from harness.nightly.run import run_nightly; "
-           "from tests.test_resume import SUITE; "
-           "run_nightly(SUITE, Path(sys.argv[1]), Path(sys.argv[2]), jobs=2, bounds_path=Path(sys.argv[3]), "
-           "resume=sys.argv[4] == 'resume')")
+NIGHTLY = (
+    "import sys; from pathlib import Path; from harness.nightly.run import run_nightly; "
+    "from tests.test_resume import SUITE; "
+    "run_nightly(SUITE, Path(sys.argv[1]), Path(sys.argv[2]), jobs=2, bounds_path=Path(sys.argv[3]), "
+    "resume=sys.argv[4] == 'resume')"
+)
 
 
 @pytest.fixture(scope="module")
@@ -62,14 +84,23 @@ def setup(tmp_path_factory):
 
 
 def env(**extra) -> dict:
-    return {**os.environ, **extra,
-            "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
+    return {
+        **os.environ,
+        **extra,
+        "PYTHONPATH": os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p),
+    }
 
 
 def start(tmp: Path, bounds: Path, mode: str = "new", **extra) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-c", NIGHTLY, str(tmp / "out"), str(tmp / "h.sqlite"), str(bounds),
-                             mode], cwd=ROOT, env=env(**extra), start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-c", NIGHTLY, str(tmp / "out"), str(tmp / "h.sqlite"), str(bounds), mode],
+        cwd=ROOT,
+        env=env(**extra),
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def tasks_stored(db: Path) -> int:
@@ -90,8 +121,12 @@ def cells_of(db: Path, run_id: int = 1) -> dict:
         dt = None if c["dt"] is None or (isinstance(c["dt"], float) and math.isnan(c["dt"])) else c["dt"]
         value = c["value"]
         value = "nan" if isinstance(value, float) and math.isnan(value) else value
-        out[(c["scene"], c["method"], c["measure"], dt)] = (c["status"], c["detail"], value,
-                                                           json.dumps(data, sort_keys=True, default=str))
+        out[(c["scene"], c["method"], c["measure"], dt)] = (
+            c["status"],
+            c["detail"],
+            value,
+            json.dumps(data, sort_keys=True, default=str),
+        )
     return out
 
 
@@ -117,8 +152,12 @@ def killed_and_resumed(tmp: Path, bounds: Path, where: str) -> dict:
         proc = start(tmp, bounds, HARNESS_KILL_AT="store:2" if where == "store" else "report")
     proc.wait(timeout=300)
     h = History(tmp / "h.sqlite")
-    seen = {"returncode": proc.returncode, "complete_after_kill": list(h.runs().run_id),
-            "tasks_after_kill": len(h.done_tasks(1)), "integrity": h.integrity_ok()}
+    seen = {
+        "returncode": proc.returncode,
+        "complete_after_kill": list(h.runs().run_id),
+        "tasks_after_kill": len(h.done_tasks(1)),
+        "integrity": h.integrity_ok(),
+    }
     resumed = start(tmp, bounds, "resume")
     seen["resume_stderr"] = resumed.communicate(timeout=300)[1]
     seen["resume_returncode"] = resumed.returncode
@@ -126,7 +165,11 @@ def killed_and_resumed(tmp: Path, bounds: Path, where: str) -> dict:
     seen["complete"] = list(History(tmp / "h.sqlite").runs().run_id)
     seen["cells"] = cells_of(tmp / "h.sqlite")
     report = tmp / "out" / "report.md"
-    assert report.is_file(), ("the resumed run wrote no report", seen["resume_returncode"], seen["resume_stderr"][-3000:])
+    assert report.is_file(), (
+        "the resumed run wrote no report",
+        seen["resume_returncode"],
+        seen["resume_stderr"][-3000:],
+    )
     seen["report"] = report.read_text()
     return seen
 
@@ -159,8 +202,14 @@ def test_resume_refuses_a_complete_run_and_a_run_measured_otherwise(setup, tmp_p
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--resume: no smoke run in" in err and "run without --resume" in err
     h = History(db)
-    run = h.start_run(started="2026-11-25T02:00:00+00:00", suite="smoke", git_commit="a" * 40, versions={},
-                      machine={}, settings={"cell_timeout": 1.0})
+    run = h.start_run(
+        started="2026-11-25T02:00:00+00:00",
+        suite="smoke",
+        git_commit="a" * 40,
+        versions={},
+        machine={},
+        settings={"cell_timeout": 1.0},
+    )
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"--resume: run {run} was measured otherwise (commit: " in err

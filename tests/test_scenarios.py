@@ -1,4 +1,5 @@
 """Scenes: exact solutions solve their ODE, energies, parameter validation."""
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -27,8 +28,7 @@ def test_exact_solution_solves_the_scene_ode(scene_id):
     scene = make_scene(scene_id)
     q0, v0 = scene.initial_state()
     t = np.linspace(0, 2 * scene.period, 41)
-    sol = solve_ivp(ode(scene), (0, t[-1]), np.concatenate([q0, v0]), method="DOP853",
-                    rtol=1e-13, atol=1e-13, t_eval=t)
+    sol = solve_ivp(ode(scene), (0, t[-1]), np.concatenate([q0, v0]), method="DOP853", rtol=1e-13, atol=1e-13, t_eval=t)
     q, v = scene.closed_form(t)
     n = scene.ndof
     scale = 1 + np.abs(sol.y).max()
@@ -51,12 +51,21 @@ def test_damped_energy_decays():
     assert np.all(np.diff(e) <= 1e-15) and e[-1] < 0.01 * e[0]
 
 
-@pytest.mark.parametrize("scene_id,params,field", [
-    ("spring", {"m": -1}, "m"), ("spring", {"k": 0}, "k"), ("kepler", {"e": 1.0}, "e"),
-    ("kepler", {"e": -0.1}, "e"), ("pendulum", {"L": 0}, "L"), ("pendulum", {"theta0": 4}, "theta0"),
-    ("damped_spring", {"c": -1}, "c"), ("chain", {"c": -0.5}, "c"), ("projectile", {"m": 0}, "m"),
-    ("spring", {"k": "nan"}, "k"),
-])
+@pytest.mark.parametrize(
+    "scene_id,params,field",
+    [
+        ("spring", {"m": -1}, "m"),
+        ("spring", {"k": 0}, "k"),
+        ("kepler", {"e": 1.0}, "e"),
+        ("kepler", {"e": -0.1}, "e"),
+        ("pendulum", {"L": 0}, "L"),
+        ("pendulum", {"theta0": 4}, "theta0"),
+        ("damped_spring", {"c": -1}, "c"),
+        ("chain", {"c": -0.5}, "c"),
+        ("projectile", {"m": 0}, "m"),
+        ("spring", {"k": "nan"}, "k"),
+    ],
+)
 def test_out_of_range_parameters_name_the_field_and_range(scene_id, params, field):
     with pytest.raises(InvalidInput) as err:
         make_scene(scene_id, **params)
@@ -99,8 +108,15 @@ def test_damped_spring_is_exact_for_every_damping_ratio(c):
     assert scene.zeta == pytest.approx(c / 2.0)
     t = np.linspace(0.0, 30.0, 301)
     q, v = scene.closed_form(t)
-    sol = solve_ivp(lambda _, y: [y[1], -y[0] - c * y[1]], (0.0, 30.0), [1.0, 0.3], t_eval=t, method="DOP853",
-                    rtol=1e-12, atol=1e-14)
+    sol = solve_ivp(
+        lambda _, y: [y[1], -y[0] - c * y[1]],
+        (0.0, 30.0),
+        [1.0, 0.3],
+        t_eval=t,
+        method="DOP853",
+        rtol=1e-12,
+        atol=1e-14,
+    )
     assert np.max(np.abs(q[:, 0] - sol.y[0])) <= DAMPED_TOL and np.max(np.abs(v[:, 0] - sol.y[1])) <= DAMPED_TOL
     e = scene.exact_energy(t)
     assert np.all(np.diff(e) <= 1e-15)  # energy never rises

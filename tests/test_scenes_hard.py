@@ -1,5 +1,6 @@
 """The stiff, constrained and N-body scenes: chain, rope, solar_system (issue 6), with the
 schemes that run on them. Every tolerance says where it comes from."""
+
 from __future__ import annotations
 
 import math
@@ -54,7 +55,7 @@ def spectral_radius(scheme, scene, dt):
 def theory_growth(scheme_id, y):
     """Largest |eigenvalue| of the scheme's map on one mode with h w = y."""
     if scheme_id == "rk4":
-        return math.sqrt(1.0 - y ** 6 / 72.0 + y ** 8 / 576.0)
+        return math.sqrt(1.0 - y**6 / 72.0 + y**8 / 576.0)
     if scheme_id in LIMITS and scheme_id != "forest_ruth":
         half_trace = 1.0 - 0.5 * y * y  # trace 2 - y^2, determinant 1
         return abs(half_trace) + math.sqrt(max(half_trace * half_trace - 1.0, 0.0)) if abs(half_trace) > 1 else 1.0
@@ -86,8 +87,15 @@ def test_chain_exact_solves_the_ode(chain):
     t = np.linspace(0.0, 0.2, 41)
     n, p = chain.ndof, chain.pvec
     q0, v0 = chain.initial_state()
-    sol = solve_ivp(lambda _, y: np.concatenate([y[n:], chain.accel(y[:n, None], None, 0.0, p)[:, 0]]),
-                    (0.0, 0.2), np.concatenate([q0, v0]), method="DOP853", rtol=1e-12, atol=1e-12, t_eval=t)
+    sol = solve_ivp(
+        lambda _, y: np.concatenate([y[n:], chain.accel(y[:n, None], None, 0.0, p)[:, 0]]),
+        (0.0, 0.2),
+        np.concatenate([q0, v0]),
+        method="DOP853",
+        rtol=1e-12,
+        atol=1e-12,
+        t_eval=t,
+    )
     q, v = chain.closed_form(t)
     assert np.max(np.abs(sol.y[:n].T - q)) <= 1e-9 * chain.values["x0"]
     assert np.max(np.abs(sol.y[n:].T - v)) <= 1e-9 * chain.values["x0"] * chain.omega
@@ -173,10 +181,20 @@ def test_chain_of_one_mass():
     assert q[0, 0] == pytest.approx(-1.0, abs=1e-15)
 
 
-@pytest.mark.parametrize("scene_id, bad", [
-    ("chain", {"N": 0}), ("chain", {"N": 2.5}), ("chain", {"k": 0}), ("chain", {"k": -1}), ("chain", {"m": 0}),
-    ("rope", {"N": 0}), ("rope", {"l": 0}), ("rope", {"m": -1}), ("solar_system", {"G": 1}),
-])
+@pytest.mark.parametrize(
+    "scene_id, bad",
+    [
+        ("chain", {"N": 0}),
+        ("chain", {"N": 2.5}),
+        ("chain", {"k": 0}),
+        ("chain", {"k": -1}),
+        ("chain", {"m": 0}),
+        ("rope", {"N": 0}),
+        ("rope", {"l": 0}),
+        ("rope", {"m": -1}),
+        ("solar_system", {"G": 1}),
+    ],
+)
 def test_parameter_validation(scene_id, bad, capsys):
     with pytest.raises(InvalidInput) as err:
         make_scene(scene_id, **bad)
@@ -192,8 +210,11 @@ def test_parameter_validation(scene_id, bad, capsys):
 # scheme projects springs, which the solar system has not.
 _POSITION_BASED = {sid for sid, s in METHODS.items() if s.kind.name == "position_based"}
 CASES = [("chain", sid, 1e-3) for sid, s in METHODS.items() if not s.constrained and not s.decay]
-CASES += [("solar_system", sid, 10.0) for sid, s in METHODS.items()
-          if not s.constrained and not s.decay and sid not in _POSITION_BASED]
+CASES += [
+    ("solar_system", sid, 10.0)
+    for sid, s in METHODS.items()
+    if not s.constrained and not s.decay and sid not in _POSITION_BASED
+]
 CASES += [("rope", "verlet_constrained", 1e-3)]
 
 
@@ -209,7 +230,10 @@ def test_counted_force_evaluations_match_the_declared(scene_id, scheme_id, dt):
         if scene.linear and scheme.one_pass_on_linear:
             assert tr.force_evals == scheme.force_evals * steps
         elif scene.linear:  # coupled stages iterate even here (Radau IIA): whole passes, at most NEWTON_MAX
-            assert tr.force_evals % scheme.force_evals == 0 and steps <= tr.force_evals // scheme.force_evals <= NEWTON_MAX * steps
+            assert (
+                tr.force_evals % scheme.force_evals == 0
+                and steps <= tr.force_evals // scheme.force_evals <= NEWTON_MAX * steps
+            )
         else:
             assert steps <= tr.force_evals <= 10 * steps
     else:
@@ -313,7 +337,9 @@ def test_iterations_option_on_the_command_line(capsys):
     for bad in ("iterations=0", "iterations=2.5", "passes=3", "iterations"):
         assert main(args + ["--opt", bad]) == 2
         assert len(capsys.readouterr().err.strip().splitlines()) == 1
-    assert main(["run", "spring", "--method", "ref:leapfrog", "--dt", "0.1", "--steps", "1", "--opt", "iterations=2"]) == 2
+    assert (
+        main(["run", "spring", "--method", "ref:leapfrog", "--dt", "0.1", "--steps", "1", "--opt", "iterations=2"]) == 2
+    )
     capsys.readouterr()
     assert main(["run", "rope", "--method", "ref:verlet", "--dt", "0.1", "--steps", "1"]) == 2
     assert "fall freely" in capsys.readouterr().err
@@ -372,7 +398,7 @@ def test_solar_energy_bounded_for_symplectic_drifting_for_rk4(solar, scheme_id):
     tr = integrate(METHODS[scheme_id], solar, 50.0, 2000, every=20)
     assert tr.status == "ok"
     rel = (tr.energy[:, 0] - tr.energy[0, 0]) / abs(tr.energy[0, 0])
-    first, second = np.max(np.abs(rel[: len(rel) // 2])), np.max(np.abs(rel[len(rel) // 2:]))
+    first, second = np.max(np.abs(rel[: len(rel) // 2])), np.max(np.abs(rel[len(rel) // 2 :]))
     if scheme_id in SYMPLECTIC:
         # A band: the second half's worst error is no larger than the first's (measured 0.97-0.98;
         # 1.1 allows for where the quasi-periodic envelope peaks).
@@ -391,7 +417,7 @@ def test_solar_energy_full_length(solar):
     for scheme_id in SYMPLECTIC + ("rk4",):
         tr = integrate(METHODS[scheme_id], solar, 10.0, 20000, every=100)
         rel = (tr.energy[:, 0] - tr.energy[0, 0]) / abs(tr.energy[0, 0])
-        first, second = np.max(np.abs(rel[: len(rel) // 2])), np.max(np.abs(rel[len(rel) // 2:]))
+        first, second = np.max(np.abs(rel[: len(rel) // 2])), np.max(np.abs(rel[len(rel) // 2 :]))
         if scheme_id in SYMPLECTIC:
             assert second <= 1.1 * first
         else:

@@ -4,6 +4,7 @@ and energy change against ref:verlet_constrained, and the nightly cells and find
 carry them. Every tolerance says where it comes from; measured with mujoco 4.0.0, pybullet
 3.2.7, pymunk 7.3.1.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -78,7 +79,7 @@ def test_chain_engine_mode_is_the_reference_scheme(chain, method_id, scheme_id, 
 def generic(scene, seed=0):
     """The scene started from a generic state: every spring stretched (no q_i equal)."""
     y = damping.generic_state(scene, seed)
-    return started_at(scene, y[:scene.ndof], y[scene.ndof:])
+    return started_at(scene, y[: scene.ndof], y[scene.ndof :])
 
 
 def test_mujoco_discrete_is_backward_euler_only_where_every_tendon_is_stretched(chain, monkeypatch):
@@ -86,7 +87,9 @@ def test_mujoco_discrete_is_backward_euler_only_where_every_tendon_is_stretched(
     # From a generic state: backward Euler. Measured 5.2e-15 of the state over 1000 steps (its
     # iterative solve at opt.tolerance 1e-14); 1e-12 is roundoff with margin.
     moved = generic(chain)
-    assert relative_deviation(engine("mujoco:discrete", moved, dt, 1000), ref("implicit_euler", moved, dt, 1000)) <= 1e-12
+    assert (
+        relative_deviation(engine("mujoco:discrete", moved, dt, 1000), ref("implicit_euler", moved, dt, 1000)) <= 1e-12
+    )
     # From the scene's state every spring but the two beside the displaced mass sits exactly at
     # its rest length, and MuJoCo leaves those tendons out of the implicit step: far from
     # backward Euler (measured 7.4e-2 of the state) after the first step alone...
@@ -100,10 +103,12 @@ def test_mujoco_discrete_is_backward_euler_only_where_every_tendon_is_stretched(
     # The adapter's tolerance matters: at MuJoCo's default (1e-8) the same generic run is off
     # by 1e-8 of the state (measured 2.6e-8 at h w = 0.1), four decades above 1e-12.
     assert adapters.ENGINE_METHODS["mujoco:discrete"].simulate(chain, dt, 1, 1).meta.settings["tolerance"] == 1e-14
-    monkeypatch.setitem(adapters.mujoco.POSES, "chain",
-                        dataclasses.replace(adapters.mujoco.POSES["chain"], tolerance=1e-8))
-    loose = relative_deviation(engine("mujoco:discrete", moved, 0.1 / chain.omega, 1000),
-                               ref("implicit_euler", moved, 0.1 / chain.omega, 1000))
+    monkeypatch.setitem(
+        adapters.mujoco.POSES, "chain", dataclasses.replace(adapters.mujoco.POSES["chain"], tolerance=1e-8)
+    )
+    loose = relative_deviation(
+        engine("mujoco:discrete", moved, 0.1 / chain.omega, 1000), ref("implicit_euler", moved, 0.1 / chain.omega, 1000)
+    )
     assert loose > 1e-9
 
 
@@ -111,8 +116,13 @@ def test_mujoco_discrete_is_backward_euler_only_where_every_tendon_is_stretched(
 #: Theory on the stiffest mode (y = h w_max): semi-implicit Euler (either order) has a double
 #: root crossing -1 at y = 2; RK4 |R(iy)| = 1 at y = 2 sqrt(2); explicit Euler sqrt(1 + y^2).
 ENGINE_LIMITS = {
-    "mujoco:euler": 2.0, "mujoco:implicit": 2.0, "mujoco:implicitfast": 2.0, "pybullet:semi_implicit": 2.0,
-    "pymunk:spring_force": 2.0, "pymunk:damped_spring": 2.0, "mujoco:rk4": 2.0 * math.sqrt(2.0),
+    "mujoco:euler": 2.0,
+    "mujoco:implicit": 2.0,
+    "mujoco:implicitfast": 2.0,
+    "pybullet:semi_implicit": 2.0,
+    "pymunk:spring_force": 2.0,
+    "pymunk:damped_spring": 2.0,
+    "mujoco:rk4": 2.0 * math.sqrt(2.0),
 }
 
 
@@ -133,7 +143,7 @@ def test_chain_engine_limit_and_blow_up(chain, method_id):
         half_trace = 1.0 - 0.5 * y * y
         growth = abs(half_trace) + math.sqrt(half_trace * half_trace - 1.0)
     else:
-        growth = math.sqrt(1.0 - y ** 6 / 72.0 + y ** 8 / 576.0)
+        growth = math.sqrt(1.0 - y**6 / 72.0 + y**8 / 576.0)
     assert above["rho"] == pytest.approx(growth, abs=1e-10)  # 1.327 (limit 2) and 1.073 (RK4)
     # A run just above: the highest mode grows by rho a step until the state passes 1e100
     # (1e10 for MuJoCo, which warns there): a few hundred to a few thousand steps.
@@ -171,8 +181,9 @@ def test_damping_far_beyond_the_limit(chain):
         # of condition ~4e4: measured 1e-11 relative (ref) and 1e-8 (MuJoCo's iterative solve).
         assert hi["rho"] == pytest.approx(1.0 / math.sqrt(1.0 + y * y), rel=1e-7)
         # zeta = ln(1 + y^2) / sqrt(ln^2(1 + y^2) + 4 atan^2 y) = 0.95900 for the highest mode.
-        assert hi["zeta"] == pytest.approx(math.log(1 + y * y) / math.hypot(math.log(1 + y * y), 2 * math.atan(y)),
-                                           rel=1e-6)
+        assert hi["zeta"] == pytest.approx(
+            math.log(1 + y * y) / math.hypot(math.log(1 + y * y), 2 * math.atan(y)), rel=1e-6
+        )
         w1 = chain.mode_frequencies()[0] * res["dt"]
         assert res["lowest"]["energy_factor"] == pytest.approx(1.0 / (1.0 + w1 * w1), rel=1e-7)
     # Energy kept after one step from the scene's state: backward Euler 4.985e-5 (each mode by
@@ -182,8 +193,12 @@ def test_damping_far_beyond_the_limit(chain):
     assert disc["energy_kept_one_step"] == pytest.approx(0.1111, rel=1e-3)
     # The explicit engine modes there: their theory growth per step on the stiffest mode.
     sie = (y * y - 2.0 + math.sqrt((y * y - 2.0) ** 2 - 4.0)) / 2.0  # 39998.0
-    for method_id, growth in (("mujoco:euler", sie), ("pybullet:semi_implicit", sie), ("pymunk:spring_force", sie),
-                              ("pymunk:applied_force", math.sqrt(1 + y * y))):
+    for method_id, growth in (
+        ("mujoco:euler", sie),
+        ("pybullet:semi_implicit", sie),
+        ("pymunk:spring_force", sie),
+        ("pymunk:applied_force", math.sqrt(1 + y * y)),
+    ):
         res = damping.damping_far_beyond_the_limit(method_id, chain)
         assert res["stable"] is False and res["rho"] == pytest.approx(growth, rel=1e-9)
 
@@ -256,14 +271,34 @@ def tiny_suite(monkeypatch):
     from harness.execution import isolation
     from harness.nightly.suites import SUITES, SceneExtras, SceneSpec, Suite
 
-    suite = Suite("tiny", scenes={
-        "chain": SceneSpec(params={"N": 4}, periods=10, order_points=6, order_span=4.0,
-                           extras=SceneExtras(damping_factor=100.0,
-                                              scaling={"sizes": ({"N": 10}, {"N": 100}), "repeats": 1,
-                                                       "work_per_call": 20_000})),
-        "rope": SceneSpec(params={"N": 3}, periods=5, order_points=6, order_span=4.0, stability=False,
-                          extras=SceneExtras(constraint_iterations=(1, 4))),
-    }, cost_repeats=1, cost_steps=500, series_points=100, stability_steps=200, bounds=False)
+    suite = Suite(
+        "tiny",
+        scenes={
+            "chain": SceneSpec(
+                params={"N": 4},
+                periods=10,
+                order_points=6,
+                order_span=4.0,
+                extras=SceneExtras(
+                    damping_factor=100.0,
+                    scaling={"sizes": ({"N": 10}, {"N": 100}), "repeats": 1, "work_per_call": 20_000},
+                ),
+            ),
+            "rope": SceneSpec(
+                params={"N": 3},
+                periods=5,
+                order_points=6,
+                order_span=4.0,
+                stability=False,
+                extras=SceneExtras(constraint_iterations=(1, 4)),
+            ),
+        },
+        cost_repeats=1,
+        cost_steps=500,
+        series_points=100,
+        stability_steps=200,
+        bounds=False,
+    )
     monkeypatch.setitem(SUITES, "tiny", suite)
     monkeypatch.setattr(isolation, "IN_WORKER", True)
     return suite
@@ -289,20 +324,32 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
 
     history = History(tmp_path / "h.sqlite")
     run_id = history.start_run(started="now", suite="tiny", git_commit=None, versions={}, machine={}, settings={})
-    for task in (Task("cell", "chain", "mujoco:discrete", "mujoco", {"N": 4}, "tiny"),
-                 Task("cell", "rope", "pymunk:pin_joint", "pymunk", {"N": 3}, "tiny")):
+    for task in (
+        Task("cell", "chain", "mujoco:discrete", "mujoco", {"N": 4}, "tiny"),
+        Task("cell", "rope", "pymunk:pin_joint", "pymunk", {"N": 3}, "tiny"),
+    ):
         cells = run_task(task)
-        assert [c.measure for c in cells] == [m for m in ["identity", "energy", "error", "order", "cost",
-                                                             "stability", "constraint", "damping"]
-                                                 if m in measures_for(task)]
+        assert [c.measure for c in cells] == [
+            m
+            for m in ["identity", "energy", "error", "order", "cost", "stability", "constraint", "damping"]
+            if m in measures_for(task)
+        ]
         assert all(c.status == "ok" for c in cells), [(c.measure, c.detail) for c in cells]
         for c in cells:
             history.add_cell(run_id, c)
-    for task in (Task("cell", "chain", "ref:implicit_euler", "ref", {"N": 4}, "tiny"),
-                 Task("cell", "rope", "ref:verlet_constrained", "ref", {"N": 3}, "tiny")):
-        scene, method, spec = make_scene(task.scene, **task.params), get_method(task.method), tiny_suite.scenes[task.scene]
+    for task in (
+        Task("cell", "chain", "ref:implicit_euler", "ref", {"N": 4}, "tiny"),
+        Task("cell", "rope", "ref:verlet_constrained", "ref", {"N": 3}, "tiny"),
+    ):
+        scene, method, spec = (
+            make_scene(task.scene, **task.params),
+            get_method(task.method),
+            tiny_suite.scenes[task.scene],
+        )
         cells = scene_cells(task, method, scene, spec.homega / scene.omega, spec, tiny_suite)
-        assert [c.measure for c in cells] == (["constraint", "damping", "scaling"] if task.scene == "chain" else ["constraint"])
+        assert [c.measure for c in cells] == (
+            ["constraint", "damping", "scaling"] if task.scene == "chain" else ["constraint"]
+        )
         assert all(c.status == "ok" for c in cells), [(c.measure, c.detail) for c in cells]
         for c in cells:
             history.add_cell(run_id, c)
@@ -310,7 +357,9 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     assert "identity" not in measures_for(Task("cell", "rope", "pymunk:pin_joint", "pymunk", {"N": 3}, "tiny"))
     # The scaling cell's slope is read off the clock: its sign and size are the slow scaling study's
     # to judge (a busy machine can flatten four timings of a tiny chain); here it is measured, and finite.
-    assert by[("mujoco:discrete", "damping")].data["stable"] and math.isfinite(by[("ref:implicit_euler", "scaling")].value)
+    assert by[("mujoco:discrete", "damping")].data["stable"] and math.isfinite(
+        by[("ref:implicit_euler", "scaling")].value
+    )
     # The rope's error is measured against its reduced-coordinate reference, within its horizon.
     assert by[("pymunk:pin_joint", "error")].data["source"] == "rope reference_solution"
     assert [b["iterations"] for b in by[("ref:verlet_constrained", "constraint")].data["by_iterations"]] == [1, 4]
@@ -322,7 +371,9 @@ def test_nightly_cells_of_the_chain_and_the_rope(tiny_suite, tmp_path):
     assert "`ref:implicit_euler` on `chain` at 100x the explicit limit (h·ω_max = 200)" in findings
     assert "`mujoco:discrete` on `chain` is `ref:implicit_euler` only from a generic state" in findings
     assert "cost per step grows as N^" in findings
-    assert "`pymunk:pin_joint`:" in findings and "`ref:verlet_constrained` on `rope` against projection passes" in findings
+    assert (
+        "`pymunk:pin_joint`:" in findings and "`ref:verlet_constrained` on `rope` against projection passes" in findings
+    )
 
 
 # ----------------------------------------------------------------------------- the rope's limits
@@ -352,24 +403,45 @@ def test_mujoco_implicit_blows_up_on_the_rope_where_its_companions_run_on():
 def _stability_cell(method, failed=None, energy=(1.47, 1.4, 1.3)):
     from records.cell import Cell
 
-    nominal = {"dt": 0.00284, "homega": 0.1, "steps": 10000, "status": "unstable" if failed else "ok",
-               "failed_step": failed, "detail": "diverged" if failed else "",
-               "series": {"t": [0.0, 3.0, 6.9 if failed else 28.0], "energy": list(energy), "e0": 1.47}}
-    return Cell.from_row({"scene": "rope", "method": method, "family": method.split(":")[0], "measure": "stability",
-                          "dt": None, "steps": None, "status": "ok", "value": 0.0342 if failed else 0.19,
-                          "data": {"criterion": "finite_horizon", "verdict": "limited", "nominal": nominal}})
+    nominal = {
+        "dt": 0.00284,
+        "homega": 0.1,
+        "steps": 10000,
+        "status": "unstable" if failed else "ok",
+        "failed_step": failed,
+        "detail": "diverged" if failed else "",
+        "series": {"t": [0.0, 3.0, 6.9 if failed else 28.0], "energy": list(energy), "e0": 1.47},
+    }
+    return Cell.from_row(
+        {
+            "scene": "rope",
+            "method": method,
+            "family": method.split(":")[0],
+            "measure": "stability",
+            "dt": None,
+            "steps": None,
+            "status": "ok",
+            "value": 0.0342 if failed else 0.19,
+            "data": {"criterion": "finite_horizon", "verdict": "limited", "nominal": nominal},
+        }
+    )
 
 
 def test_a_blow_up_at_the_nominal_timestep_is_a_finding_with_its_companions():
     from harness.engine_findings import blowups_at_nominal
     from records.cell import pivot
 
-    cells = [_stability_cell("mujoco:implicit", failed=2434, energy=(1.47, 2.9, 105.0)),
-             _stability_cell("mujoco:implicitfast"), _stability_cell("pymunk:pin_joint")]
+    cells = [
+        _stability_cell("mujoco:implicit", failed=2434, energy=(1.47, 2.9, 105.0)),
+        _stability_cell("mujoco:implicitfast"),
+        _stability_cell("pymunk:pin_joint"),
+    ]
     (finding,) = blowups_at_nominal(pivot(cells))
     text = finding.text
-    assert text.startswith("`mujoco:implicit` on `rope` blows up at the nominal h·ω = 0.1 (dt = 0.00284) at "
-                           "step 2434 of 10000, its energy 1.47 -> 105 before it")
+    assert text.startswith(
+        "`mujoco:implicit` on `rope` blows up at the nominal h·ω = 0.1 (dt = 0.00284) at "
+        "step 2434 of 10000, its energy 1.47 -> 105 before it"
+    )
     assert "`mujoco:implicitfast` runs on, energy 1.38 (started at 1.47)" in text and "pymunk" not in text
     assert "Cause: the mode's integrator, not the scene's model" in text and "h·ω <= 0.0342" in text
     everyone = [_stability_cell("mujoco:implicit", failed=2434), _stability_cell("mujoco:euler", failed=100)]
@@ -380,8 +452,11 @@ def test_a_blow_up_at_the_nominal_timestep_is_a_finding_with_its_companions():
 def test_the_findings_show_the_blow_up_chart_beside_every_other_chart_name():
     from reports.markdown import findings
 
-    names = {"damping": "charts/run1-damping-stability.png", ("rope", "nominal"): "charts/run1-rope-nominal.png",
-             ("rope", "energy"): "charts/run1-rope-energy.png"}
+    names = {
+        "damping": "charts/run1-damping-stability.png",
+        ("rope", "nominal"): "charts/run1-rope-nominal.png",
+        ("rope", "energy"): "charts/run1-rope-energy.png",
+    }
     lines = findings([], names)
     assert "![Energy at the nominal timestep over the stability horizon on rope](charts/run1-rope-nominal.png)" in lines
     assert not any("damping" in line or "rope-energy" in line for line in lines)

@@ -8,6 +8,7 @@ periods with room): interpreted, 2e5 days would cost ~25 s, and every class meas
 days is the one measured at 2e5 days (bounded for the symplectic schemes, RK4 decays,
 explicit Euler grows). The nightly's standard suite runs the full 2e5 days.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -34,8 +35,8 @@ from tests.shared_fixture import built_once
 pytest.importorskip("rebound")
 
 DT = 10.0
-STEPS = 20_000          # 2e5 days, the issue's study
-SHORT_STEPS = 5_000     # 5e4 days
+STEPS = 20_000  # 2e5 days, the issue's study
+SHORT_STEPS = 5_000  # 5e4 days
 #: The issue's limit on IAS15's |dE/E| over the run.
 IAS15_LIMIT = 1e-13
 
@@ -93,10 +94,15 @@ def test_engine_energy_over_the_study(solar, method_id):
         assert res["max_rel_error"] <= IAS15_LIMIT
 
 
-@pytest.mark.parametrize("scheme_id, expected", [
-    ("explicit_euler", "grows"), ("semi_implicit_euler", "bounded"), ("velocity_verlet", "bounded"),
-    ("forest_ruth", "bounded"),
-])
+@pytest.mark.parametrize(
+    "scheme_id, expected",
+    [
+        ("explicit_euler", "grows"),
+        ("semi_implicit_euler", "bounded"),
+        ("velocity_verlet", "bounded"),
+        ("forest_ruth", "bounded"),
+    ],
+)
 def test_reference_energy_classes(solar, scheme_id, expected):
     """Over 5e4 days at dt = 10 (leapfrog and RK4: in the nightly test below). Measured max
     |dE/E| (first-tenth / last-tenth envelopes): explicit Euler 0.47 (0.14 / 0.63), semi-implicit
@@ -114,8 +120,14 @@ def test_reference_energy_classes_over_the_whole_study(solar):
     (4.4e-10 / 4.7e-9, secular rate -2.4e-14 per day); explicit Euler 0.66 grows."""
     from reference import RefMethod
 
-    expected = {"leapfrog": "bounded", "velocity_verlet": "bounded", "forest_ruth": "bounded",
-                "semi_implicit_euler": "bounded", "rk4": "decays", "explicit_euler": "grows"}
+    expected = {
+        "leapfrog": "bounded",
+        "velocity_verlet": "bounded",
+        "forest_ruth": "bounded",
+        "semi_implicit_euler": "bounded",
+        "rk4": "decays",
+        "explicit_euler": "grows",
+    }
     for scheme_id, cls in expected.items():
         res = energy_behaviour(RefMethod(METHODS[scheme_id], compiled=True), solar, DT, STEPS, every=20)
         assert res["status"] == "ok" and res["classification"] == cls, (scheme_id, res["rule"])
@@ -132,11 +144,13 @@ def test_whfast_is_ahead_of_leapfrog_at_equal_cost(solar, tmp_path, monkeypatch)
     global error is measured 3.2e-4 to 4.0e-4 of leapfrog's. Bound 1e-2: a factor 25 of room over
     the worst point (a 2x error in a cost moves a second-order method's interpolated error by 4x)."""
     timings = tmp_path / "timings.json"
-    timings.write_text(json.dumps({"s_per_step": {"rebound:whfast": 1.4e-6, "rebound:leapfrog": 3.3e-7},
-                                   "jitter": [1.0, 1.03, 0.98]}))
+    timings.write_text(
+        json.dumps({"s_per_step": {"rebound:whfast": 1.4e-6, "rebound:leapfrog": 3.3e-7}, "jitter": [1.0, 1.03, 0.98]})
+    )
     monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(timings))
-    rows = work_precision(["rebound:whfast", "rebound:leapfrog"], solar, points=6, homega_max=0.2,
-                          periods=1.0, repeats=3, time_steps=1000)
+    rows = work_precision(
+        ["rebound:whfast", "rebound:leapfrog"], solar, points=6, homega_max=0.2, periods=1.0, repeats=3, time_steps=1000
+    )
     assert all(r["status"] == "ok" for r in rows)
     chart = chart_ready(rows)
     whfast = {"cost": chart["rebound:whfast"]["s_per_unit_time"], "error": chart["rebound:whfast"]["error"]}
@@ -148,7 +162,7 @@ def test_whfast_is_ahead_of_leapfrog_at_equal_cost(solar, tmp_path, monkeypatch)
 
 def test_error_at_equal_cost_interpolates_and_never_extrapolates():
     curve = {"cost": [1.0, 10.0, 100.0], "error": [1e-2, 1e-4, 1e-6]}
-    at = {"cost": [0.5, 10.0 ** 1.5, 1000.0], "error": [1.0, 1e-3, 1.0]}
+    at = {"cost": [0.5, 10.0**1.5, 1000.0], "error": [1.0, 1e-3, 1.0]}
     (row,) = error_at_equal_cost(curve, at)
     assert row["curve_error"] == pytest.approx(1e-5, rel=1e-12) and row["ratio"] == pytest.approx(1e-2, rel=1e-12)
 
@@ -161,8 +175,9 @@ def test_error_is_measured_within_the_reference_horizon(solar):
     q, v = solar.reference_solution(t[:3])
     q = np.vstack([q, q[-1:] + 1e3])
     v = np.vstack([v, np.zeros((1, 18))])
-    traj = Trajectory("solar_system", "test", 1e5, 3, 1, np.arange(4), t, q[:, None], v[:, None],
-                      solar.energy(q, v)[:, None])
+    traj = Trajectory(
+        "solar_system", "test", 1e5, 3, 1, np.arange(4), t, q[:, None], v[:, None], solar.energy(q, v)[:, None]
+    )
     err = trajectory_error(traj, solar)
     assert err["error_max"] == 0.0 and err["horizon"] == 2e5 and err["t_compared"] == 2e5 and err["t_final"] == 3e5
     assert err["compared_all"] is False and err["source"] == "solar_system reference_solution"
@@ -174,8 +189,14 @@ def test_standard_suite_runs_the_issues_methods(solar):
     them (each declares the scene in its own file)."""
     standard = dataclasses.replace(SUITES["standard"], bounds=False)
     tasks, skipped = build_tasks(standard)
-    issue_schemes = {"ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocity_verlet", "ref:leapfrog",
-                     "ref:forest_ruth", "ref:rk4"}
+    issue_schemes = {
+        "ref:explicit_euler",
+        "ref:semi_implicit_euler",
+        "ref:velocity_verlet",
+        "ref:leapfrog",
+        "ref:forest_ruth",
+        "ref:rk4",
+    }
     assert {t.method for t in tasks if t.scene == "solar_system"} == set(SOLAR_MODES) | issue_schemes
     left_out = {s["method"]: s["reason"] for s in skipped if s["scene"] == "solar_system"}
     assert "does not declare solar_system among the scenes it joins" in left_out["ref:implicit_midpoint"]
@@ -187,31 +208,56 @@ def test_standard_suite_runs_the_issues_methods(solar):
 
 #: The nightly's solar-system cells at a test's size: 5e4 days, a short sweep; no identity (the
 #: bitwise test above is the identity that matters). Stability separately, below.
-STUDY = Suite("solar_test", scenes={"solar_system": SceneSpec(
-    dt=DT, horizon=DT * SHORT_STEPS, order_points=6, order_span=4.0, order_periods=0.5, stability=False,
-    compiled=True)},
-    cost_repeats=3, cost_steps=2000, series_points=200, stability_steps=100, cell_timeout=120.0,
-    bounds=False, identify=False)
+STUDY = Suite(
+    "solar_test",
+    scenes={
+        "solar_system": SceneSpec(
+            dt=DT,
+            horizon=DT * SHORT_STEPS,
+            order_points=6,
+            order_span=4.0,
+            order_periods=0.5,
+            stability=False,
+            compiled=True,
+        )
+    },
+    cost_repeats=3,
+    cost_steps=2000,
+    series_points=200,
+    stability_steps=100,
+    cell_timeout=120.0,
+    bounds=False,
+    identify=False,
+)
 NIGHTLY_METHODS = ("ref:leapfrog", "ref:rk4", "rebound:leapfrog", "rebound:whfast", "rebound:ias15")
 #: The seconds per step the module's cost cells record instead of the clock's (``HARNESS_INJECT_TIMINGS``):
 #: the work-precision and cost-ratio findings are verdicts drawn from timings, so they read these, not
 #: a machine's load. The figures are the ones measured on this project's quiet 2-core machine (REBOUND's
 #: from docs/engines.md, the compiled reference kernels' from a standard nightly).
-INJECTED = {"s_per_step": {"ref:explicit_euler": 1.3e-7, "ref:leapfrog": 4.6e-7, "ref:rk4": 1.72e-6,
-                           "rebound:leapfrog": 1.9e-7, "rebound:whfast": 1.08e-6, "rebound:ias15": 3.3e-5}}
+INJECTED = {
+    "s_per_step": {
+        "ref:explicit_euler": 1.3e-7,
+        "ref:leapfrog": 4.6e-7,
+        "ref:rk4": 1.72e-6,
+        "rebound:leapfrog": 1.9e-7,
+        "rebound:whfast": 1.08e-6,
+        "rebound:ias15": 3.3e-5,
+    }
+}
 
 
 def _solar_nightly(tmp):
     history = History(tmp / "h.sqlite")
-    run_id = history.start_run(started="now", suite="solar_test", git_commit=None, versions={}, machine={},
-                               settings={})
+    run_id = history.start_run(started="now", suite="solar_test", git_commit=None, versions={}, machine={}, settings={})
     timings = tmp / "timings.json"
     timings.write_text(json.dumps(INJECTED))
     with pytest.MonkeyPatch.context() as mp:
         mp.setitem(SUITES, "solar_test", STUDY)
         mp.setenv("HARNESS_INJECT_TIMINGS", str(timings))
-        cells = {m: run_task(Task("cell", "solar_system", m, get_method(m).family, {}, "solar_test"))
-                 for m in NIGHTLY_METHODS}
+        cells = {
+            m: run_task(Task("cell", "solar_system", m, get_method(m).family, {}, "solar_test"))
+            for m in NIGHTLY_METHODS
+        }
         for rows in cells.values():
             for c in rows:
                 history.add_cell(run_id, c)
@@ -256,9 +302,10 @@ def test_stability_cells_on_the_solar_system(nightly_cells):
     spec = dataclasses.replace(STUDY.scenes["solar_system"], stability=True, stability_hi=SOLAR_STABILITY_HI)
     with pytest.MonkeyPatch.context() as mp:
         mp.setitem(SUITES, "solar_test", dataclasses.replace(STUDY, scenes={"solar_system": spec}))
-        cells = {m: {c.measure: c for c in run_task(Task("cell", "solar_system", m, get_method(m).family, {},
-                                                              "solar_test"))}
-                 for m in ("ref:leapfrog", "rebound:whfast")}
+        cells = {
+            m: {c.measure: c for c in run_task(Task("cell", "solar_system", m, get_method(m).family, {}, "solar_test"))}
+            for m in ("ref:leapfrog", "rebound:whfast")
+        }
     leapfrog, whfast = cells["ref:leapfrog"]["stability"], cells["rebound:whfast"]["stability"]
     assert leapfrog.status == "ok" and leapfrog.figures.verdict == "limited"
     assert 1.5 < leapfrog.value < 2.5
@@ -281,4 +328,7 @@ def test_nightly_report_states_the_solar_findings(nightly_cells):
     assert cost["ref:rk4"].value == pytest.approx(INJECTED["s_per_step"]["ref:rk4"], rel=1e-12)
     assert any("`ref:rk4` takes" in ln for ln in lines)
     assert "`rebound:saba` timed_out" in with_failure
-    assert "| `rebound:saba` | solar_system | **timed_out** |" in with_failure and "worker killed after 120 s" in with_failure
+    assert (
+        "| `rebound:saba` | solar_system | **timed_out** |" in with_failure
+        and "worker killed after 120 s" in with_failure
+    )

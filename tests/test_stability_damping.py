@@ -11,6 +11,7 @@ Tolerances, and where each comes from:
 * measured vs theory: the issue's 0.5% (``THEORY_RTOL``) for the engine modes; the reference
   schemes, to 1e-5 (the measure bisects to 1e-6: measured 5.9e-7 at most).
 """
+
 from __future__ import annotations
 
 import math
@@ -21,8 +22,14 @@ import pytest
 import adapters
 from harness.execution import isolation
 from harness.methods import get_method
-from harness.measures.stability_damping import (THEORY_RTOL, ZETAS, computed_limit, limit_vs_damping,
-                                                spectral_radius, theory_limit)
+from harness.measures.stability_damping import (
+    THEORY_RTOL,
+    ZETAS,
+    computed_limit,
+    limit_vs_damping,
+    spectral_radius,
+    theory_limit,
+)
 from reference import METHODS
 from scenarios import make_scene
 
@@ -37,8 +44,9 @@ def test_every_scheme_that_runs_on_the_damped_spring_has_its_damped_recurrence()
     damping to project, and says so: it does not run there)."""
     damped = make_scene("damped_spring")
     # From the registry as it is when asked (a scheme registered by a test too: tests/test_contributing.py).
-    assert {sid for sid, s in METHODS.items() if s.amplification is not None} == \
-        {sid for sid in METHODS if get_method(f"ref:{sid}").supports(damped)[0]}
+    assert {sid for sid, s in METHODS.items() if s.amplification is not None} == {
+        sid for sid in METHODS if get_method(f"ref:{sid}").supports(damped)[0]
+    }
 
 
 def test_the_closed_forms_are_the_ones_jury_and_a_stability_give():
@@ -46,9 +54,17 @@ def test_the_closed_forms_are_the_ones_jury_and_a_stability_give():
     MuJoCo's velocity-implicit Euler, and the four A-stable implicit schemes; a substepped scheme's
     follows from its scheme's (``reference.substepped``: n times it), as ref:implicit_euler_doubled's."""
     declared = {sid for sid, s in METHODS.items() if s.damping_limit is not None and s.substepped_from is None}
-    assert declared == {"explicit_euler", "semi_implicit_euler", "semi_implicit_euler_position_first", "verlet",
-                        "semi_implicit_euler_velocity_implicit", "implicit_euler", "linearly_implicit_euler",
-                        "implicit_midpoint", "radau_iia2"}
+    assert declared == {
+        "explicit_euler",
+        "semi_implicit_euler",
+        "semi_implicit_euler_position_first",
+        "verlet",
+        "semi_implicit_euler_velocity_implicit",
+        "implicit_euler",
+        "linearly_implicit_euler",
+        "implicit_midpoint",
+        "radau_iia2",
+    }
     for sid, s in METHODS.items():
         if s.substepped_from is not None:
             inner, n = s.substepped_from
@@ -87,7 +103,11 @@ def test_heuns_undamped_row_is_no_stable_step_resolved_in_theory_and_measured():
     res = limit_vs_damping(get_method("ref:heun"), zetas=(0.0, 0.05))
     undamped, damped = res["rows"]
     assert (undamped["measured"], undamped["theory"], undamped["verdict"], undamped["agrees"]) == (
-        None, None, "unresolved", True)
+        None,
+        None,
+        "unresolved",
+        True,
+    )
     assert damped["verdict"] == "limited" and damped["agrees"] and damped["measured"] > 0.1
 
 
@@ -119,8 +139,11 @@ def test_the_verlet_forms_are_measured_on_the_state_they_carry(sid, zeta):
         assert np.allclose(M, METHODS[sid].amplification(y, zeta), rtol=0, atol=1e-14) and not c.any()
         assert len(names) == 3 and names[-1] == "a"
     if zeta == 0.5:
-        restarted = [y for y in np.linspace(1.3, 3.9, 27)
-                     if one_step_map(get_method(f"ref:{sid}"), scene, y, check_affine=False)["rho"] <= 1 + 1e-12]
+        restarted = [
+            y
+            for y in np.linspace(1.3, 3.9, 27)
+            if one_step_map(get_method(f"ref:{sid}"), scene, y, check_affine=False)["rho"] <= 1 + 1e-12
+        ]
         assert restarted and max(restarted) > 3 * theory_limit(sid, zeta)["homega_max"]
 
 
@@ -161,8 +184,15 @@ def test_the_nightly_report_charts_stability_against_damping(tmp_path):
     from harness.nightly.suites import DAMPED_SPRING_EXTRAS, SceneSpec, Suite
 
     methods = ("ref:semi_implicit_euler", "ref:semi_implicit_euler_velocity_implicit", "mujoco:euler")
-    suite = Suite("damping", scenes={"damped_spring": SceneSpec(periods=5, extras=DAMPED_SPRING_EXTRAS)},
-                  methods=methods, bounds=False, cost_repeats=1, cost_steps=2000, stability_steps=200)
+    suite = Suite(
+        "damping",
+        scenes={"damped_spring": SceneSpec(periods=5, extras=DAMPED_SPRING_EXTRAS)},
+        methods=methods,
+        bounds=False,
+        cost_repeats=1,
+        cost_steps=2000,
+        stability_steps=200,
+    )
     result = run_nightly(suite, tmp_path / "out", tmp_path / "h.sqlite", jobs=2)
     cells = History(tmp_path / "h.sqlite").cells(result["run_id"])
     sweep = cells[cells.measure == "stability_vs_damping"].set_index("method")

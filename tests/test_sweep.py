@@ -5,6 +5,7 @@ family changes (``harness.measures.sweep``), with its nightly cell, chart, secti
 Verdicts drawn from timings (which method is cheapest, where a search stops on the cost bound,
 where the crossover falls) are tested with injected timings or injected rows, never the clock's.
 """
+
 from __future__ import annotations
 
 import json
@@ -35,31 +36,37 @@ def test_a_log_grid_from_its_ends_and_points():
     assert parse_grid("n=2..4:9", cloth).values == (2.0, 3.0, 4.0)  # an integer parameter: its integers
 
 
-@pytest.mark.parametrize("text, points, says", [
-    ("k1e2..1e6", None, "--sweep 'k1e2..1e6' is not a grid (allowed: NAME=LO..HI"),
-    ("q=1..2", None, "--sweep parameter 'q' is not a parameter of scene cloth (valid: n, m, s, mass, k,"),
-    ("k=1e6..1e2", None, "--sweep k=1e+06..100 is not a log grid (allowed: finite 0 < LO < HI)"),
-    ("k=0..1e2", None, "--sweep k=0..100 is not a log grid"),
-    ("k=1..inf", None, "--sweep k=1..inf is not a log grid"),
-    ("k=a..2", None, "--sweep k LO='a' is not a number"),
-    ("n=2..200", None, "--sweep: parameter n=200.0 is out of range (allowed: integer in [2, 100])"),
-    ("k=1..10:1", None, "--sweep points=1 is out of range (allowed: integer from 2 to 50)"),
-    ("k=1..10", "0", "--points=0 is out of range"),
-    ("k=1..10:5", "4", "give two numbers of points"),
-])
+@pytest.mark.parametrize(
+    "text, points, says",
+    [
+        ("k1e2..1e6", None, "--sweep 'k1e2..1e6' is not a grid (allowed: NAME=LO..HI"),
+        ("q=1..2", None, "--sweep parameter 'q' is not a parameter of scene cloth (valid: n, m, s, mass, k,"),
+        ("k=1e6..1e2", None, "--sweep k=1e+06..100 is not a log grid (allowed: finite 0 < LO < HI)"),
+        ("k=0..1e2", None, "--sweep k=0..100 is not a log grid"),
+        ("k=1..inf", None, "--sweep k=1..inf is not a log grid"),
+        ("k=a..2", None, "--sweep k LO='a' is not a number"),
+        ("n=2..200", None, "--sweep: parameter n=200.0 is out of range (allowed: integer in [2, 100])"),
+        ("k=1..10:1", None, "--sweep points=1 is out of range (allowed: integer from 2 to 50)"),
+        ("k=1..10", "0", "--points=0 is out of range"),
+        ("k=1..10:5", "4", "give two numbers of points"),
+    ],
+)
 def test_a_bad_grid_is_one_line_naming_the_field(text, points, says):
     with pytest.raises(InvalidInput) as err:
         parse_grid(text, make_scene("cloth", n=4, m=4), points)
     assert says in str(err.value) and "\n" not in str(err.value)
 
 
-@pytest.mark.parametrize("argv, says", [
-    (["--sweep", "q=1..2"], "--sweep parameter 'q' is not a parameter of scene spring (valid: k, m, x0, v0)"),
-    (["--sweep", "k=1..2", "--set", "k=3"], "--sweep k and --set k name the same parameter"),
-    (["--points", "3"], "--points is for a --sweep"),
-    (["--sweep", "k=1..2", "--factor", "0.5"], "--factor=0.5 is out of range (allowed: >= 1)"),
-    (["--sweep", "k=1..2", "--sweep-max-substeps", "8"], "--sweep-max-substeps=8 is out of range"),
-])
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["--sweep", "q=1..2"], "--sweep parameter 'q' is not a parameter of scene spring (valid: k, m, x0, v0)"),
+        (["--sweep", "k=1..2", "--set", "k=3"], "--sweep k and --set k name the same parameter"),
+        (["--points", "3"], "--points is for a --sweep"),
+        (["--sweep", "k=1..2", "--factor", "0.5"], "--factor=0.5 is out of range (allowed: >= 1)"),
+        (["--sweep", "k=1..2", "--sweep-max-substeps", "8"], "--sweep-max-substeps=8 is out of range"),
+    ],
+)
 def test_the_command_refuses_a_bad_sweep_before_any_engine_runs(argv, says, capsys):
     assert main(["advise", "spring", "--hz", "60", "--energy-tol", "1e-3", *argv]) == 2
     err = capsys.readouterr().err
@@ -83,8 +90,15 @@ def injected(tmp_path, monkeypatch):
 
 def _sweep(factor, cap):
     spring = make_scene("spring")
-    return run_sweep(spring, parse_grid("k=1..4:2", spring), SPRING, ["ref:leapfrog", "ref:semi_implicit_euler"],
-                     factor=factor, cap=cap, pool=False)
+    return run_sweep(
+        spring,
+        parse_grid("k=1..4:2", spring),
+        SPRING,
+        ["ref:leapfrog", "ref:semi_implicit_euler"],
+        factor=factor,
+        cap=cap,
+        pool=False,
+    )
 
 
 def test_the_search_goes_on_past_max_substeps_until_a_method_meets_them(injected):
@@ -128,12 +142,32 @@ def test_the_sweep_runs_no_counting_run(injected, monkeypatch):
 
 
 def test_the_command_prints_the_sweep_and_its_json(injected, capsys):
-    argv = ["advise", "spring", "--hz", "60", "--horizon", "10", "--energy-tol", "1e-3", "--max-substeps", "2",
-            "--methods", "ref:leapfrog,ref:semi_implicit_euler", "--sweep", "k=1..4:2", "--factor", "100", "--jobs", "1"]
+    argv = [
+        "advise",
+        "spring",
+        "--hz",
+        "60",
+        "--horizon",
+        "10",
+        "--energy-tol",
+        "1e-3",
+        "--max-substeps",
+        "2",
+        "--methods",
+        "ref:leapfrog,ref:semi_implicit_euler",
+        "--sweep",
+        "k=1..4:2",
+        "--factor",
+        "100",
+        "--jobs",
+        "1",
+    ]
     assert main(argv) == 0
     out = capsys.readouterr().out
-    assert ("sweep spring (m=1, x0=1, v0=0) over k = 1 .. 4 (2 values, log) at 60 Hz over 10: energy error <= 0.001 "
-            "and position error <= 0.05 (5% of the scene's length scale 1)") in out
+    assert (
+        "sweep spring (m=1, x0=1, v0=0) over k = 1 .. 4 (2 values, log) at 60 Hz over 10: energy error <= 0.001 "
+        "and position error <= 0.05 (5% of the scene's length scale 1)"
+    ) in out
     # Each pick with its energy and position error (leapfrog at 1/60: h*omega/2 squared, and its phase).
     assert "ref:leapfrog 1 x 0.01 (E 6.9e-05, x 9.2e-05)" in out
     assert "no crossover: the cheapest family is explicit substeps at every value" in out
@@ -181,17 +215,29 @@ def _point(value, homega, energy=None, **costs):
     """A point with one entry per family=cost_us (None: that family met nothing there, its search
     ended on the cost bound); ``energy``: family -> the fewest substeps within the energy tolerance."""
     energy = energy or {}
-    entries = [SweepEntry(f"ref:{fam}_scheme", fam, "met" if us is not None else "cost", 4 if us else None,
-                          cost_per_frame_s=None if us is None else us * 1e-6, searched=4 if us else 8,
-                          next_substeps=None if us else 16, energy_substeps=energy.get(fam))
-               for fam, us in costs.items()]
+    entries = [
+        SweepEntry(
+            f"ref:{fam}_scheme",
+            fam,
+            "met" if us is not None else "cost",
+            4 if us else None,
+            cost_per_frame_s=None if us is None else us * 1e-6,
+            searched=4 if us else 8,
+            next_substeps=None if us else 16,
+            energy_substeps=energy.get(fam),
+        )
+        for fam, us in costs.items()
+    ]
     return SweepPoint(value, homega * 60, homega, entries)
 
 
 #: Injected rows: explicit substeps cost 1, 4, 32 µs a frame at k = 1e2, 1e3, 1e4 (h*omega 1, 3, 9 at
 #: one substep), implicit solves 8 µs at each.
-ROWS = [_point(1e2, 1.0, explicit=1.0, implicit=8.0), _point(1e3, 3.0, explicit=4.0, implicit=8.0),
-        _point(1e4, 9.0, explicit=32.0, implicit=8.0)]
+ROWS = [
+    _point(1e2, 1.0, explicit=1.0, implicit=8.0),
+    _point(1e3, 3.0, explicit=4.0, implicit=8.0),
+    _point(1e4, 9.0, explicit=32.0, implicit=8.0),
+]
 
 
 def test_the_crossover_is_where_the_cheapest_family_changes_interpolated_log_log():
@@ -204,8 +250,7 @@ def test_the_crossover_is_where_the_cheapest_family_changes_interpolated_log_log
 
 
 def test_a_family_with_no_cost_at_one_end_puts_the_crossover_midway_and_new_kinds_cross_too():
-    rows = [_point(1e2, 1.0, explicit=1.0, position_based=3.0),
-            _point(1e4, 10.0, explicit=None, position_based=5.0)]
+    rows = [_point(1e2, 1.0, explicit=1.0, position_based=3.0), _point(1e4, 10.0, explicit=None, position_based=5.0)]
     (x,) = crossovers(rows)
     assert not x.interpolated and x.to_family == "position_based"
     assert x.value == pytest.approx(1e3, rel=1e-12) and x.homega_one == pytest.approx(math.sqrt(10), rel=1e-12)
@@ -214,14 +259,30 @@ def test_a_family_with_no_cost_at_one_end_puts_the_crossover_midway_and_new_kind
 
 
 def _cell(points, label="4 x 4", method="ref:implicit_euler", error_rel=None):
-    figures = SweepFigures(label=label, param="k", params={"n": 4, "m": 4}, hz=60.0,
-                           request={"horizon": 2.0, "energy_tol": 0.5, "error_tol": None, "max_substeps": 16,
-                                    "error_rel": error_rel},
-                           factor=10.0, cap=4096, clock="cpu", points=[p.as_dict() for p in points],
-                           crossovers=[c.as_dict() for c in crossovers(points)])
+    figures = SweepFigures(
+        label=label,
+        param="k",
+        params={"n": 4, "m": 4},
+        hz=60.0,
+        request={"horizon": 2.0, "energy_tol": 0.5, "error_tol": None, "max_substeps": 16, "error_rel": error_rel},
+        factor=10.0,
+        cap=4096,
+        clock="cpu",
+        points=[p.as_dict() for p in points],
+        crossovers=[c.as_dict() for c in crossovers(points)],
+    )
     cross = crossovers(points)
-    return Cell(scene="cloth", method=method, family="ref", measure="sweep", status="ok", params={}, dt=1 / 60,
-                value=cross[0].homega_one if cross else None, figures=figures)
+    return Cell(
+        scene="cloth",
+        method=method,
+        family="ref",
+        measure="sweep",
+        status="ok",
+        params={},
+        dt=1 / 60,
+        value=cross[0].homega_one if cross else None,
+        figures=figures,
+    )
 
 
 def _claims(points, error_rel=0.05):
@@ -236,29 +297,42 @@ def test_the_first_claim_asks_steps_at_least_ten_times_longer_within_the_energy_
     """Survives: at the stiffest value an implicit solve within the energy tolerance at 2 substeps
     against explicit substeps' 32 (16 x) holds; at 4 against 32 (8 x) does not; with no implicit
     solve within it, or no explicit one within its bound, the line says which."""
+
     def first(energy, **costs):
         return _claims([ROWS[0], _point(1e4, 9.0, energy=energy, **costs)])[0]
 
     f = first({"explicit": 32, "implicit": 2}, explicit=32.0, implicit=8.0)
     assert f.ok is True and "implicit Euler survives where explicit steps must be tiny (energy tolerance)" in f.text
-    assert ("at k = 1e+04 (h·ω = 9 at one substep): `ref:implicit_scheme` stays within energy error ≤ 0.5 at 2 "
-            "substeps; explicit substeps need 32 (`ref:explicit_scheme`): steps 16 x shorter (≥ the 10 x the claim "
-            "asks)") in f.text
+    assert (
+        "at k = 1e+04 (h·ω = 9 at one substep): `ref:implicit_scheme` stays within energy error ≤ 0.5 at 2 "
+        "substeps; explicit substeps need 32 (`ref:explicit_scheme`): steps 16 x shorter (≥ the 10 x the claim "
+        "asks)"
+    ) in f.text
     assert first({"explicit": 32, "implicit": 4}, explicit=32.0, implicit=8.0).ok is False
     # No explicit scheme within the energy tolerance up to its 8 substeps (next 16): at least 16 x at 1 substep.
     g = first({"implicit": 1}, explicit=None, implicit=8.0)
-    assert g.ok is True and "no explicit scheme is within it below 16 substeps (`ref:explicit_scheme` the first to " \
-                            "stop): steps at least 16 x shorter" in g.text
+    assert (
+        g.ok is True
+        and "no explicit scheme is within it below 16 substeps (`ref:explicit_scheme` the first to "
+        "stop): steps at least 16 x shorter"
+        in g.text
+    )
     # One explicit scheme within it at 32, another's search ended at 16 before it was: at least 16.
     stiff = _point(1e4, 9.0, energy={"explicit": 32, "implicit": 1}, explicit=32.0, implicit=8.0, rk=None)
     stiff.entries[2].family = "explicit"
     k = _claims([ROWS[0], stiff])[0]
-    assert k.ok is True and ("explicit substeps need at least 16 (`ref:rk_scheme` not within it below 16, its search "
-                             "ended there; `ref:explicit_scheme` within it at 32): steps at least 16 x shorter") in k.text
+    assert (
+        k.ok is True
+        and (
+            "explicit substeps need at least 16 (`ref:rk_scheme` not within it below 16, its search "
+            "ended there; `ref:explicit_scheme` within it at 32): steps at least 16 x shorter"
+        )
+        in k.text
+    )
     stiff = _point(1e4, 9.0, energy={"explicit": 32}, explicit=32.0, implicit=None)
     cut = _claims([ROWS[0], stiff])[0]  # every implicit search ended on its cost bound: not known
     assert cut.ok is None and "{mark}" not in cut.text and "not judged: every implicit search ended" in cut.text
-    stiff.entries[1].ended = "cap"      # searched to the most substeps, never within the energy tolerance
+    stiff.entries[1].ended = "cap"  # searched to the most substeps, never within the energy tolerance
     h = _claims([ROWS[0], stiff])[0]
     assert h.ok is False and "no implicit solve stays stable within energy error ≤ 0.5" in h.text
 
@@ -268,32 +342,51 @@ def test_the_second_claim_holds_the_cheapest_frames_that_meet_every_tolerance_an
 
     f = _claims(ROWS)[1]
     assert f.ok is True and f.text.startswith(MARK) and "implicit Euler is the cheaper usable frame" in f.text
-    assert ("position error ≤ 5% of the scene's length scale" in f.text and "energy error ≤ 0.5" in f.text)
-    assert ("implicit solves' cheapest frame that meets them, `ref:implicit_scheme` 4 × = 8 µs a frame, against "
-            "explicit substeps' `ref:explicit_scheme` 4 × = 32 µs a frame: implicit 4 x cheaper") in f.text
+    assert "position error ≤ 5% of the scene's length scale" in f.text and "energy error ≤ 0.5" in f.text
+    assert (
+        "implicit solves' cheapest frame that meets them, `ref:implicit_scheme` 4 × = 8 µs a frame, against "
+        "explicit substeps' `ref:explicit_scheme` 4 × = 32 µs a frame: implicit 4 x cheaper"
+    ) in f.text
     assert "implicit solves take over from explicit substeps at k ≈ 2.15e+03 (h·ω ≈ 4.33 at one substep)" in f.text
     flipped = [_point(1e2, 1.0, explicit=8.0, implicit=1.0), _point(1e4, 9.0, explicit=1.0, implicit=8.0)]
     g = _claims(flipped)[1]
     assert g.ok is False and "explicit 8 x cheaper" in g.text and "take over" not in g.text
     # A third family cheaper than both at the stiff end: the claim is judged on explicit against
     # implicit, and the line says which family is cheapest there.
-    third = [_point(1e2, 1.0, explicit=1.0, implicit=8.0, position_based=4.0),
-             _point(1e4, 9.0, explicit=32.0, implicit=8.0, position_based=2.0)]
+    third = [
+        _point(1e2, 1.0, explicit=1.0, implicit=8.0, position_based=4.0),
+        _point(1e4, 9.0, explicit=32.0, implicit=8.0, position_based=2.0),
+    ]
     h = _claims(third)[1]
-    assert h.ok is True and "the cheapest frame there is position-based solves (`ref:position_based_scheme`, 2 µs)" in h.text
+    assert (
+        h.ok is True
+        and "the cheapest frame there is position-based solves (`ref:position_based_scheme`, 2 µs)" in h.text
+    )
     # The implicit pick's win resting on its solve's own error: said beside it.
     rests = [ROWS[0], _point(1e4, 9.0, explicit=32.0, implicit=8.0)]
     rests[1].entries[1].converged = {"method": "ref:implicit_scheme?tol=1e-5", "meets": False}
     r = _claims(rests)[1]
-    assert r.ok is True and ("`ref:implicit_scheme` 4 × = 8 µs a frame (its win rests on the solve's own error: "
-                             "`ref:implicit_scheme?tol=1e-5` misses the tolerances)") in r.text
+    assert (
+        r.ok is True
+        and (
+            "`ref:implicit_scheme` 4 × = 8 µs a frame (its win rests on the solve's own error: "
+            "`ref:implicit_scheme?tol=1e-5` misses the tolerances)"
+        )
+        in r.text
+    )
     # No implicit solve meets them: the furthest search and why it ended.
     none = [ROWS[0], _point(1e4, 9.0, explicit=32.0, implicit=None)]
     none[1].entries[1].why = "16 substeps would cost 2 µs a frame; position error 0.05 > 0.015 at 8 substeps"
     n = _claims(none)[1]
-    assert n.ok is False and ("no implicit solve meets them (1 searched, ended on cost; the furthest, "
-                              "`ref:implicit_scheme` to 8 substeps: position error 0.05 > 0.015 at 8 substeps); "
-                              "explicit substeps do: `ref:explicit_scheme` 4 × = 32 µs a frame") in n.text
+    assert (
+        n.ok is False
+        and (
+            "no implicit solve meets them (1 searched, ended on cost; the furthest, "
+            "`ref:implicit_scheme` to 8 substeps: position error 0.05 > 0.015 at 8 substeps); "
+            "explicit substeps do: `ref:explicit_scheme` 4 × = 32 µs a frame"
+        )
+        in n.text
+    )
     # No implicit solve searched (a sweep of explicit schemes): neither claim is judged.
     alone = [_point(1e2, 1.0, explicit=1.0), _point(1e4, 9.0, explicit=4.0)]
     assert [f.ok for f in _claims(alone)] == [None, None]
@@ -311,21 +404,30 @@ def test_the_section_and_the_chart_are_drawn_from_the_cells(tmp_path):
     lines = sweep_section("cloth", piv)
     assert lines[0].startswith("**Where the trade-off flips on `cloth` 4 x 4** (n=4, m=4)")
     assert "| k | h·ω at 1 substep | explicit substeps | implicit solves | cheapest |" in lines
-    assert ("| 1e+04 | 9 | `ref:explicit_scheme` 4 × = 32 µs (E –, x –) | `ref:implicit_scheme` 4 × = 8 µs (E –, x –) "
-            "| implicit solves |") in lines
+    assert (
+        "| 1e+04 | 9 | `ref:explicit_scheme` 4 × = 32 µs (E –, x –) | `ref:implicit_scheme` 4 × = 8 µs (E –, x –) "
+        "| implicit solves |"
+    ) in lines
     assert "energy error ≤ 0.5, no accuracy tolerance (positions not judged)" in lines[0]
     # A pick with its errors, its win resting on its solve's own error: marked.
     marked = [_point(1e2, 1.0, explicit=1.0), _point(1e3, 3.0, explicit=4.0)]
     e = marked[1].entries[0]
     e.energy_error, e.position_error = 0.47, 0.233
-    e.converged = {"method": "ref:explicit_scheme?iterations=100", "meets": False, "why": "energy falls 51%",
-                   "energy_error": 0.51, "position_error": 0.2}
+    e.converged = {
+        "method": "ref:explicit_scheme?iterations=100",
+        "meets": False,
+        "why": "energy falls 51%",
+        "energy_error": 0.51,
+        "position_error": 0.2,
+    }
     cell = _cell(marked)
     cell.figures.request.update(error_rel=0.05)
     text = sweep_section("cloth", {("cloth", cell.method): {"sweep": cell}})
     assert "| 1e+03 | 3 | `ref:explicit_scheme` 4 × = 4 µs (E 0.47, x 0.23) \\* | explicit substeps |" in text
     assert "position error ≤ 5% of the scene's length scale" in text[0]
-    assert any(line.startswith("Crossover: explicit substeps (`ref:explicit_scheme`) → implicit solves") for line in lines)
+    assert any(
+        line.startswith("Crossover: explicit substeps (`ref:explicit_scheme`) → implicit solves") for line in lines
+    )
     path = tmp_path / "sweep.png"
     assert sweep_chart(cells, "cloth", path) and path.stat().st_size > 10_000
     assert not sweep_chart([], "cloth", tmp_path / "none.png")
@@ -353,9 +455,15 @@ def test_the_nightly_cell_is_measured_in_its_named_task_only(injected):
     from harness.nightly.suites import SceneExtras, SceneSpec, Suite
     from records.measures import get
 
-    sweep = {"grid": "k=1..4:2", "hz": 60.0, "request": {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 2},
-             "methods": ("ref:leapfrog", "ref:semi_implicit_euler"), "factor": 100.0, "cap": 64,
-             "sizes": ({"label": "unit", "params": {}, "task": "ref:leapfrog"},)}
+    sweep = {
+        "grid": "k=1..4:2",
+        "hz": 60.0,
+        "request": {"horizon": 10.0, "energy_tol": 1e-3, "max_substeps": 2},
+        "methods": ("ref:leapfrog", "ref:semi_implicit_euler"),
+        "factor": 100.0,
+        "cap": 64,
+        "sizes": ({"label": "unit", "params": {}, "task": "ref:leapfrog"},),
+    }
     suite = Suite("tiny", scenes={"spring": SceneSpec(extras=SceneExtras(sweep=sweep))})
     task = Task("cell", "spring", "ref:leapfrog", "ref", {}, suite)
     assert "sweep" in measures_for(task)
@@ -367,7 +475,9 @@ def test_the_nightly_cell_is_measured_in_its_named_task_only(injected):
     points = f.sweep_points()
     assert [p.value for p in points] == [1.0, 4.0]
     assert [(e.method, e.ended, e.substeps) for e in points[1].entries] == [
-        ("ref:leapfrog", "met", 1), ("ref:semi_implicit_euler", "met", 32)]
+        ("ref:leapfrog", "met", 1),
+        ("ref:semi_implicit_euler", "met", 32),
+    ]
 
 
 def test_the_command_prints_both_claims_under_its_table_and_in_its_json():
@@ -375,12 +485,22 @@ def test_the_command_prints_both_claims_under_its_table_and_in_its_json():
 
     cloth = make_scene("cloth", n=4, m=4)
     stiff = _point(1e4, 9.0, energy={"explicit": 32, "implicit": 2}, explicit=32.0, implicit=8.0)
-    sw = Sweep("cloth", {}, parse_grid("k=1e2..1e4:3", cloth), Request(hz=60, horizon=2, energy_tol=0.5).checked(),
-               10.0, 4096, ROWS[:2] + [stiff], [], 0.3)
+    sw = Sweep(
+        "cloth",
+        {},
+        parse_grid("k=1e2..1e4:3", cloth),
+        Request(hz=60, horizon=2, energy_tol=0.5).checked(),
+        10.0,
+        4096,
+        ROWS[:2] + [stiff],
+        [],
+        0.3,
+    )
     lines = list(sweep_lines(sw))
     at = lines.index("the seed's claims (stiff cloth to implicit Euler), judged at the stiffest value:")
-    assert lines[at + 1].startswith("  implicit Euler survives where explicit steps must be tiny (energy tolerance): "
-                                    "holds; at k = 1e+04")
+    assert lines[at + 1].startswith(
+        "  implicit Euler survives where explicit steps must be tiny (energy tolerance): holds; at k = 1e+04"
+    )
     assert lines[at + 2].startswith("  implicit Euler is the cheaper usable frame (accuracy tolerance too): holds;")
     assert "`" not in lines[at + 1] + lines[at + 2]
     claims = sw.as_dict()["claims"]
@@ -399,8 +519,9 @@ def test_the_first_claim_probes_survival_past_the_cost_bound_so_timings_cannot_t
     monkeypatch.setenv("HARNESS_INJECT_TIMINGS", str(path))
     cloth = make_scene("cloth", n=3, m=3)
     request = Request(hz=60, horizon=0.5, energy_tol=0.5, max_substeps=16)
-    sw = run_sweep(cloth, parse_grid("k=1e5..1e6:2", cloth), request, ["ref:leapfrog", "ref:rk4", "ref:implicit_euler"],
-                   pool=False)
+    sw = run_sweep(
+        cloth, parse_grid("k=1e5..1e6:2", cloth), request, ["ref:leapfrog", "ref:rk4", "ref:implicit_euler"], pool=False
+    )
     soft, stiff = sw.points
     imp = {e.method: e for e in stiff.entries}["ref:implicit_euler"]
     assert imp.ended == "cost" and imp.substeps is None and imp.probed and imp.energy_substeps == imp.probed[-1]

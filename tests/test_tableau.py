@@ -2,6 +2,7 @@
 declared and registered here, in this test alone, and runs interpreted and compiled like a shipped
 scheme; each shipped tableau meets its declared order's conditions, and its generated step computes
 what the hand-written step it replaced computed, bit for bit."""
+
 from __future__ import annotations
 
 import math
@@ -26,8 +27,16 @@ MIDPOINT_DOC = """The explicit midpoint rule (Runge's RK2), a test's tableau:
 @pytest.fixture
 def midpoint(monkeypatch):
     """The explicit midpoint rule, registered in ``reference.METHODS`` for the test: the one entry a new scheme is."""
-    scheme = tableau_scheme("midpoint_test", A=[[0, 0], ["1/2", 0]], b=[0, 1], c=[0, "1/2"], order=2,
-                            energy_claim="grows", doc=MIDPOINT_DOC, module=__name__)
+    scheme = tableau_scheme(
+        "midpoint_test",
+        A=[[0, 0], ["1/2", 0]],
+        b=[0, 1],
+        c=[0, "1/2"],
+        order=2,
+        energy_claim="grows",
+        doc=MIDPOINT_DOC,
+        module=__name__,
+    )
     monkeypatch.setitem(METHODS, scheme.id, scheme)
     return scheme
 
@@ -54,7 +63,7 @@ def test_midpoint_is_second_order_on_the_spring(midpoint):
     horizon = 2.0 * math.pi / spring.omega
     dts, errors = [], []
     for k in range(5):
-        steps = 64 * 2 ** k
+        steps = 64 * 2**k
         traj = integrate(midpoint, spring, horizon / steps, steps, every=steps)
         x, v = spring.closed_form(traj.t[-1:])
         dts.append(horizon / steps)
@@ -74,7 +83,7 @@ def test_midpoint_is_unstable_on_the_spring_at_every_step_as_theory_says(midpoin
     for y in (0.25, 0.5, 1.0, 2.0):
         M, c, _ = carried_map(midpoint, spring, y / spring.omega)
         rho = float(np.max(np.abs(np.linalg.eigvals(M))))
-        assert rho == pytest.approx(math.sqrt(1.0 + y ** 4 / 4.0), abs=1e-12) and rho > 1.0
+        assert rho == pytest.approx(math.sqrt(1.0 + y**4 / 4.0), abs=1e-12) and rho > 1.0
         assert not c.any()
 
 
@@ -116,8 +125,16 @@ def test_stability_limits_derived_from_the_tableau_are_the_textbook_ones():
     RK3: |R(i y)|^2 = 1 - y^4/12 + y^6/36, limit sqrt(3)."""
     assert METHODS["explicit_euler"].homega_max is None
     assert METHODS["rk4"].homega_max == 2.8284271247461903 == math.sqrt(8.0)
-    rk3 = tableau_scheme("kutta_rk3_test", A=[[0, 0, 0], ["1/2", 0, 0], [-1, 2, 0]], b=["1/6", "2/3", "1/6"],
-                         c=[0, "1/2", 1], order=3, energy_claim="decays", doc="Kutta's RK3.", module=__name__)
+    rk3 = tableau_scheme(
+        "kutta_rk3_test",
+        A=[[0, 0, 0], ["1/2", 0, 0], [-1, 2, 0]],
+        b=["1/6", "2/3", "1/6"],
+        c=[0, "1/2", 1],
+        order=3,
+        energy_claim="decays",
+        doc="Kutta's RK3.",
+        module=__name__,
+    )
     assert rk3.homega_max == math.sqrt(3.0) and rk3.tableau.order_conditions(3)
     # The shipped entries: Heun none (1 + y^4/4), Kutta and Bogacki-Shampine sqrt(3) (one stability
     # polynomial for every three-stage third-order scheme), Dormand-Prince's fifth-order solution

@@ -1,6 +1,7 @@
 """Error-controlled integration as a method with a tolerance (``drake:runge_kutta3@1e-6``,
 ``rebound:ias15@1e-9``) and the ``tolerance`` cell: work-precision over the tolerance, with the
 steps taken and rejected counted (``harness.measures.tolerance``)."""
+
 from __future__ import annotations
 
 import pytest
@@ -73,21 +74,51 @@ def test_the_sweep_stops_before_a_run_past_its_budget_by_counts_not_a_clock():
     """Drake's implicit Euler is first order: its work grows about tenfold per two decades of
     tolerance (2,160 then 16,661 evaluations at 1e-2, 1e-4), so a 50,000-evaluation budget stops it
     before 1e-6, whatever the machine's load."""
-    res = tolerance_sweep("drake:implicit_euler", make_scene("spring"), tolerances=(1e-2, 1e-4, 1e-6, 1e-8),
-                          max_evals=50_000, timing=False)
+    res = tolerance_sweep(
+        "drake:implicit_euler",
+        make_scene("spring"),
+        tolerances=(1e-2, 1e-4, 1e-6, 1e-8),
+        max_evals=50_000,
+        timing=False,
+    )
     assert [r["tolerance"] for r in res["rows"]] == [1e-2, 1e-4]
     assert res["ended"].startswith("before tolerance 1e-06") and "past 50000" in res["ended"]
 
 
 def _cell(rows, ended="the tightest tolerance, 1e-06", method="drake:runge_kutta3"):
-    return Cell(scene="spring", method=method, family="drake", measure="tolerance", status="ok",
-                value=max(r["error"] / r["tolerance"] for r in rows), figures=ToleranceFigures(rows=rows, ended=ended))
+    return Cell(
+        scene="spring",
+        method=method,
+        family="drake",
+        measure="tolerance",
+        status="ok",
+        value=max(r["error"] / r["tolerance"] for r in rows),
+        figures=ToleranceFigures(rows=rows, ended=ended),
+    )
 
 
-ROWS = [{"tolerance": 1e-3, "error": 2e-3, "steps_taken": 81, "steps_rejected": 0, "force_evals": 243,
-         "s_per_unit_time": 1e-4, "clock": "injected", "status": "ok"},
-        {"tolerance": 1e-6, "error": 2.3e-6, "steps_taken": 780, "steps_rejected": 1, "force_evals": 2343,
-         "s_per_unit_time": 1e-3, "clock": "injected", "status": "ok"}]
+ROWS = [
+    {
+        "tolerance": 1e-3,
+        "error": 2e-3,
+        "steps_taken": 81,
+        "steps_rejected": 0,
+        "force_evals": 243,
+        "s_per_unit_time": 1e-4,
+        "clock": "injected",
+        "status": "ok",
+    },
+    {
+        "tolerance": 1e-6,
+        "error": 2.3e-6,
+        "steps_taken": 780,
+        "steps_rejected": 1,
+        "force_evals": 2343,
+        "s_per_unit_time": 1e-3,
+        "clock": "injected",
+        "status": "ok",
+    },
+]
 
 
 def test_the_report_and_the_judge_read_the_sweep(tmp_path):
@@ -96,7 +127,9 @@ def test_the_report_and_the_judge_read_the_sweep(tmp_path):
     cell = _cell(ROWS)
     piv = {("spring", cell.method): {"tolerance": cell}}
     (finding,) = _findings("spring", piv)
-    assert "global error / tolerance 2 to 2.3" in finding.text and "780 steps taken, 1 rejected at 1e-06" in finding.text
+    assert (
+        "global error / tolerance 2 to 2.3" in finding.text and "780 steps taken, 1 rejected at 1e-06" in finding.text
+    )
     section = "\n".join(_section("spring", piv))
     assert "| `drake:runge_kutta3` | 1e-06 | 2.3e-06 | 780 | 1 | 2343 | 0.001 |" in section
     assert charts.tolerance_chart([cell], "spring", tmp_path / "t.png") and (tmp_path / "t.png").stat().st_size > 1000
@@ -114,8 +147,21 @@ def test_harness_workprecision_sweeps_an_error_controlled_method_over_its_tolera
 
     from tests.test_cli import cli
 
-    code, out, _ = cli("workprecision", "spring", "--method", "drake:runge_kutta5", "--method", "ref:rk4",
-                       "--points", "2", "--repeats", "1", "--tolerances", "1e-3,1e-6", "--json")
+    code, out, _ = cli(
+        "workprecision",
+        "spring",
+        "--method",
+        "drake:runge_kutta5",
+        "--method",
+        "ref:rk4",
+        "--points",
+        "2",
+        "--repeats",
+        "1",
+        "--tolerances",
+        "1e-3,1e-6",
+        "--json",
+    )
     doc = json.loads(out)
     assert code == 0 and {r["method"] for r in doc["rows"]} == {"ref:rk4"}
     (sweep,) = doc["error_controlled"]
@@ -132,10 +178,12 @@ def test_a_stored_cell_is_read_back_with_its_measures_figures_in_a_fresh_process
     import subprocess
     import sys
 
-    code = ("from records.cell import Cell, CELL_COLUMNS\n"
-            "row = {c: None for c in CELL_COLUMNS}\n"
-            "row.update(scene='spring', method='drake:runge_kutta3', family='drake', measure='tolerance', "
-            "status='ok', detail='', wall_s=0.0, data='{\"rows\": [], \"ended\": \"e\"}')\n"
-            "print(type(Cell.from_db_row(row).figures).__name__)\n")
+    code = (
+        "from records.cell import Cell, CELL_COLUMNS\n"
+        "row = {c: None for c in CELL_COLUMNS}\n"
+        "row.update(scene='spring', method='drake:runge_kutta3', family='drake', measure='tolerance', "
+        "status='ok', detail='', wall_s=0.0, data='{\"rows\": [], \"ended\": \"e\"}')\n"
+        "print(type(Cell.from_db_row(row).figures).__name__)\n"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "ToleranceFigures"

@@ -10,6 +10,7 @@ Tolerances: ORDER_TOL (0.15, the order tests' own); the map against the formulas
 of size 1, a dozen operations: measured 2.2e-16); local-error slopes within 0.1 of the integer
 (fit over h = 1e-2 .. 1e-1, measured within 0.03).
 """
+
 from __future__ import annotations
 
 import numpy as np

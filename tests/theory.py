@@ -12,6 +12,7 @@ unconstrained scheme has both), and where it is measured there, to ``REF_ENERGY`
 (docs/contributing.md, "A scheme"). The other inventories of the schemes are read from the
 registry (``reference.METHODS``).
 """
+
 import math
 
 SQRT8 = 2.0 * math.sqrt(2.0)

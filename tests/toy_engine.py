@@ -1,9 +1,9 @@
 """A plugin engine whose releases are folders (``tests/test_engine_env.py``): ``toyengine`` is
 imported from the folder a test puts first on PYTHONPATH, each folder one "release" with its
 own step (``release_source``). The mode's model is the release's ``Model``."""
+
 from __future__ import annotations
 
-import numpy as np
 
 from adapters import EngineMode
 
@@ -33,8 +33,11 @@ STEP_NEW = "self.v = self.v - (self.dt * 1.1) * self.q / 1.1; self.q = self.q + 
 
 
 def release_source(version: str, changed: bool) -> str:
-    return RELEASE.format(version=version, step=STEP_NEW if changed else STEP_OLD,
-                          note=", the force's product rounded differently" if changed else "")
+    return RELEASE.format(
+        version=version,
+        step=STEP_NEW if changed else STEP_OLD,
+        note=", the force's product rounded differently" if changed else "",
+    )
 
 
 def write_releases(root, versions, first_changed: str):
@@ -61,6 +64,14 @@ def build(engine, mode, scene, dt, count=False):
 
 METHODS = {
     "toyengine:euler": EngineMode(
-        engine="toyengine", mode="euler", module="toyengine", dist="toyengine", build=build,
-        scenes=("spring",), unsupported={}, settings={}, doc="semi-implicit Euler (a test's toy engine)"),
+        engine="toyengine",
+        mode="euler",
+        module="toyengine",
+        dist="toyengine",
+        build=build,
+        scenes=("spring",),
+        unsupported={},
+        settings={},
+        doc="semi-implicit Euler (a test's toy engine)",
+    ),
 }

@@ -41,11 +41,11 @@ extra step: measured 1001 steps for 1000 at h = 0.1). The discrete plant's updat
 Force evaluations are Drake's own count (``get_num_derivative_evaluations``, error estimates
 included).
 """
+
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -72,32 +72,61 @@ NEWTON_ACCURACY = 1e-14
 
 #: The integrators with an error estimate: each also runs error-controlled at a tolerance
 #: (``drake:runge_kutta3@1e-6``); the others throw on a target accuracy.
-ERROR_CONTROLLED = ("bogacki_shampine3", "runge_kutta3", "runge_kutta5", "radau1", "radau3", "implicit_euler",
-                    "velocity_implicit_euler")
+ERROR_CONTROLLED = (
+    "bogacki_shampine3",
+    "runge_kutta3",
+    "runge_kutta5",
+    "radau1",
+    "radau3",
+    "implicit_euler",
+    "velocity_implicit_euler",
+)
 
 #: The modes of the discrete plant: our mode name -> its contact approximation (``DiscreteContactApproximation``).
-DISCRETE = {"discrete_tamsi": "kTamsi", "discrete_sap": "kSap", "discrete_lagged": "kLagged",
-            "discrete_similar": "kSimilar"}
+DISCRETE = {
+    "discrete_tamsi": "kTamsi",
+    "discrete_sap": "kSap",
+    "discrete_lagged": "kLagged",
+    "discrete_similar": "kSimilar",
+}
 
 #: Our mode name -> what it selects in Drake: an integration scheme of the continuous plant, by its
 #: name in ``GetIntegrationSchemes()`` (the mode's own), or the discrete plant's contact approximation.
-MODES = {**{name: name for name in ("semi_explicit_euler", "explicit_euler", "runge_kutta2", "runge_kutta3",
-                                    "bogacki_shampine3", "runge_kutta5", "radau1", "radau3", "implicit_euler",
-                                    "velocity_implicit_euler")},
-         **DISCRETE}
+MODES = {
+    **{
+        name: name
+        for name in (
+            "semi_explicit_euler",
+            "explicit_euler",
+            "runge_kutta2",
+            "runge_kutta3",
+            "bogacki_shampine3",
+            "runge_kutta5",
+            "radau1",
+            "radau3",
+            "implicit_euler",
+            "velocity_implicit_euler",
+        )
+    },
+    **DISCRETE,
+}
 
-_NOT_POSED = ("not posed yet: a LeafSystem evaluating the scene's force from Python would be our force, "
-              "not Drake's, and no force element of the plant poses it minimally in this adapter")
+_NOT_POSED = (
+    "not posed yet: a LeafSystem evaluating the scene's force from Python would be our force, "
+    "not Drake's, and no force element of the plant poses it minimally in this adapter"
+)
 UNSUPPORTED = {
-    "kepler": "Drake's MultibodyPlant has no central 1/r^2 force element (a LeafSystem would be our force, not Drake's)",
+    "kepler": "Drake's MultibodyPlant has no central 1/r^2 force element "
+    "(a LeafSystem would be our force, not Drake's)",
     "solar_system": "Drake's MultibodyPlant has no N-body gravity force element",
     "rope": "a hinge chain of point masses: not posed yet (each link's revolute joint and point mass, "
-            "its reduced coordinates as the scene's)",
+    "its reduced coordinates as the scene's)",
     "cloth": "rest-length springs between free masses: LinearSpringDamper between bodies on three prismatic "
-             "joints each; not posed yet",
+    "joints each; not posed yet",
     "net": "as the cloth: not posed yet",
     "cloth_flex": "MuJoCo's flex membrane: no Drake counterpart",
 }
+
 
 def _pendulum(plant, values):
     """A point mass m L below a revolute joint about y, the scene's gravity."""
@@ -105,8 +134,7 @@ def _pendulum(plant, values):
 
     bob = [0.0, 0.0, -values["L"]]
     body = plant.AddRigidBody("bob", SpatialInertia(values["m"], bob, UnitInertia.PointMass(bob)))
-    joint = plant.AddJoint(RevoluteJoint("theta", plant.world_frame(), body.body_frame(), [0.0, 1.0, 0.0],
-                                         damping=0.0))
+    joint = plant.AddJoint(RevoluteJoint("theta", plant.world_frame(), body.body_frame(), [0.0, 1.0, 0.0], damping=0.0))
     return joint, [0.0, 0.0, -values["g"]]
 
 
@@ -115,8 +143,9 @@ def _spring(plant, values):
     from pydrake.multibody.tree import PrismaticJoint, PrismaticSpring, SpatialInertia, UnitInertia
 
     body = plant.AddRigidBody("mass", SpatialInertia(values["m"], np.zeros(3), UnitInertia(1.0, 1.0, 1.0)))
-    joint = plant.AddJoint(PrismaticJoint("x", plant.world_frame(), body.body_frame(), [1.0, 0.0, 0.0],
-                                          damping=values.get("c", 0.0)))
+    joint = plant.AddJoint(
+        PrismaticJoint("x", plant.world_frame(), body.body_frame(), [1.0, 0.0, 0.0], damping=values.get("c", 0.0))
+    )
     plant.AddForceElement(PrismaticSpring(joint, 0.0, values["k"]))
     return joint, [0.0, 0.0, 0.0]
 
@@ -124,23 +153,32 @@ def _spring(plant, values):
 def _chain(plant, values):
     """N bodies on prismatic joints along x, the walls' springs and dashpots on the end joints,
     a bushing (force along x only) between each pair of neighbours; no gravity."""
-    from pydrake.multibody.tree import (LinearBushingRollPitchYaw, PrismaticJoint, PrismaticSpring, SpatialInertia,
-                                        UnitInertia)
+    from pydrake.multibody.tree import (
+        LinearBushingRollPitchYaw,
+        PrismaticJoint,
+        PrismaticSpring,
+        SpatialInertia,
+        UnitInertia,
+    )
 
     n, k, c = values["N"], values["k"], values["c"]
     bodies, joints = [], []
     for i in range(n):
         walls = (i == 0) + (i == n - 1)  # 2 for a single mass between both walls
         body = plant.AddRigidBody(f"m{i}", SpatialInertia(values["m"], np.zeros(3), UnitInertia(1.0, 1.0, 1.0)))
-        joint = plant.AddJoint(PrismaticJoint(f"x{i}", plant.world_frame(), body.body_frame(), [1.0, 0.0, 0.0],
-                                              damping=c * walls))
+        joint = plant.AddJoint(
+            PrismaticJoint(f"x{i}", plant.world_frame(), body.body_frame(), [1.0, 0.0, 0.0], damping=c * walls)
+        )
         if walls:
             plant.AddForceElement(PrismaticSpring(joint, 0.0, k * walls))
         bodies.append(body)
         joints.append(joint)
     for a, b in zip(bodies[:-1], bodies[1:]):
-        plant.AddForceElement(LinearBushingRollPitchYaw(a.body_frame(), b.body_frame(), [0.0, 0.0, 0.0],
-                                                        [0.0, 0.0, 0.0], [k, 0.0, 0.0], [c, 0.0, 0.0]))
+        plant.AddForceElement(
+            LinearBushingRollPitchYaw(
+                a.body_frame(), b.body_frame(), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [k, 0.0, 0.0], [c, 0.0, 0.0]
+            )
+        )
     return joints[0], [0.0, 0.0, 0.0]
 
 
@@ -150,10 +188,12 @@ def _projectile(plant, values):
 
     carriage = plant.AddRigidBody("carriage", SpatialInertia(0.0, np.zeros(3), UnitInertia(0.0, 0.0, 0.0)))
     body = plant.AddRigidBody("mass", SpatialInertia(values["m"], np.zeros(3), UnitInertia(1.0, 1.0, 1.0)))
-    plant.AddJoint(PrismaticJoint("x", plant.world_frame(), carriage.body_frame(), [1.0, 0.0, 0.0],
-                                  damping=values["c"]))
-    joint = plant.AddJoint(PrismaticJoint("y", carriage.body_frame(), body.body_frame(), [0.0, 0.0, 1.0],
-                                          damping=values["c"]))
+    plant.AddJoint(
+        PrismaticJoint("x", plant.world_frame(), carriage.body_frame(), [1.0, 0.0, 0.0], damping=values["c"])
+    )
+    joint = plant.AddJoint(
+        PrismaticJoint("y", carriage.body_frame(), body.body_frame(), [0.0, 0.0, 1.0], damping=values["c"])
+    )
     return joint, [0.0, 0.0, -values["g"]]
 
 
@@ -189,10 +229,17 @@ class _Model(SteppedModel):
         self.sim = sim = Simulator(plant)
         self._context = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
         self._put(*scene.initial_state())
-        self.settings = {"plant": f"discrete, time_step {dt!r}" if self.discrete else "continuous (time_step 0)",
-                         "gravity": gravity, "model": POSES[scene.kind].what,
-                         "advance": ("AdvanceTo(k h): one discrete update a step" if self.discrete else
-                                     "AdvanceTo(t_n), t_n = fl(t_{n-1} + h): exactly n steps, none inserted"), "target_realtime_rate": 0.0}
+        self.settings = {
+            "plant": f"discrete, time_step {dt!r}" if self.discrete else "continuous (time_step 0)",
+            "gravity": gravity,
+            "model": POSES[scene.kind].what,
+            "advance": (
+                "AdvanceTo(k h): one discrete update a step"
+                if self.discrete
+                else "AdvanceTo(t_n), t_n = fl(t_{n-1} + h): exactly n steps, none inserted"
+            ),
+            "target_realtime_rate": 0.0,
+        }
         if self.discrete:
             self.integrator = self.tolerance = None
             self.settings["contact_approximation"] = MODES[mode]
@@ -203,19 +250,28 @@ class _Model(SteppedModel):
             # accuracy, its steps at most the output interval dt (each output is an AdvanceTo).
             integrator.set_fixed_step_mode(tolerance is None)
             integrator.set_maximum_step_size(dt)
-            self.settings.update({"integrator": mode, "fixed_step_mode": bool(integrator.get_fixed_step_mode()),
-                                  "maximum_step_size": float(integrator.get_maximum_step_size())})
+            self.settings.update(
+                {
+                    "integrator": mode,
+                    "fixed_step_mode": bool(integrator.get_fixed_step_mode()),
+                    "maximum_step_size": float(integrator.get_maximum_step_size()),
+                }
+            )
             if tolerance is not None:
                 integrator.set_target_accuracy(tolerance)
-                self.settings.update(target_accuracy=float(integrator.get_target_accuracy()),
-                                     advance="AdvanceTo(n dt) at every output; Drake's error control picks the steps",
-                                     error_control=f"Drake's, at target accuracy {tolerance:g} (its Newton tolerance "
-                                                   "follows it in the implicit integrators)")
+                self.settings.update(
+                    target_accuracy=float(integrator.get_target_accuracy()),
+                    advance="AdvanceTo(n dt) at every output; Drake's error control picks the steps",
+                    error_control=f"Drake's, at target accuracy {tolerance:g} (its Newton tolerance "
+                    "follows it in the implicit integrators)",
+                )
             elif mode in IMPLICIT:
                 integrator.set_target_accuracy(NEWTON_ACCURACY)
                 self.settings["target_accuracy"] = float(integrator.get_target_accuracy())
             else:
-                self.settings["target_accuracy"] = "none (an explicit integrator has no Newton loop; Drake throws on it)"
+                self.settings["target_accuracy"] = (
+                    "none (an explicit integrator has no Newton loop; Drake throws on it)"
+                )
         sim.set_target_realtime_rate(0.0)
         sim.Initialize()
         self._time, self._steps0 = 0.0, 0
@@ -251,8 +307,10 @@ class _Model(SteppedModel):
         if self.integrator is not None and self._trouble is None and self.tolerance is None:
             taken = int(self.integrator.get_num_steps_taken()) - self._steps0
             if taken != self.n:
-                self._trouble = (f"Drake took {taken} steps for {self.n}: its Newton iteration failed at h and it "
-                                 f"shrank the step ({int(self.integrator.get_num_substep_failures())} substep failures)")
+                self._trouble = (
+                    f"Drake took {taken} steps for {self.n}: its Newton iteration failed at h and it "
+                    f"shrank the step ({int(self.integrator.get_num_substep_failures())} substep failures)"
+                )
 
     def advance(self) -> None:
         self.steps(1)
@@ -262,7 +320,10 @@ class _Model(SteppedModel):
 
     def state(self):
         context = self.plant.GetMyContextFromRoot(self.sim.get_context())
-        q, v = np.array(self.plant.GetPositions(context), dtype=float), np.array(self.plant.GetVelocities(context), dtype=float)
+        q, v = (
+            np.array(self.plant.GetPositions(context), dtype=float),
+            np.array(self.plant.GetVelocities(context), dtype=float),
+        )
         return (q, v) if self._index is None else (q[self._index], v[self._index])
 
     def _put(self, q, v) -> None:
@@ -277,14 +338,18 @@ class _Model(SteppedModel):
     def evaluations(self):
         if self.integrator is None:
             return None, "the discrete plant has no derivative evaluations (one discrete update a step)"
-        return (int(self.integrator.get_num_derivative_evaluations()),
-                "Drake's derivative evaluations (get_num_derivative_evaluations, error estimates included)")
+        return (
+            int(self.integrator.get_num_derivative_evaluations()),
+            "Drake's derivative evaluations (get_num_derivative_evaluations, error estimates included)",
+        )
 
     def close(self) -> None:
         # The discrete plant advances by unrestricted updates (Drake 1.51.1), counted with the discrete ones.
-        self.settings["steps_taken"] = (int(self.sim.get_num_discrete_updates() + self.sim.get_num_unrestricted_updates())
-                                        if self.discrete
-                                        else int(self.integrator.get_num_steps_taken()))
+        self.settings["steps_taken"] = (
+            int(self.sim.get_num_discrete_updates() + self.sim.get_num_unrestricted_updates())
+            if self.discrete
+            else int(self.integrator.get_num_steps_taken())
+        )
         if self.integrator is not None and self.tolerance is not None:
             # A step rejected by the error estimate is retried smaller: Drake counts each shrinkage.
             self.settings["steps_rejected"] = int(self.integrator.get_num_step_shrinkages_from_error_control())
@@ -322,8 +387,7 @@ class _FileModel(_Model):
         from . import model as _drake_model
 
         context = self.plant.GetMyContextFromRoot(self.sim.get_context())
-        return _drake_model.anatomy(self.plant, context, self._index, self._names, self._facts,
-                                    self.discrete)
+        return _drake_model.anatomy(self.plant, context, self._index, self._names, self._facts, self.discrete)
 
 
 @dataclass(frozen=True)
@@ -340,14 +404,21 @@ class Pose:
 #: How Drake poses each scene it poses; a new scene is one entry here.
 POSES = {
     "spring": Pose("one body of mass m on a PrismaticJoint along x (damping 0), PrismaticSpring k at rest 0", _spring),
-    "damped_spring": Pose("one body of mass m on a PrismaticJoint along x with damping c, PrismaticSpring k at rest 0",
-                          _spring),
+    "damped_spring": Pose(
+        "one body of mass m on a PrismaticJoint along x with damping c, PrismaticSpring k at rest 0", _spring
+    ),
     "pendulum": Pose("a point mass m (UnitInertia.PointMass) L below a RevoluteJoint about y, damping 0", _pendulum),
-    "chain": Pose("N bodies of mass m on PrismaticJoints along x; PrismaticSpring k at rest 0 on the end joints (walls), "
-                  "LinearBushingRollPitchYaw between neighbours (force stiffness k, damping c along x), end joints' "
-                  "damping c", _chain),
-    "projectile": Pose("a massless carriage on a PrismaticJoint along x carrying mass m on a PrismaticJoint along z, "
-                       "each joint's damping the drag c", _projectile),
+    "chain": Pose(
+        "N bodies of mass m on PrismaticJoints along x; PrismaticSpring k at rest 0 on the end joints (walls), "
+        "LinearBushingRollPitchYaw between neighbours (force stiffness k, damping c along x), end joints' "
+        "damping c",
+        _chain,
+    ),
+    "projectile": Pose(
+        "a massless carriage on a PrismaticJoint along x carrying mass m on a PrismaticJoint along z, "
+        "each joint's damping the drag c",
+        _projectile,
+    ),
     "model": Pose("the file as pydrake's Parser builds it, no SceneGraph (adapters/drake/model.py)", None, _FileModel),
 }
 SCENES = tuple(POSES)
@@ -356,12 +427,15 @@ SCENES = tuple(POSES)
 def build(pydrake, mode: str, scene: Scene, dt: float, count: bool = False, tolerance: float | None = None) -> _Model:
     """``count`` changes nothing: Drake counts its derivative evaluations in every run.
     ``tolerance``: error-controlled at that target accuracy (the modes of ``ERROR_CONTROLLED``)."""
-    return POSES[scene.kind].model(pydrake, mode, scene, dt, **({"tolerance": tolerance} if tolerance is not None else {}))
+    return POSES[scene.kind].model(
+        pydrake, mode, scene, dt, **({"tolerance": tolerance} if tolerance is not None else {})
+    )
 
 
 def has_mode(mode: str):
     """Whether the imported Drake offers what ``mode`` selects (``MODES``: a scheme of its
     ``GetIntegrationSchemes()``, or the contact approximation's member)."""
+
     def present(pydrake) -> bool:
         if mode in DISCRETE:
             from pydrake.multibody.plant import DiscreteContactApproximation
@@ -370,6 +444,7 @@ def has_mode(mode: str):
         from pydrake.systems.analysis import GetIntegrationSchemes
 
         return MODES[mode] in GetIntegrationSchemes()
+
     return present
 
 
@@ -409,18 +484,31 @@ _BEHAVIOUR = {"implicit_euler": _HALVES, "velocity_implicit_euler": _HALVES}
 
 METHODS = {
     f"drake:{mode}": EngineMode(
-        engine="drake", mode=mode, module="pydrake", dist="drake", build=build,
-        scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], versions=VERSIONS, present=has_mode(mode),
+        engine="drake",
+        mode=mode,
+        module="pydrake",
+        dist="drake",
+        build=build,
+        scenes=SCENES,
+        unsupported=UNSUPPORTED,
+        doc=_DOCS[mode],
+        versions=VERSIONS,
+        present=has_mode(mode),
         behaviour=_BEHAVIOUR.get(mode, NO_BEHAVIOUR),
-        options_declared=({TOLERANCE: Option(TOLERANCE, float, 1e-14, 0.1, "error-controlled at this target accuracy")}
-                          if mode in ERROR_CONTROLLED else {}),
+        options_declared=(
+            {TOLERANCE: Option(TOLERANCE, float, 1e-14, 0.1, "error-controlled at this target accuracy")}
+            if mode in ERROR_CONTROLLED
+            else {}
+        ),
         adaptive_with=TOLERANCE if mode in ERROR_CONTROLLED else None,
-        settings={"scheme": MODES[mode],
-                  "plant": "discrete, time_step h" if mode in DISCRETE else "continuous (time_step 0)",
-                  "fixed_step_mode": None if mode in DISCRETE else True,
-                  "target_accuracy": NEWTON_ACCURACY if mode in IMPLICIT else None,
-                  "gravity": "scene's g along -z (pendulum), else zero",
-                  "joint_damping": "scene's c (damped spring), else 0"},
+        settings={
+            "scheme": MODES[mode],
+            "plant": "discrete, time_step h" if mode in DISCRETE else "continuous (time_step 0)",
+            "fixed_step_mode": None if mode in DISCRETE else True,
+            "target_accuracy": NEWTON_ACCURACY if mode in IMPLICIT else None,
+            "gravity": "scene's g along -z (pendulum), else zero",
+            "joint_damping": "scene's c (damped spring), else 0",
+        },
     )
     for mode in MODES
 }
@@ -429,11 +517,24 @@ from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this modu
 
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
-    id="drake", module="pydrake", dists=("drake",), versions=VERSIONS, methods=METHODS, poses=POSES,
-    build=build, bare_loops=bench.bare_loops,
+    id="drake",
+    module="pydrake",
+    dists=("drake",),
+    versions=VERSIONS,
+    methods=METHODS,
+    poses=POSES,
+    build=build,
+    bare_loops=bench.bare_loops,
     model_loader="pydrake.multibody.parsing.Parser.AddModels, no SceneGraph",
     loader_without_contact="Drake's parser here builds no contact geometry (no SceneGraph)",
-    submodules=("pydrake.geometry", "pydrake.math", "pydrake.multibody.parsing", "pydrake.multibody.plant",
-                "pydrake.multibody.tree", "pydrake.systems.analysis", "pydrake.systems.framework"),
+    submodules=(
+        "pydrake.geometry",
+        "pydrake.math",
+        "pydrake.multibody.parsing",
+        "pydrake.multibody.plant",
+        "pydrake.multibody.tree",
+        "pydrake.systems.analysis",
+        "pydrake.systems.framework",
+    ),
     contact_modes=contact.MODES,
 )

@@ -1,4 +1,5 @@
 """Drake's bare loop for ``harness bench --engines``: one ``Simulator.AdvanceTo(t + N dt)``."""
+
 from __future__ import annotations
 
 

@@ -47,6 +47,7 @@ The loop is Drake's: ``Simulator.AdvanceTo`` step by step while recording (the d
 updates fall at k h; the continuous plant advances to t_n = fl(t_(n-1) + h)), and one
 ``AdvanceTo(end)`` when timed.
 """
+
 from __future__ import annotations
 
 import functools
@@ -79,9 +80,11 @@ def _exit_speed(damping, law: str) -> float:
     from scipy.integrate import solve_ivp
 
     if law == "hc":
+
         def force(x, u):
             return max(x * (1.0 + damping * u), 0.0)
     else:
+
         def force(x, u):
             return max(x + 2.0 * damping * u, 0.0)
 
@@ -90,9 +93,11 @@ def _exit_speed(damping, law: str) -> float:
 
     def released(t, y):
         return (y[0] * (1.0 + damping * y[1]) if law == "hc" else y[0] + 2.0 * damping * y[1]) if y[1] < 0 else 1.0
+
     released.terminal, released.direction = True, -1
-    out = solve_ivp(rhs, (0.0, 100.0), [0.0, 1.0], method="DOP853", events=released, rtol=1e-11, atol=1e-13,
-                    max_step=0.05)
+    out = solve_ivp(
+        rhs, (0.0, 100.0), [0.0, 1.0], method="DOP853", events=released, rtol=1e-11, atol=1e-13, max_step=0.05
+    )
     return -float(out.y[1, -1])
 
 
@@ -122,12 +127,21 @@ def _dissipation(scene) -> dict:
     """The pair's stiffness per contact, Hunt & Crossley d and relaxation time, with how they were derived."""
     if POSES[scene.kind] is SPHERE:
         speed = math.sqrt(2.0 * scene.g * scene.h0)
-        return {"k": scene.mass * OMEGA_C ** 2, "d": hunt_crossley_for(scene.e, speed),
-                "tau": relaxation_for(scene.e, OMEGA_C),
-                "derived": (f"e = {scene.e:g}: Hunt & Crossley d for e at the first impact speed "
-                            f"sqrt(2 g h0) = {speed:.6g} m/s; relaxation time for e at any speed (zeta = omega_c tau / 2)")}
-    return {"k": scene.mass * OMEGA_C ** 2 / 4.0, "d": 2.0 * OMEGA_C / scene.g, "tau": 2.0 / OMEGA_C,
-            "derived": "critically damped about the resting load: d = 2 omega_c / g, tau = 2 / omega_c"}
+        return {
+            "k": scene.mass * OMEGA_C**2,
+            "d": hunt_crossley_for(scene.e, speed),
+            "tau": relaxation_for(scene.e, OMEGA_C),
+            "derived": (
+                f"e = {scene.e:g}: Hunt & Crossley d for e at the first impact speed "
+                f"sqrt(2 g h0) = {speed:.6g} m/s; relaxation time for e at any speed (zeta = omega_c tau / 2)"
+            ),
+        }
+    return {
+        "k": scene.mass * OMEGA_C**2 / 4.0,
+        "d": 2.0 * OMEGA_C / scene.g,
+        "tau": 2.0 / OMEGA_C,
+        "derived": "critically damped about the resting load: d = 2 omega_c / g, tau = 2 / omega_c",
+    }
 
 
 class _NoDeformableNote(logging.Filter):
@@ -151,11 +165,22 @@ class _Pose:
     def __init__(self, mode: ContactMode, scene, dt: float, defaults: bool = False):
         import_engine("pydrake")
         _quiet_drake()
-        from pydrake.geometry import (AddContactMaterial, Box, CollisionFilterDeclaration, GeometrySet, HalfSpace,
-                                      ProximityProperties, Sphere)
+        from pydrake.geometry import (
+            AddContactMaterial,
+            Box,
+            CollisionFilterDeclaration,
+            GeometrySet,
+            HalfSpace,
+            ProximityProperties,
+            Sphere,
+        )
         from pydrake.math import RigidTransform
-        from pydrake.multibody.plant import (AddMultibodyPlantSceneGraph, ContactModel, CoulombFriction,
-                                             DiscreteContactApproximation)
+        from pydrake.multibody.plant import (
+            AddMultibodyPlantSceneGraph,
+            ContactModel,
+            CoulombFriction,
+            DiscreteContactApproximation,
+        )
         from pydrake.multibody.tree import PrismaticJoint, SpatialInertia
         from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
         from pydrake.systems.framework import DiagramBuilder
@@ -167,7 +192,9 @@ class _Pose:
         plant.set_contact_model(ContactModel.kPoint)
         plant.set_stiction_tolerance(STICTION_TOLERANCE)
         if self.discrete:
-            plant.set_discrete_contact_approximation(getattr(DiscreteContactApproximation, APPROXIMATIONS[approximation]))
+            plant.set_discrete_contact_approximation(
+                getattr(DiscreteContactApproximation, APPROXIMATIONS[approximation])
+            )
         c = _dissipation(scene)
         self.sphere = sphere = POSES[scene.kind] is SPHERE
         # The ball's contact is frictionless (it only moves along z); a box's the scene's mu, or 1 where it has none.
@@ -178,13 +205,15 @@ class _Pose:
             if defaults:  # Drake's defaults: nothing but the friction, which Drake requires
                 AddContactMaterial(friction=CoulombFriction(mu, mu), properties=p)
             else:
-                AddContactMaterial(dissipation=c["d"], point_stiffness=2.0 * c["k"], friction=CoulombFriction(mu, mu),
-                                   properties=p)
+                AddContactMaterial(
+                    dissipation=c["d"], point_stiffness=2.0 * c["k"], friction=CoulombFriction(mu, mu), properties=p
+                )
                 p.AddProperty("material", "relaxation_time", c["tau"] / 2.0)
             return p
 
-        ground = plant.RegisterCollisionGeometry(plant.world_body(), HalfSpace.MakePose([0.0, 0.0, 1.0], [0.0, 0.0, 0.0]),
-                                                 HalfSpace(), "ground", material())
+        ground = plant.RegisterCollisionGeometry(
+            plant.world_body(), HalfSpace.MakePose([0.0, 0.0, 1.0], [0.0, 0.0, 0.0]), HalfSpace(), "ground", material()
+        )
         self.bodies = []
         if sphere:
             body = plant.AddRigidBody("ball", SpatialInertia.SolidSphereWithMass(scene.mass, scene.radius))
@@ -199,15 +228,24 @@ class _Pose:
                 body = plant.AddRigidBody(f"box{i}", SpatialInertia.SolidBoxWithMass(scene.mass, *(3 * [2.0 * half])))
                 for j, (sx, sy) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1))):
                     plant.RegisterCollisionGeometry(
-                        body, RigidTransform([sx * (half - r), sy * (half - r), -(half - r)]), Sphere(r),
-                        f"box{i}_corner{j}", material())
+                        body,
+                        RigidTransform([sx * (half - r), sy * (half - r), -(half - r)]),
+                        Sphere(r),
+                        f"box{i}_corner{j}",
+                        material(),
+                    )
                 if i < scene.bodies - 1:
-                    faces.append(plant.RegisterCollisionGeometry(body, RigidTransform(), Box(*(3 * [2.0 * half])),
-                                                                 f"box{i}", material()))
+                    faces.append(
+                        plant.RegisterCollisionGeometry(
+                            body, RigidTransform(), Box(*(3 * [2.0 * half])), f"box{i}", material()
+                        )
+                    )
                 self.bodies.append(body)
-            model = (f"{scene.bodies} free solid box(es), each touching by four spheres of radius {r:g} m at its bottom "
-                     "corners; a box that carries another has its Box for the corners above to touch; box-box and "
-                     "box-plane pairs filtered out")
+            model = (
+                f"{scene.bodies} free solid box(es), each touching by four spheres of radius {r:g} m at its bottom "
+                "corners; a box that carries another has its Box for the corners above to touch; box-box and "
+                "box-plane pairs filtered out"
+            )
         plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -scene.g])
         plant.Finalize()
         if len(faces if not sphere else []) > 1:
@@ -225,35 +263,57 @@ class _Pose:
             if any(any(u) for u in velocities):
                 v = np.zeros(plant.num_velocities())
                 for i, u in enumerate(velocities):
-                    v[6 * i + 3:6 * i + 6] = u  # a free body's velocities: angular, then translational
+                    v[6 * i + 3 : 6 * i + 6] = u  # a free body's velocities: angular, then translational
                 plant.SetVelocities(context, v)
         sim.set_target_realtime_rate(0.0)
-        self.settings = {"plant": (f"discrete, time_step {dt!r}, {APPROXIMATIONS[approximation]}" if self.discrete
-                                   else "continuous (time_step 0)"),
-                         "contact_model": "kPoint (Drake's default: hydroelastic with point fallback)",
-                         "model": model, "gravity": [0.0, 0.0, -scene.g]}
+        self.settings = {
+            "plant": (
+                f"discrete, time_step {dt!r}, {APPROXIMATIONS[approximation]}"
+                if self.discrete
+                else "continuous (time_step 0)"
+            ),
+            "contact_model": "kPoint (Drake's default: hydroelastic with point fallback)",
+            "model": model,
+            "gravity": [0.0, 0.0, -scene.g],
+        }
         if defaults:
             self.settings["contact material"] = "Drake's defaults (DefaultProximityProperties)"
         else:
-            self.settings.update({
-                "contact omega_c (rad/s)": OMEGA_C,
-                "point_contact_stiffness (pair, N/m)": c["k"], "hunt_crossley_dissipation (s/m)": c["d"],
-                "relaxation_time (pair, s)": c["tau"],
-                "used": ("relaxation_time (Kelvin-Voigt)" if approximation == "sap"
-                         else "hunt_crossley_dissipation (Hunt & Crossley)"),
-                "dissipation derived": c["derived"],
-                "per geometry": "point_stiffness 2 k, relaxation_time tau / 2, dissipation d (Drake combines "
-                                "stiffness in series, relaxation times by sum)"})
-        self.settings.update({"friction": f"CoulombFriction({mu:g}, {mu:g}) on every geometry (combined: {mu:g})",
-                              "stiction_tolerance (m/s)": STICTION_TOLERANCE})
+            self.settings.update(
+                {
+                    "contact omega_c (rad/s)": OMEGA_C,
+                    "point_contact_stiffness (pair, N/m)": c["k"],
+                    "hunt_crossley_dissipation (s/m)": c["d"],
+                    "relaxation_time (pair, s)": c["tau"],
+                    "used": (
+                        "relaxation_time (Kelvin-Voigt)"
+                        if approximation == "sap"
+                        else "hunt_crossley_dissipation (Hunt & Crossley)"
+                    ),
+                    "dissipation derived": c["derived"],
+                    "per geometry": "point_stiffness 2 k, relaxation_time tau / 2, dissipation d (Drake combines "
+                    "stiffness in series, relaxation times by sum)",
+                }
+            )
+        self.settings.update(
+            {
+                "friction": f"CoulombFriction({mu:g}, {mu:g}) on every geometry (combined: {mu:g})",
+                "stiction_tolerance (m/s)": STICTION_TOLERANCE,
+            }
+        )
         if approximation == "sap":
             self.settings["sap_near_rigid_threshold"] = float(plant.get_sap_near_rigid_threshold())
         if not self.discrete:
             integrator = ResetIntegratorFromFlags(sim, INTEGRATOR, dt)
             integrator.set_fixed_step_mode(True)
             integrator.set_maximum_step_size(dt)
-            self.settings.update({"integrator": INTEGRATOR, "fixed_step_mode": bool(integrator.get_fixed_step_mode()),
-                                  "maximum_step_size": float(integrator.get_maximum_step_size())})
+            self.settings.update(
+                {
+                    "integrator": INTEGRATOR,
+                    "fixed_step_mode": bool(integrator.get_fixed_step_mode()),
+                    "maximum_step_size": float(integrator.get_maximum_step_size()),
+                }
+            )
         sim.Initialize()
         self.n, self.time = 0, 0.0
         self.nq = plant.num_positions()
@@ -270,8 +330,8 @@ class _Pose:
             return np.array([[0.0, 0.0, q[0]]]), np.array([[0.0, 0.0, v[0]]])
         nb = len(self.bodies)
         # Free bodies in the order added: (qw, qx, qy, qz, x, y, z) each, velocities (w, v) each.
-        c = np.array([q[7 * i + 4:7 * i + 7] for i in range(nb)])
-        u = np.array([v[6 * i + 3:6 * i + 6] for i in range(nb)])
+        c = np.array([q[7 * i + 4 : 7 * i + 7] for i in range(nb)])
+        u = np.array([v[6 * i + 3 : 6 * i + 6] for i in range(nb)])
         return c, u
 
     def end_time(self, steps: int) -> float:
@@ -300,19 +360,38 @@ def run(mode: ContactMode, scene, dt: float, defaults: bool = False):
         end = again.end_time(steps)
         return timed_loop(lambda: again.sim.AdvanceTo(end), 1)
 
-    return record_loop(mode, scene, dt, step, lambda: pose.read(), pose.settings,
-                       loop="Simulator.AdvanceTo(end), one call", time_again=time_again)
+    return record_loop(
+        mode,
+        scene,
+        dt,
+        step,
+        lambda: pose.read(),
+        pose.settings,
+        loop="Simulator.AdvanceTo(end), one call",
+        time_again=time_again,
+    )
 
 
-_DOC = {"tamsi": "Drake's discrete plant under TAMSI; Hunt & Crossley point contact, d derived from e",
-        "sap": "Drake's discrete plant under SAP; Kelvin-Voigt point contact, relaxation time derived from e",
-        "continuous": "Drake's continuous plant, runge_kutta3 at a fixed step; Hunt & Crossley point contact, d from e"}
+_DOC = {
+    "tamsi": "Drake's discrete plant under TAMSI; Hunt & Crossley point contact, d derived from e",
+    "sap": "Drake's discrete plant under SAP; Kelvin-Voigt point contact, relaxation time derived from e",
+    "continuous": "Drake's continuous plant, runge_kutta3 at a fixed step; Hunt & Crossley point contact, d from e",
+}
 
 MODES = {
     f"drake:{name}": ContactMode(
-        "drake", name, "drake", run, poses=POSES,
-        settings={"plant": name, "contact_model": "kPoint",
-                  **({"integrator": INTEGRATOR, "fixed_step_mode": True} if name == "continuous" else {})},
-        doc=_DOC[name], module="pydrake")
+        "drake",
+        name,
+        "drake",
+        run,
+        poses=POSES,
+        settings={
+            "plant": name,
+            "contact_model": "kPoint",
+            **({"integrator": INTEGRATOR, "fixed_step_mode": True} if name == "continuous" else {}),
+        },
+        doc=_DOC[name],
+        module="pydrake",
+    )
     for name in ("tamsi", "sap", "continuous")
 }

@@ -23,6 +23,7 @@
   cross-engine comparison (``anatomy``).
 * **A file Drake refuses**: ``ValueError`` with Drake's own reason in one line.
 """
+
 from __future__ import annotations
 
 import collections
@@ -115,11 +116,19 @@ def build_plant(scene, time_step: float):
     if m is None:
         gravity = [float(g) for g in scene.gravity_vector()]
     else:
-        gravity = ([0.0, 0.0, 0.0] if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
-                   else [float(g) for g in m.opt.gravity])
+        gravity = (
+            [0.0, 0.0, 0.0]
+            if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+            else [float(g) for g in m.opt.gravity]
+        )
     plant.mutable_gravity_field().set_gravity_vector(gravity)
-    facts = {"ignored": ignored_lines(said), "welded_roots": welded, "off": sorted(off), "fuse": scene.file.kind == "URDF",
-             "kept": {f: scene.found[f] for f in scene.found if f not in off}}
+    facts = {
+        "ignored": ignored_lines(said),
+        "welded_roots": welded,
+        "off": sorted(off),
+        "fuse": scene.file.kind == "URDF",
+        "kept": {f: scene.found[f] for f in scene.found if f not in off},
+    }
     return plant, gravity, facts
 
 
@@ -128,21 +137,28 @@ def coordinates(plant, names) -> np.ndarray:
     ValueError where Drake's model has other coordinates than the scene's."""
     missing = [n for n in names if not plant.HasJointNamed(n)]
     if missing:
-        raise ValueError(f"drake's model of the file has no joint named {missing[0]!r} "
-                         f"({plant.num_joints()} joints, the scene's {len(names)} coordinates)")
+        raise ValueError(
+            f"drake's model of the file has no joint named {missing[0]!r} "
+            f"({plant.num_joints()} joints, the scene's {len(names)} coordinates)"
+        )
     if plant.num_positions() != len(names) or plant.num_velocities() != len(names):
-        raise ValueError(f"drake's model of the file has {plant.num_positions()} positions and "
-                         f"{plant.num_velocities()} velocities, the scene's {len(names)} coordinates (a floating "
-                         "body Drake's parser left free)")
+        raise ValueError(
+            f"drake's model of the file has {plant.num_positions()} positions and "
+            f"{plant.num_velocities()} velocities, the scene's {len(names)} coordinates (a floating "
+            "body Drake's parser left free)"
+        )
     return np.array([plant.GetJointByName(n).position_start() for n in names], dtype=int)
 
 
 def settings(plant, facts: dict) -> dict:
     """What the run records of the file's plant (plain JSON values)."""
-    return {"parsed": "pydrake.multibody.parsing.Parser.AddModels, no SceneGraph (no geometry, no contact)",
-            "welded_roots": facts["welded_roots"], "switched_off": facts["off"],
-            "num_positions": int(plant.num_positions()),
-            "parser_ignored": [line.split("Drake's parser: ", 1)[1] for line in facts["ignored"]]}
+    return {
+        "parsed": "pydrake.multibody.parsing.Parser.AddModels, no SceneGraph (no geometry, no contact)",
+        "welded_roots": facts["welded_roots"],
+        "switched_off": facts["off"],
+        "num_positions": int(plant.num_positions()),
+        "parser_ignored": [line.split("Drake's parser: ", 1)[1] for line in facts["ignored"]],
+    }
 
 
 def _kind(joint) -> str | None:
@@ -167,10 +183,14 @@ def anatomy(plant, context, index, names, facts: dict, discrete: bool) -> dict:
         if b in seen:
             continue
         # MuJoCo fuses a URDF's fixed links into their parent and keeps an MJCF's welded bodies apart.
-        cluster = plant.GetBodiesWeldedTo(plant.get_body(BodyIndex(b))) if facts["fuse"] else [plant.get_body(BodyIndex(b))]
+        cluster = (
+            plant.GetBodiesWeldedTo(plant.get_body(BodyIndex(b))) if facts["fuse"] else [plant.get_body(BodyIndex(b))]
+        )
         seen |= {int(x.index()) for x in cluster}
-        root = next((x for x in cluster if int(x.index()) in inboard and inboard[int(x.index())].num_velocities() > 0),
-                    cluster[0])
+        root = next(
+            (x for x in cluster if int(x.index()) in inboard and inboard[int(x.index())].num_velocities() > 0),
+            cluster[0],
+        )
         rotates, at = False, root
         while int(at.index()) in inboard and not rotates:
             joint = inboard[int(at.index())]
@@ -178,8 +198,14 @@ def anatomy(plant, context, index, names, facts: dict, discrete: bool) -> dict:
             at = joint.parent_body()
         spatial = plant.CalcSpatialInertia(context, root.body_frame(), [x.index() for x in cluster])
         mass = float(spatial.get_mass())
-        inertia = (sorted(float(x) for x in spatial.Shift(spatial.get_com()).CalcRotationalInertia()
-                          .CalcPrincipalMomentsOfInertia()) if mass > 0 else [0.0, 0.0, 0.0])
+        inertia = (
+            sorted(
+                float(x)
+                for x in spatial.Shift(spatial.get_com()).CalcRotationalInertia().CalcPrincipalMomentsOfInertia()
+            )
+            if mass > 0
+            else [0.0, 0.0, 0.0]
+        )
         bodies[root.name()] = {"mass": mass, "inertia": inertia, "rotates": rotates}
     springs = {}
     for i in range(plant.num_force_elements()):
@@ -200,24 +226,37 @@ def anatomy(plant, context, index, names, facts: dict, discrete: bool) -> dict:
         axes.append(axis)
         lo, hi = float(joint.position_lower_limits()[0]), float(joint.position_upper_limits()[0])
         k, ref = springs.get(name, (0.0, 0.0))
-        joints[name] = {"type": _kind(joint) or joint.type_name(), "axis": axis, "stiffness": k, "spring_ref": ref,
-                        "damping": float(joint.GetDampingVector(context)[0]), "armature": reflected[name],
-                        "frictionloss": 0.0,
-                        "limits": [lo, hi] if discrete and (math.isfinite(lo) or math.isfinite(hi)) else None}
+        joints[name] = {
+            "type": _kind(joint) or joint.type_name(),
+            "axis": axis,
+            "stiffness": k,
+            "spring_ref": ref,
+            "damping": float(joint.GetDampingVector(context)[0]),
+            "armature": reflected[name],
+            "frictionloss": 0.0,
+            "limits": [lo, hi] if discrete and (math.isfinite(lo) or math.isfinite(hi)) else None,
+        }
     full = np.asarray(plant.CalcMassMatrix(context))
     notes = list(facts["ignored"])
     kept = facts["kept"]
-    for feature, why in (("contact", "the plant has no geometry (no SceneGraph): nothing collides"),
-                         ("frictionloss", "Drake has no joint friction loss"),
-                         ("actuators", "the actuators' input is zero: no force (MuJoCo's act at ctrl 0, bias terms "
-                                       "included)"),
-                         ("equality", "Drake applies equality constraints only in a discrete SAP plant"),
-                         ("limits", "the continuous plant enforces no joint limits" if not discrete else None)):
+    for feature, why in (
+        ("contact", "the plant has no geometry (no SceneGraph): nothing collides"),
+        ("frictionloss", "Drake has no joint friction loss"),
+        ("actuators", "the actuators' input is zero: no force (MuJoCo's act at ctrl 0, bias terms included)"),
+        ("equality", "Drake applies equality constraints only in a discrete SAP plant"),
+        ("limits", "the continuous plant enforces no joint limits" if not discrete else None),
+    ):
         if feature in kept and why:
             notes.append(f"drake: the model keeps {feature} ({kept[feature]}) and {why}")
-    return {"engine": "drake", "total_mass": float(sum(v["mass"] for v in bodies.values())),
-            "mass_matrix": full[np.ix_(index, index)].tolist(), "joint_axes": axes, "bodies": bodies,
-            "joints": joints, "notes": notes}
+    return {
+        "engine": "drake",
+        "total_mass": float(sum(v["mass"] for v in bodies.values())),
+        "mass_matrix": full[np.ix_(index, index)].tolist(),
+        "joint_axes": axes,
+        "bodies": bodies,
+        "joints": joints,
+        "notes": notes,
+    }
 
 
 def _force_index(i: int):

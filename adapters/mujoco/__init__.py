@@ -27,12 +27,13 @@ M)`` with ``d.qM`` up to 3.3, ``(m, d, dst)`` after), the ``rollout.Rollout`` cl
 disable flags ``mjDSBL_AUTORESET`` and ``mjDSBL_EULERDAMP`` (where autoreset cannot be disabled
 a bad-state warning still ends the run at its step), and ``mjINT_DISCRETE`` for the discrete mode.
 """
+
 from __future__ import annotations
 
 import functools
 import inspect
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -50,8 +51,7 @@ from . import bench
 VERSIONS = EngineVersions(low="2.3.7", below="5", tested=("2.3.7", "3.0.0", "3.3.7", "4.0.0"))
 
 #: Our mode name -> what it selects in MuJoCo: the integrator, by its name in MJCF.
-MODES = {"euler": "Euler", "rk4": "RK4", "implicit": "implicit", "implicitfast": "implicitfast",
-               "discrete": "discrete"}
+MODES = {"euler": "Euler", "rk4": "RK4", "implicit": "implicit", "implicitfast": "implicitfast", "discrete": "discrete"}
 
 UNSUPPORTED = {
     "kepler": "MuJoCo has no central 1/r^2 force (an mjcb_passive callback would be our force, not MuJoCo's)",
@@ -68,16 +68,19 @@ ROLLOUT_SPAN_VALUES = 1 << 20
 #: ``opt.tolerance`` on the chain (see ``_Model``); other scenes keep MuJoCo's default.
 CHAIN_TOLERANCE = 1e-14
 
-_OPTION = '<option timestep="{dt!r}" integrator="{integrator}" gravity="0 0 {gz!r}">' \
-          '<flag contact="disable" constraint="disable"{gravity_flag}/></option>'
+_OPTION = (
+    '<option timestep="{dt!r}" integrator="{integrator}" gravity="0 0 {gz!r}">'
+    '<flag contact="disable" constraint="disable"{gravity_flag}/></option>'
+)
 
 _SLIDES = """<mujoco>{option}<worldbody><body name="mass">
   <inertial pos="0 0 0" mass="{m!r}" diaginertia="1 1 1"/>
   {joints}
 </body></worldbody></mujoco>"""
 
-_SLIDE = ('<joint name="{name}" type="slide" axis="{axis}" stiffness="{k!r}" springref="0" '
-          'damping="{c!r}" armature="0"/>')
+_SLIDE = (
+    '<joint name="{name}" type="slide" axis="{axis}" stiffness="{k!r}" springref="0" damping="{c!r}" armature="0"/>'
+)
 
 # MuJoCo rejects a principal inertia below 1e-15 at compile time; it is zeroed after
 # compiling so that the joint mass is exactly m L^2 (a point mass).
@@ -89,23 +92,29 @@ _PENDULUM = """<mujoco>{option}<worldbody><body name="bob">
 
 # The chain: one world-child body per mass (M diagonal, exactly m), the wall springs as the end
 # joints' stiffness, the springs between neighbours as fixed tendons of length q_{i+1} - q_i.
-_CHAIN_BODY = ('<body name="m{i}"><inertial pos="0 0 0" mass="{m!r}" diaginertia="1 1 1"/>'
-               '<joint name="x{i}" type="slide" axis="1 0 0" stiffness="{k!r}" springref="0" damping="{c!r}" '
-               'armature="0"/></body>')
-_CHAIN_TENDON = ('<fixed name="s{i}" stiffness="{k!r}" springlength="0" damping="{c!r}">'
-                 '<joint joint="x{i}" coef="-1"/><joint joint="x{j}" coef="1"/></fixed>')
+_CHAIN_BODY = (
+    '<body name="m{i}"><inertial pos="0 0 0" mass="{m!r}" diaginertia="1 1 1"/>'
+    '<joint name="x{i}" type="slide" axis="1 0 0" stiffness="{k!r}" springref="0" damping="{c!r}" '
+    'armature="0"/></body>'
+)
+_CHAIN_TENDON = (
+    '<fixed name="s{i}" stiffness="{k!r}" springlength="0" damping="{c!r}">'
+    '<joint joint="x{i}" coef="-1"/><joint joint="x{j}" coef="1"/></fixed>'
+)
 _CHAIN = "<mujoco>{option}<worldbody>{bodies}</worldbody><tendon>{tendons}</tendon></mujoco>"
 
 # The rope: link j (1-based) hinges at mass j-1 (the origin for j = 1) about -y, so that a
 # positive angle swings the link from hanging straight down towards +x, and carries mass j at
 # its end as a point (inertia zeroed after compiling, as for the pendulum). In the reference
 # configuration every link hangs down; qpos are the angles of each link relative to its parent.
-_ROPE_LINK = ('<body name="link{j}" pos="0 0 {z!r}">'
-              '<joint name="phi{j}" type="hinge" axis="0 -1 0" pos="0 0 0" stiffness="0" damping="0" armature="0"/>'
-              '<inertial pos="0 0 {zl!r}" mass="{m!r}" diaginertia="1e-15 1e-15 1e-15"/>')
+_ROPE_LINK = (
+    '<body name="link{j}" pos="0 0 {z!r}">'
+    '<joint name="phi{j}" type="hinge" axis="0 -1 0" pos="0 0 0" stiffness="0" damping="0" armature="0"/>'
+    '<inertial pos="0 0 {zl!r}" mass="{m!r}" diaginertia="1e-15 1e-15 1e-15"/>'
+)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _rollout_class(mj):
     """``mujoco.rollout.Rollout`` where it exists with the arguments ``_Model._roll`` passes
     (``control_spec``, ``initial_warmstart``, ``skip_checks``), else None: older releases have only
@@ -127,8 +136,10 @@ def _rollout_class(mj):
 
 def has_mode(mode: str) -> Callable[[object], bool]:
     """Whether the imported MuJoCo has the mode's integrator in ``mjtIntegrator``."""
+
     def present(mj) -> bool:
         return hasattr(mj.mjtIntegrator, f"mjINT_{MODES[mode].upper()}")
+
     return present
 
 
@@ -154,8 +165,7 @@ def _spring_xml(integrator: str, scene: Scene, dt: float) -> str:
 def _projectile_xml(integrator: str, scene: Scene, dt: float) -> str:
     p = scene.values
     # The scene's (x, y) with y up are MuJoCo's x and z (gravity along -z); drag is joint damping.
-    joints = "\n  ".join(_SLIDE.format(name=n, axis=a, k=0.0, c=p["c"])
-                         for n, a in (("x", "1 0 0"), ("y", "0 0 1")))
+    joints = "\n  ".join(_SLIDE.format(name=n, axis=a, k=0.0, c=p["c"]) for n, a in (("x", "1 0 0"), ("y", "0 0 1")))
     return _SLIDES.format(option=_option(integrator, dt, p["g"]), m=p["m"], joints=joints)
 
 
@@ -169,8 +179,10 @@ def _chain_xml(integrator: str, scene: Scene, dt: float) -> str:
     # The dashpots sit where the springs do: the wall ones as the end joints' damping, the
     # others as the tendons' damping.
     n, k, c = p["N"], p["k"], p["c"]
-    bodies = "".join(_CHAIN_BODY.format(i=i, m=p["m"], k=k * ((i == 0) + (i == n - 1)),
-                                        c=c * ((i == 0) + (i == n - 1))) for i in range(n))
+    bodies = "".join(
+        _CHAIN_BODY.format(i=i, m=p["m"], k=k * ((i == 0) + (i == n - 1)), c=c * ((i == 0) + (i == n - 1)))
+        for i in range(n)
+    )
     tendons = "".join(_CHAIN_TENDON.format(i=i, j=i + 1, k=k, c=c) for i in range(n - 1))
     return _CHAIN.format(option=_option(integrator, dt, None), bodies=bodies, tendons=tendons)
 
@@ -186,11 +198,15 @@ def _rope_xml(integrator: str, scene: Scene, dt: float) -> str:
 # axes (qpos = the mass's position, exactly), a site at its origin; the pinned masses as world
 # sites at their start; every spring a spatial tendon between two sites (stiffness k, spring
 # length = the rest length, no damping). The planar net's (x, y), y up, are MuJoCo's x and z.
-_CLOTH_BODY = ('<body name="n{i}_{j}"><inertial pos="0 0 0" mass="{m!r}" diaginertia="1 1 1"/>{joints}'
-               '<site name="s{i}_{j}" pos="0 0 0"/></body>')
-_CLOTH_JOINT = ('<joint name="{c}{i}_{j}" type="slide" axis="{axis}" stiffness="0" damping="0" armature="0"/>')
-_CLOTH_TENDON = ('<spatial name="t{k}" stiffness="{stiff!r}" springlength="{rest!r}" damping="0">'
-                 '<site site="s{a}"/><site site="s{b}"/></spatial>')
+_CLOTH_BODY = (
+    '<body name="n{i}_{j}"><inertial pos="0 0 0" mass="{m!r}" diaginertia="1 1 1"/>{joints}'
+    '<site name="s{i}_{j}" pos="0 0 0"/></body>'
+)
+_CLOTH_JOINT = '<joint name="{c}{i}_{j}" type="slide" axis="{axis}" stiffness="0" damping="0" armature="0"/>'
+_CLOTH_TENDON = (
+    '<spatial name="t{k}" stiffness="{stiff!r}" springlength="{rest!r}" damping="0">'
+    '<site site="s{a}"/><site site="s{b}"/></spatial>'
+)
 
 
 def _cloth_xml(integrator: str, scene: Scene, dt: float) -> str:
@@ -210,11 +226,16 @@ def _cloth_xml(integrator: str, scene: Scene, dt: float) -> str:
                 pos = f"{x[0]!r} {x[1]!r} {x[2]!r}" if d == 3 else f"{x[0]!r} 0 {x[1]!r}"
                 parts.append(f'<site name="s{i}_{j}" pos="{pos}"/>')
     a, b, k, rest = scene.springs()
-    tendons = "".join(_CLOTH_TENDON.format(k=t, stiff=float(k[t]), rest=float(rest[t]),
-                                           a=f"{a[t] // m}_{a[t] % m}", b=f"{b[t] // m}_{b[t] % m}")
-                      for t in range(len(a)))
-    return (f"<mujoco>{_option(integrator, dt, scene.values['g'])}<worldbody>{''.join(parts)}</worldbody>"
-            f"<tendon>{tendons}</tendon></mujoco>")
+    tendons = "".join(
+        _CLOTH_TENDON.format(
+            k=t, stiff=float(k[t]), rest=float(rest[t]), a=f"{a[t] // m}_{a[t] % m}", b=f"{b[t] // m}_{b[t] % m}"
+        )
+        for t in range(len(a))
+    )
+    return (
+        f"<mujoco>{_option(integrator, dt, scene.values['g'])}<worldbody>{''.join(parts)}</worldbody>"
+        f"<tendon>{tendons}</tendon></mujoco>"
+    )
 
 
 def _joint_coordinates(scene: Scene, q: np.ndarray, v: np.ndarray):
@@ -231,15 +252,19 @@ def _no_settings(m) -> dict:
 
 
 def _tendon_settings(m) -> dict:
-    return {"tendon_stiffness": [float(x) for x in m.tendon_stiffness],
-            "tendon_springlength": [float(x) for x in m.tendon_lengthspring[:, 0]],
-            "tendon_damping": [float(x) for x in m.tendon_damping]}
+    return {
+        "tendon_stiffness": [float(x) for x in m.tendon_stiffness],
+        "tendon_springlength": [float(x) for x in m.tendon_lengthspring[:, 0]],
+        "tendon_damping": [float(x) for x in m.tendon_damping],
+    }
 
 
 def _link_settings(m) -> dict:
-    return {"body_mass": [float(x) for x in m.body_mass[1:]],
-            "body_inertia": [float(x) for x in m.body_inertia[1:].ravel()],
-            "link_lengths": [float(-z) for z in m.body_ipos[1:, 2]]}
+    return {
+        "body_mass": [float(x) for x in m.body_mass[1:]],
+        "body_inertia": [float(x) for x in m.body_inertia[1:].ravel()],
+        "link_lengths": [float(-z) for z in m.body_ipos[1:, 2]],
+    }
 
 
 @dataclass(frozen=True)
@@ -292,8 +317,11 @@ class _Model(EngineModel):
         self._counts = self._bad_counts()
         mujoco.mj_forward(m, d)
         full = full_mass_matrix(mujoco, m, d)
-        disabled = [name for name, bit in mujoco.mjtDisableBit.__members__.items()
-                    if name != "mjNDISABLE" and m.opt.disableflags & int(bit)]
+        disabled = [
+            name
+            for name, bit in mujoco.mjtDisableBit.__members__.items()
+            if name != "mjNDISABLE" and m.opt.disableflags & int(bit)
+        ]
         self.settings = {
             "integrator": mujoco.mjtIntegrator(m.opt.integrator).name,
             "timestep": float(m.opt.timestep),
@@ -364,7 +392,7 @@ class _Model(EngineModel):
             # The span's output rows converted at once (a pose's ``from_joints`` maps rows of
             # (qpos, qvel) row by row: the same bits as one row at a time, in one numpy call).
             rows = rows[(marks[i:j] - at - 1).astype(int)]
-            q, v = self._scene_state(rows[:, 1:1 + nq], rows[:, 1 + nq:1 + nq + nv])
+            q, v = self._scene_state(rows[:, 1 : 1 + nq], rows[:, 1 + nq : 1 + nq + nv])
             out.extend(zip(q, v))
             at += n
             i = j
@@ -378,8 +406,16 @@ class _Model(EngineModel):
         mj.mj_getState(m, d, state0[0], self._full)
         warmstart = d.qacc_warmstart.copy()[None, :]
         states = np.empty((1, n, self._nstate))
-        self._rollout.rollout([m], [d], state0, nstep=n, initial_warmstart=warmstart, state=states,
-                              control_spec=int(mj.mjtState.mjSTATE_CTRL), skip_checks=True)
+        self._rollout.rollout(
+            [m],
+            [d],
+            state0,
+            nstep=n,
+            initial_warmstart=warmstart,
+            state=states,
+            control_spec=int(mj.mjtState.mjSTATE_CTRL),
+            skip_checks=True,
+        )
         if any(w.number for w in d.warning):
             return None
         return states[0]
@@ -401,11 +437,16 @@ class _Model(EngineModel):
             name = mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b) or f"body{b}"
             chain, rotates = b, False
             while chain > 0 and not rotates:  # a joint that turns it, on the path to the world
-                rotates = any(int(m.jnt_type[j]) in turning
-                              for j in range(m.body_jntadr[chain], m.body_jntadr[chain] + m.body_jntnum[chain]))
+                rotates = any(
+                    int(m.jnt_type[j]) in turning
+                    for j in range(m.body_jntadr[chain], m.body_jntadr[chain] + m.body_jntnum[chain])
+                )
                 chain = int(m.body_parentid[chain])
-            bodies[name] = {"mass": float(m.body_mass[b]), "inertia": sorted(float(x) for x in m.body_inertia[b]),
-                            "rotates": rotates}
+            bodies[name] = {
+                "mass": float(m.body_mass[b]),
+                "inertia": sorted(float(x) for x in m.body_inertia[b]),
+                "rotates": rotates,
+            }
         joints, axes = {}, []
         kinds = {int(mj.mjtJoint.mjJNT_HINGE): "hinge", int(mj.mjtJoint.mjJNT_SLIDE): "slide"}
         for j in range(m.njnt):
@@ -416,16 +457,30 @@ class _Model(EngineModel):
             name = mj.mj_id2name(m, mj.mjtObj.mjOBJ_JOINT, j) or f"joint{j}"
             axes.append(d.xaxis[j].tolist())
             joints[name] = {
-                "type": kind, "axis": d.xaxis[j].tolist(), "stiffness": float(m.jnt_stiffness[j]),
-                "spring_ref": float(m.qpos_spring[m.jnt_qposadr[j]]), "damping": float(m.dof_damping[dof]),
-                "armature": float(m.dof_armature[dof]), "frictionloss": float(m.dof_frictionloss[dof]),
-                "limits": [float(x) for x in m.jnt_range[j]] if limits_on and m.jnt_limited[j] else None}
-        return {"engine": "mujoco", "total_mass": float(np.sum(m.body_mass)), "mass_matrix": full.tolist(),
-                "joint_axes": axes, "bodies": bodies, "joints": joints, "notes": []}
+                "type": kind,
+                "axis": d.xaxis[j].tolist(),
+                "stiffness": float(m.jnt_stiffness[j]),
+                "spring_ref": float(m.qpos_spring[m.jnt_qposadr[j]]),
+                "damping": float(m.dof_damping[dof]),
+                "armature": float(m.dof_armature[dof]),
+                "frictionloss": float(m.dof_frictionloss[dof]),
+                "limits": [float(x) for x in m.jnt_range[j]] if limits_on and m.jnt_limited[j] else None,
+            }
+        return {
+            "engine": "mujoco",
+            "total_mass": float(np.sum(m.body_mass)),
+            "mass_matrix": full.tolist(),
+            "joint_axes": axes,
+            "bodies": bodies,
+            "joints": joints,
+            "notes": [],
+        }
 
     def evaluations(self):
-        return (int(self.d.timer[self._forward].number) - self._forward_at_build,
-                "MuJoCo forward passes (d.timer[mjTIMER_FORWARD])")
+        return (
+            int(self.d.timer[self._forward].number) - self._forward_at_build,
+            "MuJoCo forward passes (d.timer[mjTIMER_FORWARD])",
+        )
 
     def trouble(self) -> str | None:
         counts = self._bad_counts()
@@ -471,9 +526,15 @@ def _model_file(mujoco, integrator: str, scene: Scene, dt: float):
 
 
 def _model_settings(m) -> dict:
-    return {"nq": int(m.nq), "nv": int(m.nv), "nu": int(m.nu), "total_mass": float(sum(m.body_mass)),
-            "frictionloss": [float(x) for x in m.dof_frictionloss], "solver": int(m.opt.solver),
-            "dof_damping_zeroed": not bool(np.any(m.dof_damping))}
+    return {
+        "nq": int(m.nq),
+        "nv": int(m.nv),
+        "nu": int(m.nu),
+        "total_mass": float(sum(m.body_mass)),
+        "frictionloss": [float(x) for x in m.dof_frictionloss],
+        "solver": int(m.opt.solver),
+        "dof_damping_zeroed": not bool(np.any(m.dof_damping)),
+    }
 
 
 def _engine_state(scene: Scene, q: np.ndarray, v: np.ndarray):
@@ -485,13 +546,21 @@ def _engine_scene_state(scene: Scene, qpos: np.ndarray, qvel: np.ndarray):
 
 
 def _flex_settings(m) -> dict:
-    return {"flex_vertices": int(m.flex_vertnum[0]), "flex_triangles": int(m.flex_elemnum[0]),
-            "pinned_vertices": int(np.count_nonzero(m.flex_vertbodyid == 0)), "total_mass": float(sum(m.body_mass)),
-            "stretch": bool(m.flex_stiffness[m.flex_stiffnessadr[0]] != 0), "bending": bool(m.flex_bendingadr[0] >= 0),
-            "edge_stiffness": float(m.flex_edgestiffness[0]), "edge_damping": float(m.flex_edgedamping[0]),
-            "elasticity_damping": float(m.flex_damping[0]), "edge_equality": int(m.flex_edgeequality[0]),
-            "contype": int(m.flex_contype[0]), "conaffinity": int(m.flex_conaffinity[0]),
-            "selfcollide": int(m.flex_selfcollide[0])}
+    return {
+        "flex_vertices": int(m.flex_vertnum[0]),
+        "flex_triangles": int(m.flex_elemnum[0]),
+        "pinned_vertices": int(np.count_nonzero(m.flex_vertbodyid == 0)),
+        "total_mass": float(sum(m.body_mass)),
+        "stretch": bool(m.flex_stiffness[m.flex_stiffnessadr[0]] != 0),
+        "bending": bool(m.flex_bendingadr[0] >= 0),
+        "edge_stiffness": float(m.flex_edgestiffness[0]),
+        "edge_damping": float(m.flex_edgedamping[0]),
+        "elasticity_damping": float(m.flex_damping[0]),
+        "edge_equality": int(m.flex_edgeequality[0]),
+        "contype": int(m.flex_contype[0]),
+        "conaffinity": int(m.flex_conaffinity[0]),
+        "selfcollide": int(m.flex_selfcollide[0]),
+    }
 
 
 #: How MuJoCo poses each scene it poses; a new scene is one entry here.
@@ -504,21 +573,29 @@ POSES: dict[str, Pose] = {
     # tolerance (1e-8) it leaves 2.6e-8 (relative) of backward Euler's step unsolved,
     # measured on the chain over 1000 steps; at 1e-14, 1.5e-15.
     "chain": Pose(_chain_xml, tolerance=CHAIN_TOLERANCE, settings=_tendon_settings),
-    "rope": Pose(_rope_xml, point_masses=True, to_joints=_rope_joint_state, from_joints=_rope_scene_state,
-                 settings=_link_settings),
+    "rope": Pose(
+        _rope_xml,
+        point_masses=True,
+        to_joints=_rope_joint_state,
+        from_joints=_rope_scene_state,
+        settings=_link_settings,
+    ),
     # As the chain's: the discrete integrator's iterative solve at 1e-14, not the default 1e-8.
     "cloth": Pose(_cloth_xml, tolerance=CHAIN_TOLERANCE, settings=_tendon_settings),
     "net": Pose(_cloth_xml, tolerance=CHAIN_TOLERANCE, settings=_tendon_settings),
     "model": Pose(None, settings=_model_settings, compiled=_model_file),
-    "cloth_flex": Pose(None, compiled=_model_file, to_joints=_engine_state, from_joints=_engine_scene_state,
-                       settings=_flex_settings),
+    "cloth_flex": Pose(
+        None, compiled=_model_file, to_joints=_engine_state, from_joints=_engine_scene_state, settings=_flex_settings
+    ),
 }
 SCENES = tuple(POSES)
 
 #: Scenes a mode cannot step, measured: mujoco 4.0.0 stops mj_step (FatalError, mj_checkDiscrete)
 #: on a flex with elasticity under implicit and implicitfast (tests/test_cloth_flex.py).
-_FLEX_REFUSED = ("MuJoCo refuses it: 'flex elasticity is no longer integrated implicitly under integrator='implicit' "
-                 "and 'implicitfast': set integrator='discrete', or 'Euler' with a small timestep' (mujoco 4.0.0)")
+_FLEX_REFUSED = (
+    "MuJoCo refuses it: 'flex elasticity is no longer integrated implicitly under integrator='implicit' "
+    "and 'implicitfast': set integrator='discrete', or 'Euler' with a small timestep' (mujoco 4.0.0)"
+)
 _REFUSED = {"implicit": {"cloth_flex": _FLEX_REFUSED}, "implicitfast": {"cloth_flex": _FLEX_REFUSED}}
 
 
@@ -554,36 +631,65 @@ _DOCS = {
 #: c > 0; an undamped chain matches, see _DOCS). Measured on mujoco 4.0.0 against
 #: v_1 = v + h (M + h D)^-1 f(x, v) for the candidate damping matrices D.
 _NO_MATCH = {
-    "euler": {"chain": "eulerdamp makes only joint damping implicit, v += h (M + h diag(joint damping))^-1 f: "
-                       "the tendons' dashpots stay explicit, a mix of two schemes"},
-    "implicit": {"chain": "only the diagonal of the damping matrix is implicit, v += h (M + h diag(D))^-1 f: the "
-                          "tendon dashpots' coupling of neighbours stays explicit"},
-    "implicitfast": {"chain": "only the diagonal of the damping matrix is implicit, v += h (M + h diag(D))^-1 f: "
-                              "the tendon dashpots' coupling of neighbours stays explicit"},
-    "discrete": {"chain": "a tendon exactly at its rest length (most of them in the chain's initial state) is "
-                          "left out of the implicit step",
-                 **{scene: "one linear solve with the tendons' stiffness k J^T J alone, (M + h^2 k J^T J) dv = "
-                          "h (f - h k J^T J v): linearly implicit Euler without the springs' geometric stiffness "
-                          "k (1 - L/|d|)(I - u u^T) (measured 3e-16 from a generic state); and every tendon of the "
-                          "flat sheet starts exactly at its rest length, where it is left out" for scene in ("cloth", "net")}},
+    "euler": {
+        "chain": "eulerdamp makes only joint damping implicit, v += h (M + h diag(joint damping))^-1 f: "
+        "the tendons' dashpots stay explicit, a mix of two schemes"
+    },
+    "implicit": {
+        "chain": "only the diagonal of the damping matrix is implicit, v += h (M + h diag(D))^-1 f: the "
+        "tendon dashpots' coupling of neighbours stays explicit"
+    },
+    "implicitfast": {
+        "chain": "only the diagonal of the damping matrix is implicit, v += h (M + h diag(D))^-1 f: "
+        "the tendon dashpots' coupling of neighbours stays explicit"
+    },
+    "discrete": {
+        "chain": "a tendon exactly at its rest length (most of them in the chain's initial state) is "
+        "left out of the implicit step",
+        **{
+            scene: "one linear solve with the tendons' stiffness k J^T J alone, (M + h^2 k J^T J) dv = "
+            "h (f - h k J^T J v): linearly implicit Euler without the springs' geometric stiffness "
+            "k (1 - L/|d|)(I - u u^T) (measured 3e-16 from a generic state); and every tendon of the "
+            "flat sheet starts exactly at its rest length, where it is left out"
+            for scene in ("cloth", "net")
+        },
+    },
 }
 
 #: What each mode was measured to do that its name does not say (``records.method.Behaviour``): the
 #: modes of semi-implicit Euler step it in the generalized velocity (docs/findings.md).
 _IN_VELOCITY = Behaviour(integrates_as={"cloth": "ref:semi_implicit_euler"}, in_velocity="ref:semi_implicit_euler")
-_BEHAVIOUR = {"euler": _IN_VELOCITY, "implicit": _IN_VELOCITY, "implicitfast": _IN_VELOCITY,
-              "rk4": Behaviour(integrates_as={"cloth": "ref:rk4"}),
-              "discrete": Behaviour(from_a_generic_state={"chain": "ref:implicit_euler"})}
+_BEHAVIOUR = {
+    "euler": _IN_VELOCITY,
+    "implicit": _IN_VELOCITY,
+    "implicitfast": _IN_VELOCITY,
+    "rk4": Behaviour(integrates_as={"cloth": "ref:rk4"}),
+    "discrete": Behaviour(from_a_generic_state={"chain": "ref:implicit_euler"}),
+}
 
 METHODS = {
     f"mujoco:{mode}": EngineMode(
-        engine="mujoco", mode=mode, module="mujoco", dist="mujoco", build=build,
+        engine="mujoco",
+        mode=mode,
+        module="mujoco",
+        dist="mujoco",
+        build=build,
         scenes=tuple(x for x in SCENES if x not in _REFUSED.get(mode, {})),
-        unsupported={**UNSUPPORTED, **_REFUSED.get(mode, {})}, doc=_DOCS[mode], no_match=_NO_MATCH.get(mode, {}),
-        versions=VERSIONS, present=has_mode(mode), behaviour=_BEHAVIOUR[mode],
-        settings={"integrator": name, "autoreset": "disabled", "contact": "disabled",
-                  "constraint": "disabled", "gravity": "scene's g along -z, else disabled",
-                  "armature": 0, "warnings": "collected, never printed or logged"},
+        unsupported={**UNSUPPORTED, **_REFUSED.get(mode, {})},
+        doc=_DOCS[mode],
+        no_match=_NO_MATCH.get(mode, {}),
+        versions=VERSIONS,
+        present=has_mode(mode),
+        behaviour=_BEHAVIOUR[mode],
+        settings={
+            "integrator": name,
+            "autoreset": "disabled",
+            "contact": "disabled",
+            "constraint": "disabled",
+            "gravity": "scene's g along -z, else disabled",
+            "armature": 0,
+            "warnings": "collected, never printed or logged",
+        },
     )
     for mode, name in MODES.items()
 }
@@ -592,8 +698,14 @@ from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this modu
 
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
-    id="mujoco", module="mujoco", dists=("mujoco",), versions=VERSIONS, methods=METHODS, poses=POSES,
-    build=build, bare_loops=bench.bare_loops,
+    id="mujoco",
+    module="mujoco",
+    dists=("mujoco",),
+    versions=VERSIONS,
+    methods=METHODS,
+    poses=POSES,
+    build=build,
+    bare_loops=bench.bare_loops,
     model_loader="MuJoCo's own compiler (MJCF, or URDF as MuJoCo compiles it)",
     contact_modes=contact.MODES,
 )

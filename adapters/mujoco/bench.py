@@ -1,6 +1,7 @@
 """MuJoCo's bare loops for ``harness bench --engines``: ``mujoco.rollout`` (one call, as a user
 writes it, the state array allocated and recorded) and a Python loop of ``mj_step``, on the model
 the adapter built."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -22,8 +23,10 @@ def bare_loops(mode, mj, model, scene, dt: float):
         for _ in range(n):
             step(m, d)
 
-    return [("mujoco.rollout", rolled), ("mj_step loop", stepped)], \
-        "mujoco.rollout(m, d, state, nstep=N); a Python loop of mj_step(m, d)"
+    return [
+        ("mujoco.rollout", rolled),
+        ("mj_step loop", stepped),
+    ], "mujoco.rollout(m, d, state, nstep=N); a Python loop of mj_step(m, d)"
 
 
 def _state(mj, m, d, full: int):

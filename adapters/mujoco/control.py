@@ -14,6 +14,7 @@ needs of the engine, and nothing of the harness.
 * **Cost** is the engine's own loop: ``mj_step(m, d, nstep=frame_skip x substeps)`` per control
   step from the candidate's own run, timed with ``time.perf_counter``, the fastest of ``repeats``.
 """
+
 from __future__ import annotations
 
 import copy
@@ -109,10 +110,10 @@ class Stepper:
         return self._models[key]
 
     def qpos(self, states):
-        return states[..., 1:1 + self.nq]
+        return states[..., 1 : 1 + self.nq]
 
     def qvel(self, states):
-        return states[..., 1 + self.nq:1 + self.nq + self.nv]
+        return states[..., 1 + self.nq : 1 + self.nq + self.nv]
 
     def rollout(self, integrator: str, h: float, states: np.ndarray, controls: np.ndarray) -> np.ndarray:
         """States after each step: (nbatch, nstep, nstate) from ``states`` (nbatch, nstate) with
@@ -124,8 +125,13 @@ class Stepper:
         if nstep == 0:
             return np.empty((nbatch, 0, self.nstate))
         with np.errstate(all="ignore"):
-            out = rollout.rollout(m, datas[:min(self.threads, nbatch)], np.ascontiguousarray(states),
-                                  np.ascontiguousarray(controls), nstep=nstep)[0]
+            out = rollout.rollout(
+                m,
+                datas[: min(self.threads, nbatch)],
+                np.ascontiguousarray(states),
+                np.ascontiguousarray(controls),
+                nstep=nstep,
+            )[0]
         return out
 
     def transition(self, integrator: str, h: float, nstep: int, states: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -144,8 +150,15 @@ class Stepper:
         controls = np.repeat(U, per_control, axis=1)
         return self.rollout(integrator, h, s0, controls)
 
-    def observe(self, states: np.ndarray, spec, controls: np.ndarray, integrator: str | None = None,
-                h: float | None = None, before: np.ndarray | None = None) -> np.ndarray:
+    def observe(
+        self,
+        states: np.ndarray,
+        spec,
+        controls: np.ndarray,
+        integrator: str | None = None,
+        h: float | None = None,
+        before: np.ndarray | None = None,
+    ) -> np.ndarray:
         """What a policy sees of each state (rows of ``states``, each with the control that was held
         into it, rows of ``controls``), by ``spec`` (``scenarios.environments.Observation``): qpos
         less the root's position, qvel (clipped where the spec says), then the spec's extras after
@@ -158,7 +171,7 @@ class Stepper:
         q, v = self.qpos(states), self.qvel(states)
         if spec.qvel_clip:
             v = np.clip(v, -spec.qvel_clip, spec.qvel_clip)
-        parts = [q[..., spec.root_position:], v]
+        parts = [q[..., spec.root_position :], v]
         if spec.extras:
             m, datas = self.model(integrator or "euler", h or float(self.base.opt.timestep))
             d = datas[0]
@@ -209,8 +222,9 @@ class Stepper:
                 depth[i] = max(0.0, -float(np.min(d.contact.dist[:n])))
         return ncon.reshape(states.shape[:-1]), depth.reshape(states.shape[:-1])
 
-    def time_per_control_step(self, integrator: str, h: float, per_control: int, starts, controls,
-                              min_s: float = 0.0) -> float:
+    def time_per_control_step(
+        self, integrator: str, h: float, per_control: int, starts, controls, min_s: float = 0.0
+    ) -> float:
         """Seconds per control step of MuJoCo's own loop, ``mj_step(m, d, nstep=per_control)`` once a
         control step: from each of ``starts`` over the rows of its ``controls``, all of them, and
         again from the starts until the sample has run ``min_s`` (a clock tick is no measurement)."""

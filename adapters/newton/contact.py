@@ -32,6 +32,7 @@ Warp compiles the kernels the run launches, forward only, its cache under the ha
 (``adapters.newton._warp``). The loop is Newton's: ``pipeline.collide`` and ``solver.step`` from
 Python once a step, the states swapped.
 """
+
 from __future__ import annotations
 
 import functools
@@ -84,11 +85,21 @@ def zeta_for(e: float) -> float:
 def _material(scene) -> dict:
     if POSES[scene.kind] is SPHERE:
         zeta = zeta_for(scene.e)
-        return {"ke": scene.mass * OMEGA_C ** 2, "kd": 2.0 * zeta * scene.mass * OMEGA_C, "zeta": zeta,
-                "restitution": float(scene.e), "mu": 0.0}
+        return {
+            "ke": scene.mass * OMEGA_C**2,
+            "kd": 2.0 * zeta * scene.mass * OMEGA_C,
+            "zeta": zeta,
+            "restitution": float(scene.e),
+            "mu": 0.0,
+        }
     mu = getattr(scene, "mu", 1.0)
-    return {"ke": scene.mass * OMEGA_C ** 2 / 4.0, "kd": 2.0 * scene.mass * OMEGA_C / 4.0, "zeta": 1.0,
-            "restitution": 0.0, "mu": mu}
+    return {
+        "ke": scene.mass * OMEGA_C**2 / 4.0,
+        "kd": 2.0 * scene.mass * OMEGA_C / 4.0,
+        "zeta": 1.0,
+        "restitution": 0.0,
+        "mu": mu,
+    }
 
 
 class _Pose:
@@ -102,9 +113,17 @@ class _Pose:
         sphere = POSES[scene.kind] is SPHERE
         with quiet_fds():
             builder = newton.ModelBuilder(gravity=(0.0, 0.0, -scene.g), up_axis=newton.Axis.Z)
-            cfg = newton.ModelBuilder.ShapeConfig(density=0.0, ke=mat["ke"], kd=mat["kd"], kf=FRICTION_GAIN,
-                                                  mu=mat["mu"], restitution=mat["restitution"], mu_torsional=0.0,
-                                                  mu_rolling=0.0, margin=0.0)
+            cfg = newton.ModelBuilder.ShapeConfig(
+                density=0.0,
+                ke=mat["ke"],
+                kd=mat["kd"],
+                kf=FRICTION_GAIN,
+                mu=mat["mu"],
+                restitution=mat["restitution"],
+                mu_torsional=0.0,
+                mu_rolling=0.0,
+                margin=0.0,
+            )
             builder.add_ground_plane(cfg=cfg)
             self.bodies = []
             for centre in scene.initial_centres():
@@ -125,12 +144,20 @@ class _Pose:
                 solver = newton.solvers.SolverSemiImplicit(model, angular_damping=0.0, enable_tri_contact=False)
                 solver_settings = {"angular_damping": 0.0, "enable_tri_contact": False}
             else:
-                solver = newton.solvers.SolverXPBD(model, iterations=XPBD_ITERATIONS,
-                                                   rigid_contact_relaxation=CONTACT_RELAXATION, angular_damping=0.0,
-                                                   enable_restitution=enable_restitution)
-                solver_settings = {"iterations": XPBD_ITERATIONS, "rigid_contact_relaxation": CONTACT_RELAXATION,
-                                   "angular_damping": 0.0, "enable_restitution": enable_restitution,
-                                   "rigid_contact_restitution_iterations": solver.rigid_contact_restitution_iterations}
+                solver = newton.solvers.SolverXPBD(
+                    model,
+                    iterations=XPBD_ITERATIONS,
+                    rigid_contact_relaxation=CONTACT_RELAXATION,
+                    angular_damping=0.0,
+                    enable_restitution=enable_restitution,
+                )
+                solver_settings = {
+                    "iterations": XPBD_ITERATIONS,
+                    "rigid_contact_relaxation": CONTACT_RELAXATION,
+                    "angular_damping": 0.0,
+                    "enable_restitution": enable_restitution,
+                    "rigid_contact_restitution_iterations": solver.rigid_contact_restitution_iterations,
+                }
             self.pipeline = newton.CollisionPipeline(model)
             self.contacts = self.pipeline.contacts()
             self.s0, self.s1 = model.state(), model.state()
@@ -143,20 +170,39 @@ class _Pose:
                 self.s0.body_qd.assign(qd)
         self.model, self.solver, self.dt, self.scene = model, solver, dt, scene
         self.settings = {
-            "solver": SOLVERS[solver_name], "precision": "float32", "device": "cpu", **solver_settings,
-            "model": (f"{len(self.bodies)} free body(ies), a {'sphere' if sphere else 'box'} shape each "
-                      "(density 0, the body's mass and inertia set), add_ground_plane"),
+            "solver": SOLVERS[solver_name],
+            "precision": "float32",
+            "device": "cpu",
+            **solver_settings,
+            "model": (
+                f"{len(self.bodies)} free body(ies), a {'sphere' if sphere else 'box'} shape each "
+                "(density 0, the body's mass and inertia set), add_ground_plane"
+            ),
             "gravity": [0.0, 0.0, -scene.g],
-            "shape material (both shapes)": {"ke": mat["ke"], "kd": mat["kd"], "kf": FRICTION_GAIN, "mu": mat["mu"],
-                                             "restitution": mat["restitution"], "mu_torsional": 0.0,
-                                             "mu_rolling": 0.0, "margin": 0.0,
-                                             "gap": float(model.shape_gap.numpy()[0])},
+            "shape material (both shapes)": {
+                "ke": mat["ke"],
+                "kd": mat["kd"],
+                "kf": FRICTION_GAIN,
+                "mu": mat["mu"],
+                "restitution": mat["restitution"],
+                "mu_torsional": 0.0,
+                "mu_rolling": 0.0,
+                "margin": 0.0,
+                "gap": float(model.shape_gap.numpy()[0]),
+            },
             "contact omega_c (rad/s)": OMEGA_C,
-            "used": ("ke, kd, kf, mu (penalty)" if solver_name == "semi_implicit"
-                     else "restitution, mu (constraint projection; ke, kd, kf unused)"),
-            "derived": (f"e = {scene.e:g} -> damping ratio {mat['zeta']:.6g} (damped on approach only), kd = 2 zeta m omega_c"
-                        if sphere else "critically damped resting contacts, ke a quarter of m omega_c^2 a corner"),
-            "engine_loop": "pipeline.collide then solver.step from Python, one call each a step"}
+            "used": (
+                "ke, kd, kf, mu (penalty)"
+                if solver_name == "semi_implicit"
+                else "restitution, mu (constraint projection; ke, kd, kf unused)"
+            ),
+            "derived": (
+                f"e = {scene.e:g} -> damping ratio {mat['zeta']:.6g} (damped on approach only), kd = 2 zeta m omega_c"
+                if sphere
+                else "critically damped resting contacts, ke a quarter of m omega_c^2 a corner"
+            ),
+            "engine_loop": "pipeline.collide then solver.step from Python, one call each a step",
+        }
 
     def step(self) -> None:
         s0 = self.s0
@@ -181,17 +227,33 @@ def run(mode: ContactMode, scene, dt: float, enable_restitution: bool = True):
         return timed_loop(again.step, steps)
 
     with quiet_fds():
-        out = record_loop(mode, scene, dt, pose.step, pose.read, pose.settings,
-                          loop="pipeline.collide + solver.step, once a step from Python", time_again=time_again)
+        out = record_loop(
+            mode,
+            scene,
+            dt,
+            pose.step,
+            pose.read,
+            pose.settings,
+            loop="pipeline.collide + solver.step, once a step from Python",
+            time_again=time_again,
+        )
     return out
 
 
-_DOC = {"semi_implicit": "Newton's SolverSemiImplicit on Warp (CPU, float32); penalty contact ke, kd from e",
-        "xpbd": "Newton's SolverXPBD on Warp (CPU, float32); contact a constraint, restitution e enabled"}
+_DOC = {
+    "semi_implicit": "Newton's SolverSemiImplicit on Warp (CPU, float32); penalty contact ke, kd from e",
+    "xpbd": "Newton's SolverXPBD on Warp (CPU, float32); contact a constraint, restitution e enabled",
+}
 
 MODES = {
     f"newton:{name}": ContactMode(
-        "newton", name, "newton", run, poses=POSES,
-        settings={"solver": name, "precision": "float32", "device": "cpu"}, doc=_DOC[name])
+        "newton",
+        name,
+        "newton",
+        run,
+        poses=POSES,
+        settings={"solver": name, "precision": "float32", "device": "cpu"},
+        doc=_DOC[name],
+    )
     for name in SOLVERS
 }

@@ -26,6 +26,7 @@ coordinates, in float32; what ``adapters/newton/__init__.py``'s file model steps
   comparison.
 * **A file Newton refuses**: ``ValueError`` with Newton's own reason in one line.
 """
+
 from __future__ import annotations
 
 import collections
@@ -65,8 +66,11 @@ def build_model(newton, scene):
     if m.nq != m.nv:
         raise ValueError("newton: a free or ball joint's quaternion is not mapped to the scene's coordinates")
     off = set(scene.switched_off)
-    gravity = ([0.0, 0.0, 0.0] if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
-               else [float(g) for g in m.opt.gravity])
+    gravity = (
+        [0.0, 0.0, 0.0]
+        if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+        else [float(g) for g in m.opt.gravity]
+    )
     builder = newton.ModelBuilder(gravity=tuple(gravity))
     urdf = scene.file.kind == "URDF"
     with warnings.catch_warnings(record=True) as said:
@@ -80,11 +84,16 @@ def build_model(newton, scene):
         except Exception as exc:  # Newton's loaders say why in a ValueError, a missing module in an ImportError
             raise ValueError(f"Newton cannot load it: {type(exc).__name__}: {one_line(exc)}") from None
     ignored = collections.Counter(f"{w.category.__name__}: {one_line(w.message)}" for w in said)
-    facts = {"ignored": [f"newton: Newton's loader: {t}" + (f" ({n} times)" if n > 1 else "") for t, n in ignored.items()],
-             "off": sorted(off), "kept": {f: scene.found[f] for f in scene.found if f not in off},
-             "urdf": urdf, "mujoco": m,
-             "target_gains": int(np.count_nonzero(model.joint_target_ke.numpy()) +
-                                 np.count_nonzero(model.joint_target_kd.numpy()))}
+    facts = {
+        "ignored": [f"newton: Newton's loader: {t}" + (f" ({n} times)" if n > 1 else "") for t, n in ignored.items()],
+        "off": sorted(off),
+        "kept": {f: scene.found[f] for f in scene.found if f not in off},
+        "urdf": urdf,
+        "mujoco": m,
+        "target_gains": int(
+            np.count_nonzero(model.joint_target_ke.numpy()) + np.count_nonzero(model.joint_target_kd.numpy())
+        ),
+    }
     # Drive gains off: at a target of 0 a position gain is a spring no MuJoCo actuator has at ctrl 0 as built here.
     model.joint_target_ke.zero_()
     model.joint_target_kd.zero_()
@@ -119,9 +128,13 @@ def coordinates(model, names, facts: dict):
         if kind == _FIXED:
             continue
         if kind in (_FREE, _BALL):
-            raise ValueError(f"newton's model of the file has a {'free' if kind == _FREE else 'ball'} joint "
-                             f"{label!r}: its quaternion is not the scene's coordinates")
-        lin, ang = (1, 0) if kind == _PRISMATIC else (0, 1) if kind == _REVOLUTE else (int(dof_dim[j][0]), int(dof_dim[j][1]))
+            raise ValueError(
+                f"newton's model of the file has a {'free' if kind == _FREE else 'ball'} joint "
+                f"{label!r}: its quaternion is not the scene's coordinates"
+            )
+        lin, ang = (
+            (1, 0) if kind == _PRISMATIC else (0, 1) if kind == _REVOLUTE else (int(dof_dim[j][0]), int(dof_dim[j][1]))
+        )
         if lin + ang == 1 and _label(label) in ref:
             dofs = [_label(label)]
         else:  # a D6 joint: the MJCF joints of its body, slides first, in file order
@@ -129,17 +142,23 @@ def coordinates(model, names, facts: dict):
             own = [(n, k) for n, k, b, _ in mj if b == body]
             dofs = [n for n, k in own if k == "slide"] + [n for n, k in own if k == "hinge"]
             if len(dofs) != lin + ang:
-                raise ValueError(f"newton's joint {label!r} has {lin + ang} degrees of freedom, MuJoCo's body "
-                                 f"{body!r} {len(dofs)} joints")
+                raise ValueError(
+                    f"newton's joint {label!r} has {lin + ang} degrees of freedom, MuJoCo's body "
+                    f"{body!r} {len(dofs)} joints"
+                )
         for i, name in enumerate(dofs):
             where[name] = (int(q_start[j]) + i, int(qd_start[j]) + i, i >= lin)
     missing = [n for n in names if n not in where]
     if missing:
-        raise ValueError(f"newton's model of the file has no joint named {missing[0]!r} "
-                         f"({model.joint_count} joints, the scene's {len(names)} coordinates)")
+        raise ValueError(
+            f"newton's model of the file has no joint named {missing[0]!r} "
+            f"({model.joint_count} joints, the scene's {len(names)} coordinates)"
+        )
     if model.joint_coord_count != len(names) or model.joint_dof_count != len(names):
-        raise ValueError(f"newton's model of the file has {model.joint_coord_count} coordinates and "
-                         f"{model.joint_dof_count} velocities, the scene's {len(names)}")
+        raise ValueError(
+            f"newton's model of the file has {model.joint_coord_count} coordinates and "
+            f"{model.joint_dof_count} velocities, the scene's {len(names)}"
+        )
     q_index = np.array([where[n][0] for n in names], dtype=int)
     qd_index = np.array([where[n][1] for n in names], dtype=int)
     if not np.array_equal(q_index, qd_index):
@@ -149,13 +168,19 @@ def coordinates(model, names, facts: dict):
 
 def settings(model, facts: dict) -> dict:
     """What the run records of the file's model (plain JSON values)."""
-    return {"loaded": ("ModelBuilder.add_urdf(floating=False, collapse_fixed_joints=True)" if facts["urdf"]
-                       else "ModelBuilder.add_mjcf"),
-            "contacts": "none (solver.step gets contacts=None: no collision pass)",
-            "joint_target_gains": f"0 (the file's {facts['target_gains']} nonzero drive gains set 0)",
-            "inertia_validation": "skipped (it raises a small inertia to 1e-6)",
-            "switched_off": facts["off"], "num_coordinates": int(model.joint_coord_count),
-            "loader_warnings": [line.split("loader: ", 1)[1] for line in facts["ignored"]]}
+    return {
+        "loaded": (
+            "ModelBuilder.add_urdf(floating=False, collapse_fixed_joints=True)"
+            if facts["urdf"]
+            else "ModelBuilder.add_mjcf"
+        ),
+        "contacts": "none (solver.step gets contacts=None: no collision pass)",
+        "joint_target_gains": f"0 (the file's {facts['target_gains']} nonzero drive gains set 0)",
+        "inertia_validation": "skipped (it raises a small inertia to 1e-6)",
+        "switched_off": facts["off"],
+        "num_coordinates": int(model.joint_coord_count),
+        "loader_warnings": [line.split("loader: ", 1)[1] for line in facts["ignored"]],
+    }
 
 
 def mass_matrix(solver, model) -> np.ndarray:
@@ -168,7 +193,7 @@ def mass_matrix(solver, model) -> np.ndarray:
     dofs = solver.articulation_dof_start.numpy()
     for a in range(int(model.articulation_count)):
         r, s, d = int(rows[a]), int(starts[a]), int(dofs[a])
-        full[d:d + r, d:d + r] = h[s:s + r * r].reshape(r, r)
+        full[d : d + r, d : d + r] = h[s : s + r * r].reshape(r, r)
     return full + np.diag(model.joint_armature.numpy().astype(float))
 
 
@@ -189,46 +214,71 @@ def anatomy(model, solver, index, offset, angular, names, facts: dict) -> dict:
             at = int(parent[j])
         if not moves:
             continue  # welded to the world: no part of the dynamics
-        bodies[_label(label)] = {"mass": float(mass[b]),
-                                 "inertia": sorted(float(x) for x in np.linalg.eigvalsh(inertia[b].astype(float))),
-                                 "rotates": rotates}
+        bodies[_label(label)] = {
+            "mass": float(mass[b]),
+            "inertia": sorted(float(x) for x in np.linalg.eigvalsh(inertia[b].astype(float))),
+            "rotates": rotates,
+        }
     s = solver.joint_S_s.numpy().astype(float)
     lo, hi = model.joint_limit_lower.numpy(), model.joint_limit_upper.numpy()
     stiffness, rest = model.joint_stiffness.numpy(), model.joint_rest_q.numpy()
-    damping, armature, friction = model.joint_damping.numpy(), model.joint_armature.numpy(), model.joint_friction.numpy()
+    damping, armature, friction = (
+        model.joint_damping.numpy(),
+        model.joint_armature.numpy(),
+        model.joint_friction.numpy(),
+    )
     joints, axes = {}, []
     for k, name in enumerate(names):
         d = int(index[k])
         axis = s[d][3:6] if angular[k] else s[d][0:3]
         axes.append(axis.tolist())
         limited = lo[d] > -newton_maxval() or hi[d] < newton_maxval()
-        joints[name] = {"type": "hinge" if angular[k] else "slide", "axis": axis.tolist(),
-                        "stiffness": float(stiffness[d]), "spring_ref": float(rest[d]) + float(offset[k]),
-                        "damping": float(damping[d]), "armature": float(armature[d]),
-                        # SolverFeatherstone applies no joint friction (the loader reads it into joint_friction).
-                        "frictionloss": 0.0,
-                        "limits": [float(lo[d]) + float(offset[k]), float(hi[d]) + float(offset[k])] if limited else None}
+        joints[name] = {
+            "type": "hinge" if angular[k] else "slide",
+            "axis": axis.tolist(),
+            "stiffness": float(stiffness[d]),
+            "spring_ref": float(rest[d]) + float(offset[k]),
+            "damping": float(damping[d]),
+            "armature": float(armature[d]),
+            # SolverFeatherstone applies no joint friction (the loader reads it into joint_friction).
+            "frictionloss": 0.0,
+            "limits": [float(lo[d]) + float(offset[k]), float(hi[d]) + float(offset[k])] if limited else None,
+        }
     full = mass_matrix(solver, model)
     notes = list(facts["ignored"])
     kept, m = facts["kept"], facts["mujoco"]
     read_friction = float(np.max(np.abs(friction))) if friction.size else 0.0
     for feature, why in (
-            ("contact", "Newton steps it with no collision pass (contacts None), though its loader built the shapes"),
-            ("frictionloss", f"SolverFeatherstone applies no joint friction (the loader read up to {read_friction:g})"),
-            ("actuators", "the drive gains are set 0 and the control is zero: no actuator force (MuJoCo's act at "
-                          "ctrl 0, bias terms included)"),
-            ("equality", "SolverFeatherstone applies no equality constraints"),
-            ("limits", "SolverFeatherstone holds a joint limit by a penalty spring (joint_limit_ke, joint_limit_kd), "
-                       "not a constraint"),
-            ("damping", "Newton has no fluid drag" if m.opt.density or m.opt.viscosity else None)):
+        ("contact", "Newton steps it with no collision pass (contacts None), though its loader built the shapes"),
+        ("frictionloss", f"SolverFeatherstone applies no joint friction (the loader read up to {read_friction:g})"),
+        (
+            "actuators",
+            "the drive gains are set 0 and the control is zero: no actuator force (MuJoCo's act at "
+            "ctrl 0, bias terms included)",
+        ),
+        ("equality", "SolverFeatherstone applies no equality constraints"),
+        (
+            "limits",
+            "SolverFeatherstone holds a joint limit by a penalty spring (joint_limit_ke, joint_limit_kd), "
+            "not a constraint",
+        ),
+        ("damping", "Newton has no fluid drag" if m.opt.density or m.opt.viscosity else None),
+    ):
         if feature in kept and why:
             notes.append(f"newton: the model keeps {feature} ({kept[feature]}) and {why}")
     if m.ntendon:
         notes.append(f"newton: SolverFeatherstone applies none of the model's {m.ntendon} tendons")
     notes.append("newton: float32 throughout (Warp's float): each quantity carries 2^-24 of its size")
-    return {"engine": "newton", "precision": "float32", "total_mass": float(sum(v["mass"] for v in bodies.values())),
-            "mass_matrix": full[np.ix_(index, index)].tolist(), "joint_axes": axes, "bodies": bodies,
-            "joints": joints, "notes": notes}
+    return {
+        "engine": "newton",
+        "precision": "float32",
+        "total_mass": float(sum(v["mass"] for v in bodies.values())),
+        "mass_matrix": full[np.ix_(index, index)].tolist(),
+        "joint_axes": axes,
+        "bodies": bodies,
+        "joints": joints,
+        "notes": notes,
+    }
 
 
 def newton_maxval() -> float:

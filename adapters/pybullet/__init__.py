@@ -19,6 +19,7 @@ before each ``stepSimulation``, the least a Python user can do; the state is rea
 output points. Bullet evaluates its forces inside ``stepSimulation`` and has no counter or
 callback for them, so force evaluations are not counted.
 """
+
 from __future__ import annotations
 
 import functools
@@ -36,16 +37,18 @@ from .cloth import SoftBodyCloth, refusal
 from . import bench
 
 #: How the engine's own loop steps a scene whose force is applied from Python (recorded with every run).
-ENGINE_LOOP_APPLIED = ("from Python every step (Bullet has no spring or drag element): position (and velocity where "
-                       "the scene has drag) read, applyExternalForce, stepSimulation")
+ENGINE_LOOP_APPLIED = (
+    "from Python every step (Bullet has no spring or drag element): position (and velocity where "
+    "the scene has drag) read, applyExternalForce, stepSimulation"
+)
 
 UNSUPPORTED = {
     "kepler": "not posed: Bullet has no 1/r^2 force, and one applied from Python would only repeat what "
-              "the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
+    "the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
     "rope": "not posed: the rope's engine models are MuJoCo's hinge chain and pymunk's pin joints; a Bullet "
-            "revolute chain is the reduced-coordinate model MuJoCo already poses",
+    "revolute chain is the reduced-coordinate model MuJoCo already poses",
     "net": "the planar net is the cloth's variant for 2-D engines; Bullet poses the 3-D sheet, the scene cloth "
-           "with shear=1, k_shear=k, k_bend=0, as a mass-spring soft body",
+    "with shear=1, k_shear=k, k_bend=0, as a mass-spring soft body",
 }
 
 
@@ -54,7 +57,7 @@ PROBE_STEPS = 100
 PROBE_DT = 0.01
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def applied_damping(p, linear_damping: float = 0.0, angular_damping: float = 0.0) -> dict:
     """The damping the engine really applies to a multibody set up as the adapter sets its bodies
     up (``changeDynamics`` linear/angular damping 0): getDynamicsInfo reports -1.0 for both on a
@@ -69,19 +72,32 @@ def applied_damping(p, linear_damping: float = 0.0, angular_damping: float = 0.0
     try:
         p.setPhysicsEngineParameter(fixedTimeStep=PROBE_DT, numSubSteps=0, physicsClientId=cid)
         p.setGravity(0.0, 0.0, 0.0, physicsClientId=cid)
-        free = dict(linearDamping=linear_damping, angularDamping=angular_damping, maxJointVelocity=math.inf,
-                    activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+        free = dict(
+            linearDamping=linear_damping,
+            angularDamping=angular_damping,
+            maxJointVelocity=math.inf,
+            activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING,
+        )
         base = p.createMultiBody(1.0, -1, basePosition=[0, 0, 0], physicsClientId=cid)
         p.changeDynamics(base, -1, physicsClientId=cid, **free)
         p.resetBaseVelocity(base, [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], physicsClientId=cid)
         slider = p.createMultiBody(
-            baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 5, 0], linkMasses=[1.0],
-            linkCollisionShapeIndices=[-1], linkVisualShapeIndices=[-1], linkPositions=[[0, 0, 0]],
-            linkOrientations=[[0, 0, 0, 1]], linkInertialFramePositions=[[0, 0, 0]],
-            linkInertialFrameOrientations=[[0, 0, 0, 1]], linkParentIndices=[0], linkJointTypes=[p.JOINT_PRISMATIC],
-            linkJointAxis=[[1, 0, 0]], physicsClientId=cid)
-        p.changeDynamics(slider, 0, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0], physicsClientId=cid,
-                         **free)
+            baseMass=0.0,
+            baseCollisionShapeIndex=-1,
+            basePosition=[0, 5, 0],
+            linkMasses=[1.0],
+            linkCollisionShapeIndices=[-1],
+            linkVisualShapeIndices=[-1],
+            linkPositions=[[0, 0, 0]],
+            linkOrientations=[[0, 0, 0, 1]],
+            linkInertialFramePositions=[[0, 0, 0]],
+            linkInertialFrameOrientations=[[0, 0, 0, 1]],
+            linkParentIndices=[0],
+            linkJointTypes=[p.JOINT_PRISMATIC],
+            linkJointAxis=[[1, 0, 0]],
+            physicsClientId=cid,
+        )
+        p.changeDynamics(slider, 0, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0], physicsClientId=cid, **free)
         p.setJointMotorControl2(slider, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
         p.resetJointState(slider, 0, 0.0, 1.0, physicsClientId=cid)
         for _ in range(PROBE_STEPS):
@@ -92,9 +108,14 @@ def applied_damping(p, linear_damping: float = 0.0, angular_damping: float = 0.0
         def per_step(speed):
             return float(abs(speed) ** (1.0 / PROBE_STEPS) - 1.0)
 
-        return {"linear": per_step(float(np.linalg.norm(lin))), "angular": per_step(float(np.linalg.norm(ang))),
-                "joint": per_step(joint), "steps": PROBE_STEPS, "dt": PROBE_DT,
-                "kinetic_energy_change": float(np.linalg.norm(lin)) ** 2 / 2 - 0.5}
+        return {
+            "linear": per_step(float(np.linalg.norm(lin))),
+            "angular": per_step(float(np.linalg.norm(ang))),
+            "joint": per_step(joint),
+            "steps": PROBE_STEPS,
+            "dt": PROBE_DT,
+            "kinetic_energy_change": float(np.linalg.norm(lin)) ** 2 / 2 - 0.5,
+        }
     finally:
         p.disconnect(physicsClientId=cid)
 
@@ -117,8 +138,12 @@ class _Bullet(SteppedModel):
         self.k, self.c = values.get("k", 0.0), values.get("c", 0.0)
         p.setPhysicsEngineParameter(fixedTimeStep=dt, numSubSteps=0, physicsClientId=cid)
         p.setGravity(0.0, 0.0, -values.get("g", 0.0), physicsClientId=cid)
-        free = dict(linearDamping=0.0, angularDamping=0.0, maxJointVelocity=math.inf,
-                    activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+        free = dict(
+            linearDamping=0.0,
+            angularDamping=0.0,
+            maxJointVelocity=math.inf,
+            activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING,
+        )
         link = self._build(scene, *scene.initial_state(), free)
         b = self.body
         info = p.getDynamicsInfo(b, link, physicsClientId=cid)
@@ -126,8 +151,11 @@ class _Bullet(SteppedModel):
         self.settings = {
             "fixedTimeStep": float(engine["fixedTimeStep"]),
             "numSubSteps": int(engine["numSubSteps"]),
-            "gravity": [float(engine["gravityAccelerationX"]), float(engine["gravityAccelerationY"]),
-                        float(engine["gravityAccelerationZ"])],
+            "gravity": [
+                float(engine["gravityAccelerationX"]),
+                float(engine["gravityAccelerationY"]),
+                float(engine["gravityAccelerationZ"]),
+            ],
             "mass": float(info[0]),
             "local_inertia_diagonal": [float(x) for x in info[2]],
             # getDynamicsInfo reads -1.0 for a multibody's damping: what was asked for is 0; what
@@ -172,22 +200,34 @@ class _Pendulum(_Bullet):
     def _build(self, scene, q0, v0, free):
         p, cid, values = self.p, self.cid, scene.values
         self.body = b = p.createMultiBody(
-            baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 0, 0],
-            linkMasses=[values["m"]], linkCollisionShapeIndices=[-1], linkVisualShapeIndices=[-1],
-            linkPositions=[[0, 0, 0]], linkOrientations=[[0, 0, 0, 1]],
-            linkInertialFramePositions=[[0, 0, -values["L"]]], linkInertialFrameOrientations=[[0, 0, 0, 1]],
-            linkParentIndices=[0], linkJointTypes=[p.JOINT_REVOLUTE], linkJointAxis=[[0, 1, 0]],
-            physicsClientId=cid)
-        p.changeDynamics(b, 0, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0],
-                         physicsClientId=cid, **free)
+            baseMass=0.0,
+            baseCollisionShapeIndex=-1,
+            basePosition=[0, 0, 0],
+            linkMasses=[values["m"]],
+            linkCollisionShapeIndices=[-1],
+            linkVisualShapeIndices=[-1],
+            linkPositions=[[0, 0, 0]],
+            linkOrientations=[[0, 0, 0, 1]],
+            linkInertialFramePositions=[[0, 0, -values["L"]]],
+            linkInertialFrameOrientations=[[0, 0, 0, 1]],
+            linkParentIndices=[0],
+            linkJointTypes=[p.JOINT_REVOLUTE],
+            linkJointAxis=[[0, 1, 0]],
+            physicsClientId=cid,
+        )
+        p.changeDynamics(b, 0, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0], physicsClientId=cid, **free)
         p.setJointMotorControl2(b, 0, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
         p.resetJointState(b, 0, float(q0[0]), float(v0[0]), physicsClientId=cid)
         return 0
 
     def _joint_settings(self):
         joint = self.p.getJointInfo(self.body, 0, physicsClientId=self.cid)
-        return {"joint": "revolute about y", "jointDamping": float(joint[6]),
-                "jointFriction": float(joint[7]), "velocity_motor_force": 0.0}
+        return {
+            "joint": "revolute about y",
+            "jointDamping": float(joint[6]),
+            "jointFriction": float(joint[7]),
+            "velocity_motor_force": 0.0,
+        }
 
     def advance(self) -> None:
         self.p.stepSimulation(physicsClientId=self.cid)
@@ -210,35 +250,47 @@ class _Chain(_Bullet):
     scene's q_i), its mass a point at the joint."""
 
     FORCE = "joint forces set each step (TORQUE_CONTROL), from the state before the step"
-    ENGINE_LOOP = ("from Python every step (Bullet has no spring between bodies): joint positions read, "
-                   "joint forces set, stepSimulation")
+    ENGINE_LOOP = (
+        "from Python every step (Bullet has no spring between bodies): joint positions read, "
+        "joint forces set, stepSimulation"
+    )
 
     def _build(self, scene, q0, v0, free):
         p, cid, values = self.p, self.cid, scene.values
         n = scene.ndof
         self.joints = list(range(n))
         self.body = b = p.createMultiBody(
-            baseMass=0.0, baseCollisionShapeIndex=-1, basePosition=[0, 0, 0],
-            linkMasses=[values["m"]] * n, linkCollisionShapeIndices=[-1] * n, linkVisualShapeIndices=[-1] * n,
-            linkPositions=[[0, 0, 0]] * n, linkOrientations=[[0, 0, 0, 1]] * n,
-            linkInertialFramePositions=[[0, 0, 0]] * n, linkInertialFrameOrientations=[[0, 0, 0, 1]] * n,
-            linkParentIndices=[0] * n, linkJointTypes=[p.JOINT_PRISMATIC] * n, linkJointAxis=[[1, 0, 0]] * n,
-            physicsClientId=cid)
+            baseMass=0.0,
+            baseCollisionShapeIndex=-1,
+            basePosition=[0, 0, 0],
+            linkMasses=[values["m"]] * n,
+            linkCollisionShapeIndices=[-1] * n,
+            linkVisualShapeIndices=[-1] * n,
+            linkPositions=[[0, 0, 0]] * n,
+            linkOrientations=[[0, 0, 0, 1]] * n,
+            linkInertialFramePositions=[[0, 0, 0]] * n,
+            linkInertialFrameOrientations=[[0, 0, 0, 1]] * n,
+            linkParentIndices=[0] * n,
+            linkJointTypes=[p.JOINT_PRISMATIC] * n,
+            linkJointAxis=[[1, 0, 0]] * n,
+            physicsClientId=cid,
+        )
         p.changeDynamics(b, -1, physicsClientId=cid, **free)
         for j in self.joints:
-            p.changeDynamics(b, j, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0],
-                             physicsClientId=cid, **free)
+            p.changeDynamics(b, j, jointDamping=0.0, localInertiaDiagonal=[0.0, 0.0, 0.0], physicsClientId=cid, **free)
             p.resetJointState(b, j, float(q0[j]), float(v0[j]), physicsClientId=cid)
         p.setJointMotorControlArray(b, self.joints, p.VELOCITY_CONTROL, forces=[0.0] * n, physicsClientId=cid)
         return 0
 
     def _joint_settings(self):
         infos = [self.p.getJointInfo(self.body, j, physicsClientId=self.cid) for j in self.joints]
-        return {"joint": "prismatic along x, one per mass, each a child of the fixed base",
-                "jointDamping": sorted({float(i[6]) for i in infos}),
-                "jointFriction": sorted({float(i[7]) for i in infos}),
-                "joint_limits": "none" if all(i[8] > i[9] for i in infos) else [[i[8], i[9]] for i in infos],
-                "velocity_motor_force": 0.0}
+        return {
+            "joint": "prismatic along x, one per mass, each a child of the fixed base",
+            "jointDamping": sorted({float(i[6]) for i in infos}),
+            "jointFriction": sorted({float(i[7]) for i in infos}),
+            "joint_limits": "none" if all(i[8] > i[9] for i in infos) else [[i[8], i[9]] for i in infos],
+            "velocity_motor_force": 0.0,
+        }
 
     def advance(self) -> None:
         p, cid = self.p, self.cid
@@ -276,8 +328,9 @@ class _FreeBody(_Bullet):
     def set_state(self, q, v) -> None:
         p, cid, b = self.p, self.cid, self.body
         two = len(q) == 2
-        p.resetBasePositionAndOrientation(b, [float(q[0]), 0.0, float(q[1]) if two else 0.0], [0, 0, 0, 1],
-                                          physicsClientId=cid)
+        p.resetBasePositionAndOrientation(
+            b, [float(q[0]), 0.0, float(q[1]) if two else 0.0], [0, 0, 0, 1], physicsClientId=cid
+        )
         p.resetBaseVelocity(b, [float(v[0]), 0.0, float(v[1]) if two else 0.0], [0, 0, 0], physicsClientId=cid)
 
     def _force(self, pos, vel) -> list:
@@ -349,9 +402,15 @@ class _ModelFile(SteppedModel):
         self.cid = cid = p.connect(p.DIRECT)
         if m is not None and m.nq != m.nv:
             raise ValueError("pybullet: a free or ball joint's quaternion is not mapped to Bullet's base state")
-        if m is not None and m.ntendon and (np.any(m.tendon_stiffness) or np.any(m.tendon_damping) or np.any(m.tendon_limited)):
-            raise ValueError("pybullet: Bullet has no tendons, and the file's tendons exert forces (stiffness, "
-                             "damping or limits): its model would be another model")
+        if (
+            m is not None
+            and m.ntendon
+            and (np.any(m.tendon_stiffness) or np.any(m.tendon_damping) or np.any(m.tendon_limited))
+        ):
+            raise ValueError(
+                "pybullet: Bullet has no tendons, and the file's tendons exert forces (stiffness, "
+                "damping or limits): its model would be another model"
+            )
         path, off = scene.file.path, set(scene.switched_off)
         if scene.file.kind == "URDF":
             bodies = [p.loadURDF(path, useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=cid)]
@@ -361,16 +420,23 @@ class _ModelFile(SteppedModel):
         if m is None:
             gravity = scene.gravity_vector()
         else:
-            gravity = ([0.0, 0.0, 0.0] if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
-                       else list(m.opt.gravity))
+            gravity = (
+                [0.0, 0.0, 0.0]
+                if m.opt.disableflags & int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+                else list(m.opt.gravity)
+            )
         p.setGravity(*gravity, physicsClientId=cid)
         names = {}
         for b in bodies:
             if p.getDynamicsInfo(b, -1, physicsClientId=cid)[0] > 0:
                 p.changeDynamics(b, -1, mass=0.0, physicsClientId=cid)  # MuJoCo's root is fixed (nq == nv)
             for j in range(-1, p.getNumJoints(b, physicsClientId=cid)):
-                kw = dict(linearDamping=0.0, angularDamping=0.0, maxJointVelocity=math.inf,
-                          activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING)
+                kw = dict(
+                    linearDamping=0.0,
+                    angularDamping=0.0,
+                    maxJointVelocity=math.inf,
+                    activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING,
+                )
                 if j >= 0:
                     info = p.getJointInfo(b, j, physicsClientId=cid)
                     if info[2] in (p.JOINT_REVOLUTE, p.JOINT_PRISMATIC):
@@ -390,35 +456,65 @@ class _ModelFile(SteppedModel):
                     p.setCollisionFilterGroupMask(b, j, 0, 0, physicsClientId=cid)
         missing = [n for n in scene.dof_names if n not in names]
         if missing:
-            raise ValueError(f"pybullet's model of the file has no joint named {missing[0]!r} "
-                             f"({len(names)} movable joints, the scene's {len(scene.dof_names)})")
+            raise ValueError(
+                f"pybullet's model of the file has no joint named {missing[0]!r} "
+                f"({len(names)} movable joints, the scene's {len(scene.dof_names)})"
+            )
         self.joints = [names[n] for n in scene.dof_names]
-        self._mujoco_bodies = {"bodies": set(), "joint_body": {}} if m is None else {
-            "bodies": {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(1, m.nbody)} - {None},
-            "joint_body": {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j):
-                           mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.jnt_bodyid[j])) for j in range(m.njnt)}}
+        self._mujoco_bodies = (
+            {"bodies": set(), "joint_body": {}}
+            if m is None
+            else {
+                "bodies": {mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(1, m.nbody)} - {None},
+                "joint_body": {
+                    mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j): mujoco.mj_id2name(
+                        m, mujoco.mjtObj.mjOBJ_BODY, int(m.jnt_bodyid[j])
+                    )
+                    for j in range(m.njnt)
+                },
+            }
+        )
         # Bullet's loaders read no joint stiffness: each spring is a torque -k (q - q_spring)
         # applied from Python before every step (TORQUE_CONTROL, the velocity motors at zero force).
         jnt = [] if m is None else [int(m.dof_jntid[i]) for i in range(m.nv)]
-        self.springs = [(self.joints[i], float(m.jnt_stiffness[jnt[i]]), float(m.qpos_spring[m.jnt_qposadr[jnt[i]]]))
-                        for i in range(len(jnt)) if m.jnt_stiffness[jnt[i]] != 0.0]
+        self.springs = [
+            (self.joints[i], float(m.jnt_stiffness[jnt[i]]), float(m.qpos_spring[m.jnt_qposadr[jnt[i]]]))
+            for i in range(len(jnt))
+            if m.jnt_stiffness[jnt[i]] != 0.0
+        ]
         self.set_state(*scene.initial_state())
         infos = [p.getJointInfo(b, j, physicsClientId=cid) for b, j in self.joints]
         self.settings = {
-            "loaded": "loadURDF(useFixedBase=True, URDF_USE_INERTIA_FROM_FILE)" if scene.file.kind == "URDF"
-            else "loadMJCF", "fixedTimeStep": dt, "numSubSteps": 0, "gravity": [float(g) for g in gravity],
-            "linearDamping": 0, "angularDamping": 0, "maxJointVelocity": "inf", "sleeping": "disabled",
-            "joint_motor": "zero force", "switched_off": sorted(off),
+            "loaded": "loadURDF(useFixedBase=True, URDF_USE_INERTIA_FROM_FILE)"
+            if scene.file.kind == "URDF"
+            else "loadMJCF",
+            "fixedTimeStep": dt,
+            "numSubSteps": 0,
+            "gravity": [float(g) for g in gravity],
+            "linearDamping": 0,
+            "angularDamping": 0,
+            "maxJointVelocity": "inf",
+            "sleeping": "disabled",
+            "joint_motor": "zero force",
+            "switched_off": sorted(off),
             "jointDamping": [0.0] * len(infos) if "damping" in off else [float(i[6]) for i in infos],
             "jointDamping_read_from_file": [float(i[6]) for i in infos],  # getJointInfo keeps it after the change
             "jointFriction": [float(i[7]) for i in infos],
             "limits": "none" if "limits" in off else [[float(i[8]), float(i[9])] for i in infos],
             "contact": "filtered out (group 0, mask 0)" if "contact" in off else "Bullet's",
             "not_modelled_by_bullet": [f for f in ("actuators", "equality", "armature") if f in scene.found],
-            "joint_springs": (f"{len(self.springs)} applied from Python before each step: TORQUE_CONTROL torque "
-                              "-k (q - q_spring), k and q_spring as MuJoCo compiled them") if self.springs else "none",
-            "engine_loop": ("joint springs' torques applied from Python, then stepSimulation, every step"
-                            if self.springs else "stepSimulation only, between output points")}
+            "joint_springs": (
+                f"{len(self.springs)} applied from Python before each step: TORQUE_CONTROL torque "
+                "-k (q - q_spring), k and q_spring as MuJoCo compiled them"
+            )
+            if self.springs
+            else "none",
+            "engine_loop": (
+                "joint springs' torques applied from Python, then stepSimulation, every step"
+                if self.springs
+                else "stepSimulation only, between output points"
+            ),
+        }
 
     def set_state(self, q, v) -> None:
         for (b, j), x, u in zip(self.joints, q, v):
@@ -456,8 +552,11 @@ class _ModelFile(SteppedModel):
         loaders read none), and ``calculateMassMatrix`` where one multibody holds every joint."""
         p, cid = self.p, self.cid
         bodies = sorted({b for b, _ in self.joints})
-        mass = sum(p.getDynamicsInfo(b, j, physicsClientId=cid)[0] for b in bodies
-                   for j in range(-1, p.getNumJoints(b, physicsClientId=cid)))
+        mass = sum(
+            p.getDynamicsInfo(b, j, physicsClientId=cid)[0]
+            for b in bodies
+            for j in range(-1, p.getNumJoints(b, physicsClientId=cid))
+        )
         owner = self._mujoco_bodies
         links: dict[str, list] = {}
         notes = []
@@ -477,14 +576,21 @@ class _ModelFile(SteppedModel):
             heavy = [inertia for m, inertia in parts if m > 0]
             built[name] = {"mass": sum(m for m, _ in parts), "inertia": heavy[0] if len(heavy) == 1 else None}
         if self.scene.file.kind == "MJCF":
-            notes.append("pybullet: Bullet's MJCF loader takes a geom's mass from its volume and density "
-                         "(a geom's mass attribute is not read) and reads no joint stiffness or armature")
+            notes.append(
+                "pybullet: Bullet's MJCF loader takes a geom's mass from its volume and density "
+                "(a geom's mass attribute is not read) and reads no joint stiffness or armature"
+            )
         springs = {jb: (k, ref) for jb, k, ref in self.springs}
         if self.springs:
-            sprung = ", ".join(f"{name} (k {springs[jb][0]:.6g})" for name, jb in zip(self.scene.dof_names, self.joints)
-                               if jb in springs)
-            notes.append(f"pybullet: Bullet's model has no joint stiffness; the harness applies it on {sprung} as a "
-                         "torque -k (q - q_spring) before each step, k and q_spring as MuJoCo compiled them")
+            sprung = ", ".join(
+                f"{name} (k {springs[jb][0]:.6g})"
+                for name, jb in zip(self.scene.dof_names, self.joints)
+                if jb in springs
+            )
+            notes.append(
+                f"pybullet: Bullet's model has no joint stiffness; the harness applies it on {sprung} as a "
+                "torque -k (q - q_spring) before each step, k and q_spring as MuJoCo compiled them"
+            )
         off = set(self.scene.switched_off)
         kinds = {p.JOINT_REVOLUTE: "hinge", p.JOINT_PRISMATIC: "slide"}
         joints, axes = {}, []
@@ -497,21 +603,37 @@ class _ModelFile(SteppedModel):
             k, ref = springs.get((b, j), (0.0, 0.0))
             lo, hi = float(info[8]), float(info[9])
             joints[name] = {
-                "type": kinds.get(info[2], str(info[2])), "axis": axis, "stiffness": k, "spring_ref": ref,
-                "damping": 0.0 if "damping" in off else float(info[6]), "armature": 0.0,
-                "frictionloss": float(info[7]), "limits": None if "limits" in off or lo > hi else [lo, hi]}
+                "type": kinds.get(info[2], str(info[2])),
+                "axis": axis,
+                "stiffness": k,
+                "spring_ref": ref,
+                "damping": 0.0 if "damping" in off else float(info[6]),
+                "armature": 0.0,
+                "frictionloss": float(info[7]),
+                "limits": None if "limits" in off or lo > hi else [lo, hi],
+            }
         matrix = None
         if len(bodies) == 1:
             b = bodies[0]
-            movable = [j for j in range(p.getNumJoints(b, physicsClientId=cid))
-                       if p.getJointInfo(b, j, physicsClientId=cid)[2] in (p.JOINT_REVOLUTE, p.JOINT_PRISMATIC)]
+            movable = [
+                j
+                for j in range(p.getNumJoints(b, physicsClientId=cid))
+                if p.getJointInfo(b, j, physicsClientId=cid)[2] in (p.JOINT_REVOLUTE, p.JOINT_PRISMATIC)
+            ]
             q = [p.getJointState(b, j, physicsClientId=cid)[0] for j in movable]
             full = np.array(p.calculateMassMatrix(b, q, physicsClientId=cid))
             at = {j: full.shape[0] - len(movable) + i for i, j in enumerate(movable)}  # a floating base's 6 first
             idx = [at[j] for _, j in self.joints]
             matrix = full[np.ix_(idx, idx)].tolist()
-        return {"engine": "pybullet", "total_mass": float(mass), "mass_matrix": matrix, "joint_axes": axes,
-                "bodies": built, "joints": joints, "notes": notes}
+        return {
+            "engine": "pybullet",
+            "total_mass": float(mass),
+            "mass_matrix": matrix,
+            "joint_axes": axes,
+            "bodies": built,
+            "joints": joints,
+            "notes": notes,
+        }
 
     def close(self) -> None:
         self.p.disconnect(physicsClientId=self.cid)
@@ -519,8 +641,13 @@ class _ModelFile(SteppedModel):
 
 #: How Bullet poses each scene it poses (the model class); a new scene is one entry here.
 POSES: dict[str, type] = {
-    "spring": _Spring, "damped_spring": _Spring, "pendulum": _Pendulum, "projectile": _Projectile, "chain": _Chain,
-    "model": _ModelFile, "cloth": SoftBodyCloth,
+    "spring": _Spring,
+    "damped_spring": _Spring,
+    "pendulum": _Pendulum,
+    "projectile": _Projectile,
+    "chain": _Chain,
+    "model": _ModelFile,
+    "cloth": SoftBodyCloth,
 }
 SCENES = tuple(POSES)
 
@@ -542,16 +669,30 @@ VERSIONS = EngineVersions(low="3.2.7", below="4", tested=("3.2.7",))
 #: scheme's alone.
 METHODS = {
     "pybullet:semi_implicit": EngineMode(
-        engine="pybullet", mode="semi_implicit", module="pybullet", dist="pybullet", build=build, versions=VERSIONS,
-        scenes=SCENES, unsupported=UNSUPPORTED, refuses={"cloth": refusal},
+        engine="pybullet",
+        mode="semi_implicit",
+        module="pybullet",
+        dist="pybullet",
+        build=build,
+        versions=VERSIONS,
+        scenes=SCENES,
+        unsupported=UNSUPPORTED,
+        refuses={"cloth": refusal},
         doc="""semi-implicit Euler (velocity first), forces applied before each step
             Measured: equals ref:semi_implicit_euler bitwise on the spring, the damped spring, the
             projectile and the prismatic spring chain; the revolute pendulum to ~1e-12 over 10^4 steps;
             the cloth's mass-spring soft body (shear=1, k_shear=k, k_bend=0) to roundoff: the deformable
             solver applies the spring forces explicitly and solves for their damping alone (here 0).""",
-        settings={"numSubSteps": 0, "linearDamping": 0, "angularDamping": 0, "maxJointVelocity": "inf",
-                  "sleeping": "disabled", "collision_shape": "none", "joint_motor": "zero force",
-                  "gravity": "scene's g along -z, else 0"},
+        settings={
+            "numSubSteps": 0,
+            "linearDamping": 0,
+            "angularDamping": 0,
+            "maxJointVelocity": "inf",
+            "sleeping": "disabled",
+            "collision_shape": "none",
+            "joint_motor": "zero force",
+            "gravity": "scene's g along -z, else 0",
+        },
     ),
 }
 
@@ -559,8 +700,14 @@ from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this modu
 
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
-    id="pybullet", module="pybullet", dists=("pybullet",), versions=VERSIONS, methods=METHODS, poses=POSES,
-    build=build, bare_loops=bench.bare_loops,
+    id="pybullet",
+    module="pybullet",
+    dists=("pybullet",),
+    versions=VERSIONS,
+    methods=METHODS,
+    poses=POSES,
+    build=build,
+    bare_loops=bench.bare_loops,
     model_loader="loadMJCF, or loadURDF with URDF_USE_INERTIA_FROM_FILE and a fixed base",
     contact_modes=contact.MODES,
 )

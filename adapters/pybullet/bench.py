@@ -1,6 +1,7 @@
 """pybullet's bare loops for ``harness bench --engines``: a loop of ``stepSimulation``, and on the
 undamped spring the same with the spring force read and applied before each step (``bare loop +
 force``: the least Python can do where Bullet has no spring)."""
+
 from __future__ import annotations
 
 

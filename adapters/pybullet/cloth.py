@@ -31,6 +31,7 @@ roundoff of |x| eps / h. The model starts where the scene starts (at rest, flat)
 takes its rest lengths from the nodes' positions at its first step (``updateConstants``), and
 no node velocity can be given, so another start is refused.
 """
+
 from __future__ import annotations
 
 import os
@@ -47,9 +48,17 @@ from .._model import SteppedModel
 #: (default 0.1), and a non-zero one builds the bending links whatever useBendingSprings says
 #: (measured: 7.5e-3 apart over 1000 steps on the 4 x 4 sheet at k = 1000); springDampingStiffness
 #: defaults to 0.1 (4.2e-3 apart there, 0.9% of the energy gone in 1 s).
-LOAD = {"useMassSpring": 1, "useBendingSprings": 0, "springBendingStiffness": 0.0, "springDampingStiffness": 0.0,
-        "springDampingAllDirections": 0, "useNeoHookean": 0, "useSelfCollision": 0, "useFaceContact": 0,
-        "frictionCoeff": 0.0}
+LOAD = {
+    "useMassSpring": 1,
+    "useBendingSprings": 0,
+    "springBendingStiffness": 0.0,
+    "springDampingStiffness": 0.0,
+    "springDampingAllDirections": 0,
+    "useNeoHookean": 0,
+    "useSelfCollision": 0,
+    "useFaceContact": 0,
+    "frictionCoeff": 0.0,
+}
 
 #: btSoftBodyWorldInfo's m_maxDisplacement: after the solve, each velocity component is clamped
 #: to it / dt. A blow-up then stays finite: measured on the 4 x 4 sheet at h omega = 3 and 100, it
@@ -61,13 +70,13 @@ MAX_DISPLACEMENT = 1000.0
 #: What cannot be set from pybullet, and why it does not act here (recorded with every run).
 KEPT = {
     "collisionMargin": "0.02, Bullet's (loadSoftBody ignores a margin <= 0): one body, self-collision off, nothing to "
-                       "collide with; it widens the bounding box of the clamp below",
+    "collide with; it widens the bounding box of the clamp below",
     "repulsionStiffness": "0.5, Bullet's (ignored unless > 0): acts on self-collision contacts only, which are off",
     "velocity_clamps": "|v| <= the body's bounding-box diagonal / dt before the position update, and each component "
-                       "<= 1000 / dt after it (m_maxDisplacement): not settable, reached only by a blow-up, which "
-                       "they hold finite; a node moved 1000 in one step ends the run as unstable",
+    "<= 1000 / dt after it (m_maxDisplacement): not settable, reached only by a blow-up, which "
+    "they hold finite; a node moved 1000 in one step ends the run as unstable",
     "implicit": "off (pybullet builds the deformable world with m_implicit false): only spring damping, here 0, "
-                "is solved for",
+    "is solved for",
 }
 
 
@@ -75,14 +84,23 @@ def refusal(scene: Scene) -> str | None:
     """Why Bullet's soft body cannot pose this cloth (None: it can): its springs are the mesh's
     triangle edges at one stiffness, and no bending springs (module docstring)."""
     v = scene.values
-    bad = [name for name, ok in (("shear", v["shear"] == 1), ("k_shear", v["k_shear"] == v["k"]),
-                                 ("k_bend", v["k_bend"] == 0.0)) if not ok]
+    bad = [
+        name
+        for name, ok in (
+            ("shear", v["shear"] == 1),
+            ("k_shear", v["k_shear"] == v["k"]),
+            ("k_bend", v["k_bend"] == 0.0),
+        )
+        if not ok
+    ]
     if not bad:
         return None
     got = ", ".join(f"{name}={v[name]:g}" for name in bad)
-    return (f"Bullet's mass-spring soft body poses the triangulated cloth only, shear=1, k_shear=k, k_bend=0 "
-            f"(got {got}): its springs are a triangle mesh's edges at one stiffness, and its bending springs add "
-            f"(1, 2), (2, 1) and (2, 2) links the scene has not")
+    return (
+        f"Bullet's mass-spring soft body poses the triangulated cloth only, shear=1, k_shear=k, k_bend=0 "
+        f"(got {got}): its springs are a triangle mesh's edges at one stiffness, and its bending springs add "
+        f"(1, 2), (2, 1) and (2, 2) links the scene has not"
+    )
 
 
 def grid_mesh(n: int, m: int) -> str:
@@ -111,8 +129,10 @@ class SoftBodyCloth(SteppedModel):
     in row order, and their velocities from the last step's displacement."""
 
     FORCE = "Bullet's own: btDeformableMassSpringForce on the mesh's edges and btDeformableGravityForce"
-    ENGINE_LOOP = ("stepSimulation only, the node positions read before the last step of each output interval "
-                   "and after it (the velocity is their difference / dt)")
+    ENGINE_LOOP = (
+        "stepSimulation only, the node positions read before the last step of each output interval "
+        "and after it (the velocity is their difference / dt)"
+    )
 
     def __init__(self, p, scene: Scene, dt: float):
         why = refusal(scene)
@@ -123,8 +143,10 @@ class SoftBodyCloth(SteppedModel):
         self.free = np.array([i * m + j for i, j in scene.free_nodes()], dtype=int)
         start = scene.rest_positions()[self.free].ravel()
         if not (np.array_equal(q0, start) and not np.any(v0)):
-            raise ValueError("pybullet: a soft body starts at its mesh, at rest (it takes its rest lengths from the "
-                             "nodes' positions at its first step, and pybullet sets no node velocity)")
+            raise ValueError(
+                "pybullet: a soft body starts at its mesh, at rest (it takes its rest lengths from the "
+                "nodes' positions at its first step, and pybullet sets no node velocity)"
+            )
         self.p, self.dt, self.v0 = p, dt, v0.copy()
         self.cid = cid = p.connect(p.DIRECT)
         values = scene.values
@@ -135,8 +157,14 @@ class SoftBodyCloth(SteppedModel):
         try:
             with os.fdopen(fd, "w") as f:
                 f.write(grid_mesh(n, m))
-            self.body = b = p.loadSoftBody(path, scale=values["s"], mass=values["mass"],
-                                           springElasticStiffness=values["k"], physicsClientId=cid, **LOAD)
+            self.body = b = p.loadSoftBody(
+                path,
+                scale=values["s"],
+                mass=values["mass"],
+                springElasticStiffness=values["k"],
+                physicsClientId=cid,
+                **LOAD,
+            )
         finally:
             os.remove(path)
         p.changeDynamics(b, -1, activationState=p.ACTIVATION_STATE_DISABLE_SLEEPING, physicsClientId=cid)
@@ -151,10 +179,13 @@ class SoftBodyCloth(SteppedModel):
             "world": "deformable (RESET_USE_DEFORMABLE_WORLD)",
             "fixedTimeStep": float(engine["fixedTimeStep"]),
             "numSubSteps": int(engine["numSubSteps"]),
-            "gravity": [float(engine["gravityAccelerationX"]), float(engine["gravityAccelerationY"]),
-                        float(engine["gravityAccelerationZ"])],
+            "gravity": [
+                float(engine["gravityAccelerationX"]),
+                float(engine["gravityAccelerationY"]),
+                float(engine["gravityAccelerationZ"]),
+            ],
             "mesh": f"{n} x {m} grid, integer coordinates, two triangles a square split along (i, j)-(i+1, j+1), "
-                    f"scale = s",
+            f"scale = s",
             "nodes": len(nodes),
             "nodes_at_scene_start": bool(np.array_equal(nodes[self.free].ravel(), start)),
             "springs": f"{len(mesh_edges(n, m))}: the mesh's distinct triangle edges",
@@ -198,8 +229,10 @@ class SoftBodyCloth(SteppedModel):
         jump = float(np.max(np.abs(self.after - self.before), initial=0.0))
         if not jump >= MAX_DISPLACEMENT * (1.0 - 1e-9):
             return None
-        return (f"Bullet clamped a node's velocity to m_maxDisplacement / dt (it moved {jump:.6g} in one step): the "
-                f"sheet blew up and Bullet holds it finite")
+        return (
+            f"Bullet clamped a node's velocity to m_maxDisplacement / dt (it moved {jump:.6g} in one step): the "
+            f"sheet blew up and Bullet holds it finite"
+        )
 
     def evaluations(self):
         return None, "Bullet evaluates its forces inside stepSimulation and has no counter or callback for them"

@@ -26,6 +26,7 @@ measured effect):
 
 The engine's loop is a Python loop of ``stepSimulation`` alone (Bullet has none of its own to call).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -123,8 +124,9 @@ def run(mode: ContactMode, scene, dt: float):
 
     stated = _stated(p, cid, bodies, scene, settings)
     try:
-        out = record_loop(mode, scene, dt, step, read, stated, loop="a Python loop of p.stepSimulation()",
-                          time_again=time_again)
+        out = record_loop(
+            mode, scene, dt, step, read, stated, loop="a Python loop of p.stepSimulation()", time_again=time_again
+        )
     finally:
         p.disconnect(physicsClientId=cid)
     return out
@@ -132,8 +134,11 @@ def run(mode: ContactMode, scene, dt: float):
 
 def _stated(p, cid, bodies, scene, settings: dict) -> dict:
     """The settings as the run used them, with what pybullet reads back."""
-    out = {"solver": "btMultiBodyConstraintSolver (sequential impulse)", "pybullet": engine_version("pybullet"),
-           "bodies": "base-only multibodies (6 DOF) on a static GEOM_PLANE"}
+    out = {
+        "solver": "btMultiBodyConstraintSolver (sequential impulse)",
+        "pybullet": engine_version("pybullet"),
+        "bodies": "base-only multibodies (6 DOF) on a static GEOM_PLANE",
+    }
     out.update(settings)
     info = p.getDynamicsInfo(bodies[0], -1, physicsClientId=cid)
     out["body restitution (read back)"] = info[5]
@@ -144,13 +149,23 @@ def _stated(p, cid, bodies, scene, settings: dict) -> dict:
     return out
 
 
-SETTINGS = {**ENGINE_PARAMETERS, "ball contactERP": BALL_CONTACT_ERP, **BODY_DYNAMICS,
-            **{f"plane {k}": v for k, v in PLANE.items()}}
+SETTINGS = {
+    **ENGINE_PARAMETERS,
+    "ball contactERP": BALL_CONTACT_ERP,
+    **BODY_DYNAMICS,
+    **{f"plane {k}": v for k, v in PLANE.items()},
+}
 
 MODES = {
     "pybullet:sequential_impulse": ContactMode(
-        "pybullet", "sequential_impulse", "pybullet", run, poses=POSES,
-        settings=SETTINGS, own_process=True,
+        "pybullet",
+        "sequential_impulse",
+        "pybullet",
+        run,
+        poses=POSES,
+        settings=SETTINGS,
+        own_process=True,
         doc="Bullet's multibody sequential-impulse contact solver; restitution and friction combined by product, "
-            "damping 0, contacts only once touching"),
+        "damping 0, contacts only once touching",
+    ),
 }

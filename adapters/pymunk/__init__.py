@@ -25,6 +25,7 @@ unseen. The state is read only at output points. Force evaluations are counted, 
 run, by wrapping the Python force functions; Chipmunk's own constraints (DampedSpring, PinJoint)
 compute their impulses inside the step with no counter or callback, so they are not counted.
 """
+
 from __future__ import annotations
 
 import math
@@ -46,21 +47,34 @@ from . import bench
 _FORCE_SCENES = ("spring", "damped_spring", "projectile", "chain")
 _SHEET = "Chipmunk is 2-D: the cloth is posed in its plane as the scene net (pymunk:damped_spring)"
 _NET = "the net's springs as Chipmunk's own DampedSprings: see pymunk:damped_spring"
-_FORCE_UNSUPPORTED = {"cloth": _SHEET, "net": _NET,
+_FORCE_UNSUPPORTED = {
+    "cloth": _SHEET,
+    "net": _NET,
     "pendulum": "a pendulum in Chipmunk is a joint, not a force: see pymunk:pin_joint",
     "rope": "a rope in Chipmunk is pin joints, not forces: see pymunk:pin_joint",
     "kepler": "not posed: Chipmunk has no gravity between bodies, and a 1/r^2 force from Python would only "
-              "repeat what the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
+    "repeat what the spring shows (same force path, same scheme); Kepler is REBOUND's scene",
 }
 _PINS = "pin joints pose only the pendulum and the rope"
-_JOINT_UNSUPPORTED = {"kepler": _PINS, "cloth": _SHEET, "net": _NET,
-                      **{scene: f"{_PINS}; see pymunk:{mode}" for scene, mode in (
-    ("spring", "spring_force"), ("damped_spring", "spring_force"), ("projectile", "applied_force"),
-    ("chain", "damped_spring"))}}
-_SPRING_UNSUPPORTED = {"cloth": _SHEET,
+_JOINT_UNSUPPORTED = {
+    "kepler": _PINS,
+    "cloth": _SHEET,
+    "net": _NET,
+    **{
+        scene: f"{_PINS}; see pymunk:{mode}"
+        for scene, mode in (
+            ("spring", "spring_force"),
+            ("damped_spring", "spring_force"),
+            ("projectile", "applied_force"),
+            ("chain", "damped_spring"),
+        )
+    },
+}
+_SPRING_UNSUPPORTED = {
+    "cloth": _SHEET,
     "spring": "not posed: a DampedSpring to a static body integrates the 1-DOF spring as pymunk:spring_force "
-              "does (position-first semi-implicit Euler, 5e-14 in docs/engines.md); Chipmunk's springs link bodies "
-              "on the chain, and damp on the damped spring",
+    "does (position-first semi-implicit Euler, 5e-14 in docs/engines.md); Chipmunk's springs link bodies "
+    "on the chain, and damp on the damped spring",
     "pendulum": "a pendulum in Chipmunk is a joint: see pymunk:pin_joint",
     "rope": "a rope in Chipmunk is pin joints: see pymunk:pin_joint",
     "projectile": "no spring in the projectile: see pymunk:applied_force",
@@ -68,11 +82,15 @@ _SPRING_UNSUPPORTED = {"cloth": _SHEET,
 }
 
 _SPACE_DAMPING_SCENES = ("damped_spring", "projectile")
-_SPACE_DAMPING_UNSUPPORTED = {"cloth": _SHEET, "net": "no damping in the net",
+_SPACE_DAMPING_UNSUPPORTED = {
+    "cloth": _SHEET,
+    "net": "no damping in the net",
     "spring": "no damping to give space.damping: see pymunk:spring_force",
     "chain": "the chain's damping acts between neighbours; space.damping damps each body against the world",
-    **{scene: f"no damping in the {name}" for scene, name in (
-        ("pendulum", "pendulum"), ("rope", "rope"), ("kepler", "Kepler problem"))},
+    **{
+        scene: f"no damping in the {name}"
+        for scene, name in (("pendulum", "pendulum"), ("rope", "rope"), ("kepler", "Kepler problem"))
+    },
 }
 
 
@@ -103,12 +121,15 @@ class BodyReader:
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         if not self.batched:
-            return (np.array([tuple(b.position) for b in self.bodies]).reshape(-1, 2),
-                    np.array([tuple(b.velocity) for b in self.bodies]).reshape(-1, 2))
+            return (
+                np.array([tuple(b.position) for b in self.bodies]).reshape(-1, 2),
+                np.array([tuple(b.velocity) for b in self.bodies]).reshape(-1, 2),
+            )
         self.buffer.clear()
         self.batch.get_space_bodies(self.space, self.fields, self.buffer)
-        rows = np.frombuffer(self.buffer.float_buf(), dtype=float).reshape(-1, 4)[:len(self.bodies)]
+        rows = np.frombuffer(self.buffer.float_buf(), dtype=float).reshape(-1, 4)[: len(self.bodies)]
         return rows[:, :2].copy(), rows[:, 2:].copy()
+
 
 #: Spacing of the damped_spring chain's bodies (and every spring's rest length), in units of
 #: max(|x0|, 1): a Chipmunk spring acts along the line between its bodies, so neighbours must
@@ -148,9 +169,11 @@ class _Space(SteppedModel):
         """In a counting run, wrap the mode's Python force functions to count their calls."""
         self.settings["engine_loop"] = (
             "from Python every step: the force set on body.force, then space.step (the mode)"
-            if self.mode == "applied_force" else
-            "space.step only (the force is Chipmunk's velocity_func call)" if self.mode == "spring_force" else
-            self.QUIET_LOOP)
+            if self.mode == "applied_force"
+            else "space.step only (the force is Chipmunk's velocity_func call)"
+            if self.mode == "spring_force"
+            else self.QUIET_LOOP
+        )
         if self.force_calls is None:
             return
 
@@ -158,6 +181,7 @@ class _Space(SteppedModel):
             def counted(*args):
                 self.force_calls += 1
                 return function(*args)
+
             return counted
 
         if self.mode == "spring_force":
@@ -169,16 +193,21 @@ class _Space(SteppedModel):
     def _record_settings(self, mode: str) -> None:
         space, body = self.space, self.bodies[0]
         self.settings = {
-            "gravity": list(space.gravity), "damping": space.damping,
+            "gravity": list(space.gravity),
+            "damping": space.damping,
             "sleep_time_threshold": "inf" if math.isinf(space.sleep_time_threshold) else space.sleep_time_threshold,
-            "iterations": space.iterations, "mass": sorted({b.mass for b in self.bodies}),
+            "iterations": space.iterations,
+            "mass": sorted({b.mass for b in self.bodies}),
             "moment": "inf" if all(math.isinf(b.moment) for b in self.bodies) else [b.moment for b in self.bodies],
-            "bodies": len(self.bodies), "shapes": 0,
-            "force": {"spring_force": "set in body.velocity_func (sees the new positions)",
-                      "applied_force": "set on body.force before each space.step (sees the old positions)",
-                      "damped_spring": "none: DampedSpring constraints",
-                      "space_damping": "spring in body.velocity_func; damping as space.damping",
-                      "pin_joint": "none: gravity and the pin joints"}[mode],
+            "bodies": len(self.bodies),
+            "shapes": 0,
+            "force": {
+                "spring_force": "set in body.velocity_func (sees the new positions)",
+                "applied_force": "set on body.force before each space.step (sees the old positions)",
+                "damped_spring": "none: DampedSpring constraints",
+                "space_damping": "spring in body.velocity_func; damping as space.damping",
+                "pin_joint": "none: gravity and the pin joints",
+            }[mode],
         }
         if len(self.bodies) == 1:
             self.settings["mass"] = body.mass
@@ -213,8 +242,11 @@ class _Space(SteppedModel):
     def evaluations(self):
         if self.force_calls is not None:
             per = len(self.bodies) if self.mode == "spring_force" else 1
-            what = ("velocity_func calls / bodies" if self.mode == "spring_force"
-                    else "calls of the force set before each step")
+            what = (
+                "velocity_func calls / bodies"
+                if self.mode == "spring_force"
+                else "calls of the force set before each step"
+            )
             return self.force_calls // per, f"force evaluations counted from Python ({what})"
         if self.mode in ("spring_force", "applied_force"):
             return None, "counted only in a counting run (the counter wraps the Python force function)"
@@ -238,8 +270,9 @@ class _Body(_Space):
         self.body = body = pymunk.Body(values["m"], math.inf)
         self.bodies = [body]
         q0, v0 = scene.initial_state()
-        self.offset = np.array([SPRING_SPACING * max(abs(values["x0"]), 1.0)]) if mode == "damped_spring" \
-            else np.zeros(1)
+        self.offset = (
+            np.array([SPRING_SPACING * max(abs(values["x0"]), 1.0)]) if mode == "damped_spring" else np.zeros(1)
+        )
         self.set_state(q0, v0)
         space.add(body)
         update_velocity = pymunk.Body.update_velocity
@@ -257,6 +290,7 @@ class _Body(_Space):
 
             body.velocity_func = velocity_func
         elif mode == "spring_force":
+
             def velocity_func(b, gravity, damping, h):
                 (x, y), (vx, vy) = b.position, b.velocity
                 b.force = (-k * x - c * vx, -k * y - c * vy)
@@ -264,6 +298,7 @@ class _Body(_Space):
 
             body.velocity_func = velocity_func
         elif mode == "applied_force":
+
             def apply_before_step():
                 (x, y), (vx, vy) = body.position, body.velocity
                 body.force = (-k * x - c * vx, -k * y - c * vy)
@@ -272,9 +307,14 @@ class _Body(_Space):
         self._record_settings(mode)
         if mode == "damped_spring":
             spring = self.constraints[0]
-            self.settings.update({"spring": "DampedSpring from a static wall to the body",
-                                  "rest_length": spring.rest_length,
-                                  "stiffness": spring.stiffness, "spring_damping": spring.damping})
+            self.settings.update(
+                {
+                    "spring": "DampedSpring from a static wall to the body",
+                    "rest_length": spring.rest_length,
+                    "stiffness": spring.stiffness,
+                    "spring_damping": spring.damping,
+                }
+            )
 
     def set_state(self, q, v) -> None:
         """As if built at (q, v) (scene coordinates)."""
@@ -284,7 +324,7 @@ class _Body(_Space):
         self._zero_forces()
 
     def state(self):
-        (x, y), (vx, vy) = self.body.position, self.body.velocity
+        (x, _), (vx, _) = self.body.position, self.body.velocity
         return np.array([x - self.offset[0]]), np.array([vx])
 
 
@@ -380,13 +420,16 @@ class _Chain(_Space):
             rest = SPRING_SPACING * max(abs(values["x0"]), 1.0)
             wall = space.static_body
             self.constraints = [pymunk.DampedSpring(wall, bodies[0], (0.0, 0.0), (0.0, 0.0), rest, k, c)]
-            self.constraints += [pymunk.DampedSpring(a, b, (0.0, 0.0), (0.0, 0.0), rest, k, c)
-                                 for a, b in zip(bodies[:-1], bodies[1:])]
-            self.constraints.append(pymunk.DampedSpring(bodies[-1], wall, (0.0, 0.0), ((n + 1) * rest, 0.0),
-                                                        rest, k, c))
+            self.constraints += [
+                pymunk.DampedSpring(a, b, (0.0, 0.0), (0.0, 0.0), rest, k, c) for a, b in zip(bodies[:-1], bodies[1:])
+            ]
+            self.constraints.append(
+                pymunk.DampedSpring(bodies[-1], wall, (0.0, 0.0), ((n + 1) * rest, 0.0), rest, k, c)
+            )
         elif mode == "spring_force":
             self._spring_force(pymunk, bodies, n, k, c)
         elif mode == "applied_force":
+
             def apply_before_step():
                 x = np.array([b.position.x for b in bodies])
                 f = chain_force(k, c, x, lambda: np.array([b.velocity.x for b in bodies]))
@@ -399,11 +442,16 @@ class _Chain(_Space):
         self._record_settings(mode)
         if mode == "damped_spring":
             c = self.constraints
-            self.settings.update({"spring": "DampedSpring between neighbours and from the end bodies to static walls",
-                                  "rest_length": sorted({s.rest_length for s in c}),
-                                  "stiffness": sorted({s.stiffness for s in c}),
-                                  "spring_damping": sorted({s.damping for s in c}), "springs": len(c),
-                                  "spacing": float(c[0].rest_length)})
+            self.settings.update(
+                {
+                    "spring": "DampedSpring between neighbours and from the end bodies to static walls",
+                    "rest_length": sorted({s.rest_length for s in c}),
+                    "stiffness": sorted({s.stiffness for s in c}),
+                    "spring_damping": sorted({s.damping for s in c}),
+                    "springs": len(c),
+                    "spacing": float(c[0].rest_length),
+                }
+            )
 
     def _spring_force(self, pymunk, bodies, n: int, k: float, c: float) -> None:
         update_velocity = pymunk.Body.update_velocity
@@ -488,34 +536,51 @@ class _Net(_Rope):
         self.bodies = [pymunk.Body(scene.node_mass, math.inf) for _ in scene.free_nodes()]
         self.set_state(*scene.initial_state())
         body = dict(zip((i * m + j for i, j in scene.free_nodes()), self.bodies))
-        ends = {node: (body[node], (0.0, 0.0)) if node in body else (self.space.static_body, tuple(start[node]))
-                for node in range(len(start))}
-        self.constraints = [pymunk.DampedSpring(ends[a][0], ends[b][0], ends[a][1], ends[b][1], rest, stiff, 0.0)
-                            for a, b, stiff, rest in zip(*scene.springs())]
+        ends = {
+            node: (body[node], (0.0, 0.0)) if node in body else (self.space.static_body, tuple(start[node]))
+            for node in range(len(start))
+        }
+        self.constraints = [
+            pymunk.DampedSpring(ends[a][0], ends[b][0], ends[a][1], ends[b][1], rest, stiff, 0.0)
+            for a, b, stiff, rest in zip(*scene.springs())
+        ]
         self.space.add(*self.bodies, *self.constraints)
         self._record_settings(mode)
-        self.settings.update(spring="DampedSpring per spring, damping 0; pins on the static body",
-                             springs=len(self.constraints), spring_damping=sorted({s.damping for s in self.constraints}))
+        self.settings.update(
+            spring="DampedSpring per spring, damping 0; pins on the static body",
+            springs=len(self.constraints),
+            spring_damping=sorted({s.damping for s in self.constraints}),
+        )
 
 
 #: How Chipmunk poses each scene it poses (the model class; each mode poses those its ``EngineMode``
 #: lists); a new scene is one entry here.
 POSES: dict[str, type[_Space]] = {
-    "spring": _Body, "damped_spring": _Body, "projectile": _Projectile, "pendulum": _Pendulum,
-    "chain": _Chain, "rope": _Rope, "net": _Net,
+    "spring": _Body,
+    "damped_spring": _Body,
+    "projectile": _Projectile,
+    "pendulum": _Pendulum,
+    "chain": _Chain,
+    "rope": _Rope,
+    "net": _Net,
 }
 
 
 def _joint_settings(joints) -> dict:
     """A pin joint's settings, the same for every joint of a model (one value each, else a list)."""
+
     def one(values):
         values = sorted(set(values))
         values = ["inf" if math.isinf(v) else v for v in values]
         return values[0] if len(values) == 1 else values
 
-    return {"joints": len(joints), "distance": one(j.distance for j in joints),
-            "error_bias": one(j.error_bias for j in joints), "max_bias": one(j.max_bias for j in joints),
-            "max_force": one(j.max_force for j in joints)}
+    return {
+        "joints": len(joints),
+        "distance": one(j.distance for j in joints),
+        "error_bias": one(j.error_bias for j in joints),
+        "max_bias": one(j.max_bias for j in joints),
+        "max_force": one(j.max_force for j in joints),
+    }
 
 
 def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _Space:
@@ -528,52 +593,96 @@ def build(pymunk, mode: str, scene: Scene, dt: float, count: bool = False) -> _S
 VERSIONS = EngineVersions(low="6.5.0", below="8", tested=("6.5.0", "6.6.0", "7.0.0", "7.3.1"))
 
 
-def _mode(mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None,
-          behaviour: Behaviour = NO_BEHAVIOUR) -> EngineMode:
-    return EngineMode(engine="pymunk", mode=mode, module="pymunk", dist="pymunk", build=build,
-                      scenes=scenes, unsupported=unsupported, doc=doc, no_match=no_match or {}, versions=VERSIONS,
-                      behaviour=behaviour,
-                      counting_run=mode in ("spring_force", "applied_force"),
-                      settings={"damping": 1, "sleeping": "disabled", "moment": "inf", "shapes": 0, **settings})
+def _mode(
+    mode: str, scenes, unsupported, doc: str, settings: dict, no_match=None, behaviour: Behaviour = NO_BEHAVIOUR
+) -> EngineMode:
+    return EngineMode(
+        engine="pymunk",
+        mode=mode,
+        module="pymunk",
+        dist="pymunk",
+        build=build,
+        scenes=scenes,
+        unsupported=unsupported,
+        doc=doc,
+        no_match=no_match or {},
+        versions=VERSIONS,
+        behaviour=behaviour,
+        counting_run=mode in ("spring_force", "applied_force"),
+        settings={"damping": 1, "sleeping": "disabled", "moment": "inf", "shapes": 0, **settings},
+    )
 
 
-METHODS = {m.id: m for m in (
-    _mode("spring_force", _FORCE_SCENES, _FORCE_UNSUPPORTED,
-          """position-first semi-implicit Euler (force in velocity_func, as Chipmunk intends)
+METHODS = {
+    m.id: m
+    for m in (
+        _mode(
+            "spring_force",
+            _FORCE_SCENES,
+            _FORCE_UNSUPPORTED,
+            """position-first semi-implicit Euler (force in velocity_func, as Chipmunk intends)
           Measured: equals ref:semi_implicit_euler_position_first bitwise on the spring and the chain.""",
-          {"force": "body.velocity_func"}),
-    _mode("applied_force", _FORCE_SCENES, _FORCE_UNSUPPORTED,
-          """explicit Euler (force set on body.force before each step, as many users write it)
+            {"force": "body.velocity_func"},
+        ),
+        _mode(
+            "applied_force",
+            _FORCE_SCENES,
+            _FORCE_UNSUPPORTED,
+            """explicit Euler (force set on body.force before each step, as many users write it)
           Measured: equals ref:explicit_euler bitwise on the spring and the chain: energy x(1 + h^2) per
           step on the spring, unstable at every dt on the chain.""",
-          {"force": "body.force before each step"}),
-    _mode("damped_spring", ("damped_spring", "chain", "net"), _SPRING_UNSUPPORTED,
-          """position-first semi-implicit Euler, damping as an exact decay after the kick (Chipmunk's DampedSpring)
+            {"force": "body.force before each step"},
+        ),
+        _mode(
+            "damped_spring",
+            ("damped_spring", "chain", "net"),
+            _SPRING_UNSUPPORTED,
+            """position-first semi-implicit Euler, damping as an exact decay after the kick (Chipmunk's DampedSpring)
           Measured: equals ref:semi_implicit_euler_position_first on the chain to roundoff of the
           bodies' spaced positions (9e-11 absolute on velocities of ~120 over 1000 steps), and
           ref:position_first_euler_decay_after_kick on the damped spring (1e-14).""",
-          {"spring": "DampedSpring, damping 0, between neighbours and to static walls",
-           "spacing": f"{SPRING_SPACING:g} max(|x0|, 1)"},
-          {"chain": "with damping, Chipmunk's impulse solver decays each spring's relative velocity in turn, "
-                    "one spring after another: no one-step formula of the whole chain's damping"},
-          Behaviour(integrates_as={"net": "ref:semi_implicit_euler_position_first"})),
-    _mode("space_damping", _SPACE_DAMPING_SCENES, _SPACE_DAMPING_UNSUPPORTED,
-          """position-first semi-implicit Euler, damping as an exact decay before the kick (Chipmunk's space.damping)
+            {
+                "spring": "DampedSpring, damping 0, between neighbours and to static walls",
+                "spacing": f"{SPRING_SPACING:g} max(|x0|, 1)",
+            },
+            {
+                "chain": "with damping, Chipmunk's impulse solver decays each spring's relative velocity in turn, "
+                "one spring after another: no one-step formula of the whole chain's damping"
+            },
+            Behaviour(integrates_as={"net": "ref:semi_implicit_euler_position_first"}),
+        ),
+        _mode(
+            "space_damping",
+            _SPACE_DAMPING_SCENES,
+            _SPACE_DAMPING_UNSUPPORTED,
+            """position-first semi-implicit Euler, damping as an exact decay before the kick (Chipmunk's space.damping)
           Measured: equals ref:position_first_euler_decay_before_kick on the damped spring and the
           projectile to roundoff (space.damping^h is e^{-c h/m} to a few ulps).""",
-          {"damping": "e^(-c/m) (space.damping)", "force": "body.velocity_func (spring); gravity"}),
-    _mode("pin_joint", ("pendulum", "rope"), _JOINT_UNSUPPORTED,
-          """pendulum and rope on PinJoints with Chipmunk's default error correction (loses energy)
+            {"damping": "e^(-c/m) (space.damping)", "force": "body.velocity_func (spring); gravity"},
+        ),
+        _mode(
+            "pin_joint",
+            ("pendulum", "rope"),
+            _JOINT_UNSUPPORTED,
+            """pendulum and rope on PinJoints with Chipmunk's default error correction (loses energy)
           Measured: no reference scheme; the joints' bias correction bleeds energy.""",
-          {"joint": "PinJoint, default error_bias and max_bias"},
-          {"pendulum": "the pin joint's error correction (error_bias, max_bias) moves the bob between steps"}),
-)}
+            {"joint": "PinJoint, default error_bias and max_bias"},
+            {"pendulum": "the pin joint's error correction (error_bias, max_bias) moves the bob between steps"},
+        ),
+    )
+}
 
 from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
 
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
-    id="pymunk", module="pymunk", dists=("pymunk",), versions=VERSIONS, methods=METHODS, poses=POSES,
-    build=build, bare_loops=bench.bare_loops,
+    id="pymunk",
+    module="pymunk",
+    dists=("pymunk",),
+    versions=VERSIONS,
+    methods=METHODS,
+    poses=POSES,
+    build=build,
+    bare_loops=bench.bare_loops,
     contact_modes=contact.MODES,
 )

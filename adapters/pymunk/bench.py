@@ -1,6 +1,7 @@
 """pymunk's bare loops for ``harness bench --engines``: a loop of ``space.step`` (a mode's
 ``velocity_func`` runs inside it) and, where the mode sets the force from Python before every step,
 the same with that done first (``bare loop + force``)."""
+
 from __future__ import annotations
 
 

@@ -23,6 +23,7 @@ the velocity before the step, to roundoff.
 
 The engine's loop is a Python loop of ``space.step(dt)`` alone (Chipmunk has none of its own).
 """
+
 from __future__ import annotations
 
 import math
@@ -97,21 +98,32 @@ def run(mode: ContactMode, scene, dt: float):
         space2, _ = _pose(pymunk, scene, settings)
         return timed_loop(lambda: space2.step(dt), steps)
 
-    stated = {"solver": "Chipmunk2D sequential impulses", "pymunk": engine_version("pymunk"),
-              "bodies": "2-D: x and z of the scene; Circle / Poly.create_box on a static Segment",
-              **{k: v for k, v in settings.items()},
-              "restitution combining": "product of elasticities: plane 1 x body's",
-              "friction combining": "product: plane 1 x body's",
-              "collision_slop (read back)": space.collision_slop, "collision_bias (read back)": space.collision_bias,
-              "iterations (read back)": space.iterations}
-    return record_loop(mode, scene, dt, step, read, stated, loop="a Python loop of space.step(dt)",
-                       time_again=time_again)
+    stated = {
+        "solver": "Chipmunk2D sequential impulses",
+        "pymunk": engine_version("pymunk"),
+        "bodies": "2-D: x and z of the scene; Circle / Poly.create_box on a static Segment",
+        **{k: v for k, v in settings.items()},
+        "restitution combining": "product of elasticities: plane 1 x body's",
+        "friction combining": "product: plane 1 x body's",
+        "collision_slop (read back)": space.collision_slop,
+        "collision_bias (read back)": space.collision_bias,
+        "iterations (read back)": space.iterations,
+    }
+    return record_loop(
+        mode, scene, dt, step, read, stated, loop="a Python loop of space.step(dt)", time_again=time_again
+    )
 
 
 MODES = {
     "pymunk:sequential_impulse": ContactMode(
-        "pymunk", "sequential_impulse", "pymunk", run, poses=POSES,
-        settings=SETTINGS, dims=2,
+        "pymunk",
+        "sequential_impulse",
+        "pymunk",
+        run,
+        poses=POSES,
+        settings=SETTINGS,
+        dims=2,
         doc="Chipmunk2D's sequential impulses in the plane; elasticity and friction combined by product, "
-            "collision_slop 0"),
+        "collision_slop 0",
+    ),
 }

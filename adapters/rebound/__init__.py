@@ -26,6 +26,7 @@ Force evaluations are counted in a counting run (``count=True``) by a no-op
 ``sim.additional_forces`` callback, which REBOUND calls once per force evaluation; it is a
 Python function, so runs that are timed leave it out.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -40,16 +41,16 @@ from .._model import SteppedModel
 from . import bench
 
 _NOT_GRAVITY = "not a gravitational N-body problem (an additional_forces callback would be our force, not REBOUND's)"
-UNSUPPORTED = {s: _NOT_GRAVITY for s in ("spring", "damped_spring", "pendulum", "projectile", "chain", "rope",
-                                                    "cloth", "net")}
+UNSUPPORTED = {
+    s: _NOT_GRAVITY for s in ("spring", "damped_spring", "pendulum", "projectile", "chain", "rope", "cloth", "net")
+}
 
 #: Our mode name (REBOUND's integrator name) -> what it selects in REBOUND: that integrator, its
 #: settings set explicitly so that a new REBOUND default cannot change what runs. Each is REBOUND
 #: 5.2.2's default.
 MODES = {
     "leapfrog": {"order": 2},
-    "whfast": {"corrector": 0, "safe_mode": 1, "coordinates": "JACOBI", "kernel": "DEFAULT",
-               "keep_unsynchronized": 0},
+    "whfast": {"corrector": 0, "safe_mode": 1, "coordinates": "JACOBI", "kernel": "DEFAULT", "keep_unsynchronized": 0},
     "ias15": {"epsilon": 1e-9, "min_dt": 0.0, "adaptive_mode": "PRS23"},
     "saba": {"type": "10_6_4", "safe_mode": 1, "keep_unsynchronized": 0},
 }
@@ -75,6 +76,7 @@ def has_mode(mode: str):
     """Whether the imported REBOUND runs ``mode`` with its ``MODES`` settings as this adapter spells it (a
     setting the release lacks is left out and recorded; one it refuses, such as REBOUND 4.4's
     integer IAS15 ``adaptive_mode`` or its SABA type names, leaves the mode unavailable)."""
+
     def present(rebound) -> bool | str:
         sim = rebound.Simulation()
         try:
@@ -87,18 +89,32 @@ def has_mode(mode: str):
                 try:
                     setattr(config, name, value)
                 except (TypeError, ValueError, AttributeError) as exc:
-                    return (f"rebound {rebound.__version__} refuses {mode}'s {name} = {value!r} "
-                            f"({type(exc).__name__}: {' '.join(str(exc).split())[:80]})")
+                    return (
+                        f"rebound {rebound.__version__} refuses {mode}'s {name} = {value!r} "
+                        f"({type(exc).__name__}: {' '.join(str(exc).split())[:80]})"
+                    )
         return True
+
     return present
 
+
 #: Simulation-wide settings, set explicitly and read back into each run's settings.
-SIM = {"gravity": "basic", "collision": "none", "boundary": "none", "softening": 0.0,
-       "exit_max_distance": 0.0, "exit_min_distance": 0.0, "exact_finish_time": 1}
+SIM = {
+    "gravity": "basic",
+    "collision": "none",
+    "boundary": "none",
+    "softening": 0.0,
+    "exit_max_distance": 0.0,
+    "exit_min_distance": 0.0,
+    "exact_finish_time": 1,
+}
 
 #: How each kind of mode advances (recorded with every run).
-ADVANCE = {"adaptive": "integrate(n dt) at every multiple n of dt, adaptive steps between them",
-           "fixed": "steps(n) between output points (steps(1) per step as stepped by the harness)"}
+ADVANCE = {
+    "adaptive": "integrate(n dt) at every multiple n of dt, adaptive steps between them",
+    "fixed": "steps(n) between output points (steps(1) per step as stepped by the harness)",
+}
+
 
 class _Simulation(SteppedModel):
     """What both poses share: the simulation's settings, the integrator, the counter and the
@@ -109,8 +125,9 @@ class _Simulation(SteppedModel):
     #: What the pose adds to the settings (kepler's: the keys its stored runs were recorded with).
     EXTRA_SETTINGS: dict = {}
 
-    def __init__(self, rebound, mode: str, scene: Scene, dt: float, count: bool = False,
-                 tolerance: float | None = None):
+    def __init__(
+        self, rebound, mode: str, scene: Scene, dt: float, count: bool = False, tolerance: float | None = None
+    ):
         self.sim = sim = rebound.Simulation()
         self.adaptive = mode in ADAPTIVE
         self.dt, self.n = dt, 0
@@ -132,13 +149,21 @@ class _Simulation(SteppedModel):
         # pays a ctypes conversion of its own, so one array for all particles pays it once.
         self._data = np.zeros((sim.N, 6))
         self.settings = {
-            "integrator": str(sim.integrator), "dt": float(sim.dt), "G": float(sim.G),
+            "integrator": str(sim.integrator),
+            "dt": float(sim.dt),
+            "G": float(sim.G),
             **{name: _plain(getattr(sim, name)) for name in SIM},
-            "N": int(sim.N), "N_active": "all" if sim.N_active in (-1, 2 ** 64 - 1) else int(sim.N_active),
-            "masses": masses, "additional_forces": "none", "move_to_com": False, "model": self.WHAT,
+            "N": int(sim.N),
+            "N_active": "all" if sim.N_active in (-1, 2**64 - 1) else int(sim.N_active),
+            "masses": masses,
+            "additional_forces": "none",
+            "move_to_com": False,
+            "model": self.WHAT,
             "advance": ADVANCE["adaptive" if self.adaptive else "fixed"],
-            **{name: (f"not in rebound {rebound.__version__}" if name in missing else _plain(getattr(config, name)))
-               for name in MODES[mode]},
+            **{
+                name: (f"not in rebound {rebound.__version__}" if name in missing else _plain(getattr(config, name)))
+                for name in MODES[mode]
+            },
         }
         self.settings.update(self.EXTRA_SETTINGS)
         self.force_passes = None
@@ -170,8 +195,10 @@ class _Simulation(SteppedModel):
 
     def evaluations(self):
         if self.force_passes is None:
-            return None, ("counted only in a counting run: REBOUND calls a no-op additional_forces callback "
-                          "once per force evaluation, a Python call that would slow the timed loop")
+            return None, (
+                "counted only in a counting run: REBOUND calls a no-op additional_forces callback "
+                "once per force evaluation, a Python call that would slow the timed loop"
+            )
         return self.force_passes, "REBOUND force evaluations (calls of a no-op sim.additional_forces callback)"
 
     def close(self) -> None:
@@ -200,8 +227,9 @@ class _Kepler(_Simulation):
 class _SolarSystem(_Simulation):
     """The scene's bodies, masses and G in its order and frame (module docstring)."""
 
-    WHAT = ("the scene's 6 bodies, masses and G; heliocentric initial state as the scene's, not moved to the centre "
-            "of mass")
+    WHAT = (
+        "the scene's 6 bodies, masses and G; heliocentric initial state as the scene's, not moved to the centre of mass"
+    )
 
     def _G(self, scene: Scene) -> float:
         return float(scene.pvec[0])  # the scene packs p = (G, m_0, ..., m_5)
@@ -209,8 +237,15 @@ class _SolarSystem(_Simulation):
     def _add(self, sim, scene: Scene, q0, v0) -> list[float]:
         masses = [float(m) for m in scene.masses]
         for i, m in enumerate(masses):
-            sim.add(m=m, x=float(q0[3 * i]), y=float(q0[3 * i + 1]), z=float(q0[3 * i + 2]),
-                    vx=float(v0[3 * i]), vy=float(v0[3 * i + 1]), vz=float(v0[3 * i + 2]))
+            sim.add(
+                m=m,
+                x=float(q0[3 * i]),
+                y=float(q0[3 * i + 1]),
+                z=float(q0[3 * i + 2]),
+                vx=float(v0[3 * i]),
+                vy=float(v0[3 * i + 1]),
+                vz=float(v0[3 * i + 2]),
+            )
         return masses
 
     def state(self):
@@ -232,8 +267,9 @@ def _plain(value):
     return str(value)
 
 
-def build(rebound, mode: str, scene: Scene, dt: float, count: bool = False,
-          tolerance: float | None = None) -> _Simulation:
+def build(
+    rebound, mode: str, scene: Scene, dt: float, count: bool = False, tolerance: float | None = None
+) -> _Simulation:
     """``tolerance``: IAS15's epsilon (``rebound:ias15@1e-6``); the fixed-step modes take none."""
     return POSES[scene.kind](rebound, mode, scene, dt, count, tolerance)
 
@@ -255,20 +291,38 @@ _DOCS = {
 }
 
 #: What each mode was measured to do that its name does not say (``records.method.Behaviour``).
-_BEHAVIOUR = {"leapfrog": Behaviour(integrates_as={"solar_system": "ref:leapfrog"}, symplectic=True),
-              "whfast": Behaviour(symplectic=True, beats_at_equal_cost=("rebound:leapfrog", "ref:leapfrog")),
-              "ias15": Behaviour(roundoff=True),
-              "saba": Behaviour(symplectic=True)}
+_BEHAVIOUR = {
+    "leapfrog": Behaviour(integrates_as={"solar_system": "ref:leapfrog"}, symplectic=True),
+    "whfast": Behaviour(symplectic=True, beats_at_equal_cost=("rebound:leapfrog", "ref:leapfrog")),
+    "ias15": Behaviour(roundoff=True),
+    "saba": Behaviour(symplectic=True),
+}
 
 METHODS = {
     f"rebound:{mode}": EngineMode(
-        engine="rebound", mode=mode, module="rebound", dist="rebound", build=build,
-        scenes=SCENES, unsupported=UNSUPPORTED, doc=_DOCS[mode], adaptive=mode in ADAPTIVE, counting_run=True,
-        versions=VERSIONS, present=has_mode(mode), behaviour=_BEHAVIOUR[mode],
-        options_declared=({TOLERANCE: Option(TOLERANCE, float, 1e-16, 1.0, "IAS15's epsilon")}
-                          if mode in ADAPTIVE else {}),
+        engine="rebound",
+        mode=mode,
+        module="rebound",
+        dist="rebound",
+        build=build,
+        scenes=SCENES,
+        unsupported=UNSUPPORTED,
+        doc=_DOCS[mode],
+        adaptive=mode in ADAPTIVE,
+        counting_run=True,
+        versions=VERSIONS,
+        present=has_mode(mode),
+        behaviour=_BEHAVIOUR[mode],
+        options_declared=(
+            {TOLERANCE: Option(TOLERANCE, float, 1e-16, 1.0, "IAS15's epsilon")} if mode in ADAPTIVE else {}
+        ),
         adaptive_with=TOLERANCE if mode in ADAPTIVE else None,
-        settings={"integrator": mode, **MODES[mode], **SIM, "models": {kind: pose.WHAT for kind, pose in POSES.items()}},
+        settings={
+            "integrator": mode,
+            **MODES[mode],
+            **SIM,
+            "models": {kind: pose.WHAT for kind, pose in POSES.items()},
+        },
     )
     for mode in MODES
 }
@@ -277,7 +331,13 @@ from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this modu
 
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(
-    id="rebound", module="rebound", dists=("rebound",), versions=VERSIONS, methods=METHODS, poses=POSES,
-    build=build, bare_loops=bench.bare_loops,
+    id="rebound",
+    module="rebound",
+    dists=("rebound",),
+    versions=VERSIONS,
+    methods=METHODS,
+    poses=POSES,
+    build=build,
+    bare_loops=bench.bare_loops,
     contact_modes=contact.MODES,
 )

@@ -1,5 +1,6 @@
 """REBOUND's bare loop for ``harness bench --engines``: one ``sim.steps(N)``; for IAS15 (adaptive,
 its dt the output interval) a loop of ``sim.integrate(k dt)``."""
+
 from __future__ import annotations
 
 
@@ -7,6 +8,7 @@ def bare_loops(mode, rebound, model, scene, dt: float):
     """([(name, once(n))], what it is)."""
     sim = model.sim
     if mode.adaptive:  # dt is the output interval: its step call is integrate(k dt)
+
         def intervals(n):
             integrate, k0 = sim.integrate, model.n
             for k in range(k0 + 1, k0 + n + 1):

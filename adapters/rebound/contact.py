@@ -23,6 +23,7 @@ default 0 (a larger one would lift every slow rebound), set and stated.
 The boxes are not posed: REBOUND's particles are spheres, without orientation, friction or
 resting contact (a hard sphere on a plane at rest collides at every step).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -34,8 +35,10 @@ from .._engine import import_engine
 PLANET_RADIUS = 1.0e7
 INTEGRATOR = "leapfrog"
 
-_NOT_A_SPHERE = ("REBOUND's particles are spheres without orientation or friction, and a hard sphere resting on "
-                 "a plane collides at every step: no box slides, rests or stacks")
+_NOT_A_SPHERE = (
+    "REBOUND's particles are spheres without orientation or friction, and a hard sphere resting on "
+    "a plane collides at every step: no box slides, rests or stacks"
+)
 UNSUPPORTED = {"slide": _NOT_A_SPHERE, "rest": _NOT_A_SPHERE, "stack": _NOT_A_SPHERE}
 #: How REBOUND poses each contact scene (the scene's kind -> its ``ContactPose``): the ball alone.
 POSES = {"ball": SPHERE}
@@ -62,14 +65,21 @@ class _Pose:
         sim.testparticle_type = 0
         self.scene, self.data = scene, np.zeros((2, 6))
         self.settings = {
-            "model": (f"a planet of radius {R:g} m and mass g R^2 (G = 1), its gravity the scene's g at its surface; "
-                      "the ball a test particle of the scene's radius and mass"),
+            "model": (
+                f"a planet of radius {R:g} m and mass g R^2 (G = 1), its gravity the scene's g at its surface; "
+                "the ball a test particle of the scene's radius and mass"
+            ),
             "integrator": f"{INTEGRATOR} (order {int(sim.integrator.order)}, drift-kick-drift), sim.steps(1) a step",
-            "collision": "direct", "collision_resolve": "hardsphere",
+            "collision": "direct",
+            "collision_resolve": "hardsphere",
             "coefficient_of_restitution": f"callback returning e = {e:g}",
             "minimum_collision_velocity": float(sim.minimum_collision_velocity),
-            "gravity": "basic", "N_active": 1, "testparticle_type": 0, "additional_forces": "none",
-            "planet_radius (m)": R}
+            "gravity": "basic",
+            "N_active": 1,
+            "testparticle_type": 0,
+            "additional_forces": "none",
+            "planet_radius (m)": R,
+        }
 
     def read(self):
         self.sim.serialize_particle_data(xyzvxvyvz=self.data)
@@ -87,14 +97,28 @@ def run(mode: ContactMode, scene, dt: float):
         again = _Pose(rebound, scene, dt)
         return timed_loop(lambda: again.sim.steps(steps), 1)
 
-    return record_loop(mode, scene, dt, lambda: pose.sim.steps(1), pose.read, pose.settings,
-                       loop="sim.steps(steps), one call", time_again=time_again)
+    return record_loop(
+        mode,
+        scene,
+        dt,
+        lambda: pose.sim.steps(1),
+        pose.read,
+        pose.settings,
+        loop="sim.steps(steps), one call",
+        time_again=time_again,
+    )
 
 
 MODES = {
     "rebound:hardsphere": ContactMode(
-        "rebound", "hardsphere", "rebound", run, poses=POSES, unsupported=UNSUPPORTED,
+        "rebound",
+        "hardsphere",
+        "rebound",
+        run,
+        poses=POSES,
+        unsupported=UNSUPPORTED,
         settings={"integrator": INTEGRATOR, "collision": "direct", "collision_resolve": "hardsphere"},
         doc="REBOUND's hard-sphere collision of the ball with a planet whose gravity is g; leapfrog; "
-            "coefficient_of_restitution the requested e")
+        "coefficient_of_restitution the requested e",
+    )
 }

@@ -35,6 +35,7 @@ The rule:
   body with no spring. The ratio to the step-only loop is printed beside it (``ratio_to_step_loop``):
   what the per-step Python force costs over the engine's step alone.
 """
+
 from __future__ import annotations
 
 import time
@@ -126,12 +127,25 @@ def bench_mode(mode, *, repeats: int = REPEATS) -> dict:
     bare_ns = {b.name: min(b.times) * 1e9 for b in bare}
     target_loop = "bare loop + force" if "bare loop + force" in bare_ns else bare[0].name
     ratio = eng["s_per_step"] * 1e9 / bare_ns[target_loop]
-    row = {"method": mode.id, "scene": scene.id, "dt": DT, "steps": engine.n, "repeats": repeats, "clock": CLOCK,
-           "engine_ns_per_step": eng["s_per_step"] * 1e9, "engine_spread": eng["rel_spread"],
-           "as_stepped_ns_per_step": st["s_per_step"] * 1e9, "as_stepped_steps": stepped.n,
-           "bare_ns_per_step": bare_ns, "bare_loops": bare_doc, "engine_loop": eng.get("engine_loop"),
-           "target_loop": target_loop, "ratio_to_bare": ratio, "target_ratio": TARGET,
-           "meets_target": ratio <= TARGET}
+    row = {
+        "method": mode.id,
+        "scene": scene.id,
+        "dt": DT,
+        "steps": engine.n,
+        "repeats": repeats,
+        "clock": CLOCK,
+        "engine_ns_per_step": eng["s_per_step"] * 1e9,
+        "engine_spread": eng["rel_spread"],
+        "as_stepped_ns_per_step": st["s_per_step"] * 1e9,
+        "as_stepped_steps": stepped.n,
+        "bare_ns_per_step": bare_ns,
+        "bare_loops": bare_doc,
+        "engine_loop": eng.get("engine_loop"),
+        "target_loop": target_loop,
+        "ratio_to_bare": ratio,
+        "target_ratio": TARGET,
+        "meets_target": ratio <= TARGET,
+    }
     if "mj_step loop" in bare_ns:
         row["ratio_to_mj_step_loop"] = eng["s_per_step"] * 1e9 / bare_ns["mj_step loop"]
     if target_loop != bare[0].name:
@@ -152,15 +166,21 @@ def measure(ids=None, *, repeats: int = REPEATS) -> list[dict]:
 
 
 def lines(rows: list[dict]):
-    yield (f"{'engine mode':24s} {'scene':7s} {'engine ns/step':>14s} {'bare loop ns/step':>34s} "
-           f"{'ratio':>6s} {'as stepped':>11s}  target (<= {TARGET:g}x the loop that simulates the scene)")
+    yield (
+        f"{'engine mode':24s} {'scene':7s} {'engine ns/step':>14s} {'bare loop ns/step':>34s} "
+        f"{'ratio':>6s} {'as stepped':>11s}  target (<= {TARGET:g}x the loop that simulates the scene)"
+    )
     for r in rows:
         bare = ", ".join(f"{k} {v:.0f}" for k, v in r["bare_ns_per_step"].items())
         verdict = "met" if r["meets_target"] else "MISSED"
-        yield (f"{r['method']:24s} {r['scene']:7s} {r['engine_ns_per_step']:14.0f} {bare:>34s} "
-               f"{r['ratio_to_bare']:6.2f} {r['as_stepped_ns_per_step']:11.0f}  {verdict}")
+        yield (
+            f"{r['method']:24s} {r['scene']:7s} {r['engine_ns_per_step']:14.0f} {bare:>34s} "
+            f"{r['ratio_to_bare']:6.2f} {r['as_stepped_ns_per_step']:11.0f}  {verdict}"
+        )
         if r.get("ratio_to_step_loop") is not None:
-            yield (f"{'':32s}judged against {r['target_loop']} (the force is set from Python each step); "
-                   f"{r['ratio_to_step_loop']:.2f}x the step-only loop")
+            yield (
+                f"{'':32s}judged against {r['target_loop']} (the force is set from Python each step); "
+                f"{r['ratio_to_step_loop']:.2f}x the step-only loop"
+            )
         if r.get("engine_loop"):
             yield f"{'':32s}the engine's loop: {r['engine_loop']}"

@@ -16,6 +16,7 @@ semi-implicit Euler at most ``SIE_SINGLE_TARGET_NS`` per step on one spring and
 work: RK4 evaluates four forces a step, and the floors say what that costs on this machine; a
 fixed number there judged the machine rather than the kernels).
 """
+
 from __future__ import annotations
 
 from reference import CLOCKS, METHODS, step_timer
@@ -32,6 +33,7 @@ BATCH = 1000
 BATCH_STEPS = 2_000
 REPEATS = 9
 
+
 def on_the_spring() -> list[str]:
     """The schemes the bench runs: those that declare a floor on the spring (constrained schemes,
     ref:verlet_constrained, are measured on the rope by ``harness.measures.rope_study``)."""
@@ -46,8 +48,9 @@ def _pair(scheme_id: str, steps: int, batch: int, repeats: int) -> tuple[float, 
     k, m = spring.values["k"], spring.values["m"]
     x0, v0 = spring.values["x0"], spring.values["v0"]
     _, kernel = step_timer(METHODS[scheme_id], spring, DT, steps, batch=batch)
-    _, floor = floor_timer(METHODS[scheme_id].floor, DT, steps, batch=batch, k=k, m=m, x0=x0, v0=v0,
-                           clock=CLOCKS["wall"])
+    _, floor = floor_timer(
+        METHODS[scheme_id].floor, DT, steps, batch=batch, k=k, m=m, x0=x0, v0=v0, clock=CLOCKS["wall"]
+    )
     kt, ft = [], []
     for _ in range(repeats):
         kt.append(kernel())
@@ -63,11 +66,17 @@ def measure(scheme_ids=None, repeats: int = REPEATS) -> dict:
     for sid in scheme_ids or on_the_spring():
         single, single_floor = _pair(sid, SINGLE_STEPS, 1, repeats)
         batch, batch_floor = _pair(sid, BATCH_STEPS, BATCH, repeats)
-        rows.append({"method": f"ref:{sid}", "single_ns_per_step": single * 1e9,
-                     "single_floor_ns_per_step": single_floor * 1e9, "single_ratio_to_floor": single / single_floor,
-                     "batch1000_ns_per_spring_step": batch * 1e9 / BATCH,
-                     "batch1000_floor_ns_per_spring_step": batch_floor * 1e9 / BATCH,
-                     "batch1000_ratio_to_floor": batch / batch_floor})
+        rows.append(
+            {
+                "method": f"ref:{sid}",
+                "single_ns_per_step": single * 1e9,
+                "single_floor_ns_per_step": single_floor * 1e9,
+                "single_ratio_to_floor": single / single_floor,
+                "batch1000_ns_per_spring_step": batch * 1e9 / BATCH,
+                "batch1000_floor_ns_per_spring_step": batch_floor * 1e9 / BATCH,
+                "batch1000_ratio_to_floor": batch / batch_floor,
+            }
+        )
     return {"rows": rows, "targets": targets(rows)}
 
 
@@ -85,26 +94,42 @@ def targets(rows: list[dict]) -> list[dict]:
     sie, rk4 = by.get("ref:semi_implicit_euler"), by.get("ref:rk4")
     if sie:
         add("ref:semi_implicit_euler 1 spring, ns/step", sie["single_ns_per_step"], SIE_SINGLE_TARGET_NS)
-        add("ref:semi_implicit_euler 1000 springs, ns/spring-step", sie["batch1000_ns_per_spring_step"],
-            SIE_BATCH_TARGET_NS)
+        add(
+            "ref:semi_implicit_euler 1000 springs, ns/spring-step",
+            sie["batch1000_ns_per_spring_step"],
+            SIE_BATCH_TARGET_NS,
+        )
     if sie and rk4:
         floors = rk4["batch1000_floor_ns_per_spring_step"] / sie["batch1000_floor_ns_per_spring_step"]
         # What the same ratio is between the two floors: the schemes' own work on this machine.
-        out.append({"target": "(floors) rk4 / semi_implicit_euler, 1000 springs per spring-step", "value": floors,
-                    "bound": None, "met": None})
-        add(f"ref:rk4 / ref:semi_implicit_euler, 1000 springs per spring-step (bound: {RK4_OVER_SIE_SLACK:g} x the "
-            "floors' ratio)", rk4["batch1000_ns_per_spring_step"] / sie["batch1000_ns_per_spring_step"],
-            RK4_OVER_SIE_SLACK * floors)
+        out.append(
+            {
+                "target": "(floors) rk4 / semi_implicit_euler, 1000 springs per spring-step",
+                "value": floors,
+                "bound": None,
+                "met": None,
+            }
+        )
+        add(
+            f"ref:rk4 / ref:semi_implicit_euler, 1000 springs per spring-step (bound: {RK4_OVER_SIE_SLACK:g} x the "
+            "floors' ratio)",
+            rk4["batch1000_ns_per_spring_step"] / sie["batch1000_ns_per_spring_step"],
+            RK4_OVER_SIE_SLACK * floors,
+        )
     return out
 
 
 def lines(result: dict) -> list[str]:
-    out = [f"{'method':38s} {'1 spring ns/step':>16s} {'floor':>7s} {'ratio':>6s}   "
-           f"{'1000 springs ns/spring-step':>27s} {'floor':>7s} {'ratio':>6s}"]
+    out = [
+        f"{'method':38s} {'1 spring ns/step':>16s} {'floor':>7s} {'ratio':>6s}   "
+        f"{'1000 springs ns/spring-step':>27s} {'floor':>7s} {'ratio':>6s}"
+    ]
     for r in result["rows"]:
-        out.append(f"{r['method']:38s} {r['single_ns_per_step']:16.2f} {r['single_floor_ns_per_step']:7.2f} "
-                   f"{r['single_ratio_to_floor']:6.2f}   {r['batch1000_ns_per_spring_step']:27.3f} "
-                   f"{r['batch1000_floor_ns_per_spring_step']:7.3f} {r['batch1000_ratio_to_floor']:6.2f}")
+        out.append(
+            f"{r['method']:38s} {r['single_ns_per_step']:16.2f} {r['single_floor_ns_per_step']:7.2f} "
+            f"{r['single_ratio_to_floor']:6.2f}   {r['batch1000_ns_per_spring_step']:27.3f} "
+            f"{r['batch1000_floor_ns_per_spring_step']:7.3f} {r['batch1000_ratio_to_floor']:6.2f}"
+        )
     out += ["", "targets:"]
     for t in result["targets"]:
         if t["bound"] is None:

@@ -3,6 +3,7 @@
 
 Bad input exits 2 with one line on stderr naming the field and the valid choices.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -14,9 +15,25 @@ from records import InvalidInput
 
 from harness.nightly import cells as _cells  # noqa: F401 (registers the built-in measures every command reads)
 
-COMMANDS = ["run", "list", "bench", "identify", "energy", "order", "stability", "cost", "workprecision", "advise", "model",
-            "contact",
-            "nightly", "compare", "history", "bounds", "bisect"]
+COMMANDS = [
+    "run",
+    "list",
+    "bench",
+    "identify",
+    "energy",
+    "order",
+    "stability",
+    "cost",
+    "workprecision",
+    "advise",
+    "model",
+    "contact",
+    "nightly",
+    "compare",
+    "history",
+    "bounds",
+    "bisect",
+]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -53,8 +70,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"harness: error: {exc}", file=sys.stderr)
         return 2
     except sqlite3.DatabaseError as exc:  # a history truncated or overwritten past its first pages
-        print(f"harness: error: --db: the history cannot be read (SQLite: {exc}); nothing was written to it",
-              file=sys.stderr)
+        print(
+            f"harness: error: --db: the history cannot be read (SQLite: {exc}); nothing was written to it",
+            file=sys.stderr,
+        )
         return 2
     except BrokenPipeError:
         return 0

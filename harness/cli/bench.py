@@ -3,6 +3,7 @@ spring and on a batch of 1000 springs, each beside its floor (the same scheme as
 hand-written loop of scalars) timed in the same run (:mod:`harness.bench.kernels`).
 ``harness bench --engines``: each engine mode beside a bare loop of its step call
 (:mod:`harness.bench.engines`). Targets live there, not in timed unit tests."""
+
 from __future__ import annotations
 
 import json
@@ -14,8 +15,9 @@ def add_parser(sub):
     p = sub.add_parser("bench", help="ns per step of each reference scheme (compiled) beside its floor")
     p.add_argument("--json", action="store_true")
     p.add_argument("--methods", nargs="*", help="scheme ids, or engine mode ids with --engines (default: all)")
-    p.add_argument("--engines", action="store_true",
-                   help="engine modes: the engine's own loop beside a bare loop of its step call")
+    p.add_argument(
+        "--engines", action="store_true", help="engine modes: the engine's own loop beside a bare loop of its step call"
+    )
     return p
 
 

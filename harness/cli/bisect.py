@@ -12,6 +12,7 @@ out (``VOLATILE``). A cell the release cannot measure (a mode it lacks: "not in 
 is a value too, its one-line error. Bisection assumes one change between LOW and HIGH: a change
 undone by a later release is not seen.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -19,7 +20,7 @@ import json
 import math
 import sys
 from dataclasses import dataclass, field
-from typing import Callable
+from collections.abc import Callable
 
 from records import InvalidInput
 from scenarios import make_scene, parse_overrides
@@ -38,8 +39,23 @@ MEASURES = {
 ALIASES = {"identity": "trajectory"}
 
 #: JSON keys that say which release or process produced a cell, not what it computed.
-VOLATILE = frozenset({"engine_version", "engine_versions", "seconds", "elapsed", "elapsed_s", "wall_s", "cpu_s",
-                      "timings", "versions", "environment", "loop", "engine_loop", "worker"})
+VOLATILE = frozenset(
+    {
+        "engine_version",
+        "engine_versions",
+        "seconds",
+        "elapsed",
+        "elapsed_s",
+        "wall_s",
+        "cpu_s",
+        "timings",
+        "versions",
+        "environment",
+        "loop",
+        "engine_loop",
+        "worker",
+    }
+)
 
 #: Seconds one measurement may take.
 MEASURE_TIMEOUT_S = 1800
@@ -52,8 +68,9 @@ def add_parser(sub):
     p.add_argument("high", help="the newer release")
     p.add_argument("--scene", required=True, help="a scene id or a model file (.xml, .urdf)")
     p.add_argument("--method", required=True, help="an engine mode of ENGINE (ENGINE:MODE)")
-    p.add_argument("--measure", default="trajectory",
-                   help=f"the cell: {', '.join([*MEASURES, *ALIASES])} (default trajectory)")
+    p.add_argument(
+        "--measure", default="trajectory", help=f"the cell: {', '.join([*MEASURES, *ALIASES])} (default trajectory)"
+    )
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene parameter")
     p.add_argument("--dt", default="0.01", help="the step of trajectory, energy and identify (default 0.01)")
     p.add_argument("--steps", default="1000", help="the steps of trajectory, energy and identify (default 1000)")
@@ -77,13 +94,21 @@ class Bisection:
     before: str | None = None
 
     def as_dict(self) -> dict:
-        return {"engine": self.engine, "low": self.low, "high": self.high, "releases": self.between,
-                "tried": self.tried, "first_changed": self.first, "last_unchanged": self.before,
-                "values": {v: self.values[v] for v in (self.before, self.first) if v is not None}}
+        return {
+            "engine": self.engine,
+            "low": self.low,
+            "high": self.high,
+            "releases": self.between,
+            "tried": self.tried,
+            "first_changed": self.first,
+            "last_unchanged": self.before,
+            "values": {v: self.values[v] for v in (self.before, self.first) if v is not None},
+        }
 
 
-def find_change(between: list[str], measure: Callable[[str], object],
-                say: Callable[[str], None] = lambda line: None) -> tuple[str | None, str | None, list[str], dict]:
+def find_change(
+    between: list[str], measure: Callable[[str], object], say: Callable[[str], None] = lambda line: None
+) -> tuple[str | None, str | None, list[str], dict]:
     """Bisect ``between`` (releases, oldest first) for the first whose ``measure`` differs from the
     first release's: ``(first changed, last unchanged before it, tried, values)``; ``(None, None, ...)``
     where the last release's equals the first's. Measures the two ends, then at most
@@ -152,8 +177,12 @@ def measure_in(folder, argv: list[str]) -> object:
     except json.JSONDecodeError:
         return {"error": f"no JSON from harness {' '.join(argv[:2])} (exit {done.returncode})"}
     if argv[0] == "run":
-        return {"status": out.get("status"), "failed_step": out.get("failed_step"), "columns": out.get("columns"),
-                "rows": out.get("rows")}
+        return {
+            "status": out.get("status"),
+            "failed_step": out.get("failed_step"),
+            "columns": out.get("columns"),
+            "rows": out.get("rows"),
+        }
     return strip_volatile(out)
 
 
@@ -168,8 +197,12 @@ def describe(value) -> str:
         state = ", ".join(f"{k} {v!r}" for k, v in last.items() if k not in ("step", "t", "energy"))
         return f"{value['status']}, {len(rows)} rows (sha256 {digest}), at step {last.get('step')}: {state}"
     if isinstance(value, dict):
-        scalars = [f"{k} {v!r}" for k, v in value.items() if isinstance(v, (int, float, str)) and k not in (
-            "scene", "method", "detail", "rule", "criterion_rule", "note")]
+        scalars = [
+            f"{k} {v!r}"
+            for k, v in value.items()
+            if isinstance(v, (int, float, str))
+            and k not in ("scene", "method", "detail", "rule", "criterion_rule", "note")
+        ]
         return ", ".join(scalars[:6])
     return repr(value)
 
@@ -191,17 +224,31 @@ def difference(a, b) -> str:
                     except (TypeError, ValueError):
                         worst = math.inf
         if len(ra) != len(rb):
-            return f"{len(ra)} rows against {len(rb)}" + (f"; first difference at step {first}" if first is not None else "")
-        return f"first difference at step {first}, largest |difference| {worst:.3g}" if first is not None else \
-            "status differs"
+            return f"{len(ra)} rows against {len(rb)}" + (
+                f"; first difference at step {first}" if first is not None else ""
+            )
+        return (
+            f"first difference at step {first}, largest |difference| {worst:.3g}"
+            if first is not None
+            else "status differs"
+        )
     if isinstance(a, dict) and isinstance(b, dict):
         keys = [k for k in dict.fromkeys([*a, *b]) if a.get(k) != b.get(k)]
         return "differs in " + ", ".join(keys[:8])
     return "differs"
 
 
-def bisect(engine: str, low: str, high: str, argv: list[str], *, releases=None, ensure=None,
-           measure=None, say: Callable[[str], None] = lambda line: None) -> Bisection:
+def bisect(
+    engine: str,
+    low: str,
+    high: str,
+    argv: list[str],
+    *,
+    releases=None,
+    ensure=None,
+    measure=None,
+    say: Callable[[str], None] = lambda line: None,
+) -> Bisection:
     """Validate (one line each, nothing installed before), then bisect. ``releases(dist)`` and
     ``ensure(dist, version) -> folder`` default to ``engine_env``'s (tests inject folders);
     ``measure(folder, argv)`` to :func:`measure_in`."""
@@ -274,12 +321,15 @@ def run(args) -> int:
 
     result = bisect(engine, args.low, args.high, argv, say=say)
     if args.json:
-        json.dump({**result.as_dict(), "scene": args.scene, "method": args.method, "measure": measure},
-                  sys.stdout, indent=1)
+        json.dump(
+            {**result.as_dict(), "scene": args.scene, "method": args.method, "measure": measure}, sys.stdout, indent=1
+        )
         sys.stdout.write("\n")
         return 0
-    print(f"bisect {engine} {result.low}..{result.high}: {measure} of {args.method} on {args.scene}"
-          + (f" (dt {dt:g}, {steps} steps)" if measure in ("trajectory", "energy", "identify") else ""))
+    print(
+        f"bisect {engine} {result.low}..{result.high}: {measure} of {args.method} on {args.scene}"
+        + (f" (dt {dt:g}, {steps} steps)" if measure in ("trajectory", "energy", "identify") else "")
+    )
     print(f"  releases in range: {len(result.between)}; measured {len(result.tried)}: {', '.join(result.tried)}")
     if result.first is None:
         print(f"  unchanged: {result.low} and {result.high} give the same cell, bit for bit")

@@ -1,6 +1,7 @@
 """``harness bounds``: show the reviewed energy bounds, or ``--update`` to propose new ones from a
 stored run. Tightening and new bounds are written with ``--write``; loosening a bound needs
 ``--allow-loosen`` as well, and is always listed."""
+
 from __future__ import annotations
 
 import json
@@ -45,12 +46,18 @@ def run(args) -> int:
         raise InvalidInput(f"no complete run stored in {args.db}")
     run_id = validate.count("--run", args.run, 1) if args.run is not None else int(runs.run_id.iloc[-1])
     cells = history.cells(run_id)
-    measured = {(r["scene"], r["method"], float(r["dt"]), int(r["steps"])): float(r["value"])
-                for _, r in cells[(cells.measure == "bound") & (cells.status == "ok")].iterrows()}
+    measured = {
+        (r["scene"], r["method"], float(r["dt"]), int(r["steps"])): float(r["value"])
+        for _, r in cells[(cells.measure == "bound") & (cells.status == "ok")].iterrows()
+    }
     proposals = bounds_mod.propose(current, measured)
     if args.json:
-        print(json.dumps([{"action": p.action, **p.bound.__dict__, "measured": p.measured, "old": p.old}
-                          for p in proposals], indent=1))
+        print(
+            json.dumps(
+                [{"action": p.action, **p.bound.__dict__, "measured": p.measured, "old": p.old} for p in proposals],
+                indent=1,
+            )
+        )
     else:
         for p in proposals:
             old = f"{p.old:.2g}" if p.old is not None else "none"

@@ -2,6 +2,7 @@
 last two complete runs, cost judged over the suite's history once it has three runs, and every
 accuracy figure that changed with the latest run listed as a CHANGE). Exit 1 when anything
 regressed."""
+
 from __future__ import annotations
 
 import json
@@ -41,22 +42,38 @@ def run(args) -> int:
         runs = history.runs()
         if run_b is not None or not runs.empty:
             target = run_b if run_b is not None else int(runs.run_id.iloc[-1])
-            trend = load_trend(history, run_id=target,
-                               measurement_version=int(history.run(target)["measurement_version"]))
-    a, b, regs = compare_runs(history, run_a, run_b, Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH,
-                              trend=trend)
+            trend = load_trend(
+                history, run_id=target, measurement_version=int(history.run(target)["measurement_version"])
+            )
+    a, b, regs = compare_runs(
+        history, run_a, run_b, Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH, trend=trend
+    )
     changes = trend.latest_changes() if trend is not None and a is not None else []
     if args.json:
-        print(json.dumps({"run_a": a, "run_b": b, "regressions": [r.as_dict() for r in regs],
-                          "judged_by_history": bool(trend is not None and trend.judged),
-                          "changes": [{"scene": c.scene, "method": c.method, "measure": c.measure, "dt": c.dt,
-                                       **ch.as_dict()} for c, ch in changes]}, indent=1, default=str))
+        print(
+            json.dumps(
+                {
+                    "run_a": a,
+                    "run_b": b,
+                    "regressions": [r.as_dict() for r in regs],
+                    "judged_by_history": bool(trend is not None and trend.judged),
+                    "changes": [
+                        {"scene": c.scene, "method": c.method, "measure": c.measure, "dt": c.dt, **ch.as_dict()}
+                        for c, ch in changes
+                    ],
+                },
+                indent=1,
+                default=str,
+            )
+        )
     else:
         how = f" (cost over the last {len(trend.runs)} runs)" if trend is not None and trend.judged else ""
         print(f"run {b} against {'run ' + str(a) + how if a is not None else 'bounds only (no earlier run)'}:")
         for line in regression_lines(regs):
             print(f"  {line}")
         for c, ch in changes:
-            print(f"  CHANGE {c.measure}: {c.method} on {c.scene}: {ch.before:.6g} -> {ch.after:.6g} "
-                  f"({'worse' if ch.worse else 'better'}); {ch.cause}")
+            print(
+                f"  CHANGE {c.measure}: {c.method} on {c.scene}: {ch.before:.6g} -> {ch.after:.6g} "
+                f"({'worse' if ch.worse else 'better'}); {ch.cause}"
+            )
     return 1 if regs else 0

@@ -8,6 +8,7 @@ ground.
 Every input is checked before any engine is touched (one line naming the bad field and the valid
 choices, exit 2); an engine's crash, hang or blow-up is a row of its own.
 """
+
 from __future__ import annotations
 
 import json
@@ -24,16 +25,22 @@ from harness.measures.frames import jsonable
 
 def add_parser(sub):
     p = sub.add_parser("contact", help="contact: bounce, slide, rest and stack in every engine; the penalty table")
-    p.add_argument("scene", nargs="?", help="a contact scene: ball, slide, rest, stack, ... (harness list; every one "
-                   "where none is given)")
+    p.add_argument(
+        "scene",
+        nargs="?",
+        help="a contact scene: ball, slide, rest, stack, ... (harness list; every one where none is given)",
+    )
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="a scene parameter (e, mu, h0, ...)")
     p.add_argument("--modes", help="engine contact modes, comma-separated (default: every available one)")
     p.add_argument("--dt", default="1/1000,1/240,1/60", help="steps in seconds, comma-separated (fractions allowed)")
     p.add_argument("--penalty", action="store_true", help="the reference schemes on a penalty ground instead")
     p.add_argument("--methods", help="--penalty: the reference schemes, comma-separated")
     p.add_argument("--grid", help="--penalty: h*omega_c values, comma-separated (default: 0.01 to 100)")
-    p.add_argument("--advise", action="store_true", help="which mode bounces, slides and rests within tolerance, "
-                   "cheapest first, at --hz")
+    p.add_argument(
+        "--advise",
+        action="store_true",
+        help="which mode bounces, slides and rests within tolerance, cheapest first, at --hz",
+    )
     p.add_argument("--hz", default="60", help="--advise: the frame rate")
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     return p
@@ -116,8 +123,9 @@ def _shown(scene_id: str, params: dict) -> tuple[tuple[str, int], ...]:
     (name, column width) each, a figure per bounce in a wide column."""
     from scenarios.contact import make_contact_scene
 
-    return tuple((f.name, 30 if f.fmt == "list" else 11) for f in make_contact_scene(scene_id, **params).FIGURES
-                 if f.shown)
+    return tuple(
+        (f.name, 30 if f.fmt == "list" else 11) for f in make_contact_scene(scene_id, **params).FIGURES if f.shown
+    )
 
 
 def _lines(df):
@@ -125,7 +133,8 @@ def _lines(df):
         truth = rows.iloc[0].truth
         shown = _shown(scene, rows.iloc[0].params)
         yield f"{scene} ({', '.join(f'{k}={v:g}' for k, v in rows.iloc[0].params.items())}): truth " + ", ".join(
-            f"{k} {_fmt(truth[k])}" for k, _ in shown if k in truth)
+            f"{k} {_fmt(truth[k])}" for k, _ in shown if k in truth
+        )
         yield f"  {'mode':32} {'dt':>8}  " + "  ".join(f"{k:>{w}}" for k, w in shown) + "  verdict      CPU s/s"
         for _, r in rows.iterrows():
             if r.status == "unsupported":
@@ -176,8 +185,10 @@ def contact_modes_matching(patterns) -> list[str] | None:
 
 
 def _advice_lines(out):
-    yield (f"at dt = {out['dt']:.5g} s: within every tolerance on ball, slide and stack (cheapest first, engine "
-           "loop CPU s per simulated s summed over the three):")
+    yield (
+        f"at dt = {out['dt']:.5g} s: within every tolerance on ball, slide and stack (cheapest first, engine "
+        "loop CPU s per simulated s summed over the three):"
+    )
     for m in out["within"]:
         yield f"  {m}: {out['cost'][m]:.3g}"
     if not out["within"]:
@@ -197,25 +208,39 @@ def _penalty(args) -> int:
     methods = [m.strip() for m in args.methods.split(",")] if args.methods else list(SCHEMES)
     for m in methods:
         if not m.startswith("ref:"):
-            raise InvalidInput(f"--methods: {m!r} is not a reference scheme (the penalty ground is stepped by ref:NAME)")
+            raise InvalidInput(
+                f"--methods: {m!r} is not a reference scheme (the penalty ground is stepped by ref:NAME)"
+            )
         get_method(m)
     grid = _numbers("--grid", args.grid) if args.grid else list(GRID)
     overrides = parse_overrides(args.set)
     unknown = sorted(set(overrides) - {"omega_c"})
     if unknown:
-        raise InvalidInput(f"--set {unknown[0]}: the penalty table takes omega_c only (e is 1 and 0.8, the rest the "
-                           "scene's defaults)")
+        raise InvalidInput(
+            f"--set {unknown[0]}: the penalty table takes omega_c only (e is 1 and 0.8, the rest the scene's defaults)"
+        )
     omega_c = make_scene("penalty_ball", **overrides).values["omega_c"]
     df = penalty_table(methods, grid=grid, omega_c=omega_c)
     if args.json:
-        json.dump(jsonable({"rows": df.to_dict(orient="records"),
-                            "seed_claim": seed_claim(df) if {"ref:implicit_euler", "ref:semi_implicit_euler"} <= set(methods) else None}),
-                  sys.stdout, indent=1)
+        json.dump(
+            jsonable(
+                {
+                    "rows": df.to_dict(orient="records"),
+                    "seed_claim": seed_claim(df)
+                    if {"ref:implicit_euler", "ref:semi_implicit_euler"} <= set(methods)
+                    else None,
+                }
+            ),
+            sys.stdout,
+            indent=1,
+        )
         print()
         return 0
     for e, rows in df.groupby("e", sort=False):
-        print(f"e = {e:g} (omega_c = {omega_c:g} rad/s): mean restitution of five bounces; "
-              "+ gains energy, - loses it, x blows up, ~ scatters, ! unconverged solve; no mark: within")
+        print(
+            f"e = {e:g} (omega_c = {omega_c:g} rad/s): mean restitution of five bounces; "
+            "+ gains energy, - loses it, x blows up, ~ scatters, ! unconverged solve; no mark: within"
+        )
         print(f"  {'scheme':26} " + " ".join(f"{g:>9g}" for g in grid))
         for m, r in rows.groupby("method", sort=False):
             by = {x.homega: x for _, x in r.iterrows()}
@@ -223,10 +248,13 @@ def _penalty(args) -> int:
         print()
     if {"ref:implicit_euler", "ref:semi_implicit_euler"} <= set(methods):
         claim = seed_claim(df)
-        where = ", ".join(f"h*omega_c {hw:g}: {claim['symplectic'][hw]:.3f} vs {claim['implicit'][hw]:.3f}"
-                          for hw in claim["where"])
-        print("the seed's claim, implicit Euler makes lively bounces go dead: "
-              + (f"holds ({where}: semi-implicit vs implicit Euler, e = 1)" if claim["holds"] else "not seen"))
+        where = ", ".join(
+            f"h*omega_c {hw:g}: {claim['symplectic'][hw]:.3f} vs {claim['implicit'][hw]:.3f}" for hw in claim["where"]
+        )
+        print(
+            "the seed's claim, implicit Euler makes lively bounces go dead: "
+            + (f"holds ({where}: semi-implicit vs implicit Euler, e = 1)" if claim["holds"] else "not seen")
+        )
     return 0
 
 

@@ -2,6 +2,7 @@
 step, and the ratio to (compiled) explicit Euler on the same scene and dt. An engine mode
 shows two figures: ``engine s/step`` (its own loop; the ratio uses it) and ``as stepped by
 the harness`` (one step at a time from Python)."""
+
 from __future__ import annotations
 
 from harness import validate
@@ -28,31 +29,50 @@ def run(args) -> int:
     scene = scene_of(args)
     method = method_for(args.method, scene)
     with progress() as say:
-        res = cost_per_step(method, scene, dt, time_steps=time_steps, repeats=repeats, count_steps=count_steps,
-                            timeout=timeout, progress=say)
+        res = cost_per_step(
+            method,
+            scene,
+            dt,
+            time_steps=time_steps,
+            repeats=repeats,
+            count_steps=count_steps,
+            timeout=timeout,
+            progress=say,
+        )
     return emit(res, args.json, _lines, scene)
 
 
 def _lines(r):
     yield f"{r.method} on {r.scene}, dt={r.dt:g}"
-    evals = fmt(r.force_evals_per_step, ".4g") if r.force_evals_per_step is not None else \
-        f"not counted ({r.force_evals_reason})"
+    evals = (
+        fmt(r.force_evals_per_step, ".4g")
+        if r.force_evals_per_step is not None
+        else f"not counted ({r.force_evals_reason})"
+    )
     yield f"  force evaluations per step: {evals}; solves per step: {fmt(r.solves_per_step, '.4g')}"
     if r.solver is not None:
-        yield (f"  its solve's iterations per step: {fmt(r.solver_iterations_per_step, '.4g')}; solves stopped short "
-               f"of their tolerance: {r.unconverged_solves} over {r.count_steps} steps")
+        yield (
+            f"  its solve's iterations per step: {fmt(r.solver_iterations_per_step, '.4g')}; solves stopped short "
+            f"of their tolerance: {r.unconverged_solves} over {r.count_steps} steps"
+        )
     label = "engine s/step" if r.as_stepped is not None else "wall time per step"
-    yield (f"  {label}: {r.s_per_step * 1e9:.1f} ns (median {r.median_s_per_step * 1e9:.1f}, "
-           f"spread {fmt(r.rel_spread, '.1%')}; {r.timing})")
+    yield (
+        f"  {label}: {r.s_per_step * 1e9:.1f} ns (median {r.median_s_per_step * 1e9:.1f}, "
+        f"spread {fmt(r.rel_spread, '.1%')}; {r.timing})"
+    )
     if r.engine_loop:
         yield f"    the engine's loop: {r.engine_loop}"
     if r.as_stepped is not None:
         a = r.as_stepped
-        yield (f"  as stepped by the harness: {a['s_per_step'] * 1e9:.1f} ns (median {a['median_s_per_step'] * 1e9:.1f}, "
-               f"spread {fmt(a['rel_spread'], '.1%')}; {a['time_steps']} steps; state read and forces applied every "
-               f"step), {a['s_per_step'] / r.s_per_step:.3g}x the engine's own loop")
+        yield (
+            f"  as stepped by the harness: {a['s_per_step'] * 1e9:.1f} ns (median {a['median_s_per_step'] * 1e9:.1f}, "
+            f"spread {fmt(a['rel_spread'], '.1%')}; {a['time_steps']} steps; state read and forces applied every "
+            f"step), {a['s_per_step'] / r.s_per_step:.3g}x the engine's own loop"
+        )
     if r.ratio_to_explicit_euler is None:
         yield f"  no ratio to {r.baseline['method']}: {r.baseline['unsupported']}"
     else:
-        yield (f"  ratio to {r.baseline['method']} ({r.baseline['s_per_step'] * 1e9:.1f} ns/step): "
-               f"{r.ratio_to_explicit_euler:.3g}")
+        yield (
+            f"  ratio to {r.baseline['method']} ({r.baseline['s_per_step'] * 1e9:.1f} ns/step): "
+            f"{r.ratio_to_explicit_euler:.3g}"
+        )

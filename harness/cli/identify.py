@@ -3,6 +3,7 @@
 Exit status: 0 when a reference scheme matches within roundoff, 1 when none does (or the
 run failed), 2 on bad input; so a new engine version can be checked in one command.
 """
+
 from __future__ import annotations
 
 import json

@@ -1,4 +1,5 @@
 """``harness list``: scenes, methods and their metadata (and why a method is unavailable)."""
+
 from __future__ import annotations
 
 import json
@@ -37,8 +38,16 @@ def catalogue() -> dict:
             support[sid] = True if sup else reason
         entry["scenes"] = support
         methods[mid] = entry
-    listed = {m.name: {"doc": m.doc, "figures": m.figures.__name__, "made_by": m.made_by, "trend": m.trend,
-                       "columns": [c.header for c in m.columns]} for m in measures()}
+    listed = {
+        m.name: {
+            "doc": m.doc,
+            "figures": m.figures.__name__,
+            "made_by": m.made_by,
+            "trend": m.trend,
+            "columns": [c.header for c in m.columns],
+        }
+        for m in measures()
+    }
     return {"scenes": scenes, "methods": methods, "measures": listed, **contact_catalogue()}
 
 
@@ -47,15 +56,24 @@ def contact_catalogue() -> dict:
     the scenes it poses and why not the others), which ``harness contact`` runs."""
     from harness.contact.run import contact_modes
 
-    scenes = {sid: {"title": cls.title, "params": {k: {"value": p.default, "allowed": p.allowed()}
-                                                    for k, p in cls.params.items()},
-                    "figures": [f.name for f in cls.FIGURES]}
-              for sid, cls in contact_scenes().items()}
+    scenes = {
+        sid: {
+            "title": cls.title,
+            "params": {k: {"value": p.default, "allowed": p.allowed()} for k, p in cls.params.items()},
+            "figures": [f.name for f in cls.FIGURES],
+        }
+        for sid, cls in contact_scenes().items()
+    }
     modes = {}
     for mid, mode in contact_modes().items():
         ok, why = mode.available()
-        modes[mid] = {"doc": mode.doc, "available": ok, "scenes": list(mode.scenes),
-                      "unsupported": dict(mode.unsupported), **({} if ok else {"unavailable_reason": why})}
+        modes[mid] = {
+            "doc": mode.doc,
+            "available": ok,
+            "scenes": list(mode.scenes),
+            "unsupported": dict(mode.unsupported),
+            **({} if ok else {"unavailable_reason": why}),
+        }
     return {"contact_scenes": scenes, "contact_modes": modes}
 
 
@@ -87,9 +105,11 @@ def run(args) -> int:
     print("\nMethods")
     for mid, m in cat["methods"].items():
         if is_reference(mid):
-            line = (f"order {m['order']}, {m['force_evals']} eval/step, "
-                    f"{'symplectic' if m['symplectic'] else 'not symplectic'}, "
-                    f"{'implicit' if m['implicit'] else 'explicit'}, energy {m['energy']}, h*w max {m['homega_max']}")
+            line = (
+                f"order {m['order']}, {m['force_evals']} eval/step, "
+                f"{'symplectic' if m['symplectic'] else 'not symplectic'}, "
+                f"{'implicit' if m['implicit'] else 'explicit'}, energy {m['energy']}, h*w max {m['homega_max']}"
+            )
         else:
             line = m.get("summary", "")
         state = "" if m["available"] else f"  [unavailable: {m['unavailable_reason']}]"

@@ -1,5 +1,6 @@
 """What the measurement commands share: the scene/method arguments, validation before
 anything is stepped, and printing a result as JSON or as a short table."""
+
 from __future__ import annotations
 
 import json

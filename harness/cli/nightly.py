@@ -1,6 +1,7 @@
 """``harness nightly``: run the matrix, store it, compare with the last run, write the report.
 Exit 1 when anything regressed (the list also heads the report), 2 on bad input (an unreachable
 scheduler included), 3 when the Dask cluster was lost mid-run."""
+
 from __future__ import annotations
 
 import json
@@ -19,27 +20,50 @@ def add_parser(sub):
     p.add_argument("--out", default=str(DEFAULT_OUT), help="report directory (report.md + charts/)")
     p.add_argument("--db", default=str(DEFAULT_DB), help="SQLite history")
     p.add_argument("--jobs", default=None, help="worker processes (default: all cores)")
-    p.add_argument("--scheduler", default=None,
-                   help="Dask scheduler address [tcp://]HOST:PORT, or local:N for a LocalCluster of N worker "
-                        "processes (default: $HARNESS_SCHEDULER unless --jobs is given, else local worker processes)")
-    p.add_argument("--bounds", default=None, help="energy bounds file (default: the reviewed harness/energy_bounds.csv)")
-    p.add_argument("--cell-timeout", default=None,
-                   help="seconds one task (a scene x method, all its measures) may take before its worker is "
-                        "killed and the rest of it recorded timed_out (default: the suite's)")
-    p.add_argument("--resume", action="store_true",
-                   help="continue the suite's latest run, left incomplete by a kill (SIGKILL, OOM, a lost machine), "
-                        "from the tasks it stored; refused when that run is complete or was measured otherwise "
-                        "(another commit, versions, platform or settings)")
-    p.add_argument("--model", action="append", metavar="PATH",
-                   help="a model file (MJCF .xml or URDF .urdf) whose variants join the suite as scenes (repeatable; "
-                        "beside those [tool.harness] models lists in ./pyproject.toml)")
-    p.add_argument("--engine", action="append", metavar="ENGINE==VERSION",
-                   help="run the suite once per engine release, each on an environment of its own kept in the "
-                        "harness cache, and report what changed between releases (repeatable; beside those "
-                        "[tool.harness] engines lists in ./pyproject.toml)")
-    p.add_argument("--model-env", action="append", metavar="NAME",
-                   help="an environment's model file at its own control step, frame skip and reset (harness model "
-                        "--env NAME's question; repeatable): its verdict and table join the report")
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        help="Dask scheduler address [tcp://]HOST:PORT, or local:N for a LocalCluster of N worker "
+        "processes (default: $HARNESS_SCHEDULER unless --jobs is given, else local worker processes)",
+    )
+    p.add_argument(
+        "--bounds", default=None, help="energy bounds file (default: the reviewed harness/energy_bounds.csv)"
+    )
+    p.add_argument(
+        "--cell-timeout",
+        default=None,
+        help="seconds one task (a scene x method, all its measures) may take before its worker is "
+        "killed and the rest of it recorded timed_out (default: the suite's)",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the suite's latest run, left incomplete by a kill (SIGKILL, OOM, a lost machine), "
+        "from the tasks it stored; refused when that run is complete or was measured otherwise "
+        "(another commit, versions, platform or settings)",
+    )
+    p.add_argument(
+        "--model",
+        action="append",
+        metavar="PATH",
+        help="a model file (MJCF .xml or URDF .urdf) whose variants join the suite as scenes (repeatable; "
+        "beside those [tool.harness] models lists in ./pyproject.toml)",
+    )
+    p.add_argument(
+        "--engine",
+        action="append",
+        metavar="ENGINE==VERSION",
+        help="run the suite once per engine release, each on an environment of its own kept in the "
+        "harness cache, and report what changed between releases (repeatable; beside those "
+        "[tool.harness] engines lists in ./pyproject.toml)",
+    )
+    p.add_argument(
+        "--model-env",
+        action="append",
+        metavar="NAME",
+        help="an environment's model file at its own control step, frame skip and reset (harness model "
+        "--env NAME's question; repeatable): its verdict and table join the report",
+    )
     p.add_argument("--json", action="store_true", help="print the run summary as JSON")
     return p
 
@@ -71,7 +95,9 @@ def run(args) -> int:
     if models:  # every file read and checked (and each engine's loader tried) before the history is opened
         suite = with_models(SUITES[suite], models)
     jobs = validate.count("--jobs", args.jobs, 1, 1024) if args.jobs is not None else None
-    cell_timeout = validate.positive_finite("--cell-timeout", args.cell_timeout) if args.cell_timeout is not None else None
+    cell_timeout = (
+        validate.positive_finite("--cell-timeout", args.cell_timeout) if args.cell_timeout is not None else None
+    )
     bounds_path = Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH
     bounds_mod.load(bounds_path)  # a broken bounds file fails before anything runs
     from harness.execution.distributed import ClusterLost, resolve_scheduler
@@ -81,19 +107,39 @@ def run(args) -> int:
 
     load_injected()  # a broken $HARNESS_INJECT_TIMINGS file fails before anything runs
     try:
-        result = run_nightly(suite, Path(args.out), Path(args.db), jobs, args.scheduler, bounds_path,
-                             cell_timeout=cell_timeout, resume=args.resume)
+        result = run_nightly(
+            suite,
+            Path(args.out),
+            Path(args.db),
+            jobs,
+            args.scheduler,
+            bounds_path,
+            cell_timeout=cell_timeout,
+            resume=args.resume,
+        )
     except ClusterLost as exc:
-        print(f"harness: error: {exc}; the run is left incomplete (never compared, the previous report kept)",
-              file=sys.stderr)
+        print(
+            f"harness: error: {exc}; the run is left incomplete (never compared, the previous report kept)",
+            file=sys.stderr,
+        )
         return 3
     if envs:
         control_step_sections(envs, Path(result["report"]))
     regs = result["regressions"]
     if args.json:
-        print(json.dumps({"run_id": result["run_id"], "previous": result["previous"], "report": str(result["report"]),
-                          "regressions": [r.as_dict() for r in regs], "timing": result["timing"]}, indent=1,
-                         default=str))
+        print(
+            json.dumps(
+                {
+                    "run_id": result["run_id"],
+                    "previous": result["previous"],
+                    "report": str(result["report"]),
+                    "regressions": [r.as_dict() for r in regs],
+                    "timing": result["timing"],
+                },
+                indent=1,
+                default=str,
+            )
+        )
     else:
         print(f"run {result['run_id']}: report {result['report']} ({result['timing']['total_s']:.1f}s)")
         for line in regression_lines(regs):
@@ -150,7 +196,10 @@ def control_step_sections(envs, report: Path, config=None) -> None:
         study.frame().to_csv(report.parent / f"control_step_{slug}.csv", index=False)
         drew = section.chart(study, report.parent / "charts" / f"control_step_{slug}.png")
         body = section.markdown(study, verdict(study), f"charts/control_step_{slug}.png" if drew else None, [])
-        lines += [f"### {env.name}", "", *(("#### " + ln[3:]) if ln.startswith("## ") else ln
-                                            for ln in body.split("\n")[1:])]
+        lines += [
+            f"### {env.name}",
+            "",
+            *(("#### " + ln[3:]) if ln.startswith("## ") else ln for ln in body.split("\n")[1:]),
+        ]
     with open(report, "a") as fh:
         fh.write("\n".join(lines) + "\n")

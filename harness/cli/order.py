@@ -1,5 +1,6 @@
 """``harness order SCENE --method M``: observed order, the slope of log error against log dt,
 with the points used and those left out (and why)."""
+
 from __future__ import annotations
 
 from records import InvalidInput
@@ -34,14 +35,17 @@ def run(args) -> int:
     scene = scene_of(args)
     method = method_for(args.method, scene)
     with progress() as say:
-        res = observed_order(method, scene, points=points, span=span, periods=periods, order=hint, dts=dts,
-                             timeout=timeout, progress=say)
+        res = observed_order(
+            method, scene, points=points, span=span, periods=periods, order=hint, dts=dts, timeout=timeout, progress=say
+        )
     return emit(res, args.json, _lines, scene)
 
 
 def _lines(r):
-    yield (f"{r['method']} on {r['scene']}: observed order {fmt(r['order'], '.3f')} "
-           f"(stderr {fmt(r['stderr'], '.2g')}; declared {fmt(r['order_declared'])}) over {r['periods']:g} periods")
+    yield (
+        f"{r['method']} on {r['scene']}: observed order {fmt(r['order'], '.3f')} "
+        f"(stderr {fmt(r['stderr'], '.2g')}; declared {fmt(r['order_declared'])}) over {r['periods']:g} periods"
+    )
     yield f"  {'dt':>12s} {'h*omega':>10s} {'steps':>7s} {'error':>11s}"
     for p in sorted(r["points"] + r["excluded"], key=lambda p: p["dt"]):
         mark = f"  left out: {p['reason']}" if "reason" in p else ""

@@ -1,4 +1,5 @@
 """``harness run SCENE --method M --dt DT --steps N``: print the trajectory."""
+
 from __future__ import annotations
 
 import json
@@ -23,8 +24,12 @@ def add_parser(sub):
     p.add_argument("--dt", required=True)
     p.add_argument("--steps", required=True)
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene parameter")
-    p.add_argument("--opt", action="append", metavar="KEY=VALUE",
-                   help="set a method option (ref:verlet_constrained: iterations=K projection passes per step)")
+    p.add_argument(
+        "--opt",
+        action="append",
+        metavar="KEY=VALUE",
+        help="set a method option (ref:verlet_constrained: iterations=K projection passes per step)",
+    )
     p.add_argument("--every", default="1", help="print every K-th step (the last is always printed)")
     p.add_argument("--format", default="table", help="table, csv or json")
     p.add_argument("--timeout", default="60", help="seconds an engine run may take")
@@ -48,8 +53,12 @@ def run(args) -> int:
     if fmt == "csv":
         frame.to_csv(out, index=False, float_format="%.17g", lineterminator="\n")
     elif fmt == "json":
-        json.dump({**_jsonable(traj.summary()), "columns": list(frame.columns),
-                   "rows": frame.to_dict(orient="records")}, out, indent=1, default=_default)
+        json.dump(
+            {**_jsonable(traj.summary()), "columns": list(frame.columns), "rows": frame.to_dict(orient="records")},
+            out,
+            indent=1,
+            default=_default,
+        )
         out.write("\n")
     else:
         out.write(frame.to_string(index=False, float_format=lambda x: f"{x:.6g}") + "\n")

@@ -2,13 +2,21 @@
 the spectral radius of the one-step map on linear scenes. Reference schemes step on the
 nightly's compiled path; ``--steps``, ``--hi`` and ``--rtol`` ask a suite's question (the
 standard suite: ``--steps 1000 --hi 100 --rtol 1e-4``) and get the nightly cell's numbers."""
+
 from __future__ import annotations
 
 from records import InvalidInput
 
 from harness import validate
-from harness.measures.stability import (BISECT_RTOL, CRITERIA, HOMEGA_HI, HOMEGA_LO, HORIZON_STEPS, SCAN_RATIO,
-                                        largest_stable_dt)
+from harness.measures.stability import (
+    BISECT_RTOL,
+    CRITERIA,
+    HOMEGA_HI,
+    HOMEGA_LO,
+    HORIZON_STEPS,
+    SCAN_RATIO,
+    largest_stable_dt,
+)
 from harness.cli.measure_args import add_common, emit, fmt, method_for, progress, scene_of, timeout_of
 
 
@@ -37,8 +45,9 @@ def run(args) -> int:
     scene = scene_of(args)
     method = method_for(args.method, scene)
     with progress() as say:
-        res = largest_stable_dt(method, scene, criterion=criterion, steps=steps, lo=lo, hi=hi, rtol=rtol,
-                                timeout=timeout, progress=say)
+        res = largest_stable_dt(
+            method, scene, criterion=criterion, steps=steps, lo=lo, hi=hi, rtol=rtol, timeout=timeout, progress=say
+        )
     return emit(res, args.json, _lines, scene)
 
 

@@ -2,6 +2,7 @@
 method across a shared timestep sweep, ready to chart; an error-controlled method (one that takes a
 tolerance: ``drake:runge_kutta3``, ``rebound:ias15``) across the tolerances instead, with the steps
 it took and rejected (``harness.measures.tolerance``)."""
+
 from __future__ import annotations
 
 from harness import validate
@@ -19,8 +20,11 @@ def add_parser(sub):
     p.add_argument("--homega-max", default=repr(HOMEGA_MAX), help="largest h*omega")
     p.add_argument("--periods", default=repr(PERIODS), help="horizon in scene periods")
     p.add_argument("--repeats", default=str(REPEATS), help="timed repeats per point")
-    p.add_argument("--tolerances", default=",".join(f"{t:g}" for t in TOLERANCES),
-                   help="the tolerances an error-controlled method runs at (comma-separated)")
+    p.add_argument(
+        "--tolerances",
+        default=",".join(f"{t:g}" for t in TOLERANCES),
+        help="the tolerances an error-controlled method runs at (comma-separated)",
+    )
     return p
 
 
@@ -37,20 +41,44 @@ def run(args) -> int:
     if args.method:
         methods = [method_for(m, scene) for m in args.method]
     else:
-        methods = [m for m in all_methods(compiled_where_bitwise=True).values()
-                   if m.available()[0] and m.supports(scene)[0]]
+        methods = [
+            m for m in all_methods(compiled_where_bitwise=True).values() if m.available()[0] and m.supports(scene)[0]
+        ]
     controlled = [m for m in methods if takes_tolerance(m) and "tolerance" not in m.options]
     stepped = [m for m in methods if m not in controlled]
     with progress() as say:
-        rows = work_precision(stepped, scene, points=points, homega_max=homega_max, periods=periods,
-                              repeats=repeats, timeout=timeout, progress=say) if stepped else []
+        rows = (
+            work_precision(
+                stepped,
+                scene,
+                points=points,
+                homega_max=homega_max,
+                periods=periods,
+                repeats=repeats,
+                timeout=timeout,
+                progress=say,
+            )
+            if stepped
+            else []
+        )
         sweeps = []
         for m in controlled:
             say(f"workprecision: {m.id} error-controlled at tolerances {', '.join(f'{t:g}' for t in tolerances)}")
-            sweeps.append(tolerance_sweep(m, scene, tolerances=tolerances, periods=periods, repeats=repeats,
-                                          timeout=timeout))
-    return emit({"scene": scene.id, "params": dict(scene.values), "rows": rows, "chart": chart_ready(rows),
-                 "error_controlled": sweeps}, args.json, _lines, scene)
+            sweeps.append(
+                tolerance_sweep(m, scene, tolerances=tolerances, periods=periods, repeats=repeats, timeout=timeout)
+            )
+    return emit(
+        {
+            "scene": scene.id,
+            "params": dict(scene.values),
+            "rows": rows,
+            "chart": chart_ready(rows),
+            "error_controlled": sweeps,
+        },
+        args.json,
+        _lines,
+        scene,
+    )
 
 
 def _lines(r):
@@ -58,15 +86,21 @@ def _lines(r):
     yield "  s/unit t: wall seconds per unit of simulated time; reference schemes compiled, engines their own loop"
     yield f"  {'method':40s} {'h*omega':>9s} {'error':>10s} {'s/unit t':>10s} {'evals/unit t':>12s}"
     for row in r["rows"]:
-        yield (f"  {row['method']:40s} {row['omega_dt']:9.4g} {fmt(row['error'], '10.3e')} "
-               f"{fmt(row['s_per_unit_time'], '10.3e')} {fmt(row['evals_per_unit_time'], '12.4g')}")
+        yield (
+            f"  {row['method']:40s} {row['omega_dt']:9.4g} {fmt(row['error'], '10.3e')} "
+            f"{fmt(row['s_per_unit_time'], '10.3e')} {fmt(row['evals_per_unit_time'], '12.4g')}"
+        )
     if r["error_controlled"]:
         yield "  error-controlled (steps chosen by the engine's error control at each tolerance):"
-        yield (f"  {'method':40s} {'tolerance':>9s} {'error':>10s} {'s/unit t':>10s} {'steps':>8s} "
-               f"{'rejected':>8s} {'evals':>8s}")
+        yield (
+            f"  {'method':40s} {'tolerance':>9s} {'error':>10s} {'s/unit t':>10s} {'steps':>8s} "
+            f"{'rejected':>8s} {'evals':>8s}"
+        )
     for sweep in r["error_controlled"]:
         for row in sweep["rows"]:
-            yield (f"  {row['method']:40s} {row['tolerance']:9.0e} {fmt(row['error'], '10.3e')} "
-                   f"{fmt(row['s_per_unit_time'], '10.3e')} {fmt(row['steps_taken'], '8d')} "
-                   f"{fmt(row['steps_rejected'], '8d')} {fmt(row['force_evals'], '8d')}")
+            yield (
+                f"  {row['method']:40s} {row['tolerance']:9.0e} {fmt(row['error'], '10.3e')} "
+                f"{fmt(row['s_per_unit_time'], '10.3e')} {fmt(row['steps_taken'], '8d')} "
+                f"{fmt(row['steps_rejected'], '8d')} {fmt(row['force_evals'], '8d')}"
+            )
         yield f"  {sweep['method']}: the sweep ended at {sweep['ended']}"

@@ -2,19 +2,29 @@
 (``scenarios.contact``: each scene's ``measure`` gives the figures it declares in ``FIGURES`` and
 their ✓/✗), with what every run states beside them (the step, the status, the truth, the
 tolerances, the engine's settings and the engine loop's cost per simulated second)."""
+
 from __future__ import annotations
 
 from records.contact import ContactFigures, ContactTrajectory
 from records.trajectory import OK
+
 # apexes, STOPPED: the judges' own (scenarios.contact), read here by those who read them here before.
 from scenarios.contact import STOPPED, TOLERANCES, ContactScene, Tolerances, apexes  # noqa: F401
 
 
 def contact_figures(scene: ContactScene, run: ContactTrajectory, tol: Tolerances = TOLERANCES) -> ContactFigures:
     """The run's figures against the scene's truth (all None but the settings where it failed)."""
-    common = dict(scene=scene.id, params=dict(scene.values), dt=run.dt, status=run.status, truth=scene.truth(),
-                  tolerances=scene.tolerances(tol), settings=dict(run.settings), loop=run.loop or None,
-                  engine_version=run.engine_version)
+    common = dict(
+        scene=scene.id,
+        params=dict(scene.values),
+        dt=run.dt,
+        status=run.status,
+        truth=scene.truth(),
+        tolerances=scene.tolerances(tol),
+        settings=dict(run.settings),
+        loop=run.loop or None,
+        engine_version=run.engine_version,
+    )
     if run.status != OK:
         return ContactFigures(**common, detail=run.detail)
     got = dict(scene.measure(run, tol))

@@ -2,6 +2,7 @@
 ground (``penalty`` cells), and per contact scene which engine modes keep every figure within its
 tolerance at the frame rate a game steps at, with the cheapest of those that bounce, slide and
 rest (``contact`` cells)."""
+
 from __future__ import annotations
 
 from records.findings import MARK, Finding
@@ -36,17 +37,24 @@ def penalty_findings(scene: str, piv: dict) -> list[Finding]:
         shown = ", ".join(f"h·ω_c = {x:g}: {sym[x]:.3f} against {imp[x]:.3f}" for x in hw)
         rests = ""
         if claim["unconverged"]:
-            rests = ("; implicit Euler's Newton iteration did not converge at "
-                     + ", ".join(f"{n} step(s) at h·ω_c = {x:g}" for x, n in claim["unconverged"].items())
-                     + " (the kink of the ground's force), so those figures rest on an unconverged solve")
-        text = (f"{MARK} The seed: implicit Euler makes \"{SEED_CLAIM}\". On a penalty ground (ω_c = {omega:g} rad/s, "
-                f"e = 1) semi-implicit Euler keeps the bounce within tolerance where implicit Euler keeps under half "
-                f"its speed ({shown}: mean restitution, semi-implicit against implicit){rests}.")
+            rests = (
+                "; implicit Euler's Newton iteration did not converge at "
+                + ", ".join(f"{n} step(s) at h·ω_c = {x:g}" for x, n in claim["unconverged"].items())
+                + " (the kink of the ground's force), so those figures rest on an unconverged solve"
+            )
+        text = (
+            f'{MARK} The seed: implicit Euler makes "{SEED_CLAIM}". On a penalty ground (ω_c = {omega:g} rad/s, '
+            f"e = 1) semi-implicit Euler keeps the bounce within tolerance where implicit Euler keeps under half "
+            f"its speed ({shown}: mean restitution, semi-implicit against implicit){rests}."
+        )
     else:
-        text = (f"{MARK} The seed: implicit Euler makes \"{SEED_CLAIM}\". Not seen on a penalty ground "
-                f"(ω_c = {omega:g} rad/s, e = 1): at no h·ω_c of the grid does semi-implicit Euler keep the bounce "
-                f"within tolerance while implicit Euler keeps under half its speed (implicit: "
-                + ", ".join(f"{x:g}: {v:.3f}" for x, v in imp.items() if v is not None) + ").")
+        text = (
+            f'{MARK} The seed: implicit Euler makes "{SEED_CLAIM}". Not seen on a penalty ground '
+            f"(ω_c = {omega:g} rad/s, e = 1): at no h·ω_c of the grid does semi-implicit Euler keep the bounce "
+            f"within tolerance while implicit Euler keeps under half its speed (implicit: "
+            + ", ".join(f"{x:g}: {v:.3f}" for x, v in imp.items() if v is not None)
+            + ")."
+        )
     return [Finding(text, claim["holds"], scene, "ref:implicit_euler")]
 
 
@@ -61,13 +69,31 @@ def contact_findings(scene: str, piv: dict) -> list[Finding]:
     gained = {m: sorted({r["dt"] for r in c.figures.runs if r.get("gained")}) for m, c in cells.items()}
     for m, dts in gained.items():
         if dts:
-            out.append(Finding(f"{MARK} `{m}` on `{scene}` gains energy at a bounce at dt = "
-                               + ", ".join(f"1/{1 / d:.0f} s" for d in dts) + ".", False, scene, m))
+            out.append(
+                Finding(
+                    f"{MARK} `{m}` on `{scene}` gains energy at a bounce at dt = "
+                    + ", ".join(f"1/{1 / d:.0f} s" for d in dts)
+                    + ".",
+                    False,
+                    scene,
+                    m,
+                )
+            )
     at60 = {m: _at(c.figures.runs, ADVICE_DT) for m, c in cells.items()}
     ok = sorted(m for m, r in at60.items() if r is not None and r.get("passes") and all(r["passes"].values()))
-    out.append(Finding(f"`{scene}` at 60 Hz: " + (f"within every tolerance: {', '.join(f'`{m}`' for m in ok)}"
-                                                  if ok else "no engine mode is within every tolerance") + ".",
-                       None, scene))
+    out.append(
+        Finding(
+            f"`{scene}` at 60 Hz: "
+            + (
+                f"within every tolerance: {', '.join(f'`{m}`' for m in ok)}"
+                if ok
+                else "no engine mode is within every tolerance"
+            )
+            + ".",
+            None,
+            scene,
+        )
+    )
     if scene == _first_ball(piv):
         out.append(_advice(piv))
     return out
@@ -95,13 +121,19 @@ def _advice(piv) -> Finding:
         r = _at(c.figures.runs, ADVICE_DT)
         if r is not None:
             by_mode.setdefault(m, {})[s] = r
-    kinds_needed = sorted({s for (s, _), ms in piv.items() if "contact" in ms
-                           and ms["contact"].figures.scene in ADVICE_SCENES})
+    kinds_needed = sorted(
+        {s for (s, _), ms in piv.items() if "contact" in ms and ms["contact"].figures.scene in ADVICE_SCENES}
+    )
     fine, _ = rank(by_mode, kinds_needed)
     if not fine:
-        return Finding(f"{MARK} Advice at 60 Hz: no engine mode bounces, slides and rests within every tolerance "
-                       f"({', '.join(sorted(kinds_needed))}).", False)
+        return Finding(
+            f"{MARK} Advice at 60 Hz: no engine mode bounces, slides and rests within every tolerance "
+            f"({', '.join(sorted(kinds_needed))}).",
+            False,
+        )
     fine.sort()
     best = ", ".join(f"`{m}` ({c:.3g} CPU s per simulated s over the {len(kinds_needed)} scenes)" for c, m in fine)
-    return Finding(f"{MARK} Advice at 60 Hz: within every tolerance on {', '.join(sorted(kinds_needed))}, cheapest "
-                   f"first: {best}.", True)
+    return Finding(
+        f"{MARK} Advice at 60 Hz: within every tolerance on {', '.join(sorted(kinds_needed))}, cheapest first: {best}.",
+        True,
+    )

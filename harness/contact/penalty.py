@@ -12,6 +12,7 @@ inside the contact), which differ from the ideal e by gravity's share, g / (omeg
 
 The rows travel as a tidy DataFrame, one per (scheme, e, h*omega_c).
 """
+
 from __future__ import annotations
 
 import functools
@@ -25,8 +26,14 @@ from records.trajectory import OK
 GRID = (0.01, 0.03, 0.1, 0.3, 1.0, 2.0, 3.0, 10.0, 30.0, 100.0)
 #: The schemes of the table: the five the seed names (explicit, semi-implicit Euler, Verlet, RK4,
 #: implicit Euler) and implicit midpoint, the implicit scheme that keeps energy.
-SCHEMES = ("ref:explicit_euler", "ref:semi_implicit_euler", "ref:velocity_verlet", "ref:rk4",
-           "ref:implicit_midpoint", "ref:implicit_euler")
+SCHEMES = (
+    "ref:explicit_euler",
+    "ref:semi_implicit_euler",
+    "ref:velocity_verlet",
+    "ref:rk4",
+    "ref:implicit_midpoint",
+    "ref:implicit_euler",
+)
 RESTITUTIONS = (1.0, 0.8)
 BOUNCES = 5
 SAMPLES_PER_FLIGHT = 500
@@ -104,8 +111,9 @@ def _exact_apexes(omega_c: float, zeta: float, h0: float, bounces: int) -> tuple
     return tuple(make_scene("penalty_ball", omega_c=omega_c, zeta=zeta, h0=h0).apexes(bounces))
 
 
-def row(method_id: str, e: float, homega: float, omega_c: float = 1000.0, h0: float = 1.0,
-        bounces: int = BOUNCES) -> dict:
+def row(
+    method_id: str, e: float, homega: float, omega_c: float = 1000.0, h0: float = 1.0, bounces: int = BOUNCES
+) -> dict:
     """One scheme at one h*omega_c and requested e: the restitution of each bounce, H_n/H0 and
     whether a bounce gained energy, against the exact motion's."""
     from harness.execution.simulate import simulate
@@ -126,18 +134,33 @@ def row(method_id: str, e: float, homega: float, omega_c: float = 1000.0, h0: fl
     method = get_method(method_id, compiled_where_bitwise=True)
     tr = simulate(method, scene, dt, steps, every=every)
     x, v = tr.q.reshape(len(tr.q), -1)[:, 0], tr.v.reshape(len(tr.v), -1)[:, 0]
-    out = {"method": method_id, "e": e, "zeta": scene.values["zeta"], "omega_c": omega_c, "homega": homega,
-           "dt": dt, "steps": steps, "every": every, "status": tr.status, "detail": tr.detail,
-           "exact_restitution": [math.sqrt(b / a) for a, b in zip(exact, exact[1:])],
-           "restitution": None, "mean_restitution": None, "apex_ratio": None,
-           "exact_apex_ratio": exact[-1] / exact[0], "gained": None, "verdict": None, "unconverged": None}
+    out = {
+        "method": method_id,
+        "e": e,
+        "zeta": scene.values["zeta"],
+        "omega_c": omega_c,
+        "homega": homega,
+        "dt": dt,
+        "steps": steps,
+        "every": every,
+        "status": tr.status,
+        "detail": tr.detail,
+        "exact_restitution": [math.sqrt(b / a) for a, b in zip(exact, exact[1:])],
+        "restitution": None,
+        "mean_restitution": None,
+        "apex_ratio": None,
+        "exact_apex_ratio": exact[-1] / exact[0],
+        "gained": None,
+        "verdict": None,
+        "unconverged": None,
+    }
     runaway = np.max(np.abs(x)) > RUNAWAY * h0 if len(x) else False
     if tr.status != OK or runaway or not np.all(np.isfinite(x)):
         out["status"] = "unstable"
         out["detail"] = tr.detail or f"the ball passed {RUNAWAY:g} drop heights"
         out["verdict"] = "blows up"
         return out
-    h = apexes(x, v)[:bounces + 1]
+    h = apexes(x, v)[: bounces + 1]
     # A ball that no longer leaves the ground has stopped bouncing: what it does in the contact
     # after is not a bounce.
     lifted = next((i for i, a in enumerate(h) if a <= 0.0), len(h))
@@ -178,9 +201,19 @@ def seed_claim(df) -> dict:
     elastic = df[df.e == 1.0]
     sym = elastic[elastic.method == "ref:semi_implicit_euler"].set_index("homega")
     imp = elastic[elastic.method == "ref:implicit_euler"].set_index("homega")
-    where = [hw for hw in imp.index if hw in sym.index and sym.loc[hw, "verdict"] == "within"
-             and imp.loc[hw, "mean_restitution"] is not None and imp.loc[hw, "mean_restitution"] < 0.5]
+    where = [
+        hw
+        for hw in imp.index
+        if hw in sym.index
+        and sym.loc[hw, "verdict"] == "within"
+        and imp.loc[hw, "mean_restitution"] is not None
+        and imp.loc[hw, "mean_restitution"] < 0.5
+    ]
     unconverged = {hw: int(imp.loc[hw, "unconverged"]) for hw in where if imp.loc[hw, "unconverged"]}
-    return {"holds": bool(where), "where": where, "unconverged": unconverged,
-            "implicit": {hw: imp.loc[hw, "mean_restitution"] for hw in imp.index},
-            "symplectic": {hw: sym.loc[hw, "mean_restitution"] for hw in sym.index}}
+    return {
+        "holds": bool(where),
+        "where": where,
+        "unconverged": unconverged,
+        "implicit": {hw: imp.loc[hw, "mean_restitution"] for hw in imp.index},
+        "symplectic": {hw: sym.loc[hw, "mean_restitution"] for hw in sym.index},
+    }

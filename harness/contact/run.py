@@ -3,6 +3,7 @@ parameters, the step; one line naming the bad field), then in a worker process, 
 a hang or a blow-up is a recorded run (``crashed`` / ``timed_out`` / ``unstable``, with where and
 why), never a dead harness. A mode whose settings are process-wide (``ContactMode.own_process``)
 gets a fresh worker for every run; the others may share the caller's (a nightly task's worker)."""
+
 from __future__ import annotations
 
 import math
@@ -54,8 +55,14 @@ def _step_in_worker(mode_id: str, scene_id: str, params: dict, dt: float, plugin
     return get_mode(mode_id).run(get_mode(mode_id), make_contact_scene(scene_id, **params), dt)
 
 
-def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: float = 1 / 240,
-                timeout: float = TIMEOUT_S, isolated: bool = True) -> ContactTrajectory:
+def run_contact(
+    mode_id: str,
+    scene_id: str,
+    params: dict | None = None,
+    dt: float = 1 / 240,
+    timeout: float = TIMEOUT_S,
+    isolated: bool = True,
+) -> ContactTrajectory:
     """One run, validated first; ``isolated`` False steps in this process unless the mode needs one
     of its own (a nightly task's worker is already isolated)."""
     from scenarios.contact import make_contact_scene
@@ -88,7 +95,6 @@ def run_contact(mode_id: str, scene_id: str, params: dict | None = None, dt: flo
         status = TIMED_OUT if out.status == TIMED_OUT else CRASHED
         return ContactTrajectory.failed(scene.id, mode_id, dt, status, out.detail)
     return out
-
 
 
 def _in_fork(args: tuple, timeout: float) -> ContactTrajectory:
@@ -132,12 +138,16 @@ def _in_fork(args: tuple, timeout: float) -> ContactTrajectory:
             if time.monotonic() > deadline:
                 os.kill(pid, signal.SIGKILL)
                 os.waitpid(pid, 0)
-                return ContactTrajectory.failed(scene_id, mode_id, dt, TIMED_OUT,
-                                                f"no result within {timeout:g} s; process killed")
+                return ContactTrajectory.failed(
+                    scene_id, mode_id, dt, TIMED_OUT, f"no result within {timeout:g} s; process killed"
+                )
             time.sleep(0.002)
         if not os.path.exists(out):
-            how = (f"killed by signal {os.WTERMSIG(status)}" if os.WIFSIGNALED(status)
-                   else f"exited {os.WEXITSTATUS(status)}")
+            how = (
+                f"killed by signal {os.WTERMSIG(status)}"
+                if os.WIFSIGNALED(status)
+                else f"exited {os.WEXITSTATUS(status)}"
+            )
             return ContactTrajectory.failed(scene_id, mode_id, dt, CRASHED, f"the process {how} without a result")
         with open(out, "rb") as fh:
             return pickle.load(fh)

@@ -5,6 +5,7 @@ slides and rests within the tolerances.
 
 Rows travel as a tidy DataFrame, one per (scene, mode, dt).
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict
@@ -16,15 +17,25 @@ from .figures import contact_figures, within
 from .run import LADDER, REPORT_DTS, contact_modes, run_contact
 
 
-def measure_mode(mode_id: str, scene_id: str, params: dict | None = None, dts=LADDER,
-                 isolated: bool = True, timeout: float | None = None) -> list[ContactFigures]:
+def measure_mode(
+    mode_id: str,
+    scene_id: str,
+    params: dict | None = None,
+    dts=LADDER,
+    isolated: bool = True,
+    timeout: float | None = None,
+) -> list[ContactFigures]:
     """The mode's figures at every step of ``dts`` (each run validated, then stepped; a failed run
     is its figures' ``detail``)."""
     from .run import TIMEOUT_S
 
     scene = make_contact_scene(scene_id, **(params or {}))
-    return [contact_figures(scene, run_contact(mode_id, scene_id, params, dt, timeout=timeout or TIMEOUT_S,
-                                               isolated=isolated)) for dt in dts]
+    return [
+        contact_figures(
+            scene, run_contact(mode_id, scene_id, params, dt, timeout=timeout or TIMEOUT_S, isolated=isolated)
+        )
+        for dt in dts
+    ]
 
 
 def largest(runs: list[ContactFigures]) -> dict:
@@ -81,18 +92,38 @@ def row_of(mode_id: str, f: ContactFigures) -> dict:
     scene declares (``scenarios.contact.Figure``; those shown in the tables), the engine loop's
     cost, and what it was judged by."""
     scene = make_contact_scene(f.scene, **f.params)
-    return {"scene": f.scene, "method": mode_id, "dt": f.dt, "status": f.status, "within": within(f),
-            **{d.name: f.values.get(d.name) for d in scene.FIGURES if d.shown},
-            "cpu_per_s": f.cpu_per_s, "detail": f.detail, "passes": f.passes, "settings": f.settings,
-            "params": f.params, "truth": f.truth}
+    return {
+        "scene": f.scene,
+        "method": mode_id,
+        "dt": f.dt,
+        "status": f.status,
+        "within": within(f),
+        **{d.name: f.values.get(d.name) for d in scene.FIGURES if d.shown},
+        "cpu_per_s": f.cpu_per_s,
+        "detail": f.detail,
+        "passes": f.passes,
+        "settings": f.settings,
+        "params": f.params,
+        "truth": f.truth,
+    }
 
 
 def unsupported_row(scene_id: str, params: dict, mode_id: str, why: str) -> dict:
     """The row of a mode asked for that does not pose the scene (or is not installed): why not."""
     scene = make_contact_scene(scene_id, **params)
-    return {"scene": scene_id, "method": mode_id, "dt": None, "status": "unsupported", "within": None,
-            "cpu_per_s": None, "detail": why, "passes": {}, "settings": {}, "params": dict(scene.values),
-            "truth": scene.truth()}
+    return {
+        "scene": scene_id,
+        "method": mode_id,
+        "dt": None,
+        "status": "unsupported",
+        "within": None,
+        "cpu_per_s": None,
+        "detail": why,
+        "passes": {},
+        "settings": {},
+        "params": dict(scene.values),
+        "truth": scene.truth(),
+    }
 
 
 #: What "bounces, slides and rests" asks of a mode: the ball at e = 0.8, the slide and the stack
@@ -110,8 +141,11 @@ def rank(by_mode: dict[str, dict[str, dict]], needed) -> tuple[list[tuple[float,
     for mode, runs in by_mode.items():
         if not set(needed) <= set(runs):
             continue
-        bad = {s: (sorted(k for k, v in r["passes"].items() if not v) if r["passes"] else [r["status"]])
-               for s, r in runs.items() if s in needed and not (r["passes"] and all(r["passes"].values()))}
+        bad = {
+            s: (sorted(k for k, v in r["passes"].items() if not v) if r["passes"] else [r["status"]])
+            for s, r in runs.items()
+            if s in needed and not (r["passes"] and all(r["passes"].values()))
+        }
         if bad:
             failing[mode] = bad
         else:
@@ -128,8 +162,22 @@ def advise(df, dt: float) -> dict:
             unposed.setdefault(r.method, {})[r.scene] = r.detail
         df = df[df.status != "unsupported"]
     at = df[(df.dt - dt).abs() <= 1e-12 * dt] if len(df) else df
-    by_mode = {mode: {r.scene: {"passes": r.passes, "status": r.status, "cpu_per_s": r.cpu_per_s}
-                      for r in rows.itertuples()} for mode, rows in at.groupby("method")} if len(at) else {}
+    by_mode = (
+        {
+            mode: {
+                r.scene: {"passes": r.passes, "status": r.status, "cpu_per_s": r.cpu_per_s} for r in rows.itertuples()
+            }
+            for mode, rows in at.groupby("method")
+        }
+        if len(at)
+        else {}
+    )
     fine, failing = rank(by_mode, ADVICE_SCENES)
-    return {"dt": dt, "within": [m for _, m in fine], "cost": {m: c for c, m in fine}, "failing": failing,
-            "unposed": unposed, "tolerances": asdict(TOLERANCES)}
+    return {
+        "dt": dt,
+        "within": [m for _, m in fine],
+        "cost": {m: c for c, m in fine},
+        "failing": failing,
+        "unposed": unposed,
+        "tolerances": asdict(TOLERANCES),
+    }

@@ -12,8 +12,8 @@ killed at the suite's cell timeout), the same records a local run stores, and th
 goes on; should the Dask worker itself die first, the child ends itself just past its limit
 (``isolation.ORPHAN_GRACE_S``) rather than outlive it. The Dask task is *not* the isolation:
 a worker cannot kill a hung thread of its own, and a segfault there would cost the worker, a
-restart and every retry. This is why the workers must be non-daemonic (a daemonic process may not start children); a cluster we start
-is, and a cluster we join is checked before anything runs.
+restart and every retry. This is why the workers must be non-daemonic (a daemonic process may not start children); a
+cluster we start is, and a cluster we join is checked before anything runs.
 
 Lost workers. The Dask task dies only if its worker process does (killed, out of memory, the
 machine gone). The scheduler then runs it again on another worker; if that one dies too, the
@@ -36,6 +36,7 @@ Before anything runs, every worker must run the same code as the client (a diges
 project's packages), the same package versions, and be non-daemonic; otherwise a one-line
 error names the worker and the difference.
 """
+
 from __future__ import annotations
 
 import logging
@@ -68,7 +69,9 @@ POLL_S = 1.0
 SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 
 _ADDRESS = re.compile(r"^(?:(?P<scheme>[a-z]+)://)?(?P<host>\[[0-9a-fA-F:]+\]|[A-Za-z0-9_.-]+):(?P<port>\d+)/?$")
-_FORMS = f"local:N (N >= 1 worker processes) or a scheduler address [SCHEME://]HOST:PORT (schemes: {', '.join(SCHEMES)})"
+_FORMS = (
+    f"local:N (N >= 1 worker processes) or a scheduler address [SCHEME://]HOST:PORT (schemes: {', '.join(SCHEMES)})"
+)
 
 
 class ClusterLost(RuntimeError):
@@ -101,8 +104,10 @@ def resolve_scheduler(option: str | None, jobs_given: bool) -> tuple[str, str] |
     """
     if option is not None:
         if jobs_given:
-            raise InvalidInput("--jobs: sets the local worker processes; with --scheduler the cluster's "
-                               "workers set the parallelism (local:N starts N)")
+            raise InvalidInput(
+                "--jobs: sets the local worker processes; with --scheduler the cluster's "
+                "workers set the parallelism (local:N starts N)"
+            )
         source, spec = "--scheduler", option
     else:
         spec = os.environ.get(ENV_VAR, "").strip()
@@ -153,8 +158,9 @@ class DaskExecutor:
             import dask
             from dask.distributed import Client, LocalCluster
         except ImportError as exc:  # the [distributed] extra is missing
-            raise InvalidInput(f"{source} needs the [distributed] extra (pip install "
-                               f"'integrator-harness[distributed]'): {exc}") from None
+            raise InvalidInput(
+                f"{source} needs the [distributed] extra (pip install 'integrator-harness[distributed]'): {exc}"
+            ) from None
         kind, arg = parse_scheduler(spec, source)
         self.spec, self.source, self.run_task = spec, source, run_task
         self.cluster = self.client = None
@@ -164,16 +170,23 @@ class DaskExecutor:
                 # start children. The nanny reads this setting every time it (re)starts a worker,
                 # including after a worker died mid-run, so it is set for the process, not scoped.
                 dask.config.set({"distributed.worker.daemon": False})
-                self.cluster = LocalCluster(n_workers=arg, threads_per_worker=1, processes=True,
-                                            dashboard_address=None, silence_logs=logging.CRITICAL,
-                                            scheduler_kwargs={"allowed_failures": ALLOWED_FAILURES})
+                self.cluster = LocalCluster(
+                    n_workers=arg,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    silence_logs=logging.CRITICAL,
+                    scheduler_kwargs={"allowed_failures": ALLOWED_FAILURES},
+                )
                 self.client = Client(self.cluster)
             else:
                 try:
                     self.client = Client(arg, timeout=CONNECT_TIMEOUT_S)
                 except (OSError, TimeoutError) as exc:
-                    raise InvalidInput(f"{source}={spec}: no Dask scheduler reachable within "
-                                       f"{CONNECT_TIMEOUT_S:g} s ({_one_line(exc)})") from None
+                    raise InvalidInput(
+                        f"{source}={spec}: no Dask scheduler reachable within "
+                        f"{CONNECT_TIMEOUT_S:g} s ({_one_line(exc)})"
+                    ) from None
             self._check_workers()
             self._description = self._describe(kind)
         except BaseException:
@@ -187,19 +200,24 @@ class DaskExecutor:
         try:
             self.client.wait_for_workers(1, timeout=WORKER_WAIT_S)
         except (DaskTimeout, TimeoutError):
-            raise InvalidInput(f"{self.source}={self.spec}: the scheduler has no workers "
-                               f"(none joined within {WORKER_WAIT_S:g} s)") from None
+            raise InvalidInput(
+                f"{self.source}={self.spec}: the scheduler has no workers (none joined within {WORKER_WAIT_S:g} s)"
+            ) from None
         mine = environment()
         for address, theirs in self.client.run(environment).items():
             if theirs.get("daemon"):
-                raise InvalidInput(f"{self.source}={self.spec}: worker {address} is a daemonic process and cannot "
-                                   f"start the child process each cell is isolated in; start the workers with "
-                                   f"DASK_DISTRIBUTED__WORKER__DAEMON=False")
+                raise InvalidInput(
+                    f"{self.source}={self.spec}: worker {address} is a daemonic process and cannot "
+                    f"start the child process each cell is isolated in; start the workers with "
+                    f"DASK_DISTRIBUTED__WORKER__DAEMON=False"
+                )
             for key, value in mine.items():
                 if key != "daemon" and theirs.get(key) != value:
-                    raise InvalidInput(f"{self.source}={self.spec}: worker {address} has {key} {theirs.get(key)} "
-                                       f"where this client has {value}; every worker must compute with the same "
-                                       f"code and packages")
+                    raise InvalidInput(
+                        f"{self.source}={self.spec}: worker {address} has {key} {theirs.get(key)} "
+                        f"where this client has {value}; every worker must compute with the same "
+                        f"code and packages"
+                    )
 
     def _describe(self, kind: str) -> str:
         threads = self.client.nthreads()
@@ -210,8 +228,10 @@ class DaskExecutor:
         except Exception:  # a scheduler that refuses run_on_scheduler: say we do not know
             policy = "retries when a worker dies: unknown"
         if kind == "local":
-            return (f"Dask LocalCluster at {self.cluster.scheduler_address} ({_plural(n, 'worker process')}, "
-                    f"1 thread each; {policy})")
+            return (
+                f"Dask LocalCluster at {self.cluster.scheduler_address} ({_plural(n, 'worker process')}, "
+                f"1 thread each; {policy})"
+            )
         return f"Dask scheduler {self.spec} ({_plural(n, 'worker')}, {_plural(total, 'thread')}; {policy})"
 
     def describe(self) -> str:
@@ -249,13 +269,16 @@ class DaskExecutor:
             else:
                 no_workers_since = no_workers_since or time.monotonic()
                 if time.monotonic() - no_workers_since > WORKER_WAIT_S:
-                    raise ClusterLost(f"the Dask scheduler {self.spec} has had no workers for {WORKER_WAIT_S:g} s "
-                                      f"with {len(queue) + len(in_flight)} task(s) left")
+                    raise ClusterLost(
+                        f"the Dask scheduler {self.spec} has had no workers for {WORKER_WAIT_S:g} s "
+                        f"with {len(queue) + len(in_flight)} task(s) left"
+                    )
             # At most one task per worker thread, so a dying worker is charged only its own cell.
             while queue and len(in_flight) < max(slots, 1):
                 i, task = queue.pop()
-                fut = self.client.submit(run_cell_task, task, timeout, self.run_task, engines, pure=False,
-                                         key=f"{task.label} [{token}-{i}]")
+                fut = self.client.submit(
+                    run_cell_task, task, timeout, self.run_task, engines, pure=False, key=f"{task.label} [{token}-{i}]"
+                )
                 in_flight[fut] = task
             try:
                 done = wait(list(in_flight), timeout=POLL_S, return_when="FIRST_COMPLETED").done
@@ -278,8 +301,11 @@ class DaskExecutor:
             return fut.result()
         except KilledWorker as exc:
             last = getattr(getattr(exc, "last_worker", None), "address", "?")
-            return WorkerFailure("crashed", f"its Dask worker died on each of {exc.allowed_failures + 1} attempts "
-                                            f"(KilledWorker; the last on {last})")
+            return WorkerFailure(
+                "crashed",
+                f"its Dask worker died on each of {exc.allowed_failures + 1} attempts "
+                f"(KilledWorker; the last on {last})",
+            )
         except Exception as exc:  # run_cell_task returns failures; this is the task itself failing
             return WorkerFailure("crashed", f"the Dask task raised {_one_line(exc)}")
 

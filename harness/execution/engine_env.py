@@ -19,6 +19,7 @@ The cache is the harness cache (``$HARNESS_CACHE``, else ``~/.cache/integrator-h
 folder that holds the compiled kernels). Bad input is ``records.InvalidInput``, one line naming
 the field and the valid choices, raised before anything is installed.
 """
+
 from __future__ import annotations
 
 import os
@@ -41,9 +42,12 @@ PIP_TIMEOUT_S = 20
 PIP_RETRIES = 1
 
 #: What pip prints when it cannot reach the registry (as opposed to a name it does not know).
-_UNREACHABLE = re.compile(r"NewConnectionError|ConnectTimeout|ReadTimeout|Max retries exceeded|"
-                          r"Temporary failure in name resolution|Name or service not known|Connection refused|"
-                          r"Network is unreachable|ProxyError|SSLError|Could not fetch URL|No route to host", re.I)
+_UNREACHABLE = re.compile(
+    r"NewConnectionError|ConnectTimeout|ReadTimeout|Max retries exceeded|"
+    r"Temporary failure in name resolution|Name or service not known|Connection refused|"
+    r"Network is unreachable|ProxyError|SSLError|Could not fetch URL|No route to host",
+    re.I,
+)
 
 _PROJECT_ROOT = Path(__file__).resolve().parents[2]
 
@@ -93,8 +97,17 @@ def version_key(version: str) -> tuple:
 
 
 def _pip(*args: str, env: dict | None = None) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, "-m", "pip", *args, "--disable-pip-version-check",
-           "--timeout", str(PIP_TIMEOUT_S), "--retries", str(PIP_RETRIES)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "pip",
+        *args,
+        "--disable-pip-version-check",
+        "--timeout",
+        str(PIP_TIMEOUT_S),
+        "--retries",
+        str(PIP_RETRIES),
+    ]
     return subprocess.run(cmd, capture_output=True, text=True, env=env)
 
 
@@ -111,8 +124,10 @@ def releases(dist: str, *, env: dict | None = None) -> list[str]:
     text = done.stdout + done.stderr
     if done.returncode != 0:
         if _unreachable(text):
-            raise InvalidInput(f"engine: the package registry did not answer for {dist!r} (offline? pip index "
-                               f"versions failed: {_last_error(text)})")
+            raise InvalidInput(
+                f"engine: the package registry did not answer for {dist!r} (offline? pip index "
+                f"versions failed: {_last_error(text)})"
+            )
         raise InvalidInput(f"engine: the package registry lists no releases of {dist!r} ({_last_error(text)})")
     for line in done.stdout.splitlines():
         if line.startswith("Available versions:"):
@@ -167,9 +182,11 @@ def check_range(dist: str, low: str, high: str, listed: list[str]) -> list[str]:
     low = check_release(dist, low, listed, "LOW")
     high = check_release(dist, high, listed, "HIGH")
     if version_key(low) >= version_key(high):
-        raise InvalidInput(f"LOW, HIGH: {dist} {low} is not older than {high} (give the older release first, "
-                           f"e.g. {dist} {high} {low})" if version_key(low) > version_key(high) else
-                           f"LOW, HIGH: both are {dist} {low} (give two different releases)")
+        raise InvalidInput(
+            f"LOW, HIGH: {dist} {low} is not older than {high} (give the older release first, e.g. {dist} {high} {low})"
+            if version_key(low) > version_key(high)
+            else f"LOW, HIGH: both are {dist} {low} (give two different releases)"
+        )
     return [v for v in listed if version_key(low) <= version_key(v) <= version_key(high)]
 
 
@@ -203,8 +220,10 @@ def _install(target: Path, specs: list[str]) -> None:
     if done.returncode != 0:
         text = done.stdout + done.stderr
         if _unreachable(text):
-            raise InvalidInput(f"engine: the package registry did not answer while installing {' '.join(specs)} "
-                               f"(offline? {_last_error(text)})")
+            raise InvalidInput(
+                f"engine: the package registry did not answer while installing {' '.join(specs)} "
+                f"(offline? {_last_error(text)})"
+            )
         raise InvalidInput(f"engine: pip could not install {' '.join(specs)} ({_last_error(text)})")
 
 
@@ -281,9 +300,15 @@ def python_command() -> list[str]:
     return [sys.executable]
 
 
-def run_harness(folder: Path | str | None, argv: list[str], *, env: dict | None = None,
-                timeout: float | None = None) -> subprocess.CompletedProcess:
+def run_harness(
+    folder: Path | str | None, argv: list[str], *, env: dict | None = None, timeout: float | None = None
+) -> subprocess.CompletedProcess:
     """``harness ARGV`` in a new process importing its engine from ``folder`` (``environ``);
     stdout and stderr captured as text."""
-    return subprocess.run([*python_command(), "-m", "harness", *argv], capture_output=True, text=True,
-                          env=environ(folder, env), timeout=timeout)
+    return subprocess.run(
+        [*python_command(), "-m", "harness", *argv],
+        capture_output=True,
+        text=True,
+        env=environ(folder, env),
+        timeout=timeout,
+    )

@@ -1,6 +1,7 @@
 """The environment a run computes in, written in one place: the package versions a run records
 (``RECORDED_PACKAGES``), the subset its numbers depend on, which a Dask worker must share with the
 client (``COMPUTING_PACKAGES``), and a digest of the project's own code."""
+
 from __future__ import annotations
 
 import hashlib
@@ -19,8 +20,17 @@ from records.run import NUMBA_OPT_KEY
 COMPUTING_PACKAGES = ("numpy", "scipy", "numba", *ENGINE_DISTS)
 
 #: Packages whose version every run records (the report's appendix, the history's comparisons).
-RECORDED_PACKAGES = ("integrator-harness", "numpy", "scipy", "numba", "pandas", "matplotlib", *ENGINE_DISTS,
-                     "dask", "distributed")
+RECORDED_PACKAGES = (
+    "integrator-harness",
+    "numpy",
+    "scipy",
+    "numba",
+    "pandas",
+    "matplotlib",
+    *ENGINE_DISTS,
+    "dask",
+    "distributed",
+)
 
 #: The project's packages whose code a worker runs; their digest must match the client's.
 CODE_PACKAGES = ("records", "scenarios", "reference", "adapters", "harness")
@@ -60,25 +70,45 @@ def environment() -> dict:
     """What a process would compute cells with: compared between the Dask client and each worker."""
     from harness.history.storage import MEASUREMENT_VERSION
 
-    return {"python": ".".join(platform.python_version_tuple()[:2]), "measurement version": MEASUREMENT_VERSION,
-            "code digest": code_digest(), **versions(COMPUTING_PACKAGES), **_numba_opt(),
-            "daemon": multiprocessing.current_process().daemon}
+    return {
+        "python": ".".join(platform.python_version_tuple()[:2]),
+        "measurement version": MEASUREMENT_VERSION,
+        "code digest": code_digest(),
+        **versions(COMPUTING_PACKAGES),
+        **_numba_opt(),
+        "daemon": multiprocessing.current_process().daemon,
+    }
 
 
 def run_metadata() -> tuple[str | None, dict, dict]:
     """(commit, versions, machine) of a run: the checkout's commit (``+dirty`` with uncommitted
     changes to tracked files), Python's and every recorded package's version, the machine."""
     try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10,
-                                cwd=_ROOT).stdout.strip() or None
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                               text=True, timeout=10, cwd=_ROOT).stdout.strip()
+        commit = (
+            subprocess.run(
+                ["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10, cwd=_ROOT
+            ).stdout.strip()
+            or None
+        )
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+            cwd=_ROOT,
+        ).stdout.strip()
         if commit and dirty:
             commit += "+dirty"
     except (OSError, subprocess.SubprocessError):
         commit = None
-    machine = {"node": platform.node(), "system": platform.system(), "release": platform.release(),
-               "machine": platform.machine(), "processor": platform.processor(), "cpus": os.cpu_count()}
+    machine = {
+        "node": platform.node(),
+        "system": platform.system(),
+        "release": platform.release(),
+        "machine": platform.machine(),
+        "processor": platform.processor(),
+        "cpus": os.cpu_count(),
+    }
     return commit, {"python": platform.python_version(), **versions(), **_numba_opt()}, machine
 
 

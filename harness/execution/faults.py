@@ -12,6 +12,7 @@ what an OOM killer or a lost machine does, with no handler run and nothing flush
 A kill during a task needs no point: the tests kill the process group from outside once the
 first cells are stored. Unset (every real run), ``checkpoint`` is one dictionary lookup.
 """
+
 from __future__ import annotations
 
 import os

@@ -18,6 +18,7 @@ the tail of what the engine said is kept for the failure's detail.
 The isolation layer does not validate inputs (``simulate.simulate`` does, before calling it),
 so tests can hand an engine through it what validation would refuse.
 """
+
 from __future__ import annotations
 
 import faulthandler
@@ -40,8 +41,20 @@ DEFAULT_TIMEOUT_S = 60.0
 #: Modules the forkserver imports once, so that a worker starts without importing them: the
 #: harness's own, and the large libraries they import only where used (scipy's solvers and sparse
 #: matrices, pandas), which a worker forked without them would import afresh, each.
-PRELOAD = ["numpy", "scipy.integrate", "scipy.optimize", "scipy.sparse.linalg", "pandas", "records", "scenarios",
-           "reference", "adapters", "harness.methods", "harness.execution.isolation", "harness.execution.preload"]
+PRELOAD = [
+    "numpy",
+    "scipy.integrate",
+    "scipy.optimize",
+    "scipy.sparse.linalg",
+    "pandas",
+    "records",
+    "scenarios",
+    "reference",
+    "adapters",
+    "harness.methods",
+    "harness.execution.isolation",
+    "harness.execution.preload",
+]
 
 #: How much of the worker's captured output a failure keeps.
 OUTPUT_TAIL_CHARS = 2000
@@ -91,6 +104,7 @@ def preload_engines(modules) -> None:
     with _LOCK:
         if _ENGINES is None and _CONTEXT is None:
             _ENGINES = tuple(sorted(set(modules)))
+
 
 #: The directory holding this copy of the project's packages (the checkout, or site-packages).
 _PROJECT_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -196,16 +210,19 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
     started = time.monotonic()
     with tempfile.TemporaryDirectory(prefix="harness-worker-") as workdir:
         receiver, sender = ctx.Pipe(duplex=False)
-        proc = ctx.Process(target=_worker, args=(sender, workdir, fn, args, kwargs or {}, limit),
-                           daemon=True)
+        proc = ctx.Process(target=_worker, args=(sender, workdir, fn, args, kwargs or {}, limit), daemon=True)
         proc.start()
         sender.close()  # only the worker holds the sending end: its death reads as EOF here
         try:
             if not receiver.poll(limit):  # neither a result nor EOF in time
                 proc.kill()
                 proc.join()
-                return WorkerFailure(TIMED_OUT, f"no result within {limit:g} s; worker killed",
-                                     output=_tail(workdir), seconds=time.monotonic() - started)
+                return WorkerFailure(
+                    TIMED_OUT,
+                    f"no result within {limit:g} s; worker killed",
+                    output=_tail(workdir),
+                    seconds=time.monotonic() - started,
+                )
             try:
                 message = receiver.recv()
             except EOFError:  # the worker died without sending anything
@@ -224,12 +241,14 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
             return WorkerFailure(CRASHED, f"raised {message[1]}", output=message[2] or output, seconds=seconds)
         code = proc.exitcode
         if code == -signal.SIGALRM:  # the backstop fired before this thread got to kill it
-            return WorkerFailure(TIMED_OUT, f"no result within {limit:g} s; worker stopped itself",
-                                 output=output, seconds=seconds)
+            return WorkerFailure(
+                TIMED_OUT, f"no result within {limit:g} s; worker stopped itself", output=output, seconds=seconds
+            )
         if code is not None and code < 0:
             name = signal.Signals(-code).name
             said = _complaint(workdir)
             detail = f"worker killed by {name}" + (f" ({said})" if said else "")
             return WorkerFailure(CRASHED, detail, signal=name, exitcode=code, output=output, seconds=seconds)
-        return WorkerFailure(CRASHED, f"worker exited with code {code} without a result",
-                             exitcode=code, output=output, seconds=seconds)
+        return WorkerFailure(
+            CRASHED, f"worker exited with code {code} without a result", exitcode=code, output=output, seconds=seconds
+        )

@@ -3,6 +3,7 @@ isolation: own temporary directory, output kept for a failure's detail) for call
 nightly's cells): a worker that dies or hangs costs its call and is replaced, and what a worker
 compiled stays compiled. Inside a call, :func:`report_partial` sends results ahead to the caller,
 so a call that then crashes or hangs keeps what it measured before (``WorkerFailure.partial``)."""
+
 from __future__ import annotations
 
 import faulthandler
@@ -14,7 +15,7 @@ import tempfile
 import threading
 import time
 import traceback
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from records.trajectory import CRASHED, TIMED_OUT
 
@@ -172,8 +173,9 @@ class WorkerPool:
         """``fn(*args, **kwargs)`` in a pool worker: its result, or a :class:`WorkerFailure`."""
         return self.call_with_stats(fn, args, kwargs, timeout)[0]
 
-    def call_with_stats(self, fn, args: tuple = (), kwargs: dict | None = None,
-                        timeout: float | None = None) -> tuple[object, CallStats]:
+    def call_with_stats(
+        self, fn, args: tuple = (), kwargs: dict | None = None, timeout: float | None = None
+    ) -> tuple[object, CallStats]:
         limit = None if timeout is None or math.isinf(timeout) else float(timeout)
         w = self._take()
         started = time.monotonic()
@@ -193,8 +195,16 @@ class WorkerPool:
                 output = _tail(w.workdir)
                 self._give_back(w, keep=False)
                 seconds = time.monotonic() - started
-                return (WorkerFailure(TIMED_OUT, f"no result within {limit:g} s; worker killed", output=output,
-                                      seconds=seconds, partial=partial), CallStats(seconds, None, pid))
+                return (
+                    WorkerFailure(
+                        TIMED_OUT,
+                        f"no result within {limit:g} s; worker killed",
+                        output=output,
+                        seconds=seconds,
+                        partial=partial,
+                    ),
+                    CallStats(seconds, None, pid),
+                )
             try:
                 message = w.conn.recv()
             except (EOFError, OSError):  # the worker died without answering
@@ -207,8 +217,16 @@ class WorkerPool:
             self._give_back(w, keep=True)
             if message[0] == "ok":
                 return message[1], CallStats(seconds, message[2], pid)
-            return (WorkerFailure(CRASHED, f"raised {message[1]}", output=message[2] or _tail(w.workdir),
-                                  seconds=seconds, partial=partial), CallStats(seconds, message[3], pid))
+            return (
+                WorkerFailure(
+                    CRASHED,
+                    f"raised {message[1]}",
+                    output=message[2] or _tail(w.workdir),
+                    seconds=seconds,
+                    partial=partial,
+                ),
+                CallStats(seconds, message[3], pid),
+            )
         w.proc.join(timeout=10.0)
         code = w.proc.exitcode
         output, said = _tail(w.workdir), _complaint(w.workdir)
@@ -216,11 +234,18 @@ class WorkerPool:
         if code is not None and code < 0:
             name = signal.Signals(-code).name
             detail = f"worker killed by {name}" + (f" ({said})" if said else "")
-            failure = WorkerFailure(CRASHED, detail, signal=name, exitcode=code, output=output, seconds=seconds,
-                                    partial=partial)
+            failure = WorkerFailure(
+                CRASHED, detail, signal=name, exitcode=code, output=output, seconds=seconds, partial=partial
+            )
         else:
-            failure = WorkerFailure(CRASHED, f"worker exited with code {code} without a result",
-                                    exitcode=code, output=output, seconds=seconds, partial=partial)
+            failure = WorkerFailure(
+                CRASHED,
+                f"worker exited with code {code} without a result",
+                exitcode=code,
+                output=output,
+                seconds=seconds,
+                partial=partial,
+            )
         return failure, CallStats(seconds, None, pid)
 
     def close(self) -> None:
@@ -237,5 +262,3 @@ class WorkerPool:
 
     def __exit__(self, *exc):
         self.close()
-
-

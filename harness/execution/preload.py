@@ -3,6 +3,7 @@ with their import-time output silenced, so that each worker forked from the serv
 the engines loaded (an engine's import is a noticeable share of a short task; the server pays it
 once). Every engine, unless the process that started the server named the ones its run uses
 (``isolation.preload_engines``, passed in ``isolation.ENGINES_ENV``)."""
+
 import contextlib
 import os
 

@@ -10,6 +10,7 @@ rounded up to two significant digits (never below ``FLOOR``). It tightens bounds
 loosens one silently: a proposal above the current bound is listed as ``loosen`` and only
 written with ``allow_loosen``.
 """
+
 from __future__ import annotations
 
 import csv
@@ -55,12 +56,20 @@ def load(path: str | Path = DEFAULT_PATH) -> list[Bound]:
         with open(path, newline="") as fh:
             rows = [r for r in csv.DictReader(line for line in fh if not line.startswith("#"))]
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise InvalidInput(f"bounds file {path} cannot be read ({type(exc).__name__}: {exc}); valid: a CSV with "
-                           f"fields {', '.join(FIELDS)}") from None
+        raise InvalidInput(
+            f"bounds file {path} cannot be read ({type(exc).__name__}: {exc}); valid: a CSV with "
+            f"fields {', '.join(FIELDS)}"
+        ) from None
     for i, row in enumerate(rows, start=2):
         try:
-            b = Bound(row["scene"], row["method"], float(row["dt"]), int(row["steps"]), float(row["bound"]),
-                      row.get("note") or "")
+            b = Bound(
+                row["scene"],
+                row["method"],
+                float(row["dt"]),
+                int(row["steps"]),
+                float(row["bound"]),
+                row.get("note") or "",
+            )
         except (KeyError, TypeError, ValueError) as exc:
             raise InvalidInput(f"bounds file {path} row {i}: {exc} (fields: {', '.join(FIELDS)})") from None
         if not (b.dt > 0 and b.steps > 0 and b.bound > 0 and math.isfinite(b.bound) and math.isfinite(b.dt)):
@@ -73,13 +82,23 @@ def save(bounds: list[Bound], path: str | Path = DEFAULT_PATH) -> None:
     path = Path(path)
     tmp = path.with_suffix(".csv.tmp")
     with open(tmp, "w", newline="") as fh:
-        fh.write("# Reviewed energy bounds: max |dE/E| over `steps` steps at `dt`. Change with "
-                 "`harness bounds --update` and review the diff.\n")
+        fh.write(
+            "# Reviewed energy bounds: max |dE/E| over `steps` steps at `dt`. Change with "
+            "`harness bounds --update` and review the diff.\n"
+        )
         w = csv.DictWriter(fh, FIELDS, lineterminator="\n")
         w.writeheader()
         for b in sorted(bounds, key=lambda b: b.key):
-            w.writerow({"scene": b.scene, "method": b.method, "dt": repr(b.dt), "steps": b.steps,
-                        "bound": f"{b.bound:.2g}", "note": b.note})
+            w.writerow(
+                {
+                    "scene": b.scene,
+                    "method": b.method,
+                    "dt": repr(b.dt),
+                    "steps": b.steps,
+                    "bound": f"{b.bound:.2g}",
+                    "note": b.note,
+                }
+            )
     tmp.replace(path)
 
 
@@ -93,7 +112,7 @@ def round_up_2sig(x: float) -> float:
     if x <= 0 or not math.isfinite(x):
         return x
     e = math.floor(math.log10(x)) - 1
-    digits = math.ceil(x / 10 ** e * (1 - ROUND_NOISE))
+    digits = math.ceil(x / 10**e * (1 - ROUND_NOISE))
     return float(f"{digits}e{e}")  # the decimal literal: 15e-6 is 1.5e-05 exactly as written
 
 

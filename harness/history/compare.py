@@ -12,8 +12,8 @@ whichever is declared. A regression is, in run B against run A:
   that was unbounded now has a limit;
 * ``new failure``: a cell that was ``ok`` is now unstable / crashed / timed out (or a cell
   present in A is missing from B, where B has cells of its scene: a scene with none left the
-  suite, as an edited model file does, whose id carries its content hash), or a cell new in B (a new method or scene) that crashed
-  or timed out: the harness could not measure it. (A new cell that is ``unstable`` is a
+  suite, as an edited model file does, whose id carries its content hash), or a cell new in B (a new method or scene)
+  that crashed or timed out: the harness could not measure it. (A new cell that is ``unstable`` is a
   measurement: a blow-up is a result.)
 * ``slowdown``: the cost ratio to explicit Euler worsens beyond the spread of its repeats:
   ratio_B > ratio_A * (1 + spread_A + spread_B + PROCESS_SPREAD), a run's spread being that
@@ -32,6 +32,7 @@ the suite exist, the default comparison judges cost over the whole history inste
 two runs (``harness.history.series``): a drift of a few percent a night adds up past the noise there,
 and one noisy night is not a step.
 """
+
 from __future__ import annotations
 
 import pandas as pd
@@ -62,13 +63,24 @@ def bound_violations(cells: pd.DataFrame, bounds: list[bounds_mod.Bound]) -> lis
         if b is None or row["status"] != "ok":
             continue  # failures are reported as new failures
         if not row["value"] <= b.bound:
-            out.append(Regression("energy bound", b.scene, b.method, "bound", b.dt, b.bound, row["value"],
-                                  f"max |dE/E| = {row['value']:.3e} > bound {b.bound:.2g} over {b.steps} steps"))
+            out.append(
+                Regression(
+                    "energy bound",
+                    b.scene,
+                    b.method,
+                    "bound",
+                    b.dt,
+                    b.bound,
+                    row["value"],
+                    f"max |dE/E| = {row['value']:.3e} > bound {b.bound:.2g} over {b.steps} steps",
+                )
+            )
     return out
 
 
-def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Bound],
-                  runs: tuple[dict, dict] | None = None) -> list[Regression]:
+def compare_cells(
+    a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Bound], runs: tuple[dict, dict] | None = None
+) -> list[Regression]:
     """Regressions of the cells ``b`` against ``a`` (module docstring); ``runs``: the two runs'
     stored rows, to tell a cost change where nothing differs (the machine's) from one."""
     from harness.history.series import NOTHING_DIFFERS, what_differs
@@ -79,8 +91,18 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
     for key, rb in b_rows.items():
         if key not in a_rows and rb["status"] in ("crashed", "timed_out"):
             scene, method, measure, dt = key
-            out.append(Regression("new failure", scene, method, measure, dt, "absent", rb["status"],
-                                  f"{measure}: {rb['status']}: {rb['detail'] or ''}".rstrip(": ")))
+            out.append(
+                Regression(
+                    "new failure",
+                    scene,
+                    method,
+                    measure,
+                    dt,
+                    "absent",
+                    rb["status"],
+                    f"{measure}: {rb['status']}: {rb['detail'] or ''}".rstrip(": "),
+                )
+            )
     b_scenes = {key[0] for key in b_rows}
     machine_only: dict[str, bool] = {}  # by family: nothing a cell of it depends on differs between the runs
     for key, ra in a_rows.items():
@@ -90,12 +112,32 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
             # A scene with no cell at all in the newer run left the suite, it did not fail there: a
             # model file edited since (its id carries its content hash) or no longer listed.
             if ra["status"] == "ok" and scene in b_scenes:
-                out.append(Regression("new failure", scene, method, measure, dt, "ok", "missing",
-                                      f"{measure} cell missing from the newer run"))
+                out.append(
+                    Regression(
+                        "new failure",
+                        scene,
+                        method,
+                        measure,
+                        dt,
+                        "ok",
+                        "missing",
+                        f"{measure} cell missing from the newer run",
+                    )
+                )
             continue
         if ra["status"] == "ok" and rb["status"] != "ok":
-            out.append(Regression("new failure", scene, method, measure, dt, "ok", rb["status"],
-                                  f"{measure}: {rb['status']}: {rb['detail'] or ''}".rstrip(": ")))
+            out.append(
+                Regression(
+                    "new failure",
+                    scene,
+                    method,
+                    measure,
+                    dt,
+                    "ok",
+                    rb["status"],
+                    f"{measure}: {rb['status']}: {rb['detail'] or ''}".rstrip(": "),
+                )
+            )
             continue
         if ra["status"] != "ok" or rb["status"] != "ok":
             continue
@@ -104,16 +146,22 @@ def compare_cells(a: pd.DataFrame, b: pd.DataFrame, bounds: list[bounds_mod.Boun
             continue
         family = rb["family"]
         if family not in machine_only:
-            machine_only[family] = runs is not None and what_differs(
-                *runs, family, deterministic=False) == NOTHING_DIFFERS
+            machine_only[family] = (
+                runs is not None and what_differs(*runs, family, deterministic=False) == NOTHING_DIFFERS
+            )
         worse = declared.regression(Cell.from_row(ra), Cell.from_row(rb), Comparison(machine_only[family]))
         if worse is not None:
             out.append(Regression(worse.kind, scene, method, measure, dt, worse.before, worse.after, worse.detail))
     return out
 
 
-def compare_runs(history: History, run_a: int | None = None, run_b: int | None = None,
-                 bounds_path=bounds_mod.DEFAULT_PATH, trend=None) -> tuple[int | None, int, list[Regression]]:
+def compare_runs(
+    history: History,
+    run_a: int | None = None,
+    run_b: int | None = None,
+    bounds_path=bounds_mod.DEFAULT_PATH,
+    trend=None,
+) -> tuple[int | None, int, list[Regression]]:
     """Regressions of ``run_b`` (default: the latest complete run) against ``run_a`` (default: the
     complete run before it of the same suite and measurement version). With no earlier run, only the
     bounds are checked. Against the default run, once ``history.MIN_RUNS`` runs of the suite exist,
@@ -132,11 +180,15 @@ def compare_runs(history: History, run_a: int | None = None, run_b: int | None =
     else:
         info_a = history.run(run_a)
         if info_a["measurement_version"] != info_b["measurement_version"]:
-            raise InvalidInput(f"runs {run_a} and {run_b} have different measurement versions "
-                               f"({info_a['measurement_version']} vs {info_b['measurement_version']}): not comparable")
+            raise InvalidInput(
+                f"runs {run_a} and {run_b} have different measurement versions "
+                f"({info_a['measurement_version']} vs {info_b['measurement_version']}): not comparable"
+            )
         if info_a["suite"] != info_b["suite"]:
-            raise InvalidInput(f"runs {run_a} and {run_b} ran different suites ({info_a['suite']} vs "
-                               f"{info_b['suite']}): not comparable")
+            raise InvalidInput(
+                f"runs {run_a} and {run_b} ran different suites ({info_a['suite']} vs "
+                f"{info_b['suite']}): not comparable"
+            )
     bounds = bounds_mod.load(bounds_path)
     cells_b = history.cells(run_b)
     if run_a is None:
@@ -147,11 +199,16 @@ def compare_runs(history: History, run_a: int | None = None, run_b: int | None =
     if trend is None:
         from harness.history import series as history_mod
 
-        trend = history_mod.load(history, run_id=run_b,
-                                 measurement_version=int(info_b["measurement_version"]))
+        trend = history_mod.load(history, run_id=run_b, measurement_version=int(info_b["measurement_version"]))
     if trend.judged:
-        regressions = [r for r in regressions if not (r.kind == "slowdown" and trend.judges(
-            _key({"scene": r.scene, "method": r.method, "measure": r.measure, "dt": r.dt})))]
+        regressions = [
+            r
+            for r in regressions
+            if not (
+                r.kind == "slowdown"
+                and trend.judges(_key({"scene": r.scene, "method": r.method, "measure": r.measure, "dt": r.dt}))
+            )
+        ]
         regressions += trend.regressions()
     return run_a, run_b, regressions
 

@@ -1,5 +1,6 @@
 """A regression: what changed for the worse in one cell between runs, and a line saying so.
 Found by ``compare`` (the last two runs, the bounds) and ``series`` (the history's steps)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -21,5 +22,13 @@ class Regression:
         return f"{self.kind}: {where}: {self.detail}"
 
     def as_dict(self) -> dict:
-        return {"kind": self.kind, "scene": self.scene, "method": self.method, "measure": self.measure,
-                "dt": self.dt, "before": self.before, "after": self.after, "detail": self.detail}
+        return {
+            "kind": self.kind,
+            "scene": self.scene,
+            "method": self.method,
+            "measure": self.measure,
+            "dt": self.dt,
+            "before": self.before,
+            "after": self.after,
+            "detail": self.detail,
+        }

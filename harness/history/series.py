@@ -36,6 +36,7 @@ Runs of another measurement version are never mixed in: they are left out and sa
 line, and a history holding only such runs is refused in one line (or read on its own with
 ``measurement_version``).
 """
+
 from __future__ import annotations
 
 import math
@@ -80,8 +81,15 @@ class Point:
     calibration: float | None = None  # the machine's calibration ratio, timed beside a cost cell
 
     def as_dict(self) -> dict:
-        return {"run": self.run_id, "commit": self.commit, "date": self.date, "value": _plain(self.value),
-                "spread": self.spread, "status": self.status, "calibration": self.calibration}
+        return {
+            "run": self.run_id,
+            "commit": self.commit,
+            "date": self.date,
+            "value": _plain(self.value),
+            "spread": self.spread,
+            "status": self.status,
+            "calibration": self.calibration,
+        }
 
 
 @dataclass(frozen=True)
@@ -95,7 +103,7 @@ class Change:
     commits: str
     cause: str
     worse: bool
-    confidence: float | None = None   # None: a deterministic figure, changed for certain
+    confidence: float | None = None  # None: a deterministic figure, changed for certain
 
     @property
     def size(self) -> float | None:
@@ -104,9 +112,17 @@ class Change:
         return self.after / self.before - 1.0
 
     def as_dict(self) -> dict:
-        return {"run": self.run_id, "previous_run": self.previous_run, "before": _plain(self.before),
-                "after": _plain(self.after), "size": self.size, "worse": self.worse,
-                "confidence": self.confidence, "commits": self.commits, "cause": self.cause}
+        return {
+            "run": self.run_id,
+            "previous_run": self.previous_run,
+            "before": _plain(self.before),
+            "after": _plain(self.after),
+            "size": self.size,
+            "worse": self.worse,
+            "confidence": self.confidence,
+            "commits": self.commits,
+            "cause": self.cause,
+        }
 
 
 @dataclass
@@ -149,13 +165,19 @@ class CellHistory:
         return out
 
     def as_dict(self) -> dict:
-        return {"scene": self.scene, "method": self.method, "measure": self.measure, "dt": self.dt,
-                "unit": self.unit, "points": [p.as_dict() for p in self.points],
-                "noise": self.fit.noise if self.fit is not None else None,
-                "levels": [{"from_run": a, "to_run": b, "level": _plain(lv)} for a, b, lv in self.levels()],
-                "steps": [c.as_dict() for c in self.changes],
-                "machine_steps": [c.as_dict() for c in self.machine_steps],
-                "regression": self.regression.as_dict() if self.regression is not None else None}
+        return {
+            "scene": self.scene,
+            "method": self.method,
+            "measure": self.measure,
+            "dt": self.dt,
+            "unit": self.unit,
+            "points": [p.as_dict() for p in self.points],
+            "noise": self.fit.noise if self.fit is not None else None,
+            "levels": [{"from_run": a, "to_run": b, "level": _plain(lv)} for a, b, lv in self.levels()],
+            "steps": [c.as_dict() for c in self.changes],
+            "machine_steps": [c.as_dict() for c in self.machine_steps],
+            "regression": self.regression.as_dict() if self.regression is not None else None,
+        }
 
 
 @dataclass
@@ -165,9 +187,9 @@ class Trend:
     path: str
     suite: str
     measurement_version: int
-    runs: list[RunRecord]            # the runs of the series, oldest first
+    runs: list[RunRecord]  # the runs of the series, oldest first
     cells: list[CellHistory]
-    left_out: str = ""               # the runs of other measurement versions, in one line
+    left_out: str = ""  # the runs of other measurement versions, in one line
     min_runs: int = MIN_RUNS
 
     @property
@@ -194,11 +216,15 @@ class Trend:
         return [(c, ch) for c in self.cells if get(c.measure).deterministic for ch in c.changes if ch.run_id == last]
 
     def as_dict(self) -> dict:
-        return {"db": self.path, "suite": self.suite, "measurement_version": self.measurement_version,
-                "runs": [{"run": r.run_id, "commit": r.git_commit, "date": r.started}
-                         for r in self.runs],
-                "judged_by_history": self.judged, "left_out": self.left_out or None,
-                "cells": [c.as_dict() for c in self.cells]}
+        return {
+            "db": self.path,
+            "suite": self.suite,
+            "measurement_version": self.measurement_version,
+            "runs": [{"run": r.run_id, "commit": r.git_commit, "date": r.started} for r in self.runs],
+            "judged_by_history": self.judged,
+            "left_out": self.left_out or None,
+            "cells": [c.as_dict() for c in self.cells],
+        }
 
 
 def _plain(x):
@@ -283,8 +309,15 @@ def _calibration_level(points: list[Point]) -> float | None:
     return float(np.median(cal)) if cal else None
 
 
-def explained_by_machine(before: list[Point], after: list[Point], level_before: float, level_after: float,
-                         noise: float, runs: dict[int, RunRecord], family: str) -> tuple[str, float | None]:
+def explained_by_machine(
+    before: list[Point],
+    after: list[Point],
+    level_before: float,
+    level_after: float,
+    noise: float,
+    runs: dict[int, RunRecord],
+    family: str,
+) -> tuple[str, float | None]:
     """Whether a cost change from the points ``before`` to the points ``after`` (levels
     ``level_before`` -> ``level_after``) is the machine's (module docstring): (why, "" if it is
     not; the confidence left once the calibration's move is credited, None where nothing
@@ -300,8 +333,11 @@ def explained_by_machine(before: list[Point], after: list[Point], level_before: 
 
     confidence = float(1.0 - 2.0 * norm.sf(z))
     if z < KEEP_Z:
-        return (f"within the machine's noise: the calibration moved {cb / ca - 1:+.0%} across it" if move
-                else "within the cell's noise"), confidence
+        return (
+            f"within the machine's noise: the calibration moved {cb / ca - 1:+.0%} across it"
+            if move
+            else "within the cell's noise"
+        ), confidence
     return "", confidence
 
 
@@ -321,9 +357,17 @@ def _accuracy_point(row) -> float | None:
     return float(v)
 
 
-def load(history: History, *, run_id: int | None = None, suite: str | None = None,
-         measurement_version: int = MEASUREMENT_VERSION, last: int | None = None, scene: str | None = None,
-         method: str | None = None, measure: str | None = None) -> Trend:
+def load(
+    history: History,
+    *,
+    run_id: int | None = None,
+    suite: str | None = None,
+    measurement_version: int = MEASUREMENT_VERSION,
+    last: int | None = None,
+    scene: str | None = None,
+    method: str | None = None,
+    measure: str | None = None,
+) -> Trend:
     """The trend of a suite's cells up to ``run_id`` (default: the latest complete run; a run still
     being written, the nightly's own, is included when named). Filters name stored scenes, methods
     and a measure of ``MEASURES``; anything else is an ``InvalidInput`` naming the valid ones."""
@@ -347,20 +391,31 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
     other = chosen[chosen.measurement_version != measurement_version]
     other_versions = ", ".join(str(v) for v in sorted(set(other.measurement_version)))
     if same.empty:
-        raise InvalidInput(f"{history.path} holds {suite} runs of measurement version {other_versions} only, and "
-                           f"version {measurement_version} was asked for (this harness measures version "
-                           f"{MEASUREMENT_VERSION}): not comparable; read them with --measurement-version "
-                           f"{other_versions.split(', ')[-1]}")
-    left_out = (f"{len(other)} {suite} run(s) of measurement version {other_versions} left out: "
-                f"not comparable with version {measurement_version}") if not other.empty else ""
+        raise InvalidInput(
+            f"{history.path} holds {suite} runs of measurement version {other_versions} only, and "
+            f"version {measurement_version} was asked for (this harness measures version "
+            f"{MEASUREMENT_VERSION}): not comparable; read them with --measurement-version "
+            f"{other_versions.split(', ')[-1]}"
+        )
+    left_out = (
+        (
+            f"{len(other)} {suite} run(s) of measurement version {other_versions} left out: "
+            f"not comparable with version {measurement_version}"
+        )
+        if not other.empty
+        else ""
+    )
     # One series: the engine releases of the run judged (another release is a version change).
     series = engine_series(same.versions.iloc[-1])
     mine = [engine_series(v) == series for v in same.versions]
     if not all(mine):
         n = len(mine) - sum(mine)
         said = ", ".join(f"{d} {v}" for d, v in series)
-        left_out = "; ".join(x for x in (left_out, f"{n} {suite} run(s) on other engine releases left out: "
-                                                   f"another series than {said}") if x)
+        left_out = "; ".join(
+            x
+            for x in (left_out, f"{n} {suite} run(s) on other engine releases left out: another series than {said}")
+            if x
+        )
         same = same[mine]
     same = same.tail(last or WINDOW)
     run_rows = [RunRecord.of(r.to_dict()) for _, r in same.iterrows()]
@@ -371,8 +426,10 @@ def load(history: History, *, run_id: int | None = None, suite: str | None = Non
         if value is not None:
             valid = sorted(set(cells[column]))
             if value not in valid:
-                raise InvalidInput(f"unknown {name} {value!r} in the {suite} history of {history.path} "
-                                   f"(valid: {', '.join(valid) or 'none stored'})")
+                raise InvalidInput(
+                    f"unknown {name} {value!r} in the {suite} history of {history.path} "
+                    f"(valid: {', '.join(valid) or 'none stored'})"
+                )
             cells = cells[cells[column] == value]
     trend = Trend(str(history.path), suite, measurement_version, run_rows, [], left_out)
     if cells.empty:
@@ -406,8 +463,17 @@ def _cell_history(rows: list[dict], runs: dict[int, RunRecord], judged: bool) ->
         if row["status"] != "ok":
             value = None
         cal = figures_of(row).calibration if measure == "cost" else None
-        points.append(Point(int(row["run_id"]), run.git_commit, run.started, value, spread,
-                            row["status"], float(cal) if cal else None))
+        points.append(
+            Point(
+                int(row["run_id"]),
+                run.git_commit,
+                run.started,
+                value,
+                spread,
+                row["status"],
+                float(cal) if cal else None,
+            )
+        )
     declared = get(measure)  # unit, direction and determinism: the measure's declaration
     if measure != "cost":
         unit = declared.trend
@@ -419,8 +485,17 @@ def _cell_history(rows: list[dict], runs: dict[int, RunRecord], judged: bool) ->
             if not _same(a.value, b.value):
                 ra, rb = runs[a.run_id], runs[b.run_id]
                 worse = (b.value > a.value) if worse_up else (b.value < a.value)
-                cell.changes.append(Change(b.run_id, a.run_id, a.value, b.value, commit_range(ra, rb),
-                                           what_differs(ra, rb, cell.family), worse))
+                cell.changes.append(
+                    Change(
+                        b.run_id,
+                        a.run_id,
+                        a.value,
+                        b.value,
+                        commit_range(ra, rb),
+                        what_differs(ra, rb, cell.family),
+                        worse,
+                    )
+                )
         return cell
     if not judged or len(ok) < step_detect.MIN_POINTS:
         return cell
@@ -434,11 +509,17 @@ def _cell_history(rows: list[dict], runs: dict[int, RunRecord], judged: bool) ->
         (a0, a1), (b0, b1) = fit.segments[k], fit.segments[k + 1]
         pa, pb = ok[st.index - 1], ok[st.index]
         ra, rb = runs[pa.run_id], runs[pb.run_id]
-        why, confidence = explained_by_machine(ok[a0:a1], ok[b0:b1], st.before, st.after, fit.noise, runs,
-                                               cell.family)
-        change = Change(pb.run_id, pa.run_id, st.before, st.after, commit_range(ra, rb),
-                        why or what_differs(ra, rb, cell.family, deterministic=False),
-                        (st.after > st.before) == worse_up, confidence)
+        why, confidence = explained_by_machine(ok[a0:a1], ok[b0:b1], st.before, st.after, fit.noise, runs, cell.family)
+        change = Change(
+            pb.run_id,
+            pa.run_id,
+            st.before,
+            st.after,
+            commit_range(ra, rb),
+            why or what_differs(ra, rb, cell.family, deterministic=False),
+            (st.after > st.before) == worse_up,
+            confidence,
+        )
         (cell.machine_steps if why else cell.changes).append(change)
     found = fit.regression(worse_up)
     if found is not None:
@@ -451,12 +532,22 @@ def _cell_history(rows: list[dict], runs: dict[int, RunRecord], judged: bool) ->
         index, before, after = found
         since = ok[index]
         steps = [c for c in cell.changes if c.run_id >= since.run_id]
-        commits = (commit_range(runs[steps[0].previous_run], runs[steps[-1].run_id]) if steps
-                   else commit_range(runs[ok[index - 1].run_id], runs[since.run_id]))
+        commits = (
+            commit_range(runs[steps[0].previous_run], runs[steps[-1].run_id])
+            if steps
+            else commit_range(runs[ok[index - 1].run_id], runs[since.run_id])
+        )
         what = "cost ratio to explicit Euler" if unit == "x explicit Euler" else "CPU time per step"
         cell.regression = Regression(
-            "slowdown", cell.scene, cell.method, "cost", dt, before, after,
+            "slowdown",
+            cell.scene,
+            cell.method,
+            "cost",
+            dt,
+            before,
+            after,
             f"{what} level {before:.3g} -> {after:.3g} ({after / before - 1:+.0%}) since run {since.run_id} "
             f"(commits {commits}), detected over the last {len(ok)} runs, beyond {step_detect.REGRESSION_NOISE:g}x "
-            f"the cell's noise ({fit.noise:.1%})")
+            f"the cell's noise ({fit.noise:.1%})",
+        )
     return cell

@@ -68,6 +68,7 @@ Each step's **confidence** is the probability that a level difference as large a
 noise alone, under gaussian noise of scale ``s`` on the segments' levels (``scipy.stats.norm``),
 subtracted from one.
 """
+
 from __future__ import annotations
 
 import math
@@ -101,8 +102,8 @@ class Step:
     """A change of level at point ``index`` (the first point of the new level)."""
 
     index: int
-    before: float          # the level before (in the series' units)
-    after: float           # the level from ``index`` on
+    before: float  # the level before (in the series' units)
+    after: float  # the level from ``index`` on
     confidence: float
 
     @property
@@ -120,7 +121,7 @@ class Fit:
     levels: tuple[float, ...]
     steps: tuple[Step, ...]
     noise: float
-    point_noise: tuple[float, ...]   # s_i of each point (log units)
+    point_noise: tuple[float, ...]  # s_i of each point (log units)
 
     def level_at(self, i: int) -> float:
         for (a, b), level in zip(self.segments, self.levels):
@@ -168,7 +169,7 @@ def _segment_costs(x: np.ndarray, w: np.ndarray, start: int) -> tuple[np.ndarray
     xs, ws = x[start:], w[start:]
     n = len(xs)
     order = np.argsort(xs, kind="stable")
-    included = order[None, :] <= np.arange(n)[:, None]   # row r: the points start .. start + r, sorted
+    included = order[None, :] <= np.arange(n)[:, None]  # row r: the points start .. start + r, sorted
     cum = np.cumsum(np.where(included, ws[order][None, :], 0.0), axis=1)
     half = 0.5 * cum[:, -1]
     medians = xs[order][np.argmax(cum >= half[:, None], axis=1)]

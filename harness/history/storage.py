@@ -14,6 +14,7 @@ intact, is itself never read as complete, and holds whole tasks only, so that
 Runs are only compared with runs of the same ``MEASUREMENT_VERSION`` (as asv does with
 its benchmark versions).
 """
+
 from __future__ import annotations
 
 import json
@@ -87,10 +88,35 @@ CREATE TABLE IF NOT EXISTS tasks (
 
 #: The columns this code reads: a database whose tables lack any (an older schema) is refused.
 REQUIRED_COLUMNS = {
-    "runs": ("run_id", "started", "finished", "complete", "suite", "measurement_version", "git_commit", "versions",
-             "machine", "settings", "wall_s", "timing", "regressions"),
-    "cells": ("run_id", "scene", "method", "family", "measure", "dt", "steps", "status", "detail", "value",
-              "wall_s", "data"),
+    "runs": (
+        "run_id",
+        "started",
+        "finished",
+        "complete",
+        "suite",
+        "measurement_version",
+        "git_commit",
+        "versions",
+        "machine",
+        "settings",
+        "wall_s",
+        "timing",
+        "regressions",
+    ),
+    "cells": (
+        "run_id",
+        "scene",
+        "method",
+        "family",
+        "measure",
+        "dt",
+        "steps",
+        "status",
+        "detail",
+        "value",
+        "wall_s",
+        "data",
+    ),
 }
 
 CELL_COLUMNS = list(_CELL_COLUMNS)
@@ -135,16 +161,22 @@ class History:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             with closing(self._connect()) as con, con:
                 con.executescript(SCHEMA)
-                missing = {table: sorted(set(cols) - {r[1] for r in con.execute(f"PRAGMA table_info({table})")})
-                           for table, cols in REQUIRED_COLUMNS.items()}
+                missing = {
+                    table: sorted(set(cols) - {r[1] for r in con.execute(f"PRAGMA table_info({table})")})
+                    for table, cols in REQUIRED_COLUMNS.items()
+                }
         except (OSError, sqlite3.DatabaseError) as exc:
-            raise InvalidInput(f"--db {self.path}: not a readable history ({type(exc).__name__}: {exc}); valid: a "
-                               f"SQLite history written by harness nightly, or a new file") from None
+            raise InvalidInput(
+                f"--db {self.path}: not a readable history ({type(exc).__name__}: {exc}); valid: a "
+                f"SQLite history written by harness nightly, or a new file"
+            ) from None
         missing = {t: cols for t, cols in missing.items() if cols}
         if missing:
             lacks = "; ".join(f"{t} lacks {', '.join(cols)}" for t, cols in missing.items())
-            raise InvalidInput(f"{self.path} was written by an older harness ({lacks}): not read, never mixed "
-                               f"with new runs; start a new history with --db")
+            raise InvalidInput(
+                f"{self.path} was written by an older harness ({lacks}): not read, never mixed "
+                f"with new runs; start a new history with --db"
+            )
 
     def _connect(self) -> sqlite3.Connection:
         con = sqlite3.connect(self.path, timeout=30)
@@ -152,14 +184,23 @@ class History:
         return con
 
     # ---------------------------------------------------------------- writing
-    def start_run(self, *, started: str, suite: str, git_commit: str | None, versions: dict, machine: dict,
-                  settings: dict) -> int:
+    def start_run(
+        self, *, started: str, suite: str, git_commit: str | None, versions: dict, machine: dict, settings: dict
+    ) -> int:
         with closing(self._connect()) as con, con:
             cur = con.execute(
                 "INSERT INTO runs (started, suite, measurement_version, git_commit, versions, machine, settings) "
                 "VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (started, suite, MEASUREMENT_VERSION, git_commit, to_json(versions), to_json(machine),
-                 to_json(settings)))
+                (
+                    started,
+                    suite,
+                    MEASUREMENT_VERSION,
+                    git_commit,
+                    to_json(versions),
+                    to_json(machine),
+                    to_json(settings),
+                ),
+            )
             return int(cur.lastrowid)
 
     def add_cell(self, run_id: int, cell: Cell | dict) -> None:
@@ -170,14 +211,22 @@ class History:
             con.execute(
                 f"INSERT OR REPLACE INTO cells (run_id, {', '.join(CELL_COLUMNS)}) "
                 f"VALUES (?, {', '.join('?' for _ in CELL_COLUMNS)})",
-                (run_id, *[row[c] for c in CELL_COLUMNS]))
+                (run_id, *[row[c] for c in CELL_COLUMNS]),
+            )
 
     def update_settings(self, run_id: int, settings: dict) -> None:
         with closing(self._connect()) as con, con:
             con.execute("UPDATE runs SET settings = ? WHERE run_id = ?", (to_json(settings), run_id))
 
-    def add_task_cells(self, run_id: int, label: str, cells, wall_s: float | None = None,
-                       cpu_s: float | None = None, before_commit=None) -> None:
+    def add_task_cells(
+        self,
+        run_id: int,
+        label: str,
+        cells,
+        wall_s: float | None = None,
+        cpu_s: float | None = None,
+        before_commit=None,
+    ) -> None:
         """Store a task's cells and mark the task done, in one transaction: all or none of them.
         ``before_commit`` is called with the rows written and the transaction still open (the
         nightly's crash tests kill the process there: ``harness.execution.faults``)."""
@@ -186,9 +235,12 @@ class History:
             con.executemany(
                 f"INSERT OR REPLACE INTO cells (run_id, {', '.join(CELL_COLUMNS)}) "
                 f"VALUES (?, {', '.join('?' for _ in CELL_COLUMNS)})",
-                [(run_id, *[row[c] for c in CELL_COLUMNS]) for row in rows])
-            con.execute("INSERT OR REPLACE INTO tasks (run_id, label, wall_s, cpu_s) VALUES (?, ?, ?, ?)",
-                        (run_id, label, wall_s, cpu_s))
+                [(run_id, *[row[c] for c in CELL_COLUMNS]) for row in rows],
+            )
+            con.execute(
+                "INSERT OR REPLACE INTO tasks (run_id, label, wall_s, cpu_s) VALUES (?, ?, ?, ?)",
+                (run_id, label, wall_s, cpu_s),
+            )
             if before_commit is not None:
                 before_commit()
 
@@ -200,8 +252,10 @@ class History:
 
     def finish_run(self, run_id: int, *, finished: str, wall_s: float, timing: dict, regressions: int) -> None:
         with closing(self._connect()) as con, con:
-            con.execute("UPDATE runs SET finished = ?, wall_s = ?, timing = ?, regressions = ?, complete = 1 "
-                        "WHERE run_id = ?", (finished, wall_s, to_json(timing), regressions, run_id))
+            con.execute(
+                "UPDATE runs SET finished = ?, wall_s = ?, timing = ?, regressions = ?, complete = 1 WHERE run_id = ?",
+                (finished, wall_s, to_json(timing), regressions, run_id),
+            )
 
     # ---------------------------------------------------------------- reading
     def runs(self, complete_only: bool = True) -> pd.DataFrame:
@@ -229,15 +283,17 @@ class History:
     def cells(self, run_id: int) -> pd.DataFrame:
         """The run's cells as a tidy DataFrame; ``data`` decoded to dicts."""
         with closing(self._connect()) as con:
-            df = pd.read_sql_query("SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt",
-                                   con, params=(run_id,))
+            df = pd.read_sql_query(
+                "SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt", con, params=(run_id,)
+            )
         return _tidy(df)
 
     def cell_records(self, run_id: int) -> list[Cell]:
         """The run's cells as ``Cell`` records, in the order of ``cells``."""
         with closing(self._connect()) as con:
-            rows = con.execute("SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt",
-                               (run_id,)).fetchall()
+            rows = con.execute(
+                "SELECT * FROM cells WHERE run_id = ? ORDER BY scene, method, measure, dt", (run_id,)
+            ).fetchall()
         return [Cell.from_db_row(r) for r in rows]
 
     def cells_of_runs(self, run_ids, measures, data_of=()) -> pd.DataFrame:
@@ -248,9 +304,11 @@ class History:
             return pd.DataFrame(columns=["run_id", *CELL_COLUMNS])
         marks = lambda xs: ", ".join("?" for _ in xs)  # noqa: E731
         columns = ", ".join(c for c in ("run_id", *CELL_COLUMNS) if c != "data")
-        q = (f"SELECT {columns}, CASE WHEN measure IN ({marks(data_of)}) THEN data ELSE '{{}}' END AS data "
-             f"FROM cells WHERE run_id IN ({marks(run_ids)}) AND measure IN ({marks(measures)}) "
-             f"ORDER BY run_id, scene, method, measure, dt")
+        q = (
+            f"SELECT {columns}, CASE WHEN measure IN ({marks(data_of)}) THEN data ELSE '{{}}' END AS data "
+            f"FROM cells WHERE run_id IN ({marks(run_ids)}) AND measure IN ({marks(measures)}) "
+            f"ORDER BY run_id, scene, method, measure, dt"
+        )
         with closing(self._connect()) as con:
             df = pd.read_sql_query(q, con, params=(*data_of, *run_ids, *measures))
         return _tidy(df)
@@ -262,8 +320,11 @@ class History:
         another series, whose difference is a version change, never a regression."""
         runs = self.runs()
         mine = self.run(run_id)
-        older = runs[(runs.run_id < run_id) & (runs.measurement_version == mine["measurement_version"])
-                     & (runs.suite == mine["suite"])]
+        older = runs[
+            (runs.run_id < run_id)
+            & (runs.measurement_version == mine["measurement_version"])
+            & (runs.suite == mine["suite"])
+        ]
         if same_engines:
             series = engine_series(mine["versions"])
             older = older[[engine_series(v) == series for v in older.versions]]

@@ -51,6 +51,7 @@ for a method that cannot meet the tolerances, a bisection over the levels for on
 no run for a step already known unstable, each method's limit measured once and its time per
 step only where it is advised (timing a reference scheme compiles its kernel).
 """
+
 from __future__ import annotations
 
 import fnmatch
@@ -102,20 +103,24 @@ class Request:
     max_substeps: int = MAX_SUBSTEPS
     error_rel: float | None = ERROR_REL
 
-    def checked(self) -> "Request":
+    def checked(self) -> Request:
         """The request validated field by field (InvalidInput, one line, before anything runs); an
         absolute position tolerance replaces the relative one."""
         hz = validate.positive_finite("--hz", self.hz)
         horizon = validate.positive_finite("--horizon", self.horizon)
         energy = None if self.energy_tol is None else validate.positive_finite("--energy-tol", self.energy_tol)
         error = None if self.error_tol is None else validate.positive_finite("--error-tol", self.error_tol)
-        rel = None if self.error_rel is None or error is not None else validate.positive_finite("--error-tol",
-                                                                                               self.error_rel)
+        rel = (
+            None
+            if self.error_rel is None or error is not None
+            else validate.positive_finite("--error-tol", self.error_rel)
+        )
         if energy is None and error is None and rel is None:
             raise InvalidInput("no tolerance given (allowed: --energy-tol REL and/or --error-tol ABS or P%, each > 0)")
         if horizon < 1.0 / hz:
-            raise InvalidInput(f"--horizon={self.horizon} is shorter than one frame at {hz:g} Hz "
-                               f"(allowed: >= {1.0 / hz:g})")
+            raise InvalidInput(
+                f"--horizon={self.horizon} is shorter than one frame at {hz:g} Hz (allowed: >= {1.0 / hz:g})"
+            )
         substeps = validate.count("--max-substeps", self.max_substeps, 1)
         return Request(hz, horizon, energy, error, substeps, rel)
 
@@ -137,23 +142,28 @@ class Request:
     @property
     def substeps(self) -> list[int]:
         """1, 2, 4, ... up to ``max_substeps``."""
-        return [2 ** i for i in range(int(math.log2(self.max_substeps)) + 1)]
+        return [2**i for i in range(int(math.log2(self.max_substeps)) + 1)]
 
     def tolerances_text(self, length_scale: float | None = None, judged: bool = True) -> str:
         """The tolerances in words; ``length_scale`` the scene's, where the position tolerance is a
         share of it; ``judged`` False: the scene has no reference for the positions to be judged against."""
         if self.accuracy and not judged:
-            return (f"{Request(self.hz, self.horizon, self.energy_tol, None, self.max_substeps, None).tolerances_text()}"
-                    " (the scene has no reference solution)")
+            return (
+                f"{Request(self.hz, self.horizon, self.energy_tol, None, self.max_substeps, None).tolerances_text()}"
+                " (the scene has no reference solution)"
+            )
         parts = []
         if self.energy_tol is not None:
             parts.append(f"energy error <= {self.energy_tol:g}")
         if self.error_tol is not None:
             parts.append(f"position error <= {self.error_tol:g}")
         elif self.error_rel is not None:
-            of = (f"{self.error_rel * length_scale:.3g} ({100 * self.error_rel:g}% of the scene's length scale "
-                  f"{length_scale:.3g})" if length_scale is not None
-                  else f"{100 * self.error_rel:g}% of the scene's length scale")
+            of = (
+                f"{self.error_rel * length_scale:.3g} ({100 * self.error_rel:g}% of the scene's length scale "
+                f"{length_scale:.3g})"
+                if length_scale is not None
+                else f"{100 * self.error_rel:g}% of the scene's length scale"
+            )
             parts.append(f"position error <= {of}")
         text = " and ".join(parts)
         return text if self.accuracy else f"{text}; no accuracy tolerance (positions not judged)"
@@ -170,8 +180,7 @@ def _limit(method, scene: Scene, request: Request, timeout) -> tuple[float | Non
         return None, "not measured (nonlinear scene: each run is judged by its growth)", None
     hi = max(scene.omega / request.hz, LIMIT_SEARCH_HI)
     lo = min(1e-4, scene.omega / request.hz / request.max_substeps / 100.0)
-    res = largest_stable_dt(method, scene, criterion="spectral_radius", lo=lo, hi=hi, rtol=LIMIT_RTOL,
-                            timeout=timeout)
+    res = largest_stable_dt(method, scene, criterion="spectral_radius", lo=lo, hi=hi, rtol=LIMIT_RTOL, timeout=timeout)
     return res.omega_dt_max, res.verdict, hi
 
 
@@ -190,7 +199,7 @@ class _Frames:
     """A run held against the true state at the frames (module docstring), asked for once and
     only where a figure needs it."""
 
-    def __init__(self, traj, scene: Scene, request: "Request", substeps: int):
+    def __init__(self, traj, scene: Scene, request: Request, substeps: int):
         self.traj, self.scene, self.request, self.substeps = traj, scene, request, substeps
         self._truth = None
 
@@ -236,8 +245,9 @@ def _judge(row: Row, request: Request, scene: Scene, method=None) -> None:
             whys.append("energy error undefined")
         elif row.energy_error > request.energy_tol:
             way = "grows" if row.energy_gained else "falls"
-            whys.append(f"energy {way} {_pct(row.energy_error)} over {request.horizon:g} s "
-                        f"(tolerance {request.energy_tol:g})")
+            whys.append(
+                f"energy {way} {_pct(row.energy_error)} over {request.horizon:g} s (tolerance {request.energy_tol:g})"
+            )
     tol = request.position_tolerance(scene)
     if request.error_tol is None and method is not None and measured_against_own_run(method, scene):
         tol = None
@@ -257,9 +267,16 @@ def _cost_per_step(method, scene: Scene, h: float, injected: dict | None = None)
     return res["s_per_step"], f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
 
 
-def advise_method(method, scene: Scene, request: Request, *, timeout: float | None = None,
-                  cost_per_step: tuple[float, str] | None = None, injected: dict | None = None,
-                  reference: bool = True) -> MethodAdvice:
+def advise_method(
+    method,
+    scene: Scene,
+    request: Request,
+    *,
+    timeout: float | None = None,
+    cost_per_step: tuple[float, str] | None = None,
+    injected: dict | None = None,
+    reference: bool = True,
+) -> MethodAdvice:
     """The search over substeps for one method, in this process (the caller isolates engines).
     ``cost_per_step`` = (seconds, how timed) reuses a measured figure (a nightly's cost cell);
     ``injected``: timings to read instead of the clock's (``harness.measures.cost``); ``reference``
@@ -310,8 +327,16 @@ def advise_method(method, scene: Scene, request: Request, *, timeout: float | No
     return out
 
 
-def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, timeout, reference: bool = True,
-         count: bool = True) -> Row:
+def _row(
+    method,
+    scene: Scene,
+    request: Request,
+    s: int,
+    out: MethodAdvice,
+    timeout,
+    reference: bool = True,
+    count: bool = True,
+) -> Row:
     """One substep count measured: stability first (no run for a step known unstable), then the
     horizon run's energy, position error and counted evaluations, judged against the request.
     ``count`` False: no evaluations counted where the run did not count them (a sweep, which
@@ -326,8 +351,11 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
         stable, info = spectral_test(method, scene, h, timeout=timeout)
         row.rho = info["rho"]
         if not stable:
-            row.why = (f"unstable: spectral radius {row.rho:.6g} > 1 at h*omega = {row.homega:.3g}"
-                       if row.rho is not None else f"unstable: {info.get('reason')}")
+            row.why = (
+                f"unstable: spectral radius {row.rho:.6g} > 1 at h*omega = {row.homega:.3g}"
+                if row.rho is not None
+                else f"unstable: {info.get('reason')}"
+            )
             return row
     steps = max(1, int(round(request.horizon * request.hz * s)))
     traj = simulate(method, scene, h, steps, max(1, steps // RECORDED), timeout=timeout)
@@ -342,8 +370,11 @@ def _row(method, scene: Scene, request: Request, s: int, out: MethodAdvice, time
     else:  # judged by its energy alone (advise_method's ``reference``)
         blown, what = not traj.ok, ""
     if blown:
-        row.why = (f"unstable: blew up at step {traj.failed_step} of {steps} (h*omega = {row.homega:.3g})"
-                   if not traj.ok else f"unstable: {what}")
+        row.why = (
+            f"unstable: blew up at step {traj.failed_step} of {steps} (h*omega = {row.homega:.3g})"
+            if not traj.ok
+            else f"unstable: {what}"
+        )
         return row
     row.stable = True
     row.energy_error, row.energy_gained = _energy_error(traj, scene)
@@ -372,8 +403,16 @@ def classed(scene: Scene, horizon: float) -> bool:
     return horizon >= MIN_PERIODS * scene.period
 
 
-def convergence(method, scene: Scene, request: Request, row: Row, advice: MethodAdvice, timeout=None,
-                reference: bool = True, count: bool = True) -> dict | None:
+def convergence(
+    method,
+    scene: Scene,
+    request: Request,
+    row: Row,
+    advice: MethodAdvice,
+    timeout=None,
+    reference: bool = True,
+    count: bool = True,
+) -> dict | None:
     """The row's method run again at the row's substeps with its convergence knob tightened
     (``harness.methods.tightened``), judged as the row was: ``{"method", "meets", "why", "energy_error",
     "position_error"}``; None for a method with no knob (nothing iterates short of its answer)."""
@@ -384,8 +423,13 @@ def convergence(method, scene: Scene, request: Request, row: Row, advice: Method
         return None
     probe = MethodAdvice(tight.id, limit_verdict=advice.limit_verdict)
     r = _row(tight, scene, request, row.substeps, probe, timeout, reference, count)
-    return {"method": tight.id, "meets": r.meets, "why": r.why or ("" if r.meets else r.status),
-            "energy_error": r.energy_error, "position_error": r.position_error}
+    return {
+        "method": tight.id,
+        "meets": r.meets,
+        "why": r.why or ("" if r.meets else r.status),
+        "energy_error": r.energy_error,
+        "position_error": r.position_error,
+    }
 
 
 def rests_on_solve(row: Row | None) -> bool:
@@ -396,8 +440,10 @@ def rests_on_solve(row: Row | None) -> bool:
 def solve_note(row: Row) -> str:
     """Why a row's win rests on its solve's own error, in a few words."""
     c = row.converged
-    return f"its win rests on the solve's own error: {c['method']} at {row.substeps} substep" \
-           f"{'s' if row.substeps > 1 else ''} misses them ({c['why']})"
+    return (
+        f"its win rests on the solve's own error: {c['method']} at {row.substeps} substep"
+        f"{'s' if row.substeps > 1 else ''} misses them ({c['why']})"
+    )
 
 
 def _energy_class(traj, scene: Scene) -> str | None:
@@ -418,8 +464,7 @@ def _reason(advice: MethodAdvice, request: Request) -> str:
         return last.why
     if advice.limit_verdict in ("unstable", "unresolved"):
         every = "at every h" if advice.limit_verdict == "unstable" else "at every h (no stable step resolved)"
-        return (f"unstable: spectral radius > 1 {every} (h*omega = {last.homega:.3g} at "
-                f"{last.substeps} substeps)")
+        return f"unstable: spectral radius > 1 {every} (h*omega = {last.homega:.3g} at {last.substeps} substeps)"
     if advice.homega_limit is not None:
         return f"unstable: h*omega = {last.homega:.3g} > {advice.homega_limit:.3g} at {last.substeps} substeps"
     return f"{last.why} at {last.substeps} substeps"
@@ -433,9 +478,9 @@ class Advice:
     request: Request
     methods: list[MethodAdvice]
     left_out: list[dict] = field(default_factory=list)
-    length_scale: float | None = None      # the scene's (``Scene.length_scale``)
-    position_tol: float | None = None      # the position tolerance on the scene, absolute (None: not judged)
-    periods: float | None = None           # the horizon in periods of the scene's omega
+    length_scale: float | None = None  # the scene's (``Scene.length_scale``)
+    position_tol: float | None = None  # the position tolerance on the scene, absolute (None: not judged)
+    periods: float | None = None  # the horizon in periods of the scene's omega
 
     @property
     def meeting(self) -> list[MethodAdvice]:
@@ -470,14 +515,18 @@ class Advice:
             m = meeting[0]
             r = m.best_row
             rests = f"; {solve_note(r)}" if rests_on_solve(r) else ""
-            return (f"{first}cheapest that meets the tolerances: {m.method}, {r.substeps} substep"
-                    f"{'s' if r.substeps > 1 else ''}, {_us(r.cost_per_frame_s)} per frame{rests}")
+            return (
+                f"{first}cheapest that meets the tolerances: {m.method}, {r.substeps} substep"
+                f"{'s' if r.substeps > 1 else ''}, {_us(r.cost_per_frame_s)} per frame{rests}"
+            )
         near = self.closest
         if near is None:
             return f"{first}no method meets the tolerances, and none ran stably at any substep count tried"
         m, r = near
-        return (f"{first}no method meets the tolerances; closest: {m.method} at {r.substeps} substep"
-                f"{'s' if r.substeps > 1 else ''} ({r.why})")
+        return (
+            f"{first}no method meets the tolerances; closest: {m.method} at {r.substeps} substep"
+            f"{'s' if r.substeps > 1 else ''} ({r.why})"
+        )
 
     def advice(self) -> dict | None:
         """The advice as data: the cheapest method that meets the tolerances, its substeps, h,
@@ -490,21 +539,38 @@ class Advice:
 
     def as_dict(self) -> dict:
         near = self.closest
-        return {"scene": self.scene, "params": self.params, "request": asdict(self.request),
-                "length_scale": self.length_scale, "position_tol": self.position_tol, "periods": self.periods,
-                "advice": self.advice(), "verdict": self.verdict(),
-                "closest": None if self.meeting or near is None else {**_choice(near[0], near[1]), "why": near[1].why},
-                "meeting": [m.method for m in self.meeting],
-                "methods": [m.as_dict() for m in self.methods], "left_out": self.left_out}
+        return {
+            "scene": self.scene,
+            "params": self.params,
+            "request": asdict(self.request),
+            "length_scale": self.length_scale,
+            "position_tol": self.position_tol,
+            "periods": self.periods,
+            "advice": self.advice(),
+            "verdict": self.verdict(),
+            "closest": None if self.meeting or near is None else {**_choice(near[0], near[1]), "why": near[1].why},
+            "meeting": [m.method for m in self.meeting],
+            "methods": [m.as_dict() for m in self.methods],
+            "left_out": self.left_out,
+        }
 
 
 def _choice(m: MethodAdvice, row: Row | None = None) -> dict:
     r = row or m.best_row
-    return {"method": m.method, "substeps": r.substeps, "h": r.h, "h_omega": r.homega,
-            "cost_per_frame_s": r.cost_per_frame_s, "cost_timing": m.cost_timing or None,
-            "energy_error": r.energy_error, "energy_class": r.energy_class, "position_error": r.position_error,
-            "evals_per_frame": r.evals_per_frame, "evals_reason": None if r.evals_per_frame is not None
-            else (m.evals_reason or None), "converged": r.converged}
+    return {
+        "method": m.method,
+        "substeps": r.substeps,
+        "h": r.h,
+        "h_omega": r.homega,
+        "cost_per_frame_s": r.cost_per_frame_s,
+        "cost_timing": m.cost_timing or None,
+        "energy_error": r.energy_error,
+        "energy_class": r.energy_class,
+        "position_error": r.position_error,
+        "evals_per_frame": r.evals_per_frame,
+        "evals_reason": None if r.evals_per_frame is not None else (m.evals_reason or None),
+        "converged": r.converged,
+    }
 
 
 def _inf(x):
@@ -543,8 +609,10 @@ def candidates(scene: Scene, patterns: list[str] | None) -> tuple[list[str], lis
                 continue
             hit = [m for m in ids if fnmatch.fnmatchcase(m, pat)]
             if not hit:
-                raise InvalidInput(f"--methods pattern {pat!r} matches no method (valid: {', '.join(ids)}, "
-                                   "or a pattern such as ref:* or mujoco:*)")
+                raise InvalidInput(
+                    f"--methods pattern {pat!r} matches no method (valid: {', '.join(ids)}, "
+                    "or a pattern such as ref:* or mujoco:*)"
+                )
             chosen += hit
         ids = list(dict.fromkeys(chosen))
     keep, left = [], []
@@ -559,8 +627,9 @@ def candidates(scene: Scene, patterns: list[str] | None) -> tuple[list[str], lis
     return keep, left
 
 
-def _advise_in_worker(method_id: str, scene: Scene, request: Request, timeout, plugins,
-                      injected: dict | None = None) -> MethodAdvice:
+def _advise_in_worker(
+    method_id: str, scene: Scene, request: Request, timeout, plugins, injected: dict | None = None
+) -> MethodAdvice:
     from harness.methods import get_method, use_plugins
 
     use_plugins(plugins)
@@ -571,8 +640,9 @@ def _advise_in_worker(method_id: str, scene: Scene, request: Request, timeout, p
     return advise_method(method, scene, request, timeout=timeout, injected=injected)
 
 
-def advise(scene: Scene, request: Request, patterns: list[str] | None = None, *, jobs: int = 1,
-           timeout: float = 120.0) -> Advice:
+def advise(
+    scene: Scene, request: Request, patterns: list[str] | None = None, *, jobs: int = 1, timeout: float = 120.0
+) -> Advice:
     """Advice for ``scene``: every candidate method searched in ``jobs`` reused worker processes
     (an engine that aborts or hangs costs its method a ``crashed`` / ``timed_out`` entry), then
     ranked. Timings injected by ``$HARNESS_INJECT_TIMINGS`` are read here and handed to the workers."""
@@ -590,12 +660,24 @@ def advise(scene: Scene, request: Request, patterns: list[str] | None = None, *,
     injected = load_injected()
     results: dict[str, MethodAdvice] = {}
     with WorkerPool(max(1, min(jobs, len(ids) or 1))) as pool, ThreadPoolExecutor(max(1, jobs)) as threads:
-        futures = {mid: threads.submit(pool.call, _advise_in_worker, (mid, scene, request, timeout, plugins, injected),
-                                       timeout=timeout) for mid in ids}
+        futures = {
+            mid: threads.submit(
+                pool.call, _advise_in_worker, (mid, scene, request, timeout, plugins, injected), timeout=timeout
+            )
+            for mid in ids
+        }
         for mid, fut in futures.items():
             res = fut.result()
             if isinstance(res, WorkerFailure):
                 res = MethodAdvice(mid, status=res.status, reason=f"{res.status}: {res.detail}")
             results[mid] = res
-    return Advice(scene.id, dict(scene.values), request, [results[m] for m in ids], left,
-                  scene.length_scale, request.position_tolerance(scene), request.horizon / scene.period)
+    return Advice(
+        scene.id,
+        dict(scene.values),
+        request,
+        [results[m] for m in ids],
+        left,
+        scene.length_scale,
+        request.position_tolerance(scene),
+        request.horizon / scene.period,
+    )

@@ -28,6 +28,7 @@ system read 0.15). The law is a statement about the ensemble's RMS, so:
 
 A scheme whose energy error is bounded (leapfrog) reads a slope near 0 on the same measure.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -50,22 +51,28 @@ def _slope(t: np.ndarray, rms: np.ndarray) -> float:
     keep = (t > 0) & (rms > 0) & np.isfinite(rms)
     if keep.sum() < 3:
         return float("nan")
-    from scipy.stats import linregress  # here: most processes importing this module never fit, and scipy.stats is a large import
+    from scipy.stats import (
+        linregress,
+    )  # here: most processes importing this module never fit, and scipy.stats is a large import
+
     return float(linregress(np.log(t[keep]), np.log(rms[keep])).slope)
 
 
 def _fit(t: np.ndarray, walks: np.ndarray, rng) -> dict:
     """The ensemble RMS of ``walks`` (realization x time) and its slope, with the bootstrap interval."""
-    rms = np.sqrt(np.mean(walks ** 2, axis=0))
+    rms = np.sqrt(np.mean(walks**2, axis=0))
     slope = _slope(t, rms)
-    boots = [_slope(t, np.sqrt(np.mean(walks[rng.integers(0, len(walks), len(walks))] ** 2, axis=0)))
-             for _ in range(BOOTSTRAP)]
+    boots = [
+        _slope(t, np.sqrt(np.mean(walks[rng.integers(0, len(walks), len(walks))] ** 2, axis=0)))
+        for _ in range(BOOTSTRAP)
+    ]
     lo, hi = np.nanpercentile(boots, [2.5, 97.5])
     return {"slope": slope, "ci95": [float(lo), float(hi)], "rms": rms}
 
 
-def energy_walk(method, scene: Scene, dt: float, steps: int, every: int, *, realizations: int = 16,
-                seed: int = 0) -> dict:
+def energy_walk(
+    method, scene: Scene, dt: float, steps: int, every: int, *, realizations: int = 16, seed: int = 0
+) -> dict:
     """The ensemble measurement of the module docstring, in this process (an engine mode is
     stepped here: the nightly's cells run in a worker already). Returns the energy slope and its
     95% interval, the RMS series, the position-error slope where the scene has an exact solution,
@@ -88,18 +95,31 @@ def energy_walk(method, scene: Scene, dt: float, steps: int, every: int, *, real
         exact = None if method.adaptive else scene.closed_form(traj.t)
         if exact is not None:
             errors.append(np.linalg.norm(traj.q[:, 0] - exact[0], axis=-1)[1:])
-    out = {"realizations": int(realizations), "perturbation": PERTURBATION, "dt": float(dt), "steps": int(steps),
-           "every": int(every), "horizon": float(dt) * steps, "periods": float(dt) * steps / scene.period,
-           "failed": sum(s != "ok" for s in statuses), "expected_slope": ENERGY_EXPONENT}
+    out = {
+        "realizations": int(realizations),
+        "perturbation": PERTURBATION,
+        "dt": float(dt),
+        "steps": int(steps),
+        "every": int(every),
+        "horizon": float(dt) * steps,
+        "periods": float(dt) * steps / scene.period,
+        "failed": sum(s != "ok" for s in statuses),
+        "expected_slope": ENERGY_EXPONENT,
+    }
     if len(walks) < 3:
         return {**out, "slope": None, "ci95": None, "reason": f"{len(walks)} realizations finished (of {realizations})"}
     rng = np.random.default_rng([seed, 10_000])
     fit = _fit(t[1:], np.array(walks)[:, 1:], rng)
-    out.update(slope=fit["slope"], ci95=fit["ci95"], t=t[1:], rms=fit["rms"],
-               contains_brouwer=bool(fit["ci95"][0] <= ENERGY_EXPONENT <= fit["ci95"][1]))
+    out.update(
+        slope=fit["slope"],
+        ci95=fit["ci95"],
+        t=t[1:],
+        rms=fit["rms"],
+        contains_brouwer=bool(fit["ci95"][0] <= ENERGY_EXPONENT <= fit["ci95"][1]),
+    )
     if errors:
         errors = np.array(errors)[:, 1:]
-        below = np.sqrt(np.mean(errors ** 2, axis=0)) < SATURATION
+        below = np.sqrt(np.mean(errors**2, axis=0)) < SATURATION
         n = int(np.argmin(below)) if not below.all() else len(below)  # up to the first saturated point
         if n >= 3:
             err = _fit(t_abs[1:][:n], errors[:, :n], rng)

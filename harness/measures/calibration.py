@@ -24,6 +24,7 @@ Timings can be injected (``HARNESS_INJECT_TIMINGS``, ``harness.measures.cost``):
 calibration then reads ``calibration`` of that file (``python`` and ``compiled`` seconds per
 step), so that a test of a verdict drawn from it depends on no clock.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -54,8 +55,9 @@ class Calibration:
             import reference
             from scenarios import make_scene
 
-            _, self._once = reference.step_timer(reference.METHODS["explicit_euler"], make_scene("spring"), 0.1,
-                                                 COMPILED_STEPS, clock=clock)
+            _, self._once = reference.step_timer(
+                reference.METHODS["explicit_euler"], make_scene("spring"), 0.1, COMPILED_STEPS, clock=clock
+            )
             _python_loop(PYTHON_STEPS)  # warm
 
     def repeat(self) -> None:
@@ -76,8 +78,10 @@ class Calibration:
         ratios = [p / c for p, c in zip(self.python, self.compiled) if c > 0]
         if not ratios:
             return {}
-        return {"calibration": float(np.median(ratios)),
-                "calibration_spread": (max(ratios) - min(ratios)) / min(ratios),
-                "calibration_python_s_per_step": min(self.python),
-                "calibration_compiled_s_per_step": min(self.compiled),
-                "calibration_clock": "injected" if self.injected is not None else self.clock}
+        return {
+            "calibration": float(np.median(ratios)),
+            "calibration_spread": (max(ratios) - min(ratios)) / min(ratios),
+            "calibration_python_s_per_step": min(self.python),
+            "calibration_compiled_s_per_step": min(self.compiled),
+            "calibration_clock": "injected" if self.injected is not None else self.clock,
+        }

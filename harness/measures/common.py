@@ -9,6 +9,7 @@ the scene is a :class:`scenarios.Scene`. Methods are always stepped through
 :func:`harness.execution.simulate.simulate`, so engine modes run isolated exactly as in ``harness run``.
 Results are plain dicts; :mod:`harness.measures.frames` turns them into JSON and DataFrames.
 """
+
 from __future__ import annotations
 
 import copy
@@ -34,8 +35,10 @@ def require_fixed_step(method: Method, measure: str) -> None:
     """An adaptive method (IAS15) picks its own steps and takes dt as its output interval, so
     a measure of behaviour against dt does not apply: say so before stepping anything."""
     if method.adaptive:
-        raise InvalidInput(f"method {method.id} chooses its own steps (dt is only its output interval): "
-                           f"{measure} against dt does not apply")
+        raise InvalidInput(
+            f"method {method.id} chooses its own steps (dt is only its output interval): "
+            f"{measure} against dt does not apply"
+        )
 
 
 def step(method, scene: Scene, dt: float, steps: int, every: int = 1, timeout: float | None = None) -> Trajectory:

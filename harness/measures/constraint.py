@@ -15,6 +15,7 @@ A method in reduced coordinates (MuJoCo's hinge chain) keeps the links at length
 construction: its stretch is roundoff. A position-based method (``ref:verlet_constrained``)
 and an impulse-based one (pymunk's pin joints) hold the links only approximately.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -26,8 +27,9 @@ from scenarios import Scene
 from harness.measures.common import resolve, step
 
 
-def constraint_drift(method, scene: Scene, dt: float, steps: int, *, every: int = 1,
-                     timeout: float | None = None) -> dict:
+def constraint_drift(
+    method, scene: Scene, dt: float, steps: int, *, every: int = 1, timeout: float | None = None
+) -> dict:
     """Constraint error and energy change of ``method`` on ``scene`` (module docstring)."""
     method = resolve(method, scene)
     if not scene.has_stretch:
@@ -38,9 +40,17 @@ def constraint_drift(method, scene: Scene, dt: float, steps: int, *, every: int 
 def drift_of(traj, scene: Scene, method, dt: float, steps: int, every: int = 1) -> dict:
     """``constraint_drift``'s figures of a run already stepped (the nightly's energy run, which the
     constraint cell reads rather than stepping it again)."""
-    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
-           "steps": int(steps), "every": int(every), "status": traj.status, "detail": traj.detail,
-           "failed_step": traj.failed_step}
+    out = {
+        "scene": scene.id,
+        "params": dict(scene.values),
+        "method": method.id,
+        "dt": float(dt),
+        "steps": int(steps),
+        "every": int(every),
+        "status": traj.status,
+        "detail": traj.detail,
+        "failed_step": traj.failed_step,
+    }
     if traj.meta.iterations is not None:
         out["iterations"] = traj.meta.iterations
     if traj.q.shape[0] == 0:
@@ -49,6 +59,11 @@ def drift_of(traj, scene: Scene, method, dt: float, steps: int, every: int = 1) 
         stretch = np.asarray(scene.constraint_error(traj.q[:, 0]), dtype=float)
         e = traj.energy[:, 0]
         rel = (e - e[0]) / abs(e[0])
-    out.update(max_stretch=float(np.max(stretch)), final_stretch=float(stretch[-1]), t_final=float(traj.t[-1]),
-               energy_change=float(rel[-1]), max_energy_change=float(np.max(np.abs(rel))))
+    out.update(
+        max_stretch=float(np.max(stretch)),
+        final_stretch=float(stretch[-1]),
+        t_final=float(traj.t[-1]),
+        energy_change=float(rel[-1]),
+        max_energy_change=float(np.max(np.abs(rel))),
+    )
     return out

@@ -18,8 +18,8 @@ what the code does and why.
   adapter's reason (pybullet, Chipmunk's constraints).
 * **Wall time per step**, reference schemes: the compiled path
   (:func:`reference._compiled.time_per_step`, the same step functions compiled by numba),
-  one warm-up call (it compiles, or loads the pair's kernels from the disk cache), then ``repeats`` (5) timed runs of ``time_steps``
-  (REF_TIME_STEPS, 100,000) steps; the figure is the **minimum** over repeats (the least-disturbed
+  one warm-up call (it compiles, or loads the pair's kernels from the disk cache), then ``repeats`` (5) timed runs of
+  ``time_steps`` (REF_TIME_STEPS, 100,000) steps; the figure is the **minimum** over repeats (the least-disturbed
   run, as timeit and asv take it). A kernel so slow that a run would last longer than the run
   budget (``run_budget``, below; judged from a pilot run of REF_PILOT_STEPS, 2,000) runs fewer
   steps, at least REF_MIN_STEPS (5,000): one budget's run says what the full run would say,
@@ -80,12 +80,13 @@ what the code does and why.
 * **Calibration**: a fixed workload pair (``harness.measures.calibration``: explicit Euler in a
   plain Python loop over its compiled kernel) timed in the same interleaved repeats, so that
   the history can tell a method's step from the machine's (``harness.history.series``).
-* **Injected timings** (``harness.measures.injected``): with ``HARNESS_INJECT_TIMINGS`` naming a JSON file (or ``injected``
-  given), the timed runs still run but their figures are the file's: ``s_per_step`` by method
+* **Injected timings** (``harness.measures.injected``): with ``HARNESS_INJECT_TIMINGS`` naming a JSON file (or
+  ``injected`` given), the timed runs still run but their figures are the file's: ``s_per_step`` by method
   id (``"*"`` for any other), each repeat multiplied by ``jitter`` (cycled), and the
   ``calibration`` pair. The clock is then recorded as ``injected`` (and no resolution). Tests
   of verdicts drawn from timings use it, so that no test's outcome depends on the machine's load.
 """
+
 from __future__ import annotations
 
 import functools
@@ -168,25 +169,31 @@ def run_budget(policy_s: float, clock: str) -> float:
 
 def _spread(times: list[float]) -> dict:
     lo = min(times)
-    return {"s_per_step": lo, "median_s_per_step": float(np.median(times)), "repeats_s_per_step": list(times),
-            "rel_spread": (max(times) - lo) / lo if lo > 0 else None}
+    return {
+        "s_per_step": lo,
+        "median_s_per_step": float(np.median(times)),
+        "repeats_s_per_step": list(times),
+        "rel_spread": (max(times) - lo) / lo if lo > 0 else None,
+    }
 
 
-def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_STEPS,
-                        timeout: float | None = None) -> dict:
+def counted_evaluations(
+    method, scene: Scene, dt: float, *, steps: int = COUNT_STEPS, timeout: float | None = None
+) -> dict:
     """Force evaluations and solves per step, counted over ``steps`` steps."""
     method = resolve(method, scene)
     traj = step(method, scene, dt, steps, steps, timeout)
-    ran = traj.meta.steps_run if traj.meta.steps_run is not None else \
-        steps if traj.ok else (traj.failed_step or 1) - 1
+    ran = traj.meta.steps_run if traj.meta.steps_run is not None else steps if traj.ok else (traj.failed_step or 1) - 1
     if traj.force_evals is None and ran > 0 and traj.status in ("ok", "unstable") and method.counting_run:
         counted = method.simulate(scene, dt, ran, ran, count=True)
         if counted.force_evals is not None:
             traj = counted
     out: dict = {"count_steps": int(ran), "count_status": traj.status}
     if traj.force_evals is None or ran <= 0:
-        out.update(force_evals_per_step=None,
-                   force_evals_reason=traj.meta.force_evals_reason or "the engine mode does not count them")
+        out.update(
+            force_evals_per_step=None,
+            force_evals_reason=traj.meta.force_evals_reason or "the engine mode does not count them",
+        )
     else:
         out["force_evals_per_step"] = traj.force_evals / ran
         out["start_force_evals"] = traj.meta.start_force_evals
@@ -205,9 +212,9 @@ def counted_evaluations(method, scene: Scene, dt: float, *, steps: int = COUNT_S
 _COMPILED_TIMING = COMPILED_TIMING
 _LOOP_TIMING = {
     "engine": "engine s/step: in-process simulate through the engine's own loop, state read at the output "
-              "point only, model built off the clock, (min t(N) - min t(0))/N after warm-up",
+    "point only, model built off the clock, (min t(N) - min t(0))/N after warm-up",
     "harness": "as stepped by the harness: in-process simulate one step at a time, state read and checked (and "
-               "forces applied) after every step, model built off the clock, (min t(N) - min t(0))/N after warm-up",
+    "forces applied) after every step, model built off the clock, (min t(N) - min t(0))/N after warm-up",
 }
 
 
@@ -216,8 +223,17 @@ class _Timing:
     repeats can be interleaved). ``budget`` False: a compiled loop runs ``steps`` steps
     whatever they cost (explicit Euler timed beside a scheme runs the scheme's loop length)."""
 
-    def __init__(self, method: Method, scene: Scene, dt: float, steps: int | None, clock: str, loop: str = "engine",
-                 budget: bool = True, injected: dict | None = None):
+    def __init__(
+        self,
+        method: Method,
+        scene: Scene,
+        dt: float,
+        steps: int | None,
+        clock: str,
+        loop: str = "engine",
+        budget: bool = True,
+        injected: dict | None = None,
+    ):
         self.now = CLOCKS[clock]
         self.injected, self.injected_value = injected, injected_value(injected, method.id)
         self.scheme = method.scheme
@@ -315,13 +331,20 @@ class _Timing:
         self._resolve_setup()
         timing = self.scheme_timing if self.scheme is not None else _LOOP_TIMING[self.loop]
         if self.setup_unresolved:
-            timing += ("; every 0-step run was slower than the fastest timed run (a loaded machine): "
-                       "whole runs per step, the setup included, an upper bound")
+            timing += (
+                "; every 0-step run was slower than the fastest timed run (a loaded machine): "
+                "whole runs per step, the setup included, an upper bound"
+            )
         if self.injected_value is not None:
             timing, clock = f"injected from ${INJECT_VAR}, not measured (the runs timed: {timing})", "injected"
-        out = {"timing": f"{timing}; {self.stopped}" if self.stopped else timing, "clock": clock,
-               "time_steps": self.n, "warmup_s": self.warmup_s, **_spread(self.per_step()),
-               "clock_resolution_s": None if clock == "injected" else clock_resolution(clock)}
+        out = {
+            "timing": f"{timing}; {self.stopped}" if self.stopped else timing,
+            "clock": clock,
+            "time_steps": self.n,
+            "warmup_s": self.warmup_s,
+            **_spread(self.per_step()),
+            "clock_resolution_s": None if clock == "injected" else clock_resolution(clock),
+        }
         if self.scheme is None:
             out["setup_s"] = min(self.empty)
             out["time_steps_asked"] = self.asked
@@ -336,9 +359,17 @@ def _steppable_per_step(method: Method) -> bool:
     return method.scheme is None and "harness" in method.LOOPS
 
 
-def wall_time_per_step(method, scene: Scene, dt: float, *, steps: int | None = None,
-                       repeats: int = REPEATS, clock: str = "wall", loop: str = "engine",
-                       injected: dict | None = None) -> dict:
+def wall_time_per_step(
+    method,
+    scene: Scene,
+    dt: float,
+    *,
+    steps: int | None = None,
+    repeats: int = REPEATS,
+    clock: str = "wall",
+    loop: str = "engine",
+    injected: dict | None = None,
+) -> dict:
     """Seconds per step by the rule in the module docstring (compiled for reference schemes,
     in-process ``simulate`` for engine modes, through ``loop``), on ``clock`` ("wall" or "cpu")."""
     method = resolve(method, scene)
@@ -360,47 +391,57 @@ class CostResult(Result):
     method: str
     dt: float
     omega_dt: float
-    count_steps: int                          # counted_evaluations'
+    count_steps: int  # counted_evaluations'
     count_status: str
     force_evals_per_step: float | None
     solves_per_step: float | None
-    timing: str                               # what was timed, and how
+    timing: str  # what was timed, and how
     clock: str
     time_steps: int
     warmup_s: float
-    s_per_step: float                         # the fastest repeat
+    s_per_step: float  # the fastest repeat
     median_s_per_step: float
     repeats_s_per_step: list
     rel_spread: float | None
-    baseline: dict                            # explicit Euler's timing (or why there is none)
+    baseline: dict  # explicit Euler's timing (or why there is none)
     ratio_to_explicit_euler: float | None
     ratio_spread: float | None = None
     ratio_repeats: list | None = None
-    force_evals_reason: str | None = None     # why they are not counted, where they are not
+    force_evals_reason: str | None = None  # why they are not counted, where they are not
     start_force_evals: int | None = None
     declared_force_evals: float | None = None
     declared_implicit: bool | None = None
-    calibration: float | None = None          # harness.measures.calibration
+    calibration: float | None = None  # harness.measures.calibration
     calibration_spread: float | None = None
     calibration_python_s_per_step: float | None = None
     calibration_compiled_s_per_step: float | None = None
     calibration_clock: str | None = None
-    clock_resolution_s: float | None = None   # the clock's resolution, measured (``clock_resolution``)
-    setup_s: float | None = None              # an engine mode's: building the model, off the clock
+    clock_resolution_s: float | None = None  # the clock's resolution, measured (``clock_resolution``)
+    setup_s: float | None = None  # an engine mode's: building the model, off the clock
     time_steps_asked: int | None = None
     loop: str | None = None
-    engine_loop: str | None = None            # how the engine's own loop steps, where it says
-    as_stepped: dict | None = None            # an engine mode stepped one call at a time from Python
+    engine_loop: str | None = None  # how the engine's own loop steps, where it says
+    as_stepped: dict | None = None  # an engine mode stepped one call at a time from Python
     as_stepped_s_per_step: float | None = None
-    solver: str | None = None                 # a library solve the method chose (reference.solvers)
+    solver: str | None = None  # a library solve the method chose (reference.solvers)
     solver_iterations_per_step: float | None = None  # its iterations (conjugate gradients, local/global passes)
-    unconverged_solves: int | None = None     # its solves over the counted steps that stopped short of tol
+    unconverged_solves: int | None = None  # its solves over the counted steps that stopped short of tol
 
 
-def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = None, repeats: int = REPEATS,
-                  count_steps: int = COUNT_STEPS, timeout: float | None = None,
-                  baseline: dict | None = None, clock: str = "wall", injected: dict | None = None,
-                  progress=None) -> CostResult:
+def cost_per_step(
+    method,
+    scene: Scene,
+    dt: float,
+    *,
+    time_steps: int | None = None,
+    repeats: int = REPEATS,
+    count_steps: int = COUNT_STEPS,
+    timeout: float | None = None,
+    baseline: dict | None = None,
+    clock: str = "wall",
+    injected: dict | None = None,
+    progress=None,
+) -> CostResult:
     """Counted evaluations, time per step and the ratio to explicit Euler (compiled) on
     the same scene and dt, the two and the calibration timed in interleaved repeats (module
     docstring). ``baseline`` reuses an explicit-Euler timing from the same run instead (no
@@ -412,15 +453,24 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     method = resolve(method, scene)
     say = progress or (lambda line: None)
     injected = injected if injected is not None else load_injected()
-    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
-           "omega_dt": float(dt) * scene.omega}
+    out = {
+        "scene": scene.id,
+        "params": dict(scene.values),
+        "method": method.id,
+        "dt": float(dt),
+        "omega_dt": float(dt) * scene.omega,
+    }
     say(f"cost: counting force evaluations over {count_steps} steps of {method.id}")
     out.update(counted_evaluations(method, scene, dt, steps=count_steps, timeout=timeout))
-    stepped = (_Timing(method, scene, dt, time_steps, clock, "harness", injected=injected)
-               if _steppable_per_step(method) else None)
+    stepped = (
+        _Timing(method, scene, dt, time_steps, clock, "harness", injected=injected)
+        if _steppable_per_step(method)
+        else None
+    )
     if baseline is not None:
-        out.update(wall_time_per_step(method, scene, dt, steps=time_steps, repeats=repeats, clock=clock,
-                                      injected=injected))
+        out.update(
+            wall_time_per_step(method, scene, dt, steps=time_steps, repeats=repeats, clock=clock, injected=injected)
+        )
         _add_as_stepped(out, stepped, repeats, clock)
         out["baseline"] = baseline
         out["ratio_to_explicit_euler"] = out["s_per_step"] / baseline["s_per_step"]
@@ -464,7 +514,7 @@ def cost_per_step(method, scene: Scene, dt: float, *, time_steps: int | None = N
     return CostResult(**out)
 
 
-def _add_as_stepped(out: dict, stepped: "_Timing | None", repeats: int, clock: str) -> None:
+def _add_as_stepped(out: dict, stepped: _Timing | None, repeats: int, clock: str) -> None:
     """The second figure of an engine mode (module docstring): ``as_stepped`` (the timing) and
     ``as_stepped_s_per_step``; ``repeats`` more repeats first where they were not interleaved."""
     if stepped is None:
@@ -476,9 +526,16 @@ def _add_as_stepped(out: dict, stepped: "_Timing | None", repeats: int, clock: s
     out["as_stepped_s_per_step"] = res["s_per_step"]
 
 
-def explicit_euler_baseline(scene: Scene, dt: float, *, repeats: int = REPEATS, clock: str = "wall",
-                            steps: int = REF_TIME_STEPS) -> dict:
+def explicit_euler_baseline(
+    scene: Scene, dt: float, *, repeats: int = REPEATS, clock: str = "wall", steps: int = REF_TIME_STEPS
+) -> dict:
     res = time_per_step(reference.METHODS["explicit_euler"], scene, dt, steps, repeats=repeats, clock=clock)
-    return {"method": BASELINE, "timing": _COMPILED_TIMING, "clock": clock,
-            "time_steps": steps, "warmup_s": res["warmup_s"], **_spread(res["repeats"]),
-            "clock_resolution_s": clock_resolution(clock)}
+    return {
+        "method": BASELINE,
+        "timing": _COMPILED_TIMING,
+        "clock": clock,
+        "time_steps": steps,
+        "warmup_s": res["warmup_s"],
+        **_spread(res["repeats"]),
+        "clock_resolution_s": clock_resolution(clock),
+    }

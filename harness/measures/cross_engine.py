@@ -28,6 +28,7 @@ how an engine came by a quantity the harness supplies (Bullet's joint springs) i
 (resolved within AGREE_RTOL although a built quantity differs: the difference is below what
 this horizon shows, never called agreement), or ``not resolved``.
 """
+
 from __future__ import annotations
 
 import math
@@ -59,7 +60,7 @@ H0_OMEGA = 0.5
 #: Recorded times per run (the runs at h and h/2 share them).
 OUTPUTS = 64
 #: The most steps one run of the search may take: beyond it the comparison is not resolved.
-MAX_STEPS = 2 ** 17
+MAX_STEPS = 2**17
 #: Verdicts, in the order a report explains them.
 VERDICTS = ("agree", "differ", "models differ", "not resolved")
 
@@ -74,13 +75,13 @@ class CrossEngineResult(Result):
     statuses: list
     horizon: float | None = None
     difference: float | None = None
-    errors: list | None = None               # each mode's own error at dt (Richardson)
-    reference_error: float | None = None     # kept for stored cells; the rule above needs none
+    errors: list | None = None  # each mode's own error at dt (Richardson)
+    reference_error: float | None = None  # kept for stored cells; the rule above needs none
     verdict: str | None = None
     disagree: bool | None = None
     resolved: bool | None = None
-    levels: list | None = None               # [h, difference, error_a, error_b] per step tried
-    differences: list | None = None          # what differs in the built models, one line each
+    levels: list | None = None  # [h, difference, error_a, error_b] per step tried
+    differences: list | None = None  # what differs in the built models, one line each
     notes: list | None = None
     anatomies: list | None = None
     detail: str = ""
@@ -124,10 +125,16 @@ def anatomy_differences(a: dict, b: dict, names: tuple[str, str], coords) -> lis
         if _differs(xa["mass"], xb["mass"], rtol):
             out.append(f"{eb}: body {body} mass {xb['mass']:.9g} kg, {ea} {xa['mass']:.9g} kg")
         # A body that only translates (no joint turns it) has no inertia in its dynamics.
-        if xa.get("rotates", True) and xa["inertia"] is not None and xb["inertia"] is not None and any(
-                _differs(u, w, rtol) for u, w in zip(xa["inertia"], xb["inertia"])):
-            out.append(f"{eb}: body {body} principal inertia {[round(x, 9) for x in xb['inertia']]}, "
-                       f"{ea} {[round(x, 9) for x in xa['inertia']]} kg m^2")
+        if (
+            xa.get("rotates", True)
+            and xa["inertia"] is not None
+            and xb["inertia"] is not None
+            and any(_differs(u, w, rtol) for u, w in zip(xa["inertia"], xb["inertia"]))
+        ):
+            out.append(
+                f"{eb}: body {body} principal inertia {[round(x, 9) for x in xb['inertia']]}, "
+                f"{ea} {[round(x, 9) for x in xa['inertia']]} kg m^2"
+            )
     for body, xb in bb.items():
         if body not in ba and xb["mass"] > 0:
             out.append(f"{eb}: body {body} ({xb['mass']:.6g} kg) is not in {ea}'s model")
@@ -142,10 +149,17 @@ def anatomy_differences(a: dict, b: dict, names: tuple[str, str], coords) -> lis
         ua, ub = np.array(xa["axis"]), np.array(xb["axis"])
         cos = float(np.dot(ua, ub) / (np.linalg.norm(ua) * np.linalg.norm(ub)))
         if not abs(cos - 1.0) <= rtol:
-            out.append(f"{eb}: joint {joint} axis (world) {np.round(ub, 6).tolist()}, {ea} "
-                       f"{np.round(ua, 6).tolist()} ({math.degrees(math.acos(max(-1.0, min(1.0, cos)))):.3g} deg apart)")
-        for key, what in (("stiffness", "stiffness"), ("spring_ref", "spring reference"), ("damping", "damping"),
-                          ("armature", "armature"), ("frictionloss", "friction loss")):
+            out.append(
+                f"{eb}: joint {joint} axis (world) {np.round(ub, 6).tolist()}, {ea} "
+                f"{np.round(ua, 6).tolist()} ({math.degrees(math.acos(max(-1.0, min(1.0, cos)))):.3g} deg apart)"
+            )
+        for key, what in (
+            ("stiffness", "stiffness"),
+            ("spring_ref", "spring reference"),
+            ("damping", "damping"),
+            ("armature", "armature"),
+            ("frictionloss", "friction loss"),
+        ):
             u, w = float(xa[key]), float(xb[key])
             if not _differs(u, w, rtol):
                 continue
@@ -164,8 +178,10 @@ def anatomy_differences(a: dict, b: dict, names: tuple[str, str], coords) -> lis
         d = np.abs(ma - mb) / max(float(np.max(np.abs(ma))), 1e-300)
         if d.size and float(np.max(d)) > rtol:
             i, j = np.unravel_index(int(np.argmax(d)), d.shape)
-            out.append(f"{eb}: mass matrix at the initial state differs by up to {float(np.max(d)):.3g} (relative to "
-                       f"its largest entry), at ({coords[i]}, {coords[j]}): {mb[i, j]:.6g}, {ea} {ma[i, j]:.6g}")
+            out.append(
+                f"{eb}: mass matrix at the initial state differs by up to {float(np.max(d)):.3g} (relative to "
+                f"its largest entry), at ({coords[i]}, {coords[j]}): {mb[i, j]:.6g}, {ea} {ma[i, j]:.6g}"
+            )
     elif _differs(a["total_mass"], b["total_mass"], rtol):
         out.append(f"{eb}: total mass {b['total_mass']:.9g} kg, {ea} {a['total_mass']:.9g} kg")
     return out
@@ -182,9 +198,14 @@ def _pair(ma, mb, scene, T: float, n: int, timeout):
     return [step(m, scene, T / n, n, every, timeout) for m in (ma, mb)]
 
 
-def cross_engine(scene: Scene, a: str = "mujoco:euler", b: str = "pybullet:semi_implicit",
-                 timeout: float | None = None, max_steps: int = MAX_STEPS,
-                 budget_s: float | None = None) -> CrossEngineResult:
+def cross_engine(
+    scene: Scene,
+    a: str = "mujoco:euler",
+    b: str = "pybullet:semi_implicit",
+    timeout: float | None = None,
+    max_steps: int = MAX_STEPS,
+    budget_s: float | None = None,
+) -> CrossEngineResult:
     """Compare modes ``a`` and ``b`` on ``scene`` by the rule in the module docstring.
     ``budget_s``: wall seconds the step search may spend before it stops unresolved."""
     ma, mb = resolve(a, scene), resolve(b, scene)
@@ -205,10 +226,17 @@ def cross_engine(scene: Scene, a: str = "mujoco:euler", b: str = "pybullet:semi_
         runs = _pair(ma, mb, scene, T, n, timeout)
         if not all(r.ok for r in runs):
             if any(r.status not in ("ok", "unstable") for r in runs) or 2 * n > max_steps:
-                return CrossEngineResult(**base, dt=T / n, steps=n, statuses=[r.status for r in runs],
-                                         differences=differences, notes=notes, anatomies=anatomies, levels=levels,
-                                         detail="; ".join(f"{r.method} {r.status}: {r.detail}"
-                                                          for r in runs if not r.ok))
+                return CrossEngineResult(
+                    **base,
+                    dt=T / n,
+                    steps=n,
+                    statuses=[r.status for r in runs],
+                    differences=differences,
+                    notes=notes,
+                    anatomies=anatomies,
+                    levels=levels,
+                    detail="; ".join(f"{r.method} {r.status}: {r.detail}" for r in runs if not r.ok),
+                )
             coarse, n = None, 2 * n  # unstable at this step: the comparison starts finer
             continue
         if coarse is not None:
@@ -227,10 +255,19 @@ def cross_engine(scene: Scene, a: str = "mujoco:euler", b: str = "pybullet:semi_
             break
         n *= 2
     if result is None:
-        return CrossEngineResult(**base, dt=T / n, steps=n, statuses=["ok", "ok"], differences=differences,
-                                 notes=notes, anatomies=anatomies, levels=levels, resolved=False,
-                                 verdict="not resolved", detail=f"no step of at most {max_steps} steps over "
-                                                                f"{T:.3g} s ran in both engines")
+        return CrossEngineResult(
+            **base,
+            dt=T / n,
+            steps=n,
+            statuses=["ok", "ok"],
+            differences=differences,
+            notes=notes,
+            anatomies=anatomies,
+            levels=levels,
+            resolved=False,
+            verdict="not resolved",
+            detail=f"no step of at most {max_steps} steps over {T:.3g} s ran in both engines",
+        )
     h, steps, diff, errs = result
     resolved = max(errs) <= RESOLVE_FRACTION * max(diff, AGREE_RTOL)
     same = differences == [] if differences is not None else False
@@ -240,9 +277,21 @@ def cross_engine(scene: Scene, a: str = "mujoco:euler", b: str = "pybullet:semi_
         verdict = "differ"
     else:
         verdict = "agree" if same else "models differ"
-    return CrossEngineResult(**base, dt=h, steps=steps, statuses=["ok", "ok"], difference=diff, errors=errs,
-                             verdict=verdict, disagree=verdict in ("differ", "models differ"), resolved=resolved,
-                             levels=levels, differences=differences, notes=notes, anatomies=anatomies)
+    return CrossEngineResult(
+        **base,
+        dt=h,
+        steps=steps,
+        statuses=["ok", "ok"],
+        difference=diff,
+        errors=errs,
+        verdict=verdict,
+        disagree=verdict in ("differ", "models differ"),
+        resolved=resolved,
+        levels=levels,
+        differences=differences,
+        notes=notes,
+        anatomies=anatomies,
+    )
 
 
 def verdict_text(verdict: str | None, methods, difference, errors, dt, steps, horizon_s, differences) -> str:
@@ -250,18 +299,30 @@ def verdict_text(verdict: str | None, methods, difference, errors, dt, steps, ho
     a, b = methods or ("?", "?")
     if difference is None or verdict is None:
         return f"{a} and {b}: not compared"
-    figures = (f"{steps} steps of {dt:.3g} s over {horizon_s:.3g} s from the same state: difference {difference:.3g} "
-               f"(relative), their own errors {errors[0]:.2g} and {errors[1]:.2g}")
-    built = ("the built models agree" if differences == [] else
-             f"the built models differ in {len(differences)} quantities" if differences else
-             "the built models were not read")
+    figures = (
+        f"{steps} steps of {dt:.3g} s over {horizon_s:.3g} s from the same state: difference {difference:.3g} "
+        f"(relative), their own errors {errors[0]:.2g} and {errors[1]:.2g}"
+    )
+    built = (
+        "the built models agree"
+        if differences == []
+        else f"the built models differ in {len(differences)} quantities"
+        if differences
+        else "the built models were not read"
+    )
     if verdict == "differ":
         return f"{a} and {b} differ: {figures}, each at most {RESOLVE_FRACTION:g} of it; {built}"
     if verdict == "agree":
-        return (f"{a} and {b} agree within {AGREE_RTOL:g}: {figures}, each at most {RESOLVE_FRACTION:g} of "
-                f"{AGREE_RTOL:g}; {built}")
+        return (
+            f"{a} and {b} agree within {AGREE_RTOL:g}: {figures}, each at most {RESOLVE_FRACTION:g} of "
+            f"{AGREE_RTOL:g}; {built}"
+        )
     if verdict == "models differ":
-        return (f"{a} and {b} stay within {AGREE_RTOL:g} of each other over this horizon ({figures}), but they "
-                f"are not the same model: {built}")
-    return (f"{a} and {b}: not resolved: at the finest step tried, {figures}; an agreement or a difference needs "
-            f"each own error at most {RESOLVE_FRACTION:g} of the difference (or of {AGREE_RTOL:g})")
+        return (
+            f"{a} and {b} stay within {AGREE_RTOL:g} of each other over this horizon ({figures}), but they "
+            f"are not the same model: {built}"
+        )
+    return (
+        f"{a} and {b}: not resolved: at the finest step tried, {figures}; an agreement or a difference needs "
+        f"each own error at most {RESOLVE_FRACTION:g} of the difference (or of {AGREE_RTOL:g})"
+    )

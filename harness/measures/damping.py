@@ -29,6 +29,7 @@ The rule, one way for every method:
 
 Reported for the highest mode (``highest``, w_N = omega) and the lowest (``lowest``, w_1).
 """
+
 from __future__ import annotations
 
 import math
@@ -67,12 +68,17 @@ def mode_damping(block: np.ndarray, dt: float) -> dict:
         l1, l2 = np.log(lam.real)
         if l1 * l2 > 0.0:
             zeta = float(-(l1 + l2) / (2.0 * math.sqrt(l1 * l2)))
-    return {"rho": rho, "energy_factor": rho * rho, "zeta": zeta,
-            "eigenvalues": [[float(x.real), float(x.imag)] for x in lam]}
+    return {
+        "rho": rho,
+        "energy_factor": rho * rho,
+        "zeta": zeta,
+        "eigenvalues": [[float(x.real), float(x.imag)] for x in lam],
+    }
 
 
-def damping_far_beyond_the_limit(method, scene: Scene, *, factor: float = FACTOR, steps: int = STEPS,
-                                 timeout: float | None = None) -> dict:
+def damping_far_beyond_the_limit(
+    method, scene: Scene, *, factor: float = FACTOR, steps: int = STEPS, timeout: float | None = None
+) -> dict:
     """Energy kept and per-mode damping at ``factor`` times the explicit limit (module docstring)."""
     method = resolve(method, scene)
     if not scene.has_modes:
@@ -80,13 +86,25 @@ def damping_far_beyond_the_limit(method, scene: Scene, *, factor: float = FACTOR
     if not (factor > 0.0 and math.isfinite(factor)):
         raise InvalidInput(f"factor={factor} is out of range (allowed: finite, > 0)")
     dt = factor * EXPLICIT_LIMIT / scene.omega
-    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "factor": factor,
-           "dt": dt, "omega_dt": dt * scene.omega, "steps": int(steps)}
+    out = {
+        "scene": scene.id,
+        "params": dict(scene.values),
+        "method": method.id,
+        "factor": factor,
+        "dt": dt,
+        "omega_dt": dt * scene.omega,
+        "steps": int(steps),
+    }
     traj = step(method, scene, dt, steps, 1, timeout)
     with np.errstate(all="ignore"):
         kept = (traj.energy[:, 0] / traj.energy[0, 0]).tolist() if traj.q.shape[0] else []
-    out.update(status=traj.status, detail=traj.detail, failed_step=traj.failed_step,
-               energy_kept=kept, energy_kept_one_step=kept[1] if len(kept) > 1 else None)
+    out.update(
+        status=traj.status,
+        detail=traj.detail,
+        failed_step=traj.failed_step,
+        energy_kept=kept,
+        energy_kept_one_step=kept[1] if len(kept) > 1 else None,
+    )
 
     res = one_step_map(method, scene, dt, timeout=timeout, base=generic_state(scene))
     if res["rho"] is None:
@@ -107,6 +125,13 @@ def damping_far_beyond_the_limit(method, scene: Scene, *, factor: float = FACTOR
     for k in range(n):
         block = modal[np.ix_([k, k + n], [k, k + n])]
         modes.append({"mode": k + 1, "omega": float(w[k]), "omega_dt": float(w[k] * dt), **mode_damping(block, dt)})
-    out.update(rho=res["rho"], stable=bool(res["rho"] <= 1.0 + RHO_TOL), linearity_residual=res["linearity_residual"],
-               modal_leak=leak, highest=modes[-1], lowest=modes[0], modes=modes)
+    out.update(
+        rho=res["rho"],
+        stable=bool(res["rho"] <= 1.0 + RHO_TOL),
+        linearity_residual=res["linearity_residual"],
+        modal_leak=leak,
+        highest=modes[-1],
+        lowest=modes[0],
+        modes=modes,
+    )
     return out

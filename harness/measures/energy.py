@@ -47,6 +47,7 @@ of the scene), so classify over at least ten periods (``short_horizon`` says whe
 and at least MIN_RECORDED recorded states. The numbers behind the verdict come with it,
 with ``secular_rate``, the least-squares slope of g against t (per unit time).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -117,8 +118,9 @@ def run_events(scene: Scene, traj: Trajectory, method=None, timeout: float | Non
     return sorted(early + [ev for ev in found if ev["kind"] not in kinds], key=lambda ev: ev["step"])
 
 
-def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: bool = False,
-             escaped: np.ndarray | None = None) -> dict:
+def classify(
+    energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: bool = False, escaped: np.ndarray | None = None
+) -> dict:
     """The classification of an energy series by the rule in the module docstring, with
     the numbers behind it. ``escaped``: per recorded state, whether a body had left the
     system (the scene's ``escaped``), or None where the scene cannot tell."""
@@ -136,21 +138,27 @@ def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: b
     if np.any(ratio <= 0.0):
         i = int(np.argmax(ratio <= 0.0))
         up = energy[i] - e_exact[i] > 0.0
-        out.update(classification="grows" if up else "decays",
-                   rule=f"energy crossed zero at step index {i} (exact energy did not)")
+        out.update(
+            classification="grows" if up else "decays",
+            rule=f"energy crossed zero at step index {i} (exact energy did not)",
+        )
         return out
     g = np.sign(e_exact) * np.log(ratio)
     if escaped is not None and np.any(escaped):
         i = int(np.argmax(np.asarray(escaped)))
-        out.update(classification="grows" if g[i] > 0 else "decays", escaped_index=i,
-                   rule=f"a body left the system at step index {i}: not bounded")
+        out.update(
+            classification="grows" if g[i] > 0 else "decays",
+            escaped_index=i,
+            rule=f"a body left the system at step index {i}: not bounded",
+        )
         return out
     rel = np.abs(energy - e_exact) / np.abs(e_exact)
     if np.any(rel >= ORDER_ONE):
         i = int(np.argmax(rel >= ORDER_ONE))
-        out.update(classification="grows" if g[i] > 0 else "decays",
-                   rule=f"|dE/E| reached {ORDER_ONE:g} at step index {i}: energy lost (saturated or escaped), "
-                        "not bounded")
+        out.update(
+            classification="grows" if g[i] > 0 else "decays",
+            rule=f"|dE/E| reached {ORDER_ONE:g} at step index {i}: energy lost (saturated or escaped), not bounded",
+        )
         return out
     if len(energy) < MIN_RECORDED:
         out["rule"] = f"too few recorded states ({len(energy)} < {MIN_RECORDED}) to classify"
@@ -159,21 +167,34 @@ def classify(energy: np.ndarray, e_exact: np.ndarray, t: np.ndarray, unstable: b
     first = float(np.max(np.abs(g[tenths[0]])))
     last = float(np.max(np.abs(g[tenths[-1]])))
     means = np.array([float(np.mean(g[idx])) for idx in tenths])
-    from scipy.stats import linregress  # here: most processes importing this module never fit, and scipy.stats is a large import
+    from scipy.stats import (
+        linregress,
+    )  # here: most processes importing this module never fit, and scipy.stats is a large import
+
     slope = float(linregress(t, g).slope) if np.ptp(t) > 0 else 0.0
     secular = abs(slope) * float(np.ptp(t))
-    out.update(first_tenth_envelope=first, last_tenth_envelope=last,
-               envelope_ratio=last / first if first > 0 else None,
-               tenth_means=means.tolist(), secular_rate=slope, secular_change=secular)
+    out.update(
+        first_tenth_envelope=first,
+        last_tenth_envelope=last,
+        envelope_ratio=last / first if first > 0 else None,
+        tenth_means=means.tolist(),
+        secular_rate=slope,
+        secular_change=secular,
+    )
     within = last <= ENVELOPE_RATIO * first + FLOOR
     if within and secular <= SECULAR_SHARE * first + FLOOR:
-        out.update(classification="bounded",
-                   rule=f"last-tenth envelope {last:.3g} <= {ENVELOPE_RATIO:g} x first {first:.3g} + {FLOOR:g}, "
-                        f"trend {secular:.3g} <= {SECULAR_SHARE:g} x first")
+        out.update(
+            classification="bounded",
+            rule=f"last-tenth envelope {last:.3g} <= {ENVELOPE_RATIO:g} x first {first:.3g} + {FLOOR:g}, "
+            f"trend {secular:.3g} <= {SECULAR_SHARE:g} x first",
+        )
         return out
     # The envelope is the error's, |g|: an energy that decays has an error that grows.
-    why = (f"trend {secular:.3g} > {SECULAR_SHARE:g} x the first tenth's error envelope {first:.3g}" if within
-           else f"the error's envelope grew from {first:.2e} in the first tenth to {last:.2e} in the last")
+    why = (
+        f"trend {secular:.3g} > {SECULAR_SHARE:g} x the first tenth's error envelope {first:.3g}"
+        if within
+        else f"the error's envelope grew from {first:.2e} in the first tenth to {last:.2e} in the last"
+    )
     if np.all(np.diff(means) > 0):
         out.update(classification="grows", rule=f"{why}; tenth means of g increase")
     elif np.all(np.diff(means) < 0):
@@ -187,7 +208,9 @@ def _finite(x) -> float | None:
     return float(x) if x is not None and np.isfinite(x) else None
 
 
-def energy_figures(traj: Trajectory, scene: Scene, method=None, timeout: float | None = None) -> tuple[dict, np.ndarray]:
+def energy_figures(
+    traj: Trajectory, scene: Scene, method=None, timeout: float | None = None
+) -> tuple[dict, np.ndarray]:
     """The energy figures of a run with recorded states, one rule for ``harness energy`` and the
     nightly's energy cell: ``max_rel_error`` and ``final_rel_error`` (|dE/E|; None where the run
     did not finish, where the exact energy crosses zero, rule 0, a number without a meaning,
@@ -201,8 +224,9 @@ def energy_figures(traj: Trajectory, scene: Scene, method=None, timeout: float |
         with np.errstate(all="ignore"):
             out.update(max_rel_error=_finite(np.nanmax(np.abs(rel))), final_rel_error=_finite(abs(rel[-1])))
     if traj.ok or traj.status == UNSTABLE:
-        out.update(classify(traj.energy[:, 0], e_exact, traj.t, unstable=not traj.ok,
-                            escaped=escaped_states(scene, traj)))
+        out.update(
+            classify(traj.energy[:, 0], e_exact, traj.t, unstable=not traj.ok, escaped=escaped_states(scene, traj))
+        )
     else:  # a crash or a timeout says nothing about the energy
         out.update(classification=None, rule=f"run {traj.status}: not classified")
     variation = mass_matrix_varies(traj, scene)
@@ -223,9 +247,18 @@ def mass_matrix_varies(traj: Trajectory, scene: Scene) -> float | None:
     return scene.mass_matrix_variation(traj.q[:, 0])
 
 
-def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int = 1,
-                     timeout: float | None = None, series: bool = False, state_error: bool = True,
-                     progress=None) -> dict:
+def energy_behaviour(
+    method,
+    scene: Scene,
+    dt: float,
+    steps: int,
+    *,
+    every: int = 1,
+    timeout: float | None = None,
+    series: bool = False,
+    state_error: bool = True,
+    progress=None,
+) -> dict:
     """Step ``method`` and measure its energy behaviour against the exact energy.
 
     Returns the run's status and ``energy_figures``'s (``max_rel_error``, ``final_rel_error``,
@@ -242,10 +275,19 @@ def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int 
     say = progress or (lambda line: None)
     say(f"energy: stepping {method.id}, {steps} steps at dt {dt:.6g}")
     traj = step(method, scene, dt, steps, every, timeout)
-    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
-           "steps": int(steps), "every": int(every), "omega_dt": float(dt) * scene.omega,
-           "periods": float(dt) * steps / scene.period, "status": traj.status, "detail": traj.detail,
-           "failed_step": traj.failed_step}
+    out = {
+        "scene": scene.id,
+        "params": dict(scene.values),
+        "method": method.id,
+        "dt": float(dt),
+        "steps": int(steps),
+        "every": int(every),
+        "omega_dt": float(dt) * scene.omega,
+        "periods": float(dt) * steps / scene.period,
+        "status": traj.status,
+        "detail": traj.detail,
+        "failed_step": traj.failed_step,
+    }
     if traj.q.shape[0] == 0:
         out.update(classification=None, rule=f"no states recorded ({traj.status})")
         return out
@@ -257,8 +299,12 @@ def energy_behaviour(method, scene: Scene, dt: float, steps: int, *, every: int 
 
         say("energy: the state error against the exact or reference solution")
         err = run_error(method, scene, traj, timeout)
-        out.update(state_error_max=err["error_max"], state_error_final=err["error_final"],
-                   state_error_source=err["source"], state_error_t_compared=err["t_compared"])
+        out.update(
+            state_error_max=err["error_max"],
+            state_error_final=err["error_final"],
+            state_error_source=err["source"],
+            state_error_t_compared=err["t_compared"],
+        )
     if series:
         out["t"] = traj.t
         out["rel_error"] = rel

@@ -14,8 +14,8 @@ The true state is ``scene.closed_form(t)`` where that exists; otherwise the scen
 ``reference_solution(t)`` where it provides one (a solve of the scene's true model, vectorised
 and cached: the rope's reduced model, the solar system's pair sum), trusted up to the scene's
 ``reference_horizon``: the error is then measured over ``t <= reference_horizon`` only
-(``horizon`` in the result says how far, ``t_compared`` the last time compared; the energy needs no reference and covers the whole
-run). Otherwise scipy's DOP853 at ``rtol = 1e-13`` (``atol`` 1e-15 of the initial state's
+(``horizon`` in the result says how far, ``t_compared`` the last time compared; the energy needs no reference and
+covers the whole run). Otherwise scipy's DOP853 at ``rtol = 1e-13`` (``atol`` 1e-15 of the initial state's
 size) on the scene's force kernel, computed once per (scene, parameters, times) and cached
 for the process. A reference is trusted to about 1e-11 relative, so smaller errors are not
 measured (``order`` leaves them out).
@@ -31,6 +31,7 @@ run; ``source`` says so. The order measured from these estimates is the slope of
 differences, which falls as dt^p for a method of order p whatever p was assumed (the factor
 is a constant).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -53,7 +54,7 @@ REFERENCE_FLOOR = 1e-11
 #: Reference solves kept per process.
 CACHE_SIZE = 64
 
-_CACHE: "OrderedDict[tuple, tuple[np.ndarray, np.ndarray]]" = OrderedDict()
+_CACHE: OrderedDict[tuple, tuple[np.ndarray, np.ndarray]] = OrderedDict()
 
 
 def reference_solution(scene: Scene, t) -> tuple[np.ndarray, np.ndarray]:
@@ -80,8 +81,9 @@ def reference_solution(scene: Scene, t) -> tuple[np.ndarray, np.ndarray]:
         ys = np.tile(y0, (len(t), 1))
     else:
         atol = REFERENCE_ATOL_REL * max(1.0, float(np.max(np.abs(y0))))
-        sol = solve_ivp(rhs, (0.0, t_end), y0, method="DOP853", t_eval=np.sort(np.unique(t)),
-                        rtol=REFERENCE_RTOL, atol=atol)
+        sol = solve_ivp(
+            rhs, (0.0, t_end), y0, method="DOP853", t_eval=np.sort(np.unique(t)), rtol=REFERENCE_RTOL, atol=atol
+        )
         if not sol.success:
             raise RuntimeError(f"reference solve of {scene.id} failed: {sol.message}")
         ys = sol.y.T[np.searchsorted(sol.t, t)]
@@ -128,15 +130,35 @@ def trajectory_error(traj: Trajectory, scene: Scene) -> dict:
     error_max = float(np.max(err))
     if source != "exact" and not scene.reference_judges():
         # A reference that did not converge judges nothing: its error is no bound on anything.
-        return {"error_max": None, "error_final": None, "t_final": float(traj.t[-1]), "t_compared": float(t[-1]),
-                "horizon": None if horizon == float("inf") else horizon, "compared_all": bool(keep.all()),
-                "scale": scale, "source": source, "series": err, "series_t": t, "reference_error": accuracy,
-                "below_reference": False, "not_judged": f"not judged: the reference did not converge "
-                                                        f"({scene.reference_description()})"}
-    return {"error_max": error_max, "error_final": float(err[-1]), "t_final": float(traj.t[-1]),
-            "t_compared": float(t[-1]), "horizon": None if horizon == float("inf") else horizon,
-            "compared_all": bool(keep.all()), "scale": scale, "source": source, "series": err, "series_t": t,
-            "reference_error": accuracy, "below_reference": bool(error_max <= accuracy)}
+        return {
+            "error_max": None,
+            "error_final": None,
+            "t_final": float(traj.t[-1]),
+            "t_compared": float(t[-1]),
+            "horizon": None if horizon == float("inf") else horizon,
+            "compared_all": bool(keep.all()),
+            "scale": scale,
+            "source": source,
+            "series": err,
+            "series_t": t,
+            "reference_error": accuracy,
+            "below_reference": False,
+            "not_judged": f"not judged: the reference did not converge ({scene.reference_description()})",
+        }
+    return {
+        "error_max": error_max,
+        "error_final": float(err[-1]),
+        "t_final": float(traj.t[-1]),
+        "t_compared": float(t[-1]),
+        "horizon": None if horizon == float("inf") else horizon,
+        "compared_all": bool(keep.all()),
+        "scale": scale,
+        "source": source,
+        "series": err,
+        "series_t": t,
+        "reference_error": accuracy,
+        "below_reference": bool(error_max <= accuracy),
+    }
 
 
 def measured_against_own_run(method, scene: Scene) -> bool:
@@ -146,8 +168,9 @@ def measured_against_own_run(method, scene: Scene) -> bool:
     return scene.reference_engine is not None and method.family != scene.reference_engine
 
 
-def richardson(scene: Scene, coarse: Trajectory, fine: Trajectory, order: int, scale: float | None = None,
-               n: int | None = None):
+def richardson(
+    scene: Scene, coarse: Trajectory, fine: Trajectory, order: int, scale: float | None = None, n: int | None = None
+):
     """(estimate, difference series, scale): the error of ``coarse`` from the same method's run at
     half its step (``fine``, recorded at the same times), over their first ``n`` records (default
     all), ``||y_c - y_f|| / (1 - 2^-p)`` relative to ``scale`` (default: the largest size of the
@@ -157,7 +180,7 @@ def richardson(scene: Scene, coarse: Trajectory, fine: Trajectory, order: int, s
     if scale is None:
         scale = float(np.max(np.linalg.norm(yf, axis=-1)))
     with np.errstate(all="ignore"):
-        series = np.linalg.norm(yc - yf, axis=-1) / scale / (1.0 - 2.0 ** -order)
+        series = np.linalg.norm(yc - yf, axis=-1) / scale / (1.0 - 2.0**-order)
     return float(np.max(series)), series, scale
 
 
@@ -173,20 +196,40 @@ def own_run_error(method, scene: Scene, traj: Trajectory, timeout: float | None 
     keep = traj.t <= horizon
     steps = int(round(float(traj.t[keep][-1]) / dt))
     order = declared_order(method, scene) or 1
-    why = ("no other engine's reference: only pybullet loads the file" if scene.own_run_reference else
-           f"{scene.reference_engine}'s reference is another model")
+    why = (
+        "no other engine's reference: only pybullet loads the file"
+        if scene.own_run_reference
+        else f"{scene.reference_engine}'s reference is another model"
+    )
     source = f"own run at dt/2 (Richardson, order {order}): {why}"
-    none = {"error_max": None, "error_final": None, "t_compared": None, "scale": None, "source": source,
-            "reference_error": None, "below_reference": False}
+    none = {
+        "error_max": None,
+        "error_final": None,
+        "t_compared": None,
+        "scale": None,
+        "source": source,
+        "reference_error": None,
+        "below_reference": False,
+    }
     fine = step(method, scene, dt / 2, 2 * steps, 2 * every, timeout)
     n = int(keep.sum())
     if not fine.ok or fine.q.shape[0] < n:
         return {**none, "detail": f"the refined run {fine.status}: {fine.detail}"}
     error_max, series, scale = richardson(scene, traj, fine, order, n=n)
-    return {"error_max": error_max, "error_final": float(series[-1]), "t_final": float(traj.t[-1]),
-            "t_compared": float(traj.t[n - 1]), "horizon": None if horizon == float("inf") else horizon,
-            "compared_all": bool(keep.all()), "scale": scale, "source": source, "series": series,
-            "series_t": traj.t[:n], "reference_error": error_max * 2.0 ** -order, "below_reference": False}
+    return {
+        "error_max": error_max,
+        "error_final": float(series[-1]),
+        "t_final": float(traj.t[-1]),
+        "t_compared": float(traj.t[n - 1]),
+        "horizon": None if horizon == float("inf") else horizon,
+        "compared_all": bool(keep.all()),
+        "scale": scale,
+        "source": source,
+        "series": series,
+        "series_t": traj.t[:n],
+        "reference_error": error_max * 2.0**-order,
+        "below_reference": False,
+    }
 
 
 def run_error(method, scene: Scene, traj: Trajectory, timeout: float | None = None) -> dict:
@@ -208,8 +251,9 @@ def reference_accuracy(scene: Scene, t, source: str) -> float:
     return REFERENCE_FLOOR if own is None else float(own)
 
 
-def global_error(method, scene: Scene, dt: float, steps: int, *, timeout: float | None = None,
-                 series: bool = False) -> dict:
+def global_error(
+    method, scene: Scene, dt: float, steps: int, *, timeout: float | None = None, series: bool = False
+) -> dict:
     """Step ``method`` for ``steps`` steps of ``dt`` and measure its global error.
 
     Returns ``error_max``/``error_final`` (None if the run failed), the run's ``status``,
@@ -217,9 +261,17 @@ def global_error(method, scene: Scene, dt: float, steps: int, *, timeout: float 
     at every step."""
     method = resolve(method, scene)
     traj = step(method, scene, dt, steps, 1, timeout)
-    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": float(dt),
-           "steps": int(steps), "status": traj.status, "detail": traj.detail,
-           "force_evals": traj.force_evals, "solves": traj.solves}
+    out = {
+        "scene": scene.id,
+        "params": dict(scene.values),
+        "method": method.id,
+        "dt": float(dt),
+        "steps": int(steps),
+        "status": traj.status,
+        "detail": traj.detail,
+        "force_evals": traj.force_evals,
+        "solves": traj.solves,
+    }
     if traj.ok:
         err = run_error(method, scene, traj, timeout)
         if series:

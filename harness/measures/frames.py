@@ -1,4 +1,5 @@
 """Measurement results as plain JSON values and as tidy DataFrames (one row per measured cell)."""
+
 from __future__ import annotations
 
 import math

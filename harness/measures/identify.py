@@ -22,6 +22,7 @@ the scheme that stays within roundoff of the method longest among those that do 
 show their difference at the step where they part. Where nothing matches, every scheme runs in
 full and the closest is the one of smallest max |diff|.
 """
+
 from __future__ import annotations
 
 import math
@@ -103,8 +104,9 @@ def precision_of(method) -> str:
 def float32_inputs(scene: Scene, dt: float) -> tuple[Scene, float]:
     """The scene with each real parameter rounded to float32, and dt rounded: what a float32
     engine is given. A scene that cannot be rebuilt from its values (a model file's) keeps them."""
-    rounded = {name: float(np.float32(value)) if isinstance(value, float) else value
-               for name, value in scene.values.items()}
+    rounded = {
+        name: float(np.float32(value)) if isinstance(value, float) else value for name, value in scene.values.items()
+    }
     if rounded != dict(scene.values):
         try:
             scene = scene.copy_with(**rounded)
@@ -117,8 +119,9 @@ def rounded_to_float32(traj: Trajectory) -> Trajectory:
     """The run with its states rounded to float32 (what a float32 engine can hold)."""
     import dataclasses
 
-    return dataclasses.replace(traj, q=np.asarray(traj.q, dtype=np.float32).astype(float),
-                               v=np.asarray(traj.v, dtype=np.float32).astype(float))
+    return dataclasses.replace(
+        traj, q=np.asarray(traj.q, dtype=np.float32).astype(float), v=np.asarray(traj.v, dtype=np.float32).astype(float)
+    )
 
 
 def max_deviation(a: Trajectory, b: Trajectory) -> float:
@@ -153,8 +156,17 @@ def candidate_run(ref, scene: Scene, dt: float, steps: int, interpreted: bool = 
     if not interpreted and ref.compiled_where_bitwise and not _loop_compiled(ref, scene):
         interpreted = True  # a candidate's run never compiles a loop: the same bits, interpreted
     backend = "interpreted" if interpreted else ref.compiled_where_bitwise
-    key = (ref.id, tuple(sorted(ref.options.items())), scene.id, tuple(sorted(scene.values.items())),
-           q0.tobytes(), v0.tobytes(), float(dt), int(steps), backend)
+    key = (
+        ref.id,
+        tuple(sorted(ref.options.items())),
+        scene.id,
+        tuple(sorted(scene.values.items())),
+        q0.tobytes(),
+        v0.tobytes(),
+        float(dt),
+        int(steps),
+        backend,
+    )
     kept, bound = (_SCREENS, SCREENS_KEPT) if interpreted else (_CANDIDATES, CANDIDATES_KEPT)
     if key not in kept:
         if len(kept) >= bound:
@@ -247,8 +259,8 @@ class Candidate(Result):
     max_deviation: float
     status: str
     matches: bool
-    steps: int | None = None       # the steps its deviation is over (the run's where it ran in full)
-    within: int | None = None      # the last step up to which it stays within the tolerance (None: all)
+    steps: int | None = None  # the steps its deviation is over (the run's where it ran in full)
+    within: int | None = None  # the last step up to which it stays within the tolerance (None: all)
 
 
 @dataclass(frozen=True)
@@ -260,19 +272,19 @@ class IdentityResult(Result):
     params: dict
     dt: float
     steps: int
-    status: str                                # the method's run
+    status: str  # the method's run
     detail: str
     engine_version: str | None
     settings: dict | None
-    tolerance: float | None = None             # a deviation within it is a match
-    precision: str = "float64"                 # the method's; float32: compared at float32 inputs
-    matches: list = field(default_factory=list)    # every scheme matched, closest first
+    tolerance: float | None = None  # a deviation within it is a match
+    precision: str = "float64"  # the method's; float32: compared at float32 inputs
+    matches: list = field(default_factory=list)  # every scheme matched, closest first
     match: str | None = None
-    max_deviation: float | None = None         # the closest scheme's
-    runner_up: Candidate | None = None         # the closest scheme that is not the answer
+    max_deviation: float | None = None  # the closest scheme's
+    runner_up: Candidate | None = None  # the closest scheme that is not the answer
     candidates: list = field(default_factory=list)  # every Candidate, closest first
-    why_no_match: str | None = None            # what the engine mode records, where nothing matches
-    screen_steps: int | None = None            # the screen's longest run (None: every scheme ran in full)
+    why_no_match: str | None = None  # what the engine mode records, where nothing matches
+    screen_steps: int | None = None  # the screen's longest run (None: every scheme ran in full)
 
     @property
     def closest(self) -> Candidate | None:
@@ -283,13 +295,24 @@ def candidate_methods(scene: Scene, compiled_where_bitwise: bool = False) -> dic
     """The reference schemes ``identify`` compares a method with on ``scene``, by id: each that runs
     there, but a scheme that is another there, update for update (``same_without_velocity``): that
     one is the candidate."""
-    return {mid: ref for mid, ref in all_methods(compiled_where_bitwise).items()
-            if ref.family == REFERENCE and ref.supports(scene)[0]
-            and (scene.velocity_dependent or not ref.scheme.same_without_velocity)}
+    return {
+        mid: ref
+        for mid, ref in all_methods(compiled_where_bitwise).items()
+        if ref.family == REFERENCE
+        and ref.supports(scene)[0]
+        and (scene.velocity_dependent or not ref.scheme.same_without_velocity)
+    }
 
 
-def identify(method, scene: Scene, dt: float | None = None, steps: int | None = None,
-             timeout: float | None = None, compiled_where_bitwise: bool = False, progress=None) -> IdentityResult:
+def identify(
+    method,
+    scene: Scene,
+    dt: float | None = None,
+    steps: int | None = None,
+    timeout: float | None = None,
+    compiled_where_bitwise: bool = False,
+    progress=None,
+) -> IdentityResult:
     """Rank every reference scheme by its deviation from ``method`` on ``scene``;
     ``compiled_where_bitwise``: the candidates step on their compiled loops wherever those compute
     the interpreted bits (else interpreted); ``progress``: told a line before each run (a
@@ -302,9 +325,18 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     say(f"identify: stepping {method.id}, {steps} steps at dt {dt:.6g}{where}")
     run = simulate(method, scene, dt, steps, 1, timeout=timeout)
     precision = precision_of(method)
-    out = {"method": method.id, "scene": scene.id, "params": dict(scene.values), "dt": dt, "steps": steps,
-           "status": run.status, "detail": run.detail,
-           "engine_version": run.meta.engine_version, "settings": run.meta.settings, "precision": precision}
+    out = {
+        "method": method.id,
+        "scene": scene.id,
+        "params": dict(scene.values),
+        "dt": dt,
+        "steps": steps,
+        "status": run.status,
+        "detail": run.detail,
+        "engine_version": run.meta.engine_version,
+        "settings": run.meta.settings,
+        "precision": precision,
+    }
     if run.status not in (OK, UNSTABLE):
         return IdentityResult(**out)
     scale = max(1.0, float(np.max(np.abs(run.q), initial=0.0)), float(np.max(np.abs(run.v), initial=0.0)))
@@ -312,8 +344,7 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     # The candidates run on what the method was given: a float32 engine's inputs rounded.
     c_scene, c_dt = float32_inputs(scene, dt) if precision == "float32" else (scene, dt)
     as_held = rounded_to_float32 if precision == "float32" else (lambda traj: traj)
-    refs = [(mid, ref) for mid, ref in candidate_methods(scene, compiled_where_bitwise).items()
-            if mid != method.id]
+    refs = [(mid, ref) for mid, ref in candidate_methods(scene, compiled_where_bitwise).items() if mid != method.id]
     order = {mid: i for i, (mid, _) in enumerate(refs)}
     # The screen needs the method's every step from 0 on, and a run long enough to shorten.
     screening = run.status == OK and steps > UNSCREENED_STEPS and np.array_equal(run.step, np.arange(steps + 1))
@@ -343,8 +374,9 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
         # The runner-up, in full: of the schemes that do not match, the one that stays within longest.
         runner = min(parted.values(), key=lambda c: (-c.within, c.max_deviation, order[c.method]))
         run_in_full([(runner.method, dict(refs)[runner.method])])
-    candidates = (sorted(full.values(), key=lambda c: (c.max_deviation, order[c.method]))
-                  + sorted(parted.values(), key=lambda c: (-c.within, c.max_deviation, order[c.method])))
+    candidates = sorted(full.values(), key=lambda c: (c.max_deviation, order[c.method])) + sorted(
+        parted.values(), key=lambda c: (-c.within, c.max_deviation, order[c.method])
+    )
     matches = [c.method for c in candidates if c.matches]
     if not matches:
         # What the engine mode itself records, measured, about why nothing can match here.
@@ -352,11 +384,17 @@ def identify(method, scene: Scene, dt: float | None = None, steps: int | None = 
     best = candidates[0] if candidates else None
     # The runner-up is the closest scheme that is not the answer: the first non-match after
     # a match, the second-closest when nothing matches.
-    others = [c for c in candidates[0 if matches else 1:] if not c.matches]
-    return IdentityResult(**out, tolerance=tolerance, matches=matches, match=matches[0] if matches else None,
-                          max_deviation=best.max_deviation if best else None,
-                          runner_up=others[0] if others else None, candidates=candidates,
-                          screen_steps=longest if screening else None)
+    others = [c for c in candidates[0 if matches else 1 :] if not c.matches]
+    return IdentityResult(
+        **out,
+        tolerance=tolerance,
+        matches=matches,
+        match=matches[0] if matches else None,
+        max_deviation=best.max_deviation if best else None,
+        runner_up=others[0] if others else None,
+        candidates=candidates,
+        screen_steps=longest if screening else None,
+    )
 
 
 def _deviations(run: Trajectory, traj: Trajectory, n: int) -> np.ndarray:
@@ -367,8 +405,9 @@ def _deviations(run: Trajectory, traj: Trajectory, n: int) -> np.ndarray:
     if not (np.array_equal(traj.step[:m], np.arange(m)) and np.array_equal(run.step[:m], np.arange(m))):
         return d
     with np.errstate(invalid="ignore"):
-        d[:m] = np.maximum(np.max(np.abs(run.q[:m] - traj.q[:m]), axis=(1, 2)),
-                           np.max(np.abs(run.v[:m] - traj.v[:m]), axis=(1, 2)))
+        d[:m] = np.maximum(
+            np.max(np.abs(run.q[:m] - traj.q[:m]), axis=(1, 2)), np.max(np.abs(run.v[:m] - traj.v[:m]), axis=(1, 2))
+        )
     return d
 
 
@@ -384,8 +423,9 @@ def _first_beyond(d: np.ndarray, tolerance: float) -> int | None:
     return int(beyond[0]) if beyond.size else None
 
 
-def _screen(run: Trajectory, mid: str, ref, scene: Scene, dt: float, tolerance: float, as_held,
-            longest: int) -> Candidate | None:
+def _screen(
+    run: Trajectory, mid: str, ref, scene: Scene, dt: float, tolerance: float, as_held, longest: int
+) -> Candidate | None:
     """``mid`` as the screen rules it out: its interpreted runs of 1, 2, 4, ... up to ``longest``
     steps held against the method's first steps, stopped at the first run that
     parts from it beyond ``tolerance``; its deviation up to that step (the first beyond). None:
@@ -396,7 +436,7 @@ def _screen(run: Trajectory, mid: str, ref, scene: Scene, dt: float, tolerance: 
         d = _deviations(run, traj, n)
         k = _first_beyond(d, tolerance)
         if k is not None:
-            return Candidate(mid, float(np.max(d[:k + 1])), traj.status, False, k, k - 1)
+            return Candidate(mid, float(np.max(d[: k + 1])), traj.status, False, k, k - 1)
         if n >= longest:
             return None
         n = min(2 * n, longest)
@@ -406,8 +446,11 @@ def format_report(result: IdentityResult) -> str:
     """The identification as text: the verdict first, then every candidate."""
     family = MethodId.parse(result.method).family
     version = f", {family} {result.engine_version}" if result.engine_version else ""
-    at = (", float32: the schemes run from its inputs rounded to float32, their states rounded"
-          if result.precision == "float32" else "")
+    at = (
+        ", float32: the schemes run from its inputs rounded to float32, their states rounded"
+        if result.precision == "float32"
+        else ""
+    )
     lines = [f"{result.method} on {result.scene}: dt = {result.dt:.6g}, {result.steps} steps{version}{at}"]
     if result.status not in (OK, UNSTABLE):
         lines.append(f"  the run {result.status}: {result.detail}")
@@ -426,9 +469,15 @@ def format_report(result: IdentityResult) -> str:
             lines.append(f"  why: {result.why_no_match}")
     if result.runner_up is not None:
         lines.append(f"  runner-up {result.runner_up.method}: max |diff| = {result.runner_up.max_deviation:.3g}")
-    lines.append("  all schemes, max |diff| in (q, v) over every step" + (
-        f" (over the steps up to where it parts, for a scheme that parts within the first {result.screen_steps})"
-        if result.screen_steps else "") + ":")
+    lines.append(
+        "  all schemes, max |diff| in (q, v) over every step"
+        + (
+            f" (over the steps up to where it parts, for a scheme that parts within the first {result.screen_steps})"
+            if result.screen_steps
+            else ""
+        )
+        + ":"
+    )
     for c in result.candidates:
         mark = "  <- match" if c.matches else ""
         if c.steps is not None and c.steps < result.steps:

@@ -6,6 +6,7 @@ The file is JSON: ``s_per_step`` by method id (``"*"`` for any other), each repe
 measure (``harness.measures.cost``) still runs every timed run; only the figures are replaced,
 and the clock is recorded as ``injected``.
 """
+
 from __future__ import annotations
 
 import json
@@ -29,9 +30,11 @@ def load_injected(path=None) -> dict | None:
         if not isinstance(per_step, dict) or not all(float(v) > 0 for v in per_step.values()):
             raise ValueError("s_per_step must map method ids to seconds > 0")
     except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise InvalidInput(f"{INJECT_VAR}={path}: not an injected-timings file ({exc}); valid: JSON with "
-                           f"s_per_step {{method id or '*': seconds}}, optional jitter [factors], calibration "
-                           f"{{python, compiled}}") from None
+        raise InvalidInput(
+            f"{INJECT_VAR}={path}: not an injected-timings file ({exc}); valid: JSON with "
+            f"s_per_step {{method id or '*': seconds}}, optional jitter [factors], calibration "
+            f"{{python, compiled}}"
+        ) from None
     # What the file leaves out, in one place: no jitter (every repeat the same), no calibration pair.
     return {"jitter": [1.0], "calibration": None, **data}
 

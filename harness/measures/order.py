@@ -26,6 +26,7 @@ The rule, one way for every method:
 * **Fit**: ``scipy.stats.linregress`` of log(error) on log(dt) over the points used;
   at least MIN_USED points or no order is reported.
 """
+
 from __future__ import annotations
 
 import math
@@ -59,8 +60,17 @@ def _horizon_steps(scene: Scene, dt: float, horizon: float) -> tuple[float, int]
     return horizon / steps, steps
 
 
-def choose_timesteps(method, scene: Scene, *, points: int = 8, span: float = 8.0, periods: float = 0.5,
-                     order: int | None = None, timeout: float | None = None, progress=None) -> dict:
+def choose_timesteps(
+    method,
+    scene: Scene,
+    *,
+    points: int = 8,
+    span: float = 8.0,
+    periods: float = 0.5,
+    order: int | None = None,
+    timeout: float | None = None,
+    progress=None,
+) -> dict:
     """The dt sweep by the rule in the module docstring, with the pilot runs that chose it;
     ``progress``: told a line before each pilot run."""
     method = resolve(method, scene)
@@ -84,19 +94,34 @@ def choose_timesteps(method, scene: Scene, *, points: int = 8, span: float = 8.0
             break
         dt /= 4.0
     else:
-        return {"dts": None, "order_used": p, "order_source": source, "top_error": top_error(p), "pilots": pilots,
-                "reason": f"no pilot run with error below {EXCLUDE_ERROR:g} down to dt={pilots[-1]['dt']:g}"}
+        return {
+            "dts": None,
+            "order_used": p,
+            "order_source": source,
+            "top_error": top_error(p),
+            "pilots": pilots,
+            "reason": f"no pilot run with error below {EXCLUDE_ERROR:g} down to dt={pilots[-1]['dt']:g}",
+        }
     if err > 0.0:
         dt_max = min(dt * (top_error(p) / err) ** (1.0 / p), 4.0 * dt)
     else:
         dt_max = dt
     dts = dt_max * span ** (-np.arange(points) / (points - 1))
-    return {"dts": dts.tolist(), "order_used": p, "order_source": source,
-            "top_error": top_error(p), "pilots": pilots}
+    return {"dts": dts.tolist(), "order_used": p, "order_source": source, "top_error": top_error(p), "pilots": pilots}
 
 
-def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, periods: float = 0.5,
-                   order: int | None = None, dts=None, timeout: float | None = None, progress=None) -> dict:
+def observed_order(
+    method,
+    scene: Scene,
+    *,
+    points: int = 8,
+    span: float = 8.0,
+    periods: float = 0.5,
+    order: int | None = None,
+    dts=None,
+    timeout: float | None = None,
+    progress=None,
+) -> dict:
     """Observed order of ``method`` on ``scene``: slope, the points used and those left out.
 
     ``order`` only steers the dt range (default: the declared order); ``dts`` fixes the
@@ -111,8 +136,9 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
     horizon = periods * scene.period
     choice: dict = {}
     if dts is None:
-        choice = choose_timesteps(method, scene, points=points, span=span, periods=periods, order=order,
-                                  timeout=timeout, progress=progress)
+        choice = choose_timesteps(
+            method, scene, points=points, span=span, periods=periods, order=order, timeout=timeout, progress=progress
+        )
         dts = choice["dts"] or []
     used, excluded = [], []
     for i, dt in enumerate(sorted(float(x) for x in dts), 1):
@@ -121,8 +147,14 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
             progress(f"order: point {i} of {len(dts)} (dt {dt:.6g}, {steps} steps)")
         res = global_error(method, scene, dt, steps, timeout=timeout)
         err = res["error_max"]
-        point = {"dt": dt, "omega_dt": dt * scene.omega, "steps": steps, "error": err,
-                 "status": res["status"], "force_evals": res["force_evals"]}
+        point = {
+            "dt": dt,
+            "omega_dt": dt * scene.omega,
+            "steps": steps,
+            "error": err,
+            "status": res["status"],
+            "force_evals": res["force_evals"],
+        }
         floor = ROUNDOFF_FACTOR * EPS * steps
         accuracy = res["reference_error"] or 0.0
         if res["status"] == "ok" and res.get("not_judged"):
@@ -136,16 +168,30 @@ def observed_order(method, scene: Scene, *, points: int = 8, span: float = 8.0, 
         elif err <= accuracy:
             point["reason"] = f"roundoff floor: below the reference's accuracy ({accuracy:.3g})"
         (excluded if "reason" in point else used).append(point)
-    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id,
-           "order_declared": declared_order(method, scene), "horizon": horizon, "periods": periods,
-           "points": used, "excluded": excluded, "order": None, "stderr": None, "rvalue": None}
+    out = {
+        "scene": scene.id,
+        "params": dict(scene.values),
+        "method": method.id,
+        "order_declared": declared_order(method, scene),
+        "horizon": horizon,
+        "periods": periods,
+        "points": used,
+        "excluded": excluded,
+        "order": None,
+        "stderr": None,
+        "rvalue": None,
+    }
     if choice:
         out["range"] = {k: v for k, v in choice.items() if k != "dts"}
     if len(used) >= MIN_USED:
-        from scipy.stats import linregress  # here: most processes importing this module never fit, and scipy.stats is a large import
+        from scipy.stats import (
+            linregress,
+        )  # here: most processes importing this module never fit, and scipy.stats is a large import
+
         fit = linregress(np.log([u["dt"] for u in used]), np.log([u["error"] for u in used]))
-        out.update(order=float(fit.slope), stderr=float(fit.stderr), rvalue=float(fit.rvalue),
-                   intercept=float(fit.intercept))
+        out.update(
+            order=float(fit.slope), stderr=float(fit.stderr), rvalue=float(fit.rvalue), intercept=float(fit.intercept)
+        )
     else:
         out["reason"] = choice.get("reason") or f"only {len(used)} usable points (need {MIN_USED})"
     return out

@@ -1,6 +1,7 @@
 """``ref:verlet_constrained`` on ``rope`` against the number of projection passes per step:
 constraint error (relative stretch), energy behaviour, error against the reference solution
 and compiled cost per step."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -10,8 +11,14 @@ from reference import METHODS, integrate, time_per_step
 from scenarios import make_scene
 
 
-def rope_vs_iterations(iterations=(1, 2, 4, 8, 16, 32, 64), dt: float = 1e-3, t_end: float = 2.0,
-                       timing: bool = True, timing_steps: int = 2000, **scene_params) -> pd.DataFrame:
+def rope_vs_iterations(
+    iterations=(1, 2, 4, 8, 16, 32, 64),
+    dt: float = 1e-3,
+    t_end: float = 2.0,
+    timing: bool = True,
+    timing_steps: int = 2000,
+    **scene_params,
+) -> pd.DataFrame:
     """One row per pass count K. Columns:
 
     * ``max_stretch`` / ``final_stretch``: largest and last max_j |d_j - l|/l of the run;
@@ -33,13 +40,19 @@ def rope_vs_iterations(iterations=(1, 2, 4, 8, 16, 32, 64), dt: float = 1e-3, t_
         stretch = scene.constraint_error(q)
         sel = tr.t <= min(t_end, scene.reference_horizon)
         q_ref, _ = scene.reference_solution(tr.t[sel])
-        row = {"iterations": int(k), "dt": dt, "t_end": t_end, "status": tr.status,
-               "max_stretch": float(np.max(stretch)), "final_stretch": float(stretch[-1]),
-               "energy_change": float((energy[-1] - e0) / e0),
-               "max_energy_change": float(np.max(np.abs(energy - e0)) / e0),
-               "max_position_error": float(np.max(np.abs(q[sel] - q_ref))),
-               "force_evals_per_step": tr.force_evals / steps,
-               "projections_per_step": tr.meta.projections / steps}
+        row = {
+            "iterations": int(k),
+            "dt": dt,
+            "t_end": t_end,
+            "status": tr.status,
+            "max_stretch": float(np.max(stretch)),
+            "final_stretch": float(stretch[-1]),
+            "energy_change": float((energy[-1] - e0) / e0),
+            "max_energy_change": float(np.max(np.abs(energy - e0)) / e0),
+            "max_position_error": float(np.max(np.abs(q[sel] - q_ref))),
+            "force_evals_per_step": tr.force_evals / steps,
+            "projections_per_step": tr.meta.projections / steps,
+        }
         if timing:
             t = time_per_step(scheme, scene, dt, timing_steps, iterations=int(k))
             row["ns_per_step"] = t["s_per_step"] * 1e9

@@ -9,6 +9,7 @@ On ``cloth`` the implicit schemes solve the sheet's sparse system: a banded fact
 by h omega_max. The sizes keep the mass of each node (``CLOTH_NODE_MASS``), so that omega_max and
 h omega_max stay the same at every size and only the number of masses grows.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -28,8 +29,15 @@ def cloth_sizes(sides=(8, 12, 16, 24, 32)) -> list[dict]:
     return [{"n": int(k), "m": int(k), "mass": k * k * CLOTH_NODE_MASS} for k in sides]
 
 
-def cost_vs_size(scene_id: str, sizes: list[dict], scheme: str = "implicit_euler", dt: float = 1e-3,
-                 repeats: int = 5, work_per_call: int = WORK_PER_CALL, min_steps: int = 20) -> pd.DataFrame:
+def cost_vs_size(
+    scene_id: str,
+    sizes: list[dict],
+    scheme: str = "implicit_euler",
+    dt: float = 1e-3,
+    repeats: int = 5,
+    work_per_call: int = WORK_PER_CALL,
+    min_steps: int = 20,
+) -> pd.DataFrame:
     """Compiled cost per step of ``ref:<scheme>`` on ``scene_id`` at each parameter set of ``sizes``
     (the minimum over ``repeats`` timed calls). Columns: ndof (the unknowns), the size's
     parameters, steps, s_per_step, median_s_per_step, ns_per_dof_step. ``frame.attrs``: ``slope``
@@ -41,18 +49,41 @@ def cost_vs_size(scene_id: str, sizes: list[dict], scheme: str = "implicit_euler
         n = scene.ndof
         steps = int(np.clip(work_per_call // n, min_steps, 200_000))
         t = time_per_step(s, scene, dt, steps, repeats=repeats)
-        rows.append({"ndof": int(n), **params, "steps": steps, "s_per_step": t["s_per_step"],
-                     "median_s_per_step": t["median_s_per_step"], "ns_per_dof_step": t["s_per_step"] * 1e9 / n})
+        rows.append(
+            {
+                "ndof": int(n),
+                **params,
+                "steps": steps,
+                "s_per_step": t["s_per_step"],
+                "median_s_per_step": t["median_s_per_step"],
+                "ns_per_dof_step": t["s_per_step"] * 1e9 / n,
+            }
+        )
     frame = pd.DataFrame(rows)
-    from scipy.stats import linregress  # here: most processes importing this module never fit, and scipy.stats is a large import
+    from scipy.stats import (
+        linregress,
+    )  # here: most processes importing this module never fit, and scipy.stats is a large import
+
     fit = linregress(np.log(frame["ndof"]), np.log(frame["s_per_step"]))
-    frame.attrs.update({"method": f"ref:{scheme}", "scene": scene_id, "slope": float(fit.slope),
-                        "intercept": float(fit.intercept), "rvalue": float(fit.rvalue)})
+    frame.attrs.update(
+        {
+            "method": f"ref:{scheme}",
+            "scene": scene_id,
+            "slope": float(fit.slope),
+            "intercept": float(fit.intercept),
+            "rvalue": float(fit.rvalue),
+        }
+    )
     return frame
 
 
-def implicit_cost_vs_n(ns=(10, 100, 1000, 10000), scheme: str = "implicit_euler", dt: float = 1e-3,
-                       repeats: int = 5, work_per_call: int = WORK_PER_CALL) -> pd.DataFrame:
+def implicit_cost_vs_n(
+    ns=(10, 100, 1000, 10000),
+    scheme: str = "implicit_euler",
+    dt: float = 1e-3,
+    repeats: int = 5,
+    work_per_call: int = WORK_PER_CALL,
+) -> pd.DataFrame:
     """``cost_vs_size`` on ``chain`` at each N (column N as well as ndof)."""
     frame = cost_vs_size("chain", [{"N": int(n)} for n in ns], scheme, dt, repeats, work_per_call)
     return frame

@@ -32,6 +32,7 @@ the stretch rows say "not the paper's case" (their figures still shown), and the
 study again on the scene with every spring stiff (``STIFF``: k = k_shear = k_bend = 1e5 on the
 4 x 4 sheet, whose reference stretches 0.29%).
 """
+
 from __future__ import annotations
 
 import math
@@ -67,15 +68,36 @@ def _runs(scene, scheme_id: str, dt: float, steps: int, options: dict):
     return RefMethod(METHODS[scheme_id], options, compiled_where_bitwise=True).simulate(scene, dt, steps, 1)
 
 
-def _row(scene, label: str, scheme_id: str, options: dict, hz: float, steps_per_frame: int, t_end: float,
-         timing: bool, timing_frames: int, repeats: int) -> dict:
+def _row(
+    scene,
+    label: str,
+    scheme_id: str,
+    options: dict,
+    hz: float,
+    steps_per_frame: int,
+    t_end: float,
+    timing: bool,
+    timing_frames: int,
+    repeats: int,
+) -> dict:
     from harness.methods import RefMethod
 
     scheme = METHODS[scheme_id]
-    row = {"scene": scene.id, "config": label, "method": f"ref:{scheme_id}", "substeps": options.get("substeps"),
-           "iterations": options.get("iterations"), "steps_per_frame": steps_per_frame, "hz": hz,
-           "status": "ok", "detail": "", "energy_retained": None, "stretch": None, "error": None,
-           "cost_per_frame_s": None}
+    row = {
+        "scene": scene.id,
+        "config": label,
+        "method": f"ref:{scheme_id}",
+        "substeps": options.get("substeps"),
+        "iterations": options.get("iterations"),
+        "steps_per_frame": steps_per_frame,
+        "hz": hz,
+        "status": "ok",
+        "detail": "",
+        "energy_retained": None,
+        "stretch": None,
+        "error": None,
+        "cost_per_frame_s": None,
+    }
     ok, why = RefMethod(scheme, options).supports(scene)
     if not ok:
         return {**row, "status": "not run", "detail": why}
@@ -94,8 +116,7 @@ def _row(scene, label: str, scheme_id: str, options: dict, hz: float, steps_per_
             q_ref, _ = scene.reference_solution(t[sel])
             row["error"] = float(np.max(np.abs(q[sel] - q_ref)))
     if timing and tr.status == "ok":
-        res = time_per_step(scheme, scene, dt, timing_frames * steps_per_frame, repeats=repeats, clock="cpu",
-                            **options)
+        res = time_per_step(scheme, scene, dt, timing_frames * steps_per_frame, repeats=repeats, clock="cpu", **options)
         row["cost_per_frame_s"] = res["s_per_step"] * steps_per_frame
     return row
 
@@ -137,42 +158,98 @@ def stiff_params(scene_id: str, **scene_params) -> dict | None:
     return {**scene_params, **STIFF}
 
 
-def small_steps(scene_id: str, hz: float = 60.0, t_end: float = 2.0, passes=PASSES, timing: bool = True,
-                timing_frames: int = 60, repeats: int = 3, **scene_params) -> pd.DataFrame:
+def small_steps(
+    scene_id: str,
+    hz: float = 60.0,
+    t_end: float = 2.0,
+    passes=PASSES,
+    timing: bool = True,
+    timing_frames: int = 60,
+    repeats: int = 3,
+    **scene_params,
+) -> pd.DataFrame:
     """The study's rows on one scene (module docstring), ``attrs`` its settings."""
     scene = make_scene(scene_id, **scene_params)
     t0 = time.process_time()
     rows = []
     for n in passes:
-        rows.append(_row(scene, f"xpbd {n} substeps x 1", "xpbd", {"substeps": int(n), "iterations": 1}, hz, 1,
-                         t_end, timing, timing_frames, repeats))
+        rows.append(
+            _row(
+                scene,
+                f"xpbd {n} substeps x 1",
+                "xpbd",
+                {"substeps": int(n), "iterations": 1},
+                hz,
+                1,
+                t_end,
+                timing,
+                timing_frames,
+                repeats,
+            )
+        )
         if n > 1:
-            rows.append(_row(scene, f"xpbd 1 step x {n}", "xpbd", {"substeps": 1, "iterations": int(n)}, hz, 1,
-                             t_end, timing, timing_frames, repeats))
+            rows.append(
+                _row(
+                    scene,
+                    f"xpbd 1 step x {n}",
+                    "xpbd",
+                    {"substeps": 1, "iterations": int(n)},
+                    hz,
+                    1,
+                    t_end,
+                    timing,
+                    timing_frames,
+                    repeats,
+                )
+            )
     for sid in IMPLICIT:
         rows.append(_row(scene, sid.replace("_", " "), sid, {}, hz, 1, t_end, timing, timing_frames, repeats))
     s, why = explicit_substeps(scene, hz, t_end)
     if s:
-        rows.append(_row(scene, f"semi-implicit Euler {s} substeps", EXPLICIT, {}, hz, s, t_end, timing,
-                         timing_frames, repeats))
+        rows.append(
+            _row(scene, f"semi-implicit Euler {s} substeps", EXPLICIT, {}, hz, s, t_end, timing, timing_frames, repeats)
+        )
     else:
-        rows.append({"scene": scene.id, "config": "semi-implicit Euler", "method": f"ref:{EXPLICIT}",
-                     "status": "not run", "detail": why, "hz": hz, "steps_per_frame": None})
+        rows.append(
+            {
+                "scene": scene.id,
+                "config": "semi-implicit Euler",
+                "method": f"ref:{EXPLICIT}",
+                "status": "not run",
+                "detail": why,
+                "hz": hz,
+                "steps_per_frame": None,
+            }
+        )
     frame = pd.DataFrame(rows).astype(object).where(lambda f: f.notna(), None)
     frames = int(round(t_end * hz))
     t = np.arange(frames + 1) / hz
     t = t[t <= min(t_end, scene.reference_horizon) + 1e-12]
     frame.attrs.update({"reference_stretch": float(np.max(scene.constraint_error(scene.reference_solution(t)[0])))})
-    frame.attrs.update({"scene": scene.id, "params": dict(scene.values), "hz": hz, "t_end": t_end,
-                        "passes": list(passes), "clock": "cpu", "timing_frames": timing_frames, "repeats": repeats,
-                        "cpu_s": time.process_time() - t0})
+    frame.attrs.update(
+        {
+            "scene": scene.id,
+            "params": dict(scene.values),
+            "hz": hz,
+            "t_end": t_end,
+            "passes": list(passes),
+            "clock": "cpu",
+            "timing_frames": timing_frames,
+            "repeats": repeats,
+            "cpu_s": time.process_time() - t0,
+        }
+    )
     return frame
 
 
 # ----------------------------------------------------------------------------- the claims
 def _pick(frame: pd.DataFrame, substeps: int | None, iterations: int | None, method: str = "ref:xpbd"):
-    rows = frame[(frame["method"] == method) & (frame["substeps"] == substeps) & (frame["iterations"] == iterations)
-                 & (frame["status"] == "ok")]
+    rows = frame[
+        (frame["method"] == method)
+        & (frame["substeps"] == substeps)
+        & (frame["iterations"] == iterations)
+        & (frame["status"] == "ok")
+    ]
     return None if rows.empty else rows.iloc[0]
 
 
@@ -203,18 +280,32 @@ def _fmt(x) -> str:
 
 
 #: The paper's claims: (name, the row key, whether higher is better).
-PAIR_CLAIMS = (("n substeps x 1 pass beat 1 step x n passes in error against the reference", "error", False),
-               ("n substeps x 1 pass beat 1 step x n passes in damping (energy retained)", "energy_retained", True),
-               ("n substeps x 1 pass beat 1 step x n passes in constraint error (stretch, as its distance from "
-                "the reference's)", "stretch_off", False))
-IMPLICIT_CLAIMS = (("XPBD substeps beat {name} in damping at equal cost per frame", "energy_retained", True),
-                   ("XPBD substeps beat {name} in constraint error at equal cost per frame (stretch, as its "
-                    "distance from the reference's)", "stretch_off", False))
+PAIR_CLAIMS = (
+    ("n substeps x 1 pass beat 1 step x n passes in error against the reference", "error", False),
+    ("n substeps x 1 pass beat 1 step x n passes in damping (energy retained)", "energy_retained", True),
+    (
+        "n substeps x 1 pass beat 1 step x n passes in constraint error (stretch, as its distance from "
+        "the reference's)",
+        "stretch_off",
+        False,
+    ),
+)
+IMPLICIT_CLAIMS = (
+    ("XPBD substeps beat {name} in damping at equal cost per frame", "energy_retained", True),
+    (
+        "XPBD substeps beat {name} in constraint error at equal cost per frame (stretch, as its "
+        "distance from the reference's)",
+        "stretch_off",
+        False,
+    ),
+)
 
 
 def _not_the_papers_case(reference_stretch: float) -> str:
-    return (f"not the paper's case: the reference itself stretches {reference_stretch:.3g} (> {PAPERS_CASE:g}: "
-            "soft springs, where a method that damps the motion stretches them less)")
+    return (
+        f"not the paper's case: the reference itself stretches {reference_stretch:.3g} (> {PAPERS_CASE:g}: "
+        "soft springs, where a method that damps the motion stretches them less)"
+    )
 
 
 def claims(frame: pd.DataFrame) -> list[dict]:
@@ -246,8 +337,7 @@ def claims(frame: pd.DataFrame) -> list[dict]:
             wins += _beats(sub, it, key, higher, ref)
             parts.append(f"n={n}: {_fmt(_value(sub, key, ref))} vs {_fmt(_value(it, key, ref))}")
         verdict = "–" if not judged else "✓" if wins == judged else "✗"
-        verdict, figures = said(verdict, f"{wins} of {judged} n; " + "; ".join(parts) if judged else "no pair ran",
-                                key)
+        verdict, figures = said(verdict, f"{wins} of {judged} n; " + "; ".join(parts) if judged else "no pair ran", key)
         out.append({"scene": scene, "claim": claim, "verdict": verdict, "figures": figures})
     subs = frame[(frame["method"] == "ref:xpbd") & (frame["iterations"] == 1) & (frame["status"] == "ok")]
     for sid in IMPLICIT:
@@ -266,14 +356,22 @@ def claims(frame: pd.DataFrame) -> list[dict]:
                 out.append({"scene": scene, "claim": claim, "verdict": "–", "figures": "no cost per frame to match"})
                 continue
             cheaper = within[within["cost_per_frame_s"] <= cost]
-            pick = (cheaper.sort_values("cost_per_frame_s").iloc[-1] if not cheaper.empty
-                    else within.sort_values("cost_per_frame_s").iloc[0])
+            pick = (
+                cheaper.sort_values("cost_per_frame_s").iloc[-1]
+                if not cheaper.empty
+                else within.sort_values("cost_per_frame_s").iloc[0]
+            )
             verdict = "✓" if _beats(pick, imp, key, higher, ref) else "✗"
             what = "|stretch - the reference's|" if key == "stretch_off" else key
-            verdict, figures = said(verdict, (
-                f"xpbd {int(pick['substeps'])} substeps ({pick['cost_per_frame_s'] * 1e6:.3g} µs/frame"
-                f"{'' if not cheaper.empty else ', the cheapest, still costlier'}): {what} "
-                f"{_fmt(_value(pick, key, ref))} vs {_fmt(_value(imp, key, ref))} ({cost * 1e6:.3g} µs/frame)"), key)
+            verdict, figures = said(
+                verdict,
+                (
+                    f"xpbd {int(pick['substeps'])} substeps ({pick['cost_per_frame_s'] * 1e6:.3g} µs/frame"
+                    f"{'' if not cheaper.empty else ', the cheapest, still costlier'}): {what} "
+                    f"{_fmt(_value(pick, key, ref))} vs {_fmt(_value(imp, key, ref))} ({cost * 1e6:.3g} µs/frame)"
+                ),
+                key,
+            )
             out.append({"scene": scene, "claim": claim, "verdict": verdict, "figures": figures})
     return out
 
@@ -310,8 +408,9 @@ def chart(frames: list[pd.DataFrame], path) -> bool:
             ax.set_ylabel(label)
             ax.grid(True, which="both", alpha=0.3)
             if row == 0:
-                ax.set_title(f"{f.attrs.get('scene', '')} at {f.attrs.get('hz', 60):g} Hz, "
-                             f"{f.attrs.get('t_end', 2):g} s")
+                ax.set_title(
+                    f"{f.attrs.get('scene', '')} at {f.attrs.get('hz', 60):g} Hz, {f.attrs.get('t_end', 2):g} s"
+                )
             ax.legend(fontsize=6)
     fig.tight_layout()
     fig.savefig(path)

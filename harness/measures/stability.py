@@ -45,6 +45,7 @@ Where the last step called stable still grows by more than a tenth of RHO_TOL (r
 below that) and half that step grows too, by less, the growth falls away with the step and never
 reaches 1 at any step searched: the verdict is ``unresolved``, with no limit.
 """
+
 from __future__ import annotations
 
 import math
@@ -129,15 +130,27 @@ def one_steps(method: Method, scene: Scene, states: np.ndarray, dt: float, timeo
     results = []
     for y in states:
         if not started_at(scene, y[:n], y[n:]).state_in_params:
-            results.append((None, f"scene {scene.id} cannot start from an arbitrary state through its parameters, "
-                                  f"and {method.id} runs in a worker process"))
+            results.append(
+                (
+                    None,
+                    f"scene {scene.id} cannot start from an arbitrary state through its parameters, "
+                    f"and {method.id} runs in a worker process",
+                )
+            )
         else:
             results.append(_one_step_here(method, scene, y, dt, timeout))
     return results
 
 
-def one_step_map(method, scene: Scene, dt: float, *, timeout: float | None = None,
-                 check_affine: bool = True, base: np.ndarray | None = None) -> dict:
+def one_step_map(
+    method,
+    scene: Scene,
+    dt: float,
+    *,
+    timeout: float | None = None,
+    check_affine: bool = True,
+    base: np.ndarray | None = None,
+) -> dict:
     """The one-step map y_1 = M y_0 + c of ``method`` on a linear ``scene`` at ``dt``,
     measured by stepping unit states (module docstring). Returns ``matrix``, ``offset``,
     ``eigenvalues``, ``rho`` and ``linearity_residual`` (None if ``check_affine`` is off),
@@ -157,12 +170,19 @@ def one_step_map(method, scene: Scene, dt: float, *, timeout: float | None = Non
     for y, why in stepped:
         if y is None:
             return {"rho": None, "reason": why}
-    M = np.array([y - stepped[0][0] for y, _ in stepped[1:2 * n + 1]]).T
+    M = np.array([y - stepped[0][0] for y, _ in stepped[1 : 2 * n + 1]]).T
     c = stepped[0][0] - M @ y_base
     with np.errstate(all="ignore"):
         eig = np.linalg.eigvals(M) if np.all(np.isfinite(M)) else np.full(2 * n, np.nan)
-    out = {"dt": float(dt), "omega_dt": float(dt) * scene.omega, "matrix": M, "offset": c,
-           "eigenvalues": eig, "rho": float(np.max(np.abs(eig))), "linearity_residual": None}
+    out = {
+        "dt": float(dt),
+        "omega_dt": float(dt) * scene.omega,
+        "matrix": M,
+        "offset": c,
+        "eigenvalues": eig,
+        "rho": float(np.max(np.abs(eig))),
+        "linearity_residual": None,
+    }
     if not check_affine:
         return out
     probe = y_base + 1.0
@@ -178,8 +198,7 @@ def one_step_map(method, scene: Scene, dt: float, *, timeout: float | None = Non
     return out
 
 
-def recurrence_map(method, scene: Scene, dt: float, *, timeout: float | None = None,
-                   check_affine: bool = True) -> dict:
+def recurrence_map(method, scene: Scene, dt: float, *, timeout: float | None = None, check_affine: bool = True) -> dict:
     """The map whose spectral radius is the method's stability: ``one_step_map`` on (q, v), except
     for a reference scheme that carries more between steps (``Scheme.carries``: the previous
     position, the last acceleration), whose map is measured on that carried state
@@ -197,9 +216,16 @@ def recurrence_map(method, scene: Scene, dt: float, *, timeout: float | None = N
     M, c, names = carried_map(sch, scene, dt)
     with np.errstate(all="ignore"):
         eig = np.linalg.eigvals(M) if np.all(np.isfinite(M)) else np.full(len(M), np.nan)
-    return {"dt": float(dt), "omega_dt": float(dt) * scene.omega, "matrix": M, "offset": c, "eigenvalues": eig,
-            "rho": float(np.max(np.abs(eig))), "linearity_residual": None,
-            "state": f"({', '.join(names)}): the state {sch.id} carries between steps"}
+    return {
+        "dt": float(dt),
+        "omega_dt": float(dt) * scene.omega,
+        "matrix": M,
+        "offset": c,
+        "eigenvalues": eig,
+        "rho": float(np.max(np.abs(eig))),
+        "linearity_residual": None,
+        "state": f"({', '.join(names)}): the state {sch.id} carries between steps",
+    }
 
 
 def spectral_test(method, scene: Scene, dt: float, *, timeout: float | None = None) -> tuple[bool, dict]:
@@ -224,13 +250,16 @@ def growth_unresolved(rho, homega: float) -> tuple[bool, float, float]:
 
 
 def unresolved_detail(homega: float, at: float, half: float) -> str:
-    return (f"no stable step resolved: the one-step map grows at every step searched up to h*omega {homega:.6g}, "
-            f"by less than the criterion tells from 1 (rho - 1 = {at:.3g} there, {half:.3g} at half of it; "
-            f"stable means rho <= 1 + {RHO_TOL:g})")
+    return (
+        f"no stable step resolved: the one-step map grows at every step searched up to h*omega {homega:.6g}, "
+        f"by less than the criterion tells from 1 (rho - 1 = {at:.3g} there, {half:.3g} at half of it; "
+        f"stable means rho <= 1 + {RHO_TOL:g})"
+    )
 
 
-def finite_horizon_test(method, scene: Scene, dt: float, *, steps: int = HORIZON_STEPS,
-                        timeout: float | None = None) -> tuple[bool, dict]:
+def finite_horizon_test(
+    method, scene: Scene, dt: float, *, steps: int = HORIZON_STEPS, timeout: float | None = None
+) -> tuple[bool, dict]:
     """Stable iff the run finishes and max ||y_n|| <= GROWTH * max ||y_true(t_n)||."""
     traj = step(method, scene, dt, steps, 1, timeout)
     if not traj.ok:
@@ -255,10 +284,11 @@ def blew_up(traj, scene: Scene, true_size=None) -> tuple[bool, float, str]:
 def horizon_rule(scene: Scene, steps: int) -> str:
     """The finite-horizon criterion in words, for ``scene``."""
     if scene.runaway_limit is not None:
-        return (f"finite horizon: {steps} steps finish (no non-finite state, no engine warning) and the energy "
-                f"rises at most {scene.runaway_limit:g} x its initial scale (kinetic + |potential|)")
-    return (f"finite horizon: {steps} steps finish and max ||(q, v/omega)|| <= {GROWTH:g} x "
-            "the true solution's")
+        return (
+            f"finite horizon: {steps} steps finish (no non-finite state, no engine warning) and the energy "
+            f"rises at most {scene.runaway_limit:g} x its initial scale (kinetic + |potential|)"
+        )
+    return f"finite horizon: {steps} steps finish and max ||(q, v/omega)|| <= {GROWTH:g} x the true solution's"
 
 
 def growth(traj, scene: Scene, true_size: float | None = None) -> float:
@@ -278,28 +308,37 @@ class StabilityResult(Result):
     scene: str
     params: dict
     method: str
-    criterion: str                            # the criterion used (auto resolved)
+    criterion: str  # the criterion used (auto resolved)
     criterion_rule: str
     omega: float
     dt_searched_min: float
     dt_searched_max: float
     omega_dt_searched: list
-    verdict: str                              # limited | unbounded | unstable | unresolved
-    dt_max: float | None                      # None where unbounded or unstable
+    verdict: str  # limited | unbounded | unstable | unresolved
+    dt_max: float | None  # None where unbounded or unstable
     omega_dt_max: float | None
-    evaluations: int                          # stability tests run
-    detail: str = ""                          # why there is no limit, where there is none
-    note: str = ""                            # a doubt about the criterion, where there is one
-    horizon_steps: int | None = None          # the finite horizon's steps, where that criterion was used
+    evaluations: int  # stability tests run
+    detail: str = ""  # why there is no limit, where there is none
+    note: str = ""  # a doubt about the criterion, where there is one
+    horizon_steps: int | None = None  # the finite horizon's steps, where that criterion was used
     first_unstable_omega_dt: float | None = None
-    rho_above_dt_max: float | None = None     # the spectral radius just above the limit (spectral criterion)
-    spectral: dict | None = None              # the one-step map at the dt the verdict rests on (linear scenes)
+    rho_above_dt_max: float | None = None  # the spectral radius just above the limit (spectral criterion)
+    spectral: dict | None = None  # the one-step map at the dt the verdict rests on (linear scenes)
 
 
-def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: int = HORIZON_STEPS,
-                      lo: float = HOMEGA_LO, hi: float = HOMEGA_HI, scan_ratio: float = SCAN_RATIO,
-                      rtol: float = BISECT_RTOL, timeout: float | None = None,
-                      progress=None) -> StabilityResult:
+def largest_stable_dt(
+    method,
+    scene: Scene,
+    *,
+    criterion: str = "auto",
+    steps: int = HORIZON_STEPS,
+    lo: float = HOMEGA_LO,
+    hi: float = HOMEGA_HI,
+    scan_ratio: float = SCAN_RATIO,
+    rtol: float = BISECT_RTOL,
+    timeout: float | None = None,
+    progress=None,
+) -> StabilityResult:
     """Largest stable dt of ``method`` on ``scene`` by the rule in the module docstring.
 
     ``criterion``: ``auto`` (spectral radius on linear scenes where the map can be
@@ -314,8 +353,9 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
     if not (0.0 < lo < hi and math.isfinite(hi)):
         raise InvalidInput(f"search range lo={lo}, hi={hi} is invalid (allowed: 0 < lo < hi, finite)")
     if not (scan_ratio > 1.0 and 0.0 < rtol < scan_ratio - 1.0):
-        raise InvalidInput(f"scan_ratio={scan_ratio}, rtol={rtol} are invalid (allowed: scan_ratio > 1, "
-                           "0 < rtol < scan_ratio - 1)")
+        raise InvalidInput(
+            f"scan_ratio={scan_ratio}, rtol={rtol} are invalid (allowed: scan_ratio > 1, 0 < rtol < scan_ratio - 1)"
+        )
     omega = scene.omega
     note = ""
     use = criterion
@@ -331,12 +371,16 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
             use, note = "finite_horizon", f"spectral radius not measurable ({first['reason']}); finite horizon used"
 
     if use == "spectral_radius":
+
         def test(dt):
             return spectral_test(method, scene, dt, timeout=timeout)
+
         described = f"spectral radius of the one-step map <= 1 + {RHO_TOL:g}"
     else:
+
         def test(dt):
             return finite_horizon_test(method, scene, dt, steps=steps, timeout=timeout)
+
         described = horizon_rule(scene, steps)
 
     evaluations = []
@@ -350,17 +394,29 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
         evaluations.append({"omega_dt": homega, "stable": ok, **info})
         return ok
 
-    out = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "criterion": use,
-           "criterion_rule": described, "omega": omega, "dt_searched_min": lo / omega,
-           "dt_searched_max": hi / omega, "omega_dt_searched": [lo, hi]}
+    out = {
+        "scene": scene.id,
+        "params": dict(scene.values),
+        "method": method.id,
+        "criterion": use,
+        "criterion_rule": described,
+        "omega": omega,
+        "dt_searched_min": lo / omega,
+        "dt_searched_max": hi / omega,
+        "omega_dt_searched": [lo, hi],
+    }
     if note:
         out["note"] = note
     if use == "finite_horizon":
         out["horizon_steps"] = steps
     scanning = f"scanning h*omega from {lo:g} up to {hi:g} by x{scan_ratio:g}"
     if not stable(lo, scanning, f"at most {scan_runs}"):
-        out.update(verdict="unstable", dt_max=None, omega_dt_max=None,
-                   detail=f"unstable already at the smallest h*omega searched ({lo:g}): unstable for every dt")
+        out.update(
+            verdict="unstable",
+            dt_max=None,
+            omega_dt_max=None,
+            detail=f"unstable already at the smallest h*omega searched ({lo:g}): unstable for every dt",
+        )
         out["evaluations"] = len(evaluations)
         return _with_map(out, method, scene, lo / omega, timeout)
     good, bad = lo, None
@@ -373,28 +429,45 @@ def largest_stable_dt(method, scene: Scene, *, criterion: str = "auto", steps: i
             bad = x
             break
     if bad is None:
-        out.update(verdict="unbounded", dt_max=None, omega_dt_max=None,
-                   detail=f"stable at every h*omega searched, up to {hi:g}")
+        out.update(
+            verdict="unbounded",
+            dt_max=None,
+            omega_dt_max=None,
+            detail=f"stable at every h*omega searched, up to {hi:g}",
+        )
         out["evaluations"] = len(evaluations)
         return _with_map(out, method, scene, hi / omega, timeout)
     while bad / good - 1.0 > rtol:
         mid = math.sqrt(good * bad)
         # Each geometric midpoint halves log(bad / good): the runs left until it is within rtol.
         left = max(1, math.ceil(math.log2(math.log(bad / good) / math.log1p(rtol))))
-        if stable(mid, f"bisecting h*omega in [{good:.6g}, {bad:.6g}] to {rtol:g} relative",
-                  f"~{len(evaluations) + left}"):
+        if stable(
+            mid, f"bisecting h*omega in [{good:.6g}, {bad:.6g}] to {rtol:g} relative", f"~{len(evaluations) + left}"
+        ):
             good = mid
         else:
             bad = mid
     if use == "spectral_radius":
         unresolved, at, half = growth_unresolved(
-            lambda y: recurrence_map(method, scene, y / omega, timeout=timeout, check_affine=False)["rho"], good)
+            lambda y: recurrence_map(method, scene, y / omega, timeout=timeout, check_affine=False)["rho"], good
+        )
         if unresolved:
-            out.update(verdict="unresolved", dt_max=None, omega_dt_max=None, first_unstable_omega_dt=bad,
-                       evaluations=len(evaluations), detail=unresolved_detail(good, at, half))
+            out.update(
+                verdict="unresolved",
+                dt_max=None,
+                omega_dt_max=None,
+                first_unstable_omega_dt=bad,
+                evaluations=len(evaluations),
+                detail=unresolved_detail(good, at, half),
+            )
             return _with_map(out, method, scene, good / omega, timeout)
-    out.update(verdict="limited", dt_max=good / omega, omega_dt_max=good,
-               first_unstable_omega_dt=bad, evaluations=len(evaluations))
+    out.update(
+        verdict="limited",
+        dt_max=good / omega,
+        omega_dt_max=good,
+        first_unstable_omega_dt=bad,
+        evaluations=len(evaluations),
+    )
     if use == "spectral_radius":
         out["rho_above_dt_max"] = recurrence_map(method, scene, bad / omega, timeout=timeout)["rho"]
     return _with_map(out, method, scene, good / omega, timeout)
@@ -411,6 +484,8 @@ def _with_map(out: dict, method, scene: Scene, dt: float, timeout) -> StabilityR
             if out["criterion"] == "spectral_radius":
                 out["note"] = f"at the reported dt: {res['reason']}; the spectral verdict is doubtful"
         else:
-            out["spectral"] = {k: res[k] for k in ("dt", "omega_dt", "rho", "eigenvalues", "matrix", "offset",
-                                                   "linearity_residual", "state")}
+            out["spectral"] = {
+                k: res[k]
+                for k in ("dt", "omega_dt", "rho", "eigenvalues", "matrix", "offset", "linearity_residual", "state")
+            }
     return StabilityResult(**out)

@@ -22,6 +22,7 @@ A reference scheme's map is measured on the state it carries between steps
 (``stability.recurrence_map``): for the Verlet forms, whose carried acceleration was evaluated at
 another velocity than a restart from (q, v) would use, that is the recurrence the scheme runs.
 """
+
 from __future__ import annotations
 
 import math
@@ -54,6 +55,7 @@ def computed_limit(scheme_id: str, zeta: float, rtol: float = 1e-12) -> float | 
     """The first y where rho(M(y, zeta)) > 1 + RHO_TOL: scan up from HOMEGA_LO by SCAN_RATIO to
     HOMEGA_HI, then bisect. None: unstable already at HOMEGA_LO, or no stable step resolved (the
     measure's rule, ``stability.growth_unresolved``); inf: stable to HOMEGA_HI."""
+
     def stable(y):
         return spectral_radius(scheme_id, y, zeta) <= 1.0 + RHO_TOL
 
@@ -99,8 +101,9 @@ def agrees(measured, theory) -> bool | None:
     return abs(measured - theory) <= THEORY_RTOL * theory
 
 
-def limit_vs_damping(method, zetas=ZETAS, *, scheme: str | None = None, hi: float = HOMEGA_HI,
-                     timeout: float | None = None) -> dict:
+def limit_vs_damping(
+    method, zetas=ZETAS, *, scheme: str | None = None, hi: float = HOMEGA_HI, timeout: float | None = None
+) -> dict:
     """The largest stable h*omega of ``method`` on ``damped_spring`` at each zeta (c = 2 zeta),
     with the theory of ``scheme`` (a reference scheme id, ``ref:`` or not; default: the method's
     own scheme where it is one) beside each: ``rows`` of {zeta, measured, verdict, theory,
@@ -119,7 +122,19 @@ def limit_vs_damping(method, zetas=ZETAS, *, scheme: str | None = None, hi: floa
         theory = th["homega_max"]
         if theory is not None and math.isfinite(theory) and theory >= hi:
             theory = math.inf  # beyond the search: the measure can only say "unbounded"
-        rows.append({"zeta": float(z), "measured": measured, "verdict": verdict, "theory": th["homega_max"],
-                     "theory_source": th["source"], "agrees": agrees(measured, theory) if sid else None})
-    return {"method": method.id, "scheme": str(MethodId(REFERENCE, sid)) if sid else None, "rows": rows,
-            "tolerance": THEORY_RTOL}
+        rows.append(
+            {
+                "zeta": float(z),
+                "measured": measured,
+                "verdict": verdict,
+                "theory": th["homega_max"],
+                "theory_source": th["source"],
+                "agrees": agrees(measured, theory) if sid else None,
+            }
+        )
+    return {
+        "method": method.id,
+        "scheme": str(MethodId(REFERENCE, sid)) if sid else None,
+        "rows": rows,
+        "tolerance": THEORY_RTOL,
+    }

@@ -9,8 +9,8 @@ length scale); where the request asks no position tolerance nothing is held agai
 reference, which on a stiff 32 x 32 cloth costs more than the whole search (a run that blows up
 then fails the energy tolerance). A level that meets them is run again with its convergence knob
 tightened (``advise.convergence``), and where that misses them the entry says its win rests on
-the solve's own error (``SweepEntry.rests_on_solve``). The search does not stop at ``max_substeps``: a method's levels go on
-doubling until one meets the tolerances, or until the next level's frame (substeps x its cost per
+the solve's own error (``SweepEntry.rests_on_solve``). The search does not stop at ``max_substeps``: a method's levels
+go on doubling until one meets the tolerances, or until the next level's frame (substeps x its cost per
 step, a pilot timed at that step before the run) would cost more than ``factor`` times the
 cheapest frame found at that value (the bound ``cost``), or its substeps would pass ``cap`` (the
 bound ``cap``); which bound ended each search is recorded. The levels of all the methods run
@@ -32,6 +32,7 @@ and h*omega at one substep are estimated where the two families' cheapest frames
 log-log interpolation between the two values (their geometric midpoint where one family has no
 cost at one of them).
 """
+
 from __future__ import annotations
 
 import math
@@ -41,8 +42,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from records import InvalidInput
-from records.advice import (Crossover, MethodAdvice, SweepEntry, SweepPoint, crossovers,  # noqa: F401
-                           family_crossover, family_name)
+from records.advice import (
+    Crossover,
+    MethodAdvice,
+    SweepEntry,
+    SweepPoint,
+    crossovers,  # noqa: F401
+    family_crossover,  # noqa: F401 (re-exported)
+    family_name,  # noqa: F401 (re-exported: harness.cli.advise)
+)
 
 from harness import validate
 from harness.measures.advise import Request
@@ -98,13 +106,21 @@ def parse_grid(text: str, scene, points=None) -> Grid:
     name, lo_text, hi_text, n_text = m.groups()
     params = scene.params
     if name not in params:
-        raise InvalidInput(f"--sweep parameter {name!r} is not a parameter of scene {scene.id} "
-                           f"(valid: {', '.join(params) or 'none'})")
-    if n_text is not None and points is not None and validate.count("--points", points, 2, MAX_POINTS) != \
-            validate.count("--sweep points", n_text, 2, MAX_POINTS):
+        raise InvalidInput(
+            f"--sweep parameter {name!r} is not a parameter of scene {scene.id} (valid: {', '.join(params) or 'none'})"
+        )
+    if (
+        n_text is not None
+        and points is not None
+        and validate.count("--points", points, 2, MAX_POINTS) != validate.count("--sweep points", n_text, 2, MAX_POINTS)
+    ):
         raise InvalidInput(f"--sweep {text!r} and --points={points} give two numbers of points (allowed: one of them)")
-    n = validate.count("--sweep points" if n_text is not None else "--points",
-                       n_text if n_text is not None else (POINTS if points is None else points), 2, MAX_POINTS)
+    n = validate.count(
+        "--sweep points" if n_text is not None else "--points",
+        n_text if n_text is not None else (POINTS if points is None else points),
+        2,
+        MAX_POINTS,
+    )
     ends = []
     for which, t in (("LO", lo_text), ("HI", hi_text)):
         try:
@@ -125,8 +141,10 @@ def parse_grid(text: str, scene, points=None) -> Grid:
     if spec.integer:
         values = np.unique(np.round(values))
         if len(values) < 2:
-            raise InvalidInput(f"--sweep {name}={lo:g}..{hi:g} holds fewer than 2 integers (allowed: integer "
-                               f"parameter {name} over a range with at least 2)")
+            raise InvalidInput(
+                f"--sweep {name}={lo:g}..{hi:g} holds fewer than 2 integers (allowed: integer "
+                f"parameter {name} over a range with at least 2)"
+            )
     for v in values:  # every value through the scene's own checks, its cross-parameter ones too
         scene.copy_with(**{**scene.values, name: float(v)})
     return Grid(name, lo, hi, tuple(float(v) for v in values))
@@ -144,8 +162,7 @@ def pilot_cost(method, scene, h: float, injected=None) -> float | None:
     per_step = res["s_per_step"]
     steps = int(PILOT_S / per_step) if per_step and per_step > 0 else PILOT_STEPS * 1000
     if steps > PILOT_STEPS:  # a fast kernel: a few steps are a few ticks of the CPU clock; time PILOT_S of them
-        res = wall_time_per_step(method, scene, h, steps=min(steps, 100_000), repeats=1, clock=CLOCK,
-                                 injected=injected)
+        res = wall_time_per_step(method, scene, h, steps=min(steps, 100_000), repeats=1, clock=CLOCK, injected=injected)
         per_step = res["s_per_step"]
     return per_step
 
@@ -164,8 +181,9 @@ def frame_cost(method, scene, h: float, pilot: float | None, injected=None) -> t
     return res["s_per_step"], f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
 
 
-def start(method, scene, request: Request, *, timeout=None,
-          injected=None) -> tuple[MethodAdvice, str, float | None, str]:
+def start(
+    method, scene, request: Request, *, timeout=None, injected=None
+) -> tuple[MethodAdvice, str, float | None, str]:
     """A method's search before its first level: its stability limit on a linear scene (which
     skips the runs of levels known unstable, as the advice does), its family, its pilot cost
     per step at one substep a frame and, for an implicit method, its solve in words."""
@@ -190,8 +208,17 @@ def solve_of(method, scene, family: str) -> str:
     return method.describe().get("solver") or scene.solve_text
 
 
-def level(method, scene, request: Request, advice: MethodAdvice, substeps: int, ceiling: float | None, *,
-          timeout=None, injected=None) -> dict:
+def level(
+    method,
+    scene,
+    request: Request,
+    advice: MethodAdvice,
+    substeps: int,
+    ceiling: float | None,
+    *,
+    timeout=None,
+    injected=None,
+) -> dict:
     """One level of a method's search: its pilot cost per step at this step first; where
     ``ceiling`` (factor x the cheapest frame found, seconds) is known and ``substeps`` x that cost
     passes it, nothing is run (``ended`` ``cost``); else the horizon run, measured and judged as
@@ -220,8 +247,19 @@ def level(method, scene, request: Request, advice: MethodAdvice, substeps: int, 
     return out
 
 
-def sweep_value(scene, value: float, request: Request, methods: list, *, factor: float = FACTOR, cap: int = CAP,
-                call=None, timeout=None, injected=None, survival: bool = False) -> SweepPoint:
+def sweep_value(
+    scene,
+    value: float,
+    request: Request,
+    methods: list,
+    *,
+    factor: float = FACTOR,
+    cap: int = CAP,
+    call=None,
+    timeout=None,
+    injected=None,
+    survival: bool = False,
+) -> SweepPoint:
     """Every method of ``methods`` (ids) at one value (``scene`` built at it), cheapest first:
     each method's levels 1, 2, 4, ... are run in the order of their frames' cost (substeps x the
     method's last pilot cost per step), so that the cheapest frame that meets the tolerances is
@@ -234,14 +272,19 @@ def sweep_value(scene, value: float, request: Request, methods: list, *, factor:
 
     call = call or _in_process
     plugins = active_plugins()
-    point = SweepPoint(float(value), float(scene.omega), float(scene.omega / request.hz),
-                       position_tol=request.position_tolerance(scene))
+    point = SweepPoint(
+        float(value),
+        float(scene.omega),
+        float(scene.omega / request.hz),
+        position_tol=request.position_tolerance(scene),
+    )
     entries: dict[str, SweepEntry] = {}
     advices: dict[str, MethodAdvice] = {}
     pilot: dict[str, float | None] = {}
     pending: dict[str, int] = {}
-    for m, res in zip(methods, call_all(call, [(_start_one, (m, scene, request, timeout, injected, plugins))
-                                                for m in methods])):
+    for m, res in zip(
+        methods, call_all(call, [(_start_one, (m, scene, request, timeout, injected, plugins)) for m in methods])
+    ):
         if isinstance(res, tuple):
             advices[m], family, pilot[m], solve = res
             entries[m] = SweepEntry(m, family, "", cost_per_step_s=pilot[m], solve=solve)
@@ -263,8 +306,10 @@ def sweep_value(scene, value: float, request: Request, methods: list, *, factor:
                 _cut(e, s, pilot[m], ceiling, factor)
                 del pending[m]
         order = sorted(pending, key=lambda m: (pending[m] * (pilot[m] or 0.0), m))[:width]
-        jobs = [(_level_one, (m, scene, request, advices[m], pending[m], ceiling, timeout, injected, plugins))
-                for m in order]
+        jobs = [
+            (_level_one, (m, scene, request, advices[m], pending[m], ceiling, timeout, injected, plugins))
+            for m in order
+        ]
         for m, res in zip(order, call_all(call, jobs)):
             e, s = entries[m], pending[m]
             if not isinstance(res, dict):
@@ -304,8 +349,9 @@ def sweep_value(scene, value: float, request: Request, methods: list, *, factor:
 SURVIVAL_RATIO = 10
 
 
-def probe_survival(point: SweepPoint, scene, request: Request, advices: dict, call, timeout, injected,
-                   plugins=()) -> None:
+def probe_survival(
+    point: SweepPoint, scene, request: Request, advices: dict, call, timeout, injected, plugins=()
+) -> None:
     """The seed's first claim is about stability, not cost: where no implicit solve is yet known
     to stay within the energy tolerance at ``SURVIVAL_RATIO`` times fewer substeps than the explicit
     schemes need, run the levels the cost bound cut of each implicit search that met nothing,
@@ -317,8 +363,10 @@ def probe_survival(point: SweepPoint, scene, request: Request, advices: dict, ca
     implicit = [e for e in point.entries if e.family == "implicit"]
     if not explicit or not implicit or request.energy_tol is None:
         return
-    needs = [e.energy_substeps if e.energy_substeps is not None else (e.next_substeps or 2 * max(e.searched, 1))
-             for e in explicit]
+    needs = [
+        e.energy_substeps if e.energy_substeps is not None else (e.next_substeps or 2 * max(e.searched, 1))
+        for e in explicit
+    ]
     most = min(needs) // SURVIVAL_RATIO
     if any(e.energy_substeps is not None and e.energy_substeps <= most for e in implicit) or most < 1:
         return
@@ -327,8 +375,9 @@ def probe_survival(point: SweepPoint, scene, request: Request, advices: dict, ca
             continue
         s = e.next_substeps or 1
         while s <= most:
-            res = call_all(call, [(_level_one, (e.method, scene, request, advices[e.method], s, None, timeout, injected,
-                                                plugins))])[0]
+            res = call_all(
+                call, [(_level_one, (e.method, scene, request, advices[e.method], s, None, timeout, injected, plugins))]
+            )[0]
             if not isinstance(res, dict) or res["row"] is None:
                 break
             e.probed = (*e.probed, s)
@@ -340,15 +389,21 @@ def probe_survival(point: SweepPoint, scene, request: Request, advices: dict, ca
 
 def within_energy(row, request: Request) -> bool:
     """Whether a level's run was stable and within the energy tolerance, whatever its position error."""
-    return (row.stable and request.energy_tol is not None and row.energy_error is not None
-            and row.energy_error <= request.energy_tol)
+    return (
+        row.stable
+        and request.energy_tol is not None
+        and row.energy_error is not None
+        and row.energy_error <= request.energy_tol
+    )
 
 
 def _cut(e: SweepEntry, s: int, per_step: float, ceiling: float, factor: float) -> None:
     """End ``e``'s search on the cost bound: ``s`` substeps would cost more than ``ceiling``."""
     e.ended, e.next_substeps, e.cost_per_step_s = "cost", s, per_step
-    e.why = (f"{s} substep{'s' if s > 1 else ''} would cost {_us(s * per_step)} a frame, past {factor:g} x the "
-             f"cheapest ({_us(ceiling / factor)})" + (f"; {e.why}" if e.why else ""))
+    e.why = (
+        f"{s} substep{'s' if s > 1 else ''} would cost {_us(s * per_step)} a frame, past {factor:g} x the "
+        f"cheapest ({_us(ceiling / factor)})" + (f"; {e.why}" if e.why else "")
+    )
 
 
 def _us(seconds: float | None) -> str:
@@ -394,8 +449,9 @@ def _start_one(method_id, scene, request, timeout, injected, plugins=()):
 
 
 def _level_one(method_id, scene, request, advice, substeps, ceiling, timeout, injected, plugins=()):
-    return level(_method(method_id, plugins), scene, request, advice, substeps, ceiling, timeout=timeout,
-                 injected=injected)
+    return level(
+        _method(method_id, plugins), scene, request, advice, substeps, ceiling, timeout=timeout, injected=injected
+    )
 
 
 # ----------------------------------------------------------------------------- the sweep
@@ -409,7 +465,7 @@ class Sweep:
     cap: int
     points: list
     left_out: list
-    length_scale: float | None = None   # the scene's where it is the same at every value, else None
+    length_scale: float | None = None  # the scene's where it is the same at every value, else None
 
     @property
     def crossovers(self) -> list[Crossover]:
@@ -418,24 +474,46 @@ class Sweep:
     def as_dict(self) -> dict:
         from dataclasses import asdict
 
-        return {"scene": self.scene, "params": self.params, "param": self.grid.param, "grid": list(self.grid.values),
-                "request": asdict(self.request), "length_scale": self.length_scale, "factor": self.factor,
-                "cap": self.cap, "clock": CLOCK,
-                "points": [p.as_dict() for p in self.points],
-                "crossovers": [c.as_dict() for c in self.crossovers], "left_out": self.left_out,
-                "claims": [asdict(c) for c in self.claims]}
+        return {
+            "scene": self.scene,
+            "params": self.params,
+            "param": self.grid.param,
+            "grid": list(self.grid.values),
+            "request": asdict(self.request),
+            "length_scale": self.length_scale,
+            "factor": self.factor,
+            "cap": self.cap,
+            "clock": CLOCK,
+            "points": [p.as_dict() for p in self.points],
+            "crossovers": [c.as_dict() for c in self.crossovers],
+            "left_out": self.left_out,
+            "claims": [asdict(c) for c in self.claims],
+        }
 
     @property
     def claims(self) -> list:
         """The seed's two claims judged on this sweep (``harness.sweep_findings.seed_claims``)."""
         from harness.sweep_findings import seed_claims
 
-        return list(seed_claims(self.points, self.grid.param, self.request.energy_tol, self.request.accuracy)
-                    if self.points else ())
+        return list(
+            seed_claims(self.points, self.grid.param, self.request.energy_tol, self.request.accuracy)
+            if self.points
+            else ()
+        )
 
 
-def run_sweep(scene, grid: Grid, request: Request, patterns=None, *, factor: float = FACTOR, cap: int = CAP,
-              jobs: int = 1, timeout: float = 120.0, pool: bool = True) -> Sweep:
+def run_sweep(
+    scene,
+    grid: Grid,
+    request: Request,
+    patterns=None,
+    *,
+    factor: float = FACTOR,
+    cap: int = CAP,
+    jobs: int = 1,
+    timeout: float = 120.0,
+    pool: bool = True,
+) -> Sweep:
     """The sweep of ``scene`` (its other parameters as given) over ``grid``: every candidate
     method (``patterns``, as ``harness advise`` takes them) at every value. ``pool``: each
     method's search in ``jobs`` reused worker processes (an engine that aborts or hangs costs its
@@ -460,15 +538,47 @@ def run_sweep(scene, grid: Grid, request: Request, patterns=None, *, factor: flo
         with WorkerPool(max(1, min(jobs, len(ids) or 1))) as workers:
             call = _PoolCall(workers, timeout, jobs)
             for i, (v, s) in enumerate(zip(grid.values, scenes)):
-                points.append(sweep_value(s, v, request, ids, factor=factor, cap=cap, call=call, timeout=timeout,
-                                          injected=injected, survival=i == len(scenes) - 1))
+                points.append(
+                    sweep_value(
+                        s,
+                        v,
+                        request,
+                        ids,
+                        factor=factor,
+                        cap=cap,
+                        call=call,
+                        timeout=timeout,
+                        injected=injected,
+                        survival=i == len(scenes) - 1,
+                    )
+                )
     else:
         for i, (v, s) in enumerate(zip(grid.values, scenes)):
-            points.append(sweep_value(s, v, request, ids, factor=factor, cap=cap, timeout=timeout, injected=injected,
-                                      survival=i == len(scenes) - 1))
+            points.append(
+                sweep_value(
+                    s,
+                    v,
+                    request,
+                    ids,
+                    factor=factor,
+                    cap=cap,
+                    timeout=timeout,
+                    injected=injected,
+                    survival=i == len(scenes) - 1,
+                )
+            )
     scales = {s.length_scale for s in scenes}
-    return Sweep(scene.id, {k: v for k, v in scene.values.items() if k != grid.param}, grid, request, factor, cap,
-                 points, left, scales.pop() if len(scales) == 1 else None)
+    return Sweep(
+        scene.id,
+        {k: v for k, v in scene.values.items() if k != grid.param},
+        grid,
+        request,
+        factor,
+        cap,
+        points,
+        left,
+        scales.pop() if len(scales) == 1 else None,
+    )
 
 
 class _PoolCall:

@@ -21,6 +21,7 @@ the tolerance, not by a timestep. The rule, one way for every such method:
 The tolerance is what the engine calls it (Drake's target accuracy, a local error per step;
 IAS15's epsilon): how far the global error lies from it is the finding this measures.
 """
+
 from __future__ import annotations
 
 import math
@@ -49,34 +50,56 @@ def takes_tolerance(method) -> bool:
     return TOLERANCE in declared_options(get_method(method) if isinstance(method, str) else method)
 
 
-def tolerance_sweep(method, scene: Scene, *, tolerances=TOLERANCES, periods: float = PERIODS,
-                    outputs: int = OUTPUTS, repeats: int = REPEATS, max_evals: int = MAX_EVALS,
-                    timeout: float | None = None, timing: bool = True) -> dict:
+def tolerance_sweep(
+    method,
+    scene: Scene,
+    *,
+    tolerances=TOLERANCES,
+    periods: float = PERIODS,
+    outputs: int = OUTPUTS,
+    repeats: int = REPEATS,
+    max_evals: int = MAX_EVALS,
+    timeout: float | None = None,
+    timing: bool = True,
+) -> dict:
     """``{"method", "rows": [...], "ended": why the sweep stopped}`` for ``method`` (its id
     without a tolerance, or with one: the sweep sets its own) on ``scene`` (module docstring)."""
     from harness.methods import get_method
 
     base = resolve(method, scene)
     if not takes_tolerance(base):
-        raise InvalidInput(f"method {base.id} takes no tolerance (error-controlled methods: those that declare "
-                           "a 'tolerance' option, e.g. drake:runge_kutta3, rebound:ias15)")
+        raise InvalidInput(
+            f"method {base.id} takes no tolerance (error-controlled methods: those that declare "
+            "a 'tolerance' option, e.g. drake:runge_kutta3, rebound:ias15)"
+        )
     horizon = periods * scene.period
     dt = horizon / outputs
     rows, ended = [], f"the tightest tolerance, {min(tolerances):g}"
     for tol in sorted(tolerances, reverse=True):
         predicted = _next_work(rows)
         if predicted is not None and predicted > max_evals:
-            ended = (f"before tolerance {tol:g}: its run would take about {predicted:.3g} force evaluations "
-                     f"(extrapolated from the last two), past {max_evals}")
+            ended = (
+                f"before tolerance {tol:g}: its run would take about {predicted:.3g} force evaluations "
+                f"(extrapolated from the last two), past {max_evals}"
+            )
             break
         run = get_method(base.id, {TOLERANCE: tol})
         traj = step(run, scene, dt, outputs, 1, timeout)
         settings = traj.meta.settings or {}
-        row = {"tolerance": float(tol), "method": run.id, "status": traj.status, "detail": traj.detail,
-               "horizon": horizon, "outputs": int(outputs), "force_evals": traj.force_evals,
-               "steps_taken": settings.get("steps_taken", settings.get("steps_done")),
-               "steps_rejected": settings.get("steps_rejected"), "error": None, "s_per_unit_time": None,
-               "clock": None}
+        row = {
+            "tolerance": float(tol),
+            "method": run.id,
+            "status": traj.status,
+            "detail": traj.detail,
+            "horizon": horizon,
+            "outputs": int(outputs),
+            "force_evals": traj.force_evals,
+            "steps_taken": settings.get("steps_taken", settings.get("steps_done")),
+            "steps_rejected": settings.get("steps_rejected"),
+            "error": None,
+            "s_per_unit_time": None,
+            "clock": None,
+        }
         if traj.ok:
             row["error"] = run_error(run, scene, traj, timeout)["error_max"]
             if timing:
@@ -104,6 +127,9 @@ def _next_work(rows: list[dict]) -> float | None:
 def error_over_tolerance(rows: list[dict]) -> float | None:
     """The largest error / tolerance over the rows that ran (above 1: the global error exceeds
     what the tolerance asked for), None where none ran."""
-    ratios = [r["error"] / r["tolerance"] for r in rows
-              if r.get("error") is not None and math.isfinite(r["error"]) and r["tolerance"] > 0]
+    ratios = [
+        r["error"] / r["tolerance"]
+        for r in rows
+        if r.get("error") is not None and math.isfinite(r["error"]) and r["tolerance"] > 0
+    ]
     return max(ratios) if ratios else None

@@ -13,6 +13,7 @@ periods, each dt adjusted to divide that horizon into whole steps. At each dt:
 
 One row per (method, dt): the chart is error against either cost, one line per method.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,20 +34,30 @@ TIME_STEPS_ENGINE = 5_000
 REPEATS = 3
 
 
-def sweep(scene: Scene, *, points: int = POINTS, homega_max: float = HOMEGA_MAX,
-          periods: float = PERIODS) -> list[tuple[float, int]]:
+def sweep(
+    scene: Scene, *, points: int = POINTS, homega_max: float = HOMEGA_MAX, periods: float = PERIODS
+) -> list[tuple[float, int]]:
     """The (dt, steps) pairs of the rule above."""
     horizon = periods * scene.period
     out = []
     for k in range(points):
-        steps = max(1, int(round(horizon * scene.omega / (homega_max / 2.0 ** k))))
+        steps = max(1, int(round(horizon * scene.omega / (homega_max / 2.0**k))))
         out.append((horizon / steps, steps))
     return out
 
 
-def work_precision(methods, scene: Scene, *, points: int = POINTS, homega_max: float = HOMEGA_MAX,
-                   periods: float = PERIODS, repeats: int = REPEATS, timeout: float | None = None,
-                   time_steps: int | None = None, progress=None) -> list[dict]:
+def work_precision(
+    methods,
+    scene: Scene,
+    *,
+    points: int = POINTS,
+    homega_max: float = HOMEGA_MAX,
+    periods: float = PERIODS,
+    repeats: int = REPEATS,
+    timeout: float | None = None,
+    time_steps: int | None = None,
+    progress=None,
+) -> list[dict]:
     """Rows of (method, dt, error, cost) for each method (ids or objects) on ``scene``;
     ``progress``: told a line before each point (a command's progress)."""
     resolved = [resolve(m, scene) for m in methods]
@@ -55,12 +66,23 @@ def work_precision(methods, scene: Scene, *, points: int = POINTS, homega_max: f
         isref = method.scheme is not None
         for i, (dt, steps) in enumerate(sweep(scene, points=points, homega_max=homega_max, periods=periods), 1):
             if progress is not None:
-                progress(f"workprecision: {method.id} (method {j} of {len(resolved)}), point {i} of {points} "
-                         f"(h*omega {dt * scene.omega:.4g}, {steps} steps)")
+                progress(
+                    f"workprecision: {method.id} (method {j} of {len(resolved)}), point {i} of {points} "
+                    f"(h*omega {dt * scene.omega:.4g}, {steps} steps)"
+                )
             res = global_error(method, scene, dt, steps, timeout=timeout)
-            row = {"scene": scene.id, "params": dict(scene.values), "method": method.id, "dt": dt,
-                   "omega_dt": dt * scene.omega, "steps": steps, "horizon": periods * scene.period,
-                   "status": res["status"], "error": res["error_max"], "error_final": res["error_final"]}
+            row = {
+                "scene": scene.id,
+                "params": dict(scene.values),
+                "method": method.id,
+                "dt": dt,
+                "omega_dt": dt * scene.omega,
+                "steps": steps,
+                "horizon": periods * scene.period,
+                "status": res["status"],
+                "error": res["error_max"],
+                "error_final": res["error_final"],
+            }
             ran = steps if res["status"] == "ok" else None
             evals = res["force_evals"] / ran if (res["force_evals"] is not None and ran) else None
             row["force_evals_per_step"] = evals
@@ -68,8 +90,13 @@ def work_precision(methods, scene: Scene, *, points: int = POINTS, homega_max: f
             n = time_steps or (TIME_STEPS_REF if isref else TIME_STEPS_ENGINE)
             if res["status"] == "ok":
                 timing = wall_time_per_step(method, scene, dt, steps=n, repeats=repeats)
-                row.update(s_per_step=timing["s_per_step"], s_per_unit_time=timing["s_per_step"] / dt,
-                           rel_spread=timing["rel_spread"], timing=timing["timing"], clock=timing["clock"])
+                row.update(
+                    s_per_step=timing["s_per_step"],
+                    s_per_unit_time=timing["s_per_step"] / dt,
+                    rel_spread=timing["rel_spread"],
+                    timing=timing["timing"],
+                    clock=timing["clock"],
+                )
             else:
                 row.update(s_per_step=None, s_per_unit_time=None, rel_spread=None, timing=None, clock=None)
             rows.append(row)
@@ -102,8 +129,11 @@ def error_at_equal_cost(curve: dict, at: dict) -> list[dict]:
     in log(cost)-log(error) between its neighbouring points; the rows give both errors and
     ``ratio`` = curve's error / at's error (below 1: ``curve`` is ahead there). Points outside
     the range are left out, never extrapolated."""
-    pts = sorted((c, e) for c, e in zip(curve["cost"], curve["error"])
-                 if c is not None and e is not None and c > 0 and e > 0 and math.isfinite(c) and math.isfinite(e))
+    pts = sorted(
+        (c, e)
+        for c, e in zip(curve["cost"], curve["error"])
+        if c is not None and e is not None and c > 0 and e > 0 and math.isfinite(c) and math.isfinite(e)
+    )
     if len(pts) < 2:
         return []
     log_c = np.log([c for c, _ in pts])

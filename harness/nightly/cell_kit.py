@@ -3,6 +3,7 @@ modules of ``measures`` (the built-in measures beyond them): the cell itself, th
 a measurement error into a recorded ``crashed`` cell, the energy run's length, and numbers made
 JSON-able. They import this one; it imports none of them.
 """
+
 from __future__ import annotations
 
 import time
@@ -12,13 +13,26 @@ import numpy as np
 from records.cell import Cell
 
 
-def make_cell(task, measure, status="ok", value=None, dt=None, steps=None, detail="", figures=None, extra=None,
-              wall=0.0) -> Cell:
+def make_cell(
+    task, measure, status="ok", value=None, dt=None, steps=None, detail="", figures=None, extra=None, wall=0.0
+) -> Cell:
     """One measured cell of ``task``: ``figures`` of the measure's type (``records.cell.FIGURES``),
     anything else it recorded in ``extra``."""
-    return Cell(scene=task.scene, method=task.method, family=task.family, measure=measure, status=status,
-                params=dict(task.params or {}), dt=dt, steps=steps, value=value, wall_s=wall, detail=detail or "",
-                figures=figures, extra=dict(extra or {}))
+    return Cell(
+        scene=task.scene,
+        method=task.method,
+        family=task.family,
+        measure=measure,
+        status=status,
+        params=dict(task.params or {}),
+        dt=dt,
+        steps=steps,
+        value=value,
+        wall_s=wall,
+        detail=detail or "",
+        figures=figures,
+        extra=dict(extra or {}),
+    )
 
 
 def finite(x):

@@ -23,6 +23,7 @@ Every cell records the textbook claims it is judged against (from the scheme's
 declarations, or for an engine mode from the scheme it was identified as), so the report
 never needs to import the schemes or the engines.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,8 +33,19 @@ import numpy as np
 
 from scenarios import make_scene
 
-from records.cell import (AdviceFigures, BoundFigures, Cell, Claims, CostFigures, EnergyFigures, ErrorFigures,
-                          IdentityFigures, NominalRun, OrderFigures, StabilityFigures)
+from records.cell import (
+    AdviceFigures,
+    BoundFigures,
+    Cell,
+    Claims,
+    CostFigures,
+    EnergyFigures,
+    ErrorFigures,
+    IdentityFigures,
+    NominalRun,
+    OrderFigures,
+    StabilityFigures,
+)
 
 from records.measures import Column, Comparison, Measure, TaskContext, Worse, measures, register
 from records.method_id import scheme_name
@@ -45,8 +57,14 @@ from harness.nightly.suites import SUITES, Suite
 
 #: The scheme an engine mode's name suggests, for the findings ("implicit" that is not).
 #: A bare "euler" suggests no one scheme (MuJoCo documents its Euler as semi-implicit).
-NAME_SUGGESTS = {"implicit": "implicit_euler", "implicitfast": "implicit_euler", "rk4": "rk4",
-                 "discrete": "implicit_euler", "semi_implicit": "semi_implicit_euler", "leapfrog": "leapfrog"}
+NAME_SUGGESTS = {
+    "implicit": "implicit_euler",
+    "implicitfast": "implicit_euler",
+    "rk4": "rk4",
+    "discrete": "implicit_euler",
+    "semi_implicit": "semi_implicit_euler",
+    "leapfrog": "leapfrog",
+}
 
 
 def suite_of(task) -> Suite:
@@ -75,8 +93,11 @@ def context(task, method=None) -> TaskContext:
 
 def _applies(measure, ctx) -> bool:
     only = getattr(ctx.task, "only", ())
-    return (measure.run is not None and (not only or measure.name in only)
-            and (measure.applies is None or bool(measure.applies(ctx))))
+    return (
+        measure.run is not None
+        and (not only or measure.name in only)
+        and (measure.applies is None or bool(measure.applies(ctx)))
+    )
 
 
 def measures_for(task, method=None) -> list[str]:
@@ -96,10 +117,16 @@ def _claims(method, scene=None) -> Claims:
     velocity = scene is not None and scene.velocity_dependent
     order = scheme.order_for(velocity)
     note = f"{order} with a velocity-dependent force ({scheme.order} otherwise)" if order != scheme.order else None
-    return Claims(scheme=f"ref:{scheme.id}", order=order, order_note=note, force_evals=scheme.force_evals,
-                  force_evals_text=scheme.kind.evals_text(scheme),
-                  energy=scheme.energy_claim, homega_max=scheme.homega_max,
-                  evals_per_pass=bool(scheme.implicit and not scheme.one_pass_on_linear))
+    return Claims(
+        scheme=f"ref:{scheme.id}",
+        order=order,
+        order_note=note,
+        force_evals=scheme.force_evals,
+        force_evals_text=scheme.kind.evals_text(scheme),
+        energy=scheme.energy_claim,
+        homega_max=scheme.homega_max,
+        evals_per_pass=bool(scheme.implicit and not scheme.one_pass_on_linear),
+    )
 
 
 def _downsample(n: int, points: int) -> np.ndarray:
@@ -130,7 +157,7 @@ def _scene_task(task) -> list[Cell]:
     for measure in measures():
         if not _applies(measure, ctx):
             continue
-        new = guard_many(task, measure.cells, lambda: measure.run(ctx))
+        new = guard_many(task, measure.cells, lambda measure=measure: measure.run(ctx))
         for c in new:
             if c.claims is None:
                 c.claims = ctx.claims
@@ -155,21 +182,43 @@ def _energy_and_error(task, method, scene, dt, spec, suite, runs: dict | None = 
     traj = simulate(method, scene, dt, steps, every, timeout=suite.cell_timeout)
     if runs is not None:
         runs["energy"] = traj
-    settings = {"settings": traj.meta.settings, "engine_version": traj.meta.engine_version,
-                "backend": traj.meta.backend}
+    settings = {
+        "settings": traj.meta.settings,
+        "engine_version": traj.meta.engine_version,
+        "backend": traj.meta.backend,
+    }
     if traj.status not in ("ok", "unstable") or traj.q.shape[0] == 0:
-        return [make_cell(task, "energy", traj.status, dt=dt, steps=steps, detail=traj.detail,
-                          figures=EnergyFigures(**settings)),
-                make_cell(task, "error", traj.status, dt=dt, steps=steps, detail=traj.detail, extra=settings)]
+        return [
+            make_cell(
+                task, "energy", traj.status, dt=dt, steps=steps, detail=traj.detail, figures=EnergyFigures(**settings)
+            ),
+            make_cell(task, "error", traj.status, dt=dt, steps=steps, detail=traj.detail, extra=settings),
+        ]
     figures, _ = energy_figures(traj, scene, method, suite.cell_timeout)
     e_exact = np.asarray(scene.exact_energy(traj.t), dtype=float)
     idx = _downsample(len(traj.t), suite.series_points)
     series = {"t": traj.t[idx], "energy": traj.energy[idx, 0], "exact": e_exact[idx]}
     cls = {k: v for k, v in figures.items() if k not in ENERGY_RUN_FIGURES}
-    energy = make_cell(task, "energy", traj.status, figures["max_rel_error"], dt, steps, traj.detail, EnergyFigures.pick(
-        cls, energy_class=cls["classification"], rel_error_defined=figures["rel_error_defined"],
-        final_rel_error=figures["final_rel_error"], failed_step=traj.failed_step,
-        series=series, numbers=plain(cls), events=plain(figures["events"]) or None, **settings))
+    energy = make_cell(
+        task,
+        "energy",
+        traj.status,
+        figures["max_rel_error"],
+        dt,
+        steps,
+        traj.detail,
+        EnergyFigures.pick(
+            cls,
+            energy_class=cls["classification"],
+            rel_error_defined=figures["rel_error_defined"],
+            final_rel_error=figures["final_rel_error"],
+            failed_step=traj.failed_step,
+            series=series,
+            numbers=plain(cls),
+            events=plain(figures["events"]) or None,
+            **settings,
+        ),
+    )
     err = run_error(method, scene, traj, suite.cell_timeout) if traj.ok else {}
     value, detail = (finite(err["error_max"]) if err else None), traj.detail
     if err and err["below_reference"]:
@@ -196,8 +245,10 @@ def _order(task, method, scene, spec) -> Cell:
             # slope (RK4 on the standard cloth), so it has no measurable order here.
             status, detail = "ok", "no order: every error at or below the roundoff/reference floor"
             if res["points"]:
-                detail = (f"no order: {len(excluded)} of {len(excluded) + len(res['points'])} errors at or below "
-                          "the roundoff/reference floor, and one point gives no slope")
+                detail = (
+                    f"no order: {len(excluded)} of {len(excluded) + len(res['points'])} errors at or below "
+                    "the roundoff/reference floor, and one point gives no slope"
+                )
     return make_cell(task, "order", status, finite(order), detail=detail, figures=OrderFigures.pick(plain(res)))
 
 
@@ -210,13 +261,18 @@ def _stability(task, method, scene, suite, spec) -> Cell:
     search = {k: v for k, v in (("lo", spec.stability_lo), ("rtol", rtol)) if v is not None}
     res = largest_stable_dt(method, scene, steps=steps, hi=hi, **search)
     verdict = res.verdict
-    figures = StabilityFigures.pick(plain(res.as_dict()), unbounded=verdict == "unbounded",
-                                    unstable_everywhere=verdict == "unstable", unresolved=verdict == "unresolved",
-                                    homega_searched=plain((res.dt_searched_max or 0) * scene.omega))
+    figures = StabilityFigures.pick(
+        plain(res.as_dict()),
+        unbounded=verdict == "unbounded",
+        unstable_everywhere=verdict == "unstable",
+        unresolved=verdict == "unresolved",
+        homega_searched=plain((res.dt_searched_max or 0) * scene.omega),
+    )
     value = math.inf if verdict == "unbounded" else res.omega_dt_max
     if res.criterion == "finite_horizon":
-        figures = replace(figures, nominal=NominalRun(**plain(_nominal_run(method, scene, nominal_dt(spec, scene),
-                                                                             steps, suite))))
+        figures = replace(
+            figures, nominal=NominalRun(**plain(_nominal_run(method, scene, nominal_dt(spec, scene), steps, suite)))
+        )
     return make_cell(task, "stability", "ok", value, detail=res.detail, figures=figures)
 
 
@@ -229,12 +285,21 @@ def _nominal_run(method, scene, dt: float, steps: int, suite) -> dict:
 
     every = max(1, steps // (4 * suite.series_points))
     traj = simulate(method, scene, dt, steps, every, timeout=suite.cell_timeout)
-    out = {"dt": dt, "homega": dt * scene.omega, "steps": steps, "status": traj.status,
-           "failed_step": traj.failed_step, "detail": traj.detail}
+    out = {
+        "dt": dt,
+        "homega": dt * scene.omega,
+        "steps": steps,
+        "status": traj.status,
+        "failed_step": traj.failed_step,
+        "detail": traj.detail,
+    }
     if traj.q.shape[0]:
         idx = _downsample(len(traj.t), suite.series_points)
-        out["series"] = {"t": traj.t[idx], "energy": traj.energy[idx, 0], "e0": float(scene.exact_energy(
-            np.zeros(1))[0])}
+        out["series"] = {
+            "t": traj.t[idx],
+            "energy": traj.energy[idx, 0],
+            "e0": float(scene.exact_energy(np.zeros(1))[0]),
+        }
     return out
 
 
@@ -251,15 +316,25 @@ def _cost(task, method, scene, dt, suite) -> Cell:
     repeats interleaved with the method's, explicit Euler's (the ratio's baseline)."""
     from harness.measures.cost import cost_per_step
 
-    res = cost_per_step(method, scene, dt, time_steps=suite.cost_steps, repeats=suite.cost_repeats, clock="cpu",
-                        injected=task.timings)
+    res = cost_per_step(
+        method, scene, dt, time_steps=suite.cost_steps, repeats=suite.cost_repeats, clock="cpu", injected=task.timings
+    )
     # The baseline's figures and an engine mode's second figure (stepped one call at a time from
     # Python) are stored flat, under baseline_... and as_stepped_...
-    flat = {**{k: v for k, v in res.as_dict().items() if v is not None},
-            **{f"baseline_{k}": v for k, v in res.baseline.items()},
-            **{f"as_stepped_{k}": v for k, v in (res.as_stepped or {}).items()}}
-    return make_cell(task, "cost", "ok", res.s_per_step, dt, res.time_steps, figures=CostFigures.pick(
-        flat, spread=res.rel_spread or 0.0, ratio_spread=res.ratio_spread or 0.0))
+    flat = {
+        **{k: v for k, v in res.as_dict().items() if v is not None},
+        **{f"baseline_{k}": v for k, v in res.baseline.items()},
+        **{f"as_stepped_{k}": v for k, v in (res.as_stepped or {}).items()},
+    }
+    return make_cell(
+        task,
+        "cost",
+        "ok",
+        res.s_per_step,
+        dt,
+        res.time_steps,
+        figures=CostFigures.pick(flat, spread=res.rel_spread or 0.0, ratio_spread=res.ratio_spread or 0.0),
+    )
 
 
 def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
@@ -268,19 +343,38 @@ def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
     the cost per frame of the fewest substeps that meet the tolerances (None where none does)."""
     from harness.measures.advise import Request, advise_method
 
-    per_step = (cost.value, f"{cost.figures.timing}; {cost.figures.clock} clock (the cost cell)") \
-        if cost.ok and cost.value else None
+    per_step = (
+        (cost.value, f"{cost.figures.timing}; {cost.figures.clock} clock (the cost cell)")
+        if cost.ok and cost.value
+        else None
+    )
     cells = []
     for hz in suite.frame_rates:
         request = Request(hz=hz, **spec.advise).checked()
         res = advise_method(method, scene, request, timeout=suite.cell_timeout, cost_per_step=per_step)
         best = res.best_row
-        figures, extra = AdviceFigures.from_data(plain({"hz": hz, "request": asdict(request),
-                                                        "length_scale": scene.length_scale,
-                                                        "position_tol": request.position_tolerance(scene),
-                                                        **res.as_dict()}))
-        cells.append(make_cell(task, "advise", "ok", best.cost_per_frame_s if best is not None else None, 1.0 / hz,
-                               figures=figures, extra=extra))
+        figures, extra = AdviceFigures.from_data(
+            plain(
+                {
+                    "hz": hz,
+                    "request": asdict(request),
+                    "length_scale": scene.length_scale,
+                    "position_tol": request.position_tolerance(scene),
+                    **res.as_dict(),
+                }
+            )
+        )
+        cells.append(
+            make_cell(
+                task,
+                "advise",
+                "ok",
+                best.cost_per_frame_s if best is not None else None,
+                1.0 / hz,
+                figures=figures,
+                extra=extra,
+            )
+        )
     return cells
 
 
@@ -307,15 +401,25 @@ def _identity(task, method, scene) -> Cell:
         note = f"matches no reference scheme; closest `{closest.method}` (max deviation {closest.max_deviation:.2e})"
         if res.why_no_match:
             note += f": {res.why_no_match}"
-    return make_cell(task, "identity", "ok",
-                     finite(res.max_deviation if match else closest.max_deviation if closest else None),
-                     res.dt, res.steps,
-                     figures=IdentityFigures(match=match, matches=list(res.matches),
-                                             closest=closest.method if closest else None,
-                                             runner_up=runner.method if runner else None,
-                                             runner_up_deviation=finite(runner.max_deviation) if runner else None,
-                                             name_suggests=NAME_SUGGESTS.get(mode), match_claims=match_claims,
-                                             note=note, precision=getattr(method, "precision", "float64")))
+    return make_cell(
+        task,
+        "identity",
+        "ok",
+        finite(res.max_deviation if match else closest.max_deviation if closest else None),
+        res.dt,
+        res.steps,
+        figures=IdentityFigures(
+            match=match,
+            matches=list(res.matches),
+            closest=closest.method if closest else None,
+            runner_up=runner.method if runner else None,
+            runner_up_deviation=finite(runner.max_deviation) if runner else None,
+            name_suggests=NAME_SUGGESTS.get(mode),
+            match_claims=match_claims,
+            note=note,
+            precision=getattr(method, "precision", "float64"),
+        ),
+    )
 
 
 def _bound(task) -> Cell:
@@ -339,10 +443,18 @@ def failed_cells(task, failure) -> list[Cell]:
     for i, m in enumerate(missing):
         why = detail if i == 0 else f"not reached: the worker was lost in {missing[0]} ({detail})"
         bound = task.kind == "bound"
-        out.append(make_cell(task, m, status, detail=why, dt=task.dt if bound else None,
-                             steps=task.steps if bound else None,
-                             figures=BoundFigures(bound=task.bound) if bound else None,
-                             wall=max(wall, 0.0) if i == 0 else 0.0))
+        out.append(
+            make_cell(
+                task,
+                m,
+                status,
+                detail=why,
+                dt=task.dt if bound else None,
+                steps=task.steps if bound else None,
+                figures=BoundFigures(bound=task.bound) if bound else None,
+                wall=max(wall, 0.0) if i == 0 else 0.0,
+            )
+        )
     return out
 
 
@@ -376,10 +488,18 @@ def _slowdown(before: Cell, after: Cell, comparison: Comparison) -> Worse | None
     moved = abs(cal_b / cal_a - 1.0) if cal_a and cal_b else 0.0
     spread = fa.noise + fb.noise + PROCESS_SPREAD + moved
     if rb_ratio > ra_ratio * (1 + spread):
-        return Worse("slowdown", ra_ratio, rb_ratio, (
-            f"cost ratio to explicit Euler {ra_ratio:.2f} -> {rb_ratio:.2f}, beyond the noise allowed ({spread:.0%}: "
-            f"the repeats' spreads, {PROCESS_SPREAD:.0%} from process to process"
-            + (f" and the calibration's move, {moved:.0%}" if moved else "") + ")"))
+        return Worse(
+            "slowdown",
+            ra_ratio,
+            rb_ratio,
+            (
+                f"cost ratio to explicit Euler {ra_ratio:.2f} -> {rb_ratio:.2f}, beyond the noise allowed "
+                f"({spread:.0%}: "
+                f"the repeats' spreads, {PROCESS_SPREAD:.0%} from process to process"
+                + (f" and the calibration's move, {moved:.0%}" if moved else "")
+                + ")"
+            ),
+        )
     return None
 
 
@@ -410,10 +530,12 @@ def _fixed_step(ctx) -> bool:
 def _text(name: str, measure: str):
     """A column's text: the report's function ``name`` of the row's ``measure`` cell (imported
     when a report is written, not in a worker)."""
+
     def text(ms, mark):
         from reports import markdown
 
         return getattr(markdown, name)(ms.get(measure))
+
     return text
 
 
@@ -422,18 +544,24 @@ def _cost_text(name: str):
         from reports import markdown
 
         return getattr(markdown, name)(ms.get("cost"), mark)
+
     return text
 
 
 _COLUMNS = {
-    "energy": (Column("max \\|ΔE/E\\|", _text("energy_text", "energy"), 10),
-               Column("energy", _text("class_text", "energy"), 11)),
+    "energy": (
+        Column("max \\|ΔE/E\\|", _text("energy_text", "energy"), 10),
+        Column("energy", _text("class_text", "energy"), 11),
+    ),
     "error": (Column("max global error", _text("error_text", "error"), 20),),
     "order": (Column("order", _text("order_text", "order"), 30),),
     "stability": (Column("largest stable h·ω", _text("homega_text", "stability"), 40),),
-    "cost": (Column("evals/step", _cost_text("evals_text"), 50), Column("CPU µs/step", _cost_text("cpu_text"), 51),
-             Column("as stepped µs/step", _cost_text("as_stepped_text"), 52),
-             Column("time ratio", _cost_text("ratio_text"), 53)),
+    "cost": (
+        Column("evals/step", _cost_text("evals_text"), 50),
+        Column("CPU µs/step", _cost_text("cpu_text"), 51),
+        Column("as stepped µs/step", _cost_text("as_stepped_text"), 52),
+        Column("time ratio", _cost_text("ratio_text"), 53),
+    ),
 }
 
 
@@ -444,31 +572,68 @@ def _columns(kind):
 #: The task's own measures, in the order a task runs them.
 MEASURES = [
     Measure(
-        "identity", IdentityFigures, "which reference scheme an engine mode integrates (the claims its cells are "
-        "judged by)", run=_identity_run, applies=_identifies),
+        "identity",
+        IdentityFigures,
+        "which reference scheme an engine mode integrates (the claims its cells are judged by)",
+        run=_identity_run,
+        applies=_identifies,
+    ),
     Measure(
-        "energy", EnergyFigures, "max |dE/E| over the energy run and its class (bounded, drifts, grows, decays)",
+        "energy",
+        EnergyFigures,
+        "max |dE/E| over the energy run and its class (bounded, drifts, grows, decays)",
         run=lambda ctx: _energy_and_error(ctx.task, ctx.run_method, ctx.scene, ctx.dt, ctx.spec, ctx.suite, ctx.runs),
-        makes=("energy", "error"), columns=_columns("energy"), trend="max |dE/E|"),
-    Measure("error", ErrorFigures, "max global error over the energy run", made_by="energy",
-            columns=_columns("error"), trend="max global error"),
+        makes=("energy", "error"),
+        columns=_columns("energy"),
+        trend="max |dE/E|",
+    ),
     Measure(
-        "order", OrderFigures, "observed order of the dt sweep (its points draw the work-precision chart)",
-        run=lambda ctx: [_order(ctx.task, ctx.run_method, ctx.scene, ctx.spec)], applies=_fixed_step,
-        regression=_order_drop, columns=_columns("order"), trend="observed order", higher_is_worse=False),
+        "error",
+        ErrorFigures,
+        "max global error over the energy run",
+        made_by="energy",
+        columns=_columns("error"),
+        trend="max global error",
+    ),
     Measure(
-        "cost", CostFigures, "force evaluations and CPU time per step, with explicit Euler's timed beside it",
-        run=lambda ctx: [_cost(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.suite)], regression=_slowdown,
-        columns=_columns("cost"), trend="ratio to explicit Euler", deterministic=False),
+        "order",
+        OrderFigures,
+        "observed order of the dt sweep (its points draw the work-precision chart)",
+        run=lambda ctx: [_order(ctx.task, ctx.run_method, ctx.scene, ctx.spec)],
+        applies=_fixed_step,
+        regression=_order_drop,
+        columns=_columns("order"),
+        trend="observed order",
+        higher_is_worse=False,
+    ),
     Measure(
-        "advise", AdviceFigures, "the fewest substeps a frame that meet the tolerances, and their cost per frame",
+        "cost",
+        CostFigures,
+        "force evaluations and CPU time per step, with explicit Euler's timed beside it",
+        run=lambda ctx: [_cost(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.suite)],
+        regression=_slowdown,
+        columns=_columns("cost"),
+        trend="ratio to explicit Euler",
+        deterministic=False,
+    ),
+    Measure(
+        "advise",
+        AdviceFigures,
+        "the fewest substeps a frame that meet the tolerances, and their cost per frame",
         run=lambda ctx: _advise(ctx.task, ctx.method, ctx.scene, ctx.spec, ctx.suite, ctx.cells["cost"]),
-        applies=lambda ctx: ctx.spec.advise is not None and _fixed_step(ctx)),
+        applies=lambda ctx: ctx.spec.advise is not None and _fixed_step(ctx),
+    ),
     Measure(
-        "stability", StabilityFigures, "largest stable h*omega (spectral radius on linear scenes, else a finite "
-        "horizon)", run=lambda ctx: [_stability(ctx.task, ctx.run_method, ctx.scene, ctx.suite, ctx.spec)],
-        applies=lambda ctx: ctx.spec.stability and _fixed_step(ctx), regression=_stability_drop,
-        columns=_columns("stability"), trend="largest stable h*omega", higher_is_worse=False),
+        "stability",
+        StabilityFigures,
+        "largest stable h*omega (spectral radius on linear scenes, else a finite horizon)",
+        run=lambda ctx: [_stability(ctx.task, ctx.run_method, ctx.scene, ctx.suite, ctx.spec)],
+        applies=lambda ctx: ctx.spec.stability and _fixed_step(ctx),
+        regression=_stability_drop,
+        columns=_columns("stability"),
+        trend="largest stable h*omega",
+        higher_is_worse=False,
+    ),
 ]
 
 # The built-in measures: the task's own, then every module's of ``harness.nightly.measures``

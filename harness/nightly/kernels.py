@@ -12,6 +12,7 @@ once where the cache lacks it. An engine task's identity cell compiles nothing: 
 their loops where the cache holds them and are interpreted elsewhere (``harness.measures.identify``),
 the same bits either way, and their runs are kept on disk, so a second run steps none of them.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -33,8 +34,10 @@ class KernelPlan:
     def line(self) -> str:
         """The line the nightly prints before it starts."""
         if self.compile:
-            what = (f"{'cold cache' if self.compile == self.loops else 'kernel cache'}: about {self.compile} "
-                    f"kernels to compile (of the {self.loops} the run steps)")
+            what = (
+                f"{'cold cache' if self.compile == self.loops else 'kernel cache'}: about {self.compile} "
+                f"kernels to compile (of the {self.loops} the run steps)"
+            )
         else:
             what = "kernel cache warm: nothing to compile"
         return f"{what}; kernel cache {self.cache}"

@@ -11,6 +11,7 @@ The matrix's own report (``<out>/report.md``) links each release's report and sa
 engine with more than one release, what changed from one release to the next
 (``reports.versions_section``).
 """
+
 from __future__ import annotations
 
 import json
@@ -98,22 +99,47 @@ def run_matrix(specs, suite: str, out: Path, db: Path, extra_args=(), stream=Non
             env_path = ensure(dist, version)
             sub_out = out / f"{dist}-{version}"
             print(f"matrix: {dist} {version}: the suite on {env_path}", file=stream, flush=True)
-            cmd = [sys.executable, "-m", "harness", "nightly", "--suite", suite, "--db", str(db), "--out", str(sub_out),
-                   "--json", *extra_args]
+            cmd = [
+                sys.executable,
+                "-m",
+                "harness",
+                "nightly",
+                "--suite",
+                suite,
+                "--db",
+                str(db),
+                "--out",
+                str(sub_out),
+                "--json",
+                *extra_args,
+            ]
             done = subprocess.run(cmd, env=_child_env(env_path), stdout=subprocess.PIPE, stderr=stream, text=True)
             if done.returncode not in (0, 1):
-                raise InvalidInput(f"--engine {dist}=={version}: the run on that release stopped (exit "
-                                   f"{done.returncode}); the other releases' runs are stored")
+                raise InvalidInput(
+                    f"--engine {dist}=={version}: the run on that release stopped (exit "
+                    f"{done.returncode}); the other releases' runs are stored"
+                )
             summary = json.loads(done.stdout)
             run_id = int(summary["run_id"])
             stored = History(db).run(run_id)
             recorded = (stored["versions"].get("engines") or {}).get(dist)
             if recorded != version:
                 raise InvalidInput(f"--engine {dist}=={version}: the run imported {dist} {recorded} instead")
-            skipped = {(s["scene"], s["method"]): s["reason"] for s in stored["settings"].get("skipped", [])
-                       if s["method"].split(":")[0] == dist}
-            runs.append({"engine": dist, "version": version, "run_id": run_id, "report": str(sub_out / "report.md"),
-                         "regressions": summary["regressions"], "skipped": skipped})
+            skipped = {
+                (s["scene"], s["method"]): s["reason"]
+                for s in stored["settings"].get("skipped", [])
+                if s["method"].split(":")[0] == dist
+            }
+            runs.append(
+                {
+                    "engine": dist,
+                    "version": version,
+                    "run_id": run_id,
+                    "report": str(sub_out / "report.md"),
+                    "regressions": summary["regressions"],
+                    "skipped": skipped,
+                }
+            )
     for run in runs:  # JSON keys are text
         run["skipped_lines"] = [f"{m} on {s}: {why}" for (s, m), why in run["skipped"].items()]
     report = write_matrix_report(suite, releases, runs, db, out)
@@ -127,9 +153,11 @@ def write_matrix_report(suite: str, releases: dict, runs: list[dict], db: Path, 
 
     history = History(db)
     lines = [f"# Engine versions: the {suite} suite on each release", ""]
-    lines += [f"- {r['engine']} {r['version']}: run {r['run_id']}, [report]({Path(r['report']).relative_to(out)})"
-              + (f", {len(r['regressions'])} regression(s) in its own series" if r["regressions"] else "")
-              for r in runs]
+    lines += [
+        f"- {r['engine']} {r['version']}: run {r['run_id']}, [report]({Path(r['report']).relative_to(out)})"
+        + (f", {len(r['regressions'])} regression(s) in its own series" if r["regressions"] else "")
+        for r in runs
+    ]
     lines.append("")
     for dist in releases:
         mine = [r for r in runs if r["engine"] == dist]

@@ -15,6 +15,7 @@ The models a project checks every night are listed in its ``pyproject.toml``::
 
 (paths relative to the ``pyproject.toml``), and ``harness nightly --model PATH`` adds more.
 """
+
 from __future__ import annotations
 
 import os
@@ -96,35 +97,49 @@ def cannot_load_all(scenes: list, engines=MODEL_ENGINES) -> list[dict[str, str]]
         if engine in WITHOUT_CONTACT:
             for i, scene in enumerate(scenes):
                 if _keeps_contact(scene):
-                    out[i][engine] = (f"it would step the file without its contacts ({scene.found['contact']}: "
-                                      f"{WITHOUT_CONTACT[engine]}); never compared with a contact run, it runs on "
-                                      f"the conservative variant, contacts off in every engine")
+                    out[i][engine] = (
+                        f"it would step the file without its contacts ({scene.found['contact']}: "
+                        f"{WITHOUT_CONTACT[engine]}); never compared with a contact run, it runs on "
+                        f"the conservative variant, contacts off in every engine"
+                    )
                     skip.add(i)
         # The engine's first mode that poses a model file (Newton's particle solvers do not).
-        posed = [(i, scene, next((m for mid, m in all_methods().items()
-                                  if mid.startswith(f"{engine}:") and m.supports(scene)[0]), None))
-                 for i, scene in enumerate(scenes) if i not in skip]
+        posed = [
+            (
+                i,
+                scene,
+                next(
+                    (m for mid, m in all_methods().items() if mid.startswith(f"{engine}:") and m.supports(scene)[0]),
+                    None,
+                ),
+            )
+            for i, scene in enumerate(scenes)
+            if i not in skip
+        ]
         posed = [(i, scene, mode) for i, scene, mode in posed if mode is not None and mode.available()[0]]
         by_mode: dict[str, list] = {}
         for i, scene, mode in posed:
             by_mode.setdefault(mode.id, []).append((i, scene))
         for mode_id, group in by_mode.items():
-            whys = isolation.run_in_worker(_loads_in_worker, (mode_id, [scene for _, scene in group]),
-                                           timeout=120.0 * len(group))
+            whys = isolation.run_in_worker(
+                _loads_in_worker, (mode_id, [scene for _, scene in group]), timeout=120.0 * len(group)
+            )
             if isinstance(whys, isolation.WorkerFailure):
                 whys = []
                 for _, scene in group:
                     why = isolation.run_in_worker(_loads_in_worker, (mode_id, [scene]), timeout=120.0)
-                    whys.append(f"the loader {why.status}: {why.detail}" if isinstance(why, isolation.WorkerFailure)
-                                else why[0])
+                    whys.append(
+                        f"the loader {why.status}: {why.detail}" if isinstance(why, isolation.WorkerFailure) else why[0]
+                    )
             for (i, _), why in zip(group, whys):
                 if why:
                     out[i][engine] = why
     return out
 
 
-def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep=(), off=(),
-                engines=MODEL_ENGINES, **params) -> dict[str, SceneSpec]:
+def model_specs(
+    path, variants=tuple(VARIANTS), advise: dict | None = None, keep=(), off=(), engines=MODEL_ENGINES, **params
+) -> dict[str, SceneSpec]:
     """{scene id: its spec} for the file's variants. ``advise`` (Request fields but hz) asks for
     the advice on the conservative variant. The loader of each of ``engines`` (the engines a run
     steps the file in) is tried first (``cannot_load_all``); an engine the run does not step is
@@ -136,11 +151,18 @@ def model_specs(path, variants=tuple(VARIANTS), advise: dict | None = None, keep
         loaded = tuple(m for m in CROSS_ENGINE if m.split(":")[0] in engines and m.split(":")[0] not in unloaded)
         both = scene.conservative and len(loaded) > 1 and loaded[0] == CROSS_ENGINE[0]
         specs[scene.id] = SceneSpec(
-            params=dict(scene.values), dt=dt, horizon=dt * MODEL_ENERGY_STEPS,
-            stability_hi=dt * scene.omega * MODEL_STABILITY_FACTOR, stability_steps=MODEL_STABILITY_STEPS,
-            stability_lo=dt * scene.omega / MODEL_STABILITY_BELOW, stability_rtol=MODEL_STABILITY_RTOL,
-            advise=advise if advise is not None and scene.conservative else None, source=scene.file.path,
-            cannot_load=unloaded, extras=SceneExtras(cross_engine=loaded if both else ()))
+            params=dict(scene.values),
+            dt=dt,
+            horizon=dt * MODEL_ENERGY_STEPS,
+            stability_hi=dt * scene.omega * MODEL_STABILITY_FACTOR,
+            stability_steps=MODEL_STABILITY_STEPS,
+            stability_lo=dt * scene.omega / MODEL_STABILITY_BELOW,
+            stability_rtol=MODEL_STABILITY_RTOL,
+            advise=advise if advise is not None and scene.conservative else None,
+            source=scene.file.path,
+            cannot_load=unloaded,
+            extras=SceneExtras(cross_engine=loaded if both else ()),
+        )
     return specs
 
 
@@ -155,14 +177,15 @@ def engine_modes(patterns=None) -> tuple[str, ...]:
 
     modes = [mid for engine in reversed(MODEL_ENGINES) for mid in all_methods() if mid.split(":", 1)[0] == engine]
     if not patterns:
-        return tuple(m for m in modes if m.split(":", 1)[0] not in MODEL_MODES
-                     or m in MODEL_MODES[m.split(":", 1)[0]])
+        return tuple(m for m in modes if m.split(":", 1)[0] not in MODEL_MODES or m in MODEL_MODES[m.split(":", 1)[0]])
     chosen = []
     for pat in patterns:
         hit = [m for m in modes if fnmatch.fnmatchcase(m, pat)]
         if not hit:
-            raise InvalidInput(f"--methods pattern {pat!r} matches no mode of an engine that loads model files "
-                               f"(valid: {', '.join(modes)}, or a pattern such as drake:*)")
+            raise InvalidInput(
+                f"--methods pattern {pat!r} matches no mode of an engine that loads model files "
+                f"(valid: {', '.join(modes)}, or a pattern such as drake:*)"
+            )
         chosen += hit
     return tuple(dict.fromkeys(chosen))
 
@@ -185,8 +208,9 @@ def with_models(suite: Suite, paths, **params) -> Suite:
     return replace(suite, scenes=scenes)
 
 
-def model_suite(paths, variants=tuple(VARIANTS), advise: dict | None = None, frame_rates=(), keep=(), off=(),
-                methods=None, **params) -> Suite:
+def model_suite(
+    paths, variants=tuple(VARIANTS), advise: dict | None = None, frame_rates=(), keep=(), off=(), methods=None, **params
+) -> Suite:
     """The suite ``harness model`` runs: the files' variants in the engine modes that load them
     (``engine_modes(methods)``)."""
     frame_rates = tuple(frame_rates) if advise is not None else ()
@@ -195,8 +219,9 @@ def model_suite(paths, variants=tuple(VARIANTS), advise: dict | None = None, fra
     scenes = {}
     for path in paths:
         scenes.update(model_specs(path, variants, advise if frame_rates else None, keep, off, engines, **params))
-    return Suite("model", scenes, methods=modes, cost_repeats=3, bounds=False, identify=False,
-                 frame_rates=tuple(frame_rates))
+    return Suite(
+        "model", scenes, methods=modes, cost_repeats=3, bounds=False, identify=False, frame_rates=tuple(frame_rates)
+    )
 
 
 def configured_models(pyproject: Path | str = "pyproject.toml") -> list[str]:

@@ -1,6 +1,7 @@
 """The nightly's progress: a bar on a terminal, plain lines otherwise (logs, CI), each task's
 numba compile seconds beside its own, and before and after the run what it compiles; and a
 single-scene command's (``Lines``): what it is doing, once it has run a few seconds."""
+
 from __future__ import annotations
 
 import sys
@@ -33,9 +34,11 @@ class Progress:
         if self.tty:
             width = 30
             filled = int(width * self.done / max(self.total, 1))
-            self.stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {self.done}/{self.total} "
-                              f"{time.perf_counter() - self.t0:6.1f}s (compiling {self.compile_s:.0f}s) "
-                              f"{task.scene} {task.method}"[:110].ljust(110))
+            self.stream.write(
+                f"\r[{'#' * filled}{'.' * (width - filled)}] {self.done}/{self.total} "
+                f"{time.perf_counter() - self.t0:6.1f}s (compiling {self.compile_s:.0f}s) "
+                f"{task.scene} {task.method}"[:110].ljust(110)
+            )
             if self.done == self.total:
                 self.stream.write("\n")
         else:
@@ -50,8 +53,10 @@ def compile_line(timing: RunTiming) -> str:
     if not timing.kernels_compiled:
         return f"kernels: {timing.kernels_loaded or 0} loaded from the disk cache, none compiled"
     share = f" ({timing.compile_share:.0%} of the workers' CPU)" if timing.compile_share is not None else ""
-    return (f"compiling: {timing.numba_compile_s:.1f} CPU-s for {timing.kernels_compiled} kernels{share}; "
-            f"a kept kernel cache would have saved about {timing.cache_would_save_s:.0f} CPU-s")
+    return (
+        f"compiling: {timing.numba_compile_s:.1f} CPU-s for {timing.kernels_compiled} kernels{share}; "
+        f"a kept kernel cache would have saved about {timing.cache_would_save_s:.0f} CPU-s"
+    )
 
 
 #: Seconds a single-scene command runs before it says what it is doing: a command that answers

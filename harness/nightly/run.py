@@ -10,13 +10,13 @@ as a slowdown again in fresh processes, and judge again (``remeasure_slowdowns``
 report atomically, with the history and where the time went; and only then mark the run
 complete. A run killed anywhere before that is continued by ``resume`` from the tasks it stored.
 """
+
 from __future__ import annotations
 
 import datetime as dt_
 import math
 import os
 import platform
-import sys
 import time
 from collections import defaultdict
 from concurrent.futures import ThreadPoolExecutor, as_completed
@@ -48,8 +48,8 @@ DEFAULT_OUT = Path("results/latest")
 class Task:
     """A self-contained unit of work: everything a worker needs to produce its cells."""
 
-    kind: str                  # "cell" (a scene x method), "bound" (one reviewed energy bound) or "cost"
-                               # (a cell's cost alone, measured again before a slowdown is reported)
+    kind: str  # "cell" (a scene x method), "bound" (one reviewed energy bound) or "cost"
+    # (a cell's cost alone, measured again before a slowdown is reported)
     scene: str
     method: str
     family: str
@@ -59,13 +59,13 @@ class Task:
     steps: int | None = None
     bound: float | None = None
     plugins: tuple[str, ...] = ()  # plugin modules the worker loads before it looks the method up
-    timings: dict | None = None    # injected timings (``harness.measures.cost``), the clock's if None
-    source: str | None = None      # the file of a scene built from one (a model file)
-    scene_id: str | None = None    # the scene's registry id where the cell's scene is named otherwise (a contact
-                                   # scene by the parameters that differ: the ball at e = 1 is ball_e1)
-    only: tuple[str, ...] = ()     # the measures the task measures where not every one that applies: a suite's
-                                   # contact tables (harness.nightly.measures.contact_cells), ("contact",) for an
-                                   # engine mode on a contact scene, ("penalty",) for a scheme on the penalty ground
+    timings: dict | None = None  # injected timings (``harness.measures.cost``), the clock's if None
+    source: str | None = None  # the file of a scene built from one (a model file)
+    scene_id: str | None = None  # the scene's registry id where the cell's scene is named otherwise (a contact
+    # scene by the parameters that differ: the ball at e = 1 is ball_e1)
+    only: tuple[str, ...] = ()  # the measures the task measures where not every one that applies: a suite's
+    # contact tables (harness.nightly.measures.contact_cells), ("contact",) for an
+    # engine mode on a contact scene, ("penalty",) for a scheme on the penalty ground
 
     @property
     def label(self) -> str:
@@ -83,8 +83,9 @@ class Task:
         return measures_for(self)
 
 
-def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
-                timings: dict | None = None) -> tuple[list[Task], list[dict]]:
+def build_tasks(
+    suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH, timings: dict | None = None
+) -> tuple[list[Task], list[dict]]:
     """The matrix, and the (scene, method) pairs left out with why (unavailable / unsupported).
     Methods registered by ``$HARNESS_PLUGINS`` modules join every suite's matrix; ``timings``
     (injected, ``harness.measures.cost``) ride in every cell task."""
@@ -99,8 +100,13 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
         for mid in (*chosen, *variants):
             m = variants.get(mid) or methods[mid]
             if m.family in spec.cannot_load:
-                skipped.append({"scene": scene_id, "method": mid,
-                                "reason": f"{m.family} cannot load the file: {spec.cannot_load[m.family]}"})
+                skipped.append(
+                    {
+                        "scene": scene_id,
+                        "method": mid,
+                        "reason": f"{m.family} cannot load the file: {spec.cannot_load[m.family]}",
+                    }
+                )
                 continue
             ok, why = m.available()
             if ok:
@@ -111,8 +117,19 @@ def build_tasks(suite: Suite, bounds_path=bounds_mod.DEFAULT_PATH,
             if not ok:
                 skipped.append({"scene": scene_id, "method": mid, "reason": why})
                 continue
-            tasks.append(Task("cell", scene_id, mid, m.family, dict(spec.params), suite, plugins=plugins,
-                              timings=timings, source=spec.source))
+            tasks.append(
+                Task(
+                    "cell",
+                    scene_id,
+                    mid,
+                    m.family,
+                    dict(spec.params),
+                    suite,
+                    plugins=plugins,
+                    timings=timings,
+                    source=spec.source,
+                )
+            )
     if suite.contact:
         tasks += contact_tasks(suite, plugins, skipped)
     if suite.bounds:
@@ -145,11 +162,23 @@ def contact_tasks(suite: Suite, plugins: tuple, skipped: list) -> list[Task]:
             if not ok:
                 skipped.append({"scene": name, "method": mode_id, "reason": why})
                 continue
-            tasks.append(Task("cell", name, mode_id, mode.engine, dict(params), suite, plugins=plugins,
-                              scene_id=scene_id, only=("contact",)))
+            tasks.append(
+                Task(
+                    "cell",
+                    name,
+                    mode_id,
+                    mode.engine,
+                    dict(params),
+                    suite,
+                    plugins=plugins,
+                    scene_id=scene_id,
+                    only=("contact",),
+                )
+            )
     for scheme in settings.get("penalty", ()):
-        tasks.append(Task("cell", settings["penalty_scene"], scheme, "ref", {}, suite, plugins=plugins,
-                          only=("penalty",)))
+        tasks.append(
+            Task("cell", settings["penalty_scene"], scheme, "ref", {}, suite, plugins=plugins, only=("penalty",))
+        )
     return tasks
 
 
@@ -212,7 +241,7 @@ def make_executor(jobs: int | None, scheduler: str | None):
 
 # ----------------------------------------------------------------------------- metadata
 def now() -> str:
-    return dt_.datetime.now(dt_.timezone.utc).isoformat(timespec="seconds")
+    return dt_.datetime.now(dt_.UTC).isoformat(timespec="seconds")
 
 
 # ----------------------------------------------------------------------------- the run
@@ -242,17 +271,33 @@ def timing_summary(cells_by_task: dict[str, list[Cell]], stats: dict, wall_cells
         task_cpu[label] = st.cpu_s if st is not None else None
     known = [v for v in task_cpu.values() if v is not None]
     slowest = sorted(task_s.items(), key=lambda kv: -kv[1])[:5]
-    return {"cells_s": wall_cells, "worker_seconds_by_measure": dict(by_measure),
-            "worker_seconds_by_family": dict(by_family), "numba_compile_s": kernels["compile_s"],
-            "kernels_compiled": int(kernels["kernels_compiled"]), "kernels_loaded": int(kernels["kernels_loaded"]),
-            "kernel_load_s": kernels["load_s"], "numba_s": kernels["numba_s"],
-            "task_s": task_s, "task_cpu_s": task_cpu, "slowest_tasks": slowest,
-            "worker_cpu_s": sum(known) if known else None,
-            "tasks_without_cpu": len(task_cpu) - len(known)}
+    return {
+        "cells_s": wall_cells,
+        "worker_seconds_by_measure": dict(by_measure),
+        "worker_seconds_by_family": dict(by_family),
+        "numba_compile_s": kernels["compile_s"],
+        "kernels_compiled": int(kernels["kernels_compiled"]),
+        "kernels_loaded": int(kernels["kernels_loaded"]),
+        "kernel_load_s": kernels["load_s"],
+        "numba_s": kernels["numba_s"],
+        "task_s": task_s,
+        "task_cpu_s": task_cpu,
+        "slowest_tasks": slowest,
+        "worker_cpu_s": sum(known) if known else None,
+        "tasks_without_cpu": len(task_cpu) - len(known),
+    }
 
 
-def report_run(history: History, run_id: int, out: Path, regressions=(), previous=None, timing=None,
-               trend=None, jobs: int | None = None) -> Path:
+def report_run(
+    history: History,
+    run_id: int,
+    out: Path,
+    regressions=(),
+    previous=None,
+    timing=None,
+    trend=None,
+    jobs: int | None = None,
+) -> Path:
     """The run's stored cells judged (``harness.judge``) and written as its report (``reports.markdown``),
     its charts drawn by ``jobs`` processes (default: one a core)."""
     from harness.judge import judge
@@ -260,9 +305,17 @@ def report_run(history: History, run_id: int, out: Path, regressions=(), previou
 
     cells = history.cell_records(run_id)
     judged = judge(cells, regressions=regressions, previous=previous, trend=trend)
-    return write_report(history.run(run_id), cells, judged, out, timing=timing, trend=trend,
-                        jobs=jobs or os.cpu_count() or 1, before_write=lambda: checkpoint("report"),
-                        extra=version_change_lines(history, run_id))
+    return write_report(
+        history.run(run_id),
+        cells,
+        judged,
+        out,
+        timing=timing,
+        trend=trend,
+        jobs=jobs or os.cpu_count() or 1,
+        before_write=lambda: checkpoint("report"),
+        extra=version_change_lines(history, run_id),
+    )
 
 
 def version_change_lines(history: History, run_id: int) -> list[str]:
@@ -281,10 +334,13 @@ def version_change_lines(history: History, run_id: int) -> list[str]:
     if not changed:
         return []
     said = ", ".join(f"{d} {before.get(d)} → {now_.get(d)}" for d in changed)
-    lines = ["## Engine versions changed", "",
-             f"Run {last}, the suite's previous complete run, ran other engine releases ({said}): this run starts "
-             "their series, so nothing is compared as a regression across the change; what the change did is below.",
-             ""]
+    lines = [
+        "## Engine versions changed",
+        "",
+        f"Run {last}, the suite's previous complete run, ran other engine releases ({said}): this run starts "
+        "their series, so nothing is compared as a regression across the change; what the change did is below.",
+        "",
+    ]
     old_cells, new_cells = history.cell_records(last), history.cell_records(run_id)
     for d in changed:
         if before.get(d) and now_.get(d):
@@ -305,16 +361,24 @@ def _resumable(history: History, suite_name: str, identity: dict) -> tuple[int, 
     last = runs.iloc[-1]
     run_id = int(last.run_id)
     if int(last.complete):
-        raise InvalidInput(f"--resume: the latest {suite_name} run in {history.path}, run {run_id}, is complete: "
-                           f"nothing to resume (run without --resume)")
-    stored = {"commit": last.git_commit, "versions": last.versions, "machine": _platform(last.machine),
-              "measurement version": int(last.measurement_version),
-              **{k: last.settings.get(k) for k in _RESUME_SETTINGS}}
+        raise InvalidInput(
+            f"--resume: the latest {suite_name} run in {history.path}, run {run_id}, is complete: "
+            f"nothing to resume (run without --resume)"
+        )
+    stored = {
+        "commit": last.git_commit,
+        "versions": last.versions,
+        "machine": _platform(last.machine),
+        "measurement version": int(last.measurement_version),
+        **{k: last.settings.get(k) for k in _RESUME_SETTINGS},
+    }
     differs = [k for k in identity if _plain(stored.get(k)) != _plain(identity[k])]
     if differs:
         what = "; ".join(f"{k}: {stored.get(k)!r} then, {identity[k]!r} now" for k in differs)
-        raise InvalidInput(f"--resume: run {run_id} was measured otherwise ({what[:400]}): its cells are not "
-                           f"mixed with these; run without --resume to start a new run")
+        raise InvalidInput(
+            f"--resume: run {run_id} was measured otherwise ({what[:400]}): its cells are not "
+            f"mixed with these; run without --resume to start a new run"
+        )
     return run_id, last.settings
 
 
@@ -340,10 +404,18 @@ def engine_versions() -> dict[str, str | None]:
     return {dist: engine_version(dist) for dist in sorted(e.dist for e in ENGINES.values())}
 
 
-def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Path = DEFAULT_DB,
-                jobs: int | None = None, scheduler: str | None = None, bounds_path=bounds_mod.DEFAULT_PATH,
-                progress_stream=None, cell_timeout: float | None = None, resume: bool = False,
-                timings=None) -> dict:
+def run_nightly(
+    suite: str | Suite = "standard",
+    out: Path = DEFAULT_OUT,
+    db: Path = DEFAULT_DB,
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    bounds_path=bounds_mod.DEFAULT_PATH,
+    progress_stream=None,
+    cell_timeout: float | None = None,
+    resume: bool = False,
+    timings=None,
+) -> dict:
     """Run the suite (a name in ``SUITES``, or a ``Suite``), store every task's cells as it ends,
     compare with the previous complete run of the same suite, write the report, mark the run
     complete. ``cell_timeout`` (seconds per task) overrides the suite's. ``resume``: continue the
@@ -366,23 +438,37 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     commit, versions, machine = run_metadata()
     versions = {**versions, **plugin_versions(active_plugins()), "engines": engine_versions()}
     executor = make_executor(jobs, scheduler)
-    settings = {"suite": asdict(suite), "jobs": jobs, "executor": executor.describe(), "skipped": skipped,
-                "cell_timeout": timeout, "plugins": list(active_plugins()),
-                "bounds_file": str(bounds_path), "measurement_version": MEASUREMENT_VERSION,
-                "code_digest": code_digest(),
-                "injected_timings": None if injected is None else {"file": str(timings or os.environ.get(INJECT_VAR)),
-                                                                   **injected}}
+    settings = {
+        "suite": asdict(suite),
+        "jobs": jobs,
+        "executor": executor.describe(),
+        "skipped": skipped,
+        "cell_timeout": timeout,
+        "plugins": list(active_plugins()),
+        "bounds_file": str(bounds_path),
+        "measurement_version": MEASUREMENT_VERSION,
+        "code_digest": code_digest(),
+        "injected_timings": None
+        if injected is None
+        else {"file": str(timings or os.environ.get(INJECT_VAR)), **injected},
+    }
     carried: dict[str, tuple] = {}
     if resume:
-        identity = {"commit": commit, "versions": versions, "machine": _platform(machine),
-                    "measurement version": MEASUREMENT_VERSION, **{k: settings[k] for k in _RESUME_SETTINGS}}
+        identity = {
+            "commit": commit,
+            "versions": versions,
+            "machine": _platform(machine),
+            "measurement version": MEASUREMENT_VERSION,
+            **{k: settings[k] for k in _RESUME_SETTINGS},
+        }
         run_id, stored_settings = _resumable(history, suite_name, identity)
         carried = history.done_tasks(run_id)
         attempts = [*RunSettings.of(stored_settings).resumed, {"at": now(), "tasks_carried": len(carried)}]
         history.update_settings(run_id, {**stored_settings, "resumed": attempts})
     else:
-        run_id = history.start_run(started=now(), suite=suite_name, git_commit=commit, versions=versions,
-                                   machine=machine, settings=settings)
+        run_id = history.start_run(
+            started=now(), suite=suite_name, git_commit=commit, versions=versions, machine=machine, settings=settings
+        )
     to_run = schedule([t for t in tasks if t.label not in carried], previous_task_seconds(history, suite_name))
     progress = Progress(len(to_run), progress_stream)
     plan = None
@@ -395,8 +481,14 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
         for task, result in executor.run(to_run, timeout):
             cells = result if isinstance(result, list) else failed_cells(task, result)
             stats = getattr(executor, "task_stats", {}).get(task.label)
-            history.add_task_cells(run_id, task.label, cells, getattr(stats, "wall_s", None),
-                                   getattr(stats, "cpu_s", None), before_commit=lambda: checkpoint("store"))
+            history.add_task_cells(
+                run_id,
+                task.label,
+                cells,
+                getattr(stats, "wall_s", None),
+                getattr(stats, "cpu_s", None),
+                before_commit=lambda: checkpoint("store"),
+            )
             cells_by_task[task.label] = cells
             worst = next((c.status for c in cells if c.status != "ok"), "ok")
             progress.update(task, worst, sum(c.wall_s or 0.0 for c in cells), cells)
@@ -418,28 +510,37 @@ def run_nightly(suite: str | Suite = "standard", out: Path = DEFAULT_OUT, db: Pa
     if remeasured:  # judged again on the cells as re-measured
         trend = load_trend(history, run_id=run_id)
         run_a, _, regressions = compare_runs(history, None, run_id, bounds_path, trend=trend)
-    timing = {"tasks": len(tasks), "executor": executor.describe(), "jobs": getattr(executor, "jobs", None),
-              "cpus": os.cpu_count(), "workers_started": getattr(executor, "workers_started", None),
-              **timing_summary(cells_by_task, stats, t_cells)}
+    timing = {
+        "tasks": len(tasks),
+        "executor": executor.describe(),
+        "jobs": getattr(executor, "jobs", None),
+        "cpus": os.cpu_count(),
+        "workers_started": getattr(executor, "workers_started", None),
+        **timing_summary(cells_by_task, stats, t_cells),
+    }
     timing["remeasured"] = remeasured
     timing["kernel_plan"] = asdict(plan) if plan is not None else None
     progress.say(compile_line(RunTiming.of(timing)))
-    timing["machine_busy"] = _others_share(busy0, busy1, t_cells, cells_by_task, stats, set(carried),
-                                           time.process_time() - cpu_start)
+    timing["machine_busy"] = _others_share(
+        busy0, busy1, t_cells, cells_by_task, stats, set(carried), time.process_time() - cpu_start
+    )
     if resume:
-        timing["resumed"] = {"attempts": len(RunSettings.of(history.run(run_id)["settings"]).resumed),
-                             "tasks_carried": len(carried), "tasks_run": len(to_run)}
+        timing["resumed"] = {
+            "attempts": len(RunSettings.of(history.run(run_id)["settings"]).resumed),
+            "tasks_carried": len(carried),
+            "tasks_run": len(to_run),
+        }
     timing["total_s"] = time.perf_counter() - t_start  # up to the report: what its footer can say
     timing["main_cpu_s"] = time.process_time() - cpu_start
     t_report = time.perf_counter()
     # The cells' workers are gone by now: as many chart processes as the cells had, at most one a core.
     chart_jobs = min(getattr(executor, "jobs", None) or os.cpu_count() or 1, os.cpu_count() or 1)
-    report = report_run(history, run_id, out, regressions=regressions, previous=run_a, timing=timing, trend=trend,
-                        jobs=chart_jobs)
+    report = report_run(
+        history, run_id, out, regressions=regressions, previous=run_a, timing=timing, trend=trend, jobs=chart_jobs
+    )
     timing["report_s"] = time.perf_counter() - t_report
     timing["finished_s"] = time.perf_counter() - t_start
-    history.finish_run(run_id, finished=now(), wall_s=timing["finished_s"], timing=timing,
-                       regressions=len(regressions))
+    history.finish_run(run_id, finished=now(), wall_s=timing["finished_s"], timing=timing, regressions=len(regressions))
     return {"run_id": run_id, "previous": run_a, "regressions": regressions, "report": report, "timing": timing}
 
 
@@ -452,8 +553,9 @@ RANGE_IN_SIGMAS = {2: 1.128, 3: 1.693, 4: 2.059, 5: 2.326, 6: 2.534}
 MAX_REMEASURED = 12
 
 
-def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regressions, timeout: float,
-                        jobs: int | None) -> dict[str, list[float]]:
+def remeasure_slowdowns(
+    history: History, run_id: int, tasks: list[Task], regressions, timeout: float, jobs: int | None
+) -> dict[str, list[float]]:
     """Each cost cell the verdict would call a slowdown, measured again ``REMEASURES`` times, each
     in a fresh worker process, before the verdict (asv re-runs a benchmark before it reports a
     regression). One process's figure can sit well away from another's with nothing changed (where
@@ -461,7 +563,8 @@ def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regres
     repeats, all in one process, cannot show. The stored cell becomes the median of the first
     measurement and the re-measurements, its spread theirs, and their range the cell's
     process-to-process noise (``process_noise``, log units), which the history takes as the
-    least noise the cell's step detection may assume: judged against the noise measured now. Returns {cell label: the ratios, first one first}."""
+    least noise the cell's step detection may assume: judged against the noise measured now. Returns {cell label: the
+    ratios, first one first}."""
     from concurrent.futures import ThreadPoolExecutor
 
     from harness.execution.isolation import run_in_worker
@@ -472,9 +575,21 @@ def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regres
     todo = [by_cell[(r.scene, r.method)] for r in flagged if (r.scene, r.method) in by_cell]
     if not todo:
         return {}
-    again = [Task("cost", t.scene, t.method, t.family, t.params, t.suite, plugins=t.plugins, timings=t.timings,
-                  source=t.source)
-             for t in todo for _ in range(REMEASURES)]
+    again = [
+        Task(
+            "cost",
+            t.scene,
+            t.method,
+            t.family,
+            t.params,
+            t.suite,
+            plugins=t.plugins,
+            timings=t.timings,
+            source=t.source,
+        )
+        for t in todo
+        for _ in range(REMEASURES)
+    ]
     with ThreadPoolExecutor(max(1, jobs or 1)) as threads:
         results = list(threads.map(lambda t: run_in_worker(run_task, (t,), timeout=timeout), again))
     out = {}
@@ -486,15 +601,19 @@ def remeasure_slowdowns(history: History, run_id: int, tasks: list[Task], regres
         cell = Cell.from_row(rows.iloc[0].to_dict())
         f = cell.figures
         first = f.first_ratio if f.first_ratio is not None else f.ratio_to_explicit_euler
-        cells = [r[0] for r in results[i * REMEASURES:(i + 1) * REMEASURES] if isinstance(r, list) and r]
+        cells = [r[0] for r in results[i * REMEASURES : (i + 1) * REMEASURES] if isinstance(r, list) and r]
         again_ratios = [c.figures.ratio_to_explicit_euler for c in cells if c.ok]
         ratios = [float(x) for x in (first, *again_ratios) if x]
         if first is None or len(ratios) < 2:
             continue
-        cell.figures = replace(f, first_ratio=float(first), remeasured_ratios=ratios[1:],
-                               process_noise=math.log(max(ratios) / min(ratios)) / RANGE_IN_SIGMAS[len(ratios)],
-                               ratio_to_explicit_euler=float(np.median(ratios)),
-                               ratio_spread=max(float(f.ratio_spread or 0.0), (max(ratios) - min(ratios)) / min(ratios)))
+        cell.figures = replace(
+            f,
+            first_ratio=float(first),
+            remeasured_ratios=ratios[1:],
+            process_noise=math.log(max(ratios) / min(ratios)) / RANGE_IN_SIGMAS[len(ratios)],
+            ratio_to_explicit_euler=float(np.median(ratios)),
+            ratio_spread=max(float(f.ratio_spread or 0.0), (max(ratios) - min(ratios)) / min(ratios)),
+        )
         history.add_cell(run_id, cell)
         out[t.label] = ratios
     return out
@@ -520,12 +639,14 @@ def _of_task(cell: Cell, task: Task) -> bool:
     return cell.measure != "bound"
 
 
-def _others_share(busy0, busy1, wall_s: float, cells_by_task: dict, stats: dict, carried: set,
-                  main_cpu_s: float) -> float | None:
+def _others_share(
+    busy0, busy1, wall_s: float, cells_by_task: dict, stats: dict, carried: set, main_cpu_s: float
+) -> float | None:
     """The share of the machine's CPU that other processes took while the cells ran: its busy
     seconds (``/proc/stat``) less the workers' and this process's, over wall x cores."""
     if busy0 is None or busy1 is None or wall_s <= 0:
         return None
-    ours = main_cpu_s + sum(getattr(stats.get(label), "cpu_s", None) or 0.0
-                            for label in cells_by_task if label not in carried)
+    ours = main_cpu_s + sum(
+        getattr(stats.get(label), "cpu_s", None) or 0.0 for label in cells_by_task if label not in carried
+    )
     return max(0.0, (busy1 - busy0 - ours) / (wall_s * (os.cpu_count() or 1)))

@@ -12,6 +12,7 @@ the compiled loops carry the state in one such array from step to step and make 
 velocity loops out in its step rather than calling helpers with the arrays: a compiled call
 passes every array it is given with a reference count taken and dropped, a cost per step beside
 which the single spring's step is small."""
+
 import numpy as np
 
 

@@ -21,10 +21,19 @@ def amplification(y, z):
     return np.linalg.inv(np.eye(2) - y * oscillator(z))
 
 
-@scheme(kind=IMPLICIT, order=1, force_evals=1, symplectic=False, energy_claim="decays", homega_max=float("inf"),
-        floor=Floor(floor), amplification=amplification, damping_limit=unbounded,
-        # Not the solar system, where the issue names the schemes it runs against REBOUND's modes.
-        suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "cloth")})
+@scheme(
+    kind=IMPLICIT,
+    order=1,
+    force_evals=1,
+    symplectic=False,
+    energy_claim="decays",
+    homega_max=float("inf"),
+    floor=Floor(floor),
+    amplification=amplification,
+    damping_limit=unbounded,
+    # Not the solar system, where the issue names the schemes it runs against REBOUND's modes.
+    suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "cloth")},
+)
 def implicit_euler(accel, solve, newton_max, state, t, h, p):
     """Implicit (backward) Euler: both updates from the new state.
 

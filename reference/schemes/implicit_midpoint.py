@@ -18,10 +18,19 @@ def amplification(y, z):
     return np.linalg.solve(np.eye(2) - a, np.eye(2) + a)
 
 
-@scheme(kind=IMPLICIT, order=2, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=float("inf"),
-        floor=Floor(floor), amplification=amplification, damping_limit=unbounded,
-        # Not the solar system, where the issue names the schemes it runs against REBOUND's modes.
-        suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "cloth")})
+@scheme(
+    kind=IMPLICIT,
+    order=2,
+    force_evals=1,
+    symplectic=True,
+    energy_claim="bounded",
+    homega_max=float("inf"),
+    floor=Floor(floor),
+    amplification=amplification,
+    damping_limit=unbounded,
+    # Not the solar system, where the issue names the schemes it runs against REBOUND's modes.
+    suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "cloth")},
+)
 def implicit_midpoint(accel, solve, newton_max, state, t, h, p):
     """Implicit midpoint rule: the update uses the average of old and new state.
 

@@ -11,12 +11,20 @@ def floor(s, h, k, m):
     return (x + h * w, w)
 
 
-@scheme(kind=IMPLICIT, order=1, force_evals=1, symplectic=False, energy_claim="decays", homega_max=float("inf"),
-        floor=Floor(floor),
-        # On a linear scene the step is backward Euler's (tests/test_cloth.py): so is its recurrence.
-        amplification=implicit_euler_amplification, damping_limit=unbounded,
-        # Not the solar system, where the issue names the schemes it runs against REBOUND's modes.
-        suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "cloth")})
+@scheme(
+    kind=IMPLICIT,
+    order=1,
+    force_evals=1,
+    symplectic=False,
+    energy_claim="decays",
+    homega_max=float("inf"),
+    floor=Floor(floor),
+    # On a linear scene the step is backward Euler's (tests/test_cloth.py): so is its recurrence.
+    amplification=implicit_euler_amplification,
+    damping_limit=unbounded,
+    # Not the solar system, where the issue names the schemes it runs against REBOUND's modes.
+    suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain", "cloth")},
+)
 def linearly_implicit_euler(accel, solve, newton_max, state, t, h, p):
     """Linearly implicit backward Euler (Baraff and Witkin's cloth step): backward Euler with the
     force linearised at the start of the step, so one linear solve and no iteration.

@@ -28,11 +28,19 @@ def floor_start(x, v, h, k, m):
     return (x, v, (1.0 - nth_root(1.0 - w / (w + (1.0 / k) / (h * h)), DEFAULT_ITERATIONS)) / w)
 
 
-@scheme(kind=POSITION_BASED, order=1, force_evals=0, symplectic=False, energy_claim="decays",
-        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS,
-        floor=Floor(floor, floor_start),
-        # Every scene that gives distance constraints (the spring, the chain, the rope, the cloth).
-        suites={"standard": EVERY_SCENE})
+@scheme(
+    kind=POSITION_BASED,
+    order=1,
+    force_evals=0,
+    symplectic=False,
+    energy_claim="decays",
+    homega_max=float("inf"),
+    substeps=DEFAULT_SUBSTEPS,
+    iterations=DEFAULT_ITERATIONS,
+    floor=Floor(floor, floor_start),
+    # Every scene that gives distance constraints (the spring, the chain, the rope, the cloth).
+    suites={"standard": EVERY_SCENE},
+)
 def pbd(accel, constraints, substeps, iterations, state, t, h, p):
     """Position-based dynamics (Mueller, Heidelberger, Hennix and Ratcliff 2007): predict,
     project, velocity from the position change, in each of ``substeps`` substeps of hs:
@@ -69,12 +77,12 @@ def pbd(accel, constraints, substeps, iterations, state, t, h, p):
     u = x_old + n
     work = np.empty((u + n, nb))
     work[:n] = q
-    work[u:u + n] = v
+    work[u : u + n] = v
     for a in range(anchors.shape[0]):
         for k in range(d):
             for b in range(nb):
                 work[n + a * d + k, b] = anchors[a, k]
-    for s in range(substeps):
+    for _ in range(substeps):
         # v~ = v + hs g, x~ = x + hs v~, x_old kept.
         for r in range(n):
             g = gravity[r % d]
@@ -106,4 +114,4 @@ def pbd(accel, constraints, substeps, iterations, state, t, h, p):
         for r in range(n):
             for b in range(nb):
                 work[u + r, b] = (work[r, b] - work[x_old + r, b]) / hs
-    return (work[:n], work[u:u + n])
+    return (work[:n], work[u : u + n])

@@ -5,6 +5,7 @@ gamma v with one rate gamma (the scene's ``damping_rate``).
 The standard suite runs them where the force depends on the velocity (the damped spring and the
 projectile): elsewhere each is position-first semi-implicit Euler, bitwise. The full suite runs
 them everywhere."""
+
 import math
 
 import numpy as np
@@ -25,13 +26,22 @@ def floor_after_kick(s, h, k, m):
 
 
 def amplification_after_kick(y, z):
-    e = math.exp(-2.0 * z * y)             # v_1 = e (v - y x_1), x_1 = x + y v
+    e = math.exp(-2.0 * z * y)  # v_1 = e (v - y x_1), x_1 = x + y v
     return np.array([[1.0, 0.0], [-e * y, e]]) @ drift(y)
 
 
-@scheme(kind=DECAY, order=1, force_evals=1, symplectic=False, energy_claim="bounded", homega_max=2.0,
-        same_without_velocity=semi_implicit_euler_position_first, floor=Floor(floor_after_kick),
-        amplification=amplification_after_kick, suites=STANDARD)
+@scheme(
+    kind=DECAY,
+    order=1,
+    force_evals=1,
+    symplectic=False,
+    energy_claim="bounded",
+    homega_max=2.0,
+    same_without_velocity=semi_implicit_euler_position_first,
+    floor=Floor(floor_after_kick),
+    amplification=amplification_after_kick,
+    suites=STANDARD,
+)
 def position_first_euler_decay_after_kick(accel, rate, state, t, h, p):
     """Position-first Euler, then the whole new velocity decays (Chipmunk's DampedSpring):
 
@@ -52,13 +62,22 @@ def floor_before_kick(s, h, k, m):
 
 
 def amplification_before_kick(y, z):
-    e = math.exp(-2.0 * z * y)             # v_1 = e v - y x_1
+    e = math.exp(-2.0 * z * y)  # v_1 = e v - y x_1
     return np.array([[1.0, y], [-y, e - y * y]])
 
 
-@scheme(kind=DECAY, order=1, force_evals=1, symplectic=False, energy_claim="bounded", homega_max=2.0,
-        same_without_velocity=semi_implicit_euler_position_first, floor=Floor(floor_before_kick),
-        amplification=amplification_before_kick, suites=STANDARD)
+@scheme(
+    kind=DECAY,
+    order=1,
+    force_evals=1,
+    symplectic=False,
+    energy_claim="bounded",
+    homega_max=2.0,
+    same_without_velocity=semi_implicit_euler_position_first,
+    floor=Floor(floor_before_kick),
+    amplification=amplification_before_kick,
+    suites=STANDARD,
+)
 def position_first_euler_decay_before_kick(accel, rate, state, t, h, p):
     """Position-first Euler whose old velocity decays before the kick (Chipmunk's space.damping,
     v = v damping^h + h a):

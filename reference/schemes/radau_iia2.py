@@ -43,12 +43,22 @@ def amplification(y, z):
     return np.linalg.solve(np.eye(2) - (2.0 / 3.0) * a + (a @ a) / 6.0, np.eye(2) + a / 3.0)
 
 
-@scheme(kind=IMPLICIT, order=3, force_evals=2, symplectic=False, energy_claim="decays", homega_max=float("inf"),
-        one_pass_on_linear=False, floor=Floor(floor), amplification=amplification, damping_limit=unbounded,
-        # Not the cloth, where it iterates its coupled stages on every step of the stiff sheet (the
-        # standard suite's longest reference task), nor the solar system (the schemes the issue names
-        # against REBOUND's modes run there); the full suite runs it everywhere.
-        suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain")})
+@scheme(
+    kind=IMPLICIT,
+    order=3,
+    force_evals=2,
+    symplectic=False,
+    energy_claim="decays",
+    homega_max=float("inf"),
+    one_pass_on_linear=False,
+    floor=Floor(floor),
+    amplification=amplification,
+    damping_limit=unbounded,
+    # Not the cloth, where it iterates its coupled stages on every step of the stiff sheet (the
+    # standard suite's longest reference task), nor the solar system (the schemes the issue names
+    # against REBOUND's modes run there); the full suite runs it everywhere.
+    suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile", "chain")},
+)
 def radau_iia2(accel, solve, newton_max, state, t, h, p):
     """Two-stage Radau IIA (c = 1/3, 1; A = [[5/12, -1/12], [3/4, 1/4]]; b = A's last row): stage
     velocities W1, W2 at t_n + h/3 and t_n + h.

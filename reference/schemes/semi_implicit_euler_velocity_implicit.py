@@ -20,7 +20,7 @@ def floor(s, h, k, m):
 
 
 def amplification(y, z):
-    d = 1.0 + 2.0 * z * y                  # (1 + 2 zeta y) v_1 = v - y x
+    d = 1.0 + 2.0 * z * y  # (1 + 2 zeta y) v_1 = v - y x
     return drift(y) @ np.array([[1.0, 0.0], [-y / d, 1.0 / d]])
 
 
@@ -29,13 +29,22 @@ def damping_limit(z):
     return 2.0 * (math.sqrt(1.0 + z * z) + z)
 
 
-@scheme(kind=IMPLICIT, order=1, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=2.0,
-        same_without_velocity=semi_implicit_euler, floor=Floor(floor), amplification=amplification,
-        damping_limit=damping_limit,
-        # Where the force depends on the velocity (the damped spring, the projectile), and the chain, where
-        # the standard suite has run it since it first ran these schemes (undamped, it is semi-implicit Euler
-        # there, bitwise). The full suite runs it everywhere.
-        suites={"standard": ("damped_spring", "projectile", "chain")})
+@scheme(
+    kind=IMPLICIT,
+    order=1,
+    force_evals=1,
+    symplectic=True,
+    energy_claim="bounded",
+    homega_max=2.0,
+    same_without_velocity=semi_implicit_euler,
+    floor=Floor(floor),
+    amplification=amplification,
+    damping_limit=damping_limit,
+    # Where the force depends on the velocity (the damped spring, the projectile), and the chain, where
+    # the standard suite has run it since it first ran these schemes (undamped, it is semi-implicit Euler
+    # there, bitwise). The full suite runs it everywhere.
+    suites={"standard": ("damped_spring", "projectile", "chain")},
+)
 def semi_implicit_euler_velocity_implicit(accel, solve, newton_max, state, t, h, p):
     """Semi-implicit Euler, implicit in the velocity only: MuJoCo's Euler (eulerdamp), implicit
     and implicitfast with joint damping.

@@ -42,15 +42,24 @@ def amplification(y, z):
     return np.vstack([x1, [1.0, 0.0, 0.0], a1])
 
 
-@scheme(order=2, force_evals=1, symplectic=True, energy_claim="bounded", homega_max=2.0,
-        order_velocity_dependent=1, carries=("q", "q_prev", "a"),
-        start=start, observe=observe,
-        floor=Floor(floor, floor_start, floor_observe), amplification=amplification,
-        damping_limit=damping_limit,  # semi-implicit Euler's characteristic polynomial
-        # Not the chain and the cloth, where each pair would cost the standard suite a compile of its
-        # own (leapfrog, its limit, runs there), nor the solar system (the schemes the issue names
-        # against REBOUND's modes run there); the full suite runs it everywhere.
-        suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile")})
+@scheme(
+    order=2,
+    force_evals=1,
+    symplectic=True,
+    energy_claim="bounded",
+    homega_max=2.0,
+    order_velocity_dependent=1,
+    carries=("q", "q_prev", "a"),
+    start=start,
+    observe=observe,
+    floor=Floor(floor, floor_start, floor_observe),
+    amplification=amplification,
+    damping_limit=damping_limit,  # semi-implicit Euler's characteristic polynomial
+    # Not the chain and the cloth, where each pair would cost the standard suite a compile of its
+    # own (leapfrog, its limit, runs there), nor the solar system (the schemes the issue names
+    # against REBOUND's modes run there); the full suite runs it everywhere.
+    suites={"standard": ("spring", "damped_spring", "pendulum", "kepler", "projectile")},
+)
 def verlet(accel, state, t, h, p):
     """Position (Stormer) Verlet: the scheme of cloth and ropes.
 

@@ -21,11 +21,20 @@ def observe(accel, state, t, h, p):
     return q, (q - q_prev) / h + (0.5 * h) * a_eff
 
 
-@scheme(kind=CONSTRAINED, order=1, force_evals=1, symplectic=False, energy_claim="decays", homega_max=2.0,
-        carries=("q", "q_prev", "a", "a_eff"), start=start, observe=observe,
-        iterations=DEFAULT_ITERATIONS,
-        # Every scene held by constraints (the rope). No floor and no recurrence: it runs on no spring.
-        suites={"standard": EVERY_SCENE})
+@scheme(
+    kind=CONSTRAINED,
+    order=1,
+    force_evals=1,
+    symplectic=False,
+    energy_claim="decays",
+    homega_max=2.0,
+    carries=("q", "q_prev", "a", "a_eff"),
+    start=start,
+    observe=observe,
+    iterations=DEFAULT_ITERATIONS,
+    # Every scene held by constraints (the rope). No floor and no recurrence: it runs on no spring.
+    suites={"standard": EVERY_SCENE},
+)
 def verlet_constrained(accel, project, iterations, state, t, h, p):
     """Position Verlet with position-based constraint projection (Jakobsen, as in cloth and rope
     code): predict, then move the positions back onto the constraints.

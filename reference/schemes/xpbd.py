@@ -25,11 +25,19 @@ def floor(s, h, k, m):
     return (x, (x - x_old) / h)
 
 
-@scheme(kind=POSITION_BASED, order=1, force_evals=0, symplectic=False, energy_claim="decays",
-        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS,
-        floor=Floor(floor),
-        # Every scene that gives distance constraints (the spring, the chain, the rope, the cloth).
-        suites={"standard": EVERY_SCENE})
+@scheme(
+    kind=POSITION_BASED,
+    order=1,
+    force_evals=0,
+    symplectic=False,
+    energy_claim="decays",
+    homega_max=float("inf"),
+    substeps=DEFAULT_SUBSTEPS,
+    iterations=DEFAULT_ITERATIONS,
+    floor=Floor(floor),
+    # Every scene that gives distance constraints (the spring, the chain, the rope, the cloth).
+    suites={"standard": EVERY_SCENE},
+)
 def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
     """Extended position-based dynamics (Macklin, Mueller and Chentanez 2016): each spring a
     distance constraint C with compliance alpha = 1/k and a Lagrange multiplier lambda, in each
@@ -69,12 +77,12 @@ def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
     u = x_old + n
     work = np.empty((u + n, nb))
     work[:n] = q
-    work[u:u + n] = v
+    work[u : u + n] = v
     for a in range(anchors.shape[0]):
         for k in range(d):
             for b in range(nb):
                 work[n + a * d + k, b] = anchors[a, k]
-    for s in range(substeps):
+    for _ in range(substeps):
         # v~ = v + hs g, x~ = x + hs v~, x_old kept.
         for r in range(n):
             g = gravity[r % d]
@@ -96,7 +104,9 @@ def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
                 wa = point_inv_mass(inv_mass, ends[c, 0])
                 wb = point_inv_mass(inv_mass, ends[c, 1])
                 if d > 1:
-                    project(work, ra, a_free, rb, b_free, d, rest[c], wa, wb, lam + c, tilde[c], denominator[c], 0.0, 0, 1.0)
+                    project(
+                        work, ra, a_free, rb, b_free, d, rest[c], wa, wb, lam + c, tilde[c], denominator[c], 0.0, 0, 1.0
+                    )
                     continue
                 # d = 1: C = x_b - x_a - rest, gradient 1; an anchor written back as read.
                 for b in range(nb):
@@ -110,4 +120,4 @@ def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
         for r in range(n):
             for b in range(nb):
                 work[u + r, b] = (work[r, b] - work[x_old + r, b]) / hs
-    return (work[:n], work[u:u + n])
+    return (work[:n], work[u : u + n])

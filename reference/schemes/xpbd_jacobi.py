@@ -49,23 +49,43 @@ class JacobiPositionBased(PositionBased):
         return lambda state, t: step(*args, state, t, dt, p)
 
     def count_args(self, count="k"):
-        return [f"({count} // {COUNT_BASE}) % {COUNT_BASE}", f"{count} % {COUNT_BASE}",
-                f"({count} // {RELAXATION_BASE}) / {RELAXATION_STEPS:.1f}"]
+        return [
+            f"({count} // {COUNT_BASE}) % {COUNT_BASE}",
+            f"{count} % {COUNT_BASE}",
+            f"({count} // {RELAXATION_BASE}) / {RELAXATION_STEPS:.1f}",
+        ]
 
     def in_memory_loop(self, jit, step, accel, scene_cls):
         constraints = jit(scene_cls.constraints)
 
         def advance_n(state, t0, h, i0, n, p, k):
             for i in range(i0, i0 + n):
-                state = step(accel, constraints, (k // COUNT_BASE) % COUNT_BASE, k % COUNT_BASE,
-                             (k // RELAXATION_BASE) / RELAXATION_STEPS, state, t0 + i * h, h, p)
+                state = step(
+                    accel,
+                    constraints,
+                    (k // COUNT_BASE) % COUNT_BASE,
+                    k % COUNT_BASE,
+                    (k // RELAXATION_BASE) / RELAXATION_STEPS,
+                    state,
+                    t0 + i * h,
+                    h,
+                    p,
+                )
             return state
+
         return jit(advance_n)
 
     def parameters(self, scheme) -> dict:
-        return {"relaxation": Option("relaxation", float, 1.0 / RELAXATION_STEPS, RELAXATION_MAX,
-                                     "the factor the summed corrections of a pass are applied by "
-                                     "(thousandths)", default=DEFAULT_RELAXATION)}
+        return {
+            "relaxation": Option(
+                "relaxation",
+                float,
+                1.0 / RELAXATION_STEPS,
+                RELAXATION_MAX,
+                "the factor the summed corrections of a pass are applied by (thousandths)",
+                default=DEFAULT_RELAXATION,
+            )
+        }
 
     def with_parameters(self, scheme, values: dict):
         if "relaxation" not in values:
@@ -73,17 +93,21 @@ class JacobiPositionBased(PositionBased):
         r = float(values["relaxation"])
         code = round(r * RELAXATION_STEPS)
         if code / RELAXATION_STEPS != r:
-            raise InvalidInput(f"method {scheme.id}: option relaxation={values['relaxation']} is not a multiple of "
-                               f"{1.0 / RELAXATION_STEPS:g} (allowed: number from {1.0 / RELAXATION_STEPS:g} to "
-                               f"{RELAXATION_MAX:g} in thousandths)")
+            raise InvalidInput(
+                f"method {scheme.id}: option relaxation={values['relaxation']} is not a multiple of "
+                f"{1.0 / RELAXATION_STEPS:g} (allowed: number from {1.0 / RELAXATION_STEPS:g} to "
+                f"{RELAXATION_MAX:g} in thousandths)"
+            )
         return replace(scheme, kind=replace(self, relaxation=r))
 
     def parameter_values(self, scheme) -> dict:
         return {} if self.relaxation is None else {"relaxation": self.relaxation}
 
     def evals_text(self, scheme) -> str:
-        return (f"{scheme.force_evals} (the forces are constraints: {scheme.substeps} substep(s) x "
-                f"{scheme.iterations} Jacobi pass(es) over them)")
+        return (
+            f"{scheme.force_evals} (the forces are constraints: {scheme.substeps} substep(s) x "
+            f"{scheme.iterations} Jacobi pass(es) over them)"
+        )
 
 
 JACOBI = JacobiPositionBased()
@@ -106,12 +130,20 @@ def floor(s, h, k, m):
     return (x, (x - x_old) / h)
 
 
-@scheme(kind=JACOBI, order=1, force_evals=0, symplectic=False, energy_claim="decays",
-        homega_max=float("inf"), substeps=DEFAULT_SUBSTEPS, iterations=DEFAULT_ITERATIONS,
-        floor=Floor(floor),
-        # No scene of the standard suite: it is there to identify Newton's XPBD, which the identity
-        # cells hold every scheme against; the full suite runs it wherever it can.
-        suites={})
+@scheme(
+    kind=JACOBI,
+    order=1,
+    force_evals=0,
+    symplectic=False,
+    energy_claim="decays",
+    homega_max=float("inf"),
+    substeps=DEFAULT_SUBSTEPS,
+    iterations=DEFAULT_ITERATIONS,
+    floor=Floor(floor),
+    # No scene of the standard suite: it is there to identify Newton's XPBD, which the identity
+    # cells hold every scheme against; the full suite runs it wherever it can.
+    suites={},
+)
 def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, h, p):
     """XPBD with Jacobi passes (Macklin, Mueller and Chentanez 2016, projected in parallel as
     Newton's SolverXPBD projects particle springs): in each of ``substeps`` substeps of hs,
@@ -152,12 +184,12 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
     delta = u + n
     work = np.empty((delta + n + fixed, nb))
     work[:n] = q
-    work[u:u + n] = v
+    work[u : u + n] = v
     for a in range(anchors.shape[0]):
         for k in range(d):
             for b in range(nb):
                 work[n + a * d + k, b] = anchors[a, k]
-    for s in range(substeps):
+    for _ in range(substeps):
         # v~ = v + hs g, x~ = x + hs v~, x_old kept.
         for r in range(n):
             g = gravity[r % d]
@@ -181,14 +213,30 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
                 wb = point_inv_mass(inv_mass, ends[c, 1])
                 if d > 1:
                     # Summed into the corrections' rows, from delta on.
-                    project(work, ra, ends[c, 0] >= 0, rb, ends[c, 1] >= 0, d, rest[c], wa, wb, lam + c, tilde[c],
-                            denominator[c], 0.0, delta, relaxation)
+                    project(
+                        work,
+                        ra,
+                        ends[c, 0] >= 0,
+                        rb,
+                        ends[c, 1] >= 0,
+                        d,
+                        rest[c],
+                        wa,
+                        wb,
+                        lam + c,
+                        tilde[c],
+                        denominator[c],
+                        0.0,
+                        delta,
+                        relaxation,
+                    )
                     continue
                 # d = 1: C = x_b - x_a - rest, gradient 1, written out (no call, no branch: it
                 # vectorises over the batch); an anchor's correction goes to its own row, unused.
                 for b in range(nb):
-                    dl = relaxation * ((-(work[rb, b] - work[ra, b] - rest[c]) - tilde[c] * work[lam + c, b])
-                                       / denominator[c])
+                    dl = relaxation * (
+                        (-(work[rb, b] - work[ra, b] - rest[c]) - tilde[c] * work[lam + c, b]) / denominator[c]
+                    )
                     work[lam + c, b] = work[lam + c, b] + dl
                     work[delta + ra, b] = work[delta + ra, b] - wa * dl * 1.0
                     work[delta + rb, b] = work[delta + rb, b] + wb * dl * 1.0
@@ -199,4 +247,4 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
         for r in range(n):
             for b in range(nb):
                 work[u + r, b] = (work[r, b] - work[x_old + r, b]) / hs
-    return (work[:n], work[u:u + n])
+    return (work[:n], work[u : u + n])

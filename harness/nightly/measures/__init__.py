@@ -6,6 +6,7 @@ the energy run, the claims) but not another module's.
 
 A new built-in measure is a new module here and nothing else (docs/contributing.md).
 """
+
 from __future__ import annotations
 
 import importlib

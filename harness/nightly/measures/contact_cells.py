@@ -15,6 +15,7 @@ schemes) and ``grid``. Their tasks (``harness.nightly.run.contact_tasks``) are c
 their one measure (``Task.only``) and carry their scene's id and parameters; each measure runs
 where its task names it, as every measure runs: from the registry.
 """
+
 from __future__ import annotations
 
 from records.contact import ContactCellFigures, PenaltyFigures
@@ -51,18 +52,24 @@ def contact_run(ctx) -> list:
     settings = ctx.suite.contact
     ladder = tuple(settings.get("ladder", LADDER))
     mode = contact_modes()[task.method]
-    runs = measure_mode(task.method, scene.id, task.params, ladder, isolated=False,
-                        timeout=ctx.suite.cell_timeout)
+    runs = measure_mode(task.method, scene.id, task.params, ladder, isolated=False, timeout=ctx.suite.cell_timeout)
     best = largest(runs)
     ok = [f for f in runs if f.passes]
     status = "ok" if ok else "crashed"
     detail = "" if ok else "; ".join(sorted({f"{f.status}: {f.detail}" for f in runs}))[:500]
     version = next((f.engine_version for f in runs if f.engine_version), None)
-    figures = ContactCellFigures(scene=scene.id, scene_params=dict(task.params),
-                                 runs=[plain(f.to_data()) for f in runs],
-                                 largest=best, settings=plain(dict(mode.settings)), doc=mode.doc or None,
-                                 engine_version=version, declared=plain(scene.declared()),
-                                 truth_text=scene.truth_text(), tolerance_text=scene.tolerance_text(scene.tolerances()))
+    figures = ContactCellFigures(
+        scene=scene.id,
+        scene_params=dict(task.params),
+        runs=[plain(f.to_data()) for f in runs],
+        largest=best,
+        settings=plain(dict(mode.settings)),
+        doc=mode.doc or None,
+        engine_version=version,
+        declared=plain(scene.declared()),
+        truth_text=scene.truth_text(),
+        tolerance_text=scene.tolerance_text(scene.tolerances()),
+    )
     return [make_cell(task, "contact", status, best.get("all"), None, detail=detail, figures=figures)]
 
 
@@ -95,20 +102,29 @@ def _contact_worse(before, after, comparison) -> Worse | None:
             continue
         lost = sorted(k for k, v in (old.get("passes") or {}).items() if v and not (r.get("passes") or {}).get(k))
         if lost:
-            return Worse("contact", before.value, after.value,
-                         f"at dt = {r['dt']:.4g} s {', '.join(lost)} held and now fails")
+            return Worse(
+                "contact", before.value, after.value, f"at dt = {r['dt']:.4g} s {', '.join(lost)} held and now fails"
+            )
     if before.value is not None and (after.value is None or after.value < before.value * (1 - 1e-9)):
-        return Worse("contact", before.value, after.value,
-                     f"largest step within every tolerance {before.value:.4g} s -> "
-                     f"{'none' if after.value is None else f'{after.value:.4g} s'}")
+        return Worse(
+            "contact",
+            before.value,
+            after.value,
+            f"largest step within every tolerance {before.value:.4g} s -> "
+            f"{'none' if after.value is None else f'{after.value:.4g} s'}",
+        )
     return None
 
 
 def _penalty_worse(before, after, comparison) -> Worse | None:
     if before.value is not None and (after.value is None or after.value < before.value):
-        return Worse("penalty", before.value, after.value,
-                     f"an elastic bounce stays within the tolerance up to h*omega_c {before.value:g} -> "
-                     f"{'none' if after.value is None else f'{after.value:g}'}")
+        return Worse(
+            "penalty",
+            before.value,
+            after.value,
+            f"an elastic bounce stays within the tolerance up to h*omega_c {before.value:g} -> "
+            f"{'none' if after.value is None else f'{after.value:g}'}",
+        )
     return None
 
 
@@ -149,13 +165,30 @@ def _penalty_chart(cells, scene, path):
 
 
 MEASURES = [
-    Measure("contact", ContactCellFigures, "an engine mode on a contact scene at every step of a ladder, against "
-            "the analytic truth: the figures the scene declares (restitution per bounce, stop distance, penetration, "
-            "drift, kinetic energy, ...), cost per simulated second, and the largest step within every tolerance",
-            run=contact_run, applies=_named("contact"), regression=_contact_worse,
-            findings=_contact_findings, section=_contact_section, chart=_contact_chart, higher_is_worse=False),
-    Measure("penalty", PenaltyFigures, "a reference scheme on a penalty ground: restitution against h*omega_c "
-            "beside the exact one", run=penalty_run, applies=_named("penalty"), regression=_penalty_worse,
-            findings=_penalty_findings, section=_penalty_section, chart=_penalty_chart, higher_is_worse=False),
+    Measure(
+        "contact",
+        ContactCellFigures,
+        "an engine mode on a contact scene at every step of a ladder, against "
+        "the analytic truth: the figures the scene declares (restitution per bounce, stop distance, penetration, "
+        "drift, kinetic energy, ...), cost per simulated second, and the largest step within every tolerance",
+        run=contact_run,
+        applies=_named("contact"),
+        regression=_contact_worse,
+        findings=_contact_findings,
+        section=_contact_section,
+        chart=_contact_chart,
+        higher_is_worse=False,
+    ),
+    Measure(
+        "penalty",
+        PenaltyFigures,
+        "a reference scheme on a penalty ground: restitution against h*omega_c beside the exact one",
+        run=penalty_run,
+        applies=_named("penalty"),
+        regression=_penalty_worse,
+        findings=_penalty_findings,
+        section=_penalty_section,
+        chart=_penalty_chart,
+        higher_is_worse=False,
+    ),
 ]
-

@@ -30,16 +30,27 @@
 * ``cross_engine`` (a model file's conservative variant where two engines load it; the task of
   each mode of ``extras.cross_engine`` after the first, compared with the first): the two modes
   from the same state at a step where each one's own error is at most a tenth of what is
-  reported, over one period of the model's slowest mode (``harness.measures.cross_engine``). Value: their difference, relative; the figures
-  say whether it is more than their own errors account for, and what the two built models differ in.
+  reported, over one period of the model's slowest mode (``harness.measures.cross_engine``). Value: their difference,
+  relative; the figures say whether it is more than their own errors account for, and what the two built models differ
+in.
 """
+
 from __future__ import annotations
 
 from records import MethodId, scheme_name
 from scenarios import make_scene
 
-from records.cell import (BrouwerFigures, Cell, Claims, ConstraintFigures, CrossEngineFigures, DampingFigures,
-                          ScalingFigures, SmallStepsFigures, StabilityVsDampingFigures)
+from records.cell import (
+    BrouwerFigures,
+    Cell,
+    Claims,
+    ConstraintFigures,
+    CrossEngineFigures,
+    DampingFigures,
+    ScalingFigures,
+    SmallStepsFigures,
+    StabilityVsDampingFigures,
+)
 from records.measures import Measure, TaskContext
 
 from harness.nightly.cell_kit import energy_run, finite, guard, make_cell, plain
@@ -56,32 +67,59 @@ def _small_steps_scene_chart(cells, scene, path) -> bool:
 
 #: The measures a scene adds of its own, each where its scene spec asks for it.
 MEASURES = [
-    Measure("constraint", ConstraintFigures, "constraint drift: how far the run leaves the constraints",
-            run=lambda ctx: [_constraint(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec, ctx.suite, ctx.runs)],
-            applies=lambda ctx: ctx.scene.has_stretch),
-    Measure("damping", DampingFigures, "damping far beyond the explicit limit: where an implicit scheme damps",
-            run=lambda ctx: [_damping(ctx.task, ctx.method, ctx.scene, ctx.spec, ctx.suite)],
-            applies=lambda ctx: _extras(ctx).damping_factor is not None),
-    Measure("stability_vs_damping", StabilityVsDampingFigures, "the largest stable h*omega against the damping ratio",
-            run=lambda ctx: [_stability_vs_damping(ctx.task, ctx.method, ctx.spec, ctx.claims)],
-            applies=lambda ctx: _extras(ctx).stability_zetas is not None),
-    Measure("scaling", ScalingFigures, "cost per step against the scene's size (the log-log slope)",
-            run=lambda ctx: [_scaling(ctx.task, ctx.spec)],
-            applies=lambda ctx: _extras(ctx).scaling is not None and ctx.task.method in _extras(ctx).scaling_methods),
-    Measure("brouwer", BrouwerFigures, "Brouwer's law: the roundoff walk of the energy error over an ensemble",
-            run=lambda ctx: [_brouwer(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec)],
-            applies=lambda ctx: bool(_extras(ctx).brouwer) and ctx.task.method in _extras(ctx).brouwer,
-            section=lambda scene, piv: _report().brouwer_lines(scene, piv)),
-    Measure("cross_engine", CrossEngineFigures, "two engines from the same state on a model file, at a resolved "
-            "step, and what their built models differ in", run=lambda ctx: [_cross_engine(ctx.task, ctx.scene,
-                                                                                          ctx.spec, ctx.suite)],
-            applies=lambda ctx: ctx.task.method in _extras(ctx).cross_engine[1:],
-            section=lambda scene, piv: _cross_engine_section(scene, piv)),
-    Measure("small_steps", SmallStepsFigures, "small steps: XPBD's substeps against its passes, the implicit schemes "
-            "and semi-implicit Euler at equal cost per frame (Macklin et al. 2019)",
-            run=lambda ctx: [_small_steps(ctx.task, ctx.spec)],
-            applies=lambda ctx: _extras(ctx).small_steps is not None and ctx.task.method == "ref:xpbd",
-            chart=_small_steps_scene_chart),
+    Measure(
+        "constraint",
+        ConstraintFigures,
+        "constraint drift: how far the run leaves the constraints",
+        run=lambda ctx: [_constraint(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec, ctx.suite, ctx.runs)],
+        applies=lambda ctx: ctx.scene.has_stretch,
+    ),
+    Measure(
+        "damping",
+        DampingFigures,
+        "damping far beyond the explicit limit: where an implicit scheme damps",
+        run=lambda ctx: [_damping(ctx.task, ctx.method, ctx.scene, ctx.spec, ctx.suite)],
+        applies=lambda ctx: _extras(ctx).damping_factor is not None,
+    ),
+    Measure(
+        "stability_vs_damping",
+        StabilityVsDampingFigures,
+        "the largest stable h*omega against the damping ratio",
+        run=lambda ctx: [_stability_vs_damping(ctx.task, ctx.method, ctx.spec, ctx.claims)],
+        applies=lambda ctx: _extras(ctx).stability_zetas is not None,
+    ),
+    Measure(
+        "scaling",
+        ScalingFigures,
+        "cost per step against the scene's size (the log-log slope)",
+        run=lambda ctx: [_scaling(ctx.task, ctx.spec)],
+        applies=lambda ctx: _extras(ctx).scaling is not None and ctx.task.method in _extras(ctx).scaling_methods,
+    ),
+    Measure(
+        "brouwer",
+        BrouwerFigures,
+        "Brouwer's law: the roundoff walk of the energy error over an ensemble",
+        run=lambda ctx: [_brouwer(ctx.task, ctx.method, ctx.scene, ctx.dt, ctx.spec)],
+        applies=lambda ctx: bool(_extras(ctx).brouwer) and ctx.task.method in _extras(ctx).brouwer,
+        section=lambda scene, piv: _report().brouwer_lines(scene, piv),
+    ),
+    Measure(
+        "cross_engine",
+        CrossEngineFigures,
+        "two engines from the same state on a model file, at a resolved step, and what their built models differ in",
+        run=lambda ctx: [_cross_engine(ctx.task, ctx.scene, ctx.spec, ctx.suite)],
+        applies=lambda ctx: ctx.task.method in _extras(ctx).cross_engine[1:],
+        section=lambda scene, piv: _cross_engine_section(scene, piv),
+    ),
+    Measure(
+        "small_steps",
+        SmallStepsFigures,
+        "small steps: XPBD's substeps against its passes, the implicit schemes "
+        "and semi-implicit Euler at equal cost per frame (Macklin et al. 2019)",
+        run=lambda ctx: [_small_steps(ctx.task, ctx.spec)],
+        applies=lambda ctx: _extras(ctx).small_steps is not None and ctx.task.method == "ref:xpbd",
+        chart=_small_steps_scene_chart,
+    ),
 ]
 
 
@@ -111,7 +149,7 @@ def scene_cells(task, method, scene, dt, spec, suite, claims: Claims | None = No
     """The scene's own cells of ``task``, outside a nightly task (the nightly's task runs every
     registered measure: ``harness.nightly.cells``)."""
     ctx = TaskContext(task, suite, spec, scene, method, method, dt, claims or Claims())
-    return [guard(task, m.name, lambda: m.run(ctx)[0]) for m in MEASURES if m.applies(ctx)]
+    return [guard(task, m.name, lambda m=m: m.run(ctx)[0]) for m in MEASURES if m.applies(ctx)]
 
 
 def _constraint(task, method, scene, dt, spec, suite, runs: dict | None = None) -> Cell:
@@ -120,21 +158,39 @@ def _constraint(task, method, scene, dt, spec, suite, runs: dict | None = None) 
 
     steps, every = energy_run(scene, dt, spec, suite)
     stepped = (runs or {}).get("energy")  # the energy run, the same dt, steps and recording: read, not rerun
-    res = (drift_of(stepped, scene, method, dt, steps, every) if stepped is not None else
-           constraint_drift(method, scene, dt, steps, every=every, timeout=suite.cell_timeout))
+    res = (
+        drift_of(stepped, scene, method, dt, steps, every)
+        if stepped is not None
+        else constraint_drift(method, scene, dt, steps, every=every, timeout=suite.cell_timeout)
+    )
     by_iterations = None
     passes = spec.extras.constraint_iterations
     if passes and method.scheme is not None and method.scheme.constrained:
         by_iterations = []
         for k in passes:
-            r = constraint_drift(get_method(task.method, {"iterations": k},
-                                            compiled_where_bitwise=method.compiled_where_bitwise),
-                                 scene, dt, steps, every=every, timeout=suite.cell_timeout)
-            by_iterations.append({key: r[key] for key in ("iterations", "status", "max_stretch", "final_stretch",
-                                                              "energy_change", "max_energy_change")})
+            r = constraint_drift(
+                get_method(task.method, {"iterations": k}, compiled_where_bitwise=method.compiled_where_bitwise),
+                scene,
+                dt,
+                steps,
+                every=every,
+                timeout=suite.cell_timeout,
+            )
+            by_iterations.append(
+                {
+                    key: r[key]
+                    for key in (
+                        "iterations",
+                        "status",
+                        "max_stretch",
+                        "final_stretch",
+                        "energy_change",
+                        "max_energy_change",
+                    )
+                }
+            )
     figures = ConstraintFigures.pick(plain(res), by_iterations=plain(by_iterations))
-    return make_cell(task, "constraint", res["status"], finite(res["max_stretch"]), dt, steps, res["detail"],
-                     figures)
+    return make_cell(task, "constraint", res["status"], finite(res["max_stretch"]), dt, steps, res["detail"], figures)
 
 
 def _small_steps(task, spec) -> Cell:
@@ -153,14 +209,26 @@ def _small_steps(task, spec) -> Cell:
         other.attrs["label"] = f"{task.scene} with stiff springs ({stiff_text()})"
         stiff_claims = claims(other)
         judged_all = judged + stiff_claims
-        stiff = {"rows": plain(other.to_dict("records")), "paper_claims": stiff_claims, "settings": plain(dict(other.attrs))}
+        stiff = {
+            "rows": plain(other.to_dict("records")),
+            "paper_claims": stiff_claims,
+            "settings": plain(dict(other.attrs)),
+        }
     else:
         judged_all = judged
     held = sum(1 for r in judged_all if r["verdict"] == "✓")
-    figures = SmallStepsFigures(rows=plain(frame.to_dict("records")), paper_claims=judged, settings=plain(dict(frame.attrs)),
-                                stiff=stiff)
-    return make_cell(task, "small_steps", "ok", float(held), 1.0 / settings.get("hz", 60.0),
-                     detail=f"{held} of {len(judged_all)} claims hold", figures=figures)
+    figures = SmallStepsFigures(
+        rows=plain(frame.to_dict("records")), paper_claims=judged, settings=plain(dict(frame.attrs)), stiff=stiff
+    )
+    return make_cell(
+        task,
+        "small_steps",
+        "ok",
+        float(held),
+        1.0 / settings.get("hz", 60.0),
+        detail=f"{held} of {len(judged_all)} claims hold",
+        figures=figures,
+    )
 
 
 def small_steps_frame(cell):
@@ -188,8 +256,9 @@ def _damping(task, method, scene, spec, suite) -> Cell:
     if res["stable"] is False:
         detail = f"grows: spectral radius {res['rho']:.4g} at h*omega = {res['omega_dt']:.4g}"
     figures = DampingFigures.pick(plain(res), run_status=res["status"])
-    return make_cell(task, "damping", status, finite(res["energy_kept_one_step"]), res["dt"], res["steps"],
-                     detail, figures)
+    return make_cell(
+        task, "damping", status, finite(res["energy_kept_one_step"]), res["dt"], res["steps"], detail, figures
+    )
 
 
 def _stability_vs_damping(task, method, spec, claims: Claims) -> Cell:
@@ -203,10 +272,15 @@ def _stability_vs_damping(task, method, spec, claims: Claims) -> Cell:
     agreeing = sum(1 for r in res["rows"] if r["agrees"])
     detail = "" if res["scheme"] else "no scheme identified: measured only"
     figures = StabilityVsDampingFigures(
-        scheme=res["scheme"], rows=plain(res["rows"]), tolerance=plain(res["tolerance"]),
-        judged_by="own scheme" if task.family == "ref" else "identified scheme", theory_curve=plain(curve))
-    return make_cell(task, "stability_vs_damping", "ok", float(agreeing) if res["scheme"] else None, detail=detail,
-                     figures=figures)
+        scheme=res["scheme"],
+        rows=plain(res["rows"]),
+        tolerance=plain(res["tolerance"]),
+        judged_by="own scheme" if task.family == "ref" else "identified scheme",
+        theory_curve=plain(curve),
+    )
+    return make_cell(
+        task, "stability_vs_damping", "ok", float(agreeing) if res["scheme"] else None, detail=detail, figures=figures
+    )
 
 
 def _scaling(task, spec) -> Cell:
@@ -216,9 +290,22 @@ def _scaling(task, spec) -> Cell:
     sizes = [dict(size) for size in settings.pop("sizes")]
     frame = cost_vs_size(task.scene, sizes, scheme=MethodId.parse(task.method).name, **settings)
     settings["sizes"] = sizes
-    return make_cell(task, "scaling", "ok", frame.attrs["slope"], figures=ScalingFigures(**plain(
-        {"rows": frame.to_dict("records"), "rvalue": frame.attrs["rvalue"], "intercept": frame.attrs["intercept"],
-         "settings": settings})))
+    return make_cell(
+        task,
+        "scaling",
+        "ok",
+        frame.attrs["slope"],
+        figures=ScalingFigures(
+            **plain(
+                {
+                    "rows": frame.to_dict("records"),
+                    "rvalue": frame.attrs["rvalue"],
+                    "intercept": frame.attrs["intercept"],
+                    "settings": settings,
+                }
+            )
+        ),
+    )
 
 
 def _brouwer(task, method, scene, dt, spec) -> Cell:
@@ -237,8 +324,7 @@ def _brouwer(task, method, scene, dt, spec) -> Cell:
         step_dt, every = dt, max(1, steps // outputs)
     res = energy_walk(method, scene, step_dt, steps, every, realizations=settings["realizations"])
     figures, extra = BrouwerFigures.from_data(plain(res))
-    return make_cell(task, "brouwer", "ok", finite(res["slope"]), step_dt, steps, figures.reason or "",
-                     figures, extra)
+    return make_cell(task, "brouwer", "ok", finite(res["slope"]), step_dt, steps, figures.reason or "", figures, extra)
 
 
 def _cross_engine(task, scene, spec, suite) -> Cell:
@@ -251,6 +337,7 @@ def _cross_engine(task, scene, spec, suite) -> Cell:
         status = next((s for s in res.statuses if s != "ok"), "ok")
         detail = res.detail if status != "ok" else f"not resolved: {res.detail}"
         return make_cell(task, "cross_engine", status, None, res.dt, res.steps, detail, figures)
-    detail = verdict_text(res.verdict, res.methods, res.difference, res.errors, res.dt, res.steps, res.horizon,
-                          res.differences)
+    detail = verdict_text(
+        res.verdict, res.methods, res.difference, res.errors, res.dt, res.steps, res.horizon, res.differences
+    )
     return make_cell(task, "cross_engine", "ok", finite(res.difference), res.dt, res.steps, detail, figures)

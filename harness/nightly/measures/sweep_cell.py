@@ -10,6 +10,7 @@ side by side). The cell's value is the first crossover's h*omega at one
 substep (None where the cheapest family never changes); its figures carry every value's entries
 (``records.advice.SweepFigures``), which the chart, the report's section and the finding read.
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict
@@ -40,15 +41,32 @@ def _run(ctx) -> list:
     grid = parse_grid(size.get("grid", settings["grid"]), scene)
     request = Request(hz=settings["hz"], **size.get("request", settings["request"])).checked()
     factor, cap = size.get("factor", settings.get("factor", FACTOR)), settings.get("cap", CAP)
-    res = run_sweep(scene, grid, request, list(size.get("methods", settings["methods"])), factor=factor, cap=cap,
-                    timeout=ctx.suite.cell_timeout, pool=False)
+    res = run_sweep(
+        scene,
+        grid,
+        request,
+        list(size.get("methods", settings["methods"])),
+        factor=factor,
+        cap=cap,
+        timeout=ctx.suite.cell_timeout,
+        pool=False,
+    )
     cross = res.crossovers
-    figures = SweepFigures(label=size.get("label"), param=grid.param, params=plain(res.params), hz=request.hz,
-                           request=plain(asdict(request)), factor=factor, cap=cap, clock=CLOCK,
-                           points=plain([p.as_dict() for p in res.points]),
-                           crossovers=plain([c.as_dict() for c in cross]))
-    return [make_cell(ctx.task, "sweep", "ok", cross[0].homega_one if cross else None, 1.0 / request.hz,
-                      figures=figures)]
+    figures = SweepFigures(
+        label=size.get("label"),
+        param=grid.param,
+        params=plain(res.params),
+        hz=request.hz,
+        request=plain(asdict(request)),
+        factor=factor,
+        cap=cap,
+        clock=CLOCK,
+        points=plain([p.as_dict() for p in res.points]),
+        crossovers=plain([c.as_dict() for c in cross]),
+    )
+    return [
+        make_cell(ctx.task, "sweep", "ok", cross[0].homega_one if cross else None, 1.0 / request.hz, figures=figures)
+    ]
 
 
 def _section(scene, piv):
@@ -69,7 +87,16 @@ def _findings(scene, piv):
     return sweep_findings(scene, piv)
 
 
-MEASURES = [Measure(
-    "sweep", SweepFigures, "the advice over a grid of one scene parameter: each method's cheapest frame, and where "
-    "the cheapest family changes (the crossover)", run=_run, applies=lambda ctx: bool(sweeps_of(ctx)),
-    findings=_findings, section=_section, chart=_chart)]
+MEASURES = [
+    Measure(
+        "sweep",
+        SweepFigures,
+        "the advice over a grid of one scene parameter: each method's cheapest frame, and where "
+        "the cheapest family changes (the crossover)",
+        run=_run,
+        applies=lambda ctx: bool(sweeps_of(ctx)),
+        findings=_findings,
+        section=_section,
+        chart=_chart,
+    )
+]

@@ -8,6 +8,7 @@ draw the error-controlled curves of the work-precision chart and a chart of thei
 against tolerance, and against cost with the steps taken and rejected), and a table under the
 scene's.
 """
+
 from __future__ import annotations
 
 from records.cell import Cell
@@ -40,8 +41,9 @@ def _run(ctx: TaskContext):
     ran = [r for r in rows if r["status"] == "ok"]
     status = "ok" if ran else (rows[0]["status"] if rows else "crashed")
     detail = "" if ran else (rows[0]["detail"] if rows else "no tolerance ran")
-    return [make_cell(ctx.task, "tolerance", status, finite(error_over_tolerance(rows)), detail=detail,
-                      figures=figures)]
+    return [
+        make_cell(ctx.task, "tolerance", status, finite(error_over_tolerance(rows)), detail=detail, figures=figures)
+    ]
 
 
 def _regression(before: Cell, after: Cell, comparison: Comparison) -> Worse | None:
@@ -51,8 +53,12 @@ def _regression(before: Cell, after: Cell, comparison: Comparison) -> Worse | No
     for r in after.figures.rows or []:
         a = rows_a.get(r["tolerance"])
         if a and a.get("error") and r.get("error") and r["error"] > 1.5 * a["error"]:
-            return Worse("tolerance", a["error"], r["error"],
-                         f"error at tolerance {r['tolerance']:g} {a['error']:.3g} -> {r['error']:.3g}")
+            return Worse(
+                "tolerance",
+                a["error"],
+                r["error"],
+                f"error at tolerance {r['tolerance']:g} {a['error']:.3g} -> {r['error']:.3g}",
+            )
     return None
 
 
@@ -76,11 +82,17 @@ def _findings(scene: str, piv: dict) -> list[Finding]:
         ratios = [r["error"] / r["tolerance"] for r in ran]
         span = f"{min(ratios):.3g} to {max(ratios):.3g}" if len(ratios) > 1 else f"{ratios[0]:.3g}"
         tight = ran[-1]
-        out.append(Finding(
-            f"`{method}` on `{scene}`, error-controlled: global error / tolerance {span} over tolerances "
-            f"{ran[0]['tolerance']:g} to {tight['tolerance']:g} ({tight['steps_taken']} steps taken, "
-            f"{tight['steps_rejected'] if tight['steps_rejected'] is not None else 'uncounted'} rejected at "
-            f"{tight['tolerance']:g}); the sweep ended: {c.figures.ended}.", None, scene, method))
+        out.append(
+            Finding(
+                f"`{method}` on `{scene}`, error-controlled: global error / tolerance {span} over tolerances "
+                f"{ran[0]['tolerance']:g} to {tight['tolerance']:g} ({tight['steps_taken']} steps taken, "
+                f"{tight['steps_rejected'] if tight['steps_rejected'] is not None else 'uncounted'} rejected at "
+                f"{tight['tolerance']:g}); the sweep ended: {c.figures.ended}.",
+                None,
+                scene,
+                method,
+            )
+        )
     return out
 
 
@@ -93,20 +105,27 @@ def _section(scene: str, piv: dict) -> list[str]:
             continue
         for r in c.figures.rows or []:
             cost = r.get("s_per_unit_time")
-            rows.append(f"| `{method}` | {r['tolerance']:.0e} | "
-                        f"{'–' if r.get('error') is None else format(r['error'], '.3g')} | "
-                        f"{r.get('steps_taken') if r.get('steps_taken') is not None else '–'} | "
-                        f"{r.get('steps_rejected') if r.get('steps_rejected') is not None else 'not counted'} | "
-                        f"{r.get('force_evals') if r.get('force_evals') is not None else 'not counted'} | "
-                        f"{'–' if cost is None else format(cost, '.3g')} |")
+            rows.append(
+                f"| `{method}` | {r['tolerance']:.0e} | "
+                f"{'–' if r.get('error') is None else format(r['error'], '.3g')} | "
+                f"{r.get('steps_taken') if r.get('steps_taken') is not None else '–'} | "
+                f"{r.get('steps_rejected') if r.get('steps_rejected') is not None else 'not counted'} | "
+                f"{r.get('force_evals') if r.get('force_evals') is not None else 'not counted'} | "
+                f"{'–' if cost is None else format(cost, '.3g')} |"
+            )
         rows.append(f"| `{method}` | sweep ended | {c.figures.ended} | | | | |")
     if not rows:
         return []
-    return ["Error-controlled integration: each method at each tolerance over the same horizon (max global "
-            "error; steps taken and rejected by its error control; cost in seconds per unit of simulated time, "
-            "the engine's own loop):", "",
-            "| method | tolerance | error | steps taken | rejected | force evals | cost |",
-            "|---|---|---|---|---|---|---|", *rows, ""]
+    return [
+        "Error-controlled integration: each method at each tolerance over the same horizon (max global "
+        "error; steps taken and rejected by its error control; cost in seconds per unit of simulated time, "
+        "the engine's own loop):",
+        "",
+        "| method | tolerance | error | steps taken | rejected | force evals | cost |",
+        "|---|---|---|---|---|---|---|",
+        *rows,
+        "",
+    ]
 
 
 def _chart(cells, scene, path) -> bool:
@@ -115,7 +134,17 @@ def _chart(cells, scene, path) -> bool:
     return charts.tolerance_chart(cells, scene, path)
 
 
-MEASURES = [Measure(
-    "tolerance", ToleranceFigures, "error-controlled methods: error, steps taken and rejected, cost against tolerance",
-    run=_run, applies=_applies, regression=_regression, findings=_findings,
-    columns=(Column("error / tolerance", _text, 85),), section=_section, chart=_chart)]
+MEASURES = [
+    Measure(
+        "tolerance",
+        ToleranceFigures,
+        "error-controlled methods: error, steps taken and rejected, cost against tolerance",
+        run=_run,
+        applies=_applies,
+        regression=_regression,
+        findings=_findings,
+        columns=(Column("error / tolerance", _text, 85),),
+        section=_section,
+        chart=_chart,
+    )
+]
