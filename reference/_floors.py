@@ -21,16 +21,37 @@ from . import _numba_config
 
 _numba_config.configure()  # before the first floor compiles: at the kernels' level
 
-#: Floor step (a plain function) -> (step, single, batch2, batch3), compiled on first use.
+#: (floor step, state length, scene data) -> (single, batch), compiled on first use.
 _LOOPS: dict = {}
 
 
-def _loops(floor):
-    """(single, batch2, batch3) compiled loops of a floor: ``single(state, h, k, m, n) -> state`` in
-    registers, ``batch(states (nstate, nb), h, k, m, n)`` in place, the batch innermost."""
-    if floor.step not in _LOOPS:
+def _batch_source(length: int, scene_data: int) -> str:
+    """The batch loop of a state of ``length`` floats, its last ``scene_data`` the scene's data
+    (``Floor.scene_data``): each spring's own entries read from its column and stored back, the
+    data passed to every spring as the tuple ``data``."""
+    own = length - scene_data
+    entries = [f"a[{i}, b]" for i in range(own)] + [f"data[{j}]" for j in range(scene_data)]
+    lines = [
+        "def batch(a, data, h, k, m, n):",
+        "    for _ in range(n):",
+        "        for b in range(a.shape[1]):",
+        f"            s = step(({', '.join(entries)},), h, k, m)",
+    ]
+    lines += [f"            a[{i}, b] = s[{i}]" for i in range(own)]
+    return "\n".join(lines) + "\n"
+
+
+def _loops(floor, length: int):
+    """(single, batch) compiled loops of a floor whose state has ``length`` floats:
+    ``single(state, h, k, m, n) -> state`` in registers, ``batch(states (own, nb), data, h, k, m,
+    n)`` in place over the springs' own entries, the batch innermost, the scene's data a tuple."""
+    key = (floor.step, length, floor.scene_data)
+    if key not in _LOOPS:
         jit = numba.njit(error_model="numpy")
-        step = jit(floor.step)
+        # Inlined by numba before LLVM sees it, as the kernel's statements are written into its
+        # loop: a step LLVM declines to inline (its passes unrolled make it large) is a call a
+        # spring, and the batch loop around a call does not vectorise.
+        step = numba.njit(error_model="numpy", inline="always")(floor.step)
 
         @jit
         def single(s, h, k, m, n):
@@ -38,31 +59,17 @@ def _loops(floor):
                 s = step(s, h, k, m)
             return s
 
-        @jit
-        def batch2(a, h, k, m, n):
-            for _ in range(n):
-                for b in range(a.shape[1]):
-                    s = step((a[0, b], a[1, b]), h, k, m)
-                    a[0, b] = s[0]
-                    a[1, b] = s[1]
-
-        @jit
-        def batch3(a, h, k, m, n):
-            for _ in range(n):
-                for b in range(a.shape[1]):
-                    s = step((a[0, b], a[1, b], a[2, b]), h, k, m)
-                    a[0, b] = s[0]
-                    a[1, b] = s[1]
-                    a[2, b] = s[2]
-
-        _LOOPS[floor.step] = (single, batch2, batch3)
-    return _LOOPS[floor.step]
+        namespace = {"step": step}
+        exec(compile(_batch_source(length, floor.scene_data), f"<floor batch {length}>", "exec"), namespace)
+        _LOOPS[key] = (single, jit(namespace["batch"]))
+    return _LOOPS[key]
 
 
 def run_floor(floor, x0: float, v0: float, h: float, k: float, m: float, n: int) -> tuple[float, float]:
     """(x, v) after n steps of ``floor`` (a scheme's ``Floor``) from (x0, v0)."""
-    single = _loops(floor)[0]
-    return floor.observe(single(floor.start(x0, v0, h, k, m), h, k, m, n), h, k, m)
+    s0 = floor.start(x0, v0, h, k, m)
+    single = _loops(floor, len(s0))[0]
+    return floor.observe(single(s0, h, k, m, n), h, k, m)
 
 
 def floor_timer(
@@ -79,13 +86,14 @@ def floor_timer(
     """``(warm-up seconds, once)`` as ``reference._compiled.step_timer``: ``once()`` times one
     call of ``steps`` steps of ``floor`` (one spring in registers, or a batch of springs) and
     returns seconds per step."""
-    single, batch2, batch3 = _loops(floor)
     s0 = floor.start(x0, v0, h, k, m)
-    states = np.repeat(np.array(s0, dtype=np.float64)[:, None], batch, axis=1)
-    loop = batch2 if len(s0) == 2 else batch3
+    single, loop = _loops(floor, len(s0))
+    own = len(s0) - floor.scene_data
+    data = tuple(float(e) for e in s0[own:])
+    states = np.repeat(np.array(s0[:own], dtype=np.float64)[:, None], batch, axis=1)
     t = clock()
     single(s0, h, k, m, 2)
-    loop(states.copy(), h, k, m, 2)
+    loop(states.copy(), data, h, k, m, 2)
     warm = clock() - t
 
     def once() -> float:
@@ -95,7 +103,7 @@ def floor_timer(
         else:
             work = states.copy()
             t0 = clock()
-            loop(work, h, k, m, steps)
+            loop(work, data, h, k, m, steps)
         return (clock() - t0) / steps
 
     return warm, once

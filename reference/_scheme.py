@@ -70,11 +70,20 @@ class Floor:
 
     ``step(s, h, k, m) -> s`` over a tuple of floats; ``start(x, v, h, k, m) -> s`` and
     ``observe(s, h, k, m) -> (x, v)`` where the scheme carries more than (x, v). Plain Python:
-    ``reference._floors`` compiles the step and drives it (one spring in registers, or a batch)."""
+    ``reference._floors`` compiles the step and drives it (one spring in registers, or a batch).
+
+    ``scene_data``: how many entries at the end of the state are the scene's data that the kernel
+    reads at run time (a constraint's anchor, rest length, inverse masses, the gravity, and what
+    the kernel computes from them before its loop), put there by ``start`` and returned by the
+    step as read. A floor reads them as the kernel does: a value the floor spelled as a literal
+    the compiler would fold (x - 0.0 is x), which the general kernel never can. The batch loops
+    pass them to every spring of the batch alike, as the kernel reads a constraint's data once
+    for the whole batch, and store only the springs' own entries."""
 
     step: Callable
     start: Callable = floor_start_qv
     observe: Callable = floor_observe_qv
+    scene_data: int = 0
 
 
 class _EveryScene:

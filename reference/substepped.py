@@ -142,6 +142,7 @@ def substepped(scheme: Scheme, n: int, *, id: str, doc: str, module: str = __nam
             f.observe
             if not _reads(f.observe, 1)
             else _rewritten(f.observe, f"floor_observe_{id}", n, 1, None, None, module, "floor observe"),
+            f.scene_data,
         )
     scale = _scaled_h(Fraction(1, n), "y")
     amplification = damping_limit = None

@@ -8,8 +8,9 @@ one spring, 2,000 on the batch) divided by its steps: the kernel's own time per 
 call from Python spread over the loop. The ratio kernel/floor is the figure that matters.
 
 Targets, judged here and printed met/MISSED, never asserted by a timed test: every scheme
-within ``FLOOR_RATIO_TARGET`` of its floor on one spring and on the batch (issue 41; issue 11
-asked for 2);
+within ``FLOOR_RATIO_SINGLE_TARGET`` of its floor on one spring and ``FLOOR_RATIO_BATCH_TARGET``
+on the batch (issue 41's decisions, restated in issue 52: the floor reads the scene's data at run
+time as the kernel does, ``reference._scheme.Floor.scene_data``);
 semi-implicit Euler at most ``SIE_SINGLE_TARGET_NS`` per step on one spring and
 ``SIE_BATCH_TARGET_NS`` per spring-step on the batch; RK4 per spring-step on the batch at most
 ``RK4_OVER_SIE_SLACK`` times the ratio of the two floors measured in the same run (the schemes' own
@@ -22,7 +23,14 @@ from __future__ import annotations
 from reference import CLOCKS, METHODS, step_timer
 from scenarios import make_scene
 
-FLOOR_RATIO_TARGET = 1.5
+#: Policy (issue 41's decisions): a kernel within 1.5 times its floor on a batch of 1000 and 2
+#: times on one spring. The batch is held closer: there the spring's work is spread over a loop
+#: the compiler vectorises in the kernel as in the floor, and what the kernel pays beyond it is
+#: its general form (the constraints looped over, the state in an array); on one spring the
+#: kernel's loops over the constraints, the passes and the array's rows each cost a few
+#: instructions a step beside a floor whose whole step sits in registers.
+FLOOR_RATIO_SINGLE_TARGET = 2.0
+FLOOR_RATIO_BATCH_TARGET = 1.5
 SIE_SINGLE_TARGET_NS = 10.0
 SIE_BATCH_TARGET_NS = 0.4
 RK4_OVER_SIE_SLACK = 1.25
@@ -89,8 +97,8 @@ def targets(rows: list[dict]) -> list[dict]:
 
     by = {r["method"]: r for r in rows}
     for r in rows:
-        add(f"{r['method']} 1 spring / floor", r["single_ratio_to_floor"], FLOOR_RATIO_TARGET)
-        add(f"{r['method']} 1000 springs / floor", r["batch1000_ratio_to_floor"], FLOOR_RATIO_TARGET)
+        add(f"{r['method']} 1 spring / floor", r["single_ratio_to_floor"], FLOOR_RATIO_SINGLE_TARGET)
+        add(f"{r['method']} 1000 springs / floor", r["batch1000_ratio_to_floor"], FLOOR_RATIO_BATCH_TARGET)
     sie, rk4 = by.get("ref:semi_implicit_euler"), by.get("ref:rk4")
     if sie:
         add("ref:semi_implicit_euler 1 spring, ns/step", sie["single_ns_per_step"], SIE_SINGLE_TARGET_NS)

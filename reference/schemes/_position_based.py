@@ -8,7 +8,9 @@ multipliers, x_old, the velocities); so the 1-D loops over the batch read both e
 an anchor back as read, have no branch, and vectorise. The step copies its state (q, v) into the
 rows of x and the velocities, reads only ``work`` after that and returns views of those rows, so
 the compiled loops carry the state in one such array from step to step and make none
-(``reference._codegen``: ``_Source.add_loop_in_place``). Each scheme writes its prediction and
+(``reference._codegen``: ``_Source.add_loop_in_place``). (Jacobi XPBD's 1-D pass reads an
+anchor from the scene's anchors, one value for the batch, and sums no correction into it: its
+step fills no anchor row there.) Each scheme writes its prediction and
 velocity loops out in its step rather than calling helpers with the arrays: a compiled call
 passes every array it is given with a reference count taken and dropped, a cost per step beside
 which the single spring's step is small."""
@@ -72,6 +74,13 @@ def project(work, ra, a_free, rb, b_free, d, rest, wa, wb, lam, tilde, denominat
                 work[into + ra + k, b] = work[into + ra + k, b] - wa * dl * g
             if b_free:
                 work[into + rb + k, b] = work[into + rb + k, b] + wb * dl * g
+
+
+def spring_data(k, m):
+    """The unit spring's constraint as ``scenarios.spring.constraints`` gives it, for a floor's
+    ``start`` (``reference._scheme.Floor.scene_data``): the anchor's position, the rest length,
+    the compliance 1/k, the anchor's and the point's inverse masses, the gravity."""
+    return 0.0, 0.0, 1.0 / k, 0.0, 1.0 / m, 0.0
 
 
 def nth_root(a, n):

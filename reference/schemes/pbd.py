@@ -2,7 +2,7 @@ import numpy as np
 
 from ..kinds import POSITION_BASED
 from .._scheme import EVERY_SCENE, Floor, scheme
-from ._position_based import nth_root, point_inv_mass, project, row
+from ._position_based import nth_root, point_inv_mass, project, row, spring_data
 
 #: Substeps and projection passes per step unless the caller sets ``substeps``/``iterations``.
 DEFAULT_SUBSTEPS = 1
@@ -10,22 +10,24 @@ DEFAULT_ITERATIONS = 10
 
 
 def floor(s, h, k, m):
-    # Each pass removes the share s' = 1 - (1 - s)^(1/passes) of C = x, s = w / (w + (1/k)/h^2),
-    # computed once before the loop (``floor_start``, as the kernel's loop computes it once) and
-    # carried in the state; the share divided by w as the scheme keeps it, then times w. One
-    # substep, the default passes.
-    x, v, share = s
+    # The spring as the kernel reads it (``floor_start``): each pass removes the share
+    # s' = 1 - (1 - s)^(1/passes) of C = x - anchor - rest, s = w / (w + alpha/h^2), computed once
+    # before the loop as the kernel's loop computes it and divided by w = w_a + w_b as the scheme
+    # keeps it, then times the point's w. One substep, the default passes.
+    x, v, share, anchor, rest, wb, g = s
     x_old = x
+    v = v + h * g
     x = x + h * v
-    w = 1.0 / m
     for _ in range(DEFAULT_ITERATIONS):
-        x = x + w * (-share * (x - 0.0 - 0.0))  # C = x - anchor - rest, both 0, as the scheme forms it
-    return (x, (x - x_old) / h, share)
+        x = x + wb * (-share * (x - anchor - rest))
+    return (x, (x - x_old) / h, share, anchor, rest, wb, g)
 
 
 def floor_start(x, v, h, k, m):
-    w = 0.0 + 1.0 / m
-    return (x, v, (1.0 - nth_root(1.0 - w / (w + (1.0 / k) / (h * h)), DEFAULT_ITERATIONS)) / w)
+    anchor, rest, compliance, wa, wb, g = spring_data(k, m)
+    w = wa + wb
+    share = (1.0 - nth_root(1.0 - w / (w + compliance / (h * h)), DEFAULT_ITERATIONS)) / w
+    return (x, v, share, anchor, rest, wb, g)
 
 
 @scheme(
@@ -37,7 +39,7 @@ def floor_start(x, v, h, k, m):
     homega_max=float("inf"),
     substeps=DEFAULT_SUBSTEPS,
     iterations=DEFAULT_ITERATIONS,
-    floor=Floor(floor, floor_start),
+    floor=Floor(floor, floor_start, scene_data=5),
     # Every scene that gives distance constraints (the spring, the chain, the rope, the cloth).
     suites={"standard": EVERY_SCENE},
 )
@@ -83,15 +85,14 @@ def pbd(accel, constraints, substeps, iterations, state, t, h, p):
             for b in range(nb):
                 work[n + a * d + k, b] = anchors[a, k]
     for _ in range(substeps):
-        # v~ = v + hs g, x~ = x + hs v~, x_old kept.
+        # v~ = v + hs g, x~ = x + hs v~, x_old kept; v~ is not stored (the substep's velocity
+        # is (x - x_old) / hs, written over it before it is read).
         for r in range(n):
             g = gravity[r % d]
             for b in range(nb):
                 xr = work[r, b]
-                ur = work[u + r, b] + hs * g
                 work[x_old + r, b] = xr
-                work[u + r, b] = ur
-                work[r, b] = xr + hs * ur
+                work[r, b] = xr + hs * (work[u + r, b] + hs * g)
         for _ in range(iterations):
             for c in range(ends.shape[0]):
                 ra = row(ends[c, 0], n, d)

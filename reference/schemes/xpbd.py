@@ -2,7 +2,7 @@ import numpy as np
 
 from ..kinds import POSITION_BASED
 from .._scheme import EVERY_SCENE, Floor, scheme
-from ._position_based import point_inv_mass, project, row
+from ._position_based import point_inv_mass, project, row, spring_data
 
 #: Substeps and Gauss-Seidel passes per step unless the caller sets ``substeps``/``iterations``.
 DEFAULT_SUBSTEPS = 1
@@ -10,19 +10,25 @@ DEFAULT_ITERATIONS = 10
 
 
 def floor(s, h, k, m):
-    # The spring as XPBD sees it: C = x (a wall anchor at 0, rest length 0), compliance 1/k. One
-    # substep, the default passes.
-    x, v = s
+    # The spring as the kernel reads it (``floor_start``): C = x - anchor - rest, compliance 1/k,
+    # alpha~ and w_a + w_b + alpha~ computed once before the loop as the kernel's loop computes
+    # them. One substep, the default passes.
+    x, v, tilde, denominator, anchor, rest, wb, g = s
     x_old = x
+    v = v + h * g
     x = x + h * v
-    w = 1.0 / m
-    tilde = (1.0 / k) / (h * h)
     lam = 0.0
     for _ in range(DEFAULT_ITERATIONS):
-        dl = (-x - tilde * lam) / (w + tilde)
+        dl = (-(x - anchor - rest) - tilde * lam) / denominator
         lam = lam + dl
-        x = x + w * dl
-    return (x, (x - x_old) / h)
+        x = x + wb * dl
+    return (x, (x - x_old) / h, tilde, denominator, anchor, rest, wb, g)
+
+
+def floor_start(x, v, h, k, m):
+    anchor, rest, compliance, wa, wb, g = spring_data(k, m)
+    tilde = compliance / (h * h)
+    return (x, v, tilde, wa + wb + tilde, anchor, rest, wb, g)
 
 
 @scheme(
@@ -34,7 +40,7 @@ def floor(s, h, k, m):
     homega_max=float("inf"),
     substeps=DEFAULT_SUBSTEPS,
     iterations=DEFAULT_ITERATIONS,
-    floor=Floor(floor),
+    floor=Floor(floor, floor_start, scene_data=6),
     # Every scene that gives distance constraints (the spring, the chain, the rope, the cloth).
     suites={"standard": EVERY_SCENE},
 )
@@ -83,15 +89,14 @@ def xpbd(accel, constraints, substeps, iterations, state, t, h, p):
             for b in range(nb):
                 work[n + a * d + k, b] = anchors[a, k]
     for _ in range(substeps):
-        # v~ = v + hs g, x~ = x + hs v~, x_old kept.
+        # v~ = v + hs g, x~ = x + hs v~, x_old kept; v~ is not stored (the substep's velocity
+        # is (x - x_old) / hs, written over it before it is read).
         for r in range(n):
             g = gravity[r % d]
             for b in range(nb):
                 xr = work[r, b]
-                ur = work[u + r, b] + hs * g
                 work[x_old + r, b] = xr
-                work[u + r, b] = ur
-                work[r, b] = xr + hs * ur
+                work[r, b] = xr + hs * (work[u + r, b] + hs * g)
         for c in range(ends.shape[0]):
             for b in range(nb):
                 work[lam + c, b] = 0.0

@@ -7,7 +7,7 @@ from records.method_id import Option
 
 from ..kinds import COUNT_BASE, PositionBased
 from .._scheme import Floor, scheme
-from ._position_based import point_inv_mass, project, row
+from ._position_based import point_inv_mass, project, row, spring_data
 
 #: Substeps and Jacobi passes per step unless the caller sets ``substeps``/``iterations``: the
 #: passes are Newton's SolverXPBD default (``iterations=2``), the solver this scheme is the
@@ -114,20 +114,26 @@ JACOBI = JacobiPositionBased()
 
 
 def floor(s, h, k, m):
-    # One constraint: a Jacobi pass is its correction, summed from 0 and then applied, at
-    # relaxation 1 (1000 thousandths, as the scheme divides it), gradient 1. One substep, the
-    # default passes.
-    x, v = s
+    # The spring as the kernel reads it (``floor_start``), one constraint: a Jacobi pass is its
+    # correction, summed from 0 and then applied, times the relaxation the kernel reads (1000
+    # thousandths, divided as the scheme divides them), gradient 1. One substep, the default passes.
+    x, v, tilde, denominator, relaxation, anchor, rest, wb, g = s
     x_old = x
+    v = v + h * g
     x = x + h * v
-    w = 1.0 / m
-    tilde = (1.0 / k) / (h * h)
     lam = 0.0
     for _ in range(DEFAULT_ITERATIONS):
-        dl = (1000 / 1000.0) * ((-(x - 0.0 - 0.0) - tilde * lam) / (0.0 + w + tilde))
+        dl = relaxation * ((-(x - anchor - rest) - tilde * lam) / denominator)
         lam = lam + dl
-        x = x + (0.0 + w * dl * 1.0)
-    return (x, (x - x_old) / h)
+        x = x + (0.0 + wb * dl * 1.0)
+    return (x, (x - x_old) / h, tilde, denominator, relaxation, anchor, rest, wb, g)
+
+
+def floor_start(x, v, h, k, m):
+    anchor, rest, compliance, wa, wb, g = spring_data(k, m)
+    tilde = compliance / (h * h)
+    relaxation = round(DEFAULT_RELAXATION * RELAXATION_STEPS) / RELAXATION_STEPS
+    return (x, v, tilde, wa + wb + tilde, relaxation, anchor, rest, wb, g)
 
 
 @scheme(
@@ -139,7 +145,7 @@ def floor(s, h, k, m):
     homega_max=float("inf"),
     substeps=DEFAULT_SUBSTEPS,
     iterations=DEFAULT_ITERATIONS,
-    floor=Floor(floor),
+    floor=Floor(floor, floor_start, scene_data=7),
     # No scene of the standard suite: it is there to identify Newton's XPBD, which the identity
     # cells hold every scheme against; the full suite runs it wherever it can.
     suites={},
@@ -174,36 +180,39 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
     nb = q.shape[1]
     n = q.shape[0]
     # One array a step, as XPBD's: x (returned as q), the anchors' rows, the multipliers' rows,
-    # x_old, u (returned as v), then a pass's summed corrections, a row per row of x and of the
-    # anchors (``row``: the anchors' are summed into and never applied, so a 1-D pass writes both
-    # ends alike); the state copied in, then only the array read (``_position_based``).
+    # x_old, u (returned as v), then a pass's summed corrections, a row per row of x (an anchor's
+    # correction would never be applied: it is not summed); the state copied in, then only the
+    # array read (``_position_based``).
     fixed = anchors.shape[0] * d
     lam = n + fixed  # the first multiplier's row
     x_old = lam + ends.shape[0]
     u = x_old + n
     delta = u + n
-    work = np.empty((delta + n + fixed, nb))
+    work = np.empty((delta + n, nb))
     work[:n] = q
     work[u : u + n] = v
-    for a in range(anchors.shape[0]):
-        for k in range(d):
-            for b in range(nb):
-                work[n + a * d + k, b] = anchors[a, k]
+    # The anchors' rows, read by the projection where d > 1; a 1-D pass reads an anchor from
+    # ``anchors`` itself (one value for the whole batch), so there they are not filled (written
+    # each step in the compiled loop, they would be a row stored for nothing).
+    if d > 1:
+        for a in range(anchors.shape[0]):
+            for k in range(d):
+                for b in range(nb):
+                    work[n + a * d + k, b] = anchors[a, k]
     for _ in range(substeps):
-        # v~ = v + hs g, x~ = x + hs v~, x_old kept.
+        # v~ = v + hs g, x~ = x + hs v~, x_old kept; v~ is not stored (the substep's velocity
+        # is (x - x_old) / hs, written over it before it is read).
         for r in range(n):
             g = gravity[r % d]
             for b in range(nb):
                 xr = work[r, b]
-                ur = work[u + r, b] + hs * g
                 work[x_old + r, b] = xr
-                work[u + r, b] = ur
-                work[r, b] = xr + hs * ur
+                work[r, b] = xr + hs * (work[u + r, b] + hs * g)
         for c in range(ends.shape[0]):
             for b in range(nb):
                 work[lam + c, b] = 0.0
         for _ in range(iterations):
-            for r in range(n + fixed):
+            for r in range(n):
                 for b in range(nb):
                     work[delta + r, b] = 0.0
             for c in range(ends.shape[0]):
@@ -231,15 +240,34 @@ def xpbd_jacobi(accel, constraints, substeps, iterations, relaxation, state, t, 
                         relaxation,
                     )
                     continue
-                # d = 1: C = x_b - x_a - rest, gradient 1, written out (no call, no branch: it
-                # vectorises over the batch); an anchor's correction goes to its own row, unused.
-                for b in range(nb):
-                    dl = relaxation * (
-                        (-(work[rb, b] - work[ra, b] - rest[c]) - tilde[c] * work[lam + c, b]) / denominator[c]
-                    )
-                    work[lam + c, b] = work[lam + c, b] + dl
-                    work[delta + ra, b] = work[delta + ra, b] - wa * dl * 1.0
-                    work[delta + rb, b] = work[delta + rb, b] + wb * dl * 1.0
+                # d = 1: C = x_b - x_a - rest, gradient 1, written out (no call, no branch in the
+                # loop over the batch: it vectorises). An anchored end's correction is not summed
+                # (it would never be applied), and its position, the same for every spring of the
+                # batch, is read once, from ``anchors`` (an anchor i < 0 is anchors[-1 - i]).
+                if ends[c, 0] >= 0 and ends[c, 1] >= 0:
+                    for b in range(nb):
+                        dl = relaxation * (
+                            (-(work[rb, b] - work[ra, b] - rest[c]) - tilde[c] * work[lam + c, b]) / denominator[c]
+                        )
+                        work[lam + c, b] = work[lam + c, b] + dl
+                        work[delta + ra, b] = work[delta + ra, b] - wa * dl * 1.0
+                        work[delta + rb, b] = work[delta + rb, b] + wb * dl * 1.0
+                elif ends[c, 1] >= 0:
+                    at_a = anchors[-1 - ends[c, 0], 0]
+                    for b in range(nb):
+                        dl = relaxation * (
+                            (-(work[rb, b] - at_a - rest[c]) - tilde[c] * work[lam + c, b]) / denominator[c]
+                        )
+                        work[lam + c, b] = work[lam + c, b] + dl
+                        work[delta + rb, b] = work[delta + rb, b] + wb * dl * 1.0
+                elif ends[c, 0] >= 0:
+                    at_b = anchors[-1 - ends[c, 1], 0]
+                    for b in range(nb):
+                        dl = relaxation * (
+                            (-(at_b - work[ra, b] - rest[c]) - tilde[c] * work[lam + c, b]) / denominator[c]
+                        )
+                        work[lam + c, b] = work[lam + c, b] + dl
+                        work[delta + ra, b] = work[delta + ra, b] - wa * dl * 1.0
             for r in range(n):
                 for b in range(nb):
                     work[r, b] = work[r, b] + work[delta + r, b]
