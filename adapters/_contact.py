@@ -60,6 +60,10 @@ class ContactMode:
     own_process: bool = False
     dims: int = 3
     module: str = ""
+    #: The engine holds the ball to z (a slide or prismatic joint): it poses no motion along x or y.
+    holds_ball_to_z: bool = False
+    #: The engine's gravity is along -z only (REBOUND's planet): it poses no tilted field.
+    gravity_along_z: bool = False
 
     @property
     def id(self) -> str:
@@ -82,10 +86,33 @@ class ContactMode:
             return False, f"{self.dist} does not import: {type(exc).__name__}: {exc}"
         return True, ""
 
-    def supports(self, scene_id: str) -> tuple[bool, str]:
-        if scene_id in self.poses:
+    def supports(self, scene) -> tuple[bool, str]:
+        """Whether the mode poses ``scene``: a scene id (its kind has a pose here) or a contact
+        scene, whose starting state and gravity are then checked against what the pose can hold
+        (the reason says what it cannot: a pose that ran anyway would judge the engine for a
+        motion it was never given)."""
+        kind = scene if isinstance(scene, str) else scene.kind
+        if kind not in self.poses:
+            return False, self.unsupported.get(kind, f"{self.id} does not pose {kind}")
+        if isinstance(scene, str):
             return True, ""
-        return False, self.unsupported.get(scene_id, f"{self.id} does not pose {scene_id}")
+        why = self.state_why(scene)
+        return (not why), why
+
+    def state_why(self, scene) -> str:
+        """Why the pose cannot start ``scene`` as the scene says ("" where it can)."""
+        gravity = [float(x) for x in scene.gravity]
+        centres = [[float(x) for x in c] for c in scene.initial_centres()]
+        velocities = [[float(x) for x in u] for u in scene.initial_velocities()]
+        off_z = any(g != 0.0 for g in gravity[:2])
+        if self.gravity_along_z and off_z:
+            return f"{self.id} poses gravity along -z only (the scene's is {gravity})"
+        if self.dims == 2 and (gravity[1] != 0.0 or any(c[1] != 0.0 for c in (*centres, *velocities))):
+            return f"{self.id} is planar (x and z): the scene has a y component in its state or gravity"
+        moves_sideways = any(u[0] != 0.0 or u[1] != 0.0 for u in velocities) or off_z
+        if self.holds_ball_to_z and self.pose(scene).shape == "sphere" and moves_sideways:
+            return f"{self.id} holds the ball to z on a joint: the scene moves it along x or y"
+        return ""
 
 
 def record_loop(

@@ -71,6 +71,8 @@ class RunRecord:
         if isinstance(run, cls):
             return run
         d = _known(cls, dict(run))
+        if "git_commit" in d and not isinstance(d["git_commit"], str):  # none recorded (a DataFrame's NaN)
+            d["git_commit"] = None
         return cls(**{**d, "settings": RunSettings.of(d.get("settings"))})
 
 

@@ -18,8 +18,13 @@ from .text import fmt
 
 
 def _columns(figures) -> list[tuple[str, str, str]]:
-    """The figures a cell's scene shows in its table, as it declared them: (header, key, format)."""
-    return [(d["header"], d["name"], d.get("fmt", "num")) for d in (figures.declared or []) if d.get("header")]
+    """The figures a cell's scene shows in its table, as it declared them: (header, key, format).
+    A cell stored before the scenes' declarations were kept with it shows the figures its runs
+    were judged on (their ``passes``), by name."""
+    if figures.declared:
+        return [(d["header"], d["name"], d.get("fmt", "num")) for d in figures.declared if d.get("header")]
+    judged = next((r.get("passes") for r in figures.runs or [] if r.get("passes")), None) or {}
+    return [(name, name, "num") for name in judged]
 
 
 def _cells(scene: str, piv: dict, measure: str) -> list:
@@ -59,13 +64,13 @@ def contact_lines(scene: str, piv: dict) -> list[str]:
     params = ", ".join(f"{k} = {v:g}" for k, v in f0.scene_params.items()) or "the scene's defaults"
     lines = [
         f"**Contact: `{kind}`** ({params}). Truth: "
-        + (f0.truth_text or "–")
+        + (f0.truth_text or "not stored with this run's cells (stored before the scenes' declarations were)")
         + ". Tolerances: "
         + (f0.tolerance_text or "–")
         + ". CPU seconds per simulated second are the engine loop's alone "
         "(process CPU clock, a second pass with nothing recorded).",
         "",
-        "| mode | step | " + " | ".join(label for label, _, _ in figures) + " | ✓/✗ | CPU s per s |",
+        "| " + " | ".join(["mode", "step", *(label for label, _, _ in figures), "✓/✗", "CPU s per s"]) + " |",
         "|---|---|" + "---|" * len(figures) + "---|---|",
     ]
     for c in cells:
@@ -74,20 +79,14 @@ def contact_lines(scene: str, piv: dict) -> list[str]:
             if r is None:
                 continue
             if r.get("status") != "ok":
-                lines.append(
-                    f"| `{c.method}` | {_dt_text(dt)} | "
-                    + " | ".join("–" for _ in figures)
-                    + f" | {r.get('status')}: {r.get('detail') or ''} | – |"
-                )
+                cols = [f"`{c.method}`", _dt_text(dt), *("–" for _ in figures)]
+                lines.append("| " + " | ".join([*cols, f"{r.get('status')}: {r.get('detail') or ''}", "–"]) + " |")
                 continue
             passes = r.get("passes") or {}
             failed = sorted(k for k, v in passes.items() if not v)
             verdict = "✓" if not failed else "✗ " + ", ".join(failed)
-            lines.append(
-                f"| `{c.method}` | {_dt_text(dt)} | "
-                + " | ".join(_value(k, r.get(key)) for _, key, k in figures)
-                + f" | {verdict} | {fmt(r.get('cpu_per_s'))} |"
-            )
+            cols = [f"`{c.method}`", _dt_text(dt), *(_value(k, r.get(key)) for _, key, k in figures)]
+            lines.append("| " + " | ".join([*cols, verdict, fmt(r.get("cpu_per_s"))]) + " |")
     lines += ["", "Largest step of the ladder within each tolerance (there and at every shorter step):", ""]
     names = sorted({k for c in cells for k in c.figures.largest if k != "all"})
     lines += ["| mode | every figure | " + " | ".join(names) + " |", "|---|---|" + "---|" * len(names)]

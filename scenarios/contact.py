@@ -120,6 +120,17 @@ class ContactScene(Scene):
     accel = staticmethod(no_accel)
     solve = staticmethod(no_solve)
 
+    def __init_subclass__(cls, **kwargs):
+        """A scene's declarations checked where it is written: each figure named once, one charted."""
+        super().__init_subclass__(**kwargs)
+        names = [f.name for f in cls.FIGURES]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise TypeError(f"contact scene {cls.__name__} declares figure(s) {twice} twice in FIGURES")
+        charted = [f.name for f in cls.FIGURES if f.chart]
+        if len(charted) > 1:
+            raise TypeError(f"contact scene {cls.__name__} charts {charted}: a scene charts one figure")
+
     @property
     def dof_names(self) -> tuple[str, ...]:
         return tuple(f"{axis}{i}" for i in range(self.bodies) for axis in "xyz")

@@ -62,6 +62,19 @@ def test_harness_contact_shows_the_new_scene_and_lists_a_mode_that_cannot_pose_i
     assert left["status"] == "unsupported" and "does not pose incline" in left["detail"]
 
 
+def test_the_command_line_takes_the_new_scene_from_harness_plugins():
+    """As a user runs it: ``HARNESS_PLUGINS`` names the module, and ``harness contact`` loads it."""
+    import os
+    import subprocess
+
+    env = {**os.environ, "HARNESS_PLUGINS": PLUGIN, "PYTHONPATH": "."}
+    argv = [sys.executable, "-m", "harness", "contact", "incline", "--modes", "mujoco:rk4", "--dt", "1/240", "--json"]
+    done = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=300)
+    assert done.returncode == 0, done.stderr
+    (row,) = json.loads(done.stdout)
+    assert (row["scene"], row["method"], row["status"]) == ("incline", "mujoco:rk4", "ok")
+
+
 def test_a_nightly_measures_and_reports_the_new_scene(incline, tmp_path):
     from harness.history.storage import History
     from harness.nightly.run import run_nightly

@@ -48,8 +48,8 @@ def test_every_package_list_is_read_from_the_engines():
     assert set(dists) <= set(COMPUTING_PACKAGES) and set(dists) <= set(RECORDED_PACKAGES)
     assert set(dists) <= set(run_metadata()[1])
     assert FAMILY_PACKAGES == {e.id: e.dists for e in ENGINES}
-    assert storage.ENGINE_DISTS == tuple(e.dist for e in ENGINES)
-    assert set(engine_versions()) == {e.dist for e in ENGINES}
+    assert storage.ENGINE_DISTS == tuple(dict.fromkeys(dists))
+    assert set(engine_versions()) == set(dists)  # Warp's release alone starts a series too
     assert models.MODEL_ENGINES == tuple(e.id for e in ENGINES if e.model_loader)
     assert set(models.WITHOUT_CONTACT) == {e.id for e in ENGINES if e.loader_without_contact}
     assert {e.id: e.dist for e in ENGINES}.items() <= engine_env.engines().items()

@@ -560,3 +560,12 @@ def test_a_slowdown_is_measured_again_in_fresh_processes_before_it_is_reported(
     assert data["process_noise"] == pytest.approx(np.log(max(ratios) / min(ratios)) / 2.059)
     _, _, regressions = compare_runs(h, None, 6)
     assert bool(regressions) == regressed
+
+
+def test_a_run_stored_without_a_commit_is_compared_as_an_unknown_commit():
+    """A run whose history row has no commit (made outside a git checkout) reads back from the
+    DataFrame as NaN: it is an unknown commit, never a crash of ``harness compare``."""
+    from harness.history.series import commit_range
+
+    run = {"run_id": 1, "suite": "standard", "started": "2026-11-28T00:00:00", "measurement_version": 7}
+    assert commit_range({**run, "git_commit": float("nan")}, {**run, "git_commit": "a" * 40}) == "unknown..aaaaaaaaaa"

@@ -246,7 +246,7 @@ class _Pose:
                 "corners; a box that carries another has its Box for the corners above to touch; box-box and "
                 "box-plane pairs filtered out"
             )
-        plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, -scene.g])
+        plant.mutable_gravity_field().set_gravity_vector([float(x) for x in scene.gravity])
         plant.Finalize()
         if len(faces if not sphere else []) > 1:
             scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().ExcludeWithin(GeometrySet(faces)))
@@ -254,8 +254,9 @@ class _Pose:
         self.plant, self.dt, self.scene = plant, dt, scene
         self.sim = sim = Simulator(diagram)
         self.context = context = plant.GetMyMutableContextFromRoot(sim.get_mutable_context())
-        if sphere:
-            plant.SetPositions(context, [scene.h0 + scene.radius])
+        if sphere:  # held to z on its joint (``holds_ball_to_z``): the scene's height and vertical speed
+            plant.SetPositions(context, [float(scene.initial_centres()[0][2])])
+            plant.SetVelocities(context, [float(scene.initial_velocities()[0][2])])
         else:
             for body, centre in zip(self.bodies, scene.initial_centres()):
                 plant.SetFreeBodyPose(context, body, RigidTransform(list(centre)))
@@ -274,7 +275,7 @@ class _Pose:
             ),
             "contact_model": "kPoint (Drake's default: hydroelastic with point fallback)",
             "model": model,
-            "gravity": [0.0, 0.0, -scene.g],
+            "gravity": [float(x) for x in scene.gravity],
         }
         if defaults:
             self.settings["contact material"] = "Drake's defaults (DefaultProximityProperties)"
@@ -385,6 +386,7 @@ MODES = {
         "drake",
         run,
         poses=POSES,
+        holds_ball_to_z=True,
         settings={
             "plant": name,
             "contact_model": "kPoint",

@@ -64,7 +64,7 @@ def _xml(integrator: str, cone: str, scene, dt: float) -> str:
     )
     floor = f'<geom name="floor" type="plane" size="0 0 1" condim="{{condim}}" friction="{{mu}} 0 0" {contact}/>'
     if POSES[scene.kind] is SPHERE:
-        r, z0 = scene.radius, scene.h0 + scene.radius
+        r, z0 = scene.radius, float(scene.initial_centres()[0][2])  # held to z: the scene starts it on the axis
         body = (
             f'<body name="b0" pos="0 0 0"><joint name="z" type="slide" axis="0 0 1" damping="0" armature="0"/>'
             f'<geom type="sphere" size="{r!r}" pos="0 0 0" mass="{scene.mass!r}" condim="1" {contact}/></body>'
@@ -179,6 +179,7 @@ MODES = {
         "mujoco",
         run,
         poses=POSES,
+        holds_ball_to_z=True,
         settings={"integrator": name, "cone": cone},
         doc=_DOC.format(integrator=INTEGRATORS[name], cone=cone, omega=OMEGA_C),
     )

@@ -112,7 +112,7 @@ class _Pose:
         mat = _material(scene)
         sphere = POSES[scene.kind] is SPHERE
         with quiet_fds():
-            builder = newton.ModelBuilder(gravity=(0.0, 0.0, -scene.g), up_axis=newton.Axis.Z)
+            builder = newton.ModelBuilder(gravity=tuple(float(x) for x in scene.gravity), up_axis=newton.Axis.Z)
             cfg = newton.ModelBuilder.ShapeConfig(
                 density=0.0,
                 ke=mat["ke"],
@@ -178,7 +178,7 @@ class _Pose:
                 f"{len(self.bodies)} free body(ies), a {'sphere' if sphere else 'box'} shape each "
                 "(density 0, the body's mass and inertia set), add_ground_plane"
             ),
-            "gravity": [0.0, 0.0, -scene.g],
+            "gravity": [float(x) for x in scene.gravity],
             "shape material (both shapes)": {
                 "ke": mat["ke"],
                 "kd": mat["kd"],

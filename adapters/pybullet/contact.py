@@ -74,7 +74,7 @@ def _pose(p, cid, scene, dt: float, settings: dict) -> list[int]:
     if sphere and settings["ball contactERP"] is not None:
         engine["contactERP"] = settings["ball contactERP"]
     p.setPhysicsEngineParameter(fixedTimeStep=dt, physicsClientId=cid, **engine)
-    p.setGravity(0.0, 0.0, -scene.g, physicsClientId=cid)
+    p.setGravity(*(float(x) for x in scene.gravity), physicsClientId=cid)
     plane = p.createMultiBody(0.0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
     p.changeDynamics(plane, -1, physicsClientId=cid, **{k: settings[f"plane {k}"] for k in PLANE})
     dynamics = {k: settings[k] for k in BODY_DYNAMICS if settings[k] is not None}

@@ -53,7 +53,7 @@ SETTINGS = {
 
 def _pose(pymunk, scene, settings: dict):
     space = pymunk.Space()
-    space.gravity = (0.0, -scene.g)
+    space.gravity = (float(scene.gravity[0]), float(scene.gravity[2]))
     for name in ("collision_slop", "collision_bias", "iterations", "damping", "sleep_time_threshold"):
         if settings[name] is not None:
             setattr(space, name, settings[name])

@@ -116,6 +116,8 @@ MODES = {
         "rebound",
         run,
         poses=POSES,
+        holds_ball_to_z=True,
+        gravity_along_z=True,
         unsupported=UNSUPPORTED,
         settings={"integrator": INTEGRATOR, "collision": "direct", "collision_resolve": "hardsphere"},
         doc="REBOUND's hard-sphere collision of the ball with a planet whose gravity is g; leapfrog; "

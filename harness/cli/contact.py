@@ -69,7 +69,9 @@ def run(args) -> int:
     from scenarios.contact import make_contact_scene
 
     from harness.contact.run import check_dt, contact_modes
+    from harness.methods import active_plugins, load_plugins
 
+    load_plugins(active_plugins())  # a plugin module may register contact scenes and their poses
     known = contact_scenes()
     scenes = [args.scene] if args.scene else list(known)
     if args.advise:

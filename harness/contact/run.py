@@ -73,7 +73,7 @@ def run_contact(
     ok, why = mode.available()
     if not ok:
         raise InvalidInput(f"contact mode {mode_id} is unavailable: {why}")
-    ok, why = mode.supports(scene.id)
+    ok, why = mode.supports(scene)
     if not ok:
         raise InvalidInput(f"contact mode {mode_id} does not pose {scene.id}: {why}")
     from harness.methods import active_plugins

@@ -69,7 +69,7 @@ def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = 
                 continue
             ok, why = mode.available()
             if ok:
-                ok, why = mode.supports(scene_id)
+                ok, why = mode.supports(make_contact_scene(scene_id, **params))
             if not ok:
                 if modes is not None:
                     rows.append(unsupported_row(scene_id, params, mode_id, why))

@@ -136,9 +136,9 @@ def _tidy(df: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-#: The engines' distributions of a run that recorded none under ``versions["engines"]``: each
-#: ``adapters.ENGINES`` entry's own (``Engine.dist``), as the nightly records them.
-ENGINE_DISTS = tuple(e.dist for e in ENGINES.values())
+#: The engines' distributions of a run that recorded none under ``versions["engines"]``: every
+#: ``adapters.ENGINES`` entry's (``Engine.dists``), as the nightly records them.
+ENGINE_DISTS = tuple(dict.fromkeys(d for e in ENGINES.values() for d in e.dists))
 
 
 def engine_series(versions: dict) -> tuple:

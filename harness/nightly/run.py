@@ -142,23 +142,43 @@ def build_tasks(
     return tasks, skipped
 
 
+def contact_scene_list(settings: dict) -> tuple:
+    """The (scene id, parameters) a suite's contact settings run: its ``scenes``, or where that is
+    None every registered contact scene at its defaults, with the ball at e = 1 beside e = 0.8."""
+    from scenarios import contact_scenes
+
+    if settings.get("scenes") is not None:
+        return tuple(settings["scenes"])
+    out = [(sid, {}) for sid in contact_scenes()]
+    if "ball" in contact_scenes():
+        out.insert(out.index(("ball", {})) + 1, ("ball", {"e": 1.0}))
+    return tuple(out)
+
+
 def contact_tasks(suite: Suite, plugins: tuple, skipped: list) -> list[Task]:
     """The suite's contact tasks (``Suite.contact``): each engine mode it selects on each contact
     scene the mode poses (the ``contact`` measure), and each scheme on the penalty ground (the
     ``penalty`` measure). A task carries its scene's id and parameters as they are; its cell's
     scene is named by them (``cell_scene``), never parsed back."""
+    from scenarios.contact import make_contact_scene
+
     from harness.contact.run import contact_modes
     from harness.nightly.measures.contact_cells import cell_scene
 
     settings, tasks = suite.contact, []
-    for scene_id, params in settings["scenes"]:
+    known = contact_modes()
+    for mode_id in settings.get("modes") or ():  # a mode the suite names that no engine declares
+        if mode_id not in known:
+            reason = f"no contact mode {mode_id} (valid: {', '.join(known)})"
+            skipped.append({"scene": "contact", "method": mode_id, "reason": reason})
+    for scene_id, params in contact_scene_list(settings):
         name = cell_scene(scene_id, params)
         for mode_id, mode in contact_modes().items():
             if settings.get("modes") is not None and mode_id not in settings["modes"]:
                 continue
             ok, why = mode.available()
             if ok:
-                ok, why = mode.supports(scene_id)
+                ok, why = mode.supports(make_contact_scene(scene_id, **params))
             if not ok:
                 skipped.append({"scene": name, "method": mode_id, "reason": why})
                 continue
@@ -397,11 +417,13 @@ def _plain(x):
 
 
 def engine_versions() -> dict[str, str | None]:
-    """{distribution: installed version} of every engine an adapter drives (each ``adapters.ENGINES``
-    entry's own distribution): the run's series (``harness.history.storage.engine_series``)."""
-    from adapters import ENGINES, engine_version
+    """{distribution: installed version} of every distribution an engine's numbers depend on (each
+    ``adapters.ENGINES`` entry's ``dists``: the engine's own and what it computes through, Newton's
+    Warp): the run's series (``harness.history.storage.engine_series``), so that a Warp release
+    alone starts a series as an engine's does."""
+    from adapters import ENGINE_DISTS, engine_version
 
-    return {dist: engine_version(dist) for dist in sorted(e.dist for e in ENGINES.values())}
+    return {dist: engine_version(dist) for dist in sorted(ENGINE_DISTS)}
 
 
 def run_nightly(

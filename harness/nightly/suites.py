@@ -364,7 +364,9 @@ CONTACT = {
     "penalty": PENALTY_SCHEMES,
     "penalty_scene": "penalty_ball",
 }
-CONTACT_FULL = {**CONTACT, "modes": None, "ladder": CONTACT_LADDER_FULL}
+#: The full suite's scenes are every registered contact scene at its defaults (and the ball at e = 1):
+#: ``"scenes": None`` is read when its tasks are built, so a scene registered since is among them.
+CONTACT_FULL = {**CONTACT, "scenes": None, "modes": None, "ladder": CONTACT_LADDER_FULL}
 
 SUITES: dict[str, Suite] = {
     "smoke": Suite(

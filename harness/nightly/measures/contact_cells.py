@@ -34,7 +34,14 @@ def cell_scene(scene_id: str, params: dict) -> str:
     from scenarios.contact import make_contact_scene
 
     defaults = type(make_contact_scene(scene_id)).params
-    return scene_id + "".join(f"_{k}{v:g}" for k, v in sorted(params.items()) if v != defaults[k].default)
+    return scene_id + "".join(f"_{k}{_value(v)}" for k, v in sorted(params.items()) if v != defaults[k].default)
+
+
+def _value(v) -> str:
+    """A parameter's value in a name: as ``g`` prints it where that is the value, else every digit
+    (two values a ``g`` format rounds alike name two cells)."""
+    short = f"{v:g}"
+    return short if float(short) == v else repr(float(v))
 
 
 def _named(name: str):
