@@ -573,8 +573,8 @@ def test_no_adapter_branches_on_a_scene_id():
         for n, line in enumerate(path.read_text().splitlines(), 1)
         if pattern.search(line)
     ]
-    assert sorted({h.split(":")[0] for h in hits}) == ["_contact.py", "_mode.py"], hits  # each supports()
-    assert len(hits) == 2, hits
+    assert "_mode.py" in {h.split(":")[0] for h in hits}, hits  # EngineMode.supports reads the declared list
+    assert {h.split(":")[0] for h in hits} <= {"_contact.py", "_mode.py"} and len(hits) <= 2, hits
 
 
 def test_a_plugin_model_with_only_the_required_members_gets_the_declared_defaults():
