@@ -110,8 +110,11 @@ class ContactMode:
         if self.dims == 2 and (gravity[1] != 0.0 or any(c[1] != 0.0 for c in (*centres, *velocities))):
             return f"{self.id} is planar (x and z): the scene has a y component in its state or gravity"
         moves_sideways = any(u[0] != 0.0 or u[1] != 0.0 for u in velocities) or off_z
-        if self.holds_ball_to_z and self.pose(scene).shape == "sphere" and moves_sideways:
-            return f"{self.id} holds the ball to z on a joint: the scene moves it along x or y"
+        off_axis = any(c[0] != 0.0 or c[1] != 0.0 for c in centres)
+        if self.holds_ball_to_z and self.pose(scene).shape == "sphere" and (moves_sideways or off_axis):
+            return (
+                f"{self.id} holds the ball to z on a joint: the scene moves it along x or y, or starts it off the axis"
+            )
         return ""
 
 

@@ -23,8 +23,8 @@ def _columns(figures) -> list[tuple[str, str, str]]:
     were judged on (their ``passes``), by name."""
     if figures.declared:
         return [(d["header"], d["name"], d.get("fmt", "num")) for d in figures.declared if d.get("header")]
-    judged = next((r.get("passes") for r in figures.runs or [] if r.get("passes")), None) or {}
-    return [(name, name, "num") for name in judged]
+    first = next((r for r in figures.runs or [] if r.get("passes")), None) or {}
+    return [(name, name, "list" if isinstance(first.get(name), list) else "num") for name in first.get("passes", {})]
 
 
 def _cells(scene: str, piv: dict, measure: str) -> list:

@@ -42,7 +42,8 @@ def rows_table(rows: list[SmallStepsRow], reference_stretch: float | None) -> li
 def claims_table(claims: list[PaperClaim]) -> list[str]:
     """One row per claim of the paper: ✓, ✗ or – with its figures."""
     lines = ["| scene | claim of the paper | | figures |", "|---|---|---|---|"]
-    return lines + [f"| {r.scene} | {r.claim} | {r.verdict} | {r.figures} |" for r in claims]
+    cell = lambda text: str(text).replace("|", "\\|")  # a figure's |x| kept inside its cell
+    return lines + [f"| {r.scene} | {cell(r.claim)} | {r.verdict} | {cell(r.figures)} |" for r in claims]
 
 
 def position_based_section(piv: dict, chart_names: dict) -> list[str]:

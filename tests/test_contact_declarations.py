@@ -156,3 +156,49 @@ def test_a_suite_mode_no_engine_declares_is_listed_with_its_reason():
     tasks = contact_tasks(dataclasses.replace(suite, contact=contact), (), skipped)
     assert [t.method for t in tasks] == ["mujoco:rk4"]
     assert any(s["method"] == "nonsense:mode" and "no contact mode nonsense:mode" in s["reason"] for s in skipped)
+
+
+class _Up(Ball):
+    """The ball thrown straight up at 3 m/s from its drop height."""
+
+    id = "up_test"
+
+    def initial_velocities(self):
+        return [(0.0, 0.0, 3.0)]
+
+
+class _Offset(Ball):
+    """The ball dropped 0.4 m along x from the origin."""
+
+    id = "offset_test"
+
+    def initial_centres(self):
+        return [(0.4, 0.0, self.h0 + self.radius)]
+
+
+def test_a_ball_held_to_z_starts_with_the_scenes_vertical_speed_and_refuses_an_offset_start(monkeypatch):
+    """REBOUND's ball (a test particle over its planet) thrown up at 3 m/s rises to h0 + 9/(2 g)
+    before its first fall; a ball held to z refuses to start 0.4 m off its axis."""
+    from adapters import CONTACT_MODES, SPHERE
+    from adapters.mujoco import contact as mujoco_contact
+    from adapters.rebound import contact as rebound_contact
+
+    monkeypatch.setitem(rebound_contact.POSES, _Up.id, SPHERE)
+    monkeypatch.setitem(mujoco_contact.POSES, _Offset.id, SPHERE)
+    scene = _Up()
+    mode = CONTACT_MODES["rebound:hardsphere"]
+    assert mode.supports(scene) == (True, "")
+    run = mode.run(mode, scene, 1e-3)
+    apex = float(run.centres[: int(0.5 / 1e-3), 0, 2].max()) - scene.radius
+    assert apex == pytest.approx(scene.h0 + 9.0 / (2.0 * scene.g), rel=1e-3)
+    ok, why = CONTACT_MODES["mujoco:rk4"].supports(_Offset())
+    assert not ok and "off the axis" in why
+
+
+def test_a_run_stored_before_warp_was_among_its_engines_stays_in_its_series():
+    from harness.history.storage import engine_series
+
+    old = {"warp-lang": "1.19.0", "engines": {"newton": "1.8.0", "mujoco": "4.0.0"}}
+    new = {"warp-lang": "1.19.0", "engines": {"newton": "1.8.0", "mujoco": "4.0.0", "warp-lang": "1.19.0"}}
+    assert engine_series(old) == engine_series(new)
+    assert engine_series(new) != engine_series({**new, "engines": {**new["engines"], "warp-lang": "1.20.0"}})

@@ -58,9 +58,11 @@ class _Pose:
         sim.coefficient_of_restitution = lambda _sim, _speed: e
         sim.dt = dt
         R = PLANET_RADIUS
-        self.planet_mass = scene.g * R * R
+        self.planet_mass = -float(scene.gravity[2]) * R * R  # the field along -z (``gravity_along_z``)
         sim.add(m=self.planet_mass, r=R)
-        sim.add(m=scene.mass, r=scene.radius, z=R + scene.h0 + scene.radius)
+        # held to z (``holds_ball_to_z``): the scene's height and vertical speed
+        (_, _, z0), (_, _, vz0) = scene.initial_centres()[0], scene.initial_velocities()[0]
+        sim.add(m=scene.mass, r=scene.radius, z=R + float(z0), vz=float(vz0))
         sim.N_active = 1
         sim.testparticle_type = 0
         self.scene, self.data = scene, np.zeros((2, 6))

@@ -29,7 +29,8 @@ def contact_figures(scene: ContactScene, run: ContactTrajectory, tol: Tolerances
         return ContactFigures(**common, detail=run.detail)
     got = dict(scene.measure(run, tol))
     passes, detail = got.pop("passes", {}), got.pop("detail", None)
-    no_truth = sorted(f.truth for f in scene.FIGURES if f.truth and f.truth not in common["truth"])
+    named = [f.truth for f in scene.FIGURES if f.truth] + [f.chart_truth[0] for f in scene.FIGURES if f.chart_truth]
+    no_truth = sorted({key for key in named if key not in common["truth"]})
     if no_truth:  # a declaration the tables would print beside a truth that is not there
         raise ValueError(
             f"contact scene {scene.id}: FIGURES compares with truth {no_truth}, which truth() does not give"

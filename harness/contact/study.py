@@ -68,10 +68,15 @@ def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = 
             if modes is not None and mode_id not in modes:
                 continue
             ok, why = mode.available()
+            installed = ok
             if ok:
                 ok, why = mode.supports(make_contact_scene(scene_id, **params))
             if not ok:
-                if modes is not None:
+                # Named by the user, or a pose of the scene's kind that refuses this scene's state:
+                # a row saying why. (A mode not installed, or of an engine without the kind, is
+                # left out of a run that named no modes.)
+                refused = installed and mode.supports(scene_id)[0]
+                if modes is not None or refused:
                     rows.append(unsupported_row(scene_id, params, mode_id, why))
                 continue
             for f in measure_mode(mode_id, scene_id, params, dts, isolated=isolated):

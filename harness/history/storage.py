@@ -146,7 +146,10 @@ def engine_series(versions: dict) -> tuple:
     from the adapters): runs with the same tuple are one series."""
     engines = versions.get("engines")
     if not isinstance(engines, dict):
-        engines = {d: versions.get(d) for d in ENGINE_DISTS}
+        engines = {}
+    # A distribution the run did not record among its engines (Warp, before it was) is read from its
+    # top level, where every run recorded it: a run stored earlier stays in its series.
+    engines = {**{d: versions.get(d) for d in ENGINE_DISTS}, **engines}
     return tuple(sorted((d, v) for d, v in engines.items() if v is not None))
 
 

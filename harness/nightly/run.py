@@ -362,9 +362,14 @@ def version_change_lines(history: History, run_id: int) -> list[str]:
         "",
     ]
     old_cells, new_cells = history.cell_records(last), history.cell_records(run_id)
+    from adapters import ENGINES
+
     for d in changed:
         if before.get(d) and now_.get(d):
-            lines += between_versions_section(d, [(before[d], old_cells), (now_[d], new_cells)])
+            # the engine whose numbers depend on the distribution (Warp's are Newton's)
+            family = next((e.id for e in ENGINES.values() if d in e.dists), d)
+            label = (lambda v: v) if family == d else (lambda v, d=d: f"({d} {v})")
+            lines += between_versions_section(family, [(label(before[d]), old_cells), (label(now_[d]), new_cells)])
     return lines
 
 
