@@ -694,7 +694,7 @@ METHODS = {
     for mode, name in MODES.items()
 }
 
-from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
+from . import contact  # noqa: E402  (its contact poses, which read MODES above)
 
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(

@@ -661,7 +661,7 @@ METHODS = {
 #: Style3D is not a mode: it poses no scene (``_STYLE3D``).
 NOT_MODES = {"style3d": _STYLE3D}
 
-from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
+from . import contact  # noqa: E402  (its contact poses, joined to its entry below)
 
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(

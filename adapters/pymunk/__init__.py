@@ -672,7 +672,7 @@ METHODS = {
     )
 }
 
-from . import contact  # noqa: E402  (its contact poses; MuJoCo's read this module's MODES)
+from . import contact  # noqa: E402  (its contact poses, joined to its entry below)
 
 #: The engine, declared once: ``adapters.ENGINES`` and every list of engines the harness keeps read it.
 ENGINE = Engine(

@@ -144,15 +144,14 @@ def build_tasks(
 
 def contact_scene_list(settings: dict) -> tuple:
     """The (scene id, parameters) a suite's contact settings run: its ``scenes``, or where that is
-    None every registered contact scene at its defaults, with the ball at e = 1 beside e = 0.8."""
+    None every registered contact scene at its defaults, each followed by the variants the settings'
+    ``also`` names for it."""
     from scenarios import contact_scenes
 
     if settings.get("scenes") is not None:
         return tuple(settings["scenes"])
-    out = [(sid, {}) for sid in contact_scenes()]
-    if "ball" in contact_scenes():
-        out.insert(out.index(("ball", {})) + 1, ("ball", {"e": 1.0}))
-    return tuple(out)
+    also = settings.get("also") or {}
+    return tuple((sid, params) for sid in contact_scenes() for params in ({}, *also.get(sid, ())))
 
 
 def contact_tasks(suite: Suite, plugins: tuple, skipped: list) -> list[Task]:

@@ -364,9 +364,16 @@ CONTACT = {
     "penalty": PENALTY_SCHEMES,
     "penalty_scene": "penalty_ball",
 }
-#: The full suite's scenes are every registered contact scene at its defaults (and the ball at e = 1):
-#: ``"scenes": None`` is read when its tasks are built, so a scene registered since is among them.
-CONTACT_FULL = {**CONTACT, "scenes": None, "modes": None, "ladder": CONTACT_LADDER_FULL}
+#: The full suite's scenes are every registered contact scene at its defaults (``"scenes": None``,
+#: read when its tasks are built, so a scene registered since is among them), each followed by the
+#: variants ``"also"`` names (the ball at e = 1 beside its default e = 0.8).
+CONTACT_FULL = {
+    **CONTACT,
+    "scenes": None,
+    "also": {"ball": ({"e": 1.0},)},
+    "modes": None,
+    "ladder": CONTACT_LADDER_FULL,
+}
 
 SUITES: dict[str, Suite] = {
     "smoke": Suite(
