@@ -154,19 +154,19 @@ def _contact_chart(cells, scene, path):
 
 
 def _penalty_section(scene, piv):
-    from reports.contact_section import penalty_lines
+    from reports.penalty_section import penalty_lines
 
     return penalty_lines(scene, piv)
 
 
 def _penalty_findings(scene, piv) -> list[Finding]:
-    from harness.contact.findings import penalty_findings
+    from harness.contact.penalty_findings import penalty_findings
 
     return penalty_findings(scene, piv)
 
 
 def _penalty_chart(cells, scene, path):
-    from reports.contact_section import penalty_chart
+    from reports.penalty_section import penalty_chart
 
     return penalty_chart(cells, scene, path)
 
