@@ -22,7 +22,7 @@ from __future__ import annotations
 from records.trajectory import output_marks
 
 from . import drake, mujoco, newton, pybullet, pymunk, rebound
-from ._contact import BOX, SPHERE, ContactMode, ContactPose, record_loop, timed_loop
+from ._contact import BOX, ROLLING_SPHERE, SPHERE, TURNING_BOX, ContactMode, ContactPose, record_loop, timed_loop
 from ._engine import Engine, EngineVersions, engine_version, import_engine, version_key
 from ._loops import drive
 from ._mode import EngineMode
@@ -41,7 +41,9 @@ ENGINE_DISTS: tuple[str, ...] = tuple(dict.fromkeys(d for e in ENGINES.values() 
 __all__ = [
     "BOX",
     "CONTACT_MODES",
+    "ROLLING_SPHERE",
     "SPHERE",
+    "TURNING_BOX",
     "ContactMode",
     "ContactPose",
     "ENGINES",

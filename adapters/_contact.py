@@ -37,6 +37,14 @@ class ContactPose:
 
 SPHERE = ContactPose("sphere")
 BOX = ContactPose("box")
+#: A box that turns (the edge, corner and tipping scenes): a cube of side 2 ``half`` on a free
+#: joint, started at the scene's ``initial_orientations`` and ``initial_angular_velocities``, with
+#: its friction ``mu`` and its restitution ``e`` where the scene asks one (else a resting contact);
+#: its run records each body's orientation and angular velocity too.
+TURNING_BOX = ContactPose("turning_box")
+#: A solid sphere of the scene's ``radius`` that rolls (moment 2/5 m r^2, friction ``mu``, no
+#: rolling or spinning resistance, a resting contact), on a free joint, its turning recorded.
+ROLLING_SPHERE = ContactPose("rolling_sphere")
 
 
 @dataclass(frozen=True)
@@ -109,6 +117,11 @@ class ContactMode:
             return f"{self.id} poses gravity along -z only (the scene's is {gravity})"
         if self.dims == 2 and (gravity[1] != 0.0 or any(c[1] != 0.0 for c in (*centres, *velocities))):
             return f"{self.id} is planar (x and z): the scene has a y component in its state or gravity"
+        if self.dims == 2:
+            turns = [[float(x) for x in q] for q in scene.initial_orientations()]
+            spins = [[float(x) for x in w] for w in scene.initial_angular_velocities()]
+            if any(q[1] != 0.0 or q[3] != 0.0 for q in turns) or any(w[0] != 0.0 or w[2] != 0.0 for w in spins):
+                return f"{self.id} is planar (x and z): the scene turns a body about an axis other than y"
         moves_sideways = any(u[0] != 0.0 or u[1] != 0.0 for u in velocities) or off_z
         off_axis = any(c[0] != 0.0 or c[1] != 0.0 for c in centres)
         if self.holds_ball_to_z and self.pose(scene).shape == "sphere" and (moves_sideways or off_axis):
@@ -129,21 +142,32 @@ def record_loop(
     time_again: Callable[[int], float] | None = None,
 ) -> ContactTrajectory:
     """Step ``steps = ceil(duration / dt)`` times, reading (centres, velocities) (each (bodies, 3))
-    before the first and after every step. A non-finite state, or one past ``RUNAWAY_M``, stops the
+    before the first and after every step; a pose whose bodies turn reads (centres, velocities,
+    orientations, angular velocities), the last two (bodies, 4) as (w, x, y, z) and (bodies, 3) in
+    world axes. A non-finite state, or one past ``RUNAWAY_M``, stops the
     run as ``unstable`` at that step. ``time_again(steps)``, where given, steps a fresh copy of the
     pose that many times with nothing recorded and returns its CPU seconds (``timed_loop``)."""
     steps = int(math.ceil(scene.duration / dt - 1e-9))
-    c0, v0 = read()
+    first = read()
+    c0, v0 = first[0], first[1]
     bodies = len(c0)
     centres = np.empty((steps + 1, bodies, 3))
     velocities = np.empty((steps + 1, bodies, 3))
     centres[0], velocities[0] = c0, v0
+    turns = len(first) == 4
+    quats = np.empty((steps + 1, bodies, 4)) if turns else None
+    spins = np.empty((steps + 1, bodies, 3)) if turns else None
+    if turns:
+        quats[0], spins[0] = first[2], first[3]
     status, detail, failed = OK, "", None
     n = steps
     for i in range(1, steps + 1):
         step()
-        c, v = read()
+        state = read()
+        c, v = state[0], state[1]
         centres[i], velocities[i] = c, v
+        if turns:
+            quats[i], spins[i] = state[2], state[3]
         if not (np.all(np.isfinite(c)) and np.all(np.isfinite(v))) or np.max(np.abs(c)) > RUNAWAY_M:
             status, failed, n = UNSTABLE, i, i
             detail = (
@@ -165,6 +189,8 @@ def record_loop(
         failed_step=failed,
         engine_version=engine_version(mode.dist),
         steps=steps,
+        orientations=None if quats is None else quats[: n + 1],
+        angular=None if spins is None else spins[: n + 1],
     )
     if status == OK and time_again is not None:
         run.loop_cpu_s = time_again(steps)

@@ -31,6 +31,11 @@ class ContactTrajectory(Trajectory):
     ``timed_out``, with ``detail`` saying where and why."""
 
     loop_cpu_s: float | None = None
+    #: (n, bodies, 4): each body's orientation (w, x, y, z, body to world) at each recorded step,
+    #: and (n, bodies, 3) its angular velocity in world axes; None where the pose keeps its bodies
+    #: from turning (the ball on its joint, the boxes that only slide and rest).
+    orientations: np.ndarray | None = None
+    angular: np.ndarray | None = None
 
     @classmethod
     def of(
@@ -50,16 +55,23 @@ class ContactTrajectory(Trajectory):
         engine_version: str | None = None,
         steps: int | None = None,
         loop_cpu_s: float | None = None,
+        orientations=None,
+        angular=None,
     ) -> ContactTrajectory:
         """The run of ``scene`` (a contact scene, or its id: then its energy is not computed) from
-        each body's recorded centres and velocities, (n, bodies, 3) each."""
+        each body's recorded centres and velocities, (n, bodies, 3) each, and where the bodies
+        turn, their orientations (n, bodies, 4) and angular velocities (n, bodies, 3)."""
         t = np.asarray(t, dtype=float)
         centres, velocities = np.asarray(centres, dtype=float), np.asarray(velocities, dtype=float)
         n = len(t)
         q = centres.reshape(n, 1, int(np.prod(centres.shape[1:])))
         v = velocities.reshape(n, 1, int(np.prod(velocities.shape[1:])))
+        if orientations is not None:
+            orientations = np.asarray(orientations, dtype=float).reshape(n, -1, 4)
+            angular = np.asarray(angular, dtype=float).reshape(n, -1, 3)
+        spin = None if angular is None else angular.reshape(n, 1, -1)
         energy = (
-            np.asarray(scene.energy(q, v), dtype=float).reshape(n, 1)
+            np.asarray(scene.energy(q, v, spin), dtype=float).reshape(n, 1)
             if hasattr(scene, "energy") and n
             else np.zeros((n, 1))
         )
@@ -88,6 +100,8 @@ class ContactTrajectory(Trajectory):
             failed_step=failed_step,
             meta=meta,
             loop_cpu_s=loop_cpu_s,
+            orientations=orientations,
+            angular=angular,
         )
 
     @classmethod
@@ -136,7 +150,7 @@ class ContactFigures(Figures):
     under its own name beside the other fields, and read as attributes, ``f.restitution``);
     ``passes`` names each judged figure's ✓ (True) or ✗; ``cpu_per_s`` the engine loop's CPU
     seconds per simulated second; ``truth`` the scene's analytic figures; ``tolerances`` the
-    tolerances it was judged by; ``settings`` the engine's contact settings as the pose stated
+    tolerances it was judged by (the profile ``profile``); ``settings`` the engine's contact settings as the pose stated
     them; ``status`` the run's (``detail`` says where and why a run failed, or why a figure is
     missing) and ``engine_version`` the engine release that ran."""
 
@@ -153,6 +167,11 @@ class ContactFigures(Figures):
     settings: dict = field(default_factory=dict)
     detail: str | None = None
     engine_version: str | None = None
+    #: The tolerance profile ``passes`` judges by (``scenarios.contact.PROFILES``), and the ✓/✗ of
+    #: every judged figure under each profile ({profile: {figure: bool}}): an advice at another
+    #: step reads its own profile's.
+    profile: str | None = None
+    by_profile: dict = field(default_factory=dict)
 
     def __getattr__(self, name):
         values = self.__dict__.get("values") or {}

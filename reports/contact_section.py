@@ -42,6 +42,8 @@ def _value(kind: str, v) -> str:
         return " ".join(f"{x:.3f}" for x in v) if v else "none"
     if kind == "bounces":
         return ", ".join(str(b) for b in v) if v else "none"
+    if kind == "flag" or isinstance(v, bool):
+        return "yes" if v else "no"
     return fmt(v)
 
 

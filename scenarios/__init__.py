@@ -11,6 +11,7 @@ from .cloth import Cloth, Net
 from .cloth_flex import ClothFlex
 from .contact import ContactScene
 from .contact import SCENES as _CONTACT
+from .contact_turning import SCENES as _TURNING
 from .damped_spring import DampedSpring
 from .kepler import Kepler
 from .model import FEATURES, SUFFIXES, VARIANTS, ModelScene, read_model_file, variant
@@ -49,9 +50,10 @@ FILE_SCENES: dict[str, type[Scene]] = {ModelScene.id: ModelScene}
 #: Scenes whose force is one engine's own model posed on a built-in scene's grid (``cloth_flex``:
 #: MuJoCo's flexcomp membrane on the cloth's): not in SCENES, whose every scene has kernels the
 #: reference schemes step; each carries a ``model_note`` saying what it is not.
-#: The contact scenes (``scenarios.contact``: the ball, the slide, the box at rest, the stack) are
-#: engine scenes too: only engines pose them (each engine's ``adapters/<engine>/contact.py``).
-ENGINE_SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (ClothFlex, *_CONTACT)}
+#: The contact scenes (``scenarios.contact``: the ball, the slide, the box at rest, the stack;
+#: ``scenarios.contact_turning``: the edge, corner, tipping and rolling drops) are engine scenes
+#: too: only engines pose them (each engine's ``adapters/<engine>/contact.py``).
+ENGINE_SCENES: dict[str, type[Scene]] = {cls.id: cls for cls in (ClothFlex, *_CONTACT, *_TURNING)}
 
 
 def contact_scenes() -> dict[str, type[ContactScene]]:

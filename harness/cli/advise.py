@@ -85,7 +85,7 @@ def run(args) -> int:
 
         hz = validate.positive_finite("--hz", args.hz)
         patterns = [p.strip() for item in args.methods or () for p in item.split(",") if p.strip()]
-        return advise_contact(1.0 / hz, contact_modes_matching(patterns), as_json=args.json)
+        return advise_contact(1.0 / hz, contact_modes_matching(patterns), as_json=args.json)  # profile by the step
     error_tol, error_rel = position_tolerance(args.error_tol)
     request = Request(
         hz=args.hz,

@@ -42,6 +42,11 @@ def add_parser(sub):
         help="which mode bounces, slides and rests within tolerance, cheapest first, at --hz",
     )
     p.add_argument("--hz", default="60", help="--advise: the frame rate")
+    p.add_argument(
+        "--profile",
+        help="the tolerances judged by: game (Box2D's 5 mm slop) or robotics (1 mm); "
+        "default: game below 200 Hz, robotics from it",
+    )
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     return p
 
@@ -82,6 +87,7 @@ def run(args) -> int:
         dts = [1.0 / hz]
     else:
         dts = [check_dt(x) for x in _numbers("--dt", args.dt)]
+    tol = profile_for(args.profile, max(dts))
     overrides = parse_overrides(args.set)
     params = {}
     for s in scenes:
@@ -99,10 +105,10 @@ def run(args) -> int:
             if m not in modes:
                 raise InvalidInput(f"--modes: unknown contact mode {m!r} (valid: {', '.join(modes)})")
     if args.advise:
-        return advise_contact(dts[0], chosen, {s: params[s] for s in scenes}, args.json)
+        return advise_contact(dts[0], chosen, {s: params[s] for s in scenes}, args.json, tol)
     from harness.contact.study import study
 
-    df = study({s: params[s] for s in scenes}, chosen, dts)
+    df = study({s: params[s] for s in scenes}, chosen, dts, tol=tol)
     if args.json:
         json.dump(jsonable(df.to_dict(orient="records")), sys.stdout, indent=1)
         print()
@@ -115,6 +121,8 @@ def run(args) -> int:
 def _fmt(x) -> str:
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "-"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
     if isinstance(x, list):
         if all(isinstance(v, int) for v in x):
             return ",".join(str(v) for v in x) if x else "none"
@@ -133,6 +141,9 @@ def _shown(scene_id: str, params: dict) -> tuple[tuple[str, int], ...]:
 
 
 def _lines(df):
+    profiles = sorted({p for p in df.get("profile", []) if isinstance(p, str)})
+    if profiles:
+        yield f"judged by the {', '.join(profiles)} profile (harness contact --profile; tolerances in --json)"
     for scene, rows in df.groupby("scene", sort=False):
         truth = rows.iloc[0].truth
         shown = _shown(scene, rows.iloc[0].params)
@@ -154,15 +165,27 @@ def _lines(df):
         yield ""
 
 
-def advise_contact(dt: float, modes=None, scenes=None, as_json: bool = False) -> int:
+def profile_for(name: str | None, dt: float):
+    """The tolerance profile named (one line naming the valid ones where it is not one), or the
+    one a step is advised under where none is named: a game's below 200 Hz, a robot's from it."""
+    from scenarios.contact import PROFILES, profile
+
+    if name is not None:
+        return profile(name)
+    return PROFILES["game"] if dt > 1.0 / 200.0 else PROFILES["robotics"]
+
+
+def advise_contact(dt: float, modes=None, scenes=None, as_json: bool = False, tol=None) -> int:
     """The contact advice at one step (``harness contact --advise``, ``harness advise contact``):
-    the modes within every tolerance on the ball, the slide and the stack, cheapest first."""
+    the modes within every tolerance of the profile ``tol`` (``profile_for``'s where None) on the
+    ball, the slide and the stack, cheapest first."""
     from scenarios.contact import make_contact_scene
 
     from harness.contact.study import ADVICE_SCENES, advise, study
 
+    tol = tol or profile_for(None, dt)
     scenes = scenes or {s: dict(make_contact_scene(s).values) for s in ADVICE_SCENES}
-    out = advise(study(scenes, modes, [dt]), dt)
+    out = advise(study(scenes, modes, [dt], tol=tol), dt, tol)
     if as_json:
         json.dump(jsonable(out), sys.stdout, indent=1)
         print()
@@ -190,8 +213,9 @@ def contact_modes_matching(patterns) -> list[str] | None:
 
 def _advice_lines(out):
     yield (
-        f"at dt = {out['dt']:.5g} s: within every tolerance on ball, slide and stack (cheapest first, engine "
-        "loop CPU s per simulated s summed over the three):"
+        f"at dt = {out['dt']:.5g} s, judged by the {out['profile']} profile ({out['tolerances']['source']}): "
+        "within every tolerance on ball, slide and stack (cheapest first, engine loop CPU s per simulated s "
+        "summed over the three):"
     )
     for m in out["within"]:
         yield f"  {m}: {out['cost'][m]:.3g}"

@@ -9,11 +9,12 @@ from records.contact import ContactFigures, ContactTrajectory
 from records.trajectory import OK
 
 # apexes, STOPPED: the judges' own (scenarios.contact), read here by those who read them here before.
-from scenarios.contact import STOPPED, TOLERANCES, ContactScene, Tolerances, apexes  # noqa: F401
+from scenarios.contact import PROFILES, STOPPED, TOLERANCES, ContactScene, Tolerances, apexes  # noqa: F401
 
 
 def contact_figures(scene: ContactScene, run: ContactTrajectory, tol: Tolerances = TOLERANCES) -> ContactFigures:
-    """The run's figures against the scene's truth (all None but the settings where it failed)."""
+    """The run's figures against the scene's truth (all None but the settings where it failed),
+    judged under the profile ``tol`` and, beside it, under every profile of ``PROFILES``."""
     common = dict(
         scene=scene.id,
         params=dict(scene.values),
@@ -24,6 +25,7 @@ def contact_figures(scene: ContactScene, run: ContactTrajectory, tol: Tolerances
         settings=dict(run.settings),
         loop=run.loop or None,
         engine_version=run.engine_version,
+        profile=tol.name,
     )
     if run.status != OK:
         return ContactFigures(**common, detail=run.detail)
@@ -39,7 +41,9 @@ def contact_figures(scene: ContactScene, run: ContactTrajectory, tol: Tolerances
     values.update({k: v for k, v in got.items() if k not in values})
     steps = run.steps_recorded
     cpu = run.loop_cpu_s / (steps * run.dt) if run.loop_cpu_s is not None and steps else None
-    return ContactFigures(**common, values=values, passes=passes, detail=detail, cpu_per_s=cpu)
+    by_profile = {name: dict(scene.measure(run, other).get("passes", {})) for name, other in PROFILES.items()}
+    by_profile[tol.name] = passes
+    return ContactFigures(**common, values=values, passes=passes, detail=detail, cpu_per_s=cpu, by_profile=by_profile)
 
 
 def within(figures: ContactFigures) -> bool | None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import asdict
 
 from records.contact import ContactFigures
-from scenarios.contact import TOLERANCES, make_contact_scene
+from scenarios.contact import TOLERANCES, Tolerances, make_contact_scene
 
 from .figures import contact_figures, within
 from .run import LADDER, REPORT_DTS, contact_modes, run_contact
@@ -24,15 +24,16 @@ def measure_mode(
     dts=LADDER,
     isolated: bool = True,
     timeout: float | None = None,
+    tol: Tolerances = TOLERANCES,
 ) -> list[ContactFigures]:
-    """The mode's figures at every step of ``dts`` (each run validated, then stepped; a failed run
-    is its figures' ``detail``)."""
+    """The mode's figures at every step of ``dts``, judged under the profile ``tol`` (each run
+    validated, then stepped; a failed run is its figures' ``detail``)."""
     from .run import TIMEOUT_S
 
     scene = make_contact_scene(scene_id, **(params or {}))
     return [
         contact_figures(
-            scene, run_contact(mode_id, scene_id, params, dt, timeout=timeout or TIMEOUT_S, isolated=isolated)
+            scene, run_contact(mode_id, scene_id, params, dt, timeout=timeout or TIMEOUT_S, isolated=isolated), tol
         )
         for dt in dts
     ]
@@ -55,11 +56,11 @@ def largest(runs: list[ContactFigures]) -> dict:
     return out
 
 
-def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = True):
+def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = True, tol: Tolerances = TOLERANCES):
     """Every available mode that poses each scene, at each step: a tidy DataFrame, one row per
     (scene, mode, dt), with every figure the scene declares, its ✓/✗ and the mode's contact
-    settings. A mode asked for by name (``modes``) that does not pose a scene, or is not
-    installed, is a row of its own (status ``unsupported``, ``detail`` saying why), never dropped."""
+    settings, judged under the profile ``tol``. A mode asked for by name (``modes``) that does not
+    pose a scene, or is not installed, is a row of its own (status ``unsupported``, ``detail`` saying why), never dropped."""
     import pandas as pd
 
     rows = []
@@ -79,7 +80,7 @@ def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = 
                 if modes is not None or refused:
                     rows.append(unsupported_row(scene_id, params, mode_id, why))
                 continue
-            for f in measure_mode(mode_id, scene_id, params, dts, isolated=isolated):
+            for f in measure_mode(mode_id, scene_id, params, dts, isolated=isolated, tol=tol):
                 rows.append(row_of(mode_id, f))
     df = pd.DataFrame(rows)
     # The columns in one order whatever the scenes: the run, every scene's figures, what it was judged by.
@@ -89,7 +90,7 @@ def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = 
 
 #: A row's columns before and after its scene's figures.
 HEAD = ("scene", "method", "dt", "status", "within")
-TAIL = ("cpu_per_s", "detail", "passes", "settings", "params", "truth")
+TAIL = ("cpu_per_s", "detail", "passes", "profile", "settings", "params", "truth")
 
 
 def row_of(mode_id: str, f: ContactFigures) -> dict:
@@ -107,6 +108,7 @@ def row_of(mode_id: str, f: ContactFigures) -> dict:
         "cpu_per_s": f.cpu_per_s,
         "detail": f.detail,
         "passes": f.passes,
+        "profile": f.profile,
         "settings": f.settings,
         "params": f.params,
         "truth": f.truth,
@@ -158,9 +160,10 @@ def rank(by_mode: dict[str, dict[str, dict]], needed) -> tuple[list[tuple[float,
     return sorted(fine), failing
 
 
-def advise(df, dt: float) -> dict:
-    """At one step: ``rank`` over ``ADVICE_SCENES`` (``df``: ``study``'s rows); a mode asked for
-    that does not pose a scene is named in ``unposed`` with why ({mode: {scene: why}})."""
+def advise(df, dt: float, tol: Tolerances = TOLERANCES) -> dict:
+    """At one step: ``rank`` over ``ADVICE_SCENES`` (``df``: ``study``'s rows, judged under the
+    profile ``tol``); a mode asked for that does not pose a scene is named in ``unposed`` with why
+    ({mode: {scene: why}})."""
     unposed: dict[str, dict[str, str]] = {}
     if len(df):
         for r in df[df.status == "unsupported"].itertuples():
@@ -184,5 +187,6 @@ def advise(df, dt: float) -> dict:
         "cost": {m: c for c, m in fine},
         "failing": failing,
         "unposed": unposed,
-        "tolerances": asdict(TOLERANCES),
+        "profile": tol.name,
+        "tolerances": asdict(tol),
     }
