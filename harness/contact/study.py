@@ -60,7 +60,8 @@ def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = 
     """Every available mode that poses each scene, at each step: a tidy DataFrame, one row per
     (scene, mode, dt), with every figure the scene declares, its ✓/✗ and the mode's contact
     settings, judged under the profile ``tol``. A mode asked for by name (``modes``) that does not
-    pose a scene, or is not installed, is a row of its own (status ``unsupported``, ``detail`` saying why), never dropped."""
+    pose a scene, or is not installed, is a row of its own (status ``unsupported``, ``detail``
+    saying why), never dropped."""
     import pandas as pd
 
     rows = []
