@@ -91,7 +91,7 @@ def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = 
 
 #: A row's columns before and after its scene's figures.
 HEAD = ("scene", "method", "dt", "status", "within")
-TAIL = ("cpu_per_s", "detail", "passes", "profile", "settings", "params", "truth")
+TAIL = ("cpu_per_s", "detail", "passes", "profile", "by_profile", "settings", "params", "truth")
 
 
 def row_of(mode_id: str, f: ContactFigures) -> dict:
@@ -110,6 +110,7 @@ def row_of(mode_id: str, f: ContactFigures) -> dict:
         "detail": f.detail,
         "passes": f.passes,
         "profile": f.profile,
+        "by_profile": f.by_profile,
         "settings": f.settings,
         "params": f.params,
         "truth": f.truth,
