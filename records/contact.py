@@ -215,6 +215,9 @@ class ContactCellFigures(Figures):
     declared: list = field(default_factory=list)
     truth_text: str | None = None
     tolerance_text: str | None = None
+    #: The tolerance profile ``largest`` and the tables judge by (each run also carries its ✓/✗
+    #: under every profile, ``by_profile``).
+    profile: str | None = None
 
 
 @dataclass(frozen=True)

@@ -55,6 +55,32 @@ def _mark(ok) -> str:
     return "✓" if ok else ("✗" if ok is not None else "")
 
 
+def _convergence(cells) -> list[str]:
+    """The scene's charted figure (the slide's stop distance, ...) at every step of the ladder, per
+    mode, beside its truth: whether it converges as the step shrinks, and to what."""
+    declared = next((d for d in cells[0].figures.declared or () if d.get("chart") and d.get("fmt") == "num"), None)
+    if declared is None:
+        return []
+    name = declared["name"]
+    dts = sorted({r["dt"] for c in cells for r in c.figures.runs if r.get("dt")})
+    truth_key = declared.get("truth")
+    truth = next((r.get("truth", {}).get(truth_key) for c in cells for r in c.figures.runs if r.get("truth")), None)
+    lines = [
+        "",
+        f"{declared['chart']} at every step of the ladder"
+        + (f" (truth {fmt(truth)})" if isinstance(truth, int | float) else "")
+        + ": does it converge as the step shrinks, and to the truth?",
+        "",
+        "| mode | " + " | ".join(_dt_text(dt) for dt in dts) + " |",
+        "|---|" + "---|" * len(dts),
+    ]
+    for c in cells:
+        by = {r["dt"]: r for r in c.figures.runs}
+        row = [_value("num", by[dt].get(name)) if dt in by and by[dt].get("status") == "ok" else "–" for dt in dts]
+        lines.append(f"| `{c.method}` | " + " | ".join(row) + " |")
+    return lines
+
+
 def contact_lines(scene: str, piv: dict) -> list[str]:
     """The contact section of one contact scene (its cells' scene name, e.g. ``ball_e1``)."""
     cells = _cells(scene, piv, "contact")
@@ -89,6 +115,7 @@ def contact_lines(scene: str, piv: dict) -> list[str]:
             verdict = "✓" if not failed else "✗ " + ", ".join(failed)
             cols = [f"`{c.method}`", _dt_text(dt), *(_value(k, r.get(key)) for _, key, k in figures)]
             lines.append("| " + " | ".join([*cols, verdict, fmt(r.get("cpu_per_s"))]) + " |")
+    lines += _convergence(cells)
     lines += ["", "Largest step of the ladder within each tolerance (there and at every shorter step):", ""]
     names = sorted({k for c in cells for k in c.figures.largest if k != "all"})
     lines += ["| mode | every figure | " + " | ".join(names) + " |", "|---|---|" + "---|" * len(names)]

@@ -45,8 +45,9 @@ def test_harness_contact_shows_the_new_scene_and_lists_a_mode_that_cannot_pose_i
     argv = ["contact", "incline", "--modes", "mujoco:rk4,rebound:hardsphere", "--dt", "1/240"]
     assert main(argv) == 0
     out = capsys.readouterr().out
-    assert out.startswith("incline (mu=0.5, v0=2")
-    assert "stop" in out.splitlines()[1] and "creep" in out.splitlines()[1]
+    lines = out.splitlines()
+    assert lines[0].startswith("judged by the robotics profile") and lines[1].startswith("incline (mu=0.5, v0=2")
+    assert "stop" in lines[2] and "creep" in lines[2]
     mujoco_line = next(line for line in out.splitlines() if line.strip().startswith("mujoco:rk4"))
     assert "0.69" in mujoco_line and "within" in mujoco_line  # the box stops after 0.70 m: within 5%
     rebound_line = next(line for line in out.splitlines() if line.strip().startswith("rebound:hardsphere"))

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from records.findings import MARK, Finding
 
-#: The frame rate the advice answers for.
+#: The frame rate the first advice answers for (a game's, judged by the game profile); the
+#: second answers at a robot's control step by the robotics profile (``scenarios.contact.PROFILE_DT``).
 ADVICE_DT = 1 / 60
 #: The seed's claim, quoted.
 SEED_CLAIM = "lively bounces go dead"
@@ -19,8 +20,11 @@ def _rows(piv, scene, measure):
 
 def contact_findings(scene: str, piv: dict) -> list[Finding]:
     """Per contact scene: the modes that gain energy at a bounce (a ✗ whatever the tolerance), and
-    at 60 Hz the modes within every tolerance. On the first ball scene, the advice across scenes:
-    the cheapest mode that bounces, slides and rests within tolerance at 60 Hz."""
+    at each profile's step (a game's 60 Hz, a robot's 1 kHz) the modes within every tolerance of
+    that profile. On the first ball scene, the advice across scenes at each: the cheapest mode
+    that bounces, slides and rests within the profile's tolerances."""
+    from scenarios.contact import PROFILE_DT
+
     cells = _rows(piv, scene, "contact")
     if not cells:
         return []
@@ -38,24 +42,44 @@ def contact_findings(scene: str, piv: dict) -> list[Finding]:
                     m,
                 )
             )
-    at60 = {m: _at(c.figures.runs, ADVICE_DT) for m, c in cells.items()}
-    ok = sorted(m for m, r in at60.items() if r is not None and r.get("passes") and all(r["passes"].values()))
-    out.append(
-        Finding(
-            f"`{scene}` at 60 Hz: "
-            + (
-                f"within every tolerance: {', '.join(f'`{m}`' for m in ok)}"
-                if ok
-                else "no engine mode is within every tolerance"
+    for name, dt in PROFILE_DT.items():
+        at = {m: _at(c.figures.runs, dt) for m, c in cells.items()}
+        judged = {m: _passes(r, name) for m, r in at.items() if r is not None}
+        if not judged:
+            continue
+        ok = sorted(m for m, passes in judged.items() if passes and all(passes.values()))
+        out.append(
+            Finding(
+                f"`{scene}` at {_hz(dt)}, {name} profile: "
+                + (
+                    f"within every tolerance: {', '.join(f'`{m}`' for m in ok)}"
+                    if ok
+                    else "no engine mode is within every tolerance"
+                )
+                + ".",
+                None,
+                scene,
             )
-            + ".",
-            None,
-            scene,
         )
-    )
     if scene == _first_ball(piv):
-        out.append(_advice(piv))
-    return out
+        out += [_advice(piv, name, dt) for name, dt in PROFILE_DT.items()]
+    return [f for f in out if f is not None]
+
+
+def _hz(dt: float) -> str:
+    return f"{1 / dt:.0f} Hz"
+
+
+def _passes(run: dict, profile: str) -> dict | None:
+    """A stored run's ✓/✗ under ``profile``: its own where it was judged under each profile, else
+    (a run stored before profiles) its ``passes`` where those were judged by that profile's
+    tolerances, else None (not judged by it)."""
+    by = run.get("by_profile") or {}
+    if profile in by:
+        return by[profile]
+    if (run.get("tolerances") or {}).get("name", "robotics") == profile:
+        return run.get("passes")
+    return None
 
 
 def _at(runs, dt):
@@ -67,32 +91,61 @@ def _first_ball(piv) -> str | None:
     return balls[0] if balls else None
 
 
-def _advice(piv) -> Finding:
-    """At 60 Hz, the modes within every tolerance on a ball, the slide and the stack, cheapest first
-    (the sum of the engine loop's CPU per simulated second over the three)."""
+def _omega(settings: dict) -> str:
+    """The contact's natural frequency a mode's settings state (its stiffness as a rate), if any."""
+    for k, v in (settings or {}).items():
+        if "omega_c" in k and isinstance(v, int | float):
+            return f", ω_c {v:g} rad/s"
+    return ""
+
+
+def _advice(piv, profile: str, dt: float) -> Finding | None:
+    """At ``dt``, the modes within every tolerance of ``profile`` on a ball, the slide and the
+    stack, cheapest first (the sum of the engine loop's CPU per simulated second over the three),
+    each with its contact's ω_c where it states one; the others named with the figures that fail."""
+    from scenarios.contact import PROFILES
+
     from .study import ADVICE_SCENES, rank
 
     by_mode: dict[str, dict[str, dict]] = {}
+    settings: dict[str, dict] = {}
     for (s, m), ms in piv.items():
         c = ms.get("contact")
         if c is None or c.status != "ok" or c.figures.scene not in ADVICE_SCENES:
             continue
-        r = _at(c.figures.runs, ADVICE_DT)
+        r = _at(c.figures.runs, dt)
         if r is not None:
-            by_mode.setdefault(m, {})[s] = r
+            passes = _passes(r, profile)
+            if passes is None:
+                continue
+            by_mode.setdefault(m, {})[s] = {**r, "passes": passes}
+            settings.setdefault(m, r.get("settings") or {})
+    if not by_mode:
+        return None
     kinds_needed = sorted(
         {s for (s, _), ms in piv.items() if "contact" in ms and ms["contact"].figures.scene in ADVICE_SCENES}
     )
-    fine, _ = rank(by_mode, kinds_needed)
+    fine, failing = rank(by_mode, kinds_needed)
+    source = PROFILES[profile].source
+    scenes = ", ".join(kinds_needed)
+    why_not = "; ".join(
+        f"`{m}`{_omega(settings.get(m, {}))}: "
+        + ", ".join(f"{s} ({', '.join(figs)})" for s, figs in sorted(bad.items()))
+        for m, bad in sorted(failing.items())
+    )
     if not fine:
         return Finding(
-            f"{MARK} Advice at 60 Hz: no engine mode bounces, slides and rests within every tolerance "
-            f"({', '.join(sorted(kinds_needed))}).",
+            f"{MARK} Advice at {_hz(dt)}, {profile} profile ({source}): no engine mode bounces, slides and rests "
+            f"within every tolerance ({scenes}). What fails: {why_not}.",
             False,
         )
-    fine.sort()
-    best = ", ".join(f"`{m}` ({c:.3g} CPU s per simulated s over the {len(kinds_needed)} scenes)" for c, m in fine)
+    best = ", ".join(
+        f"`{m}` ({c:.3g} CPU s per simulated s over the {len(kinds_needed)} scenes{_omega(settings.get(m, {}))})"
+        for c, m in sorted(fine)
+    )
+    rest = f" Not within: {why_not}." if why_not else ""
     return Finding(
-        f"{MARK} Advice at 60 Hz: within every tolerance on {', '.join(sorted(kinds_needed))}, cheapest first: {best}.",
+        f"{MARK} Advice at {_hz(dt)}, {profile} profile ({source}): within every tolerance on {scenes}, "
+        f"cheapest first: {best}.{rest}",
         True,
     )

@@ -327,15 +327,27 @@ def engines_left_out(scene: str) -> tuple[str, ...]:
     return tuple(m for m in (*DRAKE_MODES, *NEWTON_MODES) if m not in ENGINES_KEPT.get(scene, ()))
 
 
-#: The contact cells (harness.nightly.measures.contact_cells): a ball at e = 0.8 and at e = 1, the slide,
-#: the box at rest and the stack, each engine mode at every step of the ladder (1/2000 s to 1/60 s; the
+#: The contact cells (harness.nightly.measures.contact_cells): a ball at e = 0.8 and at e = 1, the slide
+#: (along x and at 45 degrees, off the friction pyramid's axes), the box at rest, the stack, and the
+#: bodies that turn (edge, corner, tip, roll), each engine mode at every step of the ladder (1/2000 s to 1/60 s; the
 #: report shows 1/1000, 1/240 and 1/60), and the reference schemes on the penalty ground over the issue's
 #: grid of h*omega_c. The standard suite runs MuJoCo in its integrators with the pyramidal cone (and Euler
 #: with the elliptic), pybullet, pymunk, Drake's SAP and REBOUND; the full suite every mode and a longer
 #: ladder: Newton's Warp kernels step these scenes' bodies at a CPU second or more per simulated second
 #: (a ladder of one scene costs a minute), and Drake's TAMSI and continuous plants add little the
 #: standard suite's SAP does not show.
-CONTACT_SCENES = (("ball", {"e": 0.8}), ("ball", {"e": 1.0}), ("slide", {}), ("rest", {}), ("stack", {}))
+CONTACT_SCENES = (
+    ("ball", {"e": 0.8}),
+    ("ball", {"e": 1.0}),
+    ("slide", {}),
+    ("slide", {"angle": 45.0}),
+    ("rest", {}),
+    ("stack", {}),
+    ("edge", {}),
+    ("corner", {}),
+    ("tip", {}),
+    ("roll", {}),
+)
 CONTACT_LADDER = (1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60)
 CONTACT_LADDER_FULL = (1 / 4000, 1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
 PENALTY_SCHEMES = (
@@ -363,6 +375,9 @@ CONTACT = {
     "ladder": CONTACT_LADDER,
     "penalty": PENALTY_SCHEMES,
     "penalty_scene": "penalty_ball",
+    # The tables' tolerances (``scenarios.contact.PROFILES``); every run is judged under each profile
+    # too, and the findings advise at each profile's own step by its own.
+    "profile": "robotics",
 }
 #: The full suite's scenes are every registered contact scene at its defaults (``"scenes": None``,
 #: read when its tasks are built, so a scene registered since is among them), each followed by the
@@ -370,7 +385,7 @@ CONTACT = {
 CONTACT_FULL = {
     **CONTACT,
     "scenes": None,
-    "also": {"ball": ({"e": 1.0},)},
+    "also": {"ball": ({"e": 1.0},), "slide": ({"angle": 22.5}, {"angle": 45.0})},
     "modes": None,
     "ladder": CONTACT_LADDER_FULL,
 }

@@ -55,11 +55,16 @@ def contact_run(ctx) -> list:
     from harness.contact.run import LADDER, contact_modes
     from harness.contact.study import largest, measure_mode
 
+    from scenarios.contact import profile
+
     task, scene = ctx.task, ctx.scene
     settings = ctx.suite.contact
     ladder = tuple(settings.get("ladder", LADDER))
+    tol = profile(settings.get("profile", "robotics"))
     mode = contact_modes()[task.method]
-    runs = measure_mode(task.method, scene.id, task.params, ladder, isolated=False, timeout=ctx.suite.cell_timeout)
+    runs = measure_mode(
+        task.method, scene.id, task.params, ladder, isolated=False, timeout=ctx.suite.cell_timeout, tol=tol
+    )
     best = largest(runs)
     ok = [f for f in runs if f.passes]
     status = "ok" if ok else "crashed"
@@ -75,7 +80,8 @@ def contact_run(ctx) -> list:
         engine_version=version,
         declared=plain(scene.declared()),
         truth_text=scene.truth_text(),
-        tolerance_text=scene.tolerance_text(scene.tolerances()),
+        tolerance_text=f"{tol.name} profile ({tol.source}): " + scene.tolerance_text(scene.tolerances(tol)),
+        profile=tol.name,
     )
     return [make_cell(task, "contact", status, best.get("all"), None, detail=detail, figures=figures)]
 
