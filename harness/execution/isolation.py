@@ -35,6 +35,8 @@ from dataclasses import asdict, dataclass, field
 
 from records.trajectory import CRASHED, TIMED_OUT
 
+from .cpu_limit import wait_within
+
 #: Seconds an engine run may take when the caller gives no limit.
 DEFAULT_TIMEOUT_S = 60.0
 
@@ -138,10 +140,25 @@ def _context():
     return _CONTEXT
 
 
-#: Seconds past its limit after which a worker ends itself (SIGALRM). Its parent kills it at the
-#: limit; this backstop is for a parent that died first (a Dask worker killed mid-cell), whose
-#: hung worker would otherwise outlive it for good.
+#: Seconds past its limit after which a worker ends itself: at its CPU limit (SIGPROF, the
+#: process's CPU timer), or at ``cpu_limit.WALL_FACTOR`` times it of wall time (SIGALRM). Its
+#: parent kills it at the limit; this backstop is for a parent that died first (a Dask worker
+#: killed mid-cell), whose hung worker would otherwise outlive it for good.
 ORPHAN_GRACE_S = 2.0
+
+
+def arm_backstop(limit: float | None) -> None:
+    """The worker's own timers for a call of ``limit`` CPU seconds (none where None): SIGPROF and
+    SIGALRM's default actions end the process, even inside an engine's C loop."""
+    from .cpu_limit import WALL_FACTOR
+
+    for sig, timer, seconds in (
+        (signal.SIGPROF, signal.ITIMER_PROF, None if limit is None else limit + ORPHAN_GRACE_S),
+        (signal.SIGALRM, signal.ITIMER_REAL, None if limit is None else WALL_FACTOR * limit + ORPHAN_GRACE_S),
+    ):
+        signal.signal(sig, signal.SIG_DFL)
+        signal.setitimer(timer, 0.0 if seconds is None else seconds)
+
 
 #: True inside a worker: the process is already the isolation, so engines run in it directly
 #: (a worker may not start children of its own, and needs none).
@@ -151,9 +168,8 @@ IN_WORKER = False
 def _worker(conn, workdir: str, fn, args, kwargs, limit: float | None = None) -> None:
     global IN_WORKER
     IN_WORKER = True
-    if limit is not None:  # SIGALRM's default action ends the process, even inside an engine's C loop
-        signal.signal(signal.SIGALRM, signal.SIG_DFL)
-        signal.setitimer(signal.ITIMER_REAL, limit + ORPHAN_GRACE_S)
+    if limit is not None:
+        arm_backstop(limit)
     os.chdir(workdir)
     for fd, name in ((1, "stdout.txt"), (2, "stderr.txt")):
         out = os.open(os.path.join(workdir, name), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
@@ -199,8 +215,10 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
 
     ``fn`` must be a module-level function and its arguments and result picklable. A Python
     exception in the worker is a ``crashed`` failure with the exception in ``detail`` and the
-    traceback in ``output``. ``timeout`` (seconds, None or inf for no limit) counts from the
-    worker's start; past it the worker is killed and the failure is ``timed_out``.
+    traceback in ``output``. ``timeout`` (CPU seconds of the worker's process tree, None or inf
+    for no limit; ``cpu_limit``) counts from the worker's start; past it, or past
+    ``cpu_limit.WALL_FACTOR`` times it of wall time, the worker is killed and the failure is
+    ``timed_out``.
 
     As with any start method but ``fork``, a script that calls this at import time needs the
     ``if __name__ == "__main__":`` guard (the worker imports the caller's main module).
@@ -214,15 +232,11 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
         proc.start()
         sender.close()  # only the worker holds the sending end: its death reads as EOF here
         try:
-            if not receiver.poll(limit):  # neither a result nor EOF in time
+            over = wait_within(receiver, proc.pid, limit, 0.0)
+            if over is not None:  # neither a result nor EOF within the limit
                 proc.kill()
                 proc.join()
-                return WorkerFailure(
-                    TIMED_OUT,
-                    f"no result within {limit:g} s; worker killed",
-                    output=_tail(workdir),
-                    seconds=time.monotonic() - started,
-                )
+                return WorkerFailure(TIMED_OUT, over, output=_tail(workdir), seconds=time.monotonic() - started)
             try:
                 message = receiver.recv()
             except EOFError:  # the worker died without sending anything
@@ -240,9 +254,9 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
         if message is not None:
             return WorkerFailure(CRASHED, f"raised {message[1]}", output=message[2] or output, seconds=seconds)
         code = proc.exitcode
-        if code == -signal.SIGALRM:  # the backstop fired before this thread got to kill it
+        if code in (-signal.SIGALRM, -signal.SIGPROF):  # the backstop fired before this thread got to kill it
             return WorkerFailure(
-                TIMED_OUT, f"no result within {limit:g} s; worker stopped itself", output=output, seconds=seconds
+                TIMED_OUT, f"past its limit of {limit:g} CPU s; worker stopped itself", output=output, seconds=seconds
             )
         if code is not None and code < 0:
             name = signal.Signals(-code).name

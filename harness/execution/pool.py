@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from records.trajectory import CRASHED, TIMED_OUT
 
 from harness.execution import isolation
+from harness.execution.cpu_limit import tree_cpu_seconds, wait_within
 from harness.execution.isolation import WorkerFailure, _complaint, _context, _tail
 
 _PARTIAL_TO = None  # in a pool worker, while a call runs: the connection to its caller
@@ -62,7 +63,8 @@ def _serve_calls(conn, workdir: str) -> None:
             return
         if job is None:
             return
-        fn, args, kwargs = job
+        fn, args, kwargs, limit = job
+        isolation.arm_backstop(limit)  # this call's own timers (none where it has no limit)
         for stream in (sys.stdout, sys.stderr):
             stream.flush()
         for fd in (1, 2):  # each call's output alone: a failure's tail is this call's
@@ -76,6 +78,7 @@ def _serve_calls(conn, workdir: str) -> None:
             message = ("error", f"{type(exc).__name__}: {exc}", traceback.format_exc())
         finally:
             _PARTIAL_TO = None
+            isolation.arm_backstop(None)  # an idle worker waits for its next call for as long as it takes
         cpu = time.process_time() - cpu
         try:
             conn.send((*message, cpu))
@@ -180,29 +183,24 @@ class WorkerPool:
         w = self._take()
         started = time.monotonic()
         pid = w.proc.pid
+        cpu0 = tree_cpu_seconds(pid)  # the worker's CPU so far: its earlier calls are not this one's
         try:
-            w.conn.send((fn, args, kwargs or {}))
+            w.conn.send((fn, args, kwargs or {}, limit))
         except (OSError, ValueError):  # the worker died while idle: a fresh one takes the call
             self._give_back(w, keep=False)
             return self.call_with_stats(fn, args, kwargs, timeout)
         w.calls += 1
         partial = []
         while True:
-            left = None if limit is None else max(0.0, started + limit - time.monotonic())
-            if not w.conn.poll(left):  # neither a result nor EOF in time
+            over = wait_within(w.conn, pid, limit, cpu0)
+            if over is not None:  # neither a result nor EOF within the limit
                 w.proc.kill()
                 w.proc.join()
                 output = _tail(w.workdir)
                 self._give_back(w, keep=False)
                 seconds = time.monotonic() - started
                 return (
-                    WorkerFailure(
-                        TIMED_OUT,
-                        f"no result within {limit:g} s; worker killed",
-                        output=output,
-                        seconds=seconds,
-                        partial=partial,
-                    ),
+                    WorkerFailure(TIMED_OUT, over, output=output, seconds=seconds, partial=partial),
                     CallStats(seconds, None, pid),
                 )
             try:
