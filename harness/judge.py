@@ -92,7 +92,8 @@ def failed_methods(cells: list[Cell]) -> list[tuple[str, str]]:
 
 def verdict(cells: list[Cell], regressions=(), previous=None, trend=None) -> Verdict:
     """The run against ``previous`` (``regressions`` from ``harness.history.compare``; ``trend``:
-    the suite's judged history, whose latest accuracy changes are reported at once)."""
+    the suite's judged history, whose latest accuracy changes are reported at once). The cells
+    that timed out are not measured this run, listed apart and never regressions."""
     changed = trend.latest_changes() if trend is not None else []
     judged = len(trend.runs) if previous is not None and trend is not None and trend.judged else None
     return Verdict(
@@ -101,6 +102,11 @@ def verdict(cells: list[Cell], regressions=(), previous=None, trend=None) -> Ver
         judged_runs=judged,
         changed=tuple(Change(c.scene, c.method, c.measure, ch.before, ch.after) for c, ch in changed),
         failed=tuple(failed_methods(cells)),
+        not_measured=tuple(
+            f"{c.measure} of {c.method} on {c.scene}" + (f" at dt={c.dt:g}" if c.dt is not None else "")
+            for c in cells
+            if c.status == "timed_out"
+        ),
     )
 
 

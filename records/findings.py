@@ -57,6 +57,7 @@ class Verdict:
     judged_runs: int | None = None  # cost judged over this many runs (None: run to run)
     changed: tuple[Change, ...] = ()
     failed: tuple[tuple[str, str], ...] = ()  # (scene, method) with a crashed or timed-out cell
+    not_measured: tuple[str, ...] = ()  # one line per cell that timed out this run: not a regression
 
 
 @dataclass(frozen=True)

@@ -72,6 +72,14 @@ def verdict(v: Verdict) -> list[str]:
         lines.append(f"**{len(v.regressions)} regression(s)** against {against}:")
         lines.append("")
         lines += [f"- {r}" for r in v.regressions]
+    if v.not_measured:
+        lines += [
+            "",
+            f"{len(v.not_measured)} cell(s) not measured this run: they timed out (a limit of CPU seconds, the "
+            "task tried once more), which says they took too long here, not that they got worse; not regressions: "
+            + "; ".join(v.not_measured)
+            + ".",
+        ]
     if v.changed:
         lines += [
             "",

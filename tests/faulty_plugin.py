@@ -1,7 +1,7 @@
 """A ``HARNESS_PLUGINS`` module for the tests: engine modes that fail the way real engines do.
 
 ``faulty:abort`` aborts the process in its first step (as pymunk does on a negative mass);
-``faulty:hang`` never returns from its first step (as REBOUND does with dt = 0). Both are
+``faulty:hang`` never returns from its first step, spinning (as REBOUND does with dt = 0). Both are
 engine modes like any adapter's, stepped by the same loop (``adapters.drive``), so
 the nightly meets them exactly where it meets a real engine's failure::
 
@@ -30,7 +30,9 @@ class _FaultyModel:
     def advance(self) -> None:
         if self.mode == "abort":
             os.abort()  # SIGABRT: no Python exception, the process is gone
-        time.sleep(HANG_S)
+        end = time.monotonic() + HANG_S
+        while time.monotonic() < end:  # spends CPU as a hung engine loop does, until its limit
+            pass
 
     def state(self):
         return self._q.copy(), self._v.copy()

@@ -11,7 +11,7 @@ from pathlib import Path
 from records import InvalidInput
 
 from harness import validate
-from harness.history.compare import compare_runs, regression_lines
+from harness.history.compare import compare_runs, not_measured_runs, regression_lines
 from harness.history.series import load as load_trend
 from harness.nightly.run import DEFAULT_DB
 from harness.history.storage import History
@@ -49,6 +49,7 @@ def run(args) -> int:
         history, run_a, run_b, Path(args.bounds) if args.bounds else bounds_mod.DEFAULT_PATH, trend=trend
     )
     changes = trend.latest_changes() if trend is not None and a is not None else []
+    unmeasured = not_measured_runs(history, a, b)
     if args.json:
         print(
             json.dumps(
@@ -56,6 +57,7 @@ def run(args) -> int:
                     "run_a": a,
                     "run_b": b,
                     "regressions": [r.as_dict() for r in regs],
+                    "not_measured": [r.as_dict() for r in unmeasured],
                     "judged_by_history": bool(trend is not None and trend.judged),
                     "changes": [
                         {"scene": c.scene, "method": c.method, "measure": c.measure, "dt": c.dt, **ch.as_dict()}
@@ -69,7 +71,7 @@ def run(args) -> int:
     else:
         how = f" (cost over the last {len(trend.runs)} runs)" if trend is not None and trend.judged else ""
         print(f"run {b} against {'run ' + str(a) + how if a is not None else 'bounds only (no earlier run)'}:")
-        for line in regression_lines(regs):
+        for line in regression_lines(regs, unmeasured):
             print(f"  {line}")
         for c, ch in changes:
             print(

@@ -134,6 +134,7 @@ def run(args) -> int:
                     "previous": result["previous"],
                     "report": str(result["report"]),
                     "regressions": [r.as_dict() for r in regs],
+                    "not_measured": [r.as_dict() for r in result.get("not_measured", ())],
                     "timing": result["timing"],
                 },
                 indent=1,
@@ -142,7 +143,7 @@ def run(args) -> int:
         )
     else:
         print(f"run {result['run_id']}: report {result['report']} ({result['timing']['total_s']:.1f}s)")
-        for line in regression_lines(regs):
+        for line in regression_lines(regs, result.get("not_measured", ())):
             print(line)
     if regs:
         print(f"harness: {len(regs)} regression(s)", file=sys.stderr)

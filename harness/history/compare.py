@@ -10,11 +10,13 @@ whichever is declared. A regression is, in run B against run A:
 * ``order``: observed order down by more than ``ORDER_DROP`` (0.3);
 * ``stability``: largest stable h*omega down by more than ``STABILITY_DROP`` (1%), or a method
   that was unbounded now has a limit;
-* ``new failure``: a cell that was ``ok`` is now unstable / crashed / timed out (or a cell
-  present in A is missing from B, where B has cells of its scene: a scene with none left the
-  suite, as an edited model file does, whose id carries its content hash), or a cell new in B (a new method or scene)
-  that crashed or timed out: the harness could not measure it. (A new cell that is ``unstable`` is a
-  measurement: a blow-up is a result.)
+* ``new failure``: a cell that was ``ok`` is now unstable or crashed (or a cell present in A is
+  missing from B, where B has cells of its scene: a scene with none left the suite, as an edited
+  model file does, whose id carries its content hash), or a cell new in B (a new method or scene)
+  that crashed: the harness could not measure it. (A new cell that is ``unstable`` is a
+  measurement: a blow-up is a result.) A cell that timed out in B, even after the run tried its
+  task once more, is **not measured this run** (``not_measured``), never a regression: its limit is
+  CPU seconds, so it says the method took too long there, and the verdict counts it apart.
 * ``slowdown``: the cost ratio to explicit Euler worsens beyond the spread of its repeats:
   ratio_B > ratio_A * (1 + spread_A + spread_B + PROCESS_SPREAD), a run's spread being that
   of its interleaved repeats' ratios, (max - min) / min. Repeats in one process miss how
@@ -89,7 +91,7 @@ def compare_cells(
     a_rows = {_key(r): r for _, r in a.iterrows()}
     b_rows = {_key(r): r for _, r in b.iterrows()}
     for key, rb in b_rows.items():
-        if key not in a_rows and rb["status"] in ("crashed", "timed_out"):
+        if key not in a_rows and rb["status"] == "crashed":
             scene, method, measure, dt = key
             out.append(
                 Regression(
@@ -125,7 +127,7 @@ def compare_cells(
                     )
                 )
             continue
-        if ra["status"] == "ok" and rb["status"] != "ok":
+        if ra["status"] == "ok" and rb["status"] not in ("ok", "timed_out"):
             out.append(
                 Regression(
                     "new failure",
@@ -153,6 +155,41 @@ def compare_cells(
         if worse is not None:
             out.append(Regression(worse.kind, scene, method, measure, dt, worse.before, worse.after, worse.detail))
     return out
+
+
+NOT_MEASURED = "not measured"
+
+
+def not_measured(b: pd.DataFrame, a: pd.DataFrame | None = None) -> list[Regression]:
+    """The cells of run ``b`` that timed out (the run tried each such task once more first): not
+    measured this run, each with what it was in run ``a`` where it was there. Never a regression."""
+    before = {} if a is None else {_key(r): r for _, r in a.iterrows()}
+    out = []
+    for _, rb in b.iterrows():
+        if rb["status"] != "timed_out":
+            continue
+        key = _key(rb)
+        ra = before.get(key)
+        was = "absent" if ra is None else ra["status"]
+        out.append(
+            Regression(
+                NOT_MEASURED,
+                key[0],
+                key[1],
+                key[2],
+                key[3],
+                was,
+                "timed_out",
+                f"{key[2]}: timed out ({rb['detail'] or 'no detail'}); "
+                + ("new this run" if ra is None else f"{was} in the run before"),
+            )
+        )
+    return out
+
+
+def not_measured_runs(history: History, run_a: int | None, run_b: int) -> list[Regression]:
+    """``not_measured`` of two stored runs (``run_a`` None: none before)."""
+    return not_measured(history.cells(run_b), None if run_a is None else history.cells(run_a))
 
 
 def compare_runs(
@@ -213,6 +250,11 @@ def compare_runs(
     return run_a, run_b, regressions
 
 
-def regression_lines(regressions: list[Regression]) -> list[str]:
-    """The lines the CLI prints: one per regression, or that there were none."""
-    return [f"REGRESSION {r.line()}" for r in regressions] or ["no regressions"]
+def regression_lines(regressions: list[Regression], unmeasured: list[Regression] = ()) -> list[str]:
+    """The lines the CLI prints: one per regression, or that there were none; then one per cell
+    not measured this run (timed out), counted apart."""
+    lines = [f"REGRESSION {r.line()}" for r in regressions] or ["no regressions"]
+    if unmeasured:
+        lines.append(f"{len(unmeasured)} cell(s) not measured this run (timed out; not regressions):")
+        lines += [f"NOT MEASURED {r.line()}" for r in unmeasured]
+    return lines

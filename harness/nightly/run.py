@@ -503,21 +503,35 @@ def run_nightly(
         progress.say(plan.line())
     cells_by_task: dict[str, list[Cell]] = {}
     busy0, t_cells = machine_busy_s(), time.perf_counter()
+    retried: list[str] = []
+
+    def store(task, cells):
+        stats = getattr(executor, "task_stats", {}).get(task.label)
+        history.add_task_cells(
+            run_id,
+            task.label,
+            cells,
+            getattr(stats, "wall_s", None),
+            getattr(stats, "cpu_s", None),
+            before_commit=lambda: checkpoint("store"),
+        )
+        cells_by_task[task.label] = cells
+        worst = next((c.status for c in cells if c.status != "ok"), "ok")
+        progress.update(task, worst, sum(c.wall_s or 0.0 for c in cells), cells)
+
     try:
+        again = []
         for task, result in executor.run(to_run, timeout):
             cells = result if isinstance(result, list) else failed_cells(task, result)
-            stats = getattr(executor, "task_stats", {}).get(task.label)
-            history.add_task_cells(
-                run_id,
-                task.label,
-                cells,
-                getattr(stats, "wall_s", None),
-                getattr(stats, "cpu_s", None),
-                before_commit=lambda: checkpoint("store"),
-            )
-            cells_by_task[task.label] = cells
-            worst = next((c.status for c in cells if c.status != "ok"), "ok")
-            progress.update(task, worst, sum(c.wall_s or 0.0 for c in cells), cells)
+            if any(c.status == "timed_out" for c in cells):  # tried once more before it is stored
+                again.append(task)
+                continue
+            store(task, cells)
+        if again:
+            progress.say(f"{len(again)} task(s) timed out: each run once more")
+        for task, result in executor.run(again, timeout) if again else ():
+            retried.append(task.label)
+            store(task, result if isinstance(result, list) else failed_cells(task, result))
     finally:
         executor.close()
     t_cells = time.perf_counter() - t_cells
@@ -545,6 +559,7 @@ def run_nightly(
         **timing_summary(cells_by_task, stats, t_cells),
     }
     timing["remeasured"] = remeasured
+    timing["retried"] = retried  # tasks that timed out and were run once more
     timing["kernel_plan"] = asdict(plan) if plan is not None else None
     progress.say(compile_line(RunTiming.of(timing)))
     timing["machine_busy"] = _others_share(
@@ -567,7 +582,16 @@ def run_nightly(
     timing["report_s"] = time.perf_counter() - t_report
     timing["finished_s"] = time.perf_counter() - t_start
     history.finish_run(run_id, finished=now(), wall_s=timing["finished_s"], timing=timing, regressions=len(regressions))
-    return {"run_id": run_id, "previous": run_a, "regressions": regressions, "report": report, "timing": timing}
+    from harness.history.compare import not_measured_runs
+
+    return {
+        "run_id": run_id,
+        "previous": run_a,
+        "regressions": regressions,
+        "not_measured": not_measured_runs(history, run_a, run_id),
+        "report": report,
+        "timing": timing,
+    }
 
 
 #: Fresh worker processes a flagged cost cell is measured in again before its slowdown is reported.
