@@ -77,7 +77,7 @@ def run(args) -> int:
     from harness.nightly.matrix import configured_engines
 
     engines = configured_engines() + list(args.engine or [])
-    if engines and not args.resume:
+    if engines:
         return _matrix(args, suite, engines)
     import adapters
 
@@ -159,7 +159,7 @@ def _matrix(args, suite: str, engines: list[str]) -> int:
     for name, value in (("--jobs", args.jobs), ("--bounds", args.bounds), ("--cell-timeout", args.cell_timeout)):
         if value is not None:
             extra += [name, str(value)]
-    result = run_matrix(engines, suite, Path(args.out), Path(args.db), extra)
+    result = run_matrix(engines, suite, Path(args.out), Path(args.db), extra, resume=args.resume)
     regs = [r for run in result["runs"] for r in run["regressions"]]
     if args.json:
         runs = [{k: v for k, v in r.items() if k != "skipped"} for r in result["runs"]]

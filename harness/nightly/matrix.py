@@ -10,6 +10,11 @@ the versions it ran on: runs of different engine releases are different series
 The matrix's own report (``<out>/report.md``) links each release's report and says, for each
 engine with more than one release, what changed from one release to the next
 (``reports.versions_section``).
+
+A matrix killed part way is resumed as a nightly is (``--resume``): ``<out>/matrix.json`` records
+the releases planned and the run each one stored; on resume a release whose run completed is
+kept, the release whose run was killed is continued with ``--resume`` in its own environment
+(its tasks already stored are kept), and the rest are run.
 """
 
 from __future__ import annotations
@@ -84,21 +89,82 @@ def _child_env(path: Path) -> dict:
     return env
 
 
-def run_matrix(specs, suite: str, out: Path, db: Path, extra_args=(), stream=None) -> dict:
+#: The matrix's own record of what it planned and stored (``<out>/matrix.json``).
+STATE = "matrix.json"
+
+
+def _state(out: Path, suite: str, releases: dict, db: Path, resume: bool) -> dict:
+    """The matrix's record: a new one (the history's last run id noted, so that a resume tells this
+    matrix's runs from older ones), or on ``resume`` the one a killed matrix left, which must have
+    planned the same suite and releases."""
+    from harness.history.storage import History
+
+    path = out / STATE
+    planned = [[d, v] for d, vs in releases.items() for v in vs]
+    if resume:
+        if not path.is_file():
+            raise InvalidInput(f"--resume: no engine matrix to resume in {out} (no {STATE}; run without --resume)")
+        state = json.loads(path.read_text())
+        if state.get("suite") != suite or state.get("planned") != planned:
+            raise InvalidInput(
+                f"--resume: the matrix in {out} planned {state.get('suite')} on "
+                f"{', '.join('=='.join(p) for p in state.get('planned', []))}, not this; run without --resume"
+            )
+        return state
+    runs = History(db).runs(complete_only=False) if Path(db).exists() else None
+    floor = int(runs.run_id.max()) if runs is not None and not runs.empty else 0
+    return {"suite": suite, "planned": planned, "after_run": floor, "stored": {}}
+
+
+def _save(out: Path, state: dict) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    tmp = out / f".{STATE}.{os.getpid()}.tmp"
+    tmp.write_text(json.dumps(state, indent=1))
+    os.replace(tmp, out / STATE)
+
+
+def _left_off(db: Path, suite: str, dist: str, version: str, after: int) -> tuple[int, bool] | None:
+    """The run this matrix stored for a release before it was killed: (run id, complete), or None."""
+    from harness.history.storage import History
+
+    if not Path(db).exists():
+        return None
+    runs = History(db).runs(complete_only=False)
+    runs = runs[(runs.suite == suite) & (runs.run_id > after)]
+    mine = [r for r in runs.itertuples() if ((r.versions or {}).get("engines") or {}).get(dist) == version]
+    return (int(mine[-1].run_id), bool(mine[-1].complete)) if mine else None
+
+
+def run_matrix(specs, suite: str, out: Path, db: Path, extra_args=(), stream=None, resume: bool = False) -> dict:
     """Run ``suite`` once per engine release of ``specs`` (module docstring); returns
-    {"runs": [{"engine", "version", "run_id", "report", "regressions", "skipped"}], "report": path}."""
+    {"runs": [{"engine", "version", "run_id", "report", "regressions", "skipped"}], "report": path}.
+    ``resume``: continue the matrix a kill left in ``out``."""
     from harness.execution.engine_env import ensure
     from harness.history.storage import History
 
     stream = stream or sys.stderr
     releases = plan(specs)
     out, db = Path(out), Path(db)
+    state = _state(out, suite, releases, db, resume)
+    _save(out, state)
     runs = []
     for dist, versions in releases.items():
         for version in versions:
-            env_path = ensure(dist, version)
+            key = f"{dist}=={version}"
             sub_out = out / f"{dist}-{version}"
-            print(f"matrix: {dist} {version}: the suite on {env_path}", file=stream, flush=True)
+            left = _left_off(db, suite, dist, version, state["after_run"]) if resume else None
+            if key in state["stored"] or (left is not None and left[1]):
+                run_id = state["stored"].get(key) or left[0]
+                print(f"matrix: {dist} {version}: run {run_id} stored before, kept", file=stream, flush=True)
+                runs.append(_release_row(db, dist, version, run_id, sub_out, regressions=[]))
+                continue
+            env_path = ensure(dist, version)
+            again = ["--resume"] if left is not None else []
+            print(
+                f"matrix: {dist} {version}: the suite on {env_path}" + (" (resumed)" if again else ""),
+                file=stream,
+                flush=True,
+            )
             cmd = [
                 sys.executable,
                 "-m",
@@ -111,39 +177,46 @@ def run_matrix(specs, suite: str, out: Path, db: Path, extra_args=(), stream=Non
                 "--out",
                 str(sub_out),
                 "--json",
+                *again,
                 *extra_args,
             ]
             done = subprocess.run(cmd, env=_child_env(env_path), stdout=subprocess.PIPE, stderr=stream, text=True)
             if done.returncode not in (0, 1):
                 raise InvalidInput(
                     f"--engine {dist}=={version}: the run on that release stopped (exit "
-                    f"{done.returncode}); the other releases' runs are stored"
+                    f"{done.returncode}); the other releases' runs are stored (--resume continues)"
                 )
             summary = json.loads(done.stdout)
             run_id = int(summary["run_id"])
-            stored = History(db).run(run_id)
-            recorded = (stored["versions"].get("engines") or {}).get(dist)
+            recorded = (History(db).run(run_id)["versions"].get("engines") or {}).get(dist)
             if recorded != version:
                 raise InvalidInput(f"--engine {dist}=={version}: the run imported {dist} {recorded} instead")
-            skipped = {
-                (s["scene"], s["method"]): s["reason"]
-                for s in stored["settings"].get("skipped", [])
-                if s["method"].split(":")[0] == dist
-            }
-            runs.append(
-                {
-                    "engine": dist,
-                    "version": version,
-                    "run_id": run_id,
-                    "report": str(sub_out / "report.md"),
-                    "regressions": summary["regressions"],
-                    "skipped": skipped,
-                }
-            )
+            runs.append(_release_row(db, dist, version, run_id, sub_out, summary["regressions"]))
+            state["stored"][key] = run_id
+            _save(out, state)
     for run in runs:  # JSON keys are text
         run["skipped_lines"] = [f"{m} on {s}: {why}" for (s, m), why in run["skipped"].items()]
     report = write_matrix_report(suite, releases, runs, db, out)
     return {"runs": runs, "report": report}
+
+
+def _release_row(db: Path, dist: str, version: str, run_id: int, sub_out: Path, regressions) -> dict:
+    from harness.history.storage import History
+
+    stored = History(db).run(run_id)
+    skipped = {
+        (s["scene"], s["method"]): s["reason"]
+        for s in stored["settings"].get("skipped", [])
+        if s["method"].split(":")[0] == dist
+    }
+    return {
+        "engine": dist,
+        "version": version,
+        "run_id": run_id,
+        "report": str(sub_out / "report.md"),
+        "regressions": regressions,
+        "skipped": skipped,
+    }
 
 
 def write_matrix_report(suite: str, releases: dict, runs: list[dict], db: Path, out: Path) -> Path:
