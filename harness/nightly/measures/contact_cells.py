@@ -87,22 +87,29 @@ def contact_run(ctx) -> list:
 
 
 def penalty_run(ctx) -> list:
-    """The ``penalty`` cell of a reference scheme on the penalty ground."""
-    from harness.contact.penalty import GAIN, GRID, TOLERANCE, row
+    """The ``penalty`` cell of a reference scheme on the penalty ground: a row per (e, h*omega_c)
+    (``harness.contact.penalty.row``: one impact's restitution over the phases, the bounces of a
+    drop to rest); the value is the largest h*omega_c of the grid up to which a perfectly elastic
+    impact stays within the tolerance at every phase."""
+    from harness.contact.penalty import GAIN, GRID, OMEGA_C, TOLERANCE, row
 
     task = ctx.task
     settings = ctx.suite.contact
     grid = tuple(settings.get("grid", GRID))
-    omega_c = settings.get("omega_c", 1000.0)
+    omega_c = settings.get("omega_c", OMEGA_C)
     rows = [row(task.method, e, hw, omega_c) for e in PENALTY_RESTITUTIONS for hw in grid]
-    elastic = sorted((r for r in rows if r["e"] == 1.0), key=lambda r: r["homega"])
+    figures = PenaltyFigures(rows=plain(rows), grid=list(grid), omega_c=omega_c, tolerance=TOLERANCE, gain=GAIN)
+    return [make_cell(task, "penalty", "ok", _penalty_value(rows), None, figures=figures)]
+
+
+def _penalty_value(rows) -> float | None:
+    """The largest h*omega_c up to which every elastic row of the grid is within the tolerance."""
     best = None
-    for r in elastic:
-        if r["verdict"] != "within":
+    for r in sorted((r for r in rows if r["e"] == 1.0), key=lambda r: r["homega"]):
+        if r.get("verdict") != "within":
             break
         best = r["homega"]
-    figures = PenaltyFigures(rows=plain(rows), grid=list(grid), omega_c=omega_c, tolerance=TOLERANCE, gain=GAIN)
-    return [make_cell(task, "penalty", "ok", best, None, figures=figures)]
+    return best
 
 
 def _contact_worse(before, after, comparison) -> Worse | None:
@@ -130,14 +137,31 @@ def _contact_worse(before, after, comparison) -> Worse | None:
 
 
 def _penalty_worse(before, after, comparison) -> Worse | None:
+    """The largest h*omega_c with an elastic impact within the tolerance got smaller, or a solve
+    that held now fails. A cell stored before the per-impact table (its rows have no
+    ``impact_mean``) measured five bounces, another figure: it is not compared."""
+    rows_before = getattr(before.figures, "rows", None) or []
+    rows_after = getattr(after.figures, "rows", None) or []
+    if not all("impact_mean" in r for r in rows_before + rows_after):
+        return None
     if before.value is not None and (after.value is None or after.value < before.value):
         return Worse(
             "penalty",
             before.value,
             after.value,
-            f"an elastic bounce stays within the tolerance up to h*omega_c {before.value:g} -> "
+            f"an elastic impact stays within the tolerance up to h*omega_c {before.value:g} -> "
             f"{'none' if after.value is None else f'{after.value:g}'}",
         )
+    was = {(r["e"], r["homega"]): r for r in rows_before}
+    for r in rows_after:
+        old = was.get((r["e"], r["homega"]))
+        if old is not None and old.get("verdict") != "unsolved" and r.get("verdict") == "unsolved":
+            return Worse(
+                "penalty",
+                before.value,
+                after.value,
+                f"at e = {r['e']:g}, h*omega_c = {r['homega']:g} the implicit solve failed at {r['unsolved']} steps",
+            )
     return None
 
 
@@ -195,7 +219,8 @@ MEASURES = [
     Measure(
         "penalty",
         PenaltyFigures,
-        "a reference scheme on a penalty ground: restitution against h*omega_c beside the exact one",
+        "a reference scheme on a penalty ground: one impact's restitution against h*omega_c beside the "
+        "closed form and the exact one, and the bounces a drop makes before it rests",
         run=penalty_run,
         applies=_named("penalty"),
         regression=_penalty_worse,
