@@ -66,6 +66,19 @@ def engine_findings(piv: dict) -> list[Finding]:
                     method,
                 )
             )
+        elif energy is not None and energy.status == "ok" and energy.figures.energy_class == "damps less":
+            ratio = (energy.figures.numbers or {}).get("end_ratio")
+            out.append(
+                Finding(
+                    f"`{method}` damps `{scene}` less than the exact motion at the nominal timestep (its energy "
+                    "falls, never rises"
+                    + (f"; {ratio:.3g} x the exact energy at the end" if ratio is not None else "")
+                    + ").",
+                    None,
+                    scene,
+                    method,
+                )
+            )
     return out
 
 

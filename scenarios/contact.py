@@ -393,7 +393,8 @@ class Ball(ContactScene):
         times = run.t[impacts]
         truth = self.truth()
         ratio = h[n] / h[0] if h[0] > 0 else None
-        # The deepest the ball went into the plane: at the first impact, the fastest, in every pose.
+        # The deepest the ball went into the plane, at whichever impact (not always the first, the
+        # fastest: where a step falls in a contact moves its depth).
         depth = float(max(0.0, -np.min(z)))
         passes = {
             "restitution": all(abs(x - self.e) <= tol.restitution for x in e_n),

@@ -239,3 +239,32 @@ def test_a_max_energy_error_without_a_meaning_is_none_in_the_command_as_in_the_n
     assert falling["classification"] is None
     blown = energy_behaviour("ref:explicit_euler", make_scene("spring"), 1.5, 2000)
     assert blown["status"] == "unstable" and blown["max_rel_error"] is None and blown["classification"] == "grows"
+
+
+def test_on_a_dissipative_scene_damping_less_than_the_exact_motion_is_not_a_gain():
+    """Issue 54: the exact energy falls (a damped spring). A method whose energy falls at every
+    step but less than the exact one damps less; one whose energy ever rises (above its start, or
+    from one state to the next) gains energy; one that falls faster damps more."""
+    exact = np.exp(-1e-2 * T)
+    less = classify(np.exp(-0.9e-2 * T), exact, T)
+    assert less["classification"] == "damps less" and not less["energy_rose"]
+    assert less["end_ratio"] == pytest.approx(np.exp(1e-3 * T[-1]))
+    more = classify(np.exp(-1.1e-2 * T), exact, T)
+    assert more["classification"] == "damps more"
+    bumped = np.exp(-0.9e-2 * T)
+    bumped[5000] = bumped[4999] * (1 + 1e-9)  # one step that raises it
+    assert classify(bumped, exact, T)["classification"] == "grows"
+    assert energy.claim_met("grows", "damps less") and energy.claim_met("decays", "damps more")
+    assert not energy.claim_met("bounded", "damps less")
+
+
+def test_mujoco_euler_on_the_damped_spring_damps_less_and_no_finding_says_it_gains():
+    from harness.execution.simulate import simulate
+    from harness.methods import get_method
+
+    scene = make_scene("damped_spring")
+    run = simulate(get_method("mujoco:euler"), scene, 0.1, 3142)
+    # independently: the engine's energy falls at every recorded step
+    assert np.all(np.diff(run.energy[:, 0]) < 0.0)
+    res = classify(run.energy[:, 0], scene.exact_energy(run.t), run.t)
+    assert res["classification"] == "damps less" and res["end_ratio"] > 1.0

@@ -33,6 +33,13 @@ was gained, also for a negative energy such as a bound orbit's), where both make
 6. Otherwise look at the mean of g over each tenth: increasing from every tenth to the
    next -> ``grows``; decreasing -> ``decays``; neither (a random walk, or a trend smaller
    than the oscillation around it) -> ``drifts``.
+7. On a dissipative scene (its exact energy falls over the run: a damped spring), g growing
+   says the method damps less than the exact motion, not that it gains energy. There the
+   class is ``grows`` only where the energy itself rose: above its start, or from one
+   recorded state to the next (by more than roundoff, ``RISE``); else ``damps less`` (g grew)
+   or ``damps more`` (g fell), with ``end_ratio``, E / E_exact at the end, saying by how much.
+   A method claimed to gain energy (``grows``) meets its claim on such a scene by damping less
+   (``claim_met``), one claimed to lose it (``decays``) by damping more.
 
 ENVELOPE_RATIO = 2 leaves room for a symplectic method's band to be met a little later
 than the first tenth; SECULAR_SHARE = 0.25: a band leaves a least-squares trend too, a pure
@@ -67,7 +74,37 @@ SECULAR_SHARE = 0.25
 MIN_RECORDED = 100
 #: The rule wants this many periods of the scene in the run.
 MIN_PERIODS = 10.0
-CLASSES = ("grows", "bounded", "decays", "drifts")
+CLASSES = ("grows", "bounded", "decays", "drifts", "damps less", "damps more")
+#: On a dissipative scene, an energy rise smaller than this fraction of the start's is roundoff.
+RISE = 1e-12
+#: The class a claim of each energy behaviour is met by on a dissipative scene (rule 7).
+DISSIPATIVE_CLAIM = {"grows": "damps less", "decays": "damps more"}
+
+
+def claim_met(claim: str | None, classification: str | None) -> bool:
+    """Whether a measured class meets a method's claimed energy behaviour (rule 7 included)."""
+    return claim == classification or (claim is not None and DISSIPATIVE_CLAIM.get(claim) == classification)
+
+
+def _dissipative(e_exact: np.ndarray) -> bool:
+    """The exact energy falls over the run and never rises (a damped scene's)."""
+    return len(e_exact) > 1 and e_exact[-1] < e_exact[0] and bool(np.all(np.diff(e_exact) <= 0.0))
+
+
+def _dissipation_words(out: dict, energy: np.ndarray, e_exact: np.ndarray) -> dict:
+    """Rule 7 on an already classified run of a dissipative scene."""
+    scale = abs(float(energy[0])) or 1.0
+    rose = bool(np.any(np.diff(energy) > RISE * scale) or np.max(energy) > energy[0] + RISE * scale)
+    out.update(dissipative=True, energy_rose=rose, end_ratio=float(energy[-1] / e_exact[-1]))
+    cls = out.get("classification")
+    if cls in ("grows", "decays") and not rose:
+        out["classification"] = "damps less" if cls == "grows" else "damps more"
+        out["rule"] = (
+            f"{out.get('rule')}; a dissipative scene whose energy never rose in this run: it damps "
+            f"{'less' if cls == 'grows' else 'more'} than the exact motion "
+            f"(E/E_exact {out['end_ratio']:.3g} at the end)"
+        )
+    return out
 
 
 def relative_error_series(traj: Trajectory, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -124,6 +161,14 @@ def classify(
     """The classification of an energy series by the rule in the module docstring, with
     the numbers behind it. ``escaped``: per recorded state, whether a body had left the
     system (the scene's ``escaped``), or None where the scene cannot tell."""
+    out = _classify(energy, e_exact, t, unstable, escaped)
+    energy, e_exact = np.asarray(energy, dtype=float), np.asarray(e_exact, dtype=float)
+    if out.get("classification") is not None and np.all(np.isfinite(energy)) and _dissipative(e_exact):
+        out = _dissipation_words(out, energy, e_exact)
+    return out
+
+
+def _classify(energy, e_exact, t, unstable: bool = False, escaped=None) -> dict:
     energy, e_exact, t = (np.asarray(a, dtype=float) for a in (energy, e_exact, t))
     out: dict = {"classification": None, "rule": None}
     if not relative_error_defined(e_exact):
