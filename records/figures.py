@@ -184,6 +184,7 @@ class StabilityFigures(Figures):
     homega_searched: float | None = None
     rho_above_dt_max: float | None = None
     nominal: NominalRun | None = None  # the finite horizon's run at the suite's nominal dt
+    horizon_steps: int | None = None  # the finite horizon's steps: a limit found over it holds over it alone
 
 
 @dataclass(frozen=True)

@@ -46,8 +46,14 @@ def homega_text(cell: Cell | None) -> str:
         return "no stable step resolved"
     if f.unbounded:
         searched = f.homega_searched if f.homega_searched is not None else float("nan")
-        return f"unbounded (searched to {searched:.3g})"
-    return limit_text(cell.value, none="–")
+        return f"unbounded (searched to {searched:.3g})" + _over(f)
+    return limit_text(cell.value, none="–") + _over(f)
+
+
+def _over(f) -> str:
+    """The horizon a finite-horizon limit holds over (a longer run finds a smaller limit)."""
+    steps = getattr(f, "horizon_steps", None)
+    return f" over {steps} steps" if f.criterion == "finite_horizon" and steps else ""
 
 
 def claim_homega_text(c) -> str:

@@ -220,3 +220,30 @@ def test_harness_model_on_a_file_mujoco_refuses_reports_mujocos_reason_and_store
     )
     assert bad.returncode == 2 and "--variant" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
     assert db.read_bytes() == before
+
+
+def test_no_energy_figure_of_an_engine_is_computed_on_a_model_it_did_not_build(chain):
+    """Issue 54: on chain.xml Drake's parser reads no joint stiffness (the file gives j1, j2 and j3
+    one each, read here from the XML), so the file's energy, MuJoCo's function of MuJoCo's model,
+    is not Drake's: its energy cell says "model differs" and names what, with no figure; MuJoCo's
+    own energy cell on the same file has one."""
+    import xml.etree.ElementTree as ET
+    from types import SimpleNamespace
+
+    from harness.methods import get_method
+    from harness.nightly.cells import _energy_and_error
+
+    stiff = sorted(j.get("name") for j in ET.parse(chain).getroot().iter("joint") if float(j.get("stiffness", 0)) > 0)
+    assert stiff == ["j1", "j2", "j3"]
+    scene = open_model(chain)
+    cells = {}
+    for method_id in ("drake:radau3", "mujoco:rk4"):
+        task = SimpleNamespace(scene=scene.id, method=method_id, family=method_id.split(":")[0], params={})
+        spec = SimpleNamespace(horizon=scene.own_timestep * 200, periods=None)
+        suite = SimpleNamespace(series_points=100, cell_timeout=120.0)
+        cells[method_id] = _energy_and_error(task, get_method(method_id), scene, scene.own_timestep, spec, suite)[0]
+    drake, mine = cells["drake:radau3"], cells["mujoco:rk4"]
+    assert drake.value is None and drake.figures.energy_class is None and drake.detail.startswith("model differs")
+    named = " ".join(drake.figures.numbers["model_differs"])
+    assert all(f"joint {j} has no stiffness" in named for j in stiff) and "j1 has no stiffness" in drake.detail
+    assert mine.value is not None and not (mine.detail or "").startswith("model differs")

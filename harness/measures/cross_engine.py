@@ -102,6 +102,30 @@ def anatomy(method_id: str, scene: Scene, dt: float, timeout: float = 60.0) -> d
     return None if isinstance(out, isolation.WorkerFailure) else out
 
 
+#: The MuJoCo mode whose built model a model file's energy function is (any of MuJoCo's: one compiler).
+MUJOCO_MODEL = "mujoco:euler"
+
+
+def built_differently(method, scene: Scene, dt: float) -> list[str] | None:
+    """On a model file, what another engine's loader built differently from the model MuJoCo
+    compiled (``anatomy_differences``: masses, inertias, joints, springs): the file's energy is
+    MuJoCo's function of that model, so an energy figure of an engine whose model differs would
+    be another model's. [] where the method is MuJoCo's or its model is the same; None where the
+    scene is not a model file or either model could not be read."""
+    if not getattr(scene, "file", None) or getattr(method, "family", "mujoco") == "mujoco":
+        return [] if getattr(scene, "file", None) else None
+    if not hasattr(method, "anatomy"):
+        return None
+    try:
+        ours = anatomy(MUJOCO_MODEL, scene, dt)
+        theirs = anatomy(method.id, scene, dt)
+    except Exception:  # an engine that cannot say what it built: nothing is claimed either way
+        return None
+    if ours is None or theirs is None:
+        return None
+    return anatomy_differences(ours, theirs, (MUJOCO_MODEL, method.id), scene.dof_names)
+
+
 def _differs(x: float, y: float, rtol: float = ANATOMY_RTOL) -> bool:
     return abs(x - y) > rtol * max(abs(x), abs(y))
 

@@ -175,7 +175,6 @@ ENERGY_RUN_FIGURES = ("max_rel_error", "final_rel_error", "rel_error_defined", "
 
 def _energy_and_error(task, method, scene, dt, spec, suite, runs: dict | None = None) -> list[Cell]:
     from harness.measures.energy import energy_figures
-    from harness.measures.error import run_error
     from harness.execution.simulate import simulate
 
     steps, every = energy_run(scene, dt, spec, suite)
@@ -194,6 +193,24 @@ def _energy_and_error(task, method, scene, dt, spec, suite, runs: dict | None = 
             ),
             make_cell(task, "error", traj.status, dt=dt, steps=steps, detail=traj.detail, extra=settings),
         ]
+    from harness.measures.cross_engine import built_differently
+
+    differs = built_differently(method, scene, dt)
+    if differs:  # the file's energy is MuJoCo's function of MuJoCo's model: not this engine's
+        why = f"model differs: {method.family} built another model of the file ({'; '.join(differs[:4])}" + (
+            f"; {len(differs) - 4} more)" if len(differs) > 4 else ")"
+        )
+        energy = make_cell(
+            task,
+            "energy",
+            "ok",
+            None,
+            dt,
+            steps,
+            why,
+            EnergyFigures(**settings, numbers={"model_differs": differs}),
+        )
+        return [energy, _error_cell(task, method, scene, traj, dt, steps, settings, suite)]
     figures, _ = energy_figures(traj, scene, method, suite.cell_timeout)
     e_exact = np.asarray(scene.exact_energy(traj.t), dtype=float)
     idx = _downsample(len(traj.t), suite.series_points)
@@ -219,14 +236,19 @@ def _energy_and_error(task, method, scene, dt, spec, suite, runs: dict | None = 
             **settings,
         ),
     )
+    return [energy, _error_cell(task, method, scene, traj, dt, steps, settings, suite)]
+
+
+def _error_cell(task, method, scene, traj, dt, steps, settings, suite) -> Cell:
+    from harness.measures.error import run_error
+
     err = run_error(method, scene, traj, suite.cell_timeout) if traj.ok else {}
     value, detail = (finite(err["error_max"]) if err else None), traj.detail
     if err and err["below_reference"]:
         value, detail = None, f"below the reference's accuracy ({err['reference_error']:.2g})"
     elif err and err.get("not_judged"):
         value, detail = None, err["not_judged"]
-    error = make_cell(task, "error", traj.status, value, dt, steps, detail, ErrorFigures.pick(err))
-    return [energy, error]
+    return make_cell(task, "error", traj.status, value, dt, steps, detail, ErrorFigures.pick(err))
 
 
 def _order(task, method, scene, spec) -> Cell:
