@@ -1,8 +1,9 @@
 """A worker's time limit in CPU seconds, not wall seconds: what a method spends, not what its
 neighbours on a shared machine take from it.
 
-On a machine whose load is five times its cores, a worker gets a fifth of a core and a 40 s
-computation takes 200 s of wall time; a wall-clock limit then measures the neighbours. The limit
+On a machine whose load is five times its cores, a worker gets a fifth of a core and its
+computation takes five times as long by the wall clock; a wall-clock limit then measures the
+neighbours. The limit
 here is the CPU (user and system) the worker's process tree spent since the call began: the
 worker, its live descendants, and the children it reaped. A worker that spends no CPU at all (a
 hang on a lock, a sleep, a lost child) is still stopped, after ``WALL_FACTOR`` times its limit of
