@@ -86,7 +86,8 @@ def integrate(
     ``iterations``: projection passes per step of a constrained scheme (default: the scheme's);
     ``substeps``: the substeps a position-based scheme cuts each step into (default: the scheme's);
     ``solver``: a library solve an implicit scheme takes instead of the scene's kernel
-    (``reference.solvers.Choice``), its iterations, unconverged solves and factorizations counted.
+    (``reference.solvers.Choice``), its iterations, unconverged solves and factorizations counted;
+    a line-searched Newton iteration's counts in ``meta.settings``.
 
     A step whose state is not finite, or exceeds ``DIVERGED`` in magnitude, stops the run:
     status ``unstable`` with that step, the arrays ending at the last good recorded state.
@@ -140,6 +141,11 @@ def integrate(
         meta.factorizations = prepared.factorizations
         if prepared.unconverged:  # an unconverged solve is said with the run, whatever its status
             short = f"{prepared.unconverged} of {solve.calls} solves stopped short of their tolerance ({prepared.text})"
+            detail = f"{detail}; {short}" if detail else short
+        # A line-searched Newton iteration's counts, and its unconverged steps said with the run.
+        meta.settings = prepared.settings()
+        short = prepared.shortfall()
+        if short:
             detail = f"{detail}; {short}" if detail else short
     q_arr, v_arr = np.array(rec_q), np.array(rec_v)
     step_arr = np.array(rec_step, dtype=np.int64)

@@ -41,6 +41,9 @@ def test_the_solve_is_an_option_in_the_id():
     assert get_method("ref:implicit_euler?solver=scene").solver is None
     declared = declared_options(get_method("ref:implicit_euler"))
     assert declared["solver"].choices == ("scene", "direct", "pcg_jacobi", "pcg_amg", "local_global")
+    # Backward Euler's Newton iteration takes a line search (tests/test_newton_line_search.py).
+    assert declared["line_search"].choices == ("none", "armijo") and declared["line_search"].default == "none"
+    assert declared["hessian"].choices == ("exact", "projected")
     # Local/global passes solve backward Euler's step: the linearly implicit step has none.
     assert "local_global" not in declared_options(get_method("ref:linearly_implicit_euler"))["solver"].choices
     assert "solver" not in declared_options(get_method("ref:leapfrog"))
@@ -178,6 +181,9 @@ def test_every_solve_and_iteration_is_counted(sheet):
     steps = 30
     direct = run("ref:implicit_euler?solver=direct", sheet, steps=steps)
     assert direct.meta.factorizations == direct.solves == direct.force_evals > steps  # one each Newton iteration
+    newton = direct.meta.settings  # backward Euler's Newton iteration, counted where it runs in Python
+    assert newton["newton_iterations"] == direct.solves and newton["newton_steps"] == steps
+    assert newton["newton_failures"] == 0 and newton["line_search"] == "none"
     pcg = run("ref:linearly_implicit_euler?solver=pcg_amg&tol=1e-6", sheet, steps=steps)
     assert pcg.solves == steps and pcg.meta.solver_iterations >= steps and pcg.meta.unconverged_solves == 0
     assert pcg.meta.linear_solver.startswith("conjugate gradients") and "tol 1e-06" in pcg.meta.linear_solver
