@@ -332,7 +332,9 @@ def engines_left_out(scene: str) -> tuple[str, ...]:
 #: bodies that turn (edge, corner, tip, roll), each engine mode at every step of the ladder (1/2000 s to 1/60 s; the
 #: report shows 1/1000, 1/240 and 1/60), and the reference schemes on the penalty ground over the issue's
 #: grid of h*omega_c. The standard suite runs MuJoCo in its integrators with the pyramidal cone (and Euler
-#: with the elliptic), pybullet, pymunk, Drake's SAP and REBOUND; the full suite every mode and a longer
+#: with the elliptic), pybullet, pymunk, Drake's SAP and REBOUND in the stiff common pose, and beside them
+#: each engine's best practice (MuJoCo's default contact in RK4, both cones, and discrete; pybullet's and
+#: pymunk's defaults; Drake's hydroelastic contact); the full suite every mode and a longer
 #: ladder: Newton's Warp kernels step these scenes' bodies at a CPU second or more per simulated second
 #: (a ladder of one scene costs a minute), and Drake's TAMSI and continuous plants add little the
 #: standard suite's SAP does not show.
@@ -359,6 +361,7 @@ PENALTY_SCHEMES = (
     "ref:implicit_euler",
 )
 STANDARD_CONTACT_MODES = (
+    # the stiff common-omega_c poses: the controlled comparison
     "mujoco:euler",
     "mujoco:implicitfast",
     "mujoco:rk4",
@@ -368,6 +371,13 @@ STANDARD_CONTACT_MODES = (
     "pymunk:sequential_impulse",
     "drake:sap",
     "rebound:hardsphere",
+    # each engine as its documentation tells users to set contact (MuJoCo's in both cones)
+    "mujoco:rk4?contact=default",
+    "mujoco:rk4?cone=elliptic&contact=default",
+    "mujoco:discrete?contact=default",
+    "pybullet:sequential_impulse?contact=default",
+    "pymunk:sequential_impulse?contact=default",
+    "drake:similar?contact=hydroelastic",
 )
 CONTACT = {
     "scenes": CONTACT_SCENES,
