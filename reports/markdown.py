@@ -27,6 +27,7 @@ from .drawing import Chart, draw_charts
 from .damping_section import damping_stability_section
 from .history_section import history_charts, history_section
 from .advice_section import frame_rates, advice_section
+from .answer_section import answer_section
 from .position_based_section import position_based_section
 from .run_section import appendix, footer
 from .text import Footnotes, fmt as _fmt, limit_text, of_measure as _of
@@ -478,6 +479,7 @@ def render(
     drawn = set(written)
     chart_names = {key: name for key, name in names.items() if name in drawn}
     lines = [f"# Integrator comparison: run {run_id} ({run.suite})", ""]
+    lines += answer_section(cells)
     lines += verdict(judged.verdict)
     lines += list(extra)  # sections the caller adds after the verdict (an engine version change)
     lines += history_section(trend, run_id, drawn)
