@@ -187,6 +187,61 @@ def cost_source(method: str) -> str:
     return "compiled" if method.startswith("ref:") else "engine's own loop"
 
 
+#: The most series a work-precision chart names: those that hold the Pareto front first, then the
+#: rest by how near their best point comes to it; the others are drawn faint and unnamed (their
+#: figures are in the tables).
+MAX_NAMED = 6
+
+
+def draw_workprecision(ax, curves: dict, styles: dict | None = None, dotted=()) -> list[str]:
+    """Error against cost, log-log, for ``curves`` ({label: (costs, errors)}), with the Pareto front
+    (``harness.measures.workprecision.pareto_front``) drawn as a thick grey staircase and at most
+    ``MAX_NAMED`` series named; ``dotted``: labels drawn dotted (error-controlled sweeps). Returns
+    the labels named, those on the front first."""
+    from harness.measures.workprecision import pareto_front
+
+    front = pareto_front(curves)
+    on_front = list(dict.fromkeys(m for _, _, m in front))
+
+    def gap(label):
+        costs, errors = curves[label]
+        best = min((e for e in errors if e and e > 0), default=math.inf)
+        return best
+
+    rest = sorted((m for m in curves if m not in on_front), key=gap)
+    named = (on_front + rest)[:MAX_NAMED]
+    methods = [label.split(" ")[0] for label in named]
+    styles = {**method_styles(methods), **(styles or {})}
+    faint = False
+    for label, (costs, errors) in curves.items():
+        pts = sorted((c, e) for c, e in zip(costs, errors) if c and e and c > 0 and e > 0)
+        if not pts:
+            continue
+        xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+        if label in named:
+            style = _style(label.split(" ")[0], styles)
+            if label in dotted:
+                style.update(linestyle=":", marker="x")
+            ax.plot(xs, ys, markersize=4, label=label, **style)
+        else:
+            ax.plot(xs, ys, color="0.8", linewidth=0.8, label=None if faint else "others (in the tables)", zorder=0)
+            faint = True
+    if front:
+        ax.step(
+            [p[0] for p in front],
+            [p[1] for p in front],
+            where="post",
+            color="0.25",
+            linewidth=3,
+            alpha=0.35,
+            label="Pareto front",
+            zorder=1,
+        )
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    return named
+
+
 def workprecision_chart(cells: list[Cell], scene: str, path: Path, styles: dict | None = None) -> bool:
     """Max global error against measured cost (seconds per unit of simulated time, on the
     clock the cost cells used), log-log, one line per method over its timestep sweep:
@@ -194,7 +249,7 @@ def workprecision_chart(cells: list[Cell], scene: str, path: Path, styles: dict 
     order = {c.method: c for c in _ok(cells, "order")}
     cost = {c.method: c for c in _ok(cells, "cost")}
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    drawn = 0
+    curves, dotted = {}, set()
     clocks = set()
     for method in sorted(order):
         if method not in cost:
@@ -203,30 +258,21 @@ def workprecision_chart(cells: list[Cell], scene: str, path: Path, styles: dict 
         pts = [p for p in order[method].figures.points or [] if p["error"] and p["error"] > 0]
         if not pts or not sps:
             continue
-        work = [sps / p["dt"] for p in pts]
-        err = [p["error"] for p in pts]
-        ax.plot(work, err, markersize=4, label=f"{method} ({cost_source(method)})", **_style(method, styles))
+        curves[f"{method} ({cost_source(method)})"] = ([sps / p["dt"] for p in pts], [p["error"] for p in pts])
         clocks.add(cost[method].figures.clock or "wall")
-        drawn += 1
     # Error-controlled methods (the ``tolerance`` cells): one point per tolerance, their own
     # curve, dotted, beside the fixed-step ones.
     for c in _ok(cells, "tolerance"):
         pts = [r for r in c.figures.rows or [] if r.get("error") and r["error"] > 0 and r.get("s_per_unit_time")]
         if pts:
-            ax.plot(
-                [r["s_per_unit_time"] for r in pts],
-                [r["error"] for r in pts],
-                linestyle=":",
-                marker="x",
-                label=f"{c.method} error-controlled, tolerance {_tol_span(pts)} (engine's own loop)",
-            )
+            label = f"{c.method} error-controlled, tolerance {_tol_span(pts)} (engine's own loop)"
+            curves[label] = ([r["s_per_unit_time"] for r in pts], [r["error"] for r in pts])
+            dotted.add(label)
             clocks.add(next((r["clock"] for r in pts if r.get("clock")), "wall"))
-            drawn += 1
-    if not drawn:
+    if not curves:
         plt.close(fig)
         return False
-    ax.set_xscale("log")
-    ax.set_yscale("log")
+    draw_workprecision(ax, curves, styles, dotted)
     clock = (
         {"cpu": "CPU", "wall": "wall", "injected": "injected (not measured)"}.get(clocks.pop(), "wall")
         if len(clocks) == 1

@@ -8,7 +8,16 @@ from __future__ import annotations
 from harness import validate
 from harness.methods import all_methods
 from harness.measures.tolerance import TOLERANCES, takes_tolerance, tolerance_sweep
-from harness.measures.workprecision import HOMEGA_MAX, PERIODS, POINTS, REPEATS, chart_ready, work_precision
+from harness.measures.workprecision import (
+    HOMEGA_MAX,
+    PERIODS,
+    POINTS,
+    REPEATS,
+    chart_ready,
+    pareto_front,
+    pareto_summary,
+    work_precision,
+)
 from harness.cli.measure_args import add_common, emit, fmt, method_for, progress, scene_of, timeout_of
 
 
@@ -20,6 +29,7 @@ def add_parser(sub):
     p.add_argument("--homega-max", default=repr(HOMEGA_MAX), help="largest h*omega")
     p.add_argument("--periods", default=repr(PERIODS), help="horizon in scene periods")
     p.add_argument("--repeats", default=str(REPEATS), help="timed repeats per point")
+    p.add_argument("--chart", metavar="PNG", help="draw error against cost to this file, the Pareto front marked")
     p.add_argument(
         "--tolerances",
         default=",".join(f"{t:g}" for t in TOLERANCES),
@@ -67,6 +77,17 @@ def run(args) -> int:
             sweeps.append(
                 tolerance_sweep(m, scene, tolerances=tolerances, periods=periods, repeats=repeats, timeout=timeout)
             )
+    curves = {m: (d["s_per_unit_time"], d["error"]) for m, d in chart_ready(rows).items()}
+    for sweep in sweeps:
+        pts = [r for r in sweep["rows"] if r.get("error") and r.get("s_per_unit_time")]
+        if pts:
+            curves[f"{sweep['method']} error-controlled"] = (
+                [r["s_per_unit_time"] for r in pts],
+                [r["error"] for r in pts],
+            )
+    front = pareto_front(curves)
+    if args.chart:
+        _draw(curves, scene, args.chart, {k for k in curves if k.endswith("error-controlled")})
     return emit(
         {
             "scene": scene.id,
@@ -74,11 +95,32 @@ def run(args) -> int:
             "rows": rows,
             "chart": chart_ready(rows),
             "error_controlled": sweeps,
+            "pareto_front": [{"method": m, "s_per_unit_time": c, "error": e} for c, e, m in front],
+            "chart_file": args.chart,
         },
         args.json,
         _lines,
         scene,
     )
+
+
+def _draw(curves: dict, scene, path: str, dotted) -> None:
+    """The chart of ``harness workprecision --chart``: every method's sweep, the Pareto front marked,
+    at most a handful named (``reports.charts.draw_workprecision``)."""
+    from pathlib import Path
+
+    from reports import charts
+
+    fig, ax = charts.plt.subplots(figsize=(8, 4.5))
+    charts.draw_workprecision(ax, curves, None, dotted)
+    ax.set_xlabel(
+        "cost: wall seconds per unit of simulated time (reference schemes: compiled loop; engines: their own loop)"
+    )
+    ax.set_ylabel("max global error")
+    ax.set_title(f"{scene.id}: work-precision, the Pareto front marked")
+    charts._legend_outside(ax)
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    charts._save(fig, Path(path))
 
 
 def _lines(r):
@@ -104,3 +146,11 @@ def _lines(r):
                 f"{fmt(row['steps_rejected'], '8d')} {fmt(row['force_evals'], '8d')}"
             )
         yield f"  {sweep['method']}: the sweep ended at {sweep['ended']}"
+    front = r.get("pareto_front") or []
+    if front:
+        yield "  Pareto front (no other point is both cheaper and more accurate), cheapest first:"
+        curve = [(p["s_per_unit_time"], p["error"], p["method"]) for p in front]
+        for line in pareto_summary(curve):
+            yield f"    {line}"
+    if r.get("chart_file"):
+        yield f"  chart: {r['chart_file']}"
