@@ -53,3 +53,50 @@ def test_the_boxes_are_unsupported_with_a_reason():
         assert not ok and "sphere" in why
         with pytest.raises(InvalidInput):
             run_contact(MODE, scene, {}, 1 / 240, isolated=False)
+
+
+def test_the_turning_scenes_are_unsupported_with_a_reason():
+    """REBOUND's particles do not turn: the edge, corner, tip and roll scenes are refused with the reason."""
+    mode = CONTACT_MODES[MODE]
+    for scene in ("edge", "corner", "tip", "roll"):
+        ok, why = mode.supports(scene)
+        assert not ok and "spheres without orientation" in why, why
+        with pytest.raises(InvalidInput):
+            run_contact(MODE, scene, {}, 1 / 240, isolated=False)
+
+
+def test_the_mode_is_the_documented_hard_sphere_bounce():
+    """The one mode is REBOUND's documented practice (collisions page, bouncing-balls example):
+    its run states collision "direct", collision_resolve "hardsphere", leapfrog and the source;
+    and a bare REBOUND loop set up as the documentation's example sets it (the ball a particle on
+    the planet, the same e) gives the harness's heights step for step."""
+    import rebound
+
+    from adapters.rebound import contact as rebound_contact
+
+    e, dt = 0.8, 1 / 240
+    run = run_contact(MODE, "ball", {"e": e}, dt, isolated=False)
+    s = run.settings
+    assert (s["collision"], s["collision_resolve"], s["gravity"]) == ("direct", "hardsphere", "basic")
+    assert s["integrator"].startswith("leapfrog")
+    assert "rebound.readthedocs.io/en/latest/collisions" in s["practice"]
+    assert "no other contact mode" in CONTACT_MODES[MODE].doc
+
+    scene = make_contact_scene("ball", e=e)
+    sim = rebound.Simulation()
+    sim.G = 1.0
+    sim.integrator = "leapfrog"
+    sim.collision = "direct"
+    sim.collision_resolve = "hardsphere"
+    sim.coefficient_of_restitution = lambda _sim, _v: e
+    sim.dt = dt
+    R = rebound_contact.PLANET_RADIUS
+    sim.add(m=scene.g * R * R, r=R)
+    sim.add(m=scene.mass, r=scene.radius, z=R + scene.initial_centres()[0][2])
+    sim.N_active = 1
+    sim.testparticle_type = 0
+    heights = [sim.particles[1].z - sim.particles[0].z - R]
+    for _ in range(run.steps):
+        sim.steps(1)
+        heights.append(sim.particles[1].z - sim.particles[0].z - R)
+    assert np.array_equal(np.array(heights), run.centres[:, 0, 2])

@@ -21,7 +21,25 @@ that little deeper (measured in docs/engines.md). ``minimum_collision_velocity``
 default 0 (a larger one would lift every slow rebound), set and stated.
 
 The boxes are not posed: REBOUND's particles are spheres, without orientation, friction or
-resting contact (a hard sphere on a plane at rest collides at every step).
+resting contact (a hard sphere on a plane at rest collides at every step). Nor are the scenes
+whose bodies turn (edge, corner, tip, roll): a REBOUND particle has no orientation, spin or
+moment of inertia, and its hard-sphere impulse acts along the line of centres only, so nothing
+turns it and no friction rolls it.
+
+This pose is already REBOUND's documented practice for bouncing spheres, so the engine has one
+contact mode and no ``?contact=default`` beside it. REBOUND's collisions page
+(https://rebound.readthedocs.io/en/latest/collisions/, docs/collisions.md) sets a hard-sphere
+bounce as ``sim.collision = "direct"`` with ``sim.collision_resolve = "hardsphere"`` and a
+``coefficient_of_restitution`` function of the normal impact speed (its example returns a
+constant), and its bouncing-balls example (examples/bouncing_balls/problem.c) steps them with
+``"leapfrog"`` and ``REB_GRAVITY_BASIC``, detection direct and resolve hardsphere, as here. The
+other detections the page lists change nothing for one ball on a planet: ``"line"`` also
+finds pairs that passed through each other within a step (a ball cannot pass through a planet
+1e7 m across), ``"tree"`` and ``"linetree"`` are the same searches on an oct-tree, for many
+particles. Leapfrog is the integrator the example pairs with it: exact on a constant field (the
+planet's is one to 2e-7 over the drop), stepping at the harness's dt, where IAS15 (REBOUND's
+default) chooses its own adaptive steps and WHFast's Kepler drift is made for orbits. The setting
+REBOUND leaves to the user is stated: ``minimum_collision_velocity``, its default 0.
 """
 
 from __future__ import annotations
@@ -39,7 +57,21 @@ _NOT_A_SPHERE = (
     "REBOUND's particles are spheres without orientation or friction, and a hard sphere resting on "
     "a plane collides at every step: no box slides, rests or stacks"
 )
-UNSUPPORTED = {"slide": _NOT_A_SPHERE, "rest": _NOT_A_SPHERE, "stack": _NOT_A_SPHERE}
+_NO_TURNING = (
+    "REBOUND's particles are spheres without orientation, spin or moment of inertia, their hard-sphere "
+    "impulse along the line of centres only: no body turns, topples or rolls"
+)
+UNSUPPORTED = {
+    "slide": _NOT_A_SPHERE,
+    "rest": _NOT_A_SPHERE,
+    "stack": _NOT_A_SPHERE,
+    **dict.fromkeys(("edge", "corner", "tip", "roll"), _NO_TURNING),
+}
+#: Where REBOUND's documentation sets a hard-sphere bounce as this pose does.
+SOURCE = (
+    "https://rebound.readthedocs.io/en/latest/collisions/ (docs/collisions.md: 'Direct', 'Hard-sphere'); "
+    "examples/bouncing_balls/problem.c (leapfrog, gravity basic, collision direct, collision_resolve hardsphere)"
+)
 #: How REBOUND poses each contact scene (the scene's kind -> its ``ContactPose``): the ball alone.
 POSES = {"ball": SPHERE}
 
@@ -81,6 +113,7 @@ class _Pose:
             "testparticle_type": 0,
             "additional_forces": "none",
             "planet_radius (m)": R,
+            "practice": f"REBOUND's documented hard-sphere bounce, as set here: {SOURCE}",
         }
 
     def read(self):
@@ -123,6 +156,7 @@ MODES = {
         unsupported=UNSUPPORTED,
         settings={"integrator": INTEGRATOR, "collision": "direct", "collision_resolve": "hardsphere"},
         doc="REBOUND's hard-sphere collision of the ball with a planet whose gravity is g; leapfrog; "
-        "coefficient_of_restitution the requested e",
+        "coefficient_of_restitution the requested e. This is REBOUND's documented practice (collision "
+        f"'direct', collision_resolve 'hardsphere', leapfrog): no other contact mode beside it. {SOURCE}",
     )
 }
