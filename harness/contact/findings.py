@@ -133,10 +133,11 @@ def _advice(piv, profile: str, dt: float) -> Finding | None:
         + ", ".join(f"{s} ({', '.join(figs)})" for s, figs in sorted(bad.items()))
         for m, bad in sorted(failing.items())
     )
+    ran = f"of the {len(by_mode)} engine modes this suite ran at {_hz(dt)}"
     if not fine:
         return Finding(
-            f"{MARK} Advice at {_hz(dt)}, {profile} profile ({source}): no engine mode bounces, slides and rests "
-            f"within every tolerance ({scenes}). What fails: {why_not}.",
+            f"{MARK} Advice at {_hz(dt)}, {profile} profile ({source}): no engine mode {ran} bounces, slides and "
+            f"rests within every tolerance ({scenes}). What fails: {why_not}.",
             False,
         )
     best = ", ".join(
@@ -145,7 +146,7 @@ def _advice(piv, profile: str, dt: float) -> Finding | None:
     )
     rest = f" Not within: {why_not}." if why_not else ""
     return Finding(
-        f"{MARK} Advice at {_hz(dt)}, {profile} profile ({source}): within every tolerance on {scenes}, "
+        f"{MARK} Advice at {_hz(dt)}, {profile} profile ({source}), {ran}: within every tolerance on {scenes}, "
         f"cheapest first: {best}.{rest}",
         True,
     )
