@@ -379,3 +379,30 @@ def test_the_advice_ranks_modes_within_every_tolerance_by_their_summed_cost():
     fine, failing = rank(by_mode, ("ball", "stack"))
     assert fine == [(2.0, "b"), (4.0, "a")]
     assert failing == {"c": {"ball": ["restitution"], "stack": ["unstable"]}}
+
+
+def test_a_frames_advice_takes_each_modes_fewest_substeps_within_and_its_cost_there():
+    """A game steps physics more than once a frame where one step cannot hold the contact: the
+    frame's advice takes each mode at its fewest substeps within every tolerance, costed there."""
+    from harness.contact.study import frame_pick
+
+    def run(ok, cpu):
+        return {"passes": {"impact_depth": ok}, "status": "ok", "cpu_per_s": cpu}
+
+    by_n = {
+        1: {"a": {"ball": run(False, 1.0)}, "b": {"ball": run(True, 3.0)}},
+        4: {"a": {"ball": run(True, 2.0)}, "b": {"ball": run(True, 9.0)}, "c": {"ball": run(False, 0.5)}},
+    }
+    fine, failing = frame_pick(by_n, ("ball",))
+    assert fine == [(2.0, "a", 4), (3.0, "b", 1)] and failing == {"c": {"ball": ["impact_depth"]}}
+
+
+def test_the_ball_judges_the_engines_depth_beyond_the_steps_overshoot():
+    """A ball first found 30 mm under the plane by the step that crossed it (the step's lottery, up
+    to u h) and pushed out at once has no depth of the engine's own; one that goes 22 mm deeper
+    after it was found has 22 mm."""
+    from scenarios.contact import impact_depths
+
+    z = np.array([0.1, 0.02, -0.03, 0.01, 0.2, -0.001, -0.023, -0.01, 0.05])
+    depth, overshoot = impact_depths(z)
+    assert overshoot == pytest.approx(0.03) and depth == pytest.approx(0.022)

@@ -18,7 +18,7 @@ import pytest
 from records.contact import ContactTrajectory
 from records import InvalidInput
 from scenarios import make_scene
-from scenarios.contact_turning import TIP_ANGLE, pivot, quat_about, rotation
+from scenarios.contact_turning import TIP_ANGLE, cube_corners, pivot, quat_about, rotation
 
 
 def _run(scene, t, centres, velocities, quats, spins):
@@ -101,8 +101,9 @@ def test_the_roll_judge_on_the_closed_form_and_on_a_slide():
 
 def test_the_drop_judge_rests_a_box_on_a_face_and_catches_an_energy_gain():
     """The edge drop's box brought to rest on a face: at rest from where its speed stops, tilt 0,
-    no sink, no rise, every figure ✓; a spin left at the end is no rest; an energy above the
-    start's is a rise, as a fraction of what the box has to lose to rest on a face."""
+    no sink, no rise, every figure ✓; a spin left at the end is no rest; an energy above its value
+    at first contact is a rise, as a fraction of what the box has to lose to rest on a face, and
+    one in the fall before is the flight's, apart."""
     scene = make_scene("edge")
     t = np.linspace(0.0, scene.duration, 3001)
     z0, half = scene.initial_centres()[0][2], scene.half
@@ -122,12 +123,17 @@ def test_the_drop_judge_rests_a_box_on_a_face_and_catches_an_energy_gain():
     g = scene.measure(_run(scene, t, centres, vel, quats, spun))
     assert g["rest_time"] is None and not g["passes"]["rest_time"] and not g["passes"]["kinetic"]
     thrown = vel.copy()
-    thrown[0, 0] = 3.0  # kinetic energy at the start only: the energy after is below it, no rise
-    thrown[10, 0] = 4.0  # above the start's 4.5 J by 3.5 J: a rise of 3.5 / (what it loses)
+    thrown[10, 0] = 4.0  # in the fall, before any corner reaches the plane: the flight's rise
+    thrown[2000, 0] = 1.0  # resting on its face: a rise above its energy at first contact
     h = scene.measure(_run(scene, t, centres, thrown, quats, spins))
+    lowest = centres[:, 2] + np.min(np.einsum("nij,kj->nki", rotation(quats), cube_corners(half))[:, :, 2], axis=1)
+    k = int(np.argmax(lowest <= 1e-3 * half))
+    assert 10 < k < 2000
     lose = scene.energy(centres[0], thrown[0]) - scene.mass * scene.g * half
-    rise = (scene.energy(centres[10], thrown[10]) - scene.energy(centres[0], thrown[0])) / lose
+    rise = (scene.energy(centres[2000], thrown[2000]) - scene.energy(centres[k], thrown[k])) / lose
+    flight = (scene.energy(centres[10], thrown[10]) - scene.energy(centres[0], thrown[0])) / lose
     assert h["energy_rise"] == pytest.approx(float(rise)) and rise > 0 and not h["passes"]["energy_rise"]
+    assert h["flight_rise"] == pytest.approx(float(flight)) and flight > 0
 
 
 def test_a_pose_that_recorded_no_turning_is_said_so():

@@ -39,7 +39,7 @@ def add_parser(sub):
     p.add_argument(
         "--advise",
         action="store_true",
-        help="which mode bounces, slides and rests within tolerance, cheapest first, at --hz",
+        help="which mode bounces, slides and rests within tolerance at a --hz frame (1 to 16 substeps), cheapest first",
     )
     p.add_argument("--hz", default="60", help="--advise: the frame rate")
     p.add_argument(
@@ -73,7 +73,7 @@ def run(args) -> int:
 
         return run_penalty(args)
     from scenarios import contact_scenes
-    from scenarios.contact import make_contact_scene
+    from scenarios.contact import make_contact_scene, profile
 
     from harness.contact.run import check_dt, contact_modes
     from harness.methods import active_plugins, load_plugins
@@ -87,7 +87,7 @@ def run(args) -> int:
         dts = [1.0 / hz]
     else:
         dts = [check_dt(x) for x in _numbers("--dt", args.dt)]
-    tol = profile_for(args.profile, max(dts))
+    tol = profile(args.profile) if args.profile is not None else None  # None: each step by its own
     overrides = parse_overrides(args.set)
     params = {}
     for s in scenes:
@@ -167,12 +167,10 @@ def _lines(df):
 
 def profile_for(name: str | None, dt: float):
     """The tolerance profile named (one line naming the valid ones where it is not one), or the
-    one a step is advised under where none is named: a game's below 200 Hz, a robot's from it."""
-    from scenarios.contact import PROFILES, profile
+    one a step is judged by where none is named (``scenarios.contact.profile_at``)."""
+    from scenarios.contact import profile, profile_at
 
-    if name is not None:
-        return profile(name)
-    return PROFILES["game"] if dt > 1.0 / 200.0 else PROFILES["robotics"]
+    return profile(name) if name is not None else profile_at(dt)
 
 
 def advise_contact(dt: float, modes=None, scenes=None, as_json: bool = False, tol=None) -> int:
@@ -181,11 +179,11 @@ def advise_contact(dt: float, modes=None, scenes=None, as_json: bool = False, to
     ball, the slide and the stack, cheapest first."""
     from scenarios.contact import make_contact_scene
 
-    from harness.contact.study import ADVICE_SCENES, advise, study
+    from harness.contact.study import ADVICE_SCENES, advise_frame
 
     tol = tol or profile_for(None, dt)
     scenes = scenes or {s: dict(make_contact_scene(s).values) for s in ADVICE_SCENES}
-    out = advise(study(scenes, modes, [dt], tol=tol), dt, tol)
+    out = advise_frame(scenes, 1.0 / dt, modes, tol)
     if as_json:
         json.dump(jsonable(out), sys.stdout, indent=1)
         print()
@@ -213,12 +211,13 @@ def contact_modes_matching(patterns) -> list[str] | None:
 
 def _advice_lines(out):
     yield (
-        f"at dt = {out['dt']:.5g} s, judged by the {out['profile']} profile ({out['tolerances']['source']}): "
-        "within every tolerance on ball, slide and stack (cheapest first, engine loop CPU s per simulated s "
-        "summed over the three):"
+        f"a {1 / out['dt']:.4g} Hz frame, judged by the {out['profile']} profile ({out['tolerances']['source']}): "
+        "within every tolerance on ball, slide and stack at its fewest substeps a frame (1, 2, 4, 8, 16 tried), "
+        "cheapest first (engine loop CPU s per simulated s summed over the three):"
     )
     for m in out["within"]:
-        yield f"  {m}: {out['cost'][m]:.3g}"
+        n = out.get("substeps", {}).get(m, 1)
+        yield f"  {m}: {out['cost'][m]:.3g} at {n} substep{'s' if n > 1 else ''} a frame"
     if not out["within"]:
         yield "  none"
     for m, bad in sorted(out["failing"].items()):

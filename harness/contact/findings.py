@@ -100,32 +100,37 @@ def _omega(settings: dict) -> str:
 
 
 def _advice(piv, profile: str, dt: float) -> Finding | None:
-    """At ``dt``, the modes within every tolerance of ``profile`` on a ball, the slide and the
-    stack, cheapest first (the sum of the engine loop's CPU per simulated second over the three),
-    each with its contact's ω_c where it states one; the others named with the figures that fail."""
+    """A frame of ``dt``: the modes within every tolerance of ``profile`` on a ball, the slide and the
+    stack at their fewest substeps a frame among the ladder's steps that divide it, cheapest first
+    (the sum of the engine loop's CPU per simulated second over the three), each with its contact's
+    ω_c where it states one; the others named with the figures that fail at the most substeps run."""
     from scenarios.contact import PROFILES
 
-    from .study import ADVICE_SCENES, rank
+    from .study import ADVICE_SCENES, SUBSTEPS, frame_pick
 
-    by_mode: dict[str, dict[str, dict]] = {}
+    by_n: dict[int, dict[str, dict[str, dict]]] = {}
     settings: dict[str, dict] = {}
     for (s, m), ms in piv.items():
         c = ms.get("contact")
         if c is None or c.status != "ok" or c.figures.scene not in ADVICE_SCENES:
             continue
-        r = _at(c.figures.runs, dt)
-        if r is not None:
-            passes = _passes(r, profile)
-            if passes is None:
-                continue
-            by_mode.setdefault(m, {})[s] = {**r, "passes": passes}
-            settings.setdefault(m, r.get("settings") or {})
+        for n in SUBSTEPS:  # the ladder's steps that divide the frame: n substeps a frame
+            r = _at(c.figures.runs, dt / n)
+            if r is not None:
+                passes = _passes(r, profile)
+                if passes is None:
+                    continue
+                by_n.setdefault(n, {}).setdefault(m, {})[s] = {**r, "passes": passes}
+                settings.setdefault(m, r.get("settings") or {})
+    by_mode = by_n.get(1, {})
     if not by_mode:
         return None
     kinds_needed = sorted(
         {s for (s, _), ms in piv.items() if "contact" in ms and ms["contact"].figures.scene in ADVICE_SCENES}
     )
-    fine, failing = rank(by_mode, kinds_needed)
+    picked, failing = frame_pick(by_n, kinds_needed)
+    fine = [(c, m) for c, m, _ in picked]
+    substeps = {m: n for _, m, n in picked}
     source = PROFILES[profile].source
     scenes = ", ".join(kinds_needed)
     why_not = "; ".join(
@@ -141,7 +146,8 @@ def _advice(piv, profile: str, dt: float) -> Finding | None:
             False,
         )
     best = ", ".join(
-        f"`{m}` ({c:.3g} CPU s per simulated s over the {len(kinds_needed)} scenes{_omega(settings.get(m, {}))})"
+        f"`{m}` at {substeps[m]} substep{'s' if substeps[m] > 1 else ''} a frame ({c:.3g} CPU s per simulated s "
+        f"over the {len(kinds_needed)} scenes{_omega(settings.get(m, {}))})"
         for c, m in sorted(fine)
     )
     rest = f" Not within: {why_not}." if why_not else ""

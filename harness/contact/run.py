@@ -13,7 +13,7 @@ from records.contact import REPORT_DTS, ContactTrajectory  # noqa: F401 (the ste
 from records.trajectory import CRASHED, TIMED_OUT
 
 #: The ladder of steps each mode's largest step in tolerance is searched on (s).
-LADDER = (1 / 4000, 1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
+LADDER = (1 / 3840, 1 / 1920, 1 / 1000, 1 / 960, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
 
 #: Seconds one run may take.
 TIMEOUT_S = 120.0

@@ -24,16 +24,21 @@ def measure_mode(
     dts=LADDER,
     isolated: bool = True,
     timeout: float | None = None,
-    tol: Tolerances = TOLERANCES,
+    tol: Tolerances | None = TOLERANCES,
 ) -> list[ContactFigures]:
-    """The mode's figures at every step of ``dts``, judged under the profile ``tol`` (each run
-    validated, then stepped; a failed run is its figures' ``detail``)."""
+    """The mode's figures at every step of ``dts``, judged under the profile ``tol`` (None: each
+    step under its own, ``scenarios.contact.profile_at``; each run validated, then stepped; a failed
+    run is its figures' ``detail``)."""
+    from scenarios.contact import profile_at
+
     from .run import TIMEOUT_S
 
     scene = make_contact_scene(scene_id, **(params or {}))
     return [
         contact_figures(
-            scene, run_contact(mode_id, scene_id, params, dt, timeout=timeout or TIMEOUT_S, isolated=isolated), tol
+            scene,
+            run_contact(mode_id, scene_id, params, dt, timeout=timeout or TIMEOUT_S, isolated=isolated),
+            tol or profile_at(dt),
         )
         for dt in dts
     ]
@@ -56,12 +61,14 @@ def largest(runs: list[ContactFigures]) -> dict:
     return out
 
 
-def study(scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = True, tol: Tolerances = TOLERANCES):
+def study(
+    scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = True, tol: Tolerances | None = TOLERANCES
+):
     """Every available mode that poses each scene, at each step: a tidy DataFrame, one row per
     (scene, mode, dt), with every figure the scene declares, its ✓/✗ and the mode's contact
-    settings, judged under the profile ``tol``. A mode asked for by name (``modes``) that does not
-    pose a scene, or is not installed, is a row of its own (status ``unsupported``, ``detail``
-    saying why), never dropped."""
+    settings, judged under the profile ``tol`` (None: each step under its own). A mode asked for by
+    name (``modes``) that does not pose a scene, or is not installed, is a row of its own (status
+    ``unsupported``, ``detail`` saying why), never dropped."""
     import pandas as pd
 
     rows = []
@@ -162,6 +169,28 @@ def rank(by_mode: dict[str, dict[str, dict]], needed) -> tuple[list[tuple[float,
     return sorted(fine), failing
 
 
+#: The substeps a frame's advice tries (each engine step 1/(hz n)): a game steps its physics more
+#: than once a frame where one step cannot hold it (a ball falls u h into the floor before any
+#: contact without continuous collision acts).
+SUBSTEPS = (1, 2, 4, 8, 16)
+
+
+def frame_pick(by_n: dict[int, dict[str, dict[str, dict]]], needed) -> tuple[list[tuple[float, str, int]], dict]:
+    """A frame's advice over substeps ({n: {mode: {scene: run}}}, a run as ``rank`` reads it): for
+    each mode the fewest substeps at which it is within every tolerance on ``needed``, as (its CPU
+    per simulated second over them, mode, n), cheapest first; and the modes within at no n, with
+    what fails at the most substeps tried ({mode: {scene: [figures]}})."""
+    best: dict[str, tuple[float, int]] = {}
+    failing: dict[str, dict] = {}
+    for n in sorted(by_n):
+        fine, bad = rank(by_n[n], needed)
+        for cost, mode in fine:
+            best.setdefault(mode, (cost, n))
+        failing.update({m: b for m, b in bad.items()})
+    failing = {m: b for m, b in failing.items() if m not in best}
+    return sorted((c, m, n) for m, (c, n) in best.items()), failing
+
+
 def advise(df, dt: float, tol: Tolerances = TOLERANCES) -> dict:
     """At one step: ``rank`` over ``ADVICE_SCENES`` (``df``: ``study``'s rows, judged under the
     profile ``tol``); a mode asked for that does not pose a scene is named in ``unposed`` with why
@@ -171,24 +200,53 @@ def advise(df, dt: float, tol: Tolerances = TOLERANCES) -> dict:
         for r in df[df.status == "unsupported"].itertuples():
             unposed.setdefault(r.method, {})[r.scene] = r.detail
         df = df[df.status != "unsupported"]
-    at = df[(df.dt - dt).abs() <= 1e-12 * dt] if len(df) else df
-    by_mode = (
-        {
-            mode: {
-                r.scene: {"passes": r.passes, "status": r.status, "cpu_per_s": r.cpu_per_s} for r in rows.itertuples()
+    by_n = {}
+    for n in SUBSTEPS:
+        step = dt / n
+        at = df[(df.dt - step).abs() <= 1e-12 * step] if len(df) else df
+        if len(at):
+            by_n[n] = {
+                mode: {
+                    r.scene: {"passes": r.passes, "status": r.status, "cpu_per_s": r.cpu_per_s}
+                    for r in rows.itertuples()
+                }
+                for mode, rows in at.groupby("method")
             }
-            for mode, rows in at.groupby("method")
-        }
-        if len(at)
-        else {}
-    )
-    fine, failing = rank(by_mode, ADVICE_SCENES)
+    fine, failing = frame_pick(by_n, ADVICE_SCENES)
     return {
         "dt": dt,
-        "within": [m for _, m in fine],
-        "cost": {m: c for c, m in fine},
+        "within": [m for _, m, _ in fine],
+        "cost": {m: c for c, m, _ in fine},
+        "substeps": {m: n for _, m, n in fine},
         "failing": failing,
         "unposed": unposed,
         "profile": tol.name,
         "tolerances": asdict(tol),
     }
+
+
+def advise_frame(scenes: dict, hz: float, modes, tol: Tolerances, substeps=SUBSTEPS, isolated: bool = True):
+    """``study`` at 1/(hz n) for n of ``substeps``, each mode stepped at more substeps only while it
+    is not yet within every tolerance on every scene (its fewest that are is its frame), then
+    ``advise`` over those rows."""
+    import pandas as pd
+
+    from .run import contact_modes
+
+    frames = []
+    pending = [m for m in (modes if modes is not None else contact_modes())]
+    for n in substeps:
+        if not pending:
+            break
+        df = study(scenes, pending, [1.0 / (hz * n)], isolated=isolated, tol=tol)
+        frames.append(df)
+        ok = df[df.status != "unsupported"]
+        done = {
+            m
+            for m, rows in ok.groupby("method")
+            if set(rows.scene) >= set(scenes) and bool((rows.within == True).all())  # noqa: E712
+        }
+        refused = set(df[df.status == "unsupported"].method)
+        pending = [m for m in pending if m not in done and m not in refused]
+    df = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    return advise(df, 1.0 / hz, tol)

@@ -329,7 +329,7 @@ def engines_left_out(scene: str) -> tuple[str, ...]:
 
 #: The contact cells (harness.nightly.measures.contact_cells): a ball at e = 0.8 and at e = 1, the slide
 #: (along x and at 45 degrees, off the friction pyramid's axes), the box at rest, the stack, and the
-#: bodies that turn (edge, corner, tip, roll), each engine mode at every step of the ladder (1/2000 s to 1/60 s; the
+#: bodies that turn (edge, corner, tip, roll), each engine mode at every step of the ladder (1/1920 s to 1/60 s; the
 #: report shows 1/1000, 1/240 and 1/60), and the reference schemes on the penalty ground over the issue's
 #: grid of h*omega_c. The standard suite runs MuJoCo in its integrators with the pyramidal cone (and Euler
 #: with the elliptic), pybullet, pymunk, Drake's SAP and REBOUND in the stiff common pose, and beside them
@@ -350,8 +350,10 @@ CONTACT_SCENES = (
     ("tip", {}),
     ("roll", {}),
 )
-CONTACT_LADDER = (1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60)
-CONTACT_LADDER_FULL = (1 / 4000, 1 / 2000, 1 / 1000, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
+# The steps 1/60 s divides into (1, 2, 4, 8, 16 and 32 substeps of a 60 Hz frame: the frame's advice
+# reads them) and a robot's 1 ms.
+CONTACT_LADDER = (1 / 1920, 1 / 1000, 1 / 960, 1 / 480, 1 / 240, 1 / 120, 1 / 60)
+CONTACT_LADDER_FULL = (1 / 3840, 1 / 1920, 1 / 1000, 1 / 960, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
 PENALTY_SCHEMES = (
     "ref:explicit_euler",
     "ref:semi_implicit_euler",
