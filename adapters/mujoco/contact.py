@@ -1,4 +1,4 @@
-"""MuJoCo's contact poses, in each integrator and each friction cone, with two contacts:
+"""MuJoCo's contact poses, in each integrator and each friction cone, with three contacts:
 
 * ``mujoco:<integrator>`` (and ``?cone=elliptic``), the controlled comparison: a stiff contact of
   one frequency at every step. solref is given directly as (-stiffness, -damping) =
@@ -22,6 +22,16 @@
   own equivalence of dampratio and damping, zeta from e as above): omega_c = sqrt(1000) =
   31.6 rad/s at every step. The other recipe it names, dampratio < 1 at the default timeconst, is a
   contact of 1 / (timeconst dampratio), 706 rad/s at e = 0.8, which refsafe does not bound.
+* ``mujoco:<integrator>?cone=elliptic&contact=practice``, the contact as MuJoCo's documentation
+  ADVISES a user to set it where its defaults slip (``PRACTICE_DOCS``): the default contact's solref,
+  solimp and refsafe (and its restitution recipe where e is asked), with the elliptic cone, impratio
+  ``PRACTICE_IMPRATIO`` (10: "large impratio"; the value of MuJoCo's own elliptic example models) and
+  the Newton solver at tolerance ``PRACTICE_TOLERANCE`` (1e-10, "aggressive tolerance values, say
+  1e-10"); the NoSlip solver off (``PRACTICE_NOSLIP``): the documentation names elliptic cones, a
+  large impratio and Newton "the recommended way of reducing slip", NoSlip a fallback "if that is not
+  sufficient" that leaves the convex problem and "may become less robust". The practice is the
+  elliptic cone's alone (impratio is "not recommended" with pyramidal cones), so it has no pyramidal
+  mode, and its id names the cone.
 
 Each scene is the smallest model that poses its question: the ball on one slide joint along z
 (``condim=1``, a frictionless normal contact: it only moves up and down); the sliding box, the box
@@ -47,8 +57,9 @@ from .._engine import import_engine
 from . import MODES as INTEGRATORS  # MuJoCo's integrators: each smooth mode's, posed in each cone
 
 CONES = ("pyramidal", "elliptic")
-#: The contacts each integrator and cone is posed with: the stiff common one and MuJoCo's default.
-CONTACTS = ("stiff", "default")
+#: The contacts each integrator is posed with, and the cones each is posed in: the stiff common one
+#: and MuJoCo's default in both; the documentation's advice against slip in the elliptic cone alone.
+CONTACTS = {"stiff": CONES, "default": CONES, "practice": ("elliptic",)}
 #: The contact's natural frequency (rad/s): a static penetration of g / omega_c^2 = 0.25 mm under
 #: gravity; a contact pi / omega_c long, which a 60 Hz step (h omega_c = 3.3) does not
 #: resolve and a 1 kHz step (0.2) does.
@@ -76,6 +87,26 @@ DEFAULT_DOCS = (
     "modeling.html#restitution: 'To achieve perfect restitution for contacts ... set stiffness to some reasonably "
     'large value and damping to zero\', its example solref="-1000 0". XMLreference.html#option: iterations 100, '
     "tolerance 1e-8, impratio 1, noslip_iterations 0, cone pyramidal; #body-geom: margin 0, gap 0, condim 3"
+)
+#: The practice contact's solver options, as MuJoCo's documentation advises them against slip.
+PRACTICE_IMPRATIO = 10.0
+PRACTICE_TOLERANCE = 1e-10
+PRACTICE_NOSLIP = 0
+#: Where the documentation advises each practice setting (the rest as ``DEFAULT_DOCS``).
+PRACTICE_DOCS = (
+    "mujoco.readthedocs.io/en/latest/modeling.html#solver-settings: 'While the default is pyramidal, we recommend "
+    "trying the elliptic cones. When contact slip is a problem, the best way to suppress it is to use elliptic "
+    "cones, large impratio, and the Newton algorithm with very small tolerance. If that is not sufficient, enable "
+    "the Noslip solver'; Newton 'should be used with aggressive tolerance values, say 1e-10'. "
+    "modeling.html#preventing-slip, 'Slow slippage': 'Increase the impratio parameter ... high impratio values work "
+    "well only with elliptic cones'; NoSlip 'will entirely prevent slip, at the cost of making inverse dynamics "
+    "ill-defined'. overview.html#softness-and-slip: NoSlip leaves the convex problem and 'the simulation may become "
+    "less robust. Thus using the Newton solver with elliptic friction cones and large value of impratio is the "
+    "recommended way of reducing slip' (hence noslip_iterations 0). XMLreference.html#option-impratio: 'Settings "
+    'larger than 1 cause friction forces to be "harder" than normal forces ... not recommended to use high impratio '
+    "values with pyramidal cones'. impratio 10: the documentation names no number; MuJoCo's own elliptic example "
+    'models set it (github.com/google-deepmind/mujoco model/flex/gripper.xml, model/sleep/dominos.xml: cone="elliptic" '
+    'impratio="10"). solref, solimp, refsafe, the restitution recipe, margin: the defaults, as ' + DEFAULT_DOCS
 )
 
 #: How MuJoCo poses each contact scene (the scene's kind -> its ``ContactPose``): the ball a sphere on
@@ -128,8 +159,9 @@ def _gravity(scene) -> str:
 
 
 def _contact_attrs(contact: str, scene) -> str:
-    """The geoms' contact attributes: every one stated for the stiff contact; for the default one
-    only the restitution recipe's solref, where the scene asks restitution (the rest MuJoCo's)."""
+    """The geoms' contact attributes: every one stated for the stiff contact; for the default and
+    practice ones only the restitution recipe's solref, where the scene asks restitution (the rest
+    MuJoCo's)."""
     if contact == "stiff":
         k, b = _solref(_requested_e(scene))
         return f'solref="{k!r} {b!r}" solimp="{IMPEDANCE} {IMPEDANCE} 0.001 0.5 2" margin="0" gap="0"'
@@ -143,6 +175,11 @@ def _option(integrator: str, cone: str, scene, dt: float, contact: str) -> str:
         return (
             f'{head} iterations="{SOLVER_ITERATIONS}" tolerance="{SOLVER_TOLERANCE}" impratio="1" '
             'noslip_iterations="0"><flag warmstart="enable"/></option>'
+        )
+    if contact == "practice":
+        return (
+            f'{head} impratio="{PRACTICE_IMPRATIO!r}" tolerance="{PRACTICE_TOLERANCE!r}" '
+            f'noslip_iterations="{PRACTICE_NOSLIP}"/>'
         )
     return f"{head}/>"
 
@@ -199,11 +236,14 @@ def _settings(mujoco, m, scene, integrator: str, cone: str, contact: str, dt: fl
     out = {
         "integrator": integrator,
         "cone": cone,
-        "contact": (
-            "stiff: one contact frequency at every step (the controlled comparison)"
-            if contact == "stiff"
-            else "MuJoCo's default, as its documentation tells a user to set it"
-        ),
+        "contact": {
+            "stiff": "stiff: one contact frequency at every step (the controlled comparison)",
+            "default": "MuJoCo's default, as its documentation tells a user to set it",
+            "practice": (
+                "MuJoCo's default contact with the solver options its documentation advises against slip: "
+                "elliptic cone, large impratio, Newton at a very small tolerance, no NoSlip"
+            ),
+        }[contact],
         "contact omega_c (rad/s)": omega,
         "h * contact frequency": omega * dt,
         "solref": solref,
@@ -217,7 +257,7 @@ def _settings(mujoco, m, scene, integrator: str, cone: str, contact: str, dt: fl
         "impratio": float(m.opt.impratio),
         "noslip_iterations": int(m.opt.noslip_iterations),
     }
-    if contact == "default":
+    if contact != "stiff":
         if solref[0] > 0:
             timeconst = max(solref[0], 2.0 * dt) if refsafe else solref[0]
             out["contact frequency"] = (
@@ -228,7 +268,7 @@ def _settings(mujoco, m, scene, integrator: str, cone: str, contact: str, dt: fl
             out["contact frequency"] = (
                 f"sqrt(stiffness) = sqrt({-solref[0]:g}) at d = d_width (refsafe: not this format)"
             )
-        out["documentation"] = DEFAULT_DOCS
+        out["documentation"] = DEFAULT_DOCS if contact == "default" else PRACTICE_DOCS
     if hasattr(scene, "e"):
         e = scene.e
         if contact == "stiff":
@@ -343,6 +383,12 @@ _DOC = {
         "(0.9, 0.95, 0.001, 0.5, 2), omega_c = 1 / max(0.02 s, 2 h); where e is asked, the documentation's "
         "restitution recipe solref (-1000, -2 zeta sqrt(1000)), omega_c = 31.6 rad/s"
     ),
+    "practice": (
+        "MuJoCo {integrator} as its documentation advises against slip: the elliptic friction cone, impratio "
+        f"{PRACTICE_IMPRATIO:g}, Newton at tolerance {PRACTICE_TOLERANCE:g}, no NoSlip (modeling.html 'Solver "
+        "settings', 'Preventing slip'; overview.html 'Softness and slip'); solref, solimp, refsafe and the "
+        "restitution recipe as the default contact's"
+    ),
 }
 
 MODES = {
@@ -356,7 +402,7 @@ MODES = {
         settings={"integrator": name, "cone": cone} | ({"contact": contact} if contact != "stiff" else {}),
         doc=_DOC[contact].format(integrator=INTEGRATORS[name], cone=cone, omega=OMEGA_C),
     )
-    for contact in CONTACTS
+    for contact, cones in CONTACTS.items()
     for name in INTEGRATORS
-    for cone in CONES
+    for cone in cones
 }

@@ -141,9 +141,19 @@ def _shown(scene_id: str, params: dict) -> tuple[tuple[str, int], ...]:
 
 
 def _lines(df):
-    profiles = sorted({p for p in df.get("profile", []) if isinstance(p, str)})
-    if profiles:
-        yield f"judged by the {', '.join(profiles)} profile (harness contact --profile; tolerances in --json)"
+    by_dt = {}
+    if "profile" in df:
+        for r in df[df.profile.notna()].itertuples():
+            by_dt.setdefault(r.profile, set()).add(r.dt)
+    if by_dt:
+        yield (
+            "judged by "
+            + "; ".join(
+                f"the {name} profile at {', '.join(f'1/{1 / dt:.0f} s' for dt in sorted(dts))}"
+                for name, dts in by_dt.items()
+            )
+            + " (harness contact --profile; each figure's ✓ under every profile in --json)"
+        )
     for scene, rows in df.groupby("scene", sort=False):
         truth = rows.iloc[0].truth
         shown = _shown(scene, rows.iloc[0].params)

@@ -350,8 +350,8 @@ CONTACT_SCENES = (
     ("tip", {}),
     ("roll", {}),
 )
-# The steps 1/60 s divides into (1, 2, 4, 8, 16 and 32 substeps of a 60 Hz frame: the frame's advice
-# reads them) and a robot's 1 ms.
+# The steps a 60 Hz frame divides into (1, 2, 4, 8, 16 and 32 substeps of it: the frame's advice
+# reads them) and a robot's control step of a millisecond.
 CONTACT_LADDER = (1 / 1920, 1 / 1000, 1 / 960, 1 / 480, 1 / 240, 1 / 120, 1 / 60)
 CONTACT_LADDER_FULL = (1 / 3840, 1 / 1920, 1 / 1000, 1 / 960, 1 / 480, 1 / 240, 1 / 120, 1 / 60, 1 / 30)
 PENALTY_SCHEMES = (
