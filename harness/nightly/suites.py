@@ -376,6 +376,7 @@ STANDARD_CONTACT_MODES = (
     # each engine as its documentation tells users to set contact (MuJoCo's in both cones)
     "mujoco:rk4?contact=default",
     "mujoco:rk4?cone=elliptic&contact=default",
+    "mujoco:rk4?cone=elliptic&contact=practice",
     "mujoco:discrete?contact=default",
     "pybullet:sequential_impulse?contact=default",
     "pymunk:sequential_impulse?contact=default",
