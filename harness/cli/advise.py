@@ -4,6 +4,8 @@ each other method cannot (``harness.measures.advise``)."""
 
 from __future__ import annotations
 
+import sys
+
 import os
 
 from records import InvalidInput
@@ -119,8 +121,36 @@ def run(args) -> int:
         return emit(result.as_dict() if args.json else result, args.json, sweep_lines, scene)
     if args.points is not None:
         raise InvalidInput("--points is for a --sweep (allowed: with --sweep NAME=LO..HI)")
-    result = advise(scene, request, patterns or None, jobs=jobs, timeout=timeout)
+    if not patterns:
+        patterns = default_patterns()
+        print(
+            "advise: "
+            + "; ".join(
+                f"{engine}'s modes left out ({why}; --methods '{engine}:*' adds them)"
+                for engine, why in ON_REQUEST.items()
+            )
+            + " [--methods '*' runs every method]",
+            file=sys.stderr,
+        )
+    result = advise(scene, request, patterns, jobs=jobs, timeout=timeout)
     return emit(result.as_dict() if args.json else result, args.json, _lines, scene)
+
+
+#: Engines a single-scene advice runs only when asked (``--methods``): where their start-up, not the
+#: scene, is the cost, so that a question on a built-in scene is answered in seconds. Warp compiles
+#: and launches Newton's kernels; Drake builds a plant for every run of its fourteen modes (the
+#: advice's limit search alone runs dozens). docs/performance.md has the durations.
+ON_REQUEST = {
+    "newton": "Warp's kernel start-up dominates a small scene",
+    "drake": "a plant built for every run of fourteen modes",
+}
+
+
+def default_patterns() -> list[str]:
+    """Every method but those of the engines run on request."""
+    from harness.methods import all_methods
+
+    return [m for m in all_methods() if m.split(":")[0] not in ON_REQUEST]
 
 
 def _us(x) -> str:
