@@ -374,6 +374,8 @@ def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
     for hz in suite.frame_rates:
         request = Request(hz=hz, **spec.advise).checked()
         res = advise_method(method, scene, request, timeout=suite.cell_timeout, cost_per_step=per_step)
+        spread = getattr(cost.figures, "spread", None) if per_step is not None else None
+        res.cost_rel_spread = spread  # its repeats' spread: a pick within it is a tie (reports.answer_section)
         best = res.best_row
         figures, extra = AdviceFigures.from_data(
             plain(
@@ -394,7 +396,7 @@ def _advise(task, method, scene, spec, suite, cost: Cell) -> list[Cell]:
                 best.cost_per_frame_s if best is not None else None,
                 1.0 / hz,
                 figures=figures,
-                extra=extra,
+                extra={**(extra or {}), "cost_rel_spread": spread},
             )
         )
     return cells
