@@ -279,3 +279,23 @@ def test_a_run_that_names_its_engines_preloads_those_alone_and_the_first_choice_
     )
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split("\n")[-2] == "['pymunk']"
+
+
+def cpu_timed_probe():
+    """A compiled loop timed on the process CPU clock, as the cost measure times it."""
+    from harness.measures.cost import wall_time_per_step
+    from harness.methods import get_method
+
+    timed = wall_time_per_step(
+        get_method("ref:rk4", compiled_where_bitwise=True), make_scene("spring"), 1 / 60, repeats=3, clock="cpu"
+    )
+    return timed["s_per_step"]
+
+
+def test_a_call_with_a_limit_keeps_the_cpu_clock_fine_enough_to_time_a_fast_loop():
+    """The limit's own timers must not coarsen the clock the cost measures read: a process CPU timer
+    makes Linux read CLOCK_PROCESS_CPUTIME_ID at the scheduler's tick, and a 1-DOF spring's
+    timed run then reads as no time at all."""
+    with WorkerPool(1) as pool:
+        assert pool.call(cpu_timed_probe, timeout=120) > 0.0
+    assert run_in_worker(cpu_timed_probe, timeout=120) > 0.0

@@ -140,24 +140,21 @@ def _context():
     return _CONTEXT
 
 
-#: Seconds past its limit after which a worker ends itself: at its CPU limit (SIGPROF, the
-#: process's CPU timer), or at ``cpu_limit.WALL_FACTOR`` times it of wall time (SIGALRM). Its
-#: parent kills it at the limit; this backstop is for a parent that died first (a Dask worker
-#: killed mid-cell), whose hung worker would otherwise outlive it for good.
+#: Seconds past ``cpu_limit.WALL_FACTOR`` times its limit of wall time after which a worker ends
+#: itself (SIGALRM). Its parent kills it at its limit of CPU seconds; this backstop is for a parent
+#: that died first (a Dask worker killed mid-cell), whose hung worker would otherwise outlive it for
+#: good. (Not a process CPU timer: while one is armed, Linux reads the process CPU clock at the
+#: scheduler's tick, and the cost measures' short timed runs would read as nothing.)
 ORPHAN_GRACE_S = 2.0
 
 
 def arm_backstop(limit: float | None) -> None:
-    """The worker's own timers for a call of ``limit`` CPU seconds (none where None): SIGPROF and
-    SIGALRM's default actions end the process, even inside an engine's C loop."""
+    """The worker's own timer for a call of ``limit`` CPU seconds (none where None): SIGALRM's
+    default action ends the process, even inside an engine's C loop."""
     from .cpu_limit import WALL_FACTOR
 
-    for sig, timer, seconds in (
-        (signal.SIGPROF, signal.ITIMER_PROF, None if limit is None else limit + ORPHAN_GRACE_S),
-        (signal.SIGALRM, signal.ITIMER_REAL, None if limit is None else WALL_FACTOR * limit + ORPHAN_GRACE_S),
-    ):
-        signal.signal(sig, signal.SIG_DFL)
-        signal.setitimer(timer, 0.0 if seconds is None else seconds)
+    signal.signal(signal.SIGALRM, signal.SIG_DFL)
+    signal.setitimer(signal.ITIMER_REAL, 0.0 if limit is None else WALL_FACTOR * limit + ORPHAN_GRACE_S)
 
 
 #: True inside a worker: the process is already the isolation, so engines run in it directly
@@ -254,9 +251,9 @@ def run_in_worker(fn, args: tuple = (), kwargs: dict | None = None, timeout: flo
         if message is not None:
             return WorkerFailure(CRASHED, f"raised {message[1]}", output=message[2] or output, seconds=seconds)
         code = proc.exitcode
-        if code in (-signal.SIGALRM, -signal.SIGPROF):  # the backstop fired before this thread got to kill it
+        if code == -signal.SIGALRM:  # the backstop fired before this thread got to kill it
             return WorkerFailure(
-                TIMED_OUT, f"past its limit of {limit:g} CPU s; worker stopped itself", output=output, seconds=seconds
+                TIMED_OUT, f"hung past {limit:g} CPU s of limit; worker stopped itself", output=output, seconds=seconds
             )
         if code is not None and code < 0:
             name = signal.Signals(-code).name
