@@ -247,3 +247,13 @@ def test_no_energy_figure_of_an_engine_is_computed_on_a_model_it_did_not_build(c
     named = " ".join(drake.figures.numbers["model_differs"])
     assert all(f"joint {j} has no stiffness" in named for j in stiff) and "j1 has no stiffness" in drake.detail
     assert mine.value is not None and not (mine.detail or "").startswith("model differs")
+
+
+def test_the_advice_does_not_rank_an_engine_on_the_energy_of_a_model_it_did_not_build(chain):
+    from harness.measures.advise import Request, advise_method
+
+    scene = open_model(chain)
+    request = Request(hz=60, horizon=0.2, energy_tol=0.5, max_substeps=1).checked()
+    res = advise_method("drake:radau3", scene, request, timeout=120)
+    assert res.best_row is None
+    assert all(r.energy_error is None and "model differs" in r.why for r in res.rows if r.stable)
