@@ -81,6 +81,36 @@ def _energy_steps(e, accuracy: bool) -> int | None:
     return e.substeps if e.ended == "met" and not accuracy else None
 
 
+def _stands(e) -> bool:
+    """Whether an entry's survival stands once its solve converges further (no knob, or the check
+    passed: ``harness.measures.sweep.survived``)."""
+    return e.survival_converged is None or bool(e.survival_converged.get("meets"))
+
+
+def _moves(c: dict) -> str:
+    """What a convergence check found the tightened run to change, in words."""
+    parts = []
+    if not c.get("energy_within", True):
+        e = c.get("energy_error")
+        parts.append("its energy error " + (f"{e:.3g}" if e is not None else "undefined") + " misses the tolerance")
+    if c.get("moved") is not None and c.get("tol") is not None and c["moved"] > c["tol"]:
+        until = f" within the predictable horizon ({c['until']:.3g} s)" if c.get("until") is not None else ""
+        parts.append(f"its positions move {c['moved']:.3g} > {c['tol']:.3g}{until}")
+    if c.get("com_moved") is not None and c.get("tol") is not None and c["com_moved"] > c["tol"]:
+        parts.append(f"its centre of mass moves {c['com_moved']:.3g} past the horizon")
+    return "; ".join(parts) or (c.get("why") or "it misses the tolerances")
+
+
+def _rests(e) -> str:
+    """An implicit survival that rests on its solve's own error, in words."""
+    c = e.survival_converged
+    s = e.energy_substeps
+    return (
+        f"`{e.method}` within it at {s} substep{'s' if s > 1 else ''} rests on its solve's own error "
+        f"(`{c['method']}`: {_moves(c)})"
+    )
+
+
 def survives(points, param: str, energy_tol: float | None, accuracy: bool = True) -> Claim:
     name = "implicit Euler survives where explicit steps must be tiny (energy tolerance)"
     p = points[-1]
@@ -88,26 +118,35 @@ def survives(points, param: str, energy_tol: float | None, accuracy: bool = True
         return Claim(name, None, "not judged: the sweep asked no energy tolerance")
     steps = {
         fam: sorted(
-            (s, e.method) for e in p.entries if e.family == fam for s in [_energy_steps(e, accuracy)] if s is not None
+            (s, e.method)
+            for e in p.entries
+            if e.family == fam and (fam != IMPLICIT or _stands(e))
+            for s in [_energy_steps(e, accuracy)]
+            if s is not None
         )
         for fam in (EXPLICIT, IMPLICIT)
     }
     implicit = [e for e in p.entries if e.family == IMPLICIT]
     if not implicit:
         return Claim(name, None, f"not judged: no implicit solve was searched {_at(p, param)}")
+    # A survival whose solve, converged further, loses the energy or moves the sheet is its solve's,
+    # not implicit Euler's: it does not count, and the line says so.
+    resting = [e for e in implicit if e.energy_substeps is not None and not _stands(e)]
+    rest = f"; {'; '.join(_rests(e) for e in resting)}" if resting else ""
     if not steps[IMPLICIT]:
         tried = ", ".join(f"`{e.method}` to {e.searched} substeps" for e in implicit)
-        if all(e.ended == "cost" for e in implicit):  # stopped for cost, not for want of a stable step
+        if all(e.ended == "cost" for e in implicit if e not in resting) and len(resting) < len(implicit):
             return Claim(
                 name,
                 None,
                 f"not judged: every implicit search ended on its cost bound {_at(p, param)} "
-                f"before one stayed within the energy tolerance ({tried})",
+                f"before one stayed within the energy tolerance ({tried}){rest}",
             )
         return Claim(
             name,
             False,
-            f"no implicit solve stays stable within energy error ≤ {energy_tol:g} {_at(p, param)} ({tried})",
+            f"no implicit solve stays stable within energy error ≤ {energy_tol:g} {_at(p, param)} with its solve "
+            f"converged ({tried}){rest}",
         )
     s_i, m_i = steps[IMPLICIT][0]
     e_i = next(e for e in implicit if e.method == m_i)
@@ -138,11 +177,16 @@ def survives(points, param: str, energy_tol: float | None, accuracy: bool = True
         explicit = f"no explicit scheme is within it below {need} substeps (`{m_e}` the first to stop)"
     ratio = need / s_i
     ok = ratio >= TINY
+    checked = (
+        f" (`{e_i.survival_converged['method']}` within it too, its motion where this run's is)"
+        if e_i.survival_converged is not None
+        else ""
+    )
     return Claim(
         name,
         ok,
-        f"{_at(p, param)}: {said}; {explicit}: steps {'' if exact else 'at least '}"
-        f"{ratio:.3g} x shorter ({'≥' if ok else '<'} the {TINY} x the claim asks)",
+        f"{_at(p, param)}: {said}{checked}; {explicit}: steps {'' if exact else 'at least '}"
+        f"{ratio:.3g} x shorter ({'≥' if ok else '<'} the {TINY} x the claim asks){rest}",
     )
 
 
@@ -153,8 +197,13 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
     p = points[-1]
     if not any(e.family == IMPLICIT for e in p.entries):
         return Claim(name, None, f"not judged: no implicit solve was searched {_at(p, param)}")
-    costs = p.family_costs()
+    # Each family's cheapest frame that meets the tolerances with its solve converged (a win that
+    # rests on the solve's own error is the solve's: said, not counted).
+    costs = {
+        fam: next((e for e in p.met if e.family == fam and not e.rests_on_solve), None) for fam in (IMPLICIT, EXPLICIT)
+    }
     imp, exp = costs.get(IMPLICIT), costs.get(EXPLICIT)
+    resting = [e for e in p.met if e.rests_on_solve and e.family in (IMPLICIT, EXPLICIT)]
     bounded = [e for e in p.entries if e.family == EXPLICIT and e.ended in ("cost", "cap")]
     if imp is None and exp is None:
         return Claim(name, None, f"not judged: neither family meets the tolerances {_at(p, param)}")
@@ -164,12 +213,14 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
 
     tried = [e for e in p.entries if e.family == IMPLICIT]
     if imp is None:
-        far = max(tried, key=lambda e: (e.searched, e.method))
-        ended = sorted({e.ended for e in tried})
+        unconverged = any(e.rests_on_solve for e in tried)
+        searched = [e for e in tried if not e.rests_on_solve] or tried
+        far = max(searched, key=lambda e: (e.searched, e.method))
+        ended = sorted({"met, resting on its solve" if e.rests_on_solve else e.ended for e in tried})
         text = (
-            f"{_at(p, param)} no implicit solve meets them ({len(tried)} searched, ended on "
-            f"{' / '.join(ended)}; the furthest, `{far.method}` to {far.searched} substeps: "
-            f"{far.why.split('; ')[-1] if far.why else far.ended}); explicit substeps do: {frame(exp)}"
+            f"{_at(p, param)} no implicit solve meets them{' with its solve converged' if unconverged else ''} "
+            f"({len(tried)} searched, ended on {' / '.join(ended)}; the furthest, `{far.method}` to {far.searched} "
+            f"substeps: {far.why.split('; ')[-1] if far.why else far.ended}); explicit substeps do: {frame(exp)}"
         )
         ok = False
     elif exp is None:
@@ -184,11 +235,15 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
             True,
         )
     else:
-        ok = imp.cost_per_frame_s < exp.cost_per_frame_s
+        from harness.measures.advise import tie
+
+        tied = tie(imp.cost_per_frame_s, imp.cost_rel_spread, exp.cost_per_frame_s, exp.cost_rel_spread)
+        ok = imp.cost_per_frame_s < exp.cost_per_frame_s and not tied
         ratio = exp.cost_per_frame_s / imp.cost_per_frame_s
-        text = (
-            f"{_at(p, param)} implicit solves' cheapest frame that meets them, {frame(imp)}, against explicit "
-            f"substeps' {frame(exp)}: "
+        text = f"{_at(p, param)} implicit solves' cheapest frame that meets them, {frame(imp)}, against explicit " + (
+            f"substeps' {frame(exp)}: a tie (their costs lie within the timing spread: neither is the cheaper)"
+            if tied
+            else f"substeps' {frame(exp)}: "
             + (f"implicit {ratio:.3g} x cheaper" if ok else f"explicit {1 / ratio:.3g} x cheaper")
         )
     x = family_crossover(points, EXPLICIT, IMPLICIT)
@@ -203,7 +258,29 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
             f"; the cheapest frame there is {family_name(stiff.family)} (`{stiff.method}`, "
             f"{_us(stiff.cost_per_frame_s)})"
         )
+    cheaper_resting = [
+        e for e in resting if costs.get(e.family) is None or e.cost_per_frame_s < costs[e.family].cost_per_frame_s
+    ]
+    if cheaper_resting:
+        text += "; not counted, their wins resting on the solve's own error: " + ", ".join(
+            f"`{e.method}` {e.substeps} × = {_us(e.cost_per_frame_s)} "
+            f"(`{e.converged['method']}`: {_moves(e.converged)})"
+            for e in cheaper_resting
+        )
+    text += horizon_text(p)
     return Claim(name, ok, text)
+
+
+def horizon_text(p) -> str:
+    """The point's predictable horizon and what was judged past it (``harness.measures.horizon``),
+    where one was measured."""
+    from harness.measures.horizon import Horizon
+
+    h = Horizon.from_dict(p.horizon)
+    if h is None:
+        return ""
+    past = h.past_text()
+    return f"; the sheet is {h.text()}" + (f": {past}" if past else "")
 
 
 def _us(seconds) -> str:

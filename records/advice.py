@@ -32,8 +32,15 @@ class Row:
     detail: str = ""
     #: Where the row meets the tolerances and its method has a convergence knob: the same substeps
     #: with the knob tightened (``harness.measures.advise.convergence``): {"method", "meets", "why",
-    #: "energy_error", "position_error"}; its "meets" False: the win rests on the solve's own error.
+    #: "energy_error", "position_error", ..., "moved": how far its positions move}; its "meets"
+    #: False: the win rests on the solve's own error.
     converged: dict | None = None
+    #: Past a predictable horizon shorter than the asked one (``harness.measures.horizon``): the
+    #: time the position error is judged to, the centre of mass's error past it, and the run's
+    #: largest strain less the reference's (None where not measured).
+    judged_until: float | None = None
+    com_error: float | None = None
+    strain_excess: float | None = None
 
 
 @dataclass
@@ -49,6 +56,7 @@ class MethodAdvice:
     limit_searched: float | None = None  # the largest h*omega the limit search tried
     cost_per_step_s: float | None = None
     cost_timing: str = ""
+    cost_rel_spread: float | None = None  # the timing's repeats, (slowest - fastest) / fastest
     evals_reason: str = ""
     rows: list[Row] = field(default_factory=list)
     best: int | None = None
@@ -99,6 +107,7 @@ class SweepEntry:
     homega: float | None = None
     cost_per_step_s: float | None = None
     cost_per_frame_s: float | None = None
+    cost_rel_spread: float | None = None  # the timing's repeats, (slowest - fastest) / fastest
     energy_error: float | None = None
     position_error: float | None = None
     searched: int = 0  # the most substeps run
@@ -112,6 +121,13 @@ class SweepEntry:
     #: The levels run past the cost bound to find ``energy_substeps`` alone (the survival probe,
     #: ``harness.measures.sweep.probe_survival``): the first claim is about stability, not cost.
     probed: tuple = ()
+    #: As ``Row``'s: the position error judged to the predictable horizon, the centre of mass and the
+    #: largest strain past it (``harness.measures.horizon``).
+    judged_until: float | None = None
+    com_error: float | None = None
+    strain_excess: float | None = None
+    #: The convergence check at ``energy_substeps`` (the first claim's level), as ``converged``.
+    survival_converged: dict | None = None
 
     @property
     def rests_on_solve(self) -> bool:
@@ -129,6 +145,7 @@ class SweepPoint:
     homega_one: float
     entries: list[SweepEntry] = field(default_factory=list)
     position_tol: float | None = None  # the position tolerance at this value, absolute (None: not judged)
+    horizon: dict | None = None  # its predictable horizon (``harness.measures.horizon.Horizon.as_dict``)
 
     @property
     def met(self) -> list[SweepEntry]:

@@ -40,9 +40,13 @@ import math
 
 import numpy as np
 
+from records import InvalidInput
+
 from .scene import Param, Scene, SparseForm
 from ._solutions import SegmentedSolution, cached
 
+#: Where the dashpot coefficient ``d`` sits in ``pvec`` (after the ten parameters before it).
+DAMPING_INDEX = 10
 #: DOP853 tolerance (relative and absolute) of the reference solution.
 REFERENCE_RTOL = 1e-12
 #: The banded factorisation up to this many unknowns, conjugate gradients above.
@@ -118,11 +122,28 @@ def _difference(q, b, p, i, j, fa, i2, j2, fb, out):
     return np.sqrt(length2)
 
 
+def _closing(v, b, p, fa, fb, dx, length):
+    """The rate a spring lengthens, (v_b - v_a) . dx / |dx| (a pinned end does not move)."""
+    d = int(p[-1])
+    rate = 0.0
+    for c in range(d):
+        w = 0.0
+        if fb >= 0:
+            w = w + v[fb * d + c, b]
+        if fa >= 0:
+            w = w - v[fa * d + c, b]
+        rate = rate + w * dx[c]
+    return rate / length
+
+
 def accel(q, v, t, p):
-    """Spring forces over the masses, plus gravity on the last axis; O(N) per batch member.
-    Loops written out (sums in a fixed order) so that numba computes numpy's bits."""
+    """Spring forces over the masses, plus gravity on the last axis, plus (``d`` > 0) each structural
+    and shear spring's dashpot; O(N) per batch member. Loops written out (sums in a fixed order) so
+    that numba computes numpy's bits; an undamped sheet's accelerations are those before the
+    dashpots existed, bit for bit (the dashpot's term is added only where ``d`` > 0)."""
     n, m, d = int(p[0]), int(p[1]), int(p[-1])
     mass = p[3] / (n * m)
+    damping = p[DAMPING_INDEX]
     nb = q.shape[1]
     a = np.zeros_like(q)
     dx = np.empty(3)
@@ -135,6 +156,8 @@ def accel(q, v, t, p):
                         continue
                     length = _difference(q, b, p, i, j, fa, i2, j2, fb, dx)
                     s = (k * (length - rest) / length) / mass
+                    if damping != 0.0 and o < 4:
+                        s = s + (damping * _closing(v, b, p, fa, fb, dx, length) / length) / mass
                     for c in range(d):
                         if fa >= 0:
                             a[fa * d + c, b] += s * dx[c]
@@ -187,9 +210,11 @@ def constraints(p):
     return ends[:count], rest[:count], compliance[:count], inv_mass, anchors, gravity
 
 
-def _blocks(q, b, p, ends, blocks):
+def _blocks(q, b, p, ends, blocks, dashpot=0.0):
     """Each spring's free end indices (-1: pinned) into ends and its stiffness block
-    k [(1 - L/|d|) I + (L/|d|) u u^T] (d x d) into blocks, at batch member b; returns how many."""
+    k [(1 - L/|d|) I + (L/|d|) u u^T] (d x d) into blocks, at batch member b; returns how many.
+    ``dashpot`` != 0: each structural and shear spring's block plus ``dashpot`` d u u^T (its
+    dashpot's, scaled as the caller scales the stiffness: alpha / beta)."""
     n, m, d = int(p[0]), int(p[1]), int(p[-1])
     u = np.empty(3)
     count = 0
@@ -207,6 +232,10 @@ def _blocks(q, b, p, ends, blocks):
                     for e in range(d):
                         blocks[count, c, e] = k * (ratio * u[c] * u[e])
                     blocks[count, c, c] = blocks[count, c, c] + k * (1.0 - ratio)
+                if dashpot != 0.0 and o < 4:
+                    for c in range(d):
+                        for e in range(d):
+                            blocks[count, c, e] = blocks[count, c, e] + dashpot * (u[c] * u[e])
                 ends[count, 0] = fa
                 ends[count, 1] = fb
                 count += 1
@@ -315,16 +344,49 @@ def _banded(ends, blocks, count, d, m, r, b, scale, out):
         out[i, b] = s
 
 
+def _dashpots_only(q, b, p, blocks):
+    """Each spring's block replaced by its dashpot's d u u^T (structural and shear springs; 0 for a
+    bending spring), in ``_blocks``' order: the matrix of a step implicit in the velocity alone."""
+    n, m, d = int(p[0]), int(p[1]), int(p[-1])
+    u = np.empty(3)
+    count = 0
+    for i in range(n):
+        for j in range(m):
+            for o in range(6):
+                fa, fb, k, rest, i2, j2 = _spring(i, j, o, p)
+                if k == 0.0:
+                    continue
+                length = _difference(q, b, p, i, j, fa, i2, j2, fb, u)
+                for c in range(d):
+                    u[c] = u[c] / length
+                for c in range(d):
+                    for e in range(d):
+                        blocks[count, c, e] = (p[DAMPING_INDEX] * (u[c] * u[e])) if o < 4 else 0.0
+                count += 1
+
+
 def solve(q, v, t, p, alpha, beta, r):
-    """(I - alpha da/dv - beta da/dq) x = r with da/dv = 0 and da/dq = -K/m at q: the banded
-    factorisation for at most DIRECT_MAX_DOF unknowns, conjugate gradients above."""
+    """(I - alpha da/dv - beta da/dq) x = r with da/dq = -K/m at q and da/dv = -D/m (D the
+    dashpots', d u u^T per structural and shear spring; 0 on an undamped sheet): the banded
+    factorisation for at most DIRECT_MAX_DOF unknowns, conjugate gradients above. On a damped
+    sheet each spring's block is k's + (alpha / beta) d u u^T, scaled by beta / m as K's (beta = 0,
+    a step implicit in the velocity alone: the dashpots' blocks alone, scaled by alpha / m)."""
     n, m, d = int(p[0]), int(p[1]), int(p[-1])
     scale = beta / (p[3] / (n * m))
+    dashpot = 0.0
+    if p[DAMPING_INDEX] != 0.0 and alpha != 0.0:
+        if beta != 0.0:
+            dashpot = (alpha / beta) * p[DAMPING_INDEX]
+        else:
+            dashpot = p[DAMPING_INDEX]
+            scale = alpha / (p[3] / (n * m))
     out = np.empty_like(r)
     ends = np.empty((6 * n * m, 2), dtype=np.int64)
     blocks = np.empty((6 * n * m, d, d))
     for b in range(r.shape[1]):
-        count = _blocks(q, b, p, ends, blocks)
+        count = _blocks(q, b, p, ends, blocks, dashpot)
+        if beta == 0.0 and dashpot != 0.0:  # the stiffness does not enter: the dashpots' blocks alone
+            _dashpots_only(q, b, p, blocks)
         if r.shape[0] <= DIRECT_MAX_DOF:
             _banded(ends, blocks, count, d, m, r, b, scale, out)
         else:
@@ -342,6 +404,8 @@ class _Sheet:
         n, m, d = scene.grid
         self.d, self.mass, self.g, self.size = d, scene.node_mass, float(scene.values["g"]), scene.ndof
         self.a, self.b, self.k, self.rest = scene.springs()
+        self.c = scene.dashpots()
+        self.damped = bool(np.any(self.c))
         self.base = scene.rest_positions()
         self.free_nodes = scene._free_index()
         self.free = np.full(n * m, -1)
@@ -389,14 +453,24 @@ class _Sheet:
         x[self.free_nodes] = q.reshape(-1, self.d)
         return x
 
+    def velocities(self, v: np.ndarray) -> np.ndarray:
+        """Every node's velocity, (n m, d), from the free coordinates' v (ndof,): 0 at a pin."""
+        u = np.zeros_like(self.base)
+        u[self.free_nodes] = v.reshape(-1, self.d)
+        return u
+
     def accel(self, q, v, t, p):
-        """The force over the masses plus gravity, kernel layout (ndof, batch)."""
+        """The force over the masses plus gravity (and the dashpots' force), kernel layout (ndof, batch)."""
         out = np.empty_like(q)
         for col in range(q.shape[1]):
             x = self.positions(q[:, col])
             dx = x[self.b] - x[self.a]
             length = np.sqrt(np.sum(dx * dx, axis=1))
-            f = (self.k * (length - self.rest) / length)[:, None] * dx
+            tension = self.k * (length - self.rest)
+            if self.damped:
+                u = self.velocities(v[:, col])
+                tension = tension + self.c * np.sum((u[self.b] - u[self.a]) * dx, axis=1) / length
+            f = (tension / length)[:, None] * dx
             force = np.empty_like(x)
             for c in range(self.d):
                 force[:, c] = np.bincount(self.a, f[:, c], minlength=len(x)) - np.bincount(
@@ -408,7 +482,8 @@ class _Sheet:
         return out
 
     def matrix(self, q, v, t, alpha, beta):
-        """I + (beta / m) K(q), K = -df/dq spring by spring k [(1 - L/|d|) I + (L/|d|) u u^T]."""
+        """I + (beta / m) K(q) + (alpha / m) D(q), K = -df/dq spring by spring k [(1 - L/|d|) I + (L/|d|) u u^T],
+        D = -df/dv the dashpots' c u u^T (0 on an undamped sheet)."""
         from scipy.sparse import csr_matrix
 
         x = self.positions(q)
@@ -420,6 +495,9 @@ class _Sheet:
             :, None, None
         ] * np.eye(self.d)
         data = self.assemble @ (blocks.ravel() * (beta / self.mass))
+        if self.damped and alpha != 0.0:
+            dash = self.c[:, None, None] * u[:, :, None] * u[:, None, :]
+            data = data + self.assemble @ (dash.ravel() * (alpha / self.mass))
         data[self.diagonal] += 1.0
         return csr_matrix((data, self.indices, self.indptr), shape=(self.size, self.size))
 
@@ -446,6 +524,12 @@ class Cloth(Scene):
             lo=1.0,
             hi=2.0,
             integer=True,
+        ),
+        "d": Param(
+            0.0,
+            "dashpot beside every structural and shear spring, N s/m along the spring (0: undamped; "
+            "Drake's mass_spring_cloth ships 10)",
+            lo=0.0,
         ),
     }
     #: Coordinates per mass (the kernels read it as the last entry of ``pvec``, ``p[-1]``).
@@ -514,6 +598,72 @@ class Cloth(Scene):
                     out.append((i * m + j, i2 * m + j2, float(k), float(rest)))
         a, b, k, rest = (np.array(c) for c in zip(*out))
         return a.astype(int), b.astype(int), k, rest
+
+    def stretching(self) -> np.ndarray:
+        """Which springs, in ``springs``' order, hold the sheet's stretch: the structural and shear
+        springs (True), not the bending ones (False), whose length changes as the sheet folds."""
+        n, m, _ = self.grid
+        p = self.pvec
+        out = []
+        for i in range(n):
+            for j in range(m):
+                for o in range(6):
+                    if _spring(i, j, o, p)[2] != 0.0:
+                        out.append(o < 4)
+        return np.array(out, dtype=bool)
+
+    def dashpots(self) -> np.ndarray:
+        """Each spring's dashpot coefficient, in ``springs``' order: ``d`` beside a structural or shear
+        spring, 0 beside a bending one."""
+        return np.where(self.stretching(), float(self.values["d"]), 0.0)
+
+    def strain(self, q) -> np.ndarray:
+        """The sheet's largest strain, max (length - rest) / rest over its structural and shear springs
+        (how far it stretches; 0 where none is longer than its rest), API layout (..., ndof) -> (...)."""
+        a, b, _, rest = self.springs()
+        keep = self.stretching()
+        a, b, rest = a[keep], b[keep], rest[keep]
+        x = self.positions(q)
+        return np.maximum(np.max((np.linalg.norm(x[..., b, :] - x[..., a, :], axis=-1) - rest) / rest, axis=-1), 0.0)
+
+    # ------------------------------------------------------------ the dashpots
+    @property
+    def velocity_dependent(self) -> bool:
+        return self.values["d"] != 0.0
+
+    @property
+    def conservative(self) -> bool:
+        return self.values["d"] == 0.0
+
+    @property
+    def kind(self) -> str:
+        """The engines pose the undamped sheet; a damped one is a kind of its own, which no engine
+        poses yet (each then says it has no model of it, rather than run it without its dashpots)."""
+        return type(self).id if self.values["d"] == 0.0 else f"{type(self).id}_damped"
+
+    def position_based_why(self) -> str:
+        if self.values["d"] != 0.0:
+            return (
+                f"scene {self.id} has dashpots (d = {self.values['d']:g}), which the position-based schemes "
+                "do not model: their constraints are its springs alone"
+            )
+        return super().position_based_why()
+
+    def _validate(self) -> None:
+        super()._validate()
+        if self.values["d"] != 0.0 and not self.has_kernels:
+            raise InvalidInput(
+                f"parameter d={self.values['d']:g} is out of range for scene {self.id} (allowed: 0; the "
+                "dashpots are the spring cloth's, which this scene's model does not have)"
+            )
+
+    def exact_energy(self, t):
+        """The initial energy on an undamped sheet; on a damped one the reference's energy at t (the
+        dashpots take it out as the true motion does)."""
+        if self.values["d"] == 0.0:
+            return super().exact_energy(t)
+        q, v = self.reference_solution(np.atleast_1d(np.asarray(t, dtype=float)))
+        return np.reshape(self.energy(q, v), np.shape(t))
 
     def _free_index(self) -> np.ndarray:
         n, m, _ = self.grid
@@ -632,6 +782,8 @@ class Cloth(Scene):
     def _rhs(self):
         _, _, d = self.grid
         a, b, k, rest = self.springs()
+        c = self.dashpots()
+        damped = bool(np.any(c))
         free = self._free_index()
         mass, g, size = self.node_mass, self.values["g"], self.ndof
         base = self.rest_positions()
@@ -642,7 +794,13 @@ class Cloth(Scene):
             x[free] = y[:size].reshape(-1, d)
             dx = x[b] - x[a]
             length = np.linalg.norm(dx, axis=-1)
-            f = (k * (length - rest) / length)[:, None] * dx
+            if damped:
+                u = np.zeros_like(base)
+                u[free] = y[size:].reshape(-1, d)
+                tension = k * (length - rest) + c * np.sum((u[b] - u[a]) * dx, axis=-1) / length
+                f = (tension / length)[:, None] * dx
+            else:
+                f = (k * (length - rest) / length)[:, None] * dx
             acc = (ends @ f) / mass
             acc[:, d - 1] -= g
             return np.concatenate([y[size:], acc.ravel()])
@@ -668,9 +826,11 @@ class Cloth(Scene):
 
         return csr_matrix((np.concatenate(vals), np.concatenate(cols), np.array(indptr)), shape=(len(free), len(a)))
 
-    def _reference(self, rtol=REFERENCE_RTOL) -> SegmentedSolution:
+    def _reference(self, rtol=REFERENCE_RTOL, perturbation: float = 0.0) -> SegmentedSolution:
         q0, v0 = self.initial_state()
-        key = (self.id, tuple(self.values.items()), rtol)
+        key = (self.id, tuple(self.values.items()), rtol, perturbation)
+        if perturbation:
+            q0 = q0 + perturbation * self.length_scale * self.perturbation_pattern()
         return cached(
             key, lambda: SegmentedSolution(self._rhs(), np.concatenate([q0, v0]), segment=0.5, rtol=rtol, atol=rtol)
         )
@@ -678,6 +838,18 @@ class Cloth(Scene):
     def reference_solution(self, t, rtol=REFERENCE_RTOL):
         """(q, v) at times t, shape (len(t), ndof), from the DOP853 run (cached)."""
         y = self._reference(rtol)(t)
+        return y[:, : self.ndof], y[:, self.ndof :]
+
+    def perturbation_pattern(self) -> np.ndarray:
+        """The signs a perturbed start moves each coordinate by (+1 or -1, ndof): a fixed draw (seed
+        0), so that every mode of the sheet is stirred and every run of it is the same."""
+        return np.random.default_rng(0).choice([-1.0, 1.0], self.ndof)
+
+    def perturbed_reference(self, t, perturbation: float):
+        """(q, v) at times t of the same DOP853 run started with every position coordinate moved by
+        ``perturbation`` x the length scale (signs ``perturbation_pattern``), at rest: how far two
+        starts that no viewer could tell apart part (``harness.measures.horizon``); cached."""
+        y = self._reference(REFERENCE_RTOL, float(perturbation))(t)
         return y[:, : self.ndof], y[:, self.ndof :]
 
 

@@ -67,7 +67,6 @@ from scenarios import Scene
 
 from harness import validate
 from harness.measures.common import resolve
-from harness.measures.error import true_state, trusted_until
 
 #: Default horizon, in the scene's time unit (seconds for the animation scenes).
 HORIZON = 10.0
@@ -75,7 +74,8 @@ HORIZON = 10.0
 #: length scale (``Scene.length_scale``), an error an animation's viewer does not see.
 ERROR_REL = 0.05
 MAX_SUBSTEPS = 16
-#: Recorded states per horizon run (the energy classification wants >= 100).
+#: Recorded states per horizon run, at least (the energy classification wants >= 100): every
+#: ``frame_stride`` steps, a divisor of the substeps, so that every frame is among them.
 RECORDED = 2000
 #: The limit search goes at least this far in h*omega (past every explicit scheme's limit),
 #: so that a method stable at every step the advice uses still shows where it would fail.
@@ -195,22 +195,52 @@ def _energy_error(traj, scene: Scene) -> tuple[float | None, bool | None]:
     return float(abs(dev[i]) / scale), bool(dev[i] > 0.0)
 
 
+def _built_differently(method, scene: Scene, out) -> list[str]:
+    """What another engine built differently from MuJoCo's model of a model file
+    (``harness.measures.cross_engine.built_differently``), asked once per method's advice."""
+    if not getattr(scene, "file", None):
+        return []
+    if not hasattr(out, "_differs"):
+        from harness.measures.cross_engine import built_differently
+
+        out._differs = built_differently(method, scene, 1.0 / 60.0) or []
+    return out._differs
+
+
+def frame_stride(substeps: int, steps: int) -> int:
+    """Steps between recorded states: the largest divisor of ``substeps`` that keeps at least
+    RECORDED of the run's ``steps`` (every frame is then recorded, and no figure skips one)."""
+    most = max(1, steps // RECORDED)
+    return max(d for d in range(1, min(substeps, most) + 1) if substeps % d == 0)
+
+
+def judged_tolerance(request: Request, scene: Scene) -> float:
+    """The position tolerance a horizon and a convergence check are measured against: the request's,
+    else the default share of the scene's length scale (a request on the energy alone still asks
+    whether its solve's motion has converged)."""
+    tol = request.position_tolerance(scene)
+    return tol if tol is not None else ERROR_REL * scene.length_scale
+
+
 class _Frames:
     """A run held against the true state at the frames (module docstring), asked for once and
     only where a figure needs it."""
 
     def __init__(self, traj, scene: Scene, request: Request, substeps: int):
         self.traj, self.scene, self.request, self.substeps = traj, scene, request, substeps
-        self._truth = None
 
     def truth(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) true at every frame t = n / hz within the horizon and the scene's reference horizon."""
-        if self._truth is None:
-            r = self.request
-            frames = int(math.floor(min(r.horizon, trusted_until(self.scene)) * r.hz + 1e-9))
-            q, v, _ = true_state(self.scene, np.arange(frames + 1) / r.hz)
-            self._truth = (q, v)
-        return self._truth
+        from harness.measures.horizon import truth
+
+        return truth(self.scene, self.request.hz, self.request.horizon)
+
+    def horizon(self):
+        """The scene's predictable horizon (``harness.measures.horizon``; None: judged at every frame)."""
+        from harness.measures.horizon import measure
+
+        r = self.request
+        return measure(self.scene, r.hz, r.horizon, judged_tolerance(r, self.scene))
 
     def true_size(self) -> float:
         from harness.measures.common import scaled_state
@@ -218,15 +248,22 @@ class _Frames:
         q, v = self.truth()
         return float(np.max(np.linalg.norm(scaled_state(self.scene, q, v), axis=-1)))
 
-    def position_error(self) -> float | None:
+    def positions(self) -> np.ndarray:
+        """The run's positions at every frame it reached (0, 1, ...: every frame is recorded)."""
+        step = self.traj.step
+        rows = np.flatnonzero(step % self.substeps == 0)
+        rows = rows[step[rows] // self.substeps == np.arange(len(rows))]  # frames in order, none skipped
+        return self.traj.q[rows, 0, :]
+
+    def judged(self):
+        """The run against the truth at the frames, inside the horizon and past it
+        (``harness.measures.horizon.judge_frames``); None where the scene has no reference."""
+        from harness.measures.horizon import judge_frames
+
         if self.scene.own_run_reference:
             return None  # no reference to hold the run against (a file only one engine loads)
         q_true, _ = self.truth()
-        step = self.traj.step
-        rows = np.flatnonzero((step % self.substeps == 0) & (step // self.substeps < len(q_true)))
-        with np.errstate(all="ignore"):
-            err = np.abs(self.traj.q[rows, 0, :] - q_true[step[rows] // self.substeps])
-        return float(np.max(err)) if err.size and np.all(np.isfinite(err)) else None
+        return judge_frames(self.scene, self.positions(), q_true, self.horizon())
 
 
 def _pct(x: float) -> str:
@@ -238,11 +275,16 @@ def _judge(row: Row, request: Request, scene: Scene, method=None) -> None:
     is not held against a reference that is another engine's model of a file (``error.measured_against_own_run``:
     pybullet on a file whose reference is MuJoCo's run): that difference is the models', not the method's."""
     from harness.measures.error import measured_against_own_run
+    from harness.measures.horizon import STRAIN_TOL
 
     whys = []
     if request.energy_tol is not None:
         if row.energy_error is None:
-            whys.append("energy error undefined")
+            whys.append(
+                row.detail[row.detail.index("model differs") :]
+                if "model differs" in (row.detail or "")
+                else "energy error undefined"
+            )
         elif row.energy_error > request.energy_tol:
             way = "grows" if row.energy_gained else "falls"
             whys.append(
@@ -252,19 +294,38 @@ def _judge(row: Row, request: Request, scene: Scene, method=None) -> None:
     if request.error_tol is None and method is not None and measured_against_own_run(method, scene):
         tol = None
     if tol is not None:
+        inside = f" (to {row.judged_until:.3g} s, the predictable horizon)" if row.judged_until is not None else ""
         if row.position_error is None:
             whys.append("position error not measurable")
         elif row.position_error > tol:
-            whys.append(f"position error {row.position_error:.3g} > {tol:.3g}")
+            whys.append(f"position error {row.position_error:.3g} > {tol:.3g}{inside}")
+        if row.com_error is not None and row.com_error > tol:
+            whys.append(f"centre of mass {row.com_error:.3g} > {tol:.3g} past the predictable horizon")
+        if row.strain_excess is not None and row.strain_excess > STRAIN_TOL:
+            whys.append(f"largest strain {row.strain_excess:.1%} above the reference's (tolerance {STRAIN_TOL:.0%})")
     row.meets = not whys
     row.why = "; ".join(whys)
 
 
-def _cost_per_step(method, scene: Scene, h: float, injected: dict | None = None) -> tuple[float | None, str]:
+def _cost_per_step(
+    method, scene: Scene, h: float, injected: dict | None = None
+) -> tuple[float | None, str, float | None]:
+    """(seconds per step, the fastest repeat; how timed; the repeats' relative spread)."""
     from harness.measures.cost import wall_time_per_step
 
     res = wall_time_per_step(method, scene, h, repeats=COST_REPEATS, clock="cpu", injected=injected)
-    return res["s_per_step"], f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
+    timing = f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
+    return res["s_per_step"], timing, res.get("rel_spread")
+
+
+def tie(cost_a: float | None, spread_a: float | None, cost_b: float | None, spread_b: float | None) -> bool:
+    """Whether two frames' costs lie within their timing spread: each a fastest repeat and the
+    repeats' relative spread, the two ranges [fastest, slowest] overlapping. Which of two such frames
+    is the cheaper is the machine's noise, not a finding: a pick between them is a tie."""
+    if cost_a is None or cost_b is None or not (math.isfinite(cost_a) and math.isfinite(cost_b)):
+        return False
+    lo, hi = sorted(((cost_a, spread_a or 0.0), (cost_b, spread_b or 0.0)))
+    return hi[0] <= lo[0] * (1.0 + lo[1])
 
 
 def advise_method(
@@ -318,8 +379,11 @@ def advise_method(
         out.best = sorted(rows).index(best)
         out.best_row.converged = convergence(method, scene, request, out.best_row, out, timeout, reference)
         if out.cost_per_step_s is None:
-            out.cost_per_step_s, out.cost_timing = _cost_per_step(method, scene, out.best_row.h, injected)
+            out.cost_per_step_s, out.cost_timing, out.cost_rel_spread = _cost_per_step(
+                method, scene, out.best_row.h, injected
+            )
     for row in out.rows:
+        release(row)
         if out.cost_per_step_s is not None:
             row.cost_per_frame_s = row.substeps * out.cost_per_step_s
     if out.best is None:
@@ -358,7 +422,7 @@ def _row(
             )
             return row
     steps = max(1, int(round(request.horizon * request.hz * s)))
-    traj = simulate(method, scene, h, steps, max(1, steps // RECORDED), timeout=timeout)
+    traj = simulate(method, scene, h, steps, frame_stride(s, steps), timeout=timeout)
     row.status, row.detail = traj.status, traj.detail
     if traj.status in ("crashed", "timed_out"):
         row.why = f"{traj.status}: {traj.detail}"
@@ -378,9 +442,23 @@ def _row(
         return row
     row.stable = True
     row.energy_error, row.energy_gained = _energy_error(traj, scene)
+    differs = _built_differently(method, scene, out)
+    if differs:  # the file's energy is MuJoCo's function of MuJoCo's model: not this engine's
+        row.energy_error = row.energy_gained = None
+        row.detail = (row.detail + "; " if row.detail else "") + "model differs: " + "; ".join(differs[:3])
     row.energy_class = _energy_class(traj, scene)
+    # What a convergence check holds the tightened run against (not recorded: ``release`` drops it).
+    row._at_frames = frames.positions().copy()
     if reference:
-        row.position_error = frames.position_error()
+        judged = frames.judged()
+        if judged is not None:
+            row.position_error, row.com_error, row.strain_excess = (
+                judged.position_error,
+                judged.com_error,
+                judged.strain_excess,
+            )
+            predictable = frames.horizon()
+            row.judged_until = predictable.until if predictable is not None and predictable.short else None
     if traj.force_evals is not None:
         row.evals_per_frame = traj.force_evals / steps * s
     elif count:  # counted as the cost measure counts them: a counting run where the mode has one
@@ -414,22 +492,71 @@ def convergence(
     count: bool = True,
 ) -> dict | None:
     """The row's method run again at the row's substeps with its convergence knob tightened
-    (``harness.methods.tightened``), judged as the row was: ``{"method", "meets", "why", "energy_error",
-    "position_error"}``; None for a method with no knob (nothing iterates short of its answer)."""
+    (``harness.methods.tightened``), judged as the row was, and its motion against the row's: its
+    positions at every frame inside the predictable horizon and its centre of mass past it
+    (``harness.measures.horizon.moved``), within the position tolerance (the request's, else the
+    default share of the length scale): ``{"method", "meets", "why", "energy_error", "position_error",
+    "com_error", "strain_excess", "energy_within", "moved", "com_moved", "tol", "until", "motion"}``;
+    "meets" False where the tightened run misses the tolerances or its motion moves past them (the
+    row's win then rests on its solve's own error); None for a method with no knob (nothing
+    iterates short of its answer)."""
     from harness.methods import tightened
+
+    from harness.measures.horizon import measure, moved
 
     tight = tightened(method)
     if tight is None:
         return None
     probe = MethodAdvice(tight.id, limit_verdict=advice.limit_verdict)
     r = _row(tight, scene, request, row.substeps, probe, timeout, reference, count)
-    return {
+    out = {
         "method": tight.id,
         "meets": r.meets,
         "why": r.why or ("" if r.meets else r.status),
         "energy_error": r.energy_error,
         "position_error": r.position_error,
+        "com_error": r.com_error,
+        "strain_excess": r.strain_excess,
     }
+    out["energy_within"] = bool(
+        r.stable
+        and (request.energy_tol is None or (r.energy_error is not None and r.energy_error <= request.energy_tol))
+    )
+    mine, theirs = getattr(row, "_at_frames", None), getattr(r, "_at_frames", None)
+    release(r)
+    if mine is None or theirs is None or not r.stable:
+        out["motion"] = False if not r.stable else None
+        return out
+    # Every figure the row's verdict rests on, and the motion itself: the tightened run's positions
+    # at the frames against the row's, inside the predictable horizon, its centre of mass past it.
+    tol = judged_tolerance(request, scene)
+    # Two runs that stay within the tolerance over the whole horizon have converged wherever the
+    # horizon falls: the two references are solved only where they part by more.
+    h = None
+    apart, com = moved(scene, mine, theirs, None)
+    if apart > tol:
+        h = measure(scene, request.hz, request.horizon, tol)
+        apart, com = moved(scene, mine, theirs, h)
+    out.update(moved=apart, com_moved=com, tol=tol, until=None if h is None or not h.short else h.until)
+    whys = [out["why"]] if out["why"] else []
+    if apart > tol:
+        whys.append(
+            f"its positions move {apart:.3g} > {tol:.3g}"
+            + (f" within the predictable horizon ({h.until:.3g} s)" if h is not None and h.short else "")
+        )
+    if com is not None and com > tol:
+        whys.append(f"its centre of mass moves {com:.3g} > {tol:.3g} past the horizon")
+    out["motion"] = bool(apart <= tol and (com is None or com <= tol))
+    out["meets"] = bool(r.meets and out["motion"])
+    out["why"] = "; ".join(whys)
+    return out
+
+
+def release(row: Row | None) -> Row | None:
+    """The row without the run's positions a convergence check reads (what goes back to a caller)."""
+    if row is not None:
+        row.__dict__.pop("_at_frames", None)
+    return row
 
 
 def rests_on_solve(row: Row | None) -> bool:
@@ -481,6 +608,7 @@ class Advice:
     length_scale: float | None = None  # the scene's (``Scene.length_scale``)
     position_tol: float | None = None  # the position tolerance on the scene, absolute (None: not judged)
     periods: float | None = None  # the horizon in periods of the scene's omega
+    horizon: dict | None = None  # the scene's predictable horizon (``harness.measures.horizon``), where measured
 
     @property
     def meeting(self) -> list[MethodAdvice]:
@@ -507,17 +635,58 @@ class Advice:
                     best, score = (m, r), x
         return best
 
+    @property
+    def tied(self) -> list[MethodAdvice]:
+        """The methods that meet the tolerances at a frame cost within the cheapest's timing spread
+        (``tie``), the cheapest first: more than one, and the pick is a tie."""
+        meeting = self.meeting
+        if not meeting:
+            return []
+        first = meeting[0]
+        return [first] + [
+            m
+            for m in meeting[1:]
+            if tie(
+                first.best_row.cost_per_frame_s,
+                first.cost_rel_spread,
+                m.best_row.cost_per_frame_s,
+                m.cost_rel_spread,
+            )
+        ]
+
+    def horizon_text(self) -> str:
+        """The predictable horizon and what was judged past it, where one was measured."""
+        from harness.measures.horizon import Horizon
+
+        h = Horizon.from_dict(self.horizon)
+        if h is None or self.position_tol is None:
+            return ""
+        past = h.past_text()
+        return f"; the scene is {h.text()}" + (f": {past}" if past else "")
+
     def verdict(self) -> str:
-        """The verdict in a line; without an accuracy tolerance it says so first."""
+        """The verdict in a line; without an accuracy tolerance it says so first. Methods whose frames
+        cost the same within their timing spread are a tie, each named."""
         first = "" if self.position_tol is not None else "no accuracy tolerance (the energy alone judged): "
         meeting = self.meeting
         if meeting:
             m = meeting[0]
             r = m.best_row
             rests = f"; {solve_note(r)}" if rests_on_solve(r) else ""
+            tied = self.tied
+            if len(tied) > 1:
+                names = " and ".join(
+                    f"{t.method} ({t.best_row.substeps} substep{'s' if t.best_row.substeps > 1 else ''}, "
+                    f"{_us(t.best_row.cost_per_frame_s)} per frame)"
+                    for t in tied
+                )
+                return (
+                    f"{first}cheapest that meets the tolerances: a tie within the timing spread, {names}"
+                    f"{rests}{self.horizon_text()}"
+                )
             return (
                 f"{first}cheapest that meets the tolerances: {m.method}, {r.substeps} substep"
-                f"{'s' if r.substeps > 1 else ''}, {_us(r.cost_per_frame_s)} per frame{rests}"
+                f"{'s' if r.substeps > 1 else ''}, {_us(r.cost_per_frame_s)} per frame{rests}{self.horizon_text()}"
             )
         near = self.closest
         if near is None:
@@ -525,7 +694,7 @@ class Advice:
         m, r = near
         return (
             f"{first}no method meets the tolerances; closest: {m.method} at {r.substeps} substep"
-            f"{'s' if r.substeps > 1 else ''} ({r.why})"
+            f"{'s' if r.substeps > 1 else ''} ({r.why}){self.horizon_text()}"
         )
 
     def advice(self) -> dict | None:
@@ -535,7 +704,11 @@ class Advice:
         meeting = self.meeting
         if not meeting:
             return None
-        return {**_choice(meeting[0]), "runner_up": _choice(meeting[1]) if len(meeting) > 1 else None}
+        return {
+            **_choice(meeting[0]),
+            "runner_up": _choice(meeting[1]) if len(meeting) > 1 else None,
+            "tie": [m.method for m in self.tied] if len(self.tied) > 1 else None,
+        }
 
     def as_dict(self) -> dict:
         near = self.closest
@@ -546,6 +719,7 @@ class Advice:
             "length_scale": self.length_scale,
             "position_tol": self.position_tol,
             "periods": self.periods,
+            "horizon": self.horizon,
             "advice": self.advice(),
             "verdict": self.verdict(),
             "closest": None if self.meeting or near is None else {**_choice(near[0], near[1]), "why": near[1].why},
@@ -567,6 +741,9 @@ def _choice(m: MethodAdvice, row: Row | None = None) -> dict:
         "energy_error": r.energy_error,
         "energy_class": r.energy_class,
         "position_error": r.position_error,
+        "judged_until": r.judged_until,
+        "com_error": r.com_error,
+        "strain_excess": r.strain_excess,
         "evals_per_frame": r.evals_per_frame,
         "evals_reason": None if r.evals_per_frame is not None else (m.evals_reason or None),
         "converged": r.converged,
@@ -653,11 +830,16 @@ def advise(
     from harness.execution.pool import WorkerPool
     from harness.methods import active_plugins
 
+    from harness.measures.horizon import measure
+
     request = request.checked()
     validate.scene_values(scene)
     ids, left = candidates(scene, patterns)
     plugins = active_plugins()
     injected = load_injected()
+    # Both references once, here: the scene carries them to every worker (``harness.measures.horizon``).
+    tol = request.position_tolerance(scene)
+    horizon = measure(scene, request.hz, request.horizon, tol) if tol is not None and ids else None
     results: dict[str, MethodAdvice] = {}
     with WorkerPool(max(1, min(jobs, len(ids) or 1))) as pool, ThreadPoolExecutor(max(1, jobs)) as threads:
         futures = {
@@ -680,4 +862,5 @@ def advise(
         scene.length_scale,
         request.position_tolerance(scene),
         request.horizon / scene.period,
+        horizon.as_dict() if horizon is not None else None,
     )

@@ -167,10 +167,11 @@ def pilot_cost(method, scene, h: float, injected=None) -> float | None:
     return per_step
 
 
-def frame_cost(method, scene, h: float, pilot: float | None, injected=None) -> tuple[float | None, str]:
-    """(seconds per step, how timed) of a row that meets the tolerances, as the advice times it
-    (``harness.measures.advise``: COST_REPEATS repeats on the CPU clock), each repeat
-    TIME_BUDGET_S long by the pilot's figure (the cost measure's 100,000 steps where they fit)."""
+def frame_cost(method, scene, h: float, pilot: float | None, injected=None) -> tuple[float | None, str, float | None]:
+    """(seconds per step, how timed, the repeats' relative spread) of a row that meets the
+    tolerances, as the advice times it (``harness.measures.advise``: COST_REPEATS repeats on the CPU
+    clock), each repeat TIME_BUDGET_S long by the pilot's figure (the cost measure's 100,000 steps
+    where they fit)."""
     from harness.measures.advise import COST_REPEATS
     from harness.measures.cost import REF_TIME_STEPS, wall_time_per_step
 
@@ -178,7 +179,8 @@ def frame_cost(method, scene, h: float, pilot: float | None, injected=None) -> t
     if pilot and pilot * REF_TIME_STEPS > TIME_BUDGET_S:
         steps = max(PILOT_STEPS, int(TIME_BUDGET_S / pilot))
     res = wall_time_per_step(method, scene, h, steps=steps, repeats=COST_REPEATS, clock=CLOCK, injected=injected)
-    return res["s_per_step"], f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
+    timing = f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
+    return res["s_per_step"], timing, res.get("rel_spread")
 
 
 def start(
@@ -218,6 +220,7 @@ def level(
     *,
     timeout=None,
     injected=None,
+    survival: bool = False,
 ) -> dict:
     """One level of a method's search: its pilot cost per step at this step first; where
     ``ceiling`` (factor x the cheapest frame found, seconds) is known and ``substeps`` x that cost
@@ -225,14 +228,25 @@ def level(
     the advice's rows (``harness.measures.advise._row``; nothing held against the scene's reference
     solution unless a position tolerance is asked), and where it meets the tolerances its cost
     per step timed as the advice times it and, for a method with a convergence knob, the same level
-    with the knob tightened (``harness.measures.advise.convergence``)."""
-    from harness.measures.advise import _row, convergence
+    with the knob tightened (``harness.measures.advise.convergence``: its figures and its positions).
+    ``survival``: the level may be the first claim's (the stiffest value, an implicit solve not yet
+    within the energy tolerance): where it is within it, the same check (``survival_converged``)."""
+    from harness.measures.advise import _row, convergence, release
+
     from harness.measures.common import resolve
 
     method = resolve(method, scene)
     h = 1.0 / (request.hz * substeps)
     pilot = pilot_cost(method, scene, h, injected)
-    out = {"ended": "", "pilot_s": pilot, "row": None, "cost_per_step_s": None, "timing": ""}
+    out = {
+        "ended": "",
+        "pilot_s": pilot,
+        "row": None,
+        "cost_per_step_s": None,
+        "timing": "",
+        "cost_rel_spread": None,
+        "survival_converged": None,
+    }
     if ceiling is not None and pilot is not None and substeps * pilot > ceiling:
         out["ended"] = "cost"
         return out
@@ -242,8 +256,20 @@ def level(
         out["ended"] = row.status
     elif row.meets:
         out["ended"] = "met"
-        out["cost_per_step_s"], out["timing"] = frame_cost(method, scene, h, pilot, injected)
+        out["cost_per_step_s"], out["timing"], out["cost_rel_spread"] = frame_cost(method, scene, h, pilot, injected)
         row.converged = convergence(method, scene, request, row, advice, timeout, reference=False, count=False)
+    if survival and within_energy(row, request):
+        # The first claim rests on the energy and the motion: the tightened run within the energy
+        # tolerance, its positions where the row's are (its accuracy is the second claim's).
+        check = (
+            row.converged
+            if row.meets
+            else convergence(method, scene, request, row, advice, timeout, reference=False, count=False)
+        )
+        if check is not None:
+            check = {**check, "meets": bool(check.get("energy_within") and check.get("motion"))}
+        out["survival_converged"] = check
+    release(row)
     return out
 
 
@@ -278,6 +304,8 @@ def sweep_value(
         float(scene.omega / request.hz),
         position_tol=request.position_tolerance(scene),
     )
+    horizon = predictable(scene, request)
+    point.horizon = horizon.as_dict() if horizon is not None else None
     entries: dict[str, SweepEntry] = {}
     advices: dict[str, MethodAdvice] = {}
     pilot: dict[str, float | None] = {}
@@ -307,7 +335,21 @@ def sweep_value(
                 del pending[m]
         order = sorted(pending, key=lambda m: (pending[m] * (pilot[m] or 0.0), m))[:width]
         jobs = [
-            (_level_one, (m, scene, request, advices[m], pending[m], ceiling, timeout, injected, plugins))
+            (
+                _level_one,
+                (
+                    m,
+                    scene,
+                    request,
+                    advices[m],
+                    pending[m],
+                    ceiling,
+                    timeout,
+                    injected,
+                    plugins,
+                    survival and entries[m].family == "implicit" and entries[m].energy_substeps is None,
+                ),
+            )
             for m in order
         ]
         for m, res in zip(order, call_all(call, jobs)):
@@ -324,11 +366,14 @@ def sweep_value(
                 e.searched = s
                 if e.energy_substeps is None and within_energy(row, request):
                     e.energy_substeps = s  # the levels run in order 1, 2, 4, ...: the first is the fewest
+                    e.survival_converged = res.get("survival_converged")
                 if res["ended"] == "met":
                     e.ended, e.substeps, e.h, e.homega = "met", s, row.h, row.homega
                     e.cost_per_step_s = res["cost_per_step_s"]
                     e.cost_per_frame_s = s * e.cost_per_step_s
+                    e.cost_rel_spread = res.get("cost_rel_spread")
                     e.energy_error, e.position_error, e.why = row.energy_error, row.position_error, ""
+                    e.judged_until, e.com_error, e.strain_excess = row.judged_until, row.com_error, row.strain_excess
                     e.converged = row.converged
                 elif res["ended"]:
                     e.ended, e.why = res["ended"], row.why
@@ -368,23 +413,30 @@ def probe_survival(
         for e in explicit
     ]
     most = min(needs) // SURVIVAL_RATIO
-    if any(e.energy_substeps is not None and e.energy_substeps <= most for e in implicit) or most < 1:
+    if any(e.energy_substeps is not None and e.energy_substeps <= most and survived(e) for e in implicit) or most < 1:
         return
     for e in implicit:
         if e.ended != "cost" or e.energy_substeps is not None or e.method not in advices:
             continue
         s = e.next_substeps or 1
         while s <= most:
-            res = call_all(
-                call, [(_level_one, (e.method, scene, request, advices[e.method], s, None, timeout, injected, plugins))]
-            )[0]
+            job = (e.method, scene, request, advices[e.method], s, None, timeout, injected, plugins, True)
+            res = call_all(call, [(_level_one, job)])[0]
             if not isinstance(res, dict) or res["row"] is None:
                 break
             e.probed = (*e.probed, s)
             if within_energy(res["row"], request):
                 e.energy_substeps = s
+                e.survival_converged = res.get("survival_converged")
                 break
             s *= 2
+
+
+def survived(e: SweepEntry) -> bool:
+    """Whether an entry's survival (``energy_substeps``) stands once its solve converges further:
+    no convergence knob, or the tightened run within the energy tolerance and its motion where the
+    entry's run's is (``survival_converged``)."""
+    return e.energy_substeps is not None and (e.survival_converged is None or bool(e.survival_converged["meets"]))
 
 
 def within_energy(row, request: Request) -> bool:
@@ -448,10 +500,31 @@ def _start_one(method_id, scene, request, timeout, injected, plugins=()):
     return start(_method(method_id, plugins), scene, request, timeout=timeout, injected=injected)
 
 
-def _level_one(method_id, scene, request, advice, substeps, ceiling, timeout, injected, plugins=()):
+def _level_one(method_id, scene, request, advice, substeps, ceiling, timeout, injected, plugins=(), survival=False):
     return level(
-        _method(method_id, plugins), scene, request, advice, substeps, ceiling, timeout=timeout, injected=injected
+        _method(method_id, plugins),
+        scene,
+        request,
+        advice,
+        substeps,
+        ceiling,
+        timeout=timeout,
+        injected=injected,
+        survival=survival,
     )
+
+
+def predictable(scene, request: Request):
+    """The scene's predictable horizon (``harness.measures.horizon``) at one value of the grid, where
+    positions are judged: measured here, once, before any level runs (the scene carries both
+    references to the workers); None where the sweep judges the energy alone (a convergence check
+    that needs it measures it then), or the scene has no second reference."""
+    from harness.measures.horizon import measure, supported
+
+    tol = request.position_tolerance(scene)
+    if tol is None or not supported(scene):
+        return None
+    return measure(scene, request.hz, request.horizon, tol)
 
 
 # ----------------------------------------------------------------------------- the sweep

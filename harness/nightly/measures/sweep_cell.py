@@ -8,7 +8,10 @@ measures it, and its own ``grid``, ``methods``, ``request`` or ``factor`` where 
 sweep covers every method, so one task holds it; the sizes go to different tasks, so that they run
 side by side). The cell's value is the first crossover's h*omega at one
 substep (None where the cheapest family never changes); its figures carry every value's entries
-(``records.advice.SweepFigures``), which the chart, the report's section and the finding read.
+(``records.advice.SweepFigures``), which the chart, the report's section and the finding read, and
+where positions are judged each value's predictable horizon (``harness.measures.horizon``: the
+position error inside it, the centre of mass and the largest strain past it), which the findings
+state beside the seed's claims.
 """
 
 from __future__ import annotations
