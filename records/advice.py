@@ -291,3 +291,13 @@ def family_crossover(points: list[SweepPoint], a: str, b: str) -> Crossover | No
         homega = math.exp(math.log(p.homega_one) + t * (math.log(q.homega_one) - math.log(p.homega_one)))
         return Crossover(p.value, q.value, a, b, ma, mb, value, homega, interpolated)
     return None
+
+
+def tie(cost_a: float | None, spread_a: float | None, cost_b: float | None, spread_b: float | None) -> bool:
+    """Whether two frames' costs lie within their timing spread: each a fastest repeat and the
+    repeats' relative spread, the two ranges [fastest, slowest] overlapping. Which of two such frames
+    is the cheaper is the machine's noise, not a finding: a pick between them is a tie."""
+    if cost_a is None or cost_b is None or not (math.isfinite(cost_a) and math.isfinite(cost_b)):
+        return False
+    lo, hi = sorted(((cost_a, spread_a or 0.0), (cost_b, spread_b or 0.0)))
+    return hi[0] <= lo[0] * (1.0 + lo[1])

@@ -15,6 +15,9 @@ STATUSES = (OK, UNSTABLE, CRASHED, TIMED_OUT)
 
 #: The three steps every contact mode is reported at (s): the harness's runs and the report's tables.
 REPORT_DTS = (1 / 1000, 1 / 240, 1 / 60)
+#: The step each tolerance profile (``scenarios.contact.PROFILES``) is advised at: a game's frame at
+#: 60 Hz, a robot's control step at 1 kHz.
+PROFILE_DT = {"game": 1 / 60, "robotics": 1 / 1000}
 
 
 @dataclass

@@ -5,10 +5,10 @@ sections, the contact tables, the findings).
 
 * A scene with ``advise`` cells (``harness.measures.advise``): at each frame rate, the method that
   meets the tolerances with the cheapest frame. Frames whose costs lie within their timing spread
-  (``harness.measures.advise.tie``) are a tie: both named, and the pick among them goes to the more
+  (``records.advice.tie``) are a tie: both named, and the pick among them goes to the more
   accurate (the smaller position error), then the fewer evaluations a frame, never to the clock.
 * A contact scene (``contact`` cells): at each tolerance profile's own step (a game's 60 Hz, a
-  robot's 1 kHz, ``scenarios.contact.PROFILE_DT``), the engine mode within every tolerance of that
+  robot's 1 kHz, ``records.contact.PROFILE_DT``), the engine mode within every tolerance of that
   profile at the least engine-loop CPU per simulated second, the same tie rule applied with the
   loop's measured cost.
 * Any other scene says what the suite measured of it instead, in a line.
@@ -34,7 +34,7 @@ def _us(s) -> str:
 
 
 def _tied(first: tuple, other: tuple) -> bool:
-    from harness.measures.advise import tie
+    from records.advice import tie
 
     return tie(first[0], first[1], other[0], other[1])
 
@@ -110,7 +110,7 @@ def _advise_lines(scene: str, cells: list[Cell]) -> list[str]:
 
 
 def _contact_lines(scene: str, cells: list[Cell]) -> list[str]:
-    from scenarios.contact import PROFILE_DT, PROFILES
+    from records.contact import PROFILE_DT
 
     out = []
     params = cells[0].figures.scene_params or {}
@@ -133,8 +133,8 @@ def _contact_lines(scene: str, cells: list[Cell]) -> list[str]:
         where = f"`{scene}`{f' ({shown})' if shown else ''} at {1 / dt:.0f} Hz, {profile} profile"
         if not fine:
             out.append(
-                f"- {where}: no engine mode is within every tolerance ({judged} judged; "
-                f"{PROFILES[profile].source.split(':')[0]} lengths; the contact table says which figure fails)."
+                f"- {where}: no engine mode is within every tolerance ({judged} judged; the contact table says "
+                "which figure fails)."
             )
             continue
         pick, tied, runner = _pick(fine)

@@ -198,7 +198,7 @@ def draw_workprecision(ax, curves: dict, styles: dict | None = None, dotted=()) 
     (``harness.measures.workprecision.pareto_front``) drawn as a thick grey staircase and at most
     ``MAX_NAMED`` series named; ``dotted``: labels drawn dotted (error-controlled sweeps). Returns
     the labels named, those on the front first."""
-    from harness.measures.workprecision import pareto_front
+    from records.pareto import pareto_front
 
     front = pareto_front(curves)
     on_front = list(dict.fromkeys(m for _, _, m in front))

@@ -38,6 +38,7 @@ from typing import ClassVar
 import numpy as np
 
 from records import InvalidInput
+from records.contact import PROFILE_DT  # noqa: F401 (each profile's step, read from here too)
 
 from .scene import Param, Scene, no_solve
 
@@ -97,8 +98,6 @@ PROFILES = {
         sink=5e-3,
     ),
 }
-#: The profile each step is advised under: a game's frame at 60 Hz, a robot's control step at 1 kHz.
-PROFILE_DT = {"game": 1 / 60, "robotics": 1 / 1000}
 
 
 def profile_at(dt: float) -> Tolerances:

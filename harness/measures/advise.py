@@ -61,7 +61,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from records import InvalidInput
-from records.advice import MethodAdvice, Row
+from records.advice import MethodAdvice, Row, tie
 
 from scenarios import Scene
 
@@ -316,16 +316,6 @@ def _cost_per_step(
     res = wall_time_per_step(method, scene, h, repeats=COST_REPEATS, clock="cpu", injected=injected)
     timing = f"{res['timing']}; {res['clock']} clock, {res['time_steps']} steps a repeat"
     return res["s_per_step"], timing, res.get("rel_spread")
-
-
-def tie(cost_a: float | None, spread_a: float | None, cost_b: float | None, spread_b: float | None) -> bool:
-    """Whether two frames' costs lie within their timing spread: each a fastest repeat and the
-    repeats' relative spread, the two ranges [fastest, slowest] overlapping. Which of two such frames
-    is the cheaper is the machine's noise, not a finding: a pick between them is a tie."""
-    if cost_a is None or cost_b is None or not (math.isfinite(cost_a) and math.isfinite(cost_b)):
-        return False
-    lo, hi = sorted(((cost_a, spread_a or 0.0), (cost_b, spread_b or 0.0)))
-    return hi[0] <= lo[0] * (1.0 + lo[1])
 
 
 def advise_method(
