@@ -46,6 +46,7 @@ def test_the_ball_runs_at_every_report_step(mode, dt):
         assert f.cpu_per_s > 0 and len(f.restitution) == 5
 
 
+@pytest.mark.slow  # every mode on every box scene: the figures are held by the tests below
 @pytest.mark.parametrize("scene", ["slide", "rest", "stack"])
 @pytest.mark.parametrize("mode", MODES + (DEFAULT, *HYDRO))
 def test_the_boxes_run(mode, scene):

@@ -173,6 +173,7 @@ def unset_and_stated(kind, settings, dt=1 / 240, steps=300):
 
 
 # ----------------------------------------------------------------------------------------------- the modes
+@pytest.mark.slow  # every pose in both modes: the bare-loop tests below hold each figure
 @pytest.mark.parametrize("scene_id", sorted(pose.POSES))
 def test_every_scene_poses_in_both_modes(scene_id):
     scene = make_contact_scene(scene_id)
