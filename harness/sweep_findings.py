@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from records.advice import family_crossover, family_name
+from records.advice import family_crossover, family_name, tie
 from records.findings import MARK, Finding
 
 #: The seed's claim, as the findings quote it.
@@ -235,8 +235,6 @@ def cheaper_usable(points, param: str, accuracy: bool = True) -> Claim:
             True,
         )
     else:
-        from harness.measures.advise import tie
-
         tied = tie(imp.cost_per_frame_s, imp.cost_rel_spread, exp.cost_per_frame_s, exp.cost_rel_spread)
         ok = imp.cost_per_frame_s < exp.cost_per_frame_s and not tied
         ratio = exp.cost_per_frame_s / imp.cost_per_frame_s

@@ -81,7 +81,7 @@ def test_a_row_is_what_the_reference_driver_measures_and_what_theory_says(spring
     assert row.substeps == 16 and row.meets and row.stable
     scene = make_scene("spring")
     steps = 60 * 60 * 16
-    every = 16  # the largest divisor of the substeps keeping 2000 states (``frame_stride``): every frame
+    every = 16  # a divisor of the substeps, at most 2000 states or one a frame (``frame_stride``): every frame
     traj = reference.integrate(reference.METHODS["semi_implicit_euler"], scene, row.h, steps, every)
     e0 = scene.exact_energy(traj.t)
     again = float(np.max(np.abs(traj.energy[:, 0] - e0)) / np.max(np.abs(e0)))

@@ -74,8 +74,9 @@ HORIZON = 10.0
 #: length scale (``Scene.length_scale``), an error an animation's viewer does not see.
 ERROR_REL = 0.05
 MAX_SUBSTEPS = 16
-#: Recorded states per horizon run, at least (the energy classification wants >= 100): every
-#: ``frame_stride`` steps, a divisor of the substeps, so that every frame is among them.
+#: Recorded states per horizon run, at most, where a frame holds more than one (the energy
+#: classification wants >= 100): every ``frame_stride`` steps, a divisor of the substeps, so that
+#: every frame is among them.
 RECORDED = 2000
 #: The limit search goes at least this far in h*omega (past every explicit scheme's limit),
 #: so that a method stable at every step the advice uses still shows where it would fail.
@@ -184,9 +185,25 @@ def _limit(method, scene: Scene, request: Request, timeout) -> tuple[float | Non
     return res.omega_dt_max, res.verdict, hi
 
 
-def _energy_error(traj, scene: Scene) -> tuple[float | None, bool | None]:
+def _energies(traj, scene: Scene, frames=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t, the run's energy, the exact energy) the energy figures read: at every recorded state; on a
+    dissipating scene whose exact energy is its DOP853 reference's (the damped cloth,
+    ``harness.measures.horizon.supported``), at the frames (``frames``), where the reference is read
+    once per frame rate: at every recorded time a large sheet's reference, whose dense output is
+    not all kept, would be solved again for every run."""
+    from harness.measures.horizon import supported
+
     e = np.asarray(traj.energy[:, 0], dtype=float)
-    exact = np.asarray(scene.exact_energy(traj.t), dtype=float)
+    if frames is not None and not scene.conservative and supported(scene):
+        q, v = frames.truth()
+        rows = frames.frame_rows()[: len(q)]
+        return traj.t[rows], e[rows], np.asarray(scene.energy(q[: len(rows)], v[: len(rows)]), dtype=float)
+    return traj.t, e, np.asarray(scene.exact_energy(traj.t), dtype=float)
+
+
+def _energy_error(traj, scene: Scene, frames=None) -> tuple[float | None, bool | None]:
+    """The largest energy error relative to the largest exact energy (``_energies``)."""
+    _, e, exact = _energies(traj, scene, frames)
     scale = float(np.max(np.abs(exact)))
     if scale == 0.0 or not np.all(np.isfinite(e)):
         return None, None
@@ -208,10 +225,10 @@ def _built_differently(method, scene: Scene, out) -> list[str]:
 
 
 def frame_stride(substeps: int, steps: int) -> int:
-    """Steps between recorded states: the largest divisor of ``substeps`` that keeps at least
-    RECORDED of the run's ``steps`` (every frame is then recorded, and no figure skips one)."""
-    most = max(1, steps // RECORDED)
-    return max(d for d in range(1, min(substeps, most) + 1) if substeps % d == 0)
+    """Steps between recorded states: a divisor of ``substeps``, so that every frame is recorded and
+    no figure skips one; the smallest that keeps at most RECORDED of the run's ``steps``, else one
+    state a frame (a large sheet's energy, taken state by state, holds every spring of every state)."""
+    return next(d for d in range(1, substeps + 1) if substeps % d == 0 and (steps // d <= RECORDED or d == substeps))
 
 
 def judged_tolerance(request: Request, scene: Scene) -> float:
@@ -248,12 +265,15 @@ class _Frames:
         q, v = self.truth()
         return float(np.max(np.linalg.norm(scaled_state(self.scene, q, v), axis=-1)))
 
-    def positions(self) -> np.ndarray:
-        """The run's positions at every frame it reached (0, 1, ...: every frame is recorded)."""
+    def frame_rows(self) -> np.ndarray:
+        """The recorded states at frames 0, 1, ... as far as the run reached (every frame is recorded)."""
         step = self.traj.step
         rows = np.flatnonzero(step % self.substeps == 0)
-        rows = rows[step[rows] // self.substeps == np.arange(len(rows))]  # frames in order, none skipped
-        return self.traj.q[rows, 0, :]
+        return rows[step[rows] // self.substeps == np.arange(len(rows))]  # frames in order, none skipped
+
+    def positions(self) -> np.ndarray:
+        """The run's positions at every frame it reached."""
+        return self.traj.q[self.frame_rows(), 0, :]
 
     def judged(self):
         """The run against the truth at the frames, inside the horizon and past it
@@ -431,12 +451,12 @@ def _row(
         )
         return row
     row.stable = True
-    row.energy_error, row.energy_gained = _energy_error(traj, scene)
+    row.energy_error, row.energy_gained = _energy_error(traj, scene, frames)
     differs = _built_differently(method, scene, out)
     if differs:  # the file's energy is MuJoCo's function of MuJoCo's model: not this engine's
         row.energy_error = row.energy_gained = None
         row.detail = (row.detail + "; " if row.detail else "") + "model differs: " + "; ".join(differs[:3])
-    row.energy_class = _energy_class(traj, scene)
+    row.energy_class = _energy_class(traj, scene, frames)
     # What a convergence check holds the tightened run against (not recorded: ``release`` drops it).
     row._at_frames = frames.positions().copy()
     if reference:
@@ -563,12 +583,13 @@ def solve_note(row: Row) -> str:
     )
 
 
-def _energy_class(traj, scene: Scene) -> str | None:
+def _energy_class(traj, scene: Scene, frames=None) -> str | None:
     from harness.measures.energy import classify
 
     if not classed(scene, float(traj.t[-1] - traj.t[0])):
         return None  # too few periods to tell a band from a drift (the command says so under its table)
-    return classify(traj.energy[:, 0], scene.exact_energy(traj.t), traj.t)["classification"]
+    t, e, exact = _energies(traj, scene, frames)
+    return classify(e, exact, t)["classification"]
 
 
 def _reason(advice: MethodAdvice, request: Request) -> str:
