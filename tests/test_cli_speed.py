@@ -240,3 +240,30 @@ def test_bad_input_is_one_line_naming_the_field(monkeypatch, argv, env, field):
         monkeypatch.setenv("HARNESS_PROGRESS_AFTER", env)
     code, out, err = cli(*argv)
     assert code == 2 and out == "" and err.count("\n") == 1 and field in err and "allowed" in err
+
+
+def test_the_advice_the_sweep_and_the_contact_advice_say_what_they_are_doing(monkeypatch):
+    """The multi-method commands name each method's search as it ends, each value of a sweep and each
+    contact mode's runs, on stderr: their answer on stdout is the same as without."""
+    monkeypatch.setattr(progress, "QUIET_S", 0.0)
+    methods = ("--methods", "ref:rk4,ref:leapfrog", "--jobs", "1")
+    code, out, err = cli("advise", "spring", "--hz", "60", "--horizon", "2", *methods)
+    assert code == 0, err
+    lines = [line for line in err.splitlines() if line.startswith("advise: ")]
+    assert lines[:2] == [
+        "advise: the predictable horizon (two references of spring)",
+        "advise: 2 methods searched in 1 workers",
+    ]
+    ended = sorted(line.split("(")[1] for line in lines[2:])
+    assert [line.split(" of 2")[0] for line in lines[2:]] == ["advise: 1", "advise: 2"]
+    assert ended == ["ref:leapfrog: 1 substep)", "ref:rk4: 1 substep)"]
+    assert "ref:rk4" in out and "advise: " not in out
+    code, out, err = cli("advise", "spring", "--hz", "60", "--horizon", "2", "--sweep", "k=1..100:2", *methods)
+    assert code == 0, err
+    sweep = [line for line in err.splitlines() if line.startswith("sweep: ")]
+    assert sweep == ["sweep: k = 1, value 1 of 2, 2 methods", "sweep: k = 100, value 2 of 2, 2 methods"]
+    code, out, err = cli("contact", "--advise", "--hz", "60", "--modes", "mujoco:euler", "--json")
+    assert code == 0, err
+    said = [line for line in err.splitlines() if line.startswith("contact: ")]
+    assert said[:3] == [f"contact: {s}, mujoco:euler at dt 1/60" for s in ("ball", "slide", "stack")]
+    assert json.loads(out)  # the answer alone on stdout

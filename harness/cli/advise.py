@@ -15,7 +15,7 @@ from scenarios import make_scene, parse_overrides
 from harness import validate
 from harness.measures.advise import ERROR_REL, HORIZON, MAX_SUBSTEPS, Request, advise, solve_note
 from harness.measures.sweep import CAP, CLOCK, FACTOR, POINTS, family_name, parse_grid, run_sweep
-from harness.cli.measure_args import emit
+from harness.cli.measure_args import emit, progress
 from harness.sweep_findings import seed_claims
 
 
@@ -108,16 +108,18 @@ def run(args) -> int:
             raise InvalidInput(
                 f"--sweep {grid.param} and --set {grid.param} name the same parameter (allowed: one of them)"
             )
-        result = run_sweep(
-            scene,
-            grid,
-            request,
-            patterns or None,
-            factor=args.factor,
-            cap=args.sweep_max_substeps,
-            jobs=jobs,
-            timeout=timeout,
-        )
+        with progress() as say:
+            result = run_sweep(
+                scene,
+                grid,
+                request,
+                patterns or None,
+                factor=args.factor,
+                cap=args.sweep_max_substeps,
+                jobs=jobs,
+                timeout=timeout,
+                progress=say,
+            )
         return emit(result.as_dict() if args.json else result, args.json, sweep_lines, scene)
     if args.points is not None:
         raise InvalidInput("--points is for a --sweep (allowed: with --sweep NAME=LO..HI)")
@@ -132,7 +134,8 @@ def run(args) -> int:
             + " [--methods '*' runs every method]",
             file=sys.stderr,
         )
-    result = advise(scene, request, patterns, jobs=jobs, timeout=timeout)
+    with progress() as say:
+        result = advise(scene, request, patterns, jobs=jobs, timeout=timeout, progress=say)
     return emit(result.as_dict() if args.json else result, args.json, _lines, scene)
 
 

@@ -108,7 +108,10 @@ def run(args) -> int:
         return advise_contact(dts[0], chosen, {s: params[s] for s in scenes}, args.json, tol)
     from harness.contact.study import study
 
-    df = study({s: params[s] for s in scenes}, chosen, dts, tol=tol)
+    from harness.cli.measure_args import progress
+
+    with progress() as say:
+        df = study({s: params[s] for s in scenes}, chosen, dts, tol=tol, progress=say)
     if args.json:
         json.dump(jsonable(df.to_dict(orient="records")), sys.stdout, indent=1)
         print()
@@ -191,9 +194,12 @@ def advise_contact(dt: float, modes=None, scenes=None, as_json: bool = False, to
 
     from harness.contact.study import ADVICE_SCENES, advise_frame
 
+    from harness.cli.measure_args import progress
+
     tol = tol or profile_for(None, dt)
     scenes = scenes or {s: dict(make_contact_scene(s).values) for s in ADVICE_SCENES}
-    out = advise_frame(scenes, 1.0 / dt, modes, tol)
+    with progress() as say:
+        out = advise_frame(scenes, 1.0 / dt, modes, tol, progress=say)
     if as_json:
         json.dump(jsonable(out), sys.stdout, indent=1)
         print()

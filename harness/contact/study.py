@@ -62,13 +62,19 @@ def largest(runs: list[ContactFigures]) -> dict:
 
 
 def study(
-    scenes: dict[str, dict], modes=None, dts=REPORT_DTS, isolated: bool = True, tol: Tolerances | None = TOLERANCES
+    scenes: dict[str, dict],
+    modes=None,
+    dts=REPORT_DTS,
+    isolated: bool = True,
+    tol: Tolerances | None = TOLERANCES,
+    progress=None,
 ):
     """Every available mode that poses each scene, at each step: a tidy DataFrame, one row per
     (scene, mode, dt), with every figure the scene declares, its ✓/✗ and the mode's contact
     settings, judged under the profile ``tol`` (None: each step under its own). A mode asked for by
     name (``modes``) that does not pose a scene, or is not installed, is a row of its own (status
-    ``unsupported``, ``detail`` saying why), never dropped."""
+    ``unsupported``, ``detail`` saying why), never dropped. ``progress``: told a line before each
+    mode's runs on a scene (a command's progress)."""
     import pandas as pd
 
     rows = []
@@ -88,6 +94,9 @@ def study(
                 if modes is not None or refused:
                     rows.append(unsupported_row(scene_id, params, mode_id, why))
                 continue
+            if progress is not None:
+                steps = ", ".join(f"1/{1 / dt:.0f}" for dt in dts)
+                progress(f"contact: {scene_id}, {mode_id} at dt {steps}")
             for f in measure_mode(mode_id, scene_id, params, dts, isolated=isolated, tol=tol):
                 rows.append(row_of(mode_id, f))
     df = pd.DataFrame(rows)
@@ -225,10 +234,12 @@ def advise(df, dt: float, tol: Tolerances = TOLERANCES) -> dict:
     }
 
 
-def advise_frame(scenes: dict, hz: float, modes, tol: Tolerances, substeps=SUBSTEPS, isolated: bool = True):
+def advise_frame(
+    scenes: dict, hz: float, modes, tol: Tolerances, substeps=SUBSTEPS, isolated: bool = True, progress=None
+):
     """``study`` at 1/(hz n) for n of ``substeps``, each mode stepped at more substeps only while it
     is not yet within every tolerance on every scene (its fewest that are is its frame), then
-    ``advise`` over those rows."""
+    ``advise`` over those rows. ``progress``: as ``study`` takes it."""
     import pandas as pd
 
     from .run import contact_modes
@@ -238,7 +249,7 @@ def advise_frame(scenes: dict, hz: float, modes, tol: Tolerances, substeps=SUBST
     for n in substeps:
         if not pending:
             break
-        df = study(scenes, pending, [1.0 / (hz * n)], isolated=isolated, tol=tol)
+        df = study(scenes, pending, [1.0 / (hz * n)], isolated=isolated, tol=tol, progress=progress)
         frames.append(df)
         ok = df[df.status != "unsupported"]
         done = {

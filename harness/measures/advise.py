@@ -828,12 +828,38 @@ def _advise_in_worker(
     return advise_method(method, scene, request, timeout=timeout, injected=injected)
 
 
+def _found(res: MethodAdvice) -> str:
+    """What a method's search found, in a progress line's words."""
+    if res.status != "ok":
+        return res.status
+    if res.best is None:
+        return "misses the tolerances"
+    n = res.best_row.substeps
+    return f"{n} substep{'s' if n != 1 else ''}"
+
+
+def _as_they_end(futures: dict):
+    """(key, future) pairs of ``futures`` in the order they finish."""
+    from concurrent.futures import as_completed
+
+    keys = {fut: key for key, fut in futures.items()}
+    for fut in as_completed(keys):
+        yield keys[fut], fut
+
+
 def advise(
-    scene: Scene, request: Request, patterns: list[str] | None = None, *, jobs: int = 1, timeout: float = 120.0
+    scene: Scene,
+    request: Request,
+    patterns: list[str] | None = None,
+    *,
+    jobs: int = 1,
+    timeout: float = 120.0,
+    progress=None,
 ) -> Advice:
     """Advice for ``scene``: every candidate method searched in ``jobs`` reused worker processes
     (an engine that aborts or hangs costs its method a ``crashed`` / ``timed_out`` entry), then
-    ranked. Timings injected by ``$HARNESS_INJECT_TIMINGS`` are read here and handed to the workers."""
+    ranked. Timings injected by ``$HARNESS_INJECT_TIMINGS`` are read here and handed to the workers.
+    ``progress``: told a line as each method's search ends (a command's progress)."""
     from concurrent.futures import ThreadPoolExecutor
 
     from harness.measures.injected import load_injected
@@ -850,6 +876,9 @@ def advise(
     injected = load_injected()
     # Both references once, here: the scene carries them to every worker (``harness.measures.horizon``).
     tol = request.position_tolerance(scene)
+    say = progress or (lambda line: None)
+    if tol is not None and ids:
+        say(f"advise: the predictable horizon (two references of {scene.id})")
     horizon = measure(scene, request.hz, request.horizon, tol) if tol is not None and ids else None
     results: dict[str, MethodAdvice] = {}
     with WorkerPool(max(1, min(jobs, len(ids) or 1))) as pool, ThreadPoolExecutor(max(1, jobs)) as threads:
@@ -859,11 +888,13 @@ def advise(
             )
             for mid in ids
         }
-        for mid, fut in futures.items():
+        say(f"advise: {len(ids)} methods searched in {max(1, min(jobs, len(ids)))} workers")
+        for done, (mid, fut) in enumerate(_as_they_end(futures), start=1):
             res = fut.result()
             if isinstance(res, WorkerFailure):
                 res = MethodAdvice(mid, status=res.status, reason=f"{res.status}: {res.detail}")
             results[mid] = res
+            say(f"advise: {done} of {len(ids)} methods searched ({mid}: {_found(res)})")
     return Advice(
         scene.id,
         dict(scene.values),

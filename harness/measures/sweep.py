@@ -586,11 +586,13 @@ def run_sweep(
     jobs: int = 1,
     timeout: float = 120.0,
     pool: bool = True,
+    progress=None,
 ) -> Sweep:
     """The sweep of ``scene`` (its other parameters as given) over ``grid``: every candidate
     method (``patterns``, as ``harness advise`` takes them) at every value. ``pool``: each
     method's search in ``jobs`` reused worker processes (an engine that aborts or hangs costs its
-    entry a ``crashed`` / ``timed_out``), else in this process (a nightly task's worker)."""
+    entry a ``crashed`` / ``timed_out``), else in this process (a nightly task's worker).
+    ``progress``: told a line before each value (a command's progress)."""
     from harness.measures.advise import candidates
     from harness.measures.injected import load_injected
 
@@ -611,6 +613,8 @@ def run_sweep(
         with WorkerPool(max(1, min(jobs, len(ids) or 1))) as workers:
             call = _PoolCall(workers, timeout, jobs)
             for i, (v, s) in enumerate(zip(grid.values, scenes)):
+                if progress is not None:
+                    progress(f"sweep: {grid.param} = {v:g}, value {i + 1} of {len(scenes)}, {len(ids)} methods")
                 points.append(
                     sweep_value(
                         s,
