@@ -863,7 +863,7 @@ def advise(
     from concurrent.futures import ThreadPoolExecutor
 
     from harness.measures.injected import load_injected
-    from harness.execution.isolation import WorkerFailure
+    from harness.execution.isolation import WorkerFailure, engine_modules, preload_engines
     from harness.execution.pool import WorkerPool
     from harness.methods import active_plugins
 
@@ -876,6 +876,9 @@ def advise(
     injected = load_injected()
     # Both references once, here: the scene carries them to every worker (``harness.measures.horizon``).
     tol = request.position_tolerance(scene)
+    # The workers' server imports the engines these methods step, not every installed one (Drake's
+    # and Warp's imports are seconds a spring's advice need not wait for).
+    preload_engines(engine_modules(ids))
     say = progress or (lambda line: None)
     if tol is not None and ids:
         say(f"advise: the predictable horizon (two references of {scene.id})")

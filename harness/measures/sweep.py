@@ -608,7 +608,10 @@ def run_sweep(
     ids, left = candidates(scenes[0], patterns)
     points = []
     if pool:
+        from harness.execution.isolation import engine_modules, preload_engines
         from harness.execution.pool import WorkerPool
+
+        preload_engines(engine_modules(ids))  # the server imports these methods' engines alone
 
         with WorkerPool(max(1, min(jobs, len(ids) or 1))) as workers:
             call = _PoolCall(workers, timeout, jobs)
