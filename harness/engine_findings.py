@@ -58,9 +58,17 @@ def engine_findings(piv: dict) -> list[Finding]:
                 )
             )
         elif energy is not None and energy.status == "ok" and energy.figures.energy_class == "grows":
+            numbers = energy.figures.numbers or {}
+            above = numbers.get("max_over_start") if numbers.get("dissipative") else None
+            figure = (
+                f"its energy rises to {above:.3g} x its start where the exact motion's only falls; "
+                if above is not None
+                else ""
+            )
             out.append(
                 Finding(
-                    f"`{method}` gains energy on `{scene}` at the nominal timestep (max |ΔE/E| {energy.value:.2e}).",
+                    f"`{method}` gains energy on `{scene}` at the nominal timestep ({figure}max |ΔE/E| "
+                    f"{energy.value:.2e}).",
                     None,
                     scene,
                     method,
@@ -68,10 +76,11 @@ def engine_findings(piv: dict) -> list[Finding]:
             )
         elif energy is not None and energy.status == "ok" and energy.figures.energy_class == "damps less":
             ratio = (energy.figures.numbers or {}).get("end_ratio")
+            wobble = (energy.figures.numbers or {}).get("energy_step_rises")
             out.append(
                 Finding(
                     f"`{method}` damps `{scene}` less than the exact motion at the nominal timestep (its energy "
-                    "falls, never rises"
+                    + ("never rises above its start" if wobble else "falls, never rises")
                     + (f"; {ratio:.3g} x the exact energy at the end" if ratio is not None else "")
                     + ").",
                     None,

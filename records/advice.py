@@ -23,6 +23,9 @@ class Row:
     rho: float | None = None  # spectral radius of the one-step map at h (linear scenes)
     energy_error: float | None = None
     energy_gained: bool | None = None
+    #: The energy error's way: grows / falls, or on a dissipating scene grows (above its start),
+    #: damps less / damps more than the exact motion.
+    energy_way: str | None = None
     energy_class: str | None = None
     position_error: float | None = None
     evals_per_frame: float | None = None

@@ -39,10 +39,24 @@ def _tied(first: tuple, other: tuple) -> bool:
     return tie(first[0], first[1], other[0], other[1])
 
 
-def _pick(candidates: list[dict]) -> tuple[dict, list[dict], dict | None]:
-    """(the pick, the candidates tied with the cheapest (empty: no tie), the runner-up). Each
-    candidate: ``cost``, ``spread`` (relative; None: ``TIE_WITHOUT_SPREAD``), ``error`` (position
-    error, None: not judged), ``evals`` (a frame's, None: not counted), ``name``."""
+#: Two position errors closer than this, relative, are one figure: schemes that compute the same
+#: positions (leapfrog and velocity Verlet) differ in the last bits, which a compiler or a BLAS moves.
+SAME_ERROR_REL = 1e-9
+
+
+def _same(a, b) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return abs(float(a) - float(b)) <= SAME_ERROR_REL * max(abs(float(a)), abs(float(b)))
+
+
+def _pick(candidates: list[dict]) -> tuple[dict, list[dict], dict | None, str]:
+    """(the pick, the candidates tied with the cheapest (empty: no tie), the runner-up, why the pick
+    among the tied). Each candidate: ``cost``, ``spread`` (relative; None: ``TIE_WITHOUT_SPREAD``),
+    ``error`` (position error, None: not judged), ``energy`` (energy error, None: not judged),
+    ``evals`` (a frame's, None: not counted), ``name``. A tie is decided by the position error,
+    errors within ``SAME_ERROR_REL`` being one; then the energy error; then the evaluations; then
+    the name (the phrase says which decided)."""
     ranked = sorted(candidates, key=lambda c: (_num(c["cost"]), c["name"]))
     first = ranked[0]
 
@@ -51,11 +65,23 @@ def _pick(candidates: list[dict]) -> tuple[dict, list[dict], dict | None]:
         return (c["cost"], spread)
 
     tied = [c for c in ranked if c is first or _tied(key(first), key(c))]
-    if len(tied) > 1:
-        pick = min(tied, key=lambda c: (_num(c["error"]), _num(c["evals"]), _num(c["cost"]), c["name"]))
-        rest = [c for c in ranked if c is not pick]
-        return pick, tied, rest[0] if rest else None
-    return first, [], ranked[1] if len(ranked) > 1 else None
+    if len(tied) < 2:
+        return first, [], ranked[1] if len(ranked) > 1 else None, ""
+    pool, why = tied, ""
+    for field, phrase in (
+        ("error", "the more accurate"),
+        ("energy", "the more accurate in energy (their positions alike)"),
+        ("evals", "the cheaper in evaluations a frame (their errors alike)"),
+    ):
+        best = min(_num(c.get(field)) for c in pool)
+        keep = [c for c in pool if _same(c.get(field), best if math.isfinite(best) else None)]
+        if 0 < len(keep) < len(pool):
+            pool, why = keep, why or phrase
+    pick = min(pool, key=lambda c: c["name"])
+    if len(pool) > 1:
+        why = why or "first by name (alike in accuracy and evaluations)"
+    rest = [c for c in ranked if c is not pick]
+    return pick, tied, rest[0] if rest else None, why
 
 
 def _advise_lines(scene: str, cells: list[Cell]) -> list[str]:
@@ -74,6 +100,7 @@ def _advise_lines(scene: str, cells: list[Cell]) -> list[str]:
                     "cost": row.get("cost_per_frame_s"),
                     "spread": (c.extra or {}).get("cost_rel_spread", getattr(f, "cost_rel_spread", None)),
                     "error": row.get("position_error"),
+                    "energy": row.get("energy_error"),
                     "evals": row.get("evals_per_frame"),
                     "substeps": row.get("substeps"),
                 }
@@ -90,16 +117,14 @@ def _advise_lines(scene: str, cells: list[Cell]) -> list[str]:
         if not meeting:
             out.append(f"- `{scene}` at {hz:g} Hz: no method meets {judged} (the At {hz:g} Hz section says why).")
             continue
-        pick, tied, runner = _pick(meeting)
+        pick, tied, runner, why = _pick(meeting)
         line = (
             f"- `{scene}` at {hz:g} Hz: **`{pick['name']}`**, {pick['substeps']} substep"
             f"{'s' if (pick['substeps'] or 0) > 1 else ''} a frame, {_us(pick['cost'])} per frame: "
         )
         if tied:
             others = ", ".join(f"`{c['name']}` ({_us(c['cost'])})" for c in tied if c is not pick)
-            line += (
-                f"its frame costs the same as {others} within their timing spread (a tie), and it is the more accurate"
-            )
+            line += f"its frame costs the same as {others} within their timing spread (a tie), and it is {why}"
         else:
             line += "the cheapest frame that meets the tolerances"
         line += f" ({judged}; {len(meeting)} of {len(at)} methods meet them)"
@@ -137,7 +162,7 @@ def _contact_lines(scene: str, cells: list[Cell]) -> list[str]:
                 "which figure fails)."
             )
             continue
-        pick, tied, runner = _pick(fine)
+        pick, tied, runner, _ = _pick(fine)
         line = f"- {where}: **`{pick['name']}`**, {pick['cost']:.3g} CPU s per simulated s"
         if tied:
             line += (

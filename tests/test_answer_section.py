@@ -14,8 +14,14 @@ from reports.answer_section import answer_section
 REQUEST = {"energy_tol": 1e-3, "horizon": 10.0}
 
 
-def advise(method, cost, spread, error, evals=4):
-    row = {"substeps": 2, "cost_per_frame_s": cost, "position_error": error, "evals_per_frame": evals}
+def advise(method, cost, spread, error, evals=4, energy=None):
+    row = {
+        "substeps": 2,
+        "cost_per_frame_s": cost,
+        "position_error": error,
+        "evals_per_frame": evals,
+        "energy_error": energy,
+    }
     figures = AdviceFigures(hz=60.0, request=REQUEST, position_tol=0.05, rows=[row], best=0)
     return Cell("spring", method, method.split(":")[0], "advise", figures=figures, extra={"cost_rel_spread": spread})
 
@@ -67,3 +73,16 @@ def test_a_contact_scene_is_advised_at_each_profiles_step_by_its_profiles_tolera
 def test_a_scene_with_no_advice_says_what_was_measured():
     cell = Cell("kepler", "ref:a", "ref", "energy")
     assert any("`kepler`: no advice asked of it in this suite (measured: energy)" in x for x in answer_section([cell]))
+
+
+def test_a_tie_is_not_decided_by_roundoff_in_the_position_error():
+    """Leapfrog and velocity Verlet compute the same positions; the stored errors differ by 1e-17
+    (a nightly's damped spring): they are one figure, and the energy error decides, said as such."""
+    lf = advise("ref:leapfrog", 1.00e-6, 0.10, 0.0022627099176206504, 1, 6.23e-4)
+    vv = advise("ref:velocity_verlet", 1.02e-6, 0.10, 0.00226270991762185, 1, 5.04e-4)
+    for cells in ([lf, vv], [vv, lf]):
+        line = next(x for x in answer_section(cells) if x.startswith("- `spring`"))
+        assert "**`ref:velocity_verlet`**" in line and "the more accurate in energy (their positions alike)" in line
+    same = [advise("ref:b", 1.00e-6, 0.10, 1e-3, 4, 1e-4), advise("ref:a", 1.02e-6, 0.10, 1e-3, 4, 1e-4)]
+    line = next(x for x in answer_section(same) if x.startswith("- `spring`"))
+    assert "**`ref:a`**" in line and "first by name (alike in accuracy and evaluations)" in line

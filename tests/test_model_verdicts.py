@@ -257,3 +257,35 @@ def test_the_advice_does_not_rank_an_engine_on_the_energy_of_a_model_it_did_not_
     res = advise_method("drake:radau3", scene, request, timeout=120)
     assert res.best_row is None
     assert all(r.energy_error is None and "model differs" in r.why for r in res.rows if r.stable)
+
+
+def test_an_engine_whose_built_model_cannot_be_read_has_no_energy_figure_either(chain, monkeypatch):
+    """Where an engine cannot say what it built (its anatomy fails: a release that renamed an API, a
+    worker that died), nothing says its model is MuJoCo's: the energy cell says "model unchecked",
+    with no figure, never MuJoCo's energy function on an unchecked model."""
+    from types import SimpleNamespace
+
+    from harness.measures import cross_engine
+    from harness.methods import get_method
+    from harness.nightly.cells import _energy_and_error
+
+    real = cross_engine.anatomy
+
+    def failing(method_id, scene, dt, timeout=60.0):
+        if method_id.startswith("pybullet:"):
+            raise RuntimeError("the engine's API changed")
+        return real(method_id, scene, dt, timeout)
+
+    monkeypatch.setattr(cross_engine, "anatomy", failing)
+    scene = open_model(chain)
+    method = get_method("pybullet:semi_implicit")
+    said = cross_engine.built_differently(method, scene, scene.own_timestep)
+    assert said == [f"pybullet: {cross_engine.UNCHECKED}: RuntimeError: the engine's API changed"]
+    assert cross_engine.differs_word(said) == "model unchecked"
+    assert cross_engine.differs_word(["drake: joint j1 has no stiffness (mujoco 40)"]) == "model differs"
+    task = SimpleNamespace(scene=scene.id, method=method.id, family="pybullet", params={})
+    spec = SimpleNamespace(horizon=scene.own_timestep * 50, periods=None)
+    suite = SimpleNamespace(series_points=50, cell_timeout=120.0)
+    energy = _energy_and_error(task, method, scene, scene.own_timestep, spec, suite)[0]
+    assert energy.value is None and energy.detail.startswith("model unchecked: pybullet built a model not compared")
+    assert cross_engine.built_differently(get_method("mujoco:rk4"), scene, scene.own_timestep) == []

@@ -224,7 +224,7 @@ def _lines(a):
     failing = a.failing
     if failing:
         yield ""
-        yield "cannot meet them (at every substep count tried):"
+        yield "not advised (at every substep count tried: misses the tolerances, or its step is unstable):"
         for m in failing:
             yield f"  {m.method:{w}s} {m.reason}"
     if a.left_out:

@@ -201,15 +201,24 @@ def _energies(traj, scene: Scene, frames=None) -> tuple[np.ndarray, np.ndarray, 
     return traj.t, e, np.asarray(scene.exact_energy(traj.t), dtype=float)
 
 
-def _energy_error(traj, scene: Scene, frames=None) -> tuple[float | None, bool | None]:
-    """The largest energy error relative to the largest exact energy (``_energies``)."""
+def _energy_error(traj, scene: Scene, frames=None) -> tuple[float | None, bool | None, str | None]:
+    """The largest energy error relative to the largest exact energy (``_energies``), whether the
+    run gained energy, and the word for its way: ``grows`` / ``falls`` against a kept energy; on a
+    dissipating scene ``grows`` only where the energy rose above its start (``RISE``), else
+    ``damps less`` / ``damps more`` than the exact motion (``harness.measures.energy``'s rule 7)."""
+    from harness.measures.energy import RISE
+
     _, e, exact = _energies(traj, scene, frames)
     scale = float(np.max(np.abs(exact)))
     if scale == 0.0 or not np.all(np.isfinite(e)):
-        return None, None
+        return None, None, None
     dev = e - exact
     i = int(np.argmax(np.abs(dev)))
-    return float(abs(dev[i]) / scale), bool(dev[i] > 0.0)
+    error = float(abs(dev[i]) / scale)
+    if len(exact) > 1 and exact[-1] < exact[0] and bool(np.all(np.diff(exact) <= 0.0)):
+        gained = bool(np.max(e) > e[0] + RISE * abs(float(e[0])))
+        return error, gained, "grows" if gained else "damps less" if dev[i] > 0.0 else "damps more"
+    return error, bool(dev[i] > 0.0), "grows" if dev[i] > 0.0 else "falls"
 
 
 def _built_differently(method, scene: Scene, out) -> list[str]:
@@ -300,15 +309,13 @@ def _judge(row: Row, request: Request, scene: Scene, method=None) -> None:
     whys = []
     if request.energy_tol is not None:
         if row.energy_error is None:
-            whys.append(
-                row.detail[row.detail.index("model differs") :]
-                if "model differs" in (row.detail or "")
-                else "energy error undefined"
-            )
+            said = next((w for w in ("model differs", "model unchecked") if w in (row.detail or "")), None)
+            whys.append(row.detail[row.detail.index(said) :] if said else "energy error undefined")
         elif row.energy_error > request.energy_tol:
-            way = "grows" if row.energy_gained else "falls"
+            way = row.energy_way or ("grows" if row.energy_gained else "falls")
+            what = f"energy {way}" if way in ("grows", "falls") else f"{way} than the exact motion: energy off"
             whys.append(
-                f"energy {way} {_pct(row.energy_error)} over {request.horizon:g} s (tolerance {request.energy_tol:g})"
+                f"{what} {_pct(row.energy_error)} over {request.horizon:g} s (tolerance {request.energy_tol:g})"
             )
     tol = request.position_tolerance(scene)
     if request.error_tol is None and method is not None and measured_against_own_run(method, scene):
@@ -451,11 +458,13 @@ def _row(
         )
         return row
     row.stable = True
-    row.energy_error, row.energy_gained = _energy_error(traj, scene, frames)
+    row.energy_error, row.energy_gained, row.energy_way = _energy_error(traj, scene, frames)
     differs = _built_differently(method, scene, out)
     if differs:  # the file's energy is MuJoCo's function of MuJoCo's model: not this engine's
-        row.energy_error = row.energy_gained = None
-        row.detail = (row.detail + "; " if row.detail else "") + "model differs: " + "; ".join(differs[:3])
+        row.energy_error = row.energy_gained = row.energy_way = None
+        from harness.measures.cross_engine import differs_word
+
+        row.detail = (row.detail + "; " if row.detail else "") + f"{differs_word(differs)}: " + "; ".join(differs[:3])
     row.energy_class = _energy_class(traj, scene, frames)
     # What a convergence check holds the tightened run against (not recorded: ``release`` drops it).
     row._at_frames = frames.positions().copy()
@@ -602,7 +611,10 @@ def _reason(advice: MethodAdvice, request: Request) -> str:
         return last.why
     if advice.limit_verdict in ("unstable", "unresolved"):
         every = "at every h" if advice.limit_verdict == "unstable" else "at every h (no stable step resolved)"
-        return f"unstable: spectral radius > 1 {every} (h*omega = {last.homega:.3g} at {last.substeps} substeps)"
+        return (
+            f"unstable: spectral radius > 1 {every} (h*omega = {last.homega:.3g} at {last.substeps} substeps): "
+            "its error grows without bound, so no run over the horizon makes it advisable"
+        )
     if advice.homega_limit is not None:
         return f"unstable: h*omega = {last.homega:.3g} > {advice.homega_limit:.3g} at {last.substeps} substeps"
     return f"{last.why} at {last.substeps} substeps"

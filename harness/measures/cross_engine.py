@@ -106,24 +106,37 @@ def anatomy(method_id: str, scene: Scene, dt: float, timeout: float = 60.0) -> d
 MUJOCO_MODEL = "mujoco:euler"
 
 
+#: What ``built_differently`` says where an engine's built model of a file could not be read.
+UNCHECKED = "its built model could not be read (model unchecked)"
+
+
 def built_differently(method, scene: Scene, dt: float) -> list[str] | None:
     """On a model file, what another engine's loader built differently from the model MuJoCo
     compiled (``anatomy_differences``: masses, inertias, joints, springs): the file's energy is
     MuJoCo's function of that model, so an energy figure of an engine whose model differs would
-    be another model's. [] where the method is MuJoCo's or its model is the same; None where the
-    scene is not a model file or either model could not be read."""
-    if not getattr(scene, "file", None) or getattr(method, "family", "mujoco") == "mujoco":
-        return [] if getattr(scene, "file", None) else None
-    if not hasattr(method, "anatomy"):
+    be another model's. [] where the method is MuJoCo's or its model is the same; one line ending
+    in ``UNCHECKED`` where either model could not be read (an energy figure is then withheld as
+    well: nothing says the models agree); None where the scene is not a model file."""
+    if not getattr(scene, "file", None):
         return None
+    if getattr(method, "family", "mujoco") == "mujoco":
+        return []
+    engine = getattr(method, "family", None) or str(getattr(method, "id", method)).split(":")[0]
+    if not hasattr(method, "anatomy"):
+        return [f"{engine}: {UNCHECKED}"]
     try:
         ours = anatomy(MUJOCO_MODEL, scene, dt)
         theirs = anatomy(method.id, scene, dt)
-    except Exception:  # an engine that cannot say what it built: nothing is claimed either way
-        return None
+    except Exception as exc:  # an engine that cannot say what it built: its energy is not claimed
+        return [f"{engine}: {UNCHECKED}: {type(exc).__name__}: {exc}"[:300]]
     if ours is None or theirs is None:
-        return None
+        return [f"{engine}: {UNCHECKED}"]
     return anatomy_differences(ours, theirs, (MUJOCO_MODEL, method.id), scene.dof_names)
+
+
+def differs_word(differs: list[str]) -> str:
+    """ "model differs", or "model unchecked" where no model could be read to compare."""
+    return "model unchecked" if differs and all(UNCHECKED in line for line in differs) else "model differs"
 
 
 def _differs(x: float, y: float, rtol: float = ANATOMY_RTOL) -> bool:

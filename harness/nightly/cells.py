@@ -193,11 +193,13 @@ def _energy_and_error(task, method, scene, dt, spec, suite, runs: dict | None = 
             ),
             make_cell(task, "error", traj.status, dt=dt, steps=steps, detail=traj.detail, extra=settings),
         ]
-    from harness.measures.cross_engine import built_differently
+    from harness.measures.cross_engine import built_differently, differs_word
 
     differs = built_differently(method, scene, dt)
     if differs:  # the file's energy is MuJoCo's function of MuJoCo's model: not this engine's
-        why = f"model differs: {method.family} built another model of the file ({'; '.join(differs[:4])}" + (
+        word = differs_word(differs)
+        built = "built another model of the file" if word == "model differs" else "built a model not compared"
+        why = f"{word}: {method.family} {built} ({'; '.join(differs[:4])}" + (
             f"; {len(differs) - 4} more)" if len(differs) > 4 else ")"
         )
         energy = make_cell(
