@@ -187,3 +187,23 @@ def test_a_stored_cell_is_read_back_with_its_measures_figures_in_a_fresh_process
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "ToleranceFigures"
+
+
+def test_the_nightlys_tolerance_cell_times_on_the_cpu_clock_as_its_cost_cells_do():
+    """One work-precision chart puts the cost cells (CPU clock) and the tolerance rows on one axis:
+    the nightly's tolerance cell times its runs on the CPU clock too; the command keeps the wall."""
+    from types import SimpleNamespace
+
+    from records.measures import TaskContext
+
+    from harness.nightly.measures.tolerance_cells import _run
+
+    scene = make_scene("kepler")
+    method = get_method("rebound:ias15")
+    spec = SimpleNamespace(extras=SimpleNamespace(tolerances={"tolerances": [1e-6], "periods": 1.0, "repeats": 1}))
+    task = SimpleNamespace(scene="kepler", method=method.id, family="rebound", params={}, timings=None)
+    ctx = TaskContext(task, SimpleNamespace(cell_timeout=120.0), spec, scene, method)
+    (cell,) = _run(ctx)
+    assert [r["clock"] for r in cell.figures.rows] == ["cpu"]
+    wall = tolerance_sweep(method, scene, tolerances=[1e-6], periods=1.0, repeats=1)
+    assert [r["clock"] for r in wall["rows"]] == ["wall"]

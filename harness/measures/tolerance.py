@@ -61,9 +61,12 @@ def tolerance_sweep(
     max_evals: int = MAX_EVALS,
     timeout: float | None = None,
     timing: bool = True,
+    clock: str = "wall",
 ) -> dict:
     """``{"method", "rows": [...], "ended": why the sweep stopped}`` for ``method`` (its id
-    without a tolerance, or with one: the sweep sets its own) on ``scene`` (module docstring)."""
+    without a tolerance, or with one: the sweep sets its own) on ``scene`` (module docstring);
+    each run timed on ``clock`` (the nightly's ``cpu``, the clock of its cost cells, so that one
+    work-precision chart holds one clock)."""
     from harness.methods import get_method
 
     base = resolve(method, scene)
@@ -103,7 +106,7 @@ def tolerance_sweep(
         if traj.ok:
             row["error"] = run_error(run, scene, traj, timeout)["error_max"]
             if timing:
-                t = wall_time_per_step(run, scene, dt, steps=outputs, repeats=repeats)
+                t = wall_time_per_step(run, scene, dt, steps=outputs, repeats=repeats, clock=clock)
                 row.update(s_per_unit_time=t["s_per_step"] * outputs / horizon, clock=t["clock"])
         rows.append(row)
         if not traj.ok:

@@ -35,7 +35,8 @@ def _run(ctx: TaskContext):
     from harness.measures.tolerance import error_over_tolerance, tolerance_sweep
 
     settings = {k: v for k, v in ctx.spec.extras.tolerances.items() if k != "methods"}
-    res = tolerance_sweep(ctx.method, ctx.scene, timeout=ctx.suite.cell_timeout, **settings)
+    # On the CPU clock, as the cost cells: the work-precision chart puts both on one axis.
+    res = tolerance_sweep(ctx.method, ctx.scene, timeout=ctx.suite.cell_timeout, clock="cpu", **settings)
     rows = plain(res["rows"])
     figures = ToleranceFigures(rows=rows, ended=res["ended"], settings=plain(settings))
     ran = [r for r in rows if r["status"] == "ok"]
