@@ -156,6 +156,16 @@ class SweepPoint:
         ok = [e for e in self.entries if e.ended == "met" and e.cost_per_frame_s is not None]
         return sorted(ok, key=lambda e: (e.cost_per_frame_s, e.method))
 
+    def tied_with(self, entry: SweepEntry) -> list[SweepEntry]:
+        """The other entries that meet the tolerances at a frame cost within ``entry``'s timing
+        spread (``tie``): which of them is the cheaper is the machine's noise."""
+        return [
+            e
+            for e in self.met
+            if e is not entry
+            and tie(entry.cost_per_frame_s, entry.cost_rel_spread, e.cost_per_frame_s, e.cost_rel_spread)
+        ]
+
     def family_costs(self) -> dict[str, SweepEntry]:
         """Each family's cheapest entry that meets the tolerances at this value."""
         out: dict[str, SweepEntry] = {}

@@ -532,3 +532,44 @@ def test_the_first_claim_probes_survival_past_the_cost_bound_so_timings_cannot_t
     assert not {e.method: e for e in soft.entries}["ref:implicit_euler"].probed  # the stiffest value only
     claim = survives(sw.points, "k", 0.5, accuracy=False)
     assert claim.ok is True and "run past its search's cost bound" in claim.text
+
+
+def test_a_sweep_names_the_frames_within_the_timing_spread_as_a_tie():
+    """Issue 54: at k = 100 on the 4 x 4 sheet RK4's 2 substeps and leapfrog's 8 cost 19.5 and 20.8 µs
+    a frame, each repeat's range 10%: the family's pick names both (~), and where another family's
+    frame ties with the cheapest the last column says so; apart by more than the spread, no mark."""
+    from harness.measures.sweep import Sweep
+    from records.advice import SweepEntry, SweepPoint
+
+    def entry(method, family, substeps, us, spread=0.1):
+        return SweepEntry(method, family, "met", substeps, cost_per_frame_s=us * 1e-6, cost_rel_spread=spread)
+
+    cloth = make_scene("cloth", n=4, m=4)
+    tied = SweepPoint(
+        100.0, 89.0, 1.48, [entry("ref:rk4", "explicit", 2, 19.5), entry("ref:leapfrog", "explicit", 8, 20.8)]
+    )
+    across = SweepPoint(
+        1000.0,
+        239.0,
+        3.98,
+        [entry("ref:leapfrog", "explicit", 16, 38.6), entry("ref:implicit_euler", "implicit", 2, 40.0)],
+    )
+    apart = SweepPoint(
+        1e4, 739.0, 12.3, [entry("ref:leapfrog", "explicit", 32, 77.3), entry("ref:rk4", "explicit", 8, 120.0)]
+    )
+    sw = Sweep(
+        "cloth",
+        {},
+        parse_grid("k=1e2..1e4:3", cloth),
+        Request(hz=60, horizon=2, energy_tol=0.5).checked(),
+        10.0,
+        4096,
+        [tied, across, apart],
+        [],
+        0.3,
+    )
+    rows = [line for line in sweep_lines(sw) if line.startswith(("        100", "      1e+03", "      1e+04"))]
+    assert "ref:rk4 2 x 19.5 (E -, x -) ~ ref:leapfrog 8 x 20.8" in rows[0] and rows[0].endswith("explicit substeps")
+    assert rows[1].endswith("a tie: explicit substeps / implicit solves")
+    assert " ~ " not in rows[2] and rows[2].endswith("explicit substeps")
+    assert any("~ a method whose frame costs the same within the timing spread (a tie)" in x for x in sweep_lines(sw))

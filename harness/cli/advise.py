@@ -253,12 +253,14 @@ def _cell(e) -> str:
     return f"{said}@{e.next_substeps}" if e.next_substeps else said
 
 
-def _pick(e) -> str:
+def _pick(e, point=None) -> str:
     """A family's pick at one value: method, substeps x us per frame, its errors, * where its win
-    rests on the solve's own error."""
+    rests on the solve's own error; ``~`` and the family's methods tied with it (``tied_with``)."""
+    tied = [t for t in point.tied_with(e) if t.family == e.family] if point is not None else []
     return (
         f"{e.method} {e.substeps} x {_us(e.cost_per_frame_s)} (E {_g(e.energy_error, '.2g')}, "
         f"x {_g(e.position_error, '.2g')}){'*' if e.rests_on_solve else ''}"
+        + "".join(f" ~ {t.method} {t.substeps} x {_us(t.cost_per_frame_s)}" for t in tied)
     )
 
 
@@ -282,7 +284,7 @@ def sweep_lines(sw):
     cells = []
     for p in sw.points:
         costs = p.family_costs()
-        cells.append([_pick(e) if e else "-" for e in (costs.get(f) for f in families)])
+        cells.append([_pick(e, p) if e else "-" for e in (costs.get(f) for f in families)])
     w = [max([len(family_name(f))] + [len(row[i]) for row in cells]) for i, f in enumerate(families)]
     yield (
         f"  {g.param:>9s} {'h*omega@1':>9s}  "
@@ -291,13 +293,22 @@ def sweep_lines(sw):
     )
     for p, row in zip(sw.points, cells):
         best = p.cheapest
-        yield (
-            f"  {p.value:9.3g} {p.homega_one:9.3g}  "
-            + "  ".join(f"{c:{w[i]}s}" for i, c in enumerate(row))
-            + f"  {family_name(best.family) if best else 'none'}"
+        rivals = sorted({e.family for e in p.tied_with(best)} - {best.family}) if best else []
+        named = (
+            "a tie: " + " / ".join(family_name(f) for f in [best.family, *rivals])
+            if rivals
+            else family_name(best.family)
+            if best
+            else "none"
         )
+        shown = "  ".join(f"{c:{w[i]}s}" for i, c in enumerate(row))
+        yield f"  {p.value:9.3g} {p.homega_one:9.3g}  {shown}  {named}"
+    any_tie = any(p.cheapest is not None and p.tied_with(p.cheapest) for p in sw.points) or any(
+        " ~ " in c for row in cells for c in row
+    )
     yield (
         "  each pick: method, substeps x us per frame (E its energy error, x its position error)"
+        + ("; ~ a method whose frame costs the same within the timing spread (a tie)" if any_tie else "")
         + (
             "; *: its win rests on the solve's own error (it misses the tolerances with its convergence knob tightened)"
             if any(e.rests_on_solve for p in sw.points for e in p.entries)
