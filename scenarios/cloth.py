@@ -617,14 +617,41 @@ class Cloth(Scene):
         spring, 0 beside a bending one."""
         return np.where(self.stretching(), float(self.values["d"]), 0.0)
 
+    #: The spring families ``strain_by_family`` measures, in its order.
+    STRAIN_FAMILIES = ("structural", "shear")
+
+    def _family(self) -> np.ndarray:
+        """Each spring's family, in ``springs``' order: 0 structural, 1 shear, 2 bending."""
+        n, m, _ = self.grid
+        p = self.pvec
+        out = []
+        for i in range(n):
+            for j in range(m):
+                for o in range(6):
+                    if _spring(i, j, o, p)[2] != 0.0:
+                        out.append(o // 2)
+        return np.array(out, dtype=int)
+
+    def strain_by_family(self, q) -> np.ndarray:
+        """Each stretching family's largest strain, max (length - rest) / rest over its springs (0 where
+        none is longer than its rest, or the family has none), API layout (..., ndof) ->
+        (..., len(STRAIN_FAMILIES)): structural, then shear. Judged apart, because the families'
+        stiffnesses differ: on a stiff sheet the soft shear diagonals stretch far more than the
+        structural springs, and a largest strain over both would read the shear's alone."""
+        a, b, _, rest = self.springs()
+        family = self._family()
+        x = self.positions(q)
+        strain = (np.linalg.norm(x[..., b, :] - x[..., a, :], axis=-1) - rest) / rest
+        cols = []
+        for f in range(len(self.STRAIN_FAMILIES)):
+            mine = family == f
+            cols.append(np.max(strain[..., mine], axis=-1) if np.any(mine) else np.zeros(strain.shape[:-1]))
+        return np.maximum(np.stack(cols, axis=-1), 0.0)
+
     def strain(self, q) -> np.ndarray:
         """The sheet's largest strain, max (length - rest) / rest over its structural and shear springs
         (how far it stretches; 0 where none is longer than its rest), API layout (..., ndof) -> (...)."""
-        a, b, _, rest = self.springs()
-        keep = self.stretching()
-        a, b, rest = a[keep], b[keep], rest[keep]
-        x = self.positions(q)
-        return np.maximum(np.max((np.linalg.norm(x[..., b, :] - x[..., a, :], axis=-1) - rest) / rest, axis=-1), 0.0)
+        return np.max(self.strain_by_family(q), axis=-1)
 
     # ------------------------------------------------------------ the dashpots
     @property

@@ -329,7 +329,10 @@ def _judge(row: Row, request: Request, scene: Scene, method=None) -> None:
         if row.com_error is not None and row.com_error > tol:
             whys.append(f"centre of mass {row.com_error:.3g} > {tol:.3g} past the predictable horizon")
         if row.strain_excess is not None and row.strain_excess > STRAIN_TOL:
-            whys.append(f"largest strain {row.strain_excess:.1%} above the reference's (tolerance {STRAIN_TOL:.0%})")
+            whys.append(
+                f"a spring family's largest strain {row.strain_excess:.1%} above the reference's "
+                f"(tolerance {STRAIN_TOL:.0%})"
+            )
     row.meets = not whys
     row.why = "; ".join(whys)
 
