@@ -370,7 +370,11 @@ def solve(q, v, t, p, alpha, beta, r):
     dashpots', d u u^T per structural and shear spring; 0 on an undamped sheet): the banded
     factorisation for at most DIRECT_MAX_DOF unknowns, conjugate gradients above. On a damped
     sheet each spring's block is k's + (alpha / beta) d u u^T, scaled by beta / m as K's (beta = 0,
-    a step implicit in the velocity alone: the dashpots' blocks alone, scaled by alpha / m)."""
+    a step implicit in the velocity alone: the dashpots' blocks alone, scaled by alpha / m). K is
+    the springs' alone: the dashpots' force depends on the positions too (through u), and that
+    derivative, d/|x_b - x_a| ((dv . u)(I - u u^T) + u dv^T (I - u u^T)), is left out, so a
+    Newton iteration on a damped sheet takes an inexact update (``reference.schemes.implicit_euler``
+    counts the steps it leaves unconverged)."""
     n, m, d = int(p[0]), int(p[1]), int(p[-1])
     scale = beta / (p[3] / (n * m))
     dashpot = 0.0

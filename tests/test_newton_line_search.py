@@ -247,3 +247,42 @@ def test_the_projection_clamps_compressed_springs_only():
     clamp = projection.correction(shrunk, H * H)
     assert np.linalg.eigvalsh(matrix.toarray()).min() < -1.0
     assert np.linalg.eigvalsh((matrix + clamp).toarray()).min() > 1.0 - 1e-6
+
+
+def test_on_a_stiff_damped_sheet_unsolved_steps_are_failures_and_stalls_at_the_root_are_not():
+    """The damped sheet's Newton matrix leaves the dashpots' dependence on the positions out, so its
+    update need not descend: on an 8 x 8 sheet at k = 1e6, d = 10, one substep, some steps' searches
+    end with the residual far from roundoff (failures, said with the run) and others at the root to
+    roundoff, where the update's test cannot pass (stalls, converged). Each step's backward Euler
+    residual, computed here from the reference's right-hand side, says which."""
+    sheet = make_scene("cloth", n=8, m=8, mass=1.0, k=1e6, d=10.0)
+    steps = 60
+    traj = run(f"{ARMIJO}&solver=direct", sheet, steps)
+    s = traj.meta.settings
+    assert s["newton_steps"] == steps and s["newton_failures"] > 0 and s["newton_stalls"] > 0
+    assert f"{s['newton_failures']} of {steps} steps ended their Newton iteration unconverged" in traj.detail
+    rhs, n = sheet._rhs(), sheet.ndof
+    residual = []
+    for i in range(steps):
+        q1, v0, v1 = traj.q[i + 1, 0], traj.v[i, 0], traj.v[i + 1, 0]
+        a = rhs(0.0, np.concatenate([q1, v1]))[n:]
+        residual.append(np.max(np.abs(v0 + H * a - v1)) / (1.0 + np.max(np.abs(v1))))
+    residual = np.array(residual)
+    unsolved = int(np.count_nonzero(residual > 1e-6))
+    assert unsolved > 0 and unsolved <= s["newton_failures"]  # every unsolved step is counted as failed
+    assert int(np.count_nonzero(residual <= ie.STALL_RTOL)) >= steps - s["newton_failures"]
+
+
+def test_the_advice_marks_a_row_whose_newton_steps_did_not_converge_as_resting_on_its_solve():
+    from harness.measures.advise import Request, _row, convergence, rests_on_solve, solve_note
+    from records.advice import MethodAdvice
+
+    sheet = make_scene("cloth", n=8, m=8, mass=1.0, k=1e6, d=10.0)
+    method = get_method(f"{ARMIJO}&solver=direct")
+    request = Request(hz=60, horizon=0.5, energy_tol=0.9, error_rel=None).checked()
+    advice = MethodAdvice(method.id)
+    row = _row(method, sheet, request, 1, advice, None, reference=False, count=False)
+    assert "ended their Newton iteration unconverged" in row.detail
+    row.converged = convergence(method, sheet, request, row, advice, None, reference=False, count=False)
+    assert row.converged["unconverged"] and not row.converged["meets"] and rests_on_solve(row)
+    assert solve_note(row).startswith("its win rests on steps its solve did not converge: ")

@@ -528,7 +528,27 @@ def convergence(
 
     tight = tightened(method)
     if tight is None:
-        return None
+        short = newton_shortfall(row)
+        if not short:
+            return None
+        # No knob to tighten, but the run's own Newton iteration said it stopped short: the win
+        # rests on steps that were not solved.
+        return {
+            "method": method.id,
+            "meets": False,
+            "unconverged": True,
+            "why": short,
+            "energy_error": row.energy_error,
+            "position_error": row.position_error,
+            "com_error": row.com_error,
+            "strain_excess": row.strain_excess,
+            "energy_within": True,
+            "moved": None,
+            "com_moved": None,
+            "tol": None,
+            "until": None,
+            "motion": False,
+        }
     probe = MethodAdvice(tight.id, limit_verdict=advice.limit_verdict)
     r = _row(tight, scene, request, row.substeps, probe, timeout, reference, count)
     out = {
@@ -581,6 +601,18 @@ def release(row: Row | None) -> Row | None:
     return row
 
 
+#: How a run says its Newton iteration stopped short at some steps (``reference.solvers``).
+UNCONVERGED = "ended their Newton iteration unconverged"
+
+
+def newton_shortfall(row: Row) -> str:
+    """The run's own account of its unconverged Newton steps ("" where none)."""
+    for part in (row.detail or "").split("; "):
+        if UNCONVERGED in part:
+            return part
+    return ""
+
+
 def rests_on_solve(row: Row | None) -> bool:
     """Whether a row that meets the tolerances misses them once its solve converges further."""
     return row is not None and row.converged is not None and not row.converged["meets"]
@@ -589,6 +621,8 @@ def rests_on_solve(row: Row | None) -> bool:
 def solve_note(row: Row) -> str:
     """Why a row's win rests on its solve's own error, in a few words."""
     c = row.converged
+    if c.get("unconverged"):
+        return f"its win rests on steps its solve did not converge: {c['why']}"
     return (
         f"its win rests on the solve's own error: {c['method']} at {row.substeps} substep"
         f"{'s' if row.substeps > 1 else ''} misses them ({c['why']})"
