@@ -402,3 +402,16 @@ def test_a_structural_spring_stretched_past_the_tolerance_fails_though_the_shear
     assert judged.strain_excess > 0.10  # past the tolerance: the run fails
     # Read over both families at once, as before, the excess is the shear's margin and passes.
     assert float(np.max(scene.strain(run))) - float(np.max(by_family)) < 0.10
+
+
+def test_a_tolerance_below_what_the_scene_can_predict_judges_no_position_and_says_so():
+    """A horizon at frame 0 (the references part by a tenth of the tolerance at once) leaves nothing
+    to judge the positions on: the row does not meet the tolerance on an empty test, it says why."""
+    from harness.measures.advise import _judge
+
+    scene = make_scene("cloth", n=3, m=3, k=1e3)
+    request = Request(hz=60, horizon=1, energy_tol=0.5).checked()
+    row = Row(2, 1 / 120, 0.1, True, "ok", energy_error=0.01, position_error=0.0)
+    row.judged_until, row.com_error, row.strain_excess = 0.0, 0.0, 0.0
+    _judge(row, request, scene)
+    assert not row.meets and row.why.startswith("positions not judged: at this tolerance the scene is unpredictable")

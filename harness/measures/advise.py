@@ -235,8 +235,9 @@ def _built_differently(method, scene: Scene, out) -> list[str]:
 
 def frame_stride(substeps: int, steps: int) -> int:
     """Steps between recorded states: a divisor of ``substeps``, so that every frame is recorded and
-    no figure skips one; the smallest that keeps at most RECORDED of the run's ``steps``, else one
-    state a frame (a large sheet's energy, taken state by state, holds every spring of every state)."""
+    no figure skips one; the smallest that keeps at most RECORDED of the run's ``steps`` (the start
+    and RECORDED states after it), else one state a frame (a large sheet's energy, taken state by
+    state, holds every spring of every state)."""
     return next(d for d in range(1, substeps + 1) if substeps % d == 0 and (steps // d <= RECORDED or d == substeps))
 
 
@@ -322,7 +323,12 @@ def _judge(row: Row, request: Request, scene: Scene, method=None) -> None:
         tol = None
     if tol is not None:
         inside = f" (to {row.judged_until:.3g} s, the predictable horizon)" if row.judged_until is not None else ""
-        if row.position_error is None:
+        if row.judged_until == 0.0:
+            whys.append(
+                "positions not judged: at this tolerance the scene is unpredictable from the first frame "
+                "(its two references part by a tenth of it at once)"
+            )
+        elif row.position_error is None:
             whys.append("position error not measurable")
         elif row.position_error > tol:
             whys.append(f"position error {row.position_error:.3g} > {tol:.3g}{inside}")
