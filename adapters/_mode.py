@@ -140,7 +140,8 @@ class EngineMode:
             refusal = self.refuses.get(scene.kind)
             why = refusal(scene) if refusal is not None else None
             return (False, why) if why else (True, "")
-        return False, self.unsupported.get(scene.kind, f"{self.id} has no model of scene {scene.id}")
+        kind = "" if scene.kind == scene.id else f" as {scene.kind} (its parameters make it a kind of its own)"
+        return False, self.unsupported.get(scene.kind, f"{self.id} has no model of scene {scene.id}{kind}")
 
     def compiled_twin(self) -> EngineMode:
         """Itself: an engine mode already runs the engine's own loop."""
