@@ -162,13 +162,16 @@ def _contact_lines(scene: str, cells: list[Cell]) -> list[str]:
                 "which figure fails)."
             )
             continue
-        pick, tied, runner, _ = _pick(fine)
+        pick, tied, runner, why = _pick(fine)
         line = f"- {where}: **`{pick['name']}`**, {pick['cost']:.3g} CPU s per simulated s"
         if tied:
+            others = ", ".join(f"`{c['name']}` ({c['cost']:.3g})" for c in tied if c is not pick)
             line += (
-                " (a tie within timing noise with " + ", ".join(f"`{c['name']}`" for c in tied if c is not pick) + ")"
+                f", within every tolerance and as cheap as {others} within timing noise (a tie; named {why})"
+                f" ({len(fine)} of {judged} modes are within every tolerance)"
             )
-        line += f", the cheapest within every tolerance ({len(fine)} of {judged} modes are)"
+        else:
+            line += f", the cheapest within every tolerance ({len(fine)} of {judged} modes are)"
         if runner is not None:
             line += f"; runner-up `{runner['name']}`, {runner['cost']:.3g}"
         out.append(line + ".")

@@ -68,6 +68,12 @@ def test_a_contact_scene_is_advised_at_each_profiles_step_by_its_profiles_tolera
     robot = next(x for x in lines if "1000 Hz, robotics profile" in x)
     assert "**`e:dear`**" in game and "1 of 2 modes" in game
     assert "**`e:cheap`**" in robot and "runner-up `e:dear`" in robot
+    # Within the contact's timing noise (10% without a measured spread): a tie, named by name, and the
+    # line never calls the pick the cheapest when the other timed lower.
+    tied = answer_section([contact("z:first", 0.00100, True, True), contact("a:second", 0.00103, True, True)])
+    game = next(x for x in tied if "60 Hz, game profile" in x)
+    assert "**`a:second`**" in game and "as cheap as `z:first` (0.001) within timing noise (a tie" in game
+    assert "the cheapest within" not in game
 
 
 def test_a_scene_with_no_advice_says_what_was_measured():
