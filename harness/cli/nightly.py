@@ -15,7 +15,11 @@ from harness.nightly.suites import SUITES
 
 
 def add_parser(sub):
-    p = sub.add_parser("nightly", help="run the comparison matrix, store it, report, flag regressions")
+    p = sub.add_parser(
+        "nightly",
+        help="run the comparison matrix, store it, report, flag regressions (the standard suite on 2 cores: "
+        "about 4½ minutes with its kernels cached, 6 on an empty cache)",
+    )
     p.add_argument("--suite", default="standard", help=f"one of: {', '.join(SUITES)}")
     p.add_argument("--out", default=str(DEFAULT_OUT), help="report directory (report.md + charts/)")
     p.add_argument("--db", default=str(DEFAULT_DB), help="SQLite history")
