@@ -50,11 +50,11 @@ import numpy as np
 HORIZON_FRACTION = 0.1
 #: The second reference starts this share of the scene's length scale away on every position coordinate.
 PERTURBATION = 1e-9
-#: Past the horizon the run's largest strain may pass the reference's by this much (Provot 1995's
-#: critical deformation rate, module docstring).
+#: Past the horizon each spring family's largest strain may pass the reference's by this much
+#: (after Provot 1995's 10% cap, module docstring).
 STRAIN_TOL = 0.10
 #: Where the tolerances come from, as the verdicts say it.
-STRAIN_SOURCE = "Provot 1995's 10% critical deformation rate"
+STRAIN_SOURCE = "after Provot 1995's 10% cap on a spring's deformation"
 
 
 @dataclass(frozen=True)
@@ -112,8 +112,9 @@ class Horizon:
             return ""
         return (
             f"positions judged to {self.until:.3g} s; past it the centre of mass (within the position tolerance"
-            f"{'' if self.com_until >= self.asked else f', to {self.com_until:.3g} s'}), the largest strain "
-            f"(at most {STRAIN_TOL:.0%} above the reference's, {STRAIN_SOURCE}) and the energy"
+            f"{'' if self.com_until >= self.asked else f', to {self.com_until:.3g} s'}), each spring family's "
+            f"largest strain (at most {STRAIN_TOL * 100:.0f} points above the reference's, {STRAIN_SOURCE}) "
+            "and the energy"
         )
 
     def as_dict(self) -> dict:
