@@ -76,11 +76,18 @@ def engine_findings(piv: dict) -> list[Finding]:
             )
         elif energy is not None and energy.status == "ok" and energy.figures.energy_class == "damps less":
             ratio = (energy.figures.numbers or {}).get("end_ratio")
-            wobble = (energy.figures.numbers or {}).get("energy_step_rises")
+            numbers = energy.figures.numbers or {}
+            how = (
+                "ends below its start, having risen above it at some steps"
+                if numbers.get("energy_rose")
+                else "never rises above its start"
+                if numbers.get("energy_step_rises")
+                else "falls, never rises"
+            )
             out.append(
                 Finding(
                     f"`{method}` damps `{scene}` less than the exact motion at the nominal timestep (its energy "
-                    + ("never rises above its start" if wobble else "falls, never rises")
+                    + how
                     + (f"; {ratio:.3g} x the exact energy at the end" if ratio is not None else "")
                     + ").",
                     None,

@@ -76,10 +76,13 @@ def _pick(candidates: list[dict]) -> tuple[dict, list[dict], dict | None, str]:
         best = min(_num(c.get(field)) for c in pool)
         keep = [c for c in pool if _same(c.get(field), best if math.isfinite(best) else None)]
         if 0 < len(keep) < len(pool):
-            pool, why = keep, why or phrase
+            pool = keep
+            if len(pool) == 1:  # this figure decided: the phrase is true of the pick against every other
+                why = phrase
+                break
     pick = min(pool, key=lambda c: c["name"])
     if len(pool) > 1:
-        why = why or "first by name (alike in accuracy and evaluations)"
+        why = "first by name among those alike in accuracy and evaluations"
     rest = [c for c in ranked if c is not pick]
     return pick, tied, rest[0] if rest else None, why
 

@@ -91,4 +91,8 @@ def test_a_tie_is_not_decided_by_roundoff_in_the_position_error():
         assert "**`ref:velocity_verlet`**" in line and "the more accurate in energy (their positions alike)" in line
     same = [advise("ref:b", 1.00e-6, 0.10, 1e-3, 4, 1e-4), advise("ref:a", 1.02e-6, 0.10, 1e-3, 4, 1e-4)]
     line = next(x for x in answer_section(same) if x.startswith("- `spring`"))
-    assert "**`ref:a`**" in line and "first by name (alike in accuracy and evaluations)" in line
+    assert "**`ref:a`**" in line and "first by name among those alike in accuracy and evaluations" in line
+    # Two alike, a third less accurate: the name decides between the two, and the line says so.
+    three = same + [advise("ref:z", 1.01e-6, 0.10, 2e-3, 4, 1e-4)]
+    line = next(x for x in answer_section(three) if x.startswith("- `spring`"))
+    assert "**`ref:a`**" in line and "the more accurate" not in line and "first by name among those alike" in line

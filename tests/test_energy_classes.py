@@ -243,9 +243,9 @@ def test_a_max_energy_error_without_a_meaning_is_none_in_the_command_as_in_the_n
 
 def test_on_a_dissipative_scene_damping_less_than_the_exact_motion_is_not_a_gain():
     """Issue 54: the exact energy falls (a damped spring). A method whose energy falls but less
-    than the exact one damps less; one whose energy rises above its start gains energy; one that
-    falls faster damps more. A rise from one state to the next that stays below the start (a
-    discrete energy's wobble within a period) is counted and named, not called a gain."""
+    than the exact one damps less; one whose energy ends above its start gains energy; one that
+    falls faster damps more. A rise from one state to the next, or above the start for a while,
+    in a run that ends below its start is counted and named, not called a gain."""
     exact = np.exp(-1e-2 * T)
     less = classify(np.exp(-0.9e-2 * T), exact, T)
     assert less["classification"] == "damps less" and not less["energy_rose"]
@@ -258,9 +258,13 @@ def test_on_a_dissipative_scene_damping_less_than_the_exact_motion_is_not_a_gain
     assert wobble["classification"] == "damps less" and wobble["energy_step_rises"] == 1
     assert "rose at 1 of" in wobble["rule"] and not wobble["energy_rose"]
     above = np.exp(-0.9e-2 * T)
-    above[5000] = 1.0 + 1e-9  # above its start: a gain
-    gained = classify(above, exact, T)
-    assert gained["classification"] == "grows" and gained["energy_rose"]
+    above[5000] = 1.0 + 1e-9  # above its start for a moment, ending below it: a loss over the run
+    transient = classify(above, exact, T)
+    assert transient["classification"] == "damps less" and transient["energy_rose"]
+    assert not transient["energy_gained"] and "a loss over the run, not a gain" in transient["rule"]
+    gaining = np.exp(-0.9e-2 * T) + 1e-3 * T / T[-1] * 1e4  # ends above its start: a gain
+    gained = classify(gaining, exact, T)
+    assert gaining[-1] > gaining[0] and gained["classification"] == "grows" and gained["energy_gained"]
     # A band around the exact energy's fall, drifting (tenth means not monotone), ending above it.
     x = T / T[-1]
     wavy = exact * (1.0 + 0.2 * x * (1.0 + 0.9 * np.sin(6 * np.pi * x)))

@@ -204,8 +204,9 @@ def _energies(traj, scene: Scene, frames=None) -> tuple[np.ndarray, np.ndarray, 
 def _energy_error(traj, scene: Scene, frames=None) -> tuple[float | None, bool | None, str | None]:
     """The largest energy error relative to the largest exact energy (``_energies``), whether the
     run gained energy, and the word for its way: ``grows`` / ``falls`` against a kept energy; on a
-    dissipating scene ``grows`` only where the energy rose above its start (``RISE``), else
-    ``damps less`` / ``damps more`` than the exact motion (``harness.measures.energy``'s rule 7)."""
+    dissipating scene ``grows`` only where the energy ends above its start (``RISE``), else
+    ``damps less`` / ``damps more`` than the exact motion by where it ends (``harness.measures.energy``'s
+    rule 7)."""
     from harness.measures.energy import RISE
 
     _, e, exact = _energies(traj, scene, frames)
@@ -216,8 +217,8 @@ def _energy_error(traj, scene: Scene, frames=None) -> tuple[float | None, bool |
     i = int(np.argmax(np.abs(dev)))
     error = float(abs(dev[i]) / scale)
     if len(exact) > 1 and exact[-1] < exact[0] and bool(np.all(np.diff(exact) <= 0.0)):
-        gained = bool(np.max(e) > e[0] + RISE * abs(float(e[0])))
-        return error, gained, "grows" if gained else "damps less" if dev[i] > 0.0 else "damps more"
+        gained = bool(e[-1] > e[0] + RISE * abs(float(e[0])))  # rule 7: ends above its start
+        return error, gained, "grows" if gained else "damps less" if e[-1] > exact[-1] else "damps more"
     return error, bool(dev[i] > 0.0), "grows" if dev[i] > 0.0 else "falls"
 
 

@@ -124,13 +124,15 @@ def built_differently(method, scene: Scene, dt: float) -> list[str] | None:
     engine = getattr(method, "family", None) or str(getattr(method, "id", method)).split(":")[0]
     if not hasattr(method, "anatomy"):
         return [f"{engine}: {UNCHECKED}"]
-    try:
-        ours = anatomy(MUJOCO_MODEL, scene, dt)
-        theirs = anatomy(method.id, scene, dt)
-    except Exception as exc:  # an engine that cannot say what it built: its energy is not claimed
-        return [f"{engine}: {UNCHECKED}: {type(exc).__name__}: {exc}"[:300]]
-    if ours is None or theirs is None:
-        return [f"{engine}: {UNCHECKED}"]
+    built = {}
+    for name, mode in (("mujoco", MUJOCO_MODEL), (engine, method.id)):
+        try:
+            built[name] = anatomy(mode, scene, dt)
+        except Exception as exc:  # an engine that cannot say what it built: no energy is claimed
+            return [f"{name}: {UNCHECKED}: {type(exc).__name__}: {exc}"[:300]]
+        if built[name] is None:
+            return [f"{name}: {UNCHECKED}"]
+    ours, theirs = built["mujoco"], built[engine]
     return anatomy_differences(ours, theirs, (MUJOCO_MODEL, method.id), scene.dof_names)
 
 

@@ -35,12 +35,13 @@ was gained, also for a negative energy such as a bound orbit's), where both make
    than the oscillation around it) -> ``drifts``.
 7. On a dissipative scene (its exact energy falls over the run: a damped spring), g growing
    says the method damps less than the exact motion, not that it gains energy. There the
-   class is ``grows`` only where the energy itself rose above its start (by more than
-   roundoff, ``RISE``); a rise from one recorded state to the next that stays below the start
-   is a discrete energy's wobble within a period (½(q² + v²) under semi-implicit Euler), counted
-   and named, not a gain. Else a run classed ``grows``, ``decays`` or ``drifts`` is
-   ``damps less`` (E ends above E_exact) or ``damps more``, with ``end_ratio``, E / E_exact at
-   the end, saying by how much.
+   class is ``grows`` only where the run gained energy: its energy ends above its start (by
+   more than roundoff, ``RISE``), or the run blew up. A rise from one recorded state to the
+   next, or above the start for a while, in a run that ends below its start is a loss over the
+   run (a discrete energy's wobble within a period, ½(q² + v²) under semi-implicit Euler, or an
+   early transient), counted and named, not a gain. Else a run classed ``grows``, ``decays`` or
+   ``drifts`` is ``damps less`` (E ends above E_exact) or ``damps more``, with ``end_ratio``,
+   E / E_exact at the end, saying by how much.
    A method claimed to gain energy (``grows``) meets its claim on such a scene by damping less
    (``claim_met``), one claimed to lose it (``decays``) by damping more.
 
@@ -98,30 +99,38 @@ def _dissipation_words(out: dict, energy: np.ndarray, e_exact: np.ndarray) -> di
     """Rule 7 on an already classified run of a dissipative scene."""
     scale = abs(float(energy[0])) or 1.0
     above = bool(np.max(energy) > energy[0] + RISE * scale)
+    gained = bool(energy[-1] > energy[0] + RISE * scale)
     rises = int(np.count_nonzero(np.diff(energy) > RISE * scale))
     out.update(
         dissipative=True,
         energy_rose=above,
+        energy_gained=gained,
         energy_step_rises=rises,
         end_ratio=float(energy[-1] / e_exact[-1]),
         max_over_start=float(np.max(energy) / energy[0]),
     )
     cls = out.get("classification")
-    if cls not in ("grows", "decays", "drifts") or (cls == "grows" and above):
+    if cls not in ("grows", "decays", "drifts") or gained:
         return out
     if str(out.get("rule", "")).startswith("run unstable"):
         return out
     words = "damps less" if out["end_ratio"] > 1.0 else "damps more"
     out["classification"] = words
-    wobble = (
-        f"; its energy rose at {rises} of {len(energy) - 1} steps, never above its start (a discrete "
-        "energy's wobble within a period, not a gain)"
-        if rises
-        else ""
-    )
+    if above:
+        how = (
+            f"; its energy rose above its start at some steps (to {out['max_over_start']:.6g} x it) and ends "
+            f"below it: a loss over the run, not a gain"
+        )
+    elif rises:
+        how = (
+            f"; its energy rose at {rises} of {len(energy) - 1} steps, never above its start (a discrete "
+            "energy's wobble within a period, not a gain)"
+        )
+    else:
+        how = ""
     out["rule"] = (
-        f"{out.get('rule')}; a dissipative scene whose energy never rose above its start: it {words} "
-        f"than the exact motion (E/E_exact {out['end_ratio']:.3g} at the end){wobble}"
+        f"{out.get('rule')}; a dissipative scene whose energy ends below its start: it {words} "
+        f"than the exact motion (E/E_exact {out['end_ratio']:.3g} at the end){how}"
     )
     return out
 

@@ -152,8 +152,8 @@ class NewtonCounts:
     #: Steps that reached the iteration cap without passing the stopping test, or whose line
     #: search found no step that decreased the objective, their residual above roundoff.
     failures: int = 0
-    #: Steps whose line search found no decrease with the residual at roundoff (``STALL_RTOL``):
-    #: at the root, converged.
+    #: Steps that ended without passing the update's test (the cap reached, or a search with no
+    #: decrease) with the residual at roundoff (``STALL_RTOL``): at the root, converged.
     stalls: int = 0
     #: Evaluations of the incremental potential (the scene's energy): not force evaluations.
     objective_evals: int = 0
