@@ -88,7 +88,11 @@ def engine_findings(piv: dict) -> list[Finding]:
                 Finding(
                     f"`{method}` damps `{scene}` less than the exact motion at the nominal timestep (its energy "
                     + how
-                    + (f"; {ratio:.3g} x the exact energy at the end" if ratio is not None else "")
+                    + (
+                        f"; {ratio:.{6 if abs(ratio - 1.0) < 0.01 else 3}g} x the exact energy at the end"
+                        if ratio is not None
+                        else ""
+                    )
                     + ").",
                     None,
                     scene,
