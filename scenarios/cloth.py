@@ -210,11 +210,13 @@ def constraints(p):
     return ends[:count], rest[:count], compliance[:count], inv_mass, anchors, gravity
 
 
-def _blocks(q, b, p, ends, blocks, dashpot=0.0):
+def _blocks(q, b, p, ends, blocks, dashpot=0.0, stiffness=True):
     """Each spring's free end indices (-1: pinned) into ends and its stiffness block
     k [(1 - L/|d|) I + (L/|d|) u u^T] (d x d) into blocks, at batch member b; returns how many.
     ``dashpot`` != 0: each structural and shear spring's block plus ``dashpot`` d u u^T (its
-    dashpot's, scaled as the caller scales the stiffness: alpha / beta)."""
+    dashpot's, scaled as the caller scales the stiffness: alpha / beta). ``stiffness`` False: the
+    dashpots' blocks alone (0 for a bending spring), the matrix of a step implicit in the velocity
+    alone."""
     n, m, d = int(p[0]), int(p[1]), int(p[-1])
     u = np.empty(3)
     count = 0
@@ -230,8 +232,9 @@ def _blocks(q, b, p, ends, blocks, dashpot=0.0):
                 ratio = rest / length
                 for c in range(d):
                     for e in range(d):
-                        blocks[count, c, e] = k * (ratio * u[c] * u[e])
-                    blocks[count, c, c] = blocks[count, c, c] + k * (1.0 - ratio)
+                        blocks[count, c, e] = k * (ratio * u[c] * u[e]) if stiffness else 0.0
+                    if stiffness:
+                        blocks[count, c, c] = blocks[count, c, c] + k * (1.0 - ratio)
                 if dashpot != 0.0 and o < 4:
                     for c in range(d):
                         for e in range(d):
@@ -344,27 +347,6 @@ def _banded(ends, blocks, count, d, m, r, b, scale, out):
         out[i, b] = s
 
 
-def _dashpots_only(q, b, p, blocks):
-    """Each spring's block replaced by its dashpot's d u u^T (structural and shear springs; 0 for a
-    bending spring), in ``_blocks``' order: the matrix of a step implicit in the velocity alone."""
-    n, m, d = int(p[0]), int(p[1]), int(p[-1])
-    u = np.empty(3)
-    count = 0
-    for i in range(n):
-        for j in range(m):
-            for o in range(6):
-                fa, fb, k, rest, i2, j2 = _spring(i, j, o, p)
-                if k == 0.0:
-                    continue
-                length = _difference(q, b, p, i, j, fa, i2, j2, fb, u)
-                for c in range(d):
-                    u[c] = u[c] / length
-                for c in range(d):
-                    for e in range(d):
-                        blocks[count, c, e] = (p[DAMPING_INDEX] * (u[c] * u[e])) if o < 4 else 0.0
-                count += 1
-
-
 def solve(q, v, t, p, alpha, beta, r):
     """(I - alpha da/dv - beta da/dq) x = r with da/dq = -K/m at q and da/dv = -D/m (D the
     dashpots', d u u^T per structural and shear spring; 0 on an undamped sheet): the banded
@@ -388,9 +370,8 @@ def solve(q, v, t, p, alpha, beta, r):
     ends = np.empty((6 * n * m, 2), dtype=np.int64)
     blocks = np.empty((6 * n * m, d, d))
     for b in range(r.shape[1]):
-        count = _blocks(q, b, p, ends, blocks, dashpot)
-        if beta == 0.0 and dashpot != 0.0:  # the stiffness does not enter: the dashpots' blocks alone
-            _dashpots_only(q, b, p, blocks)
+        # beta = 0 with dashpots: the stiffness does not enter, the dashpots' blocks alone
+        count = _blocks(q, b, p, ends, blocks, dashpot, not (beta == 0.0 and dashpot != 0.0))
         if r.shape[0] <= DIRECT_MAX_DOF:
             _banded(ends, blocks, count, d, m, r, b, scale, out)
         else:
