@@ -18,6 +18,25 @@ def positive_finite(name: str, value) -> float:
     return x
 
 
+def positive_list(field: str, text) -> list[float]:
+    """A comma-separated list of positive finite numbers, each a decimal or a fraction (1/1000)."""
+    from fractions import Fraction
+
+    out = []
+    for item in str(text).split(","):
+        item = item.strip()
+        try:
+            x = float(Fraction(item))
+        except (ValueError, ZeroDivisionError):
+            raise InvalidInput(f"{field} {item!r} is not a number (write e.g. 0.001 or 1/1000)") from None
+        if not (math.isfinite(x) and x > 0):
+            raise InvalidInput(f"{field} {item!r} is out of range (allowed: > 0, finite)")
+        out.append(x)
+    if not out:
+        raise InvalidInput(f"{field} is empty")
+    return out
+
+
 #: The most timesteps a sweep (order, work-precision) takes.
 MAX_POINTS = 1000
 #: The largest count any field takes: 1e9 steps of the fastest kernel is minutes; beyond, a typo.

@@ -14,7 +14,6 @@ from __future__ import annotations
 import json
 import math
 import sys
-from fractions import Fraction
 
 from records import InvalidInput
 from scenarios import parse_overrides
@@ -51,22 +50,6 @@ def add_parser(sub):
     return p
 
 
-def _numbers(field: str, text: str) -> list[float]:
-    out = []
-    for item in str(text).split(","):
-        item = item.strip()
-        try:
-            x = float(Fraction(item))
-        except (ValueError, ZeroDivisionError):
-            raise InvalidInput(f"{field} {item!r} is not a number (write e.g. 0.001 or 1/1000)") from None
-        if not (math.isfinite(x) and x > 0):
-            raise InvalidInput(f"{field} {item!r} is out of range (allowed: > 0, finite)")
-        out.append(x)
-    if not out:
-        raise InvalidInput(f"{field} is empty")
-    return out
-
-
 def run(args) -> int:
     if args.penalty:
         from .penalty import run_penalty
@@ -86,7 +69,7 @@ def run(args) -> int:
         hz = validate.positive_finite("--hz", args.hz)
         dts = [1.0 / hz]
     else:
-        dts = [check_dt(x) for x in _numbers("--dt", args.dt)]
+        dts = [check_dt(x) for x in validate.positive_list("--dt", args.dt)]
     tol = profile(args.profile) if args.profile is not None else None  # None: each step by its own
     overrides = parse_overrides(args.set)
     params = {}

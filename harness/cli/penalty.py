@@ -12,7 +12,7 @@ from scenarios import parse_overrides
 
 from harness.measures.frames import jsonable
 
-from .contact import _numbers
+from harness import validate
 
 
 def run_penalty(args) -> int:
@@ -28,7 +28,7 @@ def run_penalty(args) -> int:
                 f"--methods: {m!r} is not a reference scheme (the penalty ground is stepped by ref:NAME)"
             )
         get_method(m)
-    grid = _numbers("--grid", args.grid) if args.grid else list(GRID)
+    grid = validate.positive_list("--grid", args.grid) if args.grid else list(GRID)
     overrides = parse_overrides(args.set)
     unknown = sorted(set(overrides) - {"omega_c"})
     if unknown:
