@@ -587,15 +587,7 @@ class Cloth(Scene):
     def stretching(self) -> np.ndarray:
         """Which springs, in ``springs``' order, hold the sheet's stretch: the structural and shear
         springs (True), not the bending ones (False), whose length changes as the sheet folds."""
-        n, m, _ = self.grid
-        p = self.pvec
-        out = []
-        for i in range(n):
-            for j in range(m):
-                for o in range(6):
-                    if _spring(i, j, o, p)[2] != 0.0:
-                        out.append(o < 4)
-        return np.array(out, dtype=bool)
+        return self._family() < 2
 
     def dashpots(self) -> np.ndarray:
         """Each spring's dashpot coefficient, in ``springs``' order: ``d`` beside a structural or shear
