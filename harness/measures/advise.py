@@ -207,7 +207,7 @@ def _energy_error(traj, scene: Scene, frames=None) -> tuple[float | None, bool |
     dissipating scene ``grows`` only where the energy ends above its start (``RISE``), else
     ``damps less`` / ``damps more`` than the exact motion by where it ends (``harness.measures.energy``'s
     rule 7)."""
-    from harness.measures.energy import RISE
+    from harness.measures.energy import RISE, dissipative
 
     _, e, exact = _energies(traj, scene, frames)
     scale = float(np.max(np.abs(exact)))
@@ -216,7 +216,7 @@ def _energy_error(traj, scene: Scene, frames=None) -> tuple[float | None, bool |
     dev = e - exact
     i = int(np.argmax(np.abs(dev)))
     error = float(abs(dev[i]) / scale)
-    if len(exact) > 1 and exact[-1] < exact[0] and bool(np.all(np.diff(exact) <= 0.0)):
+    if dissipative(exact):
         gained = bool(e[-1] > e[0] + RISE * abs(float(e[0])))  # rule 7: ends above its start
         return error, gained, "grows" if gained else "damps less" if e[-1] > exact[-1] else "damps more"
     return error, bool(dev[i] > 0.0), "grows" if dev[i] > 0.0 else "falls"

@@ -90,7 +90,7 @@ def claim_met(claim: str | None, classification: str | None) -> bool:
     return claim == classification or (claim is not None and DISSIPATIVE_CLAIM.get(claim) == classification)
 
 
-def _dissipative(e_exact: np.ndarray) -> bool:
+def dissipative(e_exact: np.ndarray) -> bool:
     """The exact energy falls over the run and never rises (a damped scene's)."""
     return len(e_exact) > 1 and e_exact[-1] < e_exact[0] and bool(np.all(np.diff(e_exact) <= 0.0))
 
@@ -191,7 +191,7 @@ def classify(
     system (the scene's ``escaped``), or None where the scene cannot tell."""
     out = _classify(energy, e_exact, t, unstable, escaped)
     energy, e_exact = np.asarray(energy, dtype=float), np.asarray(e_exact, dtype=float)
-    if out.get("classification") is not None and np.all(np.isfinite(energy)) and _dissipative(e_exact):
+    if out.get("classification") is not None and np.all(np.isfinite(energy)) and dissipative(e_exact):
         out = _dissipation_words(out, energy, e_exact)
     return out
 
